@@ -1,0 +1,1 @@
+"""tipgeo — geometry and CAM of hollow-needle tips."""

@@ -1,0 +1,248 @@
+"""Construction solids for the tip builder: labelled manifold3d solids.
+
+Every solid made here carries a label id on each triangle (manifold3d
+``face_id``), which survives the booleans, so every triangle of a built tip
+knows which surface it came from. Faces that exist only to close a
+construction solid are labelled ``aux``; the builder checks that none of them
+survives in a tip.
+
+Frame and units: cannula frame (+z along the axis towards the tip, γ about +z
+from +x), lengths in mm, angles in radians.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable
+from dataclasses import dataclass, field
+
+import manifold3d as m3d
+import numpy as np
+
+from .cannula import Cannula
+from .errors import BuildError, SpecError
+from .tolerances import tol
+
+__all__ = ["Labels", "BuildContext", "segments_for", "AUX", "OUTER", "INNER", "BASE"]
+
+AUX, OUTER, INNER, BASE = "aux", "outer", "inner", "base"
+
+
+@dataclass
+class Labels:
+    """Registry of face labels: name <-> integer id stored as ``face_id``."""
+
+    names: list[str] = field(default_factory=lambda: [OUTER, INNER, BASE, AUX])
+
+    def id(self, name: str) -> int:
+        """The id of ``name``, registering it on first use."""
+        if name not in self.names:
+            self.names.append(name)
+        return self.names.index(name)
+
+
+def segments_for(radius: float, chordal: float) -> int:
+    """Segments around a circle of ``radius`` (mm) so that the inscribed
+    polygon deviates from it by at most ``chordal`` (mm), rounded up to a
+    multiple of ``tol.segment_multiple``."""
+    if chordal >= radius:
+        raise SpecError(f"tolerance = {chordal:.6g} mm is not smaller than the radius "
+                        f"{radius:.6g} mm; allowed 0 < tolerance < radius")
+    n = math.ceil(math.pi / math.acos(1.0 - chordal / radius))
+    k = tol.segment_multiple
+    n = max(tol.min_segments, k * math.ceil(n / k))
+    if n > tol.max_segments:
+        raise SpecError(f"tolerance = {chordal * 1e3:.6g} µm needs {n} segments around the tube; "
+                        f"allowed at most {tol.max_segments} (raise the tolerance)")
+    return n
+
+
+def _manifold(verts: np.ndarray, tris: np.ndarray, face_ids: np.ndarray, what: str) -> m3d.Manifold:
+    # nanobind wants writable, owned, C-ordered arrays
+    mesh = m3d.Mesh64(np.array(verts, dtype=np.float64, order="C", copy=True),
+                      np.array(tris, dtype=np.uint64, order="C", copy=True),
+                      face_id=np.array(face_ids, dtype=np.uint64, order="C", copy=True))
+    man = m3d.Manifold(mesh)
+    if man.status() != m3d.Error.NoError or man.is_empty():
+        raise BuildError(f"construction solid '{what}' is not a closed manifold ({man.status()})")
+    return man
+
+
+def _ring_quads(a: np.ndarray, b: np.ndarray, flip: bool) -> np.ndarray:
+    """Triangles joining two closed vertex rings a, b (index arrays, same length)."""
+    a1, b1 = np.roll(a, -1), np.roll(b, -1)
+    t = np.concatenate([np.stack([a, a1, b1], 1), np.stack([a, b1, b], 1)])
+    return t[:, ::-1] if flip else t
+
+
+@dataclass
+class BuildContext:
+    """What a cutter needs to make its solid.
+
+    Attributes
+    ----------
+    cannula : Cannula
+    chordal : float
+        Chordal tolerance (mm).
+    segments : int
+        Segments around the tube (tube vertices at γ = 2πk/segments).
+    z_bottom : float
+        Base of the tube, z = -cannula.length (mm).
+    z_top : float
+        Top of the uncut tube (mm), above every cutter's kept region.
+    labels : Labels
+    previous : tuple
+        Cutters applied before the current one, in order.
+    """
+
+    cannula: Cannula
+    chordal: float
+    segments: int
+    z_bottom: float
+    z_top: float
+    labels: Labels = field(default_factory=Labels)
+    previous: tuple = ()
+
+    @property
+    def margin(self) -> float:
+        """Clearance of construction faces from the tube (mm)."""
+        return tol.margin_ratio * self.cannula.r_o
+
+    @property
+    def reach(self) -> float:
+        """Half-width of construction boxes (mm): beyond the tube."""
+        return self.cannula.r_o + 2.0 * self.margin
+
+    @property
+    def z_lo(self) -> float:
+        """Bottom of construction solids (mm), below the tube base."""
+        return self.z_bottom - 2.0 * self.margin
+
+    @property
+    def z_hi(self) -> float:
+        """Top of construction solids (mm), above the tube top."""
+        return self.z_top + 2.0 * self.margin
+
+    # -- the tube ---------------------------------------------------------
+    def tube(self) -> m3d.Manifold:
+        """The uncut tube r_i ≤ ρ ≤ r_o, z_bottom ≤ z ≤ z_top, labelled
+        ``outer``, ``inner``, ``base`` (z = z_bottom) and ``aux`` (the top)."""
+        n = self.segments
+        g = 2.0 * np.pi * np.arange(n) / n
+        c, s = np.cos(g), np.sin(g)
+        ro, ri = self.cannula.r_o, self.cannula.r_i
+        zb, zt = self.z_bottom, self.z_top
+        rings = [(ro, zb), (ro, zt), (ri, zb), (ri, zt)]
+        verts = np.concatenate([np.stack([r * c, r * s, np.full(n, z)], 1) for r, z in rings])
+        ob, ot, ib, it = (np.arange(n) + k * n for k in range(4))
+        tris = [_ring_quads(ob, ot, False), _ring_quads(ib, it, True),
+                _ring_quads(ib, ob, False), _ring_quads(it, ot, True)]
+        lab = [self.labels.id(OUTER), self.labels.id(INNER), self.labels.id(BASE),
+               self.labels.id(AUX)]
+        ids = np.concatenate([np.full(len(t), k) for t, k in zip(tris, lab)])
+        return _manifold(verts, np.concatenate(tris), ids, "tube")
+
+    # -- primitives for cutters --------------------------------------------
+    def labelled(self, man: m3d.Manifold, classify: Callable[[np.ndarray, np.ndarray], np.ndarray],
+                 what: str) -> m3d.Manifold:
+        """Re-make ``man`` as an original solid whose triangles carry the label
+        ids returned by ``classify(centroids, unit_normals)``."""
+        mesh = man.to_mesh64()
+        verts = np.asarray(mesh.vert_properties)[:, :3]
+        tris = np.asarray(mesh.tri_verts).astype(np.int64)
+        p = verts[tris]
+        nrm = np.cross(p[:, 1] - p[:, 0], p[:, 2] - p[:, 0])
+        nrm /= np.maximum(np.linalg.norm(nrm, axis=1, keepdims=True), 1e-300)
+        ids = np.asarray(classify(p.mean(axis=1), nrm), dtype=np.int64)
+        return _manifold(verts, tris, ids, what)
+
+    def box(self) -> m3d.Manifold:
+        """Axis-aligned construction box around the tube (unlabelled)."""
+        r = self.reach
+        return m3d.Manifold.cube((2 * r, 2 * r, self.z_hi - self.z_lo)).translate(
+            (-r, -r, self.z_lo))
+
+    def halfspace(self, normal: np.ndarray, offset: float, label: str) -> m3d.Manifold:
+        """Box ∩ {p : normal·p ≤ offset}; the plane's triangles get ``label``."""
+        nrm = np.asarray(normal, dtype=float)
+        nrm = nrm / np.linalg.norm(nrm)
+        man = self.box().trim_by_plane(tuple(-nrm), -float(offset))
+        if man.is_empty():
+            raise BuildError(f"plane of '{label}' leaves nothing of the tube region")
+        lid, aux = self.labels.id(label), self.labels.id(AUX)
+        scale = max(self.reach, abs(self.z_lo), abs(self.z_hi))
+
+        def classify(cent, nr):
+            on = (np.abs(cent @ nrm - offset) <= 1e3 * tol.plane * scale) & (nr @ nrm > 1 - 1e-9)
+            return np.where(on, lid, aux)
+        return self.labelled(man, classify, label)
+
+    def frustum(self, z0: float, r0: float, z1: float, r1: float, side: str, top: str,
+                phase: float = 0.0) -> m3d.Manifold:
+        """Solid of revolution about +z between z0 (radius r0) and z1 (radius
+        r1, may be 0), polygonal with ``segments`` sides starting at angle
+        ``phase``. Side triangles get ``side``, the top cap ``top``, the
+        bottom cap ``aux``."""
+        n = self.segments
+        g = phase + 2.0 * np.pi * np.arange(n) / n
+        c, s = np.cos(g), np.sin(g)
+        bot = np.stack([r0 * c, r0 * s, np.full(n, z0)], 1)
+        if r1 > 0:
+            topv = np.stack([r1 * c, r1 * s, np.full(n, z1)], 1)
+            verts = np.concatenate([bot, topv, [[0, 0, z0], [0, 0, z1]]])
+            b, t = np.arange(n), np.arange(n) + n
+            cb, ct = 2 * n, 2 * n + 1
+            sides = _ring_quads(b, t, False)
+            bcap = np.stack([np.full(n, cb), np.roll(b, -1), b], 1)
+            tcap = np.stack([np.full(n, ct), t, np.roll(t, -1)], 1)
+            tris = np.concatenate([sides, bcap, tcap])
+            ids = np.concatenate([np.full(len(sides), self.labels.id(side)),
+                                  np.full(n, self.labels.id(AUX)), np.full(n, self.labels.id(top))])
+        else:
+            verts = np.concatenate([bot, [[0, 0, z0], [0, 0, z1]]])
+            b = np.arange(n)
+            cb, apex = n, n + 1
+            sides = np.stack([b, np.roll(b, -1), np.full(n, apex)], 1)
+            bcap = np.stack([np.full(n, cb), np.roll(b, -1), b], 1)
+            tris = np.concatenate([sides, bcap])
+            ids = np.concatenate([np.full(n, self.labels.id(side)), np.full(n, self.labels.id(AUX))])
+        return _manifold(verts, tris, ids, side)
+
+    def annular_heightfield(self, height: Callable[[np.ndarray, np.ndarray], np.ndarray],
+                            label: str, angular: int, radial: int) -> m3d.Manifold:
+        """Solid {r_in ≤ ρ ≤ r_out, z_lo ≤ z ≤ height(x, y)} over an annulus a
+        little wider than the tube wall, as a polygonal grid of ``angular`` ×
+        ``radial`` vertices (angles offset half a tube step so no vertex
+        coincides with a tube vertex). The top gets ``label``."""
+        ro, ri = self.cannula.r_o, self.cannula.r_i
+        d = 0.1037 * (ro - ri)
+        rad = np.linspace(max(ri - d, 0.5 * ri), ro + d, radial)
+        g = (np.arange(angular) + 0.5) * 2.0 * np.pi / angular
+        rr, gg = np.meshgrid(rad, g, indexing="ij")  # (radial, angular)
+        x, y = rr * np.cos(gg), rr * np.sin(gg)
+        z = np.asarray(height(x.ravel(), y.ravel()), dtype=float).reshape(x.shape)
+        if not np.all(np.isfinite(z)):
+            raise BuildError(f"surface '{label}' is undefined over part of the tube wall")
+        if z.min() <= self.z_lo:
+            raise BuildError(f"surface '{label}' dips below the tube base (z = {z.min():.4g} mm)")
+        top = np.stack([x, y, z], -1).reshape(-1, 3)
+        bot = np.stack([x, y, np.full_like(x, self.z_lo)], -1).reshape(-1, 3)
+        verts = np.concatenate([top, bot])
+        idx = np.arange(radial * angular).reshape(radial, angular)
+        nt = radial * angular
+        tris, ids = [], []
+        lid, aux = self.labels.id(label), self.labels.id(AUX)
+        for j in range(radial - 1):  # top surface, normals up
+            t = _ring_quads(idx[j], idx[j + 1], False)
+            tris.append(t[:, [0, 2, 1]])
+            ids.append(np.full(len(t), lid))
+            b = _ring_quads(idx[j] + nt, idx[j + 1] + nt, False)
+            tris.append(b)
+            ids.append(np.full(len(b), aux))
+        tris.append(_ring_quads(idx[-1], idx[-1] + nt, True)[:, [0, 2, 1]])   # outer wall
+        tris.append(_ring_quads(idx[0], idx[0] + nt, False)[:, [0, 2, 1]])    # inner wall
+        ids += [np.full(2 * angular, aux), np.full(2 * angular, aux)]
+        man = _manifold(verts, np.concatenate(tris), np.concatenate(ids), label)
+        if man.volume() <= 0:
+            raise BuildError(f"heightfield solid of '{label}' is inside out")
+        return man

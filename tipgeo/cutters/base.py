@@ -1,0 +1,76 @@
+"""The cutter protocol: the seam every tip kind plugs into.
+
+A cutter describes the material it keeps, in the cannula frame (+z along the
+axis towards the tip, γ about +z from +x, the heel of an unrotated cutter at
+γ = 0, z = 0; mm, radians). It gives:
+
+1. :meth:`Cutter.solid` — the kept material as a labelled manifold3d solid,
+   built at the context's chordal tolerance (for the mesh and the exports);
+2. :meth:`Cutter.implicit` — an exact double-precision description of its
+   surface: ``f(p) ≤ 0`` inside the kept material, with the gradient
+   (``f`` is a signed distance near the surface for the analytic cutters);
+3. :meth:`Cutter.edge_z` — where one exists, the exact height z(γ) at which
+   its surface crosses the cylinder of radius r (bevel, multi-plane, conical,
+   helical by root finding); ``None`` otherwise.
+
+A new tip kind is one new cutter class and nothing else.
+"""
+
+from __future__ import annotations
+
+from abc import ABC, abstractmethod
+
+import manifold3d as m3d
+import numpy as np
+
+from ..cannula import Cannula
+from ..construct import BuildContext
+
+__all__ = ["Cutter"]
+
+
+class Cutter(ABC):
+    """Abstract base of every cutter (frozen keyword-only dataclasses)."""
+
+    name: str
+
+    #: spec ``kind`` of the cutter.
+    kind: str = ""
+
+    @abstractmethod
+    def face_labels(self) -> tuple[str, ...]:
+        """Labels (``cut:<name>...``) its faces carry in a built tip."""
+
+    @abstractmethod
+    def solid(self, ctx: BuildContext) -> m3d.Manifold:
+        """The kept material around the tube, labelled, at ``ctx.chordal``."""
+
+    @abstractmethod
+    def z_upper(self, cannula: Cannula) -> float:
+        """An upper bound (mm) of z of the kept material over the tube wall."""
+
+    def implicit(self, points: np.ndarray, cannula: Cannula) -> tuple[np.ndarray, np.ndarray]:
+        """Exact implicit function of the surface.
+
+        Parameters
+        ----------
+        points : (n, 3) float — mm, cannula frame
+        cannula : Cannula
+
+        Returns
+        -------
+        f : (n,) float — ≤ 0 inside the kept material (mm for analytic cutters)
+        grad : (n, 3) float — ∇f
+        """
+        raise NotImplementedError(f"cutter kind '{self.kind}' has no exact implicit surface; "
+                                  "analysis falls back to the mesh")
+
+    def edge_z(self, gamma: np.ndarray, radius: float, cannula: Cannula) -> np.ndarray | None:
+        """Height z (mm) of the cut surface on the cylinder of ``radius`` at
+        angles ``gamma`` (rad, cannula frame), or ``None`` if unknown."""
+        return None
+
+    @property
+    def label(self) -> str:
+        """The primary face label, ``cut:<name>``."""
+        return f"cut:{self.name}"

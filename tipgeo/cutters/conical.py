@@ -1,0 +1,117 @@
+"""Conical cutter: a grinding cone of revolution about the needle axis.
+
+Frame and units: cannula frame (+z along the axis towards the tip), mm, rad.
+
+The kept material is ρ ≤ r_o − z tan θ (and z ≤ bevel_length when given),
+ρ = √(x² + y²): the outer wall is ground to a cone of half-angle θ that starts
+at the outer edge at z = 0 (the heel circle) and runs inwards towards the
+tip. θ is the included angle between the cone and the cylindrical side
+(thesis Fig. 2.1a, θ = ξ for conical tips). With a ``bevel_length`` l_b
+shorter than the wall needs, (r_o − r_i) cot θ, the cone stops at z = l_b and
+a flat land (label ``cut:<name>.land``) closes the tip, as in the biopsy punch
+of Fig. 4.7 (θ = 13°, l_b = 0.6 mm on d_e 2.4 / d_i 2.0 mm).
+
+The thesis grinds conical tips by spinning the needle (1000 rpm) against the
+wheel of eq. 2.30–2.35; the envelope is this cone with θ = ϕ_g − φ
+(eq. 2.37, :meth:`ConicalCutter.from_grinding`). The wheel's infeed H (eq.
+2.38) only places the cone along the axis in the grinder frame; in the
+cannula frame the heel is at z = 0 by definition, so H belongs to the CAM
+set-up (``cam``), not to the shape.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from .. import _validate as v
+from ..errors import SpecError
+from .base import Cutter
+from .planar import _name
+
+__all__ = ["ConicalCutter"]
+
+
+@dataclass(frozen=True, kw_only=True)
+class ConicalCutter(Cutter):
+    """Cone of revolution about +z (see module docstring).
+
+    Parameters
+    ----------
+    theta : float
+        Included angle θ (rad), 0 < θ < π/2.
+    bevel_length : float, optional
+        Axial length l_b of the cone (mm) from the heel; a flat land closes the
+        tip at z = l_b when l_b < (r_o − r_i) cot θ.
+    name : str
+        Faces ``cut:<name>`` (cone) and ``cut:<name>.land``.
+    """
+
+    theta: float
+    bevel_length: float | None = None
+    name: str = "cone"
+    kind = "conical"
+
+    def __post_init__(self):
+        object.__setattr__(self, "theta", v.angle("theta", self.theta, lo=0.0, hi=0.5 * math.pi,
+                                                  lo_open=True, hi_open=True))
+        if self.bevel_length is not None:
+            object.__setattr__(self, "bevel_length",
+                               v.length("bevel_length", self.bevel_length, hi=1000.0))
+        _name(self.name)
+
+    @classmethod
+    def from_grinding(cls, *, phi_g: float, varphi: float = math.radians(10.0),
+                      bevel_length: float | None = None, name: str = "cone") -> ConicalCutter:
+        """Cone ground by a wheel of angle ϕ_g at needle–spindle angle φ
+        (rad): θ = ϕ_g − φ (eq. 2.37). φ is 10° on the thesis's machine."""
+        phi_g = v.angle("phi_g", phi_g, lo=0.0, hi=0.5 * math.pi, lo_open=True, hi_open=True)
+        varphi = v.angle("varphi", varphi, lo=0.0, hi=0.5 * math.pi, hi_open=True)
+        if not phi_g > varphi:
+            raise SpecError(f"phi_g = {math.degrees(phi_g):.6g}° must exceed varphi = "
+                            f"{math.degrees(varphi):.6g}° (θ = phi_g − varphi > 0)")
+        return cls(theta=phi_g - varphi, bevel_length=bevel_length, name=name)
+
+    @property
+    def land_label(self) -> str:
+        return f"{self.label}.land"
+
+    def face_labels(self):
+        return (self.label, self.land_label) if self.bevel_length is not None else (self.label,)
+
+    def _z_cone_top(self, cannula) -> float:
+        z_apex = cannula.r_o / math.tan(self.theta)
+        return z_apex if self.bevel_length is None else min(self.bevel_length, z_apex)
+
+    def z_upper(self, cannula):
+        return float(min(self._z_cone_top(cannula), (cannula.r_o - 0.0) / math.tan(self.theta)))
+
+    def solid(self, ctx):
+        ro, t = ctx.cannula.r_o, math.tan(self.theta)
+        z0 = ctx.z_lo
+        r0 = ro - z0 * t
+        z1 = self._z_cone_top(ctx.cannula)
+        r1 = max(ro - z1 * t, 0.0)
+        return ctx.frustum(z0, r0, z1, r1, self.label, self.land_label if r1 > 0 else self.label)
+
+    def implicit(self, points, cannula):
+        p = np.asarray(points, dtype=float).reshape(-1, 3)
+        rho = np.hypot(p[:, 0], p[:, 1])
+        c, s = math.cos(self.theta), math.sin(self.theta)
+        f = rho * c + p[:, 2] * s - cannula.r_o * c
+        safe = np.maximum(rho, 1e-300)
+        g = np.stack([c * p[:, 0] / safe, c * p[:, 1] / safe, np.full(len(p), s)], 1)
+        if self.bevel_length is not None:
+            fl = p[:, 2] - self.bevel_length
+            land = fl > f
+            f = np.where(land, fl, f)
+            g[land] = (0.0, 0.0, 1.0)
+        return f, g
+
+    def edge_z(self, gamma, radius, cannula):
+        z = (cannula.r_o - radius) / math.tan(self.theta)
+        if self.bevel_length is not None:
+            z = min(z, self.bevel_length)
+        return np.full(np.shape(gamma), z)

@@ -239,8 +239,8 @@ class BuildContext:
             b = _ring_quads(idx[j] + nt, idx[j + 1] + nt, False)
             tris.append(b)
             ids.append(np.full(len(b), aux))
-        tris.append(_ring_quads(idx[-1], idx[-1] + nt, True)[:, [0, 2, 1]])   # outer wall
-        tris.append(_ring_quads(idx[0], idx[0] + nt, False)[:, [0, 2, 1]])    # inner wall
+        tris.append(_ring_quads(idx[-1], idx[-1] + nt, True))   # outer wall
+        tris.append(_ring_quads(idx[0], idx[0] + nt, False))    # inner wall
         ids += [np.full(2 * angular, aux), np.full(2 * angular, aux)]
         man = _manifold(verts, np.concatenate(tris), np.concatenate(ids), label)
         if man.volume() <= 0:

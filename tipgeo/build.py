@@ -57,6 +57,9 @@ def build_tip(spec, *, tolerance: float | None = None, strict: bool | None = Non
     cannula = spec.cannula
     n = segments_for(cannula.r_o, chordal)
     z_top = min(c.z_upper(cannula) for c in spec.cutters)
+    if not np.isfinite(z_top):
+        raise SpecError("no cutter bounds the tip from above (serrations need a cutter "
+                        "before them)")
     z_top = max(z_top, 0.0) + 0.25 * cannula.r_o + 0.1
     ctx = BuildContext(cannula=cannula, chordal=chordal, segments=n,
                        z_bottom=-cannula.length, z_top=z_top)
@@ -67,11 +70,20 @@ def build_tip(spec, *, tolerance: float | None = None, strict: bool | None = Non
         keep = cutter.solid(ctx)
         _check(keep, f"cutter '{cutter.name}' solid", strict, genus=None)
         solid = solid ^ keep
-        _check(solid, f"tube ∩ cutter '{cutter.name}'", strict)
+        _check(solid, f"tube ∩ cutter '{cutter.name}'", strict, labels=ctx.labels)
     return _to_tip(solid, ctx, spec, strict)
 
 
-def _check(man: m3d.Manifold, what: str, strict: bool, genus: int | None = 1) -> None:
+def _check_aux(man: m3d.Manifold, labels, what: str) -> None:
+    mesh = man.to_mesh64()
+    ids = np.asarray(mesh.face_id)
+    if np.any(ids == labels.id(AUX)):
+        raise BuildError(f"{what}: construction faces survive — a cutter does not reach "
+                         "across the whole tube (is the tube's top cut by every cutter?)")
+
+
+def _check(man: m3d.Manifold, what: str, strict: bool, genus: int | None = 1,
+           labels=None) -> None:
     if man.status() != m3d.Error.NoError:
         raise BuildError(f"{what}: manifold3d reports {man.status()}")
     if man.is_empty():
@@ -82,10 +94,14 @@ def _check(man: m3d.Manifold, what: str, strict: bool, genus: int | None = 1) ->
         raise BuildError(f"{what}: non-positive volume {man.volume():.6g} mm³")
     if genus is not None:
         parts = len(man.decompose())
-        if parts != 1:
-            raise BuildError(f"{what}: {parts} separate pieces; a tip is one piece")
-        if man.genus() != genus:
-            raise BuildError(f"{what}: genus {man.genus()}, expected {genus}")
+        if parts != 1 or man.genus() != genus:
+            if labels is not None:
+                _check_aux(man, labels, what)
+            if parts != 1:
+                raise BuildError(f"{what}: {parts} separate pieces; a tip is one piece")
+            hint = (" — the cut opens the tube's ring (a cutter must leave a closed ring of "
+                    "wall below the tip)" if man.genus() < genus else "")
+            raise BuildError(f"{what}: genus {man.genus()}, expected {genus}{hint}")
 
 
 def _to_tip(solid: m3d.Manifold, ctx: BuildContext, spec, strict: bool) -> Tip:

@@ -208,6 +208,24 @@ class BuildContext:
             ids = np.concatenate([np.full(n, self.labels.id(side)), np.full(n, self.labels.id(AUX))])
         return _manifold(verts, tris, ids, side)
 
+    def prism(self, polygon: np.ndarray, thickness: float, side: str) -> m3d.Manifold:
+        """Right prism over a simple CCW polygon (k, 2) in the XY plane, from
+        Z = 0 to Z = thickness, vertices exactly as given (no simplification).
+        Side triangles get ``side``, the caps ``aux``."""
+        poly = np.asarray(polygon, dtype=float)
+        k = len(poly)
+        caps = np.asarray(m3d.triangulate([poly]), dtype=np.int64)
+        verts = np.concatenate([np.c_[poly, np.zeros(k)], np.c_[poly, np.full(k, thickness)]])
+        a = np.arange(k)
+        sides = _ring_quads(a, a + k, False)
+        tris = np.concatenate([sides, caps[:, ::-1], caps + k])
+        ids = np.concatenate([np.full(len(sides), self.labels.id(side)),
+                              np.full(2 * len(caps), self.labels.id(AUX))])
+        man = _manifold(verts, tris, ids, side)
+        if man.volume() <= 0:
+            raise BuildError(f"prism of '{side}' is inside out (polygon not CCW)")
+        return man
+
     def annular_heightfield(self, height: Callable[[np.ndarray, np.ndarray], np.ndarray],
                             label: str, angular: int, radial: int) -> m3d.Manifold:
         """Solid {r_in ≤ ρ ≤ r_out, z_lo ≤ z ≤ height(x, y)} over an annulus a

@@ -1,19 +1,77 @@
-"""Tip specifications: a cannula plus an ordered list of cutters.
+"""Tip specifications: a cannula plus an ordered list of cutters, and their
+TOML form.
 
-(temporary minimal version)
+Units at this boundary: lengths in mm (keys ``*_mm``), angles in degrees
+(keys ``*_deg``), the tolerance in µm (``tolerance_um``). Inside, everything is
+mm and radians (the dataclasses). Frame: the cannula frame (+z along the axis
+towards the tip, heel at z = 0, γ about +z from +x).
+
+Example::
+
+    name = "bevel-14G-xi15"
+    description = "one-plane bevel, thesis §2.1.1"
+
+    [cannula]
+    gauge = 14            # or outer_diameter_mm / inner_diameter_mm
+    length_mm = 10.0
+
+    [[cutters]]
+    kind = "bevel"
+    xi_deg = 15.0
+
+Every key is checked: an unknown key, a missing one or a value out of range
+raises one :class:`SpecError` that names the key (``cutters[0].xi_deg``), the
+value and the allowed range.
 """
+
 from __future__ import annotations
 
+import math
+import os
+import sys
+import tempfile
 from dataclasses import dataclass
+from numbers import Real
+from pathlib import Path
+from typing import Any
 
-from .cannula import Cannula
+from .cannula import GAUGES, Cannula
+from .cutters import (
+    BevelCutter,
+    ConicalCutter,
+    Cutter,
+    HelicalCutter,
+    LancetCutter,
+    MeshCutter,
+    MultiPlaneCutter,
+    SerrationCutter,
+)
+from .cutters.planar import multiplane_xi_for_theta
 from .errors import SpecError
 
-__all__ = ["TipSpec"]
+if sys.version_info >= (3, 11):
+    import tomllib
+else:  # pragma: no cover
+    import tomli as tomllib
+
+__all__ = ["TipSpec", "load_spec", "loads_spec", "spec_from_dict", "spec_to_dict", "dumps_spec",
+           "save_spec", "CUTTER_KINDS"]
 
 
 @dataclass(frozen=True, kw_only=True)
 class TipSpec:
+    """A tip: a cannula and the cutters applied to it in order.
+
+    Parameters
+    ----------
+    cannula : Cannula
+    cutters : sequence of Cutter
+        At least one; their names (face labels) must be unique.
+    name, description : str
+    tolerance : float, optional
+        Chordal tolerance to build at (mm); default ``tol.chordal``.
+    """
+
     cannula: Cannula
     cutters: tuple
     name: str = ""
@@ -21,6 +79,436 @@ class TipSpec:
     tolerance: float | None = None
 
     def __post_init__(self):
-        object.__setattr__(self, "cutters", tuple(self.cutters))
-        if not self.cutters:
+        if not isinstance(self.cannula, Cannula):
+            raise SpecError(f"cannula = {self.cannula!r} is not a Cannula")
+        cutters = tuple(self.cutters)
+        object.__setattr__(self, "cutters", cutters)
+        if not cutters:
             raise SpecError("cutters = [] is empty; a tip needs at least one cutter")
+        names = []
+        for k, c in enumerate(cutters):
+            if not isinstance(c, Cutter):
+                raise SpecError(f"cutters[{k}] = {c!r} is not a Cutter")
+            if c.name in names:
+                raise SpecError(f"cutters[{k}].name = {c.name!r} repeats an earlier cutter's "
+                                "name; allowed unique names (they label the faces)")
+            names.append(c.name)
+            if c.needs_previous and k == 0:
+                raise SpecError(f"cutters[{k}] ({c.kind} '{c.name}') cuts into the edge a "
+                                "preceding cutter made; allowed only after a bevel, "
+                                "multiplane, lancet, conical or helical cutter")
+            try:
+                c.check(self.cannula)
+            except SpecError as e:
+                raise SpecError(f"cutters[{k}] ({c.kind} '{c.name}'): {e}") from None
+        if self.tolerance is not None:
+            from ._validate import length
+
+            object.__setattr__(self, "tolerance", length("tolerance", self.tolerance, hi=0.1))
+
+    def with_(self, **changes) -> TipSpec:
+        """A copy with some fields replaced."""
+        from dataclasses import replace
+
+        return replace(self, **changes)
+
+
+# --------------------------------------------------------------------------
+# TOML schema: per kind, key -> (required, default). Conversion in _make_*.
+_DEG = math.radians
+
+
+def _num(key: str, value: Any) -> float:
+    if isinstance(value, bool) or not isinstance(value, Real):
+        raise SpecError(f"{key} = {value!r} is not a number; expected a number")
+    if not math.isfinite(float(value)):
+        raise SpecError(f"{key} = {value!r} is not finite; expected a finite number")
+    return float(value)
+
+
+def _int(key: str, value: Any) -> int:
+    if isinstance(value, bool) or not isinstance(value, int):
+        raise SpecError(f"{key} = {value!r} is not an integer; expected an integer")
+    return int(value)
+
+
+def _str(key: str, value: Any) -> str:
+    if not isinstance(value, str):
+        raise SpecError(f"{key} = {value!r} is not a string; expected a string")
+    return value
+
+
+def _keys(where: str, table: Any, allowed: dict[str, str]) -> dict:
+    if not isinstance(table, dict):
+        raise SpecError(f"{where} = {table!r} is not a table; expected a TOML table")
+    unknown = [k for k in table if k not in allowed]
+    if unknown:
+        raise SpecError(f"{where}.{unknown[0]} is not a known key; allowed keys: "
+                        + ", ".join(allowed))
+    return table
+
+
+def _one_of(where: str, table: dict, a: str, b: str) -> str:
+    has_a, has_b = a in table, b in table
+    if has_a == has_b:
+        raise SpecError(f"{where}: give exactly one of {a} and {b}"
+                        + (" (both given)" if has_a else " (neither given)"))
+    return a if has_a else b
+
+
+def _need(where: str, table: dict, key: str) -> Any:
+    if key not in table:
+        raise SpecError(f"{where}.{key} is missing; it is required")
+    return table[key]
+
+
+_CANNULA_KEYS = {"gauge": "needle gauge 10–30", "outer_diameter_mm": "d_e (mm)",
+                 "inner_diameter_mm": "d_i (mm)", "length_mm": "tube below the heel (mm)",
+                 "preset": "'biopsy-punch'", "name": "label"}
+
+#: kind -> {key: description}
+CUTTER_KINDS: dict[str, dict[str, str]] = {
+    "bevel": {"kind": "", "name": "face label", "xi_deg": "bevel angle ξ, (0, 90]",
+              "rotation_deg": "heel direction about +z"},
+    "multiplane": {"kind": "", "name": "", "xi_deg": "bevel angle ξ, (0, 90)",
+                   "theta_deg": "included angle θ (eq. 2.3), instead of xi_deg",
+                   "planes": "P_l ≥ 2 (symmetric)",
+                   "rotations_deg": "explicit heel directions (asymmetric)",
+                   "rotation_deg": "rotation of the whole cutter"},
+    "lancet": {"kind": "", "name": "", "primary_xi_deg": "(0, 90)",
+               "secondary_xi_deg": "(0, 90)", "secondary_rotation_deg": "(0, 90)",
+               "rotation_deg": ""},
+    "conical": {"kind": "", "name": "", "theta_deg": "included angle θ, (0, 90)",
+                "phi_g_deg": "grinding-wheel angle ϕ_g (eq. 2.37), instead of theta_deg",
+                "varphi_deg": "needle–spindle angle φ, default 10",
+                "bevel_length_mm": "axial length of the cone"},
+    "helical": {"kind": "", "name": "", "pitch_mm": "p_h", "helix_angle_deg": "ψ, (0, 90)",
+                "phi_deg": "tilt φ, [0, 90)", "helix_position_deg": "γ_h* > 0",
+                "rotation_deg": ""},
+    "serration": {"kind": "", "name": "", "arc_radius_mm": "r_c", "count": "n_s",
+                  "spacing_deg": "ρ, instead of count", "depth_mm": "default r_c",
+                  "edge_radius_mm": "r_s, default 0", "rotation_deg": "γ of the first"},
+    "mesh": {"kind": "", "name": "", "path": "mesh file, relative to the spec file",
+             "units": "mm, um or m"},
+}
+
+
+def _cannula(table: Any) -> Cannula:
+    where = "cannula"
+    t = _keys(where, table, _CANNULA_KEYS)
+    length = _num(f"{where}.length_mm", t["length_mm"]) if "length_mm" in t else None
+    try:
+        if "preset" in t:
+            if set(t) - {"preset", "length_mm", "name"}:
+                raise SpecError(f"{where}.preset cannot be combined with gauge or diameters")
+            p = _str(f"{where}.preset", t["preset"])
+            if p != "biopsy-punch":
+                raise SpecError(f"{where}.preset = {p!r} is not known; allowed: 'biopsy-punch'")
+            return Cannula.biopsy_punch(**({} if length is None else {"length": length}))
+        if "gauge" in t:
+            if "outer_diameter_mm" in t or "inner_diameter_mm" in t:
+                raise SpecError(f"{where}: give gauge or diameters, not both")
+            g = _int(f"{where}.gauge", t["gauge"])
+            if g not in GAUGES:
+                raise SpecError(f"{where}.gauge = {g} is not in the gauge table; allowed "
+                                f"{min(GAUGES)}–{max(GAUGES)}")
+            c = Cannula.from_gauge(g, **({} if length is None else {"length": length}))
+            return c
+        de = _num(f"{where}.outer_diameter_mm", _need(where, t, "outer_diameter_mm"))
+        di = _num(f"{where}.inner_diameter_mm", _need(where, t, "inner_diameter_mm"))
+        kw = {} if length is None else {"length": length}
+        name = _str(f"{where}.name", t.get("name", ""))
+        return Cannula(outer_diameter=de, inner_diameter=di, name=name, **kw)
+    except SpecError as e:
+        msg = str(e)
+        if not msg.startswith(where):
+            msg = f"{where}: {msg}".replace("outer_diameter =", "outer_diameter_mm =").replace(
+                "inner_diameter =", "inner_diameter_mm =").replace("length =", "length_mm =")
+        raise SpecError(msg) from None
+
+
+def _cutter(k: int, table: Any, base_dir: Path | None) -> Cutter:
+    where = f"cutters[{k}]"
+    if not isinstance(table, dict):
+        raise SpecError(f"{where} = {table!r} is not a table")
+    kind = _str(f"{where}.kind", _need(where, table, "kind"))
+    if kind not in CUTTER_KINDS:
+        raise SpecError(f"{where}.kind = {kind!r} is not a valid tip kind; expected one of: "
+                        + ", ".join(CUTTER_KINDS))
+    t = _keys(where, table, CUTTER_KINDS[kind])
+    kw: dict[str, Any] = {}
+    if "name" in t:
+        kw["name"] = _str(f"{where}.name", t["name"])
+    keymap: dict[str, str] = {}
+
+    def deg(key, arg, default=None):
+        if key in t:
+            kw[arg] = _DEG(_num(f"{where}.{key}", t[key]))
+            keymap[arg] = key
+        elif default is not None:
+            kw[arg] = _DEG(default)
+
+    def mm(key, arg):
+        if key in t:
+            kw[arg] = _num(f"{where}.{key}", t[key])
+            keymap[arg] = key
+
+    try:
+        if kind == "bevel":
+            _need(where, t, "xi_deg")
+            deg("xi_deg", "xi")
+            deg("rotation_deg", "rotation")
+            return BevelCutter(**kw)
+        if kind == "multiplane":
+            which = _one_of(where, t, "xi_deg", "theta_deg")
+            deg("rotation_deg", "rotation")
+            if "rotations_deg" in t:
+                if "planes" in t:
+                    raise SpecError(f"{where}: give planes or rotations_deg, not both")
+                rots = t["rotations_deg"]
+                if not isinstance(rots, list):
+                    raise SpecError(f"{where}.rotations_deg = {rots!r} is not a list of numbers")
+                kw["rotations"] = tuple(_DEG(_num(f"{where}.rotations_deg[{j}]", r))
+                                        for j, r in enumerate(rots))
+                keymap["rotations"] = "rotations_deg"
+            else:
+                kw["count"] = _int(f"{where}.planes", _need(where, t, "planes"))
+                keymap["count"] = "planes"
+            if which == "theta_deg":
+                if "rotations" in kw:
+                    raise SpecError(f"{where}.theta_deg needs a symmetric tip (planes), "
+                                    "not rotations_deg")
+                try:
+                    kw["xi"] = multiplane_xi_for_theta(_DEG(_num(f"{where}.theta_deg",
+                                                                 t["theta_deg"])), kw["count"])
+                except SpecError as e:
+                    raise SpecError(str(e).replace("theta =", "theta_deg:")) from None
+            else:
+                deg("xi_deg", "xi")
+            return MultiPlaneCutter(**kw)
+        if kind == "lancet":
+            for key in ("primary_xi_deg", "secondary_xi_deg", "secondary_rotation_deg"):
+                _need(where, t, key)
+                deg(key, key[:-4])
+            deg("rotation_deg", "rotation")
+            return LancetCutter(**kw)
+        if kind == "conical":
+            which = _one_of(where, t, "theta_deg", "phi_g_deg")
+            mm("bevel_length_mm", "bevel_length")
+            if which == "theta_deg":
+                if "varphi_deg" in t:
+                    raise SpecError(f"{where}.varphi_deg only goes with phi_g_deg")
+                deg("theta_deg", "theta")
+                return ConicalCutter(**kw)
+            deg("phi_g_deg", "phi_g")
+            deg("varphi_deg", "varphi", default=10.0)
+            return ConicalCutter.from_grinding(**kw)
+        if kind == "helical":
+            for key in ("pitch_mm", "helix_angle_deg", "phi_deg", "helix_position_deg"):
+                _need(where, t, key)
+            mm("pitch_mm", "pitch")
+            deg("helix_angle_deg", "helix_angle")
+            deg("phi_deg", "phi")
+            deg("helix_position_deg", "helix_position")
+            deg("rotation_deg", "rotation")
+            return HelicalCutter(**kw)
+        if kind == "serration":
+            _need(where, t, "arc_radius_mm")
+            which = _one_of(where, t, "count", "spacing_deg")
+            mm("arc_radius_mm", "arc_radius")
+            if which == "count":
+                kw["count"] = _int(f"{where}.count", t["count"])
+                keymap["count"] = "count"
+            else:
+                deg("spacing_deg", "spacing")
+            mm("depth_mm", "depth")
+            mm("edge_radius_mm", "edge_radius")
+            deg("rotation_deg", "rotation")
+            return SerrationCutter(**kw)
+        if kind == "mesh":
+            p = Path(_str(f"{where}.path", _need(where, t, "path")))
+            if not p.is_absolute() and base_dir is not None:
+                p = base_dir / p
+            units = _str(f"{where}.units", t.get("units", "mm"))
+            return MeshCutter.from_file(p, units=units, **kw)
+    except SpecError as e:
+        msg = str(e)
+        if msg.startswith(where):
+            raise
+        for arg, key in keymap.items():
+            if msg.startswith((f"{arg} =", f"{arg}[")):
+                raise SpecError(f"{where}.{key}: {msg}") from None
+        raise SpecError(f"{where} ({kind}): {msg}") from None
+    raise SpecError(f"{where}.kind = {kind!r} is not handled")  # pragma: no cover
+
+
+_TOP_KEYS = {"name": "", "description": "", "tolerance_um": "chordal tolerance (µm)",
+             "cannula": "table", "cutters": "array of tables"}
+
+
+def spec_from_dict(data: Any, *, base_dir: str | Path | None = None) -> TipSpec:
+    """Validate a parsed TOML document and return the :class:`TipSpec`."""
+    t = _keys("spec", data, _TOP_KEYS)
+    cannula = _cannula(_need("spec", t, "cannula"))
+    cutters_raw = _need("spec", t, "cutters")
+    if not isinstance(cutters_raw, list) or not cutters_raw:
+        raise SpecError(f"cutters = {cutters_raw!r} must be a non-empty array of tables "
+                        "([[cutters]])")
+    base = None if base_dir is None else Path(base_dir)
+    cutters = [_cutter(k, c, base) for k, c in enumerate(cutters_raw)]
+    tolerance = None
+    if "tolerance_um" in t:
+        tu = _num("tolerance_um", t["tolerance_um"])
+        if not 0 < tu <= 100:
+            raise SpecError(f"tolerance_um = {tu:.6g} is out of range; allowed 0 < value ≤ 100")
+        tolerance = tu * 1e-3
+    return TipSpec(cannula=cannula, cutters=cutters,
+                   name=_str("name", t.get("name", "")),
+                   description=_str("description", t.get("description", "")),
+                   tolerance=tolerance)
+
+
+def loads_spec(text: str, *, base_dir: str | Path | None = None) -> TipSpec:
+    """Parse a TOML string into a :class:`TipSpec`."""
+    try:
+        data = tomllib.loads(text)
+    except tomllib.TOMLDecodeError as e:
+        raise SpecError(f"spec is not valid TOML: {e}") from None
+    return spec_from_dict(data, base_dir=base_dir)
+
+
+def load_spec(path: str | Path) -> TipSpec:
+    """Read a TOML spec file (relative mesh paths resolve from its folder)."""
+    p = Path(path)
+    try:
+        text = p.read_text(encoding="utf-8")
+    except FileNotFoundError:
+        raise SpecError(f"spec file '{p}' does not exist") from None
+    except (OSError, UnicodeDecodeError) as e:
+        raise SpecError(f"spec file '{p}' cannot be read: {e}") from None
+    try:
+        spec = loads_spec(text, base_dir=p.parent)
+    except SpecError as e:
+        raise SpecError(f"{p.name}: {e}") from None
+    if not spec.name:
+        spec = spec.with_(name=p.stem)
+    return spec
+
+
+# --------------------------------------------------------------------------
+def _r(x: float) -> float:
+    """Round a converted value so that degrees print as typed (15.0, not
+    14.999999999999998)."""
+    return float(f"{x:.12g}")
+
+
+def _cutter_to_dict(c: Cutter) -> dict[str, Any]:
+    d: dict[str, Any] = {"kind": c.kind, "name": c.name}
+    deg = math.degrees
+    if isinstance(c, BevelCutter):
+        d["xi_deg"] = _r(deg(c.xi))
+    elif isinstance(c, MultiPlaneCutter):
+        d["xi_deg"] = _r(deg(c.xi))
+        if c.symmetric:
+            d["planes"] = c.count
+        else:
+            d["rotations_deg"] = [_r(deg(r)) for r in c.rotations]
+    elif isinstance(c, LancetCutter):
+        d["primary_xi_deg"] = _r(deg(c.primary_xi))
+        d["secondary_xi_deg"] = _r(deg(c.secondary_xi))
+        d["secondary_rotation_deg"] = _r(deg(c.secondary_rotation))
+    elif isinstance(c, ConicalCutter):
+        d["theta_deg"] = _r(deg(c.theta))
+        if c.bevel_length is not None:
+            d["bevel_length_mm"] = c.bevel_length
+    elif isinstance(c, HelicalCutter):
+        d["pitch_mm"] = c.pitch
+        d["helix_angle_deg"] = _r(deg(c.helix_angle))
+        d["phi_deg"] = _r(deg(c.phi))
+        d["helix_position_deg"] = _r(deg(c.helix_position))
+    elif isinstance(c, SerrationCutter):
+        d["arc_radius_mm"] = c.arc_radius
+        if c.count is not None:
+            d["count"] = c.count
+        else:
+            d["spacing_deg"] = _r(deg(c.spacing))
+        d["depth_mm"] = c.depth
+        d["edge_radius_mm"] = c.edge_radius
+    elif isinstance(c, MeshCutter) and c.source:
+        d["path"] = c.source
+    else:
+        raise SpecError(f"cutter kind '{c.kind}' has no TOML form (Python-only cutter)")
+    rot = getattr(c, "rotation", 0.0)
+    if rot:
+        d["rotation_deg"] = _r(deg(rot))
+    return d
+
+
+def spec_to_dict(spec: TipSpec) -> dict[str, Any]:
+    """The TOML-ready dictionary of a spec (degrees, mm, µm)."""
+    c = spec.cannula
+    gauge = next((g for g, (de, di) in GAUGES.items()
+                  if (de, di) == (c.outer_diameter, c.inner_diameter)), None)
+    if gauge is not None:
+        can: dict[str, Any] = {"gauge": gauge}
+    elif (c.outer_diameter, c.inner_diameter) == (2.4, 2.0):
+        can = {"preset": "biopsy-punch"}
+    else:
+        can = {"outer_diameter_mm": c.outer_diameter, "inner_diameter_mm": c.inner_diameter}
+    can["length_mm"] = c.length
+    out: dict[str, Any] = {}
+    if spec.name:
+        out["name"] = spec.name
+    if spec.description:
+        out["description"] = spec.description
+    if spec.tolerance is not None:
+        out["tolerance_um"] = _r(spec.tolerance * 1e3)
+    out["cannula"] = can
+    out["cutters"] = [_cutter_to_dict(x) for x in spec.cutters]
+    return out
+
+
+def _toml_value(v: Any) -> str:
+    if isinstance(v, bool):
+        return "true" if v else "false"
+    if isinstance(v, int):
+        return str(v)
+    if isinstance(v, float):
+        return repr(v)
+    if isinstance(v, str):
+        esc = v.replace("\\", "\\\\").replace('"', '\\"').replace("\n", "\\n")
+        return f'"{esc}"'
+    if isinstance(v, list):
+        return "[" + ", ".join(_toml_value(x) for x in v) + "]"
+    raise SpecError(f"cannot write {v!r} to TOML")
+
+
+def dumps_spec(spec: TipSpec) -> str:
+    """The spec as TOML text (round-trips through :func:`loads_spec`)."""
+    d = spec_to_dict(spec)
+    lines = ["# tipgeo tip spec — lengths in mm, angles in degrees, cannula frame",
+             "# (+z along the needle axis towards the tip, heel at z = 0)"]
+    for k in ("name", "description", "tolerance_um"):
+        if k in d:
+            lines.append(f"{k} = {_toml_value(d[k])}")
+    lines += ["", "[cannula]"] + [f"{k} = {_toml_value(v)}" for k, v in d["cannula"].items()]
+    for c in d["cutters"]:
+        lines += ["", "[[cutters]]"] + [f"{k} = {_toml_value(v)}" for k, v in c.items()]
+    return "\n".join(lines) + "\n"
+
+
+def save_spec(spec: TipSpec, path: str | Path) -> Path:
+    """Write the spec as TOML, atomically."""
+    p = Path(path)
+    text = dumps_spec(spec)
+    fd, tmp = tempfile.mkstemp(dir=p.parent if str(p.parent) else ".", prefix=f".{p.name}.",
+                               suffix=".tmp")
+    try:
+        with os.fdopen(fd, "w", encoding="utf-8") as f:
+            f.write(text)
+        os.replace(tmp, p)
+    except BaseException:
+        if os.path.exists(tmp):
+            os.unlink(tmp)
+        raise
+    return p

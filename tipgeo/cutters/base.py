@@ -37,6 +37,9 @@ class Cutter(ABC):
     #: spec ``kind`` of the cutter.
     kind: str = ""
 
+    #: True when the cutter shapes what earlier cutters made (serrations).
+    needs_previous: bool = False
+
     @abstractmethod
     def face_labels(self) -> tuple[str, ...]:
         """Labels (``cut:<name>...``) its faces carry in a built tip."""
@@ -64,6 +67,10 @@ class Cutter(ABC):
         """
         raise NotImplementedError(f"cutter kind '{self.kind}' has no exact implicit surface; "
                                   "analysis falls back to the mesh")
+
+    def check(self, cannula: Cannula) -> None:
+        """Raise :class:`SpecError` if the cutter cannot shape this cannula
+        (called when a :class:`TipSpec` is made)."""
 
     def edge_z(self, gamma: np.ndarray, radius: float, cannula: Cannula) -> np.ndarray | None:
         """Height z (mm) of the cut surface on the cylinder of ``radius`` at

@@ -120,7 +120,7 @@ class HelicalCutter(Cutter):
         """Distance d (mm) between the helix axis and the needle axis at P*."""
         return self._frame[1]
 
-    def _check_cannula(self, cannula: Cannula) -> None:
+    def check(self, cannula: Cannula) -> None:
         c, d, _, _ = self._frame
         need = cannula.r_o + c * math.tan(self.phi)
         if not d > need:
@@ -157,7 +157,7 @@ class HelicalCutter(Cutter):
 
     def _placement(self, cannula: Cannula) -> tuple[float, float]:
         """(γ_heel, z_heel) of the outer edge in the needle frame."""
-        self._check_cannula(cannula)
+        self.check(cannula)
         r = cannula.r_o
         g = np.linspace(0, 2 * np.pi, 3600, endpoint=False)
         z = self._solve_z_needle(r * np.cos(g), r * np.sin(g))

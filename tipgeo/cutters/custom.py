@@ -1,0 +1,173 @@
+"""Custom cutters: any user solid or signed-distance function.
+
+Frame and units: cannula frame (+z along the axis towards the tip, the heel
+at z = 0), mm. The user's solid (or SDF) is the material to *keep*; it must
+cover the tube's cross-section below the cut and end it above.
+
+A mesh-defined cutter gives only its solid (protocol item 1): analysis falls
+back to the tip's mesh. An SDF cutter also gives its implicit function (by
+central differences for the gradient).
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import manifold3d as m3d
+import numpy as np
+
+from .. import _validate as v
+from ..construct import AUX, BuildContext
+from ..errors import SpecError
+from .base import Cutter
+from .planar import _name
+
+__all__ = ["MeshCutter", "SDFCutter"]
+
+
+def _as_manifold(solid) -> m3d.Manifold:
+    if isinstance(solid, m3d.Manifold):
+        man = solid
+    else:
+        try:
+            verts = np.asarray(solid.vertices, dtype=np.float64)
+            faces = np.asarray(solid.faces, dtype=np.uint64)
+        except AttributeError:
+            raise SpecError(f"solid = {type(solid).__name__} is not a manifold3d.Manifold or a "
+                            "mesh with .vertices and .faces (e.g. trimesh.Trimesh)") from None
+        if verts.ndim != 2 or verts.shape[1] != 3 or not np.all(np.isfinite(verts)):
+            raise SpecError("solid.vertices must be a finite (n, 3) array (mm)")
+        man = m3d.Manifold(m3d.Mesh64(np.array(verts, order="C"), np.array(faces, order="C")))
+    if man.status() != m3d.Error.NoError or man.is_empty():
+        raise SpecError(f"solid is not a closed, oriented manifold ({man.status()}); "
+                        "allowed watertight solids only")
+    if man.volume() <= 0:
+        raise SpecError("solid has non-positive volume (inside out?); allowed positive volume")
+    return man
+
+
+@dataclass(frozen=True, kw_only=True, eq=False)
+class MeshCutter(Cutter):
+    """Keep the material inside a user solid (manifold3d.Manifold or
+    trimesh.Trimesh, mm, cannula frame); faces labelled ``cut:<name>``.
+
+    ``source`` records where the solid came from (a file path) for specs.
+    """
+
+    solid_: object = field(repr=False)
+    name: str = "custom"
+    source: str | None = None
+    kind = "mesh"
+
+    def __post_init__(self):
+        object.__setattr__(self, "solid_", _as_manifold(self.solid_))
+        _name(self.name)
+
+    @classmethod
+    def from_file(cls, path, *, name: str = "custom", units: str = "mm") -> MeshCutter:
+        """Load the kept solid from a mesh file (STL, PLY, OBJ, …)."""
+        from ..io import load_tip
+
+        tip = load_tip(path, units=units)
+
+        class _M:
+            vertices, faces = tip.vertices, tip.faces
+        return cls(solid_=_M(), name=name, source=str(path))
+
+    def face_labels(self):
+        return (self.label,)
+
+    def z_upper(self, cannula):
+        return float(self.solid_.bounding_box()[5])
+
+    def solid(self, ctx: BuildContext):
+        lid = ctx.labels.id(self.label)
+        return ctx.labelled(self.solid_, lambda c, n: np.full(len(c), lid), self.label)
+
+
+@dataclass(frozen=True, kw_only=True, eq=False)
+class SDFCutter(Cutter):
+    """Keep the material where a signed-distance function is ≤ 0.
+
+    Parameters
+    ----------
+    sdf : callable
+        ``sdf(points (n, 3) mm) -> (n,)``: negative inside the kept material,
+        positive outside (mm, cannula frame). Vectorised over points.
+    z_range : (float, float)
+        The band of z (mm) that contains the cut surface over the tube wall.
+        Below it everything is kept, above it nothing.
+    edge_length : float, optional
+        Level-set grid edge (mm); default from the tolerance, at least
+        wall/40.
+    name : str
+    """
+
+    sdf: Callable[[np.ndarray], np.ndarray] = field(repr=False)
+    z_range: tuple[float, float]
+    edge_length: float | None = None
+    name: str = "sdf"
+    kind = "sdf"
+
+    def __post_init__(self):
+        if not callable(self.sdf):
+            raise SpecError(f"sdf = {self.sdf!r} is not callable; expected f(points) -> values")
+        try:
+            lo, hi = (float(z) for z in self.z_range)
+        except (TypeError, ValueError):
+            raise SpecError(f"z_range = {self.z_range!r} is not a pair of numbers (mm)") from None
+        v.real("z_range[0]", lo, unit="mm")
+        v.real("z_range[1]", hi, lo=lo, lo_open=True, unit="mm")
+        object.__setattr__(self, "z_range", (lo, hi))
+        if self.edge_length is not None:
+            v.length("edge_length", self.edge_length, hi=10.0)
+        _name(self.name)
+
+    def face_labels(self):
+        return (self.label,)
+
+    def z_upper(self, cannula):
+        return self.z_range[1]
+
+    def _values(self, pts: np.ndarray) -> np.ndarray:
+        val = np.asarray(self.sdf(pts), dtype=float).reshape(-1)
+        if val.shape[0] != len(pts):
+            raise SpecError(f"sdf returned {val.shape[0]} values for {len(pts)} points")
+        if not np.all(np.isfinite(val)):
+            raise SpecError("sdf returned non-finite values; expected finite distances (mm)")
+        return val
+
+    def implicit(self, points, cannula):
+        p = np.asarray(points, float).reshape(-1, 3)
+        h = 1e-6
+        f = self._values(p)
+        g = np.stack([(self._values(p + h * e) - self._values(p - h * e)) / (2 * h)
+                      for e in np.eye(3)], 1)
+        return f, g
+
+    def solid(self, ctx: BuildContext):
+        lo, hi = self.z_range
+        if lo <= ctx.z_lo:
+            raise SpecError(f"z_range[0] = {lo:.6g} mm is below the tube base; allowed above "
+                            f"{ctx.z_lo:.6g} mm")
+        r = ctx.reach
+        edge = self.edge_length or max(min(math.sqrt(8 * ctx.chordal * 0.5), 0.05),
+                                       ctx.cannula.wall / 40)
+        pad = 2 * edge
+        band = (lo - pad, hi + pad)
+
+        def f(x, y, z):  # manifold3d: positive inside; clip to the box band
+            val = -self._values(np.array([[x, y, z]]))[0]
+            return min(val, z - band[0], band[1] - z, r - abs(x), r - abs(y))
+        ls = m3d.Manifold.level_set(f, [-r - pad, -r - pad, band[0] - pad, r + pad, r + pad,
+                                        band[1] + pad], edge, 0.0, ctx.chordal)
+        lid, aux = ctx.labels.id(self.label), ctx.labels.id(AUX)
+        below = m3d.Manifold.cube((2 * r, 2 * r, band[0] + edge - ctx.z_lo)).translate(
+            (-r, -r, ctx.z_lo))
+        man = (ls + below)
+        return ctx.labelled(man, lambda c, n: np.where(
+            (np.abs(np.abs(c[:, 0]) - r) < 1e-6) | (np.abs(np.abs(c[:, 1]) - r) < 1e-6)
+            | (c[:, 2] < band[0] - edge) | (c[:, 2] > band[1]), aux, lid), self.label)

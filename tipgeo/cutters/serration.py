@@ -1,0 +1,357 @@
+r"""Serration arcs: micro-serrations laser-cut into a biopsy punch's rim
+(thesis §5.1.2, Fig. 5.2, Table 5.1, Appendix C).
+
+Frame and units: cannula frame (+z along the axis towards the tip), mm, rad.
+
+Each serration is a straight notch through the wall along the radial
+direction (the laser beam crosses the wall radially) whose profile, seen
+along the beam in the plane (u, z) — u tangential, z axial — is::
+
+          z_e ──────┐  ╭ r_s                 ╮  ┌────── rim (cutting edge)
+                    │ ╱                       ╲ │
+                    │                           │
+                     ╲         r_c            ╱          z_c = z_e − depth + r_c
+                       ╲_____________________╱
+                               depth below z_e
+
+an arc of radius r_c (centre z_c) whose lowest point lies ``depth`` below the
+rim height z_e, straight sides (when depth > r_c) up past the rim, and the
+two serration edges rounded with radius r_s (the thesis's r_s ≈ 15 µm). The
+rim height z_e is where the preceding cutters (e.g. the punch's cone) put
+the cutting edge on the inner wall at the serration's angle. Serrations sit
+at γ_k = rotation + k ρ, k = 0 … n_s − 1.
+
+Neighbouring notches must not overlap on the inner wall (where they are
+widest in angle): ρ ≥ 2 asin(W / r_i), W the profile's half-width; a closer
+spacing is a :class:`SpecError`.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import manifold3d as m3d
+import numpy as np
+
+from .. import _validate as v
+from ..cannula import Cannula
+from ..construct import AUX
+from ..errors import SpecError
+from .base import Cutter
+from .planar import _name
+
+__all__ = ["SerrationCutter", "SerrationProfile", "SERRATION_PRESETS"]
+
+#: Table 5.1 arc radii r_c (mm) with our serration counts n_s. The thesis
+#: gives only r_c; Appendix C cuts 16 serrations of r_c = 150 µm. We keep 16
+#: where the notches fit and otherwise take the largest n_s whose spacing
+#: leaves at least a quarter of a notch width of rim between neighbours on
+#: the inner wall of the 2.0 mm punch (ρ ≥ 1.25 · 2 asin((r_c + r_s)/r_i)).
+SERRATION_PRESETS: dict[str, tuple[float, int]] = {
+    "C1": (0.050, 16),
+    "C2": (0.150, 16),
+    "C3": (0.250, 9),
+    "C4": (0.400, 5),
+    "C5": (0.600, 3),
+}
+
+
+@dataclass(frozen=True)
+class SerrationProfile:
+    """The notch profile in its (u, z) plane (mm); see the module docstring."""
+
+    r_c: float
+    depth: float
+    r_s: float
+    z_e: float
+
+    @property
+    def z_c(self) -> float:
+        return self.z_e - self.depth + self.r_c
+
+    @property
+    def straight(self) -> bool:
+        """True when the fillets meet straight sides (z_e − r_s ≥ z_c)."""
+        return self.z_e - self.r_s >= self.z_c
+
+    def fillet(self) -> tuple[float, float, float, float]:
+        """(u_F, z_F, u_T, z_T): right fillet centre and its tangent point
+        with the side/arc (u ≥ 0 half; mirror for the left)."""
+        r_c, r_s, z_c, z_e = self.r_c, self.r_s, self.z_c, self.z_e
+        if self.straight:
+            return r_c + r_s, z_e - r_s, r_c, z_e - r_s
+        zf = z_e - r_s
+        uf = math.sqrt(max((r_c + r_s) ** 2 - (zf - z_c) ** 2, 0.0))
+        k = r_c / (r_c + r_s)
+        return uf, zf, k * uf, z_c + k * (zf - z_c)
+
+    @property
+    def half_width(self) -> float:
+        """Largest |u| of the notch at the rim (mm)."""
+        if self.r_s > 0:
+            return self.fillet()[0]
+        if self.straight:
+            return self.r_c
+        return math.sqrt(max(self.r_c ** 2 - (self.z_e - self.z_c) ** 2, 0.0))
+
+    def polygon(self, chordal: float, z_top: float) -> np.ndarray:
+        """(k, 2) CCW polygon of the notch (u, z), up to ``z_top``."""
+        r_c, r_s, z_c = self.r_c, self.r_s, self.z_c
+
+        def nseg(r, span):
+            if r <= 0:
+                return 1
+            return max(2, math.ceil(span / (2 * math.acos(max(1 - chordal / r, -1.0)))))
+
+        uf, zf, ut, zt = self.fillet()
+        if self.r_s > 0:
+            a_t = math.atan2(zt - z_c, ut)              # end of the main arc (right)
+        elif self.straight:
+            a_t = 0.0
+        else:
+            a_t = math.atan2(self.z_e - z_c, self.half_width)
+        a = np.linspace(-0.5 * math.pi, a_t, nseg(r_c, a_t + 0.5 * math.pi) + 1)
+        right = [np.stack([r_c * np.cos(a), z_c + r_c * np.sin(a)], 1)]
+        if self.r_s > 0:
+            if self.straight:
+                right.append([[r_c, zf]])
+            b0 = math.atan2(zt - zf, ut - uf)
+            b = np.linspace(b0, 0.5 * math.pi, nseg(r_s, abs(b0 - 0.5 * math.pi)) + 1)
+            right.append(np.stack([uf + r_s * np.cos(b), zf + r_s * np.sin(b)], 1))
+            w = uf
+        else:
+            w = self.half_width if not self.straight else r_c
+            right.append([[w, self.z_e]])
+        right.append([[w, z_top]])
+        right = np.concatenate(right)
+        left = right[::-1] * np.array([-1.0, 1.0])
+        poly = np.concatenate([right, left[:-1]])  # left ends at the shared bottom point
+        keep = np.r_[True, np.linalg.norm(np.diff(poly, axis=0), axis=1) > 1e-12]
+        return poly[keep]
+
+    def bottom(self, u: np.ndarray) -> np.ndarray:
+        """Lowest z of the notch above tangential offset u (+inf outside)."""
+        u = np.abs(np.asarray(u, float))
+        uf, zf, ut, _ = self.fillet() if self.r_s > 0 else (0, 0, self.half_width, 0)
+        w = self.half_width
+        out = np.full(u.shape, np.inf)
+        on_arc = u <= min(ut, self.r_c)
+        out[on_arc] = self.z_c - np.sqrt(np.maximum(self.r_c ** 2 - u[on_arc] ** 2, 0.0))
+        if self.r_s > 0:
+            on_f = (u > ut) & (u <= uf)
+            out[on_f] = zf + np.sqrt(np.maximum(self.r_s ** 2 - (u[on_f] - uf) ** 2, 0.0))
+            if self.straight:
+                out[(u > ut) & (u <= ut + 1e-15)] = self.z_c
+        elif self.straight:
+            out[(u <= w)] = np.where(u[u <= w] <= self.r_c, out[u <= w], self.z_c)
+        return out
+
+    def signed_distance(self, u: np.ndarray, z: np.ndarray) -> np.ndarray:
+        """Exact 2-D signed distance to the notch (< 0 inside), for the part of
+        the profile below the rim (the top is open)."""
+        u = np.abs(np.asarray(u, float))
+        z = np.asarray(z, float)
+        r_c, z_c = self.r_c, self.z_c
+        # pieces: main arc (lower half up to tangent), side segment, fillet arc
+        d_arc = np.abs(np.hypot(u, z - z_c) - r_c)
+        ang = np.arctan2(z - z_c, u)
+        uf, zf, ut, zt = self.fillet() if self.r_s > 0 else (
+            self.r_c, self.z_e, self.half_width, self.z_e)
+        a_t = math.atan2(zt - z_c, ut)
+        # beyond the arc's span use the distance to its end point
+        d_arc = np.where(ang <= a_t, d_arc, np.hypot(u - ut, z - zt))
+        d = d_arc
+        if self.straight:
+            top = zf if self.r_s > 0 else self.z_e
+            zz = np.clip(z, z_c, top)
+            d = np.minimum(d, np.hypot(u - r_c, z - zz))
+        if self.r_s > 0:
+            b = np.arctan2(z - zf, u - uf)
+            b0 = math.atan2(zt - zf, ut - uf)
+            inside_span = (b >= 0.5 * math.pi) & (b <= b0)
+            df = np.where(inside_span, np.abs(np.hypot(u - uf, z - zf) - self.r_s),
+                          np.minimum(np.hypot(u - ut, z - zt), np.hypot(u - uf, z - self.z_e)))
+            d = np.minimum(d, df)
+        # vertical wall above the rim
+        w = self.half_width
+        d = np.minimum(d, np.where(z >= self.z_e, np.abs(u - w), np.hypot(u - w, z - self.z_e)))
+        inside = z > self.bottom(u)
+        return np.where(inside, -d, d)
+
+
+@dataclass(frozen=True, kw_only=True)
+class SerrationCutter(Cutter):
+    """Serration arcs on a punch rim (see the module docstring).
+
+    Parameters
+    ----------
+    arc_radius : float
+        r_c (mm), > 0.
+    count : int, optional
+        n_s serrations evenly spaced (ρ = 2π/n_s). Give ``count`` or ``spacing``.
+    spacing : float, optional
+        ρ (rad) between consecutive serrations; n_s = ⌊2π/ρ⌋.
+    depth : float, optional
+        Depth of the notch below the rim (mm); default r_c (a half circle).
+    edge_radius : float
+        r_s (mm) ≥ 0, rounding of the serration edges.
+    rotation : float
+        γ of the first serration (rad).
+    name : str
+        Faces labelled ``cut:<name>``.
+    """
+
+    arc_radius: float
+    count: int | None = None
+    spacing: float | None = None
+    depth: float | None = None
+    edge_radius: float = 0.0
+    rotation: float = 0.0
+    name: str = "serrations"
+    kind = "serration"
+    needs_previous = True
+
+    def __post_init__(self):
+        r_c = v.length("arc_radius", self.arc_radius, hi=50.0)
+        object.__setattr__(self, "arc_radius", r_c)
+        if (self.count is None) == (self.spacing is None):
+            raise SpecError("give exactly one of count (n_s) and spacing (rho); got "
+                            f"count = {self.count!r}, spacing = {self.spacing!r}")
+        if self.count is not None:
+            object.__setattr__(self, "count", v.integer("count", self.count, lo=1, hi=10000))
+        else:
+            sp = v.angle("spacing", self.spacing, lo=0.0, hi=2 * math.pi, lo_open=True)
+            object.__setattr__(self, "spacing", sp)
+        depth = r_c if self.depth is None else v.length("depth", self.depth, hi=1000.0)
+        object.__setattr__(self, "depth", depth)
+        object.__setattr__(self, "edge_radius",
+                           v.length("edge_radius", self.edge_radius, lo=0.0, lo_open=False,
+                                    hi=50.0))
+        object.__setattr__(self, "rotation", v.angle("rotation", self.rotation))
+        _name(self.name)
+
+    @property
+    def n(self) -> int:
+        """Number of serrations n_s."""
+        if self.count is not None:
+            return self.count
+        return max(1, int(math.floor(2 * math.pi / self.spacing + 1e-9)))
+
+    @property
+    def rho(self) -> float:
+        """Spacing ρ (rad)."""
+        return self.spacing if self.spacing is not None else 2 * math.pi / self.count
+
+    def angles(self) -> np.ndarray:
+        """γ_k of every serration (rad)."""
+        return self.rotation + self.rho * np.arange(self.n)
+
+    def face_labels(self):
+        return (self.label,)
+
+    def check(self, cannula: Cannula) -> None:
+        """Reject serrations wider than the wall allows or overlapping."""
+        prof = SerrationProfile(self.arc_radius, self.depth, self.edge_radius, 0.0)
+        w = prof.half_width
+        if not w < cannula.r_i:
+            raise SpecError(f"arc_radius = {self.arc_radius:.6g} mm with edge_radius = "
+                            f"{self.edge_radius:.6g} mm makes notches {2 * w:.4g} mm wide; "
+                            f"allowed narrower than the bore ({2 * cannula.r_i:.4g} mm)")
+        need = 2 * math.asin(w / cannula.r_i)
+        if self.n > 1 and self.rho < need * (1 + 1e-9):
+            n_max = int(math.floor(2 * math.pi / need))
+            which = (f"count = {self.count}" if self.count is not None
+                     else f"spacing = {math.degrees(self.rho):.6g}°")
+            raise SpecError(
+                f"{which}: serrations of arc_radius {self.arc_radius * 1e3:.6g} µm overlap on "
+                f"the inner wall; allowed spacing ≥ {math.degrees(need):.4g}° "
+                f"(count ≤ {n_max})")
+        if self.count is None and 2 * math.pi - (self.n - 1) * self.rho < need * (1 - 1e-9):
+            raise SpecError(f"spacing = {math.degrees(self.rho):.6g}°: the last serration "
+                            "overlaps the first; allowed 2π/spacing close to a whole number")
+
+    def rim_heights(self, cannula: Cannula, previous: tuple) -> np.ndarray:
+        """Rim height z_e (mm) on the inner wall at every serration."""
+        g = self.angles()
+        zs = []
+        for c in previous:
+            z = c.edge_z(g, cannula.r_i, cannula)
+            if z is not None:
+                zs.append(np.asarray(z, float))
+        if not zs:
+            raise SpecError(f"serration cutter '{self.name}' needs a preceding cutter with a "
+                            "known edge height (e.g. conical) to cut into; allowed after "
+                            "bevel, multiplane, lancet, conical or helical cutters")
+        return np.min(zs, axis=0)
+
+    def profiles(self, cannula: Cannula, previous: tuple) -> list[SerrationProfile]:
+        """The notch profile of every serration."""
+        out = []
+        for z_e in self.rim_heights(cannula, previous):
+            if not z_e - self.depth > -cannula.length:
+                raise SpecError(f"depth = {self.depth:.6g} mm reaches the base of the cannula "
+                                f"(rim at z = {z_e:.4g} mm, length {cannula.length:.4g} mm)")
+            out.append(SerrationProfile(self.arc_radius, self.depth, self.edge_radius,
+                                        float(z_e)))
+        return out
+
+    def z_upper(self, cannula):
+        return math.inf
+
+    def solid(self, ctx):
+        cannula = ctx.cannula
+        self.check(cannula)
+        notches = []
+        for g, prof in zip(self.angles(), self.profiles(cannula, ctx.previous)):
+            # the inner cap of the prism lies in the bore, clear of both walls
+            r0 = 0.5 * math.sqrt(cannula.r_i ** 2 - prof.half_width ** 2)
+            thick = cannula.r_o + ctx.margin - r0
+            poly = prof.polygon(ctx.chordal, ctx.z_hi + ctx.margin)
+            prism = ctx.prism(poly, thick, self.label)
+            w = np.array([math.cos(g), math.sin(g), 0.0])
+            u = np.array([-math.sin(g), math.cos(g), 0.0])
+            mat = np.stack([u, [0.0, 0.0, 1.0], w, r0 * w], 1)
+            notches.append(prism.transform(mat))
+        big = ctx.frustum(ctx.z_lo, ctx.reach, ctx.z_hi, ctx.reach, AUX, AUX)
+        return big - m3d.Manifold.batch_boolean(notches, m3d.OpType.Add)
+
+    def _local(self, p: np.ndarray):
+        g = self.angles()
+        ang = np.arctan2(p[:, 1], p[:, 0])
+        k = np.rint(((ang - self.rotation) / self.rho)).astype(int) % self.n
+        gk = g[k]
+        u = -np.sin(gk) * p[:, 0] + np.cos(gk) * p[:, 1]
+        return k, gk, u
+
+    def implicit(self, points, cannula, previous: tuple = ()):
+        """Signed distance (mm) to the nearest notch, > 0 inside a notch
+        (removed), with its gradient by central differences (h = 1e-7 mm).
+        ``previous`` are the cutters before this one (they set the rim)."""
+        p = np.asarray(points, float).reshape(-1, 3)
+        profs = self.profiles(cannula, previous)
+
+        def f(q):
+            k, _, u = self._local(q)
+            out = np.empty(len(q))
+            for j in np.unique(k):
+                s = k == j
+                out[s] = -profs[j].signed_distance(u[s], q[s, 2])
+            return out
+
+        h = 1e-7
+        val = f(p)
+        grad = np.stack([(f(p + h * e) - f(p - h * e)) / (2 * h) for e in np.eye(3)], 1)
+        return val, grad
+
+    def edge_z(self, gamma, radius, cannula, previous: tuple = ()):
+        """Lowest z of the notches on the cylinder of ``radius`` (+inf between
+        notches); needs the preceding cutters for the rim heights."""
+        if not previous:
+            return None
+        g = np.asarray(gamma, float).ravel()
+        p = np.stack([radius * np.cos(g), radius * np.sin(g), np.zeros_like(g)], 1)
+        k, _, u = self._local(p)
+        profs = self.profiles(cannula, previous)
+        out = np.array([profs[j].bottom(np.array([uu]))[0] for j, uu in zip(k, u)])
+        return out.reshape(np.shape(gamma))

@@ -1,0 +1,92 @@
+"""Pictures of tips (matplotlib, imported lazily; files written atomically).
+
+Frame and units: cannula frame, mm; views look at the tip region (z ≥ the
+lowest cut point minus a little).
+"""
+
+from __future__ import annotations
+
+import os
+import tempfile
+from pathlib import Path
+
+import numpy as np
+
+__all__ = ["render_tip", "save_figure"]
+
+_COLORS = {"outer": "#9aa5b1", "inner": "#c7b79a", "base": "#555555"}
+_CUT = ["#d1495b", "#2e86ab", "#edae49", "#66a182", "#8d6a9f", "#f49d37", "#00798c"]
+
+
+def save_figure(fig, path) -> Path:
+    """Save a matplotlib figure to ``path`` atomically (PNG by extension)."""
+    path = Path(path)
+    fd, tmp = tempfile.mkstemp(dir=path.parent or ".", prefix=f".{path.name}.", suffix=".tmp")
+    os.close(fd)
+    try:
+        fig.savefig(tmp, dpi=130, bbox_inches="tight", format=path.suffix.lstrip(".") or "png")
+        os.replace(tmp, path)
+    except BaseException:
+        if os.path.exists(tmp):
+            os.unlink(tmp)
+        raise
+    return path
+
+
+def render_tip(tip, path, *, views=((20, -60), (20, 30), (80, -90)), title: str | None = None,
+               z_below: float | None = None) -> Path:
+    """Write a PNG of ``tip`` from several views, faces coloured by label.
+
+    Parameters
+    ----------
+    tip : Tip
+    path : str or Path — PNG file
+    views : sequence of (elevation_deg, azimuth_deg)
+    z_below : float, optional
+        Show the tube from this far below z = 0 (mm); default 0.3 · d_e.
+    """
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    from mpl_toolkits.mplot3d.art3d import Poly3DCollection
+
+    v = tip.vertices
+    tri = v[tip.faces]
+    r = float(np.max(np.hypot(v[:, 0], v[:, 1])))
+    zlo = -(0.6 * r if z_below is None else z_below)
+    keep = tri[:, :, 2].max(axis=1) >= zlo
+    tri = np.clip(tri[keep], [-np.inf, -np.inf, zlo], np.inf)
+    labels = tip.labels[keep]
+    names = [n for n in tip.present_labels() if n != "base"]
+    cuts = [n for n in names if n.startswith("cut:")]
+    colors = {n: _COLORS.get(n, _CUT[cuts.index(n) % len(_CUT)] if n in cuts else "#888888")
+              for n in names}
+    light = np.array([0.3, -0.5, 0.8])
+    light /= np.linalg.norm(light)
+    nrm = np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])
+    nrm /= np.maximum(np.linalg.norm(nrm, axis=1, keepdims=True), 1e-300)
+    shade = 0.55 + 0.45 * np.abs(nrm @ light)
+    base = np.array([matplotlib.colors.to_rgb(colors.get(lab, "#555555")) for lab in labels])
+    fc = np.clip(base * shade[:, None], 0, 1)
+    zmax = float(tri[:, :, 2].max())
+    fig = plt.figure(figsize=(4.2 * len(views), 4.6))
+    for k, (el, az) in enumerate(views):
+        ax = fig.add_subplot(1, len(views), k + 1, projection="3d")
+        ax.add_collection3d(Poly3DCollection(tri, facecolors=fc, edgecolors="none"))
+        span = max(zmax - zlo, 2 * r)
+        ax.set_xlim(-span / 2, span / 2)
+        ax.set_ylim(-span / 2, span / 2)
+        ax.set_zlim(zlo, zlo + span)
+        ax.set_box_aspect((1, 1, 1))
+        ax.view_init(elev=el, azim=az)
+        ax.set_xlabel("x (mm)")
+        ax.set_ylabel("y (mm)")
+        ax.set_zlabel("z (mm)")
+        ax.tick_params(labelsize=7)
+    handles = [plt.Rectangle((0, 0), 1, 1, color=colors[n]) for n in names]
+    fig.legend(handles, names, loc="lower center", ncol=min(len(names), 6), fontsize=8)
+    fig.suptitle(title or getattr(tip.spec, "name", "") or "tip", fontsize=10)
+    out = save_figure(fig, path)
+    plt.close(fig)
+    return out

@@ -10,7 +10,7 @@ from tipgeo.tolerances import tol
 tol.strict = True
 
 
-@functools.lru_cache(maxsize=None)
+@functools.cache
 def built(name: str):
     """Build a preset once per session (tips are not mutated by tests)."""
     return build_tip(preset(name))

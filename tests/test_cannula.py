@@ -10,7 +10,7 @@ from tipgeo.cannula import GAUGE_SOURCE, gauge_table
 
 def test_gauge_table_covers_10_to_30_regular_wall():
     assert set(range(10, 31)) <= set(GAUGES)
-    for g, (de, di) in GAUGES.items():
+    for de, di in GAUGES.values():
         assert 0 < di < de
     # outer diameters fall with the gauge number
     des = [GAUGES[g][0] for g in sorted(GAUGES)]

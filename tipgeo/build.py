@@ -6,8 +6,6 @@ z = 0, γ about +z from +x); mm.
 
 from __future__ import annotations
 
-import math
-
 import manifold3d as m3d
 import numpy as np
 

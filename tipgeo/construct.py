@@ -205,7 +205,8 @@ class BuildContext:
             sides = np.stack([b, np.roll(b, -1), np.full(n, apex)], 1)
             bcap = np.stack([np.full(n, cb), np.roll(b, -1), b], 1)
             tris = np.concatenate([sides, bcap])
-            ids = np.concatenate([np.full(n, self.labels.id(side)), np.full(n, self.labels.id(AUX))])
+            ids = np.concatenate([np.full(n, self.labels.id(side)),
+                                  np.full(n, self.labels.id(AUX))])
         return _manifold(verts, tris, ids, side)
 
     def prism(self, polygon: np.ndarray, thickness: float, side: str) -> m3d.Manifold:
@@ -215,7 +216,8 @@ class BuildContext:
         poly = np.asarray(polygon, dtype=float)
         k = len(poly)
         caps = np.asarray(m3d.triangulate([poly]), dtype=np.int64)
-        verts = np.concatenate([np.c_[poly, np.zeros(k)], np.c_[poly, np.full(k, thickness)]])
+        verts = np.concatenate([np.c_[poly, np.zeros(k)],
+                                np.c_[poly, np.full(k, thickness)]])
         a = np.arange(k)
         sides = _ring_quads(a, a + k, False)
         tris = np.concatenate([sides, caps[:, ::-1], caps + k])

@@ -70,7 +70,8 @@ class Cutter(ABC):
 
     def check(self, cannula: Cannula) -> None:
         """Raise :class:`SpecError` if the cutter cannot shape this cannula
-        (called when a :class:`TipSpec` is made)."""
+        (called when a :class:`TipSpec` is made). Default: nothing to check."""
+        return None
 
     def edge_z(self, gamma: np.ndarray, radius: float, cannula: Cannula) -> np.ndarray | None:
         """Height z (mm) of the cut surface on the cylinder of ``radius`` at

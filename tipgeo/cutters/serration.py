@@ -319,7 +319,7 @@ class SerrationCutter(Cutter):
     def _local(self, p: np.ndarray):
         g = self.angles()
         ang = np.arctan2(p[:, 1], p[:, 0])
-        k = np.rint(((ang - self.rotation) / self.rho)).astype(int) % self.n
+        k = np.rint((ang - self.rotation) / self.rho).astype(int) % self.n
         gk = g[k]
         u = -np.sin(gk) * p[:, 0] + np.cos(gk) * p[:, 1]
         return k, gk, u

@@ -155,15 +155,13 @@ def test_bevel_rotation_moves_the_heel():
 def test_multiplane_maps_onto_itself_under_rotation(planes):
     tip = build_tip(TipSpec(cannula=C14, cutters=[MultiPlaneCutter(xi=math.radians(15),
                                                                    count=planes)]))
+    # the builder makes the segment count a multiple of P_l: exact symmetry
+    assert tip.segments % planes == 0
     rot = rotz(tip.vertices, 2 * math.pi / planes)
-    # with P_l dividing the segment count the mesh maps onto itself exactly;
-    # otherwise both meshes lie within the tolerance of the exact surface
-    bound = 1e-9 if tip.segments % planes == 0 else 2 * tip.tolerance
-    assert hausdorff(tip, rot) < bound
+    assert hausdorff(tip, rot) < 1e-9 < tip.tolerance
     # and each plane carries the same share of the rake face
     areas = [tip.face_areas[tip.mask(f"cut:multiplane.{k}")].sum() for k in range(planes)]
-    rel = 1e-12 if tip.segments % planes == 0 else 1e-6  # faceting breaks the symmetry
-    assert np.ptp(areas) < rel * max(areas)
+    assert np.ptp(areas) < 1e-12 * max(areas)
 
 
 def test_multiplane_edge_heights_eq_2_4():
@@ -303,8 +301,9 @@ def test_serrations_count_depth_and_symmetry(cid, build_preset):
     # notch bottoms: depth below the rim (0.6 mm) on the inner wall
     v = tip.vertices[np.unique(tip.faces[tip.mask("cut:serrations")])]
     assert v[:, 2].min() == pytest.approx(0.6 - cut.depth, abs=2 * DEFAULT_CHORDAL_MM)
+    assert tip.segments % cut.n == 0
     rot = rotz(tip.vertices, cut.rho)
-    assert hausdorff(tip, rot) < 2 * tip.tolerance
+    assert hausdorff(tip, rot) < 1e-9
 
 
 def test_overlapping_serrations_are_an_error():

@@ -6,6 +6,8 @@ z = 0, γ about +z from +x); mm.
 
 from __future__ import annotations
 
+import math
+
 import manifold3d as m3d
 import numpy as np
 
@@ -53,7 +55,8 @@ def build_tip(spec, *, tolerance: float | None = None, strict: bool | None = Non
     chordal = tol.chordal if chordal is None else chordal
     chordal = v.length("tolerance", chordal, hi=0.1 * spec.cannula.wall)
     cannula = spec.cannula
-    n = segments_for(cannula.r_o, chordal)
+    sym = math.lcm(*(c.symmetry_order for c in spec.cutters))
+    n = segments_for(cannula.r_o, chordal, sym)
     z_top = min(c.z_upper(cannula) for c in spec.cutters)
     if not np.isfinite(z_top):
         raise SpecError("no cutter bounds the tip from above (serrations need a cutter "

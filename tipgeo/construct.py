@@ -41,15 +41,15 @@ class Labels:
         return self.names.index(name)
 
 
-def segments_for(radius: float, chordal: float) -> int:
+def segments_for(radius: float, chordal: float, symmetry: int = 1) -> int:
     """Segments around a circle of ``radius`` (mm) so that the inscribed
     polygon deviates from it by at most ``chordal`` (mm), rounded up to a
-    multiple of ``tol.segment_multiple``."""
+    multiple of ``tol.segment_multiple`` and of ``symmetry``."""
     if chordal >= radius:
         raise SpecError(f"tolerance = {chordal:.6g} mm is not smaller than the radius "
                         f"{radius:.6g} mm; allowed 0 < tolerance < radius")
     n = math.ceil(math.pi / math.acos(1.0 - chordal / radius))
-    k = tol.segment_multiple
+    k = math.lcm(tol.segment_multiple, max(int(symmetry), 1))
     n = max(tol.min_segments, k * math.ceil(n / k))
     if n > tol.max_segments:
         raise SpecError(f"tolerance = {chordal * 1e3:.6g} µm needs {n} segments around the tube; "

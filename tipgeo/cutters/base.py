@@ -40,6 +40,13 @@ class Cutter(ABC):
     #: True when the cutter shapes what earlier cutters made (serrations).
     needs_previous: bool = False
 
+    @property
+    def symmetry_order(self) -> int:
+        """k when the cutter maps onto itself under rotation by 2π/k about +z
+        (the builder then makes the tube's segment count a multiple of k so
+        the mesh keeps the symmetry exactly); 1 otherwise."""
+        return 1
+
     @abstractmethod
     def face_labels(self) -> tuple[str, ...]:
         """Labels (``cut:<name>...``) its faces carry in a built tip."""

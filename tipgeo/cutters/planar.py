@@ -197,6 +197,10 @@ class MultiPlaneCutter(PlanarCutter):
         _name(self.name)
 
     @property
+    def symmetry_order(self) -> int:
+        return self.count if self.rotations is None else 1
+
+    @property
     def symmetric(self) -> bool:
         """True when the planes are rotated by 2π/P_l."""
         return self.rotations is None

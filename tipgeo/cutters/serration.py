@@ -239,6 +239,10 @@ class SerrationCutter(Cutter):
         return max(1, int(math.floor(2 * math.pi / self.spacing + 1e-9)))
 
     @property
+    def symmetry_order(self) -> int:
+        return self.count if self.count is not None else 1
+
+    @property
     def rho(self) -> float:
         """Spacing ρ (rad)."""
         return self.spacing if self.spacing is not None else 2 * math.pi / self.count

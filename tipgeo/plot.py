@@ -90,3 +90,60 @@ def render_tip(tip, path, *, views=((20, -60), (20, 30), (80, -90)), title: str 
     out = save_figure(fig, path)
     plt.close(fig)
     return out
+
+
+def plot_angles(reports, path, *, samples: int = 3601) -> Path:
+    """Write a PNG of edge profiles and cutting angles of one or more tips,
+    overlaid (like thesis Figs. 3.5, 3.6, 3.9, 3.10).
+
+    Top row against γ (deg): z_o and z_i, λ, θ, α. Bottom row: z′ against γ,
+    then λ, θ, α against z (mm from the heel). Solid lines: outer edge;
+    dashed: inner edge. Lines break where the face forming the edge changes.
+    """
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    reports = list(reports)
+    fig, ax = plt.subplots(2, 4, figsize=(17, 8))
+    colors = plt.rcParams["axes.prop_cycle"].by_key()["color"]
+    for k, rep in enumerate(reports):
+        c = colors[k % len(colors)]
+        for wall, ls in (("outer", "-"), ("inner", "--")):
+            d = rep.dense(wall, samples)
+            gd = np.degrees(d["gamma"])
+            brk = np.r_[False, d["face"][1:] != d["face"][:-1]]
+
+            def br(y, brk=brk):
+                y = np.asarray(y, float).copy()
+                y[brk] = np.nan
+                return y
+            lab = f"{rep.name} ({wall})"
+            ax[0, 0].plot(gd, br(d["z"]), ls, color=c, label=lab)
+            ax[1, 0].plot(gd, br(d["dz"]), ls, color=c)
+            for j, key in enumerate(("lambda", "theta", "alpha")):
+                ax[0, j + 1].plot(gd, br(np.degrees(d[key])), ls, color=c)
+                ax[1, j + 1].plot(br(d["z"]), br(np.degrees(d[key])), ls, color=c)
+    names = {"lambda": "λ inclination (deg)", "theta": "θ included (deg)",
+             "alpha": "α rake (deg)"}
+    ax[0, 0].set_ylabel("z (mm from heel)")
+    ax[1, 0].set_ylabel("z′ (mm/rad)")
+    for j, key in enumerate(("lambda", "theta", "alpha")):
+        ax[0, j + 1].set_ylabel(names[key])
+        ax[1, j + 1].set_ylabel(names[key])
+        ax[1, j + 1].set_xlabel("z (mm from heel)")
+    for a in (ax[0, 0], ax[1, 0], ax[0, 1], ax[0, 2], ax[0, 3]):
+        a.set_xlabel("γ (deg from heel)")
+        a.set_xlim(0, 360)
+        a.set_xticks(range(0, 361, 60))
+    for a in ax.flat:
+        a.grid(True, alpha=0.3)
+    ax[0, 0].legend(fontsize=7, loc="upper left")
+    method = ", ".join(sorted({r.method for r in reports}))
+    fig.suptitle(f"Cutting edges and angles — solid: outer edge, dashed: inner edge "
+                 f"(method: {method})", fontsize=11)
+    fig.tight_layout()
+    out = save_figure(fig, path)
+    plt.close(fig)
+    return out

@@ -85,6 +85,26 @@ class Cutter(ABC):
         angles ``gamma`` (rad, cannula frame), or ``None`` if unknown."""
         return None
 
+    def edge_faces(self, gamma: np.ndarray, radius: float, cannula: Cannula,
+                   previous: tuple = ()) -> tuple[np.ndarray, np.ndarray] | None:
+        """Exact edge height and the face that forms it on the cylinder of
+        ``radius`` at angles ``gamma`` (rad, cannula frame).
+
+        Returns ``(z (n,) mm, face (n,) str)`` — the face key names one smooth
+        piece of the cutter's surface (``+inf`` where the cutter removes
+        nothing) — or ``None`` when the cutter has no exact description.
+        """
+        z = self.edge_z(gamma, radius, cannula)
+        if z is None:
+            return None
+        z = np.asarray(z, float)
+        return z, np.full(z.shape, self.label, dtype=object)
+
+    def normals(self, points: np.ndarray, cannula: Cannula, previous: tuple = ()) -> np.ndarray:
+        """Unit outward normals (n, 3) of the surface at points on it."""
+        _, g = self.implicit(points, cannula)
+        return g / np.linalg.norm(g, axis=1, keepdims=True)
+
     @property
     def label(self) -> str:
         """The primary face label, ``cut:<name>``."""

@@ -110,6 +110,14 @@ class ConicalCutter(Cutter):
             g[land] = (0.0, 0.0, 1.0)
         return f, g
 
+    def edge_faces(self, gamma, radius, cannula, previous=()):
+        g = np.asarray(gamma, float)
+        zc = (cannula.r_o - radius) / math.tan(self.theta)
+        if self.bevel_length is not None and self.bevel_length < zc:
+            return np.full(g.shape, self.bevel_length), np.full(g.shape, self.land_label,
+                                                                dtype=object)
+        return np.full(g.shape, zc), np.full(g.shape, self.label, dtype=object)
+
     def edge_z(self, gamma, radius, cannula):
         z = (cannula.r_o - radius) / math.tan(self.theta)
         if self.bevel_length is not None:

@@ -100,6 +100,14 @@ class PlanarCutter(Cutter):
         g = np.asarray(gamma, dtype=float)
         return np.min([p.z_on_cylinder(g, radius) for p in self.planes(cannula)], axis=0)
 
+    def edge_faces(self, gamma, radius, cannula, previous=()):
+        g = np.asarray(gamma, dtype=float)
+        planes = self.planes(cannula)
+        zs = np.array([p.z_on_cylinder(g, radius) for p in planes])
+        k = np.argmin(zs, axis=0)
+        labels = np.array([p.label for p in planes], dtype=object)
+        return np.take_along_axis(zs, k[None], 0)[0], labels[k]
+
     def plane_index(self, gamma: np.ndarray, radius: float, cannula: Cannula) -> np.ndarray:
         """Index of the plane that forms the edge at each γ."""
         g = np.asarray(gamma, dtype=float)

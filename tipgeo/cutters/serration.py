@@ -348,6 +348,31 @@ class SerrationCutter(Cutter):
         grad = np.stack([(f(p + h * e) - f(p - h * e)) / (2 * h) for e in np.eye(3)], 1)
         return val, grad
 
+    def edge_faces(self, gamma, radius, cannula, previous=()):
+        """Notch bottoms on the cylinder: face ``cut:<name>.arc`` or
+        ``cut:<name>.fillet`` (+inf between notches; the straight sides are
+        vertical and appear as jumps of the edge)."""
+        if not previous:
+            return None
+        g = np.asarray(gamma, float).ravel()
+        p = np.stack([radius * np.cos(g), radius * np.sin(g), np.zeros_like(g)], 1)
+        k, _, u = self._local(p)
+        profs = self.profiles(cannula, previous)
+        z = np.full(g.shape, np.inf)
+        face = np.full(g.shape, self.label, dtype=object)
+        for j in np.unique(k):
+            s = k == j
+            pr = profs[j]
+            z[s] = pr.bottom(u[s])
+            ut = pr.fillet()[2] if pr.r_s > 0 else pr.half_width
+            on_arc = np.abs(u[s]) <= min(ut, pr.r_c)
+            face[s] = np.where(on_arc, f"{self.label}.arc", f"{self.label}.fillet")
+        return z.reshape(np.shape(gamma)), face.reshape(np.shape(gamma))
+
+    def normals(self, points, cannula, previous=()):
+        _, g = self.implicit(points, cannula, previous=previous)
+        return g / np.linalg.norm(g, axis=1, keepdims=True)
+
     def edge_z(self, gamma, radius, cannula, previous: tuple = ()):
         """Lowest z of the notches on the cylinder of ``radius`` (+inf between
         notches); needs the preceding cutters for the rim heights."""

@@ -1,0 +1,372 @@
+"""Cutting angles along the edges: λ, θ, α and the edge length l_c.
+
+Analysis frame (thesis §3.1.2): +z along the axis towards the tip, γ about +z
+from the heel (γ = 0 where the outer edge is lowest), z from the heel. Angles
+in rad inside, ``*_deg`` in tables and reports; lengths in mm.
+
+Definitions (see :mod:`tipgeo.closedforms`): λ = arcsin(|t_z|) (eq.
+3.10–3.11, t the unit edge tangent); θ = π − arccos(n_r · n_c) at the outer
+edge (eq. 3.14) and θ_i = arccos(n_r · n_c) at the inner edge (the wedge
+against the bore's normal −n_c); α = arccos(a·b / |a||b|), a = t × n_r,
+b = t × e_z (eq. 3.15–3.17). At a kink (where the edge passes from one face to
+another) the included angle between the faces is π − arccos(n_a · n_b)
+(eq. 2.3 for multi-plane tips).
+
+Methods:
+
+``exact``    tangents and normals from the exact surfaces (needs a spec);
+``fourier``  the thesis's path: each piece of the exact edge is fitted with
+             eq. 3.12 (n harmonics, fitted w); z and z′ come from the fit,
+             normals from the exact surface;
+``mesh``     a tip mesh (built, simulated or imported): the mesh edge is
+             fitted the same way; normals are the mesh's face normals.
+"""
+
+from __future__ import annotations
+
+import csv
+import io
+import json
+import math
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+from scipy.integrate import simpson
+
+from . import _validate as v
+from .edges import Edge, EdgePiece, _combined, _MeshPiece, _rot, exact_edges, mesh_edges
+from .errors import SpecError
+from .fourier import FourierFit, fit_fourier
+
+__all__ = ["AngleReport", "WallAngles", "analyze", "edge_angles", "METHODS"]
+
+METHODS = ("exact", "fourier", "mesh")
+EZ = np.array([0.0, 0.0, 1.0])
+
+
+def edge_angles(gamma, tangent, normal, wall: str):
+    """λ, θ and α (rad) at edge points (analysis frame).
+
+    Parameters
+    ----------
+    gamma : (m,) rad
+    tangent : (m, 3) unit edge tangents
+    normal : (m, 3) unit outward rake-face normals
+    wall : ``outer`` or ``inner`` (sets which wedge θ measures)
+    """
+    g = np.asarray(gamma, float)
+    t = np.asarray(tangent, float)
+    n = np.asarray(normal, float)
+    lam = np.arcsin(np.clip(np.abs(t[:, 2]) / np.linalg.norm(t, axis=1), 0.0, 1.0))
+    e_r = np.stack([np.cos(g), np.sin(g), np.zeros_like(g)], 1)
+    c = np.clip(np.einsum("ij,ij->i", n, e_r), -1.0, 1.0)
+    theta = np.pi - np.arccos(c) if wall == "outer" else np.arccos(c)
+    a = np.cross(t, n)
+    b = np.cross(t, EZ)
+    cosa = np.einsum("ij,ij->i", a, b) / (np.linalg.norm(a, axis=1) * np.linalg.norm(b, axis=1))
+    alpha = np.arccos(np.clip(cosa, -1.0, 1.0))
+    return lam, theta, alpha
+
+
+@dataclass
+class WallAngles:
+    """Angles along one edge.
+
+    Attributes
+    ----------
+    wall : str
+    edge : Edge
+    fits : list of FourierFit or None — per piece (fourier and mesh methods)
+    length : float — l_c (mm), 3-D arc length including vertical stretches
+    """
+
+    wall: str
+    edge: Edge
+    fits: list[FourierFit | None]
+    length: float
+    _eval: Any = field(repr=False, default=None)
+
+    def at(self, gamma) -> dict[str, np.ndarray]:
+        """z (mm), z′ (mm/rad), λ, θ, α (rad) and the face at γ (rad, wrapped
+        to [0, 2π)). At a kink the piece starting there answers."""
+        return self._eval(np.mod(np.asarray(gamma, float), 2 * np.pi))
+
+
+@dataclass
+class AngleReport:
+    """Edges, angles and fits of one tip (analysis frame).
+
+    Use :meth:`table` for values on a γ grid, :meth:`summary` for the numbers
+    of a report, :meth:`to_csv` / :meth:`to_json` for files.
+    """
+
+    name: str
+    method: str
+    outer: WallAngles
+    inner: WallAngles
+    radii: tuple[float, float]
+    n_harmonics: int
+
+    def table(self, step_deg: float = 1.0) -> dict[str, np.ndarray]:
+        """Columns on γ = 0, step, … < 360°: ``gamma_deg``, ``z_o_mm``,
+        ``z_i_mm``, ``lambda_o_deg``, ``lambda_i_deg``, ``theta_deg`` (outer,
+        eq. 3.14), ``theta_i_deg``, ``alpha_o_deg``, ``alpha_i_deg``."""
+        step = v.real("step_deg", step_deg, lo=1e-3, hi=90.0)
+        gd = np.arange(0.0, 360.0 - 1e-9, step)
+        g = np.radians(gd)
+        o, i = self.outer.at(g), self.inner.at(g)
+        d = np.degrees
+        return {"gamma_deg": gd, "z_o_mm": o["z"], "z_i_mm": i["z"],
+                "lambda_o_deg": d(o["lambda"]), "lambda_i_deg": d(i["lambda"]),
+                "theta_deg": d(o["theta"]), "theta_i_deg": d(i["theta"]),
+                "alpha_o_deg": d(o["alpha"]), "alpha_i_deg": d(i["alpha"])}
+
+    def dense(self, wall: str, samples: int = 3601) -> dict[str, np.ndarray]:
+        """Values on a fine γ grid over [0, 2π) for plots (one wall)."""
+        g = np.linspace(0.0, 2 * np.pi, samples, endpoint=False)
+        w = self.outer if wall == "outer" else self.inner
+        out = w.at(g)
+        out["gamma"] = g
+        return out
+
+    def summary(self) -> dict[str, Any]:
+        """Min/max of each angle (deg), l_c, kinks, jumps and fit coefficients."""
+        def rng(x):
+            x = np.degrees(x[np.isfinite(x)])
+            return [float(x.min()), float(x.max())]
+
+        out: dict[str, Any] = {"name": self.name, "method": self.method,
+                               "n_harmonics": self.n_harmonics}
+        for w in (self.outer, self.inner):
+            vals = self.dense(w.wall, 7201)
+            key = "o" if w.wall == "outer" else "i"
+            top = int(np.nanargmax(vals["z"]))
+            out[w.wall] = {
+                "radius_mm": w.edge.radius,
+                "l_c_mm": w.length,
+                "z_max_mm": float(vals["z"][top]),
+                "gamma_of_z_max_deg": float(np.degrees(vals["gamma"][top])),
+                f"lambda_{key}_deg": rng(vals["lambda"]),
+                f"theta{'' if key == 'o' else '_i'}_deg": rng(vals["theta"]),
+                f"alpha_{key}_deg": rng(vals["alpha"]),
+                "pieces": [{"face": p.face,
+                            "gamma_deg": [float(np.degrees(p.gamma[0])),
+                                          float(np.degrees(p.gamma[-1]))],
+                            **({"fit": f.to_dict()} if f is not None else {})}
+                           for p, f in zip(w.edge.pieces, w.fits)],
+                "kinks": [{"gamma_deg": math.degrees(k.gamma), "z_mm": k.z,
+                           "faces": list(k.faces), "theta_deg": math.degrees(k.theta)}
+                          for k in w.edge.kinks],
+                "jumps": [{"gamma_deg": math.degrees(j.gamma), "z0_mm": j.z0, "z1_mm": j.z1}
+                          for j in w.edge.jumps],
+            }
+        return out
+
+    def to_csv(self, step_deg: float = 1.0) -> str:
+        """The :meth:`table` as CSV text (fixed decimals)."""
+        t = self.table(step_deg)
+        buf = io.StringIO()
+        w = csv.writer(buf, lineterminator="\n")
+        w.writerow(["tip", *t])
+        for k in range(len(t["gamma_deg"])):
+            w.writerow([self.name, *(f"{t[c][k]:.6f}" if "deg" in c else f"{t[c][k]:.9f}"
+                                     for c in t)])
+        return buf.getvalue()
+
+    def to_json(self, step_deg: float = 1.0) -> str:
+        t = self.table(step_deg)
+        return json.dumps({"summary": self.summary(),
+                           "table": {k: np.asarray(x).tolist() for k, x in t.items()}},
+                          indent=2)
+
+
+# -----------------------------------------------------------------------------
+def analyze(source, *, method: str = "exact", n_harmonics: int = 5,
+            samples: int = 3600, radii: tuple[float, float] | None = None,
+            name: str | None = None) -> AngleReport:
+    """Edges and cutting angles of a tip.
+
+    Parameters
+    ----------
+    source : TipSpec or Tip
+        A spec (methods ``exact``, ``fourier``), or a tip mesh (``mesh``;
+        ``exact``/``fourier`` use its spec when it has one).
+    method : ``exact`` | ``fourier`` | ``mesh``
+    n_harmonics : int — Fourier harmonics (thesis: 5)
+    samples : int — points per turn on the exact path
+    radii : (r_o, r_i) mm — for tips without a spec (imported meshes)
+    name : str — report name (default: the spec's)
+
+    Returns
+    -------
+    AngleReport
+    """
+    from .spec import TipSpec
+    from .tip import Tip
+
+    if method not in METHODS:
+        raise SpecError(f"method = {method!r} is not valid; expected one of: "
+                        + ", ".join(METHODS))
+    n_harmonics = v.integer("n_harmonics", n_harmonics, lo=1, hi=50)
+    samples = v.integer("samples", samples, lo=360, hi=10**6)
+    if isinstance(source, Tip):
+        tip, spec = source, source.spec
+    elif isinstance(source, TipSpec):
+        tip, spec = None, source
+    else:
+        raise SpecError(f"source = {type(source).__name__} is not a TipSpec or a Tip")
+    label = name or (spec.name if spec is not None and spec.name else None) or \
+        (tip.source if tip is not None else "tip")
+    if method == "mesh":
+        if tip is None:
+            from .build import build_tip
+
+            tip = build_tip(spec)
+        if radii is None and spec is None:
+            raise SpecError("radii = None: a tip without a spec needs radii=(r_o, r_i) in mm")
+        r = radii or (spec.cannula.r_o, spec.cannula.r_i)
+        edges = mesh_edges(tip, radii=r)
+        walls = [_mesh_wall(e, n_harmonics) for e in edges]
+    else:
+        if spec is None:
+            raise SpecError(f"method = '{method}' needs the tip's spec; this tip has none "
+                            "(use method='mesh')")
+        r = (spec.cannula.r_o, spec.cannula.r_i)
+        edges = exact_edges(spec, samples=samples)
+        walls = [_exact_wall(e, spec, fourier=(method == "fourier"), n=n_harmonics)
+                 for e in edges]
+    return AngleReport(label, method, walls[0], walls[1], r, n_harmonics)
+
+
+def _length_pieces(pieces_dz, radius) -> float:
+    total = 0.0
+    for g, dz in pieces_dz:
+        total += float(simpson(np.sqrt(radius ** 2 + dz ** 2), x=g))
+    return total
+
+
+def _find_piece(pieces: list[EdgePiece], g: np.ndarray) -> np.ndarray:
+    """Index of the piece whose γ span holds each γ (γ in [0, 2π))."""
+    idx = np.full(g.shape, -1)
+    for k, p in enumerate(pieces):
+        a, b = p.gamma[0], p.gamma[-1]
+        for shift in (-2 * np.pi, 0.0, 2 * np.pi):
+            inside = (g + shift >= a - 1e-9) & (g + shift <= b + 1e-9) & (idx < 0)
+            idx[inside] = k
+    return idx
+
+
+def _unwrap_to(p: EdgePiece, g: np.ndarray) -> np.ndarray:
+    """γ shifted by a whole turn into the piece's span."""
+    out = g.copy()
+    out[out < p.gamma[0] - 1e-9] += 2 * np.pi
+    out[out > p.gamma[-1] + 1e-9] -= 2 * np.pi
+    return out
+
+
+def _exact_wall(edge: Edge, spec, *, fourier: bool, n: int) -> WallAngles:
+    cannula, cutters = spec.cannula, tuple(spec.cutters)
+    gh, zh = edge.heel
+    r = edge.radius
+    fits: list[FourierFit | None] = []
+    dz_pieces = []
+    for p in edge.pieces:
+        if fourier:
+            f = fit_fourier(p.gamma, p.z, n=n)
+            fits.append(f)
+            dz_pieces.append((p.gamma, f.derivative(p.gamma)))
+        else:
+            fits.append(None)
+            t = p.tangent
+            e_g = np.stack([-np.sin(p.gamma), np.cos(p.gamma), np.zeros_like(p.gamma)], 1)
+            dz_pieces.append((p.gamma, r * t[:, 2] / np.einsum("ij,ij->i", t, e_g)))
+    length = _length_pieces(dz_pieces, r) + sum(abs(j.z1 - j.z0) for j in edge.jumps)
+
+    def evaluate(g):
+        g = np.atleast_1d(g)
+        z, face, owner = _combined(cutters, g + gh, r, cannula)
+        k_piece = _find_piece(edge.pieces, g)
+        # at a kink, take the face of the piece that starts there
+        for k, p in enumerate(edge.pieces):
+            s = k_piece == k
+            if np.any(s) and np.any(face[s] != p.face):
+                gg = _unwrap_to(p, g[s])
+                nudge = np.clip(gg, p.gamma[0] + 1e-10, p.gamma[-1] - 1e-10)
+                z2, f2, o2 = _combined(cutters, nudge + gh, r, cannula)
+                z[s], face[s], owner[s] = z2, f2, o2
+        zz = z - zh
+        pts = np.stack([r * np.cos(g + gh), r * np.sin(g + gh), z], 1)
+        nrm = np.empty((len(g), 3))
+        for k in np.unique(owner):
+            s = owner == k
+            nrm[s] = cutters[k].normals(pts[s], cannula, tuple(cutters[:k]))
+        nrm = _rot(nrm, -gh)
+        e_g = np.stack([-np.sin(g), np.cos(g), np.zeros_like(g)], 1)
+        if fourier:
+            dz = np.empty(len(g))
+            for k, p in enumerate(edge.pieces):
+                s = k_piece == k
+                if np.any(s):
+                    gg = _unwrap_to(p, g[s])
+                    zz[s] = fits[k](gg)
+                    dz[s] = fits[k].derivative(gg)
+            t = np.stack([-r * np.sin(g), r * np.cos(g), dz], 1)
+            t /= np.linalg.norm(t, axis=1, keepdims=True)
+        else:
+            nz = nrm[:, 2]
+            ng = np.einsum("ij,ij->i", nrm, e_g)
+            t = nz[:, None] * e_g - ng[:, None] * EZ
+            t *= np.sign(nz)[:, None]
+            t /= np.linalg.norm(t, axis=1, keepdims=True)
+            dz = r * t[:, 2] / np.einsum("ij,ij->i", t, e_g)
+        lam, theta, alpha = edge_angles(g, t, nrm, edge.wall)
+        return {"z": zz, "dz": dz, "lambda": lam, "theta": theta, "alpha": alpha,
+                "face": face}
+
+    return WallAngles(edge.wall, edge, fits, length, evaluate)
+
+
+def _mesh_wall(edge: Edge, n: int) -> WallAngles:
+    r = edge.radius
+    fits = []
+    dz_pieces = []
+    chord = 0.0
+    for p in edge.pieces:
+        m = len(p.gamma)
+        nn = min(n, max(1, (m - 2) // 2))
+        f = fit_fourier(p.gamma, p.z, n=nn) if m >= 4 else None
+        fits.append(f)
+        pts = np.stack([r * np.cos(p.gamma), r * np.sin(p.gamma), p.z], 1)
+        chord += float(np.linalg.norm(np.diff(pts, axis=0), axis=1).sum())
+        if f is not None:
+            dz_pieces.append((p.gamma, f.derivative(p.gamma)))
+    length = chord + sum(abs(j.z1 - j.z0) for j in edge.jumps)
+
+    def evaluate(g):
+        g = np.atleast_1d(g)
+        k_piece = _find_piece(edge.pieces, g)
+        z = np.full(len(g), np.nan)
+        dz = np.full(len(g), np.nan)
+        nrm = np.full((len(g), 3), np.nan)
+        face = np.full(len(g), "", dtype=object)
+        for k, p in enumerate(edge.pieces):
+            s = k_piece == k
+            if not np.any(s):
+                continue
+            gg = _unwrap_to(p, g[s])
+            f = fits[k]
+            if f is not None:
+                z[s], dz[s] = f(gg), f.derivative(gg)
+            else:
+                z[s] = np.interp(gg, p.gamma, p.z)
+                dz[s] = np.gradient(p.z, p.gamma).mean() if len(p.gamma) > 1 else 0.0
+            nrm[s] = p.normal_at(gg)
+            face[s] = p.face
+        t = np.stack([-r * np.sin(g), r * np.cos(g), dz], 1)
+        t /= np.linalg.norm(t, axis=1, keepdims=True)
+        lam, theta, alpha = edge_angles(g, t, nrm, edge.wall)
+        return {"z": z, "dz": dz, "lambda": lam, "theta": theta, "alpha": alpha,
+                "face": face}
+
+    return WallAngles(edge.wall, edge, fits, length, evaluate)

@@ -1,0 +1,131 @@
+"""Fourier fits of edge profiles z(γ) — the thesis's eq. 3.12 — with a fitted
+base frequency w and the analytic derivative (ERRATA.md's corrected eq. 3.13).
+
+    z(γ)  = a₀ + Σₖ aₖ cos(k w γ) + bₖ sin(k w γ)
+    z′(γ) = Σₖ k w (−aₖ sin(k w γ) + bₖ cos(k w γ))
+
+γ in radians (measured from the heel), z in mm.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from scipy.optimize import minimize_scalar
+
+from . import _validate as v
+from .errors import SpecError
+
+__all__ = ["FourierFit", "fit_fourier"]
+
+
+@dataclass(frozen=True)
+class FourierFit:
+    """A fitted profile (γ in rad, z in mm).
+
+    Attributes
+    ----------
+    a0 : float
+    a, b : (n,) float — cosine and sine coefficients (mm)
+    w : float — base frequency (1/rad)
+    r2 : float — coefficient of determination on the fitted data
+    rmse : float — root-mean-square residual (mm)
+    gamma_range : (float, float) — the fitted γ interval (rad)
+    """
+
+    a0: float
+    a: np.ndarray
+    b: np.ndarray
+    w: float
+    r2: float
+    rmse: float
+    gamma_range: tuple[float, float]
+
+    @property
+    def n(self) -> int:
+        """Number of harmonics."""
+        return len(self.a)
+
+    def __call__(self, gamma) -> np.ndarray:
+        """z(γ) (mm)."""
+        g = np.asarray(gamma, float)
+        k = np.arange(1, self.n + 1)
+        kwg = np.multiply.outer(g, k * self.w)
+        return self.a0 + np.cos(kwg) @ self.a + np.sin(kwg) @ self.b
+
+    def derivative(self, gamma) -> np.ndarray:
+        """z′(γ) (mm/rad), ERRATA.md's eq. 3.13."""
+        g = np.asarray(gamma, float)
+        k = np.arange(1, self.n + 1)
+        kw = k * self.w
+        kwg = np.multiply.outer(g, kw)
+        return (-np.sin(kwg)) @ (kw * self.a) + np.cos(kwg) @ (kw * self.b)
+
+    def to_dict(self) -> dict:
+        """Plain numbers (for JSON)."""
+        return {"a0": self.a0, "a": self.a.tolist(), "b": self.b.tolist(), "w": self.w,
+                "r2": self.r2, "rmse_mm": self.rmse,
+                "gamma_range_deg": [float(np.degrees(x)) for x in self.gamma_range]}
+
+
+def _design(g: np.ndarray, n: int, w: float) -> np.ndarray:
+    kwg = np.multiply.outer(g, w * np.arange(1, n + 1))
+    return np.concatenate([np.ones((len(g), 1)), np.cos(kwg), np.sin(kwg)], axis=1)
+
+
+def _solve(g, z, n, w):
+    A = _design(g, n, w)
+    coef, *_ = np.linalg.lstsq(A, z, rcond=None)
+    res = z - A @ coef
+    return coef, float(res @ res)
+
+
+def fit_fourier(gamma, z, *, n: int = 5, w: float | None = None) -> FourierFit:
+    """Least-squares fit of z(γ) with ``n`` harmonics.
+
+    Parameters
+    ----------
+    gamma : (m,) float — rad
+    z : (m,) float — mm
+    n : int — harmonics (thesis: 5)
+    w : float, optional — fix the base frequency; default: fitted (variable
+        projection: the coefficients are linear, w is searched on a grid over
+        [0.2, 1.5]·2π/span then refined; among equally good w the largest —
+        the most compact series — is kept).
+    """
+    n = v.integer("n", n, lo=1, hi=50)
+    g = np.asarray(gamma, float).ravel()
+    zz = np.asarray(z, float).ravel()
+    if g.shape != zz.shape:
+        raise SpecError(f"gamma and z differ in length ({g.size} vs {zz.size})")
+    if g.size < 2 * n + 2:
+        raise SpecError(f"{g.size} points cannot fit n = {n} harmonics; allowed n ≤ "
+                        f"{(g.size - 2) // 2}")
+    if not (np.all(np.isfinite(g)) and np.all(np.isfinite(zz))):
+        raise SpecError("gamma and z must be finite")
+    span = float(g.max() - g.min())
+    if span <= 0:
+        raise SpecError("gamma spans no interval")
+    if w is None:
+        w0 = 2 * np.pi / span
+        grid = w0 * np.geomspace(0.2, 1.5, 40)
+        rss = np.array([_solve(g, zz, n, wi)[1] for wi in grid])
+        best = rss.min()
+        ok = np.flatnonzero(rss <= best * (1 + 1e-6) + 1e-26 * g.size)
+        k = int(ok.max())
+        lo = grid[max(k - 1, 0)]
+        hi = grid[min(k + 1, len(grid) - 1)]
+        if best > 1e-26 * g.size:
+            r = minimize_scalar(lambda x: _solve(g, zz, n, x)[1], bounds=(lo, hi),
+                                method="bounded", options={"xatol": 1e-12 * w0})
+            w = float(r.x) if r.fun <= rss[k] else float(grid[k])
+        else:
+            w = float(grid[k])
+    else:
+        w = v.real("w", w, lo=0.0, lo_open=True)
+    coef, rss = _solve(g, zz, n, w)
+    tss = float(((zz - zz.mean()) ** 2).sum())
+    r2 = 1.0 - rss / tss if tss > 0 else 1.0
+    return FourierFit(float(coef[0]), coef[1:n + 1].copy(), coef[n + 1:].copy(), float(w),
+                      float(r2), float(np.sqrt(rss / g.size)), (float(g.min()), float(g.max())))

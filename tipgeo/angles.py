@@ -35,7 +35,7 @@ import numpy as np
 from scipy.integrate import simpson
 
 from . import _validate as v
-from .edges import Edge, EdgePiece, _combined, _MeshPiece, _rot, exact_edges, mesh_edges
+from .edges import Edge, EdgePiece, _combined, _rot, exact_edges, mesh_edges
 from .errors import SpecError
 from .fourier import FourierFit, fit_fourier
 

@@ -1,8 +1,10 @@
 """``tipgeo demo``: build every thesis needle and write what a user looks at.
 
 For each preset: the spec (TOML), the mesh (STL and labelled PLY), a picture
-(PNG) and a row of the summary (``summary.json``, ``summary.csv``). Later
-features add their own outputs here. Lengths in mm.
+(PNG) and a row of the summary (``summary.json``, ``summary.csv``); then the
+cutting angles of every preset (``angles.csv``, ``angles.json``) and plots of
+the angle curves overlaid (``angles-*.png``, like thesis Figs. 3.5–3.10).
+Later features add their own outputs here. Lengths in mm, angles in degrees.
 """
 
 from __future__ import annotations
@@ -33,6 +35,42 @@ def _atomic_text(path: Path, text: str) -> None:
         if os.path.exists(tmp):
             os.unlink(tmp)
         raise
+
+
+#: Groups of samples whose angle curves are overlaid in one picture.
+ANGLE_GROUPS = {
+    "angles-helical-vs-bevel": ["helical-14G", "bevel-14G-xi14.5"],
+    "angles-bevels": ["bevel-14G-xi15", "bevel-14G-xi45", "bevel-14G-xi75"],
+    "angles-multiplane": ["bevel-14G-xi15", "twoplane-14G-xi15", "threeplane-14G-xi15",
+                          "lancet-14G"],
+    "angles-conical-and-punch": ["conical-14G-theta15", "punch-plain", "punch-C2"],
+}
+
+
+def _angle_outputs(out: Path, names, pictures: bool, log) -> list[str]:
+    """Angle tables (CSV) of every sample, and the overlaid angle plots."""
+    from .angles import analyze
+
+    reports = {n: analyze(preset(n), method="fourier") for n in names}
+    text = ""
+    for k, rep in enumerate(reports.values()):
+        t = rep.to_csv(1.0)
+        text += t if k == 0 else t.split("\n", 1)[1]
+    _atomic_text(out / "angles.csv", text)
+    files = [str(out / "angles.csv")]
+    summaries = {n: r.summary() for n, r in reports.items()}
+    _atomic_text(out / "angles.json", json.dumps(summaries, indent=2) + "\n")
+    files.append(str(out / "angles.json"))
+    if pictures:
+        from .plot import plot_angles
+
+        for fname, group in ANGLE_GROUPS.items():
+            reps = [reports[n] for n in group if n in reports]
+            if reps:
+                files.append(str(plot_angles(reps, out / f"{fname}.png")))
+    if log is not None:
+        print(f"angles: {len(reports)} tips analysed, {len(files)} files", file=log, flush=True)
+    return files
 
 
 def run_demo(out, *, tolerance: float | None = None, log=None, pictures: bool = True,
@@ -66,8 +104,9 @@ def run_demo(out, *, tolerance: float | None = None, log=None, pictures: bool = 
         if log is not None:
             print(f"[{k}/{len(names)}] {name}: {s['triangles']} triangles, {dt:.3f} s",
                   file=log, flush=True)
+    angle_files = _angle_outputs(out, names, pictures, log)
     summary = {"out": str(out), "tolerance_um": None if tolerance is None else tolerance * 1e3,
-               "tips": rows}
+               "tips": rows, "angles": angle_files}
     _atomic_text(out / "summary.json", json.dumps(summary, indent=2) + "\n")
     buf = io.StringIO()
     w = csv.DictWriter(buf, fieldnames=list(rows[0]))

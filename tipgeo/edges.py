@@ -245,7 +245,7 @@ def exact_edges(spec, *, samples: int = DEFAULT_SAMPLES) -> tuple[Edge, Edge]:
 
 
 def _exact_wall(cutters, cannula, wall, r, gh, zh, samples) -> Edge:
-    eps = 1e-10
+    eps = 1e-12  # pieces stop this short of a break (rad)
     br = _breaks(cutters, r, cannula, gh, max(samples, 720))
     # pieces run between face changes (one piece may wrap past the heel)
     bounds = np.append(br, br[0] + 2 * np.pi) if len(br) else np.array([gh, gh + 2 * np.pi])

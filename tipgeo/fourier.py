@@ -90,9 +90,9 @@ def fit_fourier(gamma, z, *, n: int = 5, w: float | None = None) -> FourierFit:
     z : (m,) float — mm
     n : int — harmonics (thesis: 5)
     w : float, optional — fix the base frequency; default: fitted (variable
-        projection: the coefficients are linear, w is searched on a grid over
-        [0.2, 1.5]·2π/span then refined; among equally good w the largest —
-        the most compact series — is kept).
+        projection: the coefficients are linear; w is searched on a grid over
+        [0.2, 1.5]·2π/span and every local minimum refined; among equally good
+        w the largest — the most compact series — is kept).
     """
     n = v.integer("n", n, lo=1, hi=50)
     g = np.asarray(gamma, float).ravel()
@@ -111,20 +111,46 @@ def fit_fourier(gamma, z, *, n: int = 5, w: float | None = None) -> FourierFit:
         w0 = 2 * np.pi / span
         grid = w0 * np.geomspace(0.2, 1.5, 40)
         rss = np.array([_solve(g, zz, n, wi)[1] for wi in grid])
-        best = rss.min()
-        ok = np.flatnonzero(rss <= best * (1 + 1e-6) + 1e-26 * g.size)
-        k = int(ok.max())
-        lo = grid[max(k - 1, 0)]
-        hi = grid[min(k + 1, len(grid) - 1)]
-        if best > 1e-26 * g.size:
+        # refine every local minimum of the grid, keep the best; among equally
+        # good w (a series with w/2 can mimic one with w) keep the largest
+        tss0 = float(((zz - zz.mean()) ** 2).sum())
+        left = np.r_[np.inf, rss[:-1]]
+        right = np.r_[rss[1:], np.inf]
+        minima = np.flatnonzero((rss <= left) & (rss <= right) & ((rss < left) | (rss < right)))
+        minima = minima[np.argsort(rss[minima])][:n + 1]  # w/k mimics w: n valleys + 1
+        cand = []
+        if tss0 <= 1e-30 * g.size or len(minima) == 0:  # a constant profile: w = 2π/span
+            cand.append((w0, _solve(g, zz, n, w0)[1]))
+            minima = []
+        for k in minima:
+            lo, hi = grid[max(k - 1, 0)], grid[min(k + 1, len(grid) - 1)]
             r = minimize_scalar(lambda x: _solve(g, zz, n, x)[1], bounds=(lo, hi),
-                                method="bounded", options={"xatol": 1e-12 * w0})
-            w = float(r.x) if r.fun <= rss[k] else float(grid[k])
-        else:
-            w = float(grid[k])
+                                method="bounded", options={"xatol": 1e-13 * w0})
+            cand.append((float(r.x), float(r.fun)) if r.fun <= rss[k] else
+                        (float(grid[k]), float(rss[k])))
+        best = min(c[1] for c in cand)
+        floor = best * (1 + 1e-6) + 1e-12 * tss0
+        w = max(c[0] for c in cand if c[1] <= floor)
     else:
         w = v.real("w", w, lo=0.0, lo_open=True)
     coef, rss = _solve(g, zz, n, w)
+    # Gauss–Newton on (coefficients, w) jointly: the scalar search stops at
+    # √ε in w because the residual is flat there; two or three steps reach ε
+    for _ in range(6):
+        k = np.arange(1, n + 1)
+        kwg = np.multiply.outer(g, k * w)
+        dzdw = (np.sin(kwg) * (-g[:, None] * k)) @ coef[1:n + 1] + \
+            (np.cos(kwg) * (g[:, None] * k)) @ coef[n + 1:]
+        J = np.concatenate([_design(g, n, w), dzdw[:, None]], axis=1)
+        res = zz - _design(g, n, w) @ coef
+        step, *_ = np.linalg.lstsq(J, res, rcond=None)
+        w_new = w + step[-1]
+        if not w_new > 0:
+            break
+        coef_new, rss_new = _solve(g, zz, n, w_new)
+        if rss_new >= rss:
+            break
+        w, coef, rss = w_new, coef_new, rss_new
     tss = float(((zz - zz.mean()) ** 2).sum())
     r2 = 1.0 - rss / tss if tss > 0 else 1.0
     return FourierFit(float(coef[0]), coef[1:n + 1].copy(), coef[n + 1:].copy(), float(w),

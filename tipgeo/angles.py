@@ -139,7 +139,7 @@ class AngleReport:
         out: dict[str, Any] = {"name": self.name, "method": self.method,
                                "n_harmonics": self.n_harmonics}
         for w in (self.outer, self.inner):
-            vals = self.dense(w.wall, 7201)
+            vals = self.dense(w.wall, 7200)
             key = "o" if w.wall == "outer" else "i"
             top = int(np.nanargmax(vals["z"]))
             out[w.wall] = {

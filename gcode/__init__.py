@@ -1,9 +1,18 @@
-"""Aerotech A3200 (AeroBasic) laser G-code: emitter, parser, interpreter and
-ablation simulator for micro-serrations (thesis chapter 5, Appendix C).
+"""Aerotech A3200 (AeroBasic) laser G-code for micro-serrations (thesis
+chapter 5, Appendix C): emitter, parser, interpreter and ablation simulator.
 
-Units mm, machine frame documented per module. The package is filled in by
-the G-code issue; it ships empty so the layout (tipgeo, cam, gcode) is in
-place.
+Machine frame (mm, degrees): X along the punch rim, Y along the punch axis
+(+Y into the material), C the punch's rotation (+C = +γ), the beam radial
+through the wall. See :mod:`gcode.ablation` for the mapping onto the
+cannula frame.
+
+``import gcode`` is light: the simulator's heavy parts load on use.
 """
 
-__all__: list[str] = []
+from .emitter import LaserParams, emit_program
+from .errors import GCodeError
+from .interpreter import Limits, Segment, Toolpath, interpret
+from .parser import parse
+
+__all__ = ["GCodeError", "parse", "interpret", "Toolpath", "Segment", "Limits",
+           "LaserParams", "emit_program"]

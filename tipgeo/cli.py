@@ -142,6 +142,121 @@ def cmd_angles(args) -> int:
     return 0
 
 
+def _laser_params(args):
+    from gcode.emitter import LaserParams
+
+    kw = {}
+    for opt, key, scale in (("beam_diameter_um", "beam_diameter", 1e-3),
+                            ("overlap", "overlap", 1.0),
+                            ("roughing_depth_um", "roughing_depth", 1e-3),
+                            ("finishing_passes", "finishing_passes", None),
+                            ("feed_mm_s", "feed", 1.0),
+                            ("pulse_period_us", "pulse_period_us", 1.0),
+                            ("pulse_on_us", "pulse_on_us", 1.0),
+                            ("compensation_mm", "compensation", 1.0)):
+        val = getattr(args, opt, None)
+        if val is not None:
+            kw[key] = val if scale is None else val * scale
+    return LaserParams(**kw)
+
+
+def _write_text(path, text: str) -> None:
+    from .demo import _atomic_text
+
+    _atomic_text(Path(path), text)
+
+
+def cmd_laser(args) -> int:
+    from gcode.emitter import emit_program
+
+    spec = _spec(args.spec)
+    text = emit_program(spec, _laser_params(args))
+    if args.output == "-":
+        sys.stdout.write(text)
+    else:
+        _write_text(args.output, text)
+        print(f"wrote {args.output} ({len(text.splitlines())} lines)")
+    return 0
+
+
+def _load_program(path: str, lenient: bool):
+    from gcode.errors import GCodeError
+    from gcode.parser import parse
+
+    try:
+        text = Path(path).read_text(encoding="utf-8")
+    except (OSError, UnicodeDecodeError) as e:
+        raise GCodeError(f"cannot read '{path}': {e}") from None
+    return parse(text, lenient=lenient)
+
+
+def cmd_gcode(args) -> int:
+    from gcode.interpreter import interpret
+
+    prog = _load_program(args.program, args.lenient)
+    beam = (args.beam_diameter_um or 20.0) * 1e-3
+    tp = interpret(prog, tool_radii={0: 0.0, 1: beam / 2})
+    s = tp.summary()
+    out = {"program": args.program, "toolpath": s, "warnings": tp.warnings[:50]}
+    if args.action == "sim":
+        from gcode.ablation import ablate, compare_with_cutter
+
+        spec = _spec(args.spec)
+        res = ablate(tp, spec, beam_diameter=beam, origin=tuple(args.origin),
+                     tolerance=_tolerance(args))
+        out["ablation"] = {"notches": res.notches, "c_angles_deg": res.c_angles_deg,
+                           "slugs_removed": res.slugs_removed,
+                           "triangles": int(len(res.tip.faces)),
+                           "watertight": res.tip.is_watertight}
+        from tipgeo.cutters import SerrationCutter
+
+        if any(isinstance(c, SerrationCutter) for c in spec.cutters):
+            out["comparison"] = compare_with_cutter(res, spec, beam_diameter=beam)
+        if args.mesh:
+            from .io import export_tip
+
+            export_tip(res.tip, args.mesh)
+        if args.plot:
+            from gcode.plots import plot_rim, plot_toolpath
+
+            plot_toolpath(tp, args.plot)
+            rim = Path(args.plot).with_name(Path(args.plot).stem + "-rim.png")
+            plot_rim(res.tip, spec, rim)
+            out["pictures"] = [args.plot, str(rim)]
+    elif args.plot:
+        from gcode.plots import plot_toolpath
+
+        plot_toolpath(tp, args.plot)
+    if args.json:
+        print(json.dumps(out, indent=2, default=str))
+        return 0
+    print(f"{args.program}: {len(prog.body)} statements, {s['segments']} moves")
+    print(f"  path {s['path_length_mm']:.4f} mm, beam on {s['beam_on_length_mm']:.4f} mm, "
+          f"time {s['time_s']:.2f} s (beam on {s['beam_on_time_s']:.2f} s), "
+          f"pulses {s['pulses'] if s['pulses'] is not None else 'n/a'}")
+    print(f"  C positions firing: {len(s['c_angles_with_beam_deg'])} "
+          f"{[round(c, 4) for c in s['c_angles_with_beam_deg']][:24]}")
+    for w in tp.warnings[:10]:
+        print(f"  warning: {w}")
+    if len(tp.warnings) > 10:
+        print(f"  … {len(tp.warnings) - 10} more warnings")
+    if "ablation" in out:
+        a = out["ablation"]
+        print(f"  ablation: {a['notches']} notches, {a['slugs_removed']} slugs fell out, "
+              f"watertight {a['watertight']}")
+    if "comparison" in out:
+        c = out["comparison"]
+        print(f"  vs spec: radius {c['radius_mm']['fitted_mean'] * 1e3:.3f} µm fitted "
+              f"(spec {c['radius_mm']['spec'] * 1e3:.3f}, max error "
+              f"{c['radius_mm']['fitted_max_error'] * 1e3:.3f} µm), spacing max error "
+              f"{c['spacing_deg']['fitted_max_error']}°, Hausdorff "
+              f"{c['hausdorff_mm'] * 1e3:.3f} µm")
+    for o in (args.mesh, args.plot):
+        if o:
+            print(f"  wrote {o}")
+    return 0
+
+
 def cmd_gauges(args) -> int:
     from .cannula import GAUGE_SOURCE, gauge_table
 
@@ -222,6 +337,36 @@ def _parser() -> argparse.ArgumentParser:
     a.add_argument("--axis", type=float, nargs=6, metavar=("X", "Y", "Z", "DX", "DY", "DZ"),
                    help="a mesh file's needle axis: a point and the direction to the tip")
     a.set_defaults(func=cmd_angles)
+    la = sub.add_parser("laser", help="write the AeroBasic laser program of a serration spec")
+    la.add_argument("spec", metavar="SPEC", help="spec file or preset with a serration cutter")
+    la.add_argument("-o", "--output", required=True, metavar="FILE",
+                    help="program file (.pgm), or - for stdout")
+    for opt, hlp in (("--beam-diameter-um", "beam diameter (20)"),
+                     ("--overlap", "pass overlap (0.95)"),
+                     ("--roughing-depth-um", "radial roughing depth (20)"),
+                     ("--feed-mm-s", "feed (0.1)"),
+                     ("--pulse-period-us", "PSOPULSE period (10)"),
+                     ("--pulse-on-us", "PSOPULSE on time (5)"),
+                     ("--compensation-mm", "G41 lead-in (0.05)")):
+        la.add_argument(opt, type=float, default=None, help=hlp)
+    la.add_argument("--finishing-passes", type=int, default=None, help="(80)")
+    la.set_defaults(func=cmd_laser)
+    gc = sub.add_parser("gcode", help="check or simulate an AeroBasic laser program")
+    gc.add_argument("action", choices=("check", "sim"))
+    gc.add_argument("program", metavar="PROGRAM")
+    gc.add_argument("--spec", default="punch-plain",
+                    help="the punch to cut (spec or preset; default punch-plain)")
+    gc.add_argument("--origin", type=float, nargs=2, default=(0.0, 0.0), metavar=("X0", "Y0"),
+                    help="program coordinates of the first serration's centre on the rim")
+    gc.add_argument("--beam-diameter-um", type=float, default=None,
+                    help="beam diameter (20); T1's radius is half of it")
+    gc.add_argument("--tolerance-um", type=float, default=None)
+    gc.add_argument("--lenient", action="store_true",
+                    help="skip unsupported statements with a warning")
+    gc.add_argument("--plot", metavar="FILE", help="toolpath picture (and FILE-rim.png)")
+    gc.add_argument("--mesh", metavar="FILE", help="write the ablated tip (sim)")
+    gc.add_argument("--json", action="store_true")
+    gc.set_defaults(func=cmd_gcode)
     g = sub.add_parser("gauges", help="the needle gauge table")
     g.add_argument("--json", action="store_true")
     g.set_defaults(func=cmd_gauges)
@@ -241,6 +386,8 @@ def _parser() -> argparse.ArgumentParser:
 
 def main(argv: list[str] | None = None) -> int:
     """Entry point of the ``tipgeo`` command."""
+    from gcode.errors import GCodeError
+
     from .errors import BuildError, SpecError, TipGeoError
 
     args = _parser().parse_args(argv)
@@ -248,7 +395,7 @@ def main(argv: list[str] | None = None) -> int:
         if getattr(args, "output", None) == [] and args.command == "build" and not args.png:
             raise SpecError("build needs at least one -o FILE (or --png FILE)")
         return args.func(args)
-    except SpecError as e:
+    except (SpecError, GCodeError) as e:
         print(f"tipgeo: error: {e}", file=sys.stderr)
         return 2
     except (BuildError, TipGeoError) as e:

@@ -4,7 +4,10 @@ For each preset: the spec (TOML), the mesh (STL and labelled PLY), a picture
 (PNG) and a row of the summary (``summary.json``, ``summary.csv``); then the
 cutting angles of every preset (``angles.csv``, ``angles.json``) and plots of
 the angle curves overlaid (``angles-*.png``, like thesis Figs. 3.5–3.10).
-Later features add their own outputs here. Lengths in mm, angles in degrees.
+For the serrated punches: the AeroBasic laser programs (``punch-C*.pgm``),
+and for C2 the simulated cut (``punch-C2-laser-sim.stl``) with its toolpath and
+rim pictures. Later features add their own outputs here. Lengths in mm, angles
+in degrees.
 """
 
 from __future__ import annotations
@@ -73,6 +76,44 @@ def _angle_outputs(out: Path, names, pictures: bool, log) -> list[str]:
     return files
 
 
+def _laser_outputs(out: Path, names, pictures: bool, log) -> list[dict]:
+    """The laser programs of the serrated punches (C1–C5), each checked by
+    the interpreter; the C2 program simulated back into a tip and compared
+    with its spec (toolpath and rim pictures)."""
+    from gcode.ablation import ablate, compare_with_cutter
+    from gcode.emitter import LaserParams, emit_program
+    from gcode.interpreter import interpret
+    from gcode.parser import parse
+
+    laser = LaserParams()
+    rows = []
+    for name in names:
+        spec = preset(name)
+        if not any(c.kind == "serration" for c in spec.cutters):
+            continue
+        text = emit_program(spec, laser)
+        _atomic_text(out / f"{name}.pgm", text)
+        tp = interpret(parse(text), tool_radii={0: 0.0, 1: laser.tool_radius})
+        row = {"name": name, "program": str(out / f"{name}.pgm"), **tp.summary()}
+        if name == "punch-C2":
+            res = ablate(tp, spec, beam_diameter=laser.beam_diameter)
+            row["comparison"] = compare_with_cutter(res, spec,
+                                                    beam_diameter=laser.beam_diameter)
+            from .io import export_tip
+
+            export_tip(res.tip, out / f"{name}-laser-sim.stl")
+            if pictures:
+                from gcode.plots import plot_rim, plot_toolpath
+
+                plot_toolpath(tp, out / f"{name}-toolpath.png")
+                plot_rim(res.tip, spec, out / f"{name}-rim.png")
+        rows.append(row)
+        if log is not None:
+            print(f"laser: {name}: {row['segments']} moves, {row['time_s']:.0f} s, "
+                  f"{row['pulses']} pulses", file=log, flush=True)
+    return rows
+
+
 def run_demo(out, *, tolerance: float | None = None, log=None, pictures: bool = True,
              names: list[str] | None = None) -> dict:
     """Build the presets ``names`` (default: all) into folder ``out``.
@@ -105,8 +146,9 @@ def run_demo(out, *, tolerance: float | None = None, log=None, pictures: bool = 
             print(f"[{k}/{len(names)}] {name}: {s['triangles']} triangles, {dt:.3f} s",
                   file=log, flush=True)
     angle_files = _angle_outputs(out, names, pictures, log)
+    laser_files = _laser_outputs(out, names, pictures, log)
     summary = {"out": str(out), "tolerance_um": None if tolerance is None else tolerance * 1e3,
-               "tips": rows, "angles": angle_files}
+               "tips": rows, "angles": angle_files, "laser": laser_files}
     _atomic_text(out / "summary.json", json.dumps(summary, indent=2) + "\n")
     buf = io.StringIO()
     w = csv.DictWriter(buf, fieldnames=list(rows[0]))

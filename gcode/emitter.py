@@ -1,0 +1,212 @@
+"""Emitter: a serration spec → an AeroBasic laser program in the style of the
+thesis's Appendix C.
+
+Machine frame and program zero (see :mod:`gcode.interpreter`): X along the
+rim (mm), Y along the punch axis with +Y into the material (mm), C the punch's
+rotation (deg, +C = +γ). Program zero (X0, Y0) = (0, 0) is the centre line of
+the first serration at the rim (the cutting edge on the inner wall); the
+operator jogs the beam there, then to the start point the first ``G92`` names.
+
+For every serration the program cuts ``roughing`` passes of concentric arcs,
+each ``dist_R = (1 − overlap)·beam`` smaller than the last, then ``finishing``
+passes on the final contour r_c; cutter compensation (``G41``, tool T1 = the
+beam radius) keeps the beam's edge on the programmed radius. The roughing
+radius is reset for every serration (Appendix C as printed keeps shrinking it
+across serrations). ``LINEAR C…`` indexes the punch by ρ between serrations.
+
+Numbers are printed with fixed decimals per word kind — lengths 4 (0.1 µm),
+angles 4, feeds 3 — never ``%g``; the output is deterministic.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+from tipgeo import _validate as v
+from tipgeo.cutters import SerrationCutter
+from tipgeo.errors import SpecError
+
+__all__ = ["LaserParams", "emit_program", "LENGTH_DECIMALS"]
+
+LENGTH_DECIMALS = 4
+ANGLE_DECIMALS = 4
+FEED_DECIMALS = 3
+
+
+@dataclass(frozen=True, kw_only=True)
+class LaserParams:
+    """Process parameters of the laser program (defaults: Appendix C).
+
+    Parameters
+    ----------
+    beam_diameter : float — mm (0.020)
+    overlap : float — radial overlap of consecutive passes, 0 ≤ · < 1 (0.95)
+    roughing_depth : float — radial depth cut by the roughing passes, mm (0.020)
+    finishing_passes : int — passes on the final contour (80)
+    feed : float — mm/s (0.1)
+    pulse_period_us, pulse_on_us : float — PSOPULSE TIME, µs (10, 5: 100 kHz)
+    compensation : float — lead-in/lead-out length along X with G41/G40, mm (0.05)
+    clearance : float — start the cut this far outside the rim along −Y, mm (0.05)
+    rotary_feed : float — C indexing feed, deg/s (5)
+    power_w : float — laser power for the header, W (0.75)
+    """
+
+    beam_diameter: float = 0.020
+    overlap: float = 0.95
+    roughing_depth: float = 0.020
+    finishing_passes: int = 80
+    feed: float = 0.1
+    pulse_period_us: float = 10.0
+    pulse_on_us: float = 5.0
+    compensation: float = 0.05
+    clearance: float = 0.05
+    rotary_feed: float = 5.0
+    power_w: float = 0.75
+
+    def __post_init__(self):
+        v.length("beam_diameter", self.beam_diameter, hi=1.0)
+        v.real("overlap", self.overlap, lo=0.0, hi=1.0, hi_open=True)
+        v.length("roughing_depth", self.roughing_depth, lo=0.0, lo_open=False, hi=5.0)
+        v.integer("finishing_passes", self.finishing_passes, lo=0, hi=100_000)
+        v.real("feed", self.feed, lo=0.0, lo_open=True, hi=1000.0, unit="mm/s")
+        v.real("pulse_period_us", self.pulse_period_us, lo=0.0, lo_open=True, hi=1e6)
+        v.real("pulse_on_us", self.pulse_on_us, lo=0.0, lo_open=True, hi=self.pulse_period_us)
+        v.length("compensation", self.compensation, hi=5.0)
+        v.length("clearance", self.clearance, hi=5.0)
+        v.real("rotary_feed", self.rotary_feed, lo=0.0, lo_open=True, hi=1e4, unit="deg/s")
+        v.real("power_w", self.power_w, lo=0.0, hi=1e3)
+        if not self.compensation > self.beam_diameter / 2:
+            raise SpecError(f"compensation = {self.compensation:g} mm must exceed the beam "
+                            f"radius {self.beam_diameter / 2:g} mm (the G41 lead-in)")
+
+    @property
+    def pass_step(self) -> float:
+        """dist_R: radial step between roughing passes (mm)."""
+        return (1.0 - self.overlap) * self.beam_diameter
+
+    @property
+    def roughing_passes(self) -> int:
+        """Number of roughing passes: roughing_depth / dist_R, rounded."""
+        return int(round(self.roughing_depth / self.pass_step)) if self.pass_step > 0 else 0
+
+    @property
+    def tool_radius(self) -> float:
+        """T1's radius in the tool table: the beam radius (mm)."""
+        return self.beam_diameter / 2
+
+
+def _mm(x: float) -> str:
+    s = f"{x:.{LENGTH_DECIMALS}f}"
+    return "0." + "0" * LENGTH_DECIMALS if s == "-0." + "0" * LENGTH_DECIMALS else s
+
+
+def _deg(x: float) -> str:
+    return f"{x:.{ANGLE_DECIMALS}f}"
+
+
+def emit_program(spec, laser: LaserParams | None = None, *, name: str | None = None) -> str:
+    """The AeroBasic program that cuts ``spec``'s serrations.
+
+    Parameters
+    ----------
+    spec : TipSpec — a punch with a preceding cutter and a SerrationCutter
+    laser : LaserParams — process parameters (default: Appendix C's)
+
+    Returns
+    -------
+    str — the program text (deterministic)
+    """
+    laser = laser or LaserParams()
+    ser = [c for c in spec.cutters if isinstance(c, SerrationCutter)]
+    if len(ser) != 1:
+        raise SpecError(f"spec '{spec.name}' has {len(ser)} serration cutters; the laser "
+                        "program needs exactly one")
+    s = ser[0]
+    r_c, rho, n = s.arc_radius, math.degrees(s.rho), s.n
+    y_c = s.depth - r_c  # arc centre, +Y into the material from the rim
+    if not r_c > laser.tool_radius:
+        raise SpecError(f"arc_radius = {r_c:g} mm is not larger than the beam radius "
+                        f"{laser.tool_radius:g} mm")
+    if laser.roughing_depth >= r_c - laser.tool_radius + 1e-12:
+        raise SpecError(f"roughing_depth = {laser.roughing_depth:g} mm leaves no arc: "
+                        f"allowed < arc_radius − beam radius = {r_c - laser.tool_radius:g} mm")
+    comp, lead = laser.compensation, laser.clearance
+    start_x = r_c - comp
+    c = spec.cannula
+    rep = 1e3 / laser.pulse_period_us
+    lines = [
+        f"; {name or spec.name or 'serrations'} — micro-serrations, written by tipgeo",
+        "; units: mm, seconds, degrees. Machine frame: X along the rim, Y along the punch "
+        "axis (+Y into the material), C turns the punch (+C = +gamma).",
+        "; program zero X0 Y0: centre line of the first serration on the rim (inner-wall "
+        "cutting edge); jog the beam there, then to the G92 start point below.",
+        f"; punch: d_e {_mm(c.outer_diameter)} mm, d_i {_mm(c.inner_diameter)} mm",
+        f"; serrations: r_c {_mm(r_c)} mm, n_s {n}, rho {_deg(rho)} deg, depth "
+        f"{_mm(s.depth)} mm (arc centre Y {_mm(y_c)} mm)",
+        f"; beam diameter {_mm(laser.beam_diameter)} mm (tool T1 radius "
+        f"{_mm(laser.tool_radius)} mm), pass overlap {laser.overlap:.4f}, pass step "
+        f"{_mm(laser.pass_step)} mm",
+        f"; roughing depth {_mm(laser.roughing_depth)} mm ({laser.roughing_passes} passes), "
+        f"finishing passes {laser.finishing_passes}",
+        f"; feed {laser.feed:.{FEED_DECIMALS}f} mm/s, pulses: period "
+        f"{laser.pulse_period_us:.3f} us ({rep:.3f} kHz), on {laser.pulse_on_us:.3f} us, "
+        f"laser power {laser.power_w:.3f} W",
+        f"; compensation lead {_mm(comp)} mm, clearance {_mm(lead)} mm, C feed "
+        f"{laser.rotary_feed:.{FEED_DECIMALS}f} deg/s",
+        "",
+        "DVAR $feed, $beam_dia, $overlap_R, $dist_R, $passover, $pass2, $radius, $comp, "
+        "$radius_i, $comp_i",
+        "",
+        "SECONDS",
+        "",
+        f"$beam_dia = {_mm(laser.beam_diameter)}",
+        f"$overlap_R = {laser.overlap:.4f}",
+        "$dist_R = (1-$overlap_R)*$beam_dia",
+        f"$passover = {laser.roughing_passes} ; roughing passes ({_mm(laser.roughing_depth)} mm "
+        "/ $dist_R)",
+        f"$pass2 = {laser.finishing_passes} ; finishing passes",
+        f"$radius_i = {_mm(r_c)}",
+        f"$comp_i = {_mm(comp)}",
+        f"$feed = {laser.feed:.{FEED_DECIMALS}f}",
+        "",
+        f"G92 X{_mm(start_x)} Y{_mm(-lead)} ; the beam at the start point",
+        "G92 C0.0000",
+        "T0",
+        "G44 X Y ; cutter compensation on the X and Y axes",
+        "T1 ; the laser beam (tool radius = beam radius)",
+        "G91",
+        f"PSOPULSE X TIME {laser.pulse_period_us:.3f} {laser.pulse_on_us:.3f} CYCLES 10000000",
+        "",
+        f"REPEAT {n} ; every serration",
+        "$radius = $radius_i",
+        "$comp = $comp_i",
+        "REPEAT $passover ; roughing",
+        "PSOCONTROL X FIRE",
+        "G01 G41 X$comp F $feed",
+        f"G01 Y{_mm(lead + y_c)}",
+        "G03 X-($radius*2) Y0 I-$radius J0",
+        "PSOCONTROL X OFF",
+        f"G01 Y{_mm(-(lead + y_c))}",
+        "G40 X$comp",
+        "G00 X(2*$radius_i-2*$comp_i)",
+        "$radius = $radius - $dist_R",
+        "$comp = $comp - $dist_R",
+        "END REPEAT",
+        "REPEAT $pass2 ; finishing on the final contour",
+        "PSOCONTROL X FIRE",
+        "G01 G41 X$comp_i F $feed",
+        f"G01 Y{_mm(lead + y_c)}",
+        "G03 X-($radius_i*2) Y0 I-$radius_i J0",
+        "PSOCONTROL X OFF",
+        f"G01 Y{_mm(-(lead + y_c))}",
+        "G40 X$comp_i",
+        "G00 X(2*$radius_i-2*$comp_i)",
+        "END REPEAT",
+        f"LINEAR C{_deg(rho)} E{laser.rotary_feed:.{FEED_DECIMALS}f} ; next serration",
+        "END REPEAT",
+        "",
+        "T0 ; unload the tool: laser beam",
+        "",
+    ]
+    return "\n".join(lines)

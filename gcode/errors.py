@@ -1,0 +1,19 @@
+"""The G-code package's one exception type."""
+
+from tipgeo.errors import TipGeoError
+
+__all__ = ["GCodeError"]
+
+
+class GCodeError(TipGeoError, ValueError):
+    """Bad or unsupported G-code, or a program that cannot run.
+
+    Attributes ``line`` and ``column`` (1-based, 0 when unknown) and ``text``
+    (the offending source text) locate the problem; the message repeats them.
+    """
+
+    def __init__(self, message: str, line: int = 0, column: int = 0, text: str = ""):
+        self.line, self.column, self.text = line, column, text
+        where = f"line {line}, column {column}: " if line else ""
+        what = f" — '{text}'" if text else ""
+        super().__init__(f"{where}{message}{what}")

@@ -1,0 +1,185 @@
+"""Evaluation and printing of AeroBasic expressions (:mod:`gcode.ast` trees).
+
+Our own evaluator — never Python's ``eval`` — with explicit errors: an
+unknown ``$variable``, a division by zero, or a result that is not finite
+(overflow) raise :class:`~gcode.errors.GCodeError`, located at the statement
+``span`` when one is given. Both functions walk the tree with an explicit
+stack, so any depth is safe.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping
+
+from . import ast
+from .errors import GCodeError
+
+__all__ = ["evaluate", "to_source", "variables_in"]
+
+_PRECEDENCE = {"+": 1, "-": 1, "*": 2, "/": 2}
+
+
+def evaluate(expr: ast.Expr, variables: Mapping[str, float],
+             span: ast.Span | None = None) -> float:
+    """Value of an expression.
+
+    Parameters
+    ----------
+    expr : gcode.ast.Expr
+        The tree (:class:`~gcode.ast.Num`, :class:`~gcode.ast.Var`,
+        :class:`~gcode.ast.Neg`, :class:`~gcode.ast.BinOp`).
+    variables : mapping of str to float
+        Variable values by lower-case name, without the ``$``.
+    span : gcode.ast.Span, optional
+        The statement the expression belongs to; errors then carry its line,
+        column and text.
+
+    Returns
+    -------
+    float
+        A finite value.
+
+    Raises
+    ------
+    GCodeError
+        Unknown variable (the message names ``$name``), division by zero, a
+        non-finite number or result, or a node that is not an expression.
+    """
+    def fail(message: str) -> GCodeError:
+        if span is None:
+            return GCodeError(message)
+        return GCodeError(message, span.line, span.col, span.text)
+
+    values: list[float] = []
+    stack: list[tuple[object, bool]] = [(expr, False)]
+    while stack:
+        node, ready = stack.pop()
+        if isinstance(node, ast.Num):
+            value = node.value
+            if isinstance(value, bool) or not isinstance(value, (int, float)) \
+                    or not math.isfinite(value):
+                raise fail(f"not a finite number: {value!r}")
+            values.append(float(value))
+        elif isinstance(node, ast.Var):
+            if node.name not in variables:
+                raise fail(f"unknown variable ${node.name}")
+            try:
+                value = float(variables[node.name])
+            except (TypeError, ValueError, OverflowError):
+                raise fail(f"variable ${node.name} is not a number: "
+                           f"{variables[node.name]!r}") from None
+            if not math.isfinite(value):
+                raise fail(f"variable ${node.name} is not finite: {value!r}")
+            values.append(value)
+        elif isinstance(node, ast.Neg):
+            if ready:
+                values.append(-values.pop())
+            else:
+                stack.append((node, True))
+                stack.append((node.operand, False))
+        elif isinstance(node, ast.BinOp) and node.op in _PRECEDENCE:
+            if not ready:
+                stack.append((node, True))
+                stack.append((node.right, False))
+                stack.append((node.left, False))
+                continue
+            right = values.pop()
+            left = values.pop()
+            if node.op == "+":
+                result = left + right
+            elif node.op == "-":
+                result = left - right
+            elif node.op == "*":
+                result = left * right
+            elif right == 0.0:
+                raise fail(f"division by zero in {to_source(node)}")
+            else:
+                result = left / right
+            if not math.isfinite(result):
+                raise fail(f"result out of range in {to_source(node)}")
+            values.append(result)
+        else:
+            raise fail(f"not an expression: {node!r}")
+    return values[0]
+
+
+def to_source(expr: ast.Expr) -> str:
+    """AeroBasic source of an expression, with the parentheses it needs.
+
+    ``parse_expression(to_source(e))`` evaluates like ``e`` (a minus before a
+    number literal is folded into the number, so the tree may differ there).
+
+    Parameters
+    ----------
+    expr : gcode.ast.Expr
+
+    Returns
+    -------
+    str
+        E.g. ``-($radius * 2)``, ``2 * $radius_i - 2 * $comp_i``.
+    """
+    # Iterative: a work stack of nodes (with the precedence their context
+    # needs) and of literal strings, the output assembled left to right.
+    out: list[str] = []
+    work: list[tuple[object, int] | str] = [(expr, 0)]
+    while work:
+        item = work.pop()
+        if isinstance(item, str):
+            out.append(item)
+            continue
+        node, need = item
+        if isinstance(node, ast.Num):
+            text = _number(node.value)
+            out.append(f"({text})" if text.startswith("-") and need > 1 else text)
+        elif isinstance(node, ast.Var):
+            out.append(f"${node.name}")
+        elif isinstance(node, ast.Neg):
+            out.append("-")
+            work.append((node.operand, 3))
+        elif isinstance(node, ast.BinOp):
+            prec = _PRECEDENCE.get(node.op, 1)
+            parens = prec < need
+            if parens:
+                work.append(")")
+            work.append((node.right, prec + 1))
+            work.append(f" {node.op} ")
+            work.append((node.left, prec))
+            if parens:
+                work.append("(")
+        else:
+            out.append(repr(node))
+    return "".join(out)
+
+
+def variables_in(expr: ast.Expr) -> set[str]:
+    """Names of the variables an expression reads.
+
+    Parameters
+    ----------
+    expr : gcode.ast.Expr
+
+    Returns
+    -------
+    set of str
+        Lower-case names without ``$``.
+    """
+    names: set[str] = set()
+    stack: list[object] = [expr]
+    while stack:
+        node = stack.pop()
+        if isinstance(node, ast.Var):
+            names.add(node.name)
+        elif isinstance(node, ast.Neg):
+            stack.append(node.operand)
+        elif isinstance(node, ast.BinOp):
+            stack.extend((node.left, node.right))
+    return names
+
+
+def _number(value: float) -> str:
+    """Shortest round-tripping text of a number (``2`` rather than ``2.0``)."""
+    if isinstance(value, float) and math.isfinite(value) and value.is_integer() \
+            and abs(value) < 1e16:
+        return str(int(value))
+    return repr(value)

@@ -1,0 +1,189 @@
+"""Line lexer of the A3200 AeroBasic subset (see :mod:`gcode.parser`).
+
+A program is lexed one line at a time (AeroBasic has one statement per line).
+A comment runs from ``;`` or ``//`` to the end of the line and is dropped.
+Tokens:
+
+``num``    an unsigned number: ``12``, ``0.05``, ``.5``, ``1.``, ``1e-3``,
+           ``2.5E+4`` (the sign is a separate ``op`` token);
+``var``    ``$name`` (``[A-Za-z_][A-Za-z0-9_]*``), value lower-cased, no ``$``;
+``ident``  a run of ASCII letters (``G``, ``X``, ``REPEAT``, ``PSOPULSE``),
+           value upper-cased; digits are never part of an identifier, so
+           ``G01`` is ``G`` then ``01`` and ``X$comp`` is ``X`` then ``$comp``;
+``op``     one of ``+ - * / = , ( )``.
+
+An ``e``/``E`` directly after the digits of a number, followed by digits
+(optionally signed), is an exponent: ``X1E5`` is X = 100000, not the words
+``X1`` and ``E5`` (write ``X1 E5``).
+
+Only ASCII letters, digits and the characters above are code; any other
+character (outside a comment) is an error.
+"""
+
+from __future__ import annotations
+
+import math
+import re
+from dataclasses import dataclass
+
+from .errors import GCodeError
+
+__all__ = ["Token", "UnsupportedError", "split_comment", "tokenize_line", "split_lines"]
+
+_WS = " \t\f\v"
+_LETTERS = frozenset("ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz")
+_DIGITS = frozenset("0123456789")
+_NAME_START = _LETTERS | {"_"}
+_NAME_CHARS = _NAME_START | _DIGITS
+_OPS = frozenset("+-*/=,()")
+_NUMBER = re.compile(r"(?:[0-9]+\.?[0-9]*|\.[0-9]+)(?:[eE][+-]?[0-9]+)?\Z")
+
+
+class UnsupportedError(GCodeError):
+    """Text that is well formed but outside the supported subset (an unknown
+    keyword, G code or word letter, a foreign character).
+
+    :func:`gcode.parser.parse` skips the statement with a warning in lenient
+    mode; otherwise it is raised like any :class:`~gcode.errors.GCodeError`.
+    """
+
+
+@dataclass(frozen=True)
+class Token:
+    """One token of a line.
+
+    Attributes
+    ----------
+    kind : str
+        ``num``, ``var``, ``ident`` or ``op``.
+    value : float or str
+        The number (``num``), the lower-case name (``var``), the upper-case
+        identifier (``ident``) or the operator character (``op``).
+    col : int
+        1-based column of the token's first character.
+    text : str
+        The token's source text.
+    """
+
+    kind: str
+    value: float | str
+    col: int
+    text: str
+
+    @property
+    def end(self) -> int:
+        """0-based index just past the token in its line."""
+        return self.col - 1 + len(self.text)
+
+
+def split_lines(text: str) -> list[str]:
+    """Split program text into lines (``\\n``, ``\\r\\n`` or ``\\r``).
+
+    Unlike :meth:`str.splitlines`, other Unicode separators (``\\x0b``,
+    ``\\u2028`` …) are not line breaks, so line numbers match what an editor
+    shows for ordinary files. A leading byte-order mark is dropped.
+    """
+    if text.startswith("\ufeff"):
+        text = text[1:]
+    return text.replace("\r\n", "\n").replace("\r", "\n").split("\n")
+
+
+def split_comment(line: str) -> int:
+    """Index where the comment of ``line`` starts (``len(line)`` if none).
+
+    Parameters
+    ----------
+    line : str
+        One source line.
+
+    Returns
+    -------
+    int
+        Index of the first ``;`` or ``//``.
+    """
+    semi = line.find(";")
+    slash = line.find("//")
+    ends = [i for i in (semi, slash) if i >= 0]
+    return min(ends) if ends else len(line)
+
+
+def tokenize_line(line: str, lineno: int = 0) -> list[Token]:
+    """Tokens of one source line, its comment dropped.
+
+    Parameters
+    ----------
+    line : str
+        One line, without its line break.
+    lineno : int
+        1-based line number, for error messages.
+
+    Returns
+    -------
+    list of Token
+
+    Raises
+    ------
+    GCodeError
+        A malformed number (``1.2.3``, ``.``), a number out of range
+        (``1e999``) or a ``$`` not followed by a name;
+        :class:`UnsupportedError` for a character that is not code.
+    """
+    end = split_comment(line)
+    tokens: list[Token] = []
+    i = 0
+    while i < end:
+        ch = line[i]
+        if ch in _WS:
+            i += 1
+        elif ch in _LETTERS:
+            j = i + 1
+            while j < end and line[j] in _LETTERS:
+                j += 1
+            tokens.append(Token("ident", line[i:j].upper(), i + 1, line[i:j]))
+            i = j
+        elif ch in _DIGITS or ch == ".":
+            j = _number_end(line, i, end)
+            text = line[i:j]
+            if not _NUMBER.match(text):
+                raise GCodeError("malformed number", lineno, i + 1, text)
+            value = float(text)
+            if not math.isfinite(value):
+                raise GCodeError("number out of range", lineno, i + 1, text)
+            tokens.append(Token("num", value, i + 1, text))
+            i = j
+        elif ch == "$":
+            j = i + 1
+            if j < end and line[j] in _NAME_START:
+                j += 1
+                while j < end and line[j] in _NAME_CHARS:
+                    j += 1
+                tokens.append(Token("var", line[i + 1:j].lower(), i + 1, line[i:j]))
+                i = j
+            else:
+                raise GCodeError("'$' must be followed by a variable name", lineno, i + 1, "$")
+        elif ch in _OPS:
+            tokens.append(Token("op", ch, i + 1, ch))
+            i += 1
+        else:
+            raise UnsupportedError(f"unexpected character {ch!r}", lineno, i + 1, ch)
+    return tokens
+
+
+def _number_end(line: str, i: int, end: int) -> int:
+    """Index past the number-like run starting at ``i``: digits and dots, an
+    optional exponent, and any dots or digits glued after it (so that
+    ``1.2.3`` and ``1e5.2`` are reported whole)."""
+    j = i
+    while j < end and (line[j] in _DIGITS or line[j] == "."):
+        j += 1
+    if j < end and line[j] in "eE":
+        k = j + 1
+        if k < end and line[k] in "+-":
+            k += 1
+        if k < end and line[k] in _DIGITS:
+            while k < end and line[k] in _DIGITS:
+                k += 1
+            j = k
+            while j < end and (line[j] in _DIGITS or line[j] == "."):
+                j += 1
+    return j

@@ -257,6 +257,55 @@ def cmd_gcode(args) -> int:
     return 0
 
 
+def cmd_grind(args) -> int:
+    from cam import Machine, compare_with_cad, make_program, simulate
+
+    spec = _spec(args.spec)
+    machine = Machine.from_toml(args.machine) if args.machine else Machine()
+    prog = make_program(spec, machine=machine, feed=args.feed, needle_rpm=args.needle_rpm)
+    wrote = []
+    if args.output:
+        text = prog.to_csv() if args.output.lower().endswith(".csv") else prog.to_json()
+        _write_text(args.output, text)
+        wrote.append(args.output)
+    if args.gcode:
+        _write_text(args.gcode, prog.to_gcode())
+        wrote.append(args.gcode)
+    if args.sheet:
+        _write_text(args.sheet, prog.setup_sheet())
+        wrote.append(args.sheet)
+    out = {"program": prog.summary()}
+    if args.simulate or args.report:
+        ground = simulate(prog, spec, tolerance=_tolerance(args))
+        if args.simulate:
+            from .io import export_tip
+
+            export_tip(ground, args.simulate)
+            wrote.append(args.simulate)
+        if args.report:
+            out["comparison"] = compare_with_cad(ground, spec)
+    if args.json:
+        out["wrote"] = wrote
+        print(json.dumps(out, indent=2, default=str))
+        return 0
+    s = out["program"]
+    print(f"{s['name']}: faces {s['faces']}, {s['rows']} program rows, time {s['time_s']:.1f} s, "
+          f"feed {s['feed_mm_s']:g} mm/s")
+    for f in s["setup"]:
+        print(f"  {f['face']:<22} ξ {f['xi_deg']:8.4f}°  r5=ϕ_g {f['r5_phi_g_deg']:8.4f}°  "
+              f"r4 {f['r4_deg']:8.4f}°  t1 {f['t1_mm']:8.4f} mm  OC {f['OC_mm']:.3f} mm"
+              + (f"  spin {f['spin_rpm']:.0f} rpm" if f["spin_rpm"] else ""))
+    if "comparison" in out:
+        c = out["comparison"]
+        worst = max(v for w in c["angles_max_diff_deg"].values() for v in w.values())
+        worst_m = max(v for w in c["mesh_angles_max_diff_deg"].values() for v in w.values())
+        print(f"  ground vs CAD: Hausdorff {c['hausdorff_mm'] * 1e3:.4f} µm, angles within "
+              f"{worst:.2e}° (exact surfaces), {worst_m:.3f}° (mesh path)")
+    for w in wrote:
+        print(f"  wrote {w}")
+    return 0
+
+
 def cmd_gauges(args) -> int:
     from .cannula import GAUGE_SOURCE, gauge_table
 
@@ -367,6 +416,20 @@ def _parser() -> argparse.ArgumentParser:
     gc.add_argument("--mesh", metavar="FILE", help="write the ablated tip (sim)")
     gc.add_argument("--json", action="store_true")
     gc.set_defaults(func=cmd_gcode)
+    gr = sub.add_parser("grind", help="five-axis grinding program, set-up and simulation")
+    gr.add_argument("spec", metavar="SPEC")
+    gr.add_argument("-o", "--output", metavar="FILE", help="axis program (.json or .csv)")
+    gr.add_argument("--gcode", metavar="FILE", help="ISO G-code rendering")
+    gr.add_argument("--sheet", metavar="FILE", help="Markdown set-up sheet")
+    gr.add_argument("--simulate", metavar="FILE", help="write the simulated ground tip mesh")
+    gr.add_argument("--report", action="store_true", help="compare the simulation with CAD")
+    gr.add_argument("--machine", metavar="TOML", help="machine limits and set-up overrides")
+    gr.add_argument("--feed", type=float, default=0.1, help="infeed, mm/s (0.1)")
+    gr.add_argument("--needle-rpm", type=float, default=1000.0,
+                    help="needle spin for conical tips (1000)")
+    gr.add_argument("--tolerance-um", type=float, default=None)
+    gr.add_argument("--json", action="store_true")
+    gr.set_defaults(func=cmd_grind)
     g = sub.add_parser("gauges", help="the needle gauge table")
     g.add_argument("--json", action="store_true")
     g.set_defaults(func=cmd_gauges)
@@ -386,6 +449,7 @@ def _parser() -> argparse.ArgumentParser:
 
 def main(argv: list[str] | None = None) -> int:
     """Entry point of the ``tipgeo`` command."""
+    from cam.machine import CamError
     from gcode.errors import GCodeError
 
     from .errors import BuildError, SpecError, TipGeoError
@@ -395,7 +459,7 @@ def main(argv: list[str] | None = None) -> int:
         if getattr(args, "output", None) == [] and args.command == "build" and not args.png:
             raise SpecError("build needs at least one -o FILE (or --png FILE)")
         return args.func(args)
-    except (SpecError, GCodeError) as e:
+    except (SpecError, GCodeError, CamError) as e:
         print(f"tipgeo: error: {e}", file=sys.stderr)
         return 2
     except (BuildError, TipGeoError) as e:

@@ -7,10 +7,19 @@ from .base import Cutter
 from .conical import ConicalCutter
 from .custom import MeshCutter, SDFCutter
 from .helical import HelicalCutter, thesis_helical
-from .planar import BevelCutter, LancetCutter, MultiPlaneCutter, Plane, multiplane_xi_for_theta
+from .planar import (
+    BevelCutter,
+    LancetCutter,
+    MultiPlaneCutter,
+    PlanarCutter,
+    Plane,
+    PlaneSetCutter,
+    multiplane_xi_for_theta,
+)
 from .serration import SERRATION_PRESETS, SerrationCutter, SerrationProfile
 
-__all__ = ["Cutter", "BevelCutter", "MultiPlaneCutter", "LancetCutter", "Plane",
+__all__ = ["Cutter", "PlanarCutter", "PlaneSetCutter", "BevelCutter", "MultiPlaneCutter",
+           "LancetCutter", "Plane",
            "ConicalCutter", "HelicalCutter", "SerrationCutter", "SerrationProfile",
            "MeshCutter", "SDFCutter", "SERRATION_PRESETS", "multiplane_xi_for_theta",
            "thesis_helical"]

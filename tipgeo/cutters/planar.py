@@ -29,7 +29,7 @@ from ..errors import SpecError
 from .base import Cutter
 
 __all__ = ["Plane", "PlanarCutter", "BevelCutter", "MultiPlaneCutter", "LancetCutter",
-           "multiplane_xi_for_theta"]
+           "PlaneSetCutter", "multiplane_xi_for_theta"]
 
 HALF_PI = 0.5 * math.pi
 
@@ -321,3 +321,41 @@ def _name(name: object) -> None:
     if not isinstance(name, str) or not name or not all(c.isalnum() or c in "-_" for c in name):
         raise SpecError(f"name = {name!r} is not a valid cutter name; allowed letters, digits, "
                         "'-' and '_'")
+
+
+@dataclass(frozen=True, kw_only=True)
+class PlaneSetCutter(PlanarCutter):
+    """Any set of planes, each keeping m·p ≤ d (unit normal m with m_z > 0,
+    offset d in mm; cannula frame) — e.g. the faces a grinding simulation
+    left. Python-only (no TOML form). Faces ``cut:<name>.<k>``.
+    """
+
+    plane_normals: tuple[tuple[float, float, float], ...]
+    plane_offsets: tuple[float, ...]
+    name: str = "planes"
+    kind = "planes"
+
+    def __post_init__(self):
+        if len(self.plane_normals) != len(self.plane_offsets) or not self.plane_normals:
+            raise SpecError(f"plane_normals ({len(self.plane_normals)}) and plane_offsets "
+                            f"({len(self.plane_offsets)}) "
+                            "must be non-empty and of the same length")
+        for k, n in enumerate(self.plane_normals):
+            n = np.asarray(n, float)
+            if n.shape != (3,) or not np.all(np.isfinite(n)) or abs(np.linalg.norm(n) - 1) > 1e-9:
+                raise SpecError(f"plane_normals[{k}] = {tuple(n)} is not a unit 3-vector")
+            if not n[2] > 0:
+                raise SpecError(f"plane_normals[{k}] has n_z = {n[2]:.6g}; allowed n_z > 0 (the "
+                                "plane must face the tip)")
+        _name(self.name)
+
+    def planes(self, cannula):
+        out = []
+        for k, (n, d) in enumerate(zip(self.plane_normals, self.plane_offsets)):
+            xi = math.asin(min(n[2], 1.0))
+            beta = math.atan2(n[1], n[0]) if xi < HALF_PI - 1e-15 else 0.0
+            out.append(Plane(xi, beta, d / math.sin(xi), f"{self.label}.{k}"))
+        return out
+
+    def face_labels(self):
+        return tuple(f"{self.label}.{k}" for k in range(len(self.plane_normals)))

@@ -6,7 +6,10 @@ cutting angles of every preset (``angles.csv``, ``angles.json``) and plots of
 the angle curves overlaid (``angles-*.png``, like thesis Figs. 3.5–3.10).
 For the serrated punches: the AeroBasic laser programs (``punch-C*.pgm``),
 and for C2 the simulated cut (``punch-C2-laser-sim.stl``) with its toolpath and
-rim pictures. Later features add their own outputs here. Lengths in mm, angles
+rim pictures. For the needles the grinder makes: the axis program, its G-code
+and set-up sheet (``*.grind.json``, ``*.grind.nc``, ``*.setup.md``), each
+simulated and compared with the CAD tip. Later features add their own outputs
+here. Lengths in mm, angles
 in degrees.
 """
 
@@ -114,6 +117,33 @@ def _laser_outputs(out: Path, names, pictures: bool, log) -> list[dict]:
     return rows
 
 
+def _grind_outputs(out: Path, names, log) -> list[dict]:
+    """Grinding programs (JSON, G-code, set-up sheet) of the thesis needles the
+    grinder makes, each simulated and compared with its CAD tip."""
+    from cam import CamError, compare_with_cad, make_program, simulate
+
+    rows = []
+    for name in names:
+        spec = preset(name)
+        try:
+            prog = make_program(spec)
+        except CamError as e:  # e.g. punches (flat land), helical tips: not this machine
+            rows.append({"name": name, "ground": False, "reason": str(e)})
+            continue
+        _atomic_text(out / f"{name}.grind.json", prog.to_json())
+        _atomic_text(out / f"{name}.grind.nc", prog.to_gcode())
+        _atomic_text(out / f"{name}.setup.md", prog.setup_sheet())
+        ground = simulate(prog, spec)
+        cmp = compare_with_cad(ground, spec)
+        worst = max(v for w in cmp["angles_max_diff_deg"].values() for v in w.values())
+        rows.append({"name": name, "ground": True, "time_s": prog.summary()["time_s"],
+                     "hausdorff_um": cmp["hausdorff_mm"] * 1e3, "angles_max_diff_deg": worst})
+        if log is not None:
+            print(f"grind: {name}: Hausdorff {cmp['hausdorff_mm'] * 1e3:.2e} µm, angles "
+                  f"within {worst:.1e}°", file=log, flush=True)
+    return rows
+
+
 def run_demo(out, *, tolerance: float | None = None, log=None, pictures: bool = True,
              names: list[str] | None = None) -> dict:
     """Build the presets ``names`` (default: all) into folder ``out``.
@@ -147,8 +177,10 @@ def run_demo(out, *, tolerance: float | None = None, log=None, pictures: bool = 
                   file=log, flush=True)
     angle_files = _angle_outputs(out, names, pictures, log)
     laser_files = _laser_outputs(out, names, pictures, log)
+    grind_rows = _grind_outputs(out, names, log)
     summary = {"out": str(out), "tolerance_um": None if tolerance is None else tolerance * 1e3,
-               "tips": rows, "angles": angle_files, "laser": laser_files}
+               "tips": rows, "angles": angle_files, "laser": laser_files,
+               "grinding": grind_rows}
     _atomic_text(out / "summary.json", json.dumps(summary, indent=2) + "\n")
     buf = io.StringIO()
     w = csv.DictWriter(buf, fieldnames=list(rows[0]))

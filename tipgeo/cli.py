@@ -444,6 +444,9 @@ def _parser() -> argparse.ArgumentParser:
     d.add_argument("--no-pictures", action="store_true", help="skip the PNG previews")
     d.add_argument("--json", action="store_true")
     d.set_defaults(func=cmd_demo)
+    from .cli_mechanics import register as _register_mechanics
+
+    _register_mechanics(sub)
     return p
 
 

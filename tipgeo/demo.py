@@ -178,9 +178,12 @@ def run_demo(out, *, tolerance: float | None = None, log=None, pictures: bool = 
     angle_files = _angle_outputs(out, names, pictures, log)
     laser_files = _laser_outputs(out, names, pictures, log)
     grind_rows = _grind_outputs(out, names, log)
+    from .mechanics import demo_outputs as _mechanics_outputs
+
+    mechanics_files = _mechanics_outputs(out, log=log, pictures=pictures)
     summary = {"out": str(out), "tolerance_um": None if tolerance is None else tolerance * 1e3,
                "tips": rows, "angles": angle_files, "laser": laser_files,
-               "grinding": grind_rows}
+               "grinding": grind_rows, "mechanics": mechanics_files}
     _atomic_text(out / "summary.json", json.dumps(summary, indent=2) + "\n")
     buf = io.StringIO()
     w = csv.DictWriter(buf, fieldnames=list(rows[0]))

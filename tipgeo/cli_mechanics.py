@@ -1,0 +1,230 @@
+"""The ``tipgeo forces`` and ``tipgeo tissue`` commands (cutting mechanics
+and tissue models, :mod:`tipgeo.mechanics`).
+
+Boundary units: angles in degrees, strain energy release rate in J/m²,
+stresses in MPa (tables) or kPa (pictures), forces in N. Plain output on
+stdout, ``--json`` for machines; bad input raises :class:`SpecError` (the
+main dispatcher prints it and exits 2).
+"""
+
+from __future__ import annotations
+
+import json
+import math
+from pathlib import Path
+
+__all__ = ["register", "cmd_forces", "cmd_tissue"]
+
+
+def _spec(arg: str):
+    from .errors import SpecError
+    from .presets import PRESETS, preset
+    from .spec import load_spec
+
+    p = Path(arg)
+    if p.exists() or arg.endswith(".toml"):
+        return load_spec(p)
+    if arg in PRESETS:
+        return preset(arg)
+    raise SpecError(f"SPEC = '{arg}' is neither a spec file nor a preset; presets: "
+                    + ", ".join(PRESETS))
+
+
+def _sweep(args):
+    import numpy as np
+
+    from . import _validate as v
+
+    if args.sweep is None:
+        return None
+    s0, s1, n = args.sweep
+    s0 = v.real("--sweep S0", s0)
+    s1 = v.real("--sweep S1", s1, lo=s0, lo_open=True)
+    n = v.integer("--sweep N", n, lo=2, hi=10001)
+    return np.linspace(s0, s1, n)
+
+
+def cmd_forces(args) -> int:
+    """Fracture forces along the edges of one or more tips."""
+    import numpy as np
+
+    from . import _validate as v
+    from .mechanics import J_PER_M2
+    from .mechanics.report import tip_forces
+
+    S_values = _sweep(args)
+    if args.plot and S_values is None:
+        S_values = np.linspace(0.0, 3.0, 61)
+    R = None if args.R_j_m2 is None else v.real("--R-j-m2", args.R_j_m2, lo=0.0,
+                                                 lo_open=True, unit="J/m²") * J_PER_M2
+    theta = None
+    if args.theta_deg is not None:
+        theta = math.radians(v.real("--theta-deg", args.theta_deg, lo=0.0, hi=90.0,
+                                    lo_open=True, hi_open=True))
+    results = []
+    for arg in args.spec:
+        spec = _spec(arg)
+        results.append(tip_forces(spec, args.speed_ratio, tissue_name=args.tissue, R=R,
+                                  mu_d=args.mu_d, G=args.G, theta=theta, wall=args.wall,
+                                  method=args.method, S_values=S_values,
+                                  label=spec.name or Path(arg).stem))
+    wrote = []
+    if args.plot:
+        from .mechanics.plots import plot_edge_forces
+
+        wrote.append(str(plot_edge_forces([(r.label, r.forces, r.sweep) for r in results],
+                                          args.plot)))
+    if args.json:
+        data = [r.to_dict(args.step_deg) for r in results]
+        out = {"tips": data, "wrote": wrote}
+        print(json.dumps(out, indent=2))
+        return 0
+    for r in results:
+        s = r.forces.summary()
+        print(f"{r.label} ({r.geometry.wall} edge, {r.geometry.method}): S {s['S']:g}, "
+              f"tissue {r.tissue}, R {s['R_J_m2']:g} J/m², μ_d {s['mu_d']}, G {s['G']:g}, "
+              f"θ {s['theta_deg']:.4f}°")
+        print(f"  mean F⊥ {s['mean_F_perp_N']:.5f} N  F∥ {s['mean_F_par_N']:.5f} N  "
+              f"axial {s['mean_F_axial_N']:.5f} N  tangential {s['mean_F_tangential_N']:.5f} N")
+        kmax = "inf" if math.isinf(s["k_max"]) else f"{s['k_max']:.4g}"
+        print(f"  max F⊥ {s['max_F_perp_N']:.5f} N at γ {s['gamma_of_max_F_perp_deg']:.2f}°; "
+              f"k {s['k_min']:.4g}…{kmax}")
+        if r.sweep is not None and args.sweep is not None:
+            print("  S        mean_F_perp_N  mean_F_par_N  mean_F_axial_N  mean_F_tangential_N")
+            sw = r.sweep
+            for j in range(len(sw["S"])):
+                print(f"  {sw['S'][j]:<8.4g} {sw['perp'][j]:13.5f}  {sw['par'][j]:12.5f}  "
+                      f"{sw['axial'][j]:14.5f}  {sw['tangential'][j]:19.5f}")
+    for w in wrote:
+        print(f"wrote {w}")
+    return 0
+
+
+def _fit_text(res) -> list[str]:
+    s = res.summary()
+    p = s["params"]
+    lines = [f"{s['model']}: n {s['n']}, stretch {s['stretch_range'][0]:.4f}…"
+             f"{s['stretch_range'][1]:.4f}, R² {s['r2']:.6f}, RMSE {s['rmse_MPa']:.6g} MPa"]
+    if s["model"] == "ogden":
+        for i, (m, a) in enumerate(zip(p["mu_MPa"], p["alpha"]), 1):
+            lines.append(f"  μ{i} {m:.6g} MPa (± {s['stderr']['mu_MPa'][i - 1]:.2g})  "
+                         f"α{i} {a:.6g} (± {s['stderr']['alpha'][i - 1]:.2g})")
+    else:
+        lines.append(f"  μ {p['mu_MPa']:.6g} MPa (± {s['stderr']['mu_MPa']:.2g})")
+        if "lambda_m" in p:
+            lm = p["lambda_m"]
+            lines.append("  λ_m " + ("∞ (neo-Hookean)" if lm is None else
+                                     f"{lm:.6g} (± {s['stderr']['lambda_m']:.2g})"))
+    lines.append(f"  initial shear modulus μ₀ {s['initial_shear_modulus_MPa']:.6g} MPa, "
+                 f"E₀ = 3μ₀ {s['E0_kPa']:.4g} kPa")
+    return lines
+
+
+def cmd_tissue(args) -> int:
+    """``tissue fit``, ``tissue list`` and ``tissue show``."""
+    from .errors import SpecError
+    from .mechanics.materials import TISSUES, tissue
+
+    if args.action == "list":
+        if args.json:
+            print(json.dumps([t.summary() for t in TISSUES.values()], indent=2,
+                             default=_json_default))
+            return 0
+        for t in TISSUES.values():
+            print(f"{t.name:<20} {t.description}")
+        return 0
+    if args.action == "show":
+        if not args.target:
+            raise SpecError("tissue show: give a tissue NAME; names: " + ", ".join(TISSUES))
+        s = tissue(args.target).summary()
+        print(json.dumps(s, indent=2, default=_json_default))
+        return 0
+    from .mechanics.tissue import fit_uniaxial, read_uniaxial_csv
+
+    if not args.target:
+        raise SpecError("tissue fit: give a data file (CSV)")
+    lam, sig, info = read_uniaxial_csv(args.target)
+    models = args.model or ["arruda-boyce"]
+    fits = [fit_uniaxial(lam, sig, m, terms=args.terms) for m in models]
+    wrote = []
+    if args.plot:
+        from .mechanics.plots import plot_tissue_fit
+
+        wrote.append(str(plot_tissue_fit(lam, sig, fits, args.plot,
+                                         title=f"{Path(args.target).name}: true stress "
+                                               "against stretch")))
+    if args.json:
+        print(json.dumps({"data": info, "fits": [f.summary() for f in fits], "wrote": wrote},
+                         indent=2, default=_json_default))
+        return 0
+    print(f"{info['path']}: {info['rows']} rows ({info['kind']} "
+          f"{'/'.join(info['columns'])})")
+    for f in fits:
+        for line in _fit_text(f):
+            print(line)
+    for w in wrote:
+        print(f"wrote {w}")
+    return 0
+
+
+def _json_default(o):
+    import numpy as np
+
+    if isinstance(o, np.generic):
+        return o.item()
+    if isinstance(o, float) and math.isinf(o):
+        return None
+    return str(o)
+
+
+def register(subparsers) -> None:
+    """Add ``forces`` and ``tissue`` to the main parser's subparsers."""
+    from .mechanics.fracture import DEFAULT_G
+
+    f = subparsers.add_parser(
+        "forces", help="fracture forces along the cutting edge (thesis eq. 3.19–3.23)",
+        description="Fracture forces F⊥(γ), F∥(γ) along a tip's cutting edge for a "
+                    "rotation/translation ratio S = v_r/v_a in a tissue; means over γ; "
+                    "several tips compared (forces in N, angles in degrees).")
+    f.add_argument("spec", metavar="SPEC", nargs="+", help="spec file (.toml) or preset name")
+    f.add_argument("--speed-ratio", "-S", type=float, required=True, metavar="S",
+                   help="rotation/translation ratio S = v_r / v_a")
+    f.add_argument("--tissue", default="soft-tissue-3.1.5", metavar="NAME",
+                   help="tissue from the library (tipgeo tissue list); default "
+                        "soft-tissue-3.1.5: R = 45 J/m², μ_d = 0.4")
+    f.add_argument("--R-j-m2", type=float, default=None, metavar="R",
+                   help="strain energy release rate (J/m²), overrides the tissue's")
+    f.add_argument("--mu-d", type=float, default=None, metavar="MU",
+                   help="dynamic friction coefficient, overrides the tissue's")
+    f.add_argument("--G", type=float, default=DEFAULT_G, metavar="G",
+                   help=f"geometric factor of eq. 3.19 (thesis 0.3–0.4; default {DEFAULT_G})")
+    f.add_argument("--theta-deg", type=float, default=None, metavar="DEG",
+                   help="included angle (default: the acute included angle at the tip)")
+    f.add_argument("--wall", choices=("outer", "inner"), default="outer",
+                   help="edge whose tangent gives k (default outer, as the thesis)")
+    f.add_argument("--method", choices=("exact", "fourier"), default="exact",
+                   help="edge tangents: exact surfaces (default) or the Fourier fit")
+    f.add_argument("--sweep", type=float, nargs=3, metavar=("S0", "S1", "N"),
+                   help="also the means over γ for N values of S from S0 to S1 (Fig. 3.12b)")
+    f.add_argument("--step-deg", type=float, default=1.0, metavar="DEG",
+                   help="γ step of the JSON along-edge table (default 1°)")
+    f.add_argument("--plot", metavar="FILE", help="PNG like Fig. 3.12 (along the edge; means "
+                   "against S, 0–3 unless --sweep)")
+    f.add_argument("--json", action="store_true", help="summaries, tables and sweeps as JSON")
+    f.set_defaults(func=cmd_forces)
+
+    t = subparsers.add_parser(
+        "tissue", help="tissue models: fit uniaxial data, list the materials library",
+        description="fit: Arruda–Boyce / Ogden / neo-Hookean to a uniaxial CSV "
+                    "(strain,stress_mpa engineering or stretch,true_stress_mpa); "
+                    "list/show: the thesis's PVC phantoms with sources.")
+    t.add_argument("action", choices=("fit", "list", "show"))
+    t.add_argument("target", nargs="?", metavar="DATA|NAME",
+                   help="fit: the CSV file; show: the tissue name")
+    t.add_argument("--model", action="append", choices=("arruda-boyce", "ogden", "neo-hookean"),
+                   help="model to fit (repeatable; default arruda-boyce)")
+    t.add_argument("--terms", type=int, default=3, metavar="N",
+                   help="Ogden terms (default 3, as the thesis)")
+    t.add_argument("--plot", metavar="FILE", help="PNG of data and fits (like Fig. 4.4)")
+    t.add_argument("--json", action="store_true", help="machine-readable output")
+    t.set_defaults(func=cmd_tissue)

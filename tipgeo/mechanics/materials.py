@@ -1,0 +1,147 @@
+"""Materials library: the thesis's PVC phantom tissues and the generic soft
+tissue of its helical-needle force model, with every value's source.
+
+Units: Young's modulus E and hyperelastic constants in MPa (the thesis's
+tables print kPa for E and, per the errata, MPa for the constants), strain
+energy release rate R in N/mm (1 J/m² = 1e-3 N/mm), friction coefficients
+dimensionless.
+
+The phantoms are 8116SS plastic (P) with 4116S softener (S) and 5 % mineral
+oil (thesis §2.3.3), named by their S/P ratio. Sources, table by table:
+
+* E: Table 2.1 (32.96, 20.30, 13.60, 4.88 kPa for S/P = 0, 0.25, 0.5, 1).
+  Table 2.4 uses E = 12.9 kPa for S/P = 0.5 in its force model.
+* Arruda–Boyce μ, λ_m and Ogden μᵢ, αᵢ with the thesis's R² and RMSE: Table
+  4.1 (S/P = 0), Tables A1–A3 (0.25, 0.5, 1). Table A1's μ printed 0.238 is
+  0.0238 (ERRATA; Appendix B4 uses 0.0238). Table A2's μ₃ printed "0165" is
+  read as 0.165 (0.0165 gives Σμᵢ < 0, an unstable material; with 0.165
+  the curve differs from Table A2's Arruda–Boyce by at most 38 % of the
+  latter's largest |σ| over λ = 0.3–2). Table A3's
+  Ogden constants repeat Table 4.1's and are unknown (ERRATA): none here.
+* R = 35 J/m² and η = 0.5: Table 2.4 (S/P = 0.5). Friction regressions:
+  Table 2.5 (S/P = 0.5), Table 4.2 (the FE models' tissue, S/P = 0).
+  μ_d = 0.4: §4.4.3 (S/P = 0 at k = 0.5); 0.28: Appendix B4's *Friction for
+  the S/P = 0.25 constants.
+* ``soft-tissue-3.1.5``: R = 45 J/m², μ_d = 0.4 — the values of the thesis's
+  helical-versus-bevel fracture model (§3.1.5, after Han et al. 2013a).
+
+Checks worth knowing (computed, E₀ = 3μ₀ from the fitted constants): the
+Arruda–Boyce fits give E₀ ≈ 28, 85, 29 and 4.9 kPa for S/P = 0, 0.25, 0.5, 1
+against Table 2.1's 33, 20, 14 and 4.9 kPa; the S/P = 0.25 and 0.5 fits are
+stiffer at small strain than the moduli measured for Table 2.1.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Any
+
+from ..errors import SpecError
+from ._common import J_PER_M2, KPA
+from .cutting import FRICTION_PRESETS, FrictionRegression
+from .tissue import ArrudaBoyce, Ogden
+
+__all__ = ["Tissue", "TISSUES", "tissue", "tissue_names"]
+
+
+@dataclass(frozen=True)
+class Tissue:
+    """One tissue with what the thesis gives for it (None where it gives
+    nothing).
+
+    Attributes
+    ----------
+    name, description : str
+    E : float or None — Young's modulus, MPa
+    eta : float or None — Poisson ratio
+    R : float or None — strain energy release rate, N/mm
+    mu_d : float or None — constant dynamic friction coefficient
+    friction : FrictionRegression or None — μ_da(k), μ_dr(k)
+    arruda_boyce, ogden : fitted models or None
+    fits : dict — the thesis's R² and RMSE (MPa) of each fit
+    sources : dict — where each value comes from
+    """
+
+    name: str
+    description: str
+    E: float | None = None
+    eta: float | None = None
+    R: float | None = None
+    mu_d: float | None = None
+    friction: FrictionRegression | None = None
+    arruda_boyce: ArrudaBoyce | None = None
+    ogden: Ogden | None = None
+    fits: dict[str, dict[str, float]] = field(default_factory=dict, hash=False)
+    sources: dict[str, str] = field(default_factory=dict, hash=False)
+
+    def model(self, name: str):
+        """The fitted model ``arruda-boyce`` or ``ogden``."""
+        m = {"arruda-boyce": self.arruda_boyce, "ogden": self.ogden}.get(name)
+        if m is None:
+            raise SpecError(f"tissue '{self.name}' has no {name!r} model; it has: "
+                            + (", ".join(k for k, x in (("arruda-boyce", self.arruda_boyce),
+                                                        ("ogden", self.ogden)) if x) or "none"))
+        return m
+
+    def summary(self) -> dict[str, Any]:
+        """Values in report units: E in kPa, R in J/m², constants in MPa."""
+        return {
+            "name": self.name, "description": self.description,
+            "E_kPa": None if self.E is None else self.E / KPA, "eta": self.eta,
+            "R_J_m2": None if self.R is None else self.R / J_PER_M2, "mu_d": self.mu_d,
+            "friction": None if self.friction is None else self.friction.name,
+            "arruda_boyce": None if self.arruda_boyce is None else
+            {**self.arruda_boyce.params(),
+             "E0_kPa": 3 * self.arruda_boyce.initial_shear_modulus / KPA},
+            "ogden": None if self.ogden is None else
+            {**self.ogden.params(), "E0_kPa": 3 * self.ogden.initial_shear_modulus / KPA},
+            "fits": self.fits, "sources": self.sources}
+
+
+def _pvc(sp: str, E_kpa: float, ab, ab_fit, og, og_fit, src_tab: str, **kw) -> Tissue:
+    return Tissue(
+        name=f"pvc-sp{sp}",
+        description=f"PVC phantom, softener/plastic S/P = {sp} (thesis §2.3.3)",
+        E=E_kpa * KPA, arruda_boyce=ab, ogden=og,
+        fits={k: {"r2": f[0], "rmse_MPa": f[1]} for k, f in
+              (("arruda-boyce", ab_fit), ("ogden", og_fit)) if f is not None},
+        sources={"E": "Table 2.1", "arruda_boyce": src_tab,
+                 "ogden": src_tab if og is not None else "unknown (ERRATA: Table A3)",
+                 **kw.pop("sources", {})},
+        **kw)
+
+
+TISSUES: dict[str, Tissue] = {t.name: t for t in (
+    _pvc("0", 32.96, ArrudaBoyce(mu=0.00418, lambda_m=1.15), (0.967, 0.0298),
+         Ogden(mu=(-0.0255, 0.0088, 0.0249), alpha=(-3.91, 4.74, -4.09)), (0.9606, 0.0328),
+         "Table 4.1", mu_d=0.4, friction=FRICTION_PRESETS["table-4.2"],
+         sources={"mu_d": "§4.4.3 (k = 0.5)", "friction": "Table 4.2"}),
+    _pvc("0.25", 20.30, ArrudaBoyce(mu=0.0238, lambda_m=2.024), (0.9776, 0.0206),
+         Ogden(mu=(-0.0136, 0.0143, 0.00053), alpha=(4.538, 4.658, -5.94)), (0.9647, 0.0206),
+         "Table A1 (μ 0.238 → 0.0238, ERRATA)", mu_d=0.28,
+         sources={"mu_d": "Appendix B4 (*Friction)"}),
+    _pvc("0.5", 13.60, ArrudaBoyce(mu=0.0058, lambda_m=1.35), (0.984, 0.0058),
+         Ogden(mu=(-0.175, 0.0113, 0.165), alpha=(-1.58, 3.798, -1.74)), (0.998, 0.0018),
+         "Table A2 (μ₃ printed 0165 read as 0.165)", R=35 * J_PER_M2, eta=0.5,
+         friction=FRICTION_PRESETS["table-2.5"],
+         sources={"R": "Table 2.4", "eta": "Table 2.4", "friction": "Table 2.5"}),
+    _pvc("1", 4.88, ArrudaBoyce(mu=0.0008, lambda_m=1.198), (0.834, 0.018), None, None,
+         "Table A3"),
+    Tissue(name="soft-tissue-3.1.5",
+           description="generic soft tissue of the helical-versus-bevel fracture model "
+                       "(thesis §3.1.5, after Han et al. 2013a)",
+           R=45 * J_PER_M2, mu_d=0.4, sources={"R": "§3.1.5", "mu_d": "§3.1.5"}),
+)}
+
+
+def tissue_names() -> list[str]:
+    """Names of the tissues in the library."""
+    return list(TISSUES)
+
+
+def tissue(name: str) -> Tissue:
+    """The tissue called ``name`` (see :func:`tissue_names`)."""
+    if name not in TISSUES:
+        raise SpecError(f"tissue = {name!r} is not known; expected one of: "
+                        + ", ".join(TISSUES))
+    return TISSUES[name]

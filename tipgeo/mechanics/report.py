@@ -1,0 +1,225 @@
+"""Force reports of whole tips: along-edge fracture forces for a tissue,
+their means against S, and the helical-versus-bevel comparison of thesis
+§3.1.5 (Fig. 3.12) computed from tipgeo's own geometry.
+
+Units: N, mm, rad inside; reports give degrees and J/m². Frame: the
+analysis frame of :mod:`tipgeo.angles`.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import warnings
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from .. import _validate as v
+from ..errors import SpecError
+from ._common import J_PER_M2, ValidityWarning
+from .fracture import DEFAULT_G, EdgeForces, edge_forces, mean_forces_vs_speed_ratio
+from .materials import Tissue, tissue
+from .slicepush import EdgeGeometry, edge_geometry
+
+__all__ = ["TipForces", "tip_forces", "helical_vs_bevel", "write_helical_vs_bevel",
+           "HELICAL", "BEVEL", "THESIS_HELICAL_G_FACTOR"]
+
+HELICAL = "helical-14G"
+BEVEL = "bevel-14G-xi14.5"
+#: §3.1.5: G "was considered 10% smaller for helical needles".
+THESIS_HELICAL_G_FACTOR = 0.9
+
+
+@dataclass
+class TipForces:
+    """Along-edge fracture forces of one tip at one S, and optionally their
+    means against S.
+
+    Attributes
+    ----------
+    label : str
+    geometry : EdgeGeometry
+    forces : EdgeForces
+    sweep : dict or None — ``S`` and mean ``perp``, ``par``, ``axial``,
+        ``tangential`` (N)
+    tissue : str
+    notes : list of str — how μ_d was taken, extrapolations
+    """
+
+    label: str
+    geometry: EdgeGeometry
+    forces: EdgeForces
+    sweep: dict[str, np.ndarray] | None
+    tissue: str
+    notes: list[str]
+
+    def to_dict(self, step_deg: float | None = 1.0) -> dict[str, Any]:
+        """JSON-ready: summary (+ tissue, method, notes), the along-edge table
+        every ``step_deg`` (None: leave out) and the sweep."""
+        out: dict[str, Any] = {"label": self.label, "tissue": self.tissue,
+                               "method": self.geometry.method,
+                               **self.forces.summary(), "notes": self.notes}
+        if step_deg is not None:
+            out["along_edge"] = self.forces.table(step_deg)
+        if self.sweep is not None:
+            out["sweep"] = {k: np.asarray(x).tolist() for k, x in self.sweep.items()}
+        return out
+
+
+def _friction(t: Tissue | None, mu_d: float | None, notes: list[str]):
+    if mu_d is not None:
+        notes.append(f"μ_d = {mu_d:g} (given)")
+        return v.real("mu_d", mu_d, lo=0.0)
+    if t is not None and t.mu_d is not None:
+        notes.append(f"μ_d = {t.mu_d:g} ({t.sources.get('mu_d', t.name)})")
+        return t.mu_d
+    if t is not None and t.friction is not None:
+        fr = t.friction
+        notes.append(f"μ_d(k) = √(μ_da² + μ_dr²) from {fr.source} at the local k, held at its "
+                     f"value at k = {fr.k_range[1]:g} beyond the measured range")
+        return fr.mu_d_held
+    raise SpecError(f"mu_d: tissue '{t.name if t else None}' gives no friction coefficient; "
+                    "pass mu_d (CLI: --mu-d)")
+
+
+def tip_forces(source, S: float, *, tissue_name: str | None = "soft-tissue-3.1.5",
+               R: float | None = None, mu_d: float | None = None, G: float = DEFAULT_G,
+               theta: float | None = None, wall: str = "outer", method: str = "exact",
+               S_values=None, label: str | None = None, samples: int = 3600) -> TipForces:
+    """Fracture forces along the edge of one tip in one tissue.
+
+    Parameters
+    ----------
+    source : TipSpec, Tip, AngleReport or EdgeGeometry
+    S : float — rotation/translation ratio v_r / v_a
+    tissue_name : str or None — a :mod:`~tipgeo.mechanics.materials` name;
+        gives R and μ_d unless they are passed
+    R : float, optional — strain energy release rate, N/mm
+    mu_d : float, optional — dynamic friction coefficient
+    G : float — geometric factor of eq. 3.19–3.20
+    theta : float, optional — included angle, rad (default: at the tip)
+    wall, method, samples : see :func:`edge_geometry`
+    S_values : sequence, optional — S grid for the means (Fig. 3.12b)
+    label : str, optional
+
+    Returns
+    -------
+    TipForces
+    """
+    t = tissue(tissue_name) if tissue_name is not None else None
+    notes: list[str] = []
+    if R is None:
+        if t is None or t.R is None:
+            raise SpecError(f"R: tissue '{tissue_name}' gives no strain energy release rate; "
+                            "pass R (CLI: --R-j-m2)")
+        R = t.R
+        notes.append(f"R = {R / J_PER_M2:g} J/m² ({t.sources.get('R', t.name)})")
+    else:
+        notes.append(f"R = {R / J_PER_M2:g} J/m² (given)")
+    mu = _friction(t, mu_d, notes)
+    geom = source if isinstance(source, EdgeGeometry) else edge_geometry(
+        source, wall=wall, samples=samples, method=method)
+    ef = edge_forces(geom, S, R=R, mu_d=mu, G=G, theta=theta)
+    if callable(mu):
+        held = float(np.mean(ef.k > mu.__self__.k_range[1]))
+        if held > 0:
+            warnings.warn(f"k exceeds the friction regression's range (k ≤ "
+                          f"{mu.__self__.k_range[1]:g}) on {held:.1%} of the edge at S = {S:g}; "
+                          "μ_d held at its end value there", ValidityWarning, stacklevel=2)
+        ef.mu_d = f"μ_d(k), {mu.__self__.name}"
+    sweep = None
+    if S_values is not None:
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", ValidityWarning)
+            sweep = mean_forces_vs_speed_ratio(geom, S_values, R=R, mu_d=mu, G=G, theta=theta)
+    theta_note = ("θ = the acute included angle at the tip" if theta is None
+                  else "θ given")
+    notes.append(f"{theta_note}: {math.degrees(ef.theta):.4f}°; G = {G:g}")
+    return TipForces(label=label or geom.name, geometry=geom, forces=ef, sweep=sweep,
+                     tissue=tissue_name or "(given)", notes=notes)
+
+
+def helical_vs_bevel(S: float = 0.3, S_values=None, *, G: float = DEFAULT_G,
+                     tissue_name: str = "soft-tissue-3.1.5") -> list[TipForces]:
+    """The thesis's helical needle against the ξ = 14.5° bevel of equal edge
+    length (§3.1.5, Fig. 3.12): R = 45 J/m², μ_d = 0.4 by default.
+
+    Returns three entries: the bevel (G), the helical needle with the same G
+    (geometry alone) and the helical needle with G × 0.9 (the thesis's "10 %
+    smaller" G for its narrower tip).
+    """
+    from ..presets import preset
+
+    S_values = np.linspace(0.0, 3.0, 61) if S_values is None else S_values
+    gb = edge_geometry(preset(BEVEL))
+    gh = edge_geometry(preset(HELICAL))
+    return [
+        tip_forces(gb, S, tissue_name=tissue_name, G=G, S_values=S_values,
+                   label=f"{BEVEL} (G {G:g})"),
+        tip_forces(gh, S, tissue_name=tissue_name, G=G, S_values=S_values,
+                   label=f"{HELICAL} (G {G:g})"),
+        tip_forces(gh, S, tissue_name=tissue_name, G=THESIS_HELICAL_G_FACTOR * G,
+                   S_values=S_values,
+                   label=f"{HELICAL} (G {THESIS_HELICAL_G_FACTOR * G:g}, thesis −10 %)"),
+    ]
+
+
+def _compare(entries: list[TipForces]) -> dict[str, Any]:
+    """Where the helical means lie below/above the bevel's (S values)."""
+    bevel, same, thesis = entries
+    S = bevel.sweep["S"]
+    out = {}
+    for key, h in (("same_G", same), ("thesis_G", thesis)):
+        d = {}
+        for q in ("perp", "par"):
+            diff = h.sweep[q] - bevel.sweep[q]
+            d[f"helical_minus_bevel_{q}_N"] = diff.tolist()
+            d[f"S_where_helical_{q}_lower"] = S[diff < 0].tolist()
+        out[key] = d
+    return out
+
+
+def _reverse(entries: list[TipForces]) -> dict[str, Any]:
+    """Means for S < 0 (the needle turned the other way, v_r < 0): the bevel
+    is symmetric, the helical tip is not."""
+    S = np.linspace(-3.0, 0.0, 13)
+    out: dict[str, Any] = {"S": S.tolist()}
+    for e in entries[:2]:
+        t = tissue(e.tissue)
+        sw = mean_forces_vs_speed_ratio(e.geometry, S, R=t.R, mu_d=t.mu_d, G=e.forces.G)
+        out[e.label] = {"perp": sw["perp"].tolist(), "par": sw["par"].tolist()}
+    return out
+
+
+def write_helical_vs_bevel(out_dir, *, S: float = 0.3, pictures: bool = True) -> list[str]:
+    """Write ``forces-helical-vs-bevel.json`` and (``pictures``) ``.png`` — the
+    along-edge forces at S and the means over S = 0…3 (Fig. 3.12) — and
+    ``fracture-vs-k.png`` (Fig. 2.8) into ``out_dir``. Returns the paths."""
+    from ..demo import _atomic_text
+
+    out = Path(out_dir)
+    out.mkdir(parents=True, exist_ok=True)
+    entries = helical_vs_bevel(S)
+    data = {"description": "Fracture forces along the outer cutting edge (thesis eq. "
+                           "3.19–3.23, ERRATA eq. 3.20–3.21) of the thesis helical needle and "
+                           "the ξ = 14.5° bevel of equal edge length; means over γ against S "
+                           "like thesis Fig. 3.12b. Forces in N.",
+            "tips": [e.to_dict(step_deg=5.0) for e in entries],
+            "comparison": _compare(entries),
+            "reverse_rotation": _reverse(entries)}
+    files = []
+    jp = out / "forces-helical-vs-bevel.json"
+    _atomic_text(jp, json.dumps(data, indent=2) + "\n")
+    files.append(str(jp))
+    if pictures:
+        from .plots import plot_edge_forces, plot_fracture_vs_k
+
+        files.append(str(plot_edge_forces([(e.label, e.forces, e.sweep) for e in entries],
+                                          out / "forces-helical-vs-bevel.png")))
+        g = entries[0].geometry
+        files.append(str(plot_fracture_vs_k(out / "fracture-vs-k.png", d_i=2 * g.r_i,
+                                            theta=math.radians(15.0))))
+    return files

@@ -1,0 +1,548 @@
+"""Hyperelastic tissue models under incompressible uniaxial load and their
+least-squares fits (thesis §4.2, eq. 4.1–4.17; ERRATA for eq. 4.10).
+
+Units: stresses and moduli in MPa (mm–N–s, as the Abaqus decks of Appendix
+B), stretches and strains dimensionless. Stretch λ along the load, the two
+lateral stretches λ^(−1/2) (eq. 4.4), I₁ = λ² + 2/λ.
+
+Uniaxial true (Cauchy) stress:
+
+* neo-Hookean:   σ = μ (λ² − 1/λ)
+* Arruda–Boyce:  U = μ Σᵢ Cᵢ / λ_m^(2i−2) (I₁^i − 3^i), i = 1…5 (eq. 4.9),
+  C = 1/2, 1/20, 11/1050, 19/7000, 519/673750 (eq. 4.8),
+  ∂U/∂I₁ = μ Σᵢ i Cᵢ I₁^(i−1) / λ_m^(2i−2) (eq. 4.10 as corrected),
+  σ = 2 ∂U/∂I₁ (λ² − 1/λ) (eq. 4.13, B₁₁ − B₃₃ = λ² − 1/λ). As λ_m → ∞ only
+  the i = 1 term is left: the neo-Hookean solid with shear modulus μ.
+* Ogden (N terms):  σ = Σᵢ (2μᵢ/αᵢ)(λ^αᵢ − λ^(−αᵢ/2)) (eq. 4.17).
+
+Initial shear modulus μ₀ (small-strain Young's modulus E₀ = 3μ₀):
+Arruda–Boyce μ₀ = μ (1 + 3/(5λ_m²) + 99/(175λ_m⁴) + 513/(875λ_m⁶)
++ 42039/(67375λ_m⁸)) (= 2 ∂U/∂I₁ at I₁ = 3); Ogden μ₀ = Σ μᵢ.
+
+Data: engineering stress P and strain e become true stress and stretch by
+σ = P (1 + e), λ = 1 + e (eq. 4.2–4.3); fits minimise the true-stress
+residuals (MPa), as Fig. 4.4 plots them, and report R² and RMSE.
+"""
+
+from __future__ import annotations
+
+import csv
+import io
+import itertools
+import math
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from .. import _validate as v
+from ..errors import SpecError
+from ._common import KPA, finite_array
+
+__all__ = ["NeoHookean", "ArrudaBoyce", "Ogden", "AB_C", "MODELS", "FitResult",
+           "true_from_engineering", "engineering_from_true", "fit_uniaxial",
+           "fit_engineering", "synthetic_uniaxial", "read_uniaxial_csv",
+           "uniaxial_csv_text", "make_model"]
+
+#: Arruda–Boyce constants C₁…C₅ (eq. 4.8).
+AB_C = (1 / 2, 1 / 20, 11 / 1050, 19 / 7000, 519 / 673750)
+
+#: Model names accepted by :func:`fit_uniaxial` and the CLI.
+MODELS = ("arruda-boyce", "ogden", "neo-hookean")
+
+
+def _ab_series(x) -> np.ndarray:
+    """Σᵢ i Cᵢ x^(i−1) with x = I₁ / λ_m² (so that ∂U/∂I₁ = μ · this)."""
+    return sum((i + 1) * c * x ** i for i, c in enumerate(AB_C))
+
+
+def _stretch(stretch) -> np.ndarray:
+    return finite_array("stretch", stretch, lo=0.0, lo_open=True)
+
+
+@dataclass(frozen=True)
+class NeoHookean:
+    """Incompressible neo-Hookean solid, U = μ/2 (I₁ − 3).
+
+    Attributes
+    ----------
+    mu : float — shear modulus, MPa (> 0)
+    """
+
+    mu: float
+    name = "neo-hookean"
+
+    def __post_init__(self):
+        object.__setattr__(self, "mu", v.real("mu", self.mu, lo=0.0, lo_open=True,
+                                              unit="MPa"))
+
+    def dU_dI1(self, I1) -> np.ndarray:
+        """∂U/∂I₁ = μ/2 (MPa)."""
+        return np.full(np.shape(I1), 0.5 * self.mu)
+
+    def stress(self, stretch) -> np.ndarray:
+        """Uniaxial true stress σ (MPa) at stretch λ (> 0)."""
+        lam = _stretch(stretch)
+        return self.mu * (lam ** 2 - 1.0 / lam)
+
+    @property
+    def initial_shear_modulus(self) -> float:
+        """μ₀ (MPa)."""
+        return self.mu
+
+    def params(self) -> dict[str, float]:
+        return {"mu_MPa": self.mu}
+
+
+@dataclass(frozen=True)
+class ArrudaBoyce:
+    """Incompressible Arruda–Boyce solid, five terms of the inverse Langevin
+    series (eq. 4.8–4.13, ERRATA).
+
+    Attributes
+    ----------
+    mu : float — MPa (> 0)
+    lambda_m : float — locking stretch (> 1; ``math.inf`` gives neo-Hookean)
+    """
+
+    mu: float
+    lambda_m: float
+    name = "arruda-boyce"
+
+    def __post_init__(self):
+        object.__setattr__(self, "mu", v.real("mu", self.mu, lo=0.0, lo_open=True,
+                                              unit="MPa"))
+        lm = self.lambda_m
+        if not (isinstance(lm, (int, float)) and not isinstance(lm, bool) and lm == math.inf):
+            lm = v.real("lambda_m", lm, lo=1.0, lo_open=True)
+        object.__setattr__(self, "lambda_m", float(lm))
+
+    @property
+    def beta(self) -> float:
+        """1 / λ_m² (0 for the neo-Hookean limit)."""
+        return 0.0 if math.isinf(self.lambda_m) else 1.0 / self.lambda_m ** 2
+
+    def dU_dI1(self, I1) -> np.ndarray:
+        """∂U/∂I₁ = μ Σᵢ i Cᵢ I₁^(i−1) / λ_m^(2i−2) (MPa)."""
+        return self.mu * _ab_series(self.beta * np.asarray(I1, float))
+
+    def stress(self, stretch) -> np.ndarray:
+        """Uniaxial true stress σ (MPa) at stretch λ (> 0)."""
+        lam = _stretch(stretch)
+        return 2.0 * self.dU_dI1(lam ** 2 + 2.0 / lam) * (lam ** 2 - 1.0 / lam)
+
+    @property
+    def initial_shear_modulus(self) -> float:
+        """μ₀ = 2 ∂U/∂I₁ at I₁ = 3 (MPa)."""
+        return float(2.0 * self.dU_dI1(3.0))
+
+    def params(self) -> dict[str, float]:
+        return {"mu_MPa": self.mu, "lambda_m": self.lambda_m}
+
+
+def _ogden_basis(lam: np.ndarray, alpha: float) -> np.ndarray:
+    """(2/α)(λ^α − λ^(−α/2)), with its limit 3 ln λ as α → 0 (computed with
+    expm1 so that small α loses no digits)."""
+    L = np.log(lam)
+    if abs(alpha) < 1e-12:
+        return 3.0 * L
+    return 2.0 / alpha * (np.expm1(alpha * L) - np.expm1(-0.5 * alpha * L))
+
+
+@dataclass(frozen=True)
+class Ogden:
+    """Incompressible Ogden solid with N terms (eq. 4.14–4.17).
+
+    Attributes
+    ----------
+    mu : tuple of float — μᵢ, MPa
+    alpha : tuple of float — αᵢ (dimensionless, ≠ 0)
+
+    The initial shear modulus Σ μᵢ must be positive.
+    """
+
+    mu: tuple[float, ...]
+    alpha: tuple[float, ...]
+    name = "ogden"
+
+    def __post_init__(self):
+        mu = tuple(np.atleast_1d(np.asarray(self.mu, dtype=object)).tolist())
+        al = tuple(np.atleast_1d(np.asarray(self.alpha, dtype=object)).tolist())
+        if not 1 <= len(mu) <= 6 or len(mu) != len(al):
+            raise SpecError(f"mu, alpha: {len(mu)} and {len(al)} values; expected the same "
+                            "number of terms, 1 ≤ N ≤ 6")
+        mu = tuple(v.real(f"mu[{i}]", m, unit="MPa") for i, m in enumerate(mu))
+        al = tuple(v.real(f"alpha[{i}]", a) for i, a in enumerate(al))
+        for i, a in enumerate(al):
+            if a == 0:
+                raise SpecError(f"alpha[{i}] = 0 is not allowed; expected α ≠ 0")
+        if sum(mu) <= 0:
+            raise SpecError(f"mu = {mu}: the initial shear modulus Σ μᵢ = {sum(mu):.6g} MPa "
+                            "must be > 0 (a stable material)")
+        object.__setattr__(self, "mu", mu)
+        object.__setattr__(self, "alpha", al)
+
+    def stress(self, stretch) -> np.ndarray:
+        """Uniaxial true stress σ (MPa) at stretch λ (> 0)."""
+        lam = _stretch(stretch)
+        return sum(m * _ogden_basis(lam, a) for m, a in zip(self.mu, self.alpha))
+
+    @property
+    def initial_shear_modulus(self) -> float:
+        """μ₀ = Σ μᵢ (MPa)."""
+        return float(sum(self.mu))
+
+    def params(self) -> dict[str, Any]:
+        return {"mu_MPa": list(self.mu), "alpha": list(self.alpha)}
+
+
+def make_model(name: str, params: dict[str, Any]):
+    """A model from its name and ``params()`` dictionary (for JSON round trips)."""
+    if name == "arruda-boyce":
+        return ArrudaBoyce(mu=params["mu_MPa"], lambda_m=params["lambda_m"])
+    if name == "neo-hookean":
+        return NeoHookean(mu=params["mu_MPa"])
+    if name == "ogden":
+        return Ogden(mu=tuple(params["mu_MPa"]), alpha=tuple(params["alpha"]))
+    raise SpecError(f"model = {name!r} is not known; expected one of: " + ", ".join(MODELS))
+
+
+# -----------------------------------------------------------------------------
+def true_from_engineering(strain, stress) -> tuple[np.ndarray, np.ndarray]:
+    """Stretch and true (Cauchy) stress from engineering strain and stress
+    (eq. 4.2–4.3): λ = 1 + e, σ = P (1 + e). Strain > −1; stress in MPa."""
+    e = finite_array("strain", strain, lo=-1.0, lo_open=True)
+    p = finite_array("stress", stress, unit="MPa")
+    if e.shape != p.shape:
+        raise SpecError(f"strain and stress have shapes {e.shape} and {p.shape}; expected "
+                        "the same")
+    return 1.0 + e, p * (1.0 + e)
+
+
+def engineering_from_true(stretch, stress) -> tuple[np.ndarray, np.ndarray]:
+    """Engineering strain and stress from stretch and true stress (inverse of
+    eq. 4.2–4.3): e = λ − 1, P = σ / λ."""
+    lam = _stretch(stretch)
+    s = finite_array("stress", stress, unit="MPa")
+    if lam.shape != s.shape:
+        raise SpecError(f"stretch and stress have shapes {lam.shape} and {s.shape}; "
+                        "expected the same")
+    return lam - 1.0, s / lam
+
+
+@dataclass
+class FitResult:
+    """A least-squares fit of a model to uniaxial data (true stress, MPa).
+
+    Attributes
+    ----------
+    model : NeoHookean, ArrudaBoyce or Ogden — the fitted model
+    r2 : float — 1 − SS_res / SS_tot
+    rmse : float — √(SS_res / n), MPa
+    n : int — data points
+    stderr : dict — standard errors of the parameters (from the Jacobian at
+        the optimum; inf where the parameter is not identifiable)
+    stretch, stress : arrays — the data fitted (λ, σ in MPa)
+    """
+
+    model: Any
+    r2: float
+    rmse: float
+    n: int
+    stderr: dict[str, Any]
+    stretch: np.ndarray = field(repr=False)
+    stress: np.ndarray = field(repr=False)
+
+    def summary(self) -> dict[str, Any]:
+        """Model, parameters, R², RMSE (MPa), μ₀ and E₀ = 3μ₀ (kPa)."""
+        p = self.model.params()
+        if "lambda_m" in p and math.isinf(p["lambda_m"]):
+            p = {**p, "lambda_m": None}
+        mu0 = self.model.initial_shear_modulus
+        return {"model": self.model.name, "params": p, "stderr": self.stderr,
+                "r2": self.r2, "rmse_MPa": self.rmse, "n": self.n,
+                "initial_shear_modulus_MPa": mu0, "E0_kPa": 3 * mu0 / KPA,
+                "stretch_range": [float(self.stretch.min()), float(self.stretch.max())]}
+
+
+def _quality(pred, s):
+    res = s - pred
+    ss_res = float(res @ res)
+    ss_tot = float(((s - s.mean()) ** 2).sum())
+    return (1.0 - ss_res / ss_tot if ss_tot > 0 else math.nan), math.sqrt(ss_res / len(s))
+
+
+def _stderr(jac, res, n_par) -> np.ndarray:
+    dof = max(len(res) - n_par, 1)
+    s2 = float(res @ res) / dof
+    try:
+        cov = np.linalg.inv(jac.T @ jac) * s2
+        return np.sqrt(np.clip(np.diag(cov), 0.0, None))
+    except np.linalg.LinAlgError:
+        return np.full(n_par, np.inf)
+
+
+def _fit_ab(lam, s):
+    from scipy.optimize import least_squares
+
+    I1 = lam ** 2 + 2.0 / lam
+    shape = 2.0 * (lam ** 2 - 1.0 / lam)
+
+    def basis(beta):
+        return shape * _ab_series(beta * I1)
+
+    # σ is linear in μ: scan β = 1/λ_m² with μ solved exactly, then polish.
+    best = None
+    for beta in np.linspace(0.0, 0.98, 50):
+        b = basis(beta)
+        mu = max(float(b @ s) / float(b @ b), 1e-12)
+        r = s - mu * b
+        if best is None or r @ r < best[0]:
+            best = (float(r @ r), mu, beta)
+    _, mu0, beta0 = best
+    scale = max(mu0, 1e-12)
+
+    def resid(p):
+        return basis(p[1]) * p[0] * scale - s
+
+    sol = least_squares(resid, [1.0, beta0], bounds=([1e-12, 0.0], [np.inf, 1.0 - 1e-9]),
+                        x_scale=[1.0, 0.1], xtol=1e-15, ftol=1e-15, gtol=1e-15,
+                        max_nfev=2000)
+    mu, beta = sol.x[0] * scale, float(sol.x[1])
+    se = _stderr(sol.jac, sol.fun, 2)
+    se_mu = se[0] * scale
+    lam_m = math.inf if beta <= 1e-12 else 1.0 / math.sqrt(beta)
+    se_lm = math.inf if beta <= 1e-12 else 0.5 * beta ** -1.5 * se[1]
+    return ArrudaBoyce(mu=mu, lambda_m=lam_m), {"mu_MPa": se_mu, "lambda_m": se_lm}
+
+
+def _fit_nh(lam, s):
+    b = lam ** 2 - 1.0 / lam
+    mu = float(b @ s) / float(b @ b)
+    if mu <= 0:
+        raise SpecError("stress: the data give a non-positive shear modulus "
+                        f"(μ = {mu:.6g} MPa); check the sign convention (tension positive)")
+    r = s - mu * b
+    se = math.sqrt(float(r @ r) / max(len(s) - 1, 1) / float(b @ b))
+    return NeoHookean(mu=mu), {"mu_MPa": se}
+
+
+#: Starting exponents for the Ogden fits (every combination of N of them).
+_ALPHA_STARTS = (-8.0, -4.0, -2.0, -1.0, 1.0, 2.0, 4.0, 8.0)
+#: Exponents stay within ±_ALPHA_BOUND and at least _ALPHA_GAP apart: two
+#: equal exponents make a pair of terms that can cancel with any size.
+_ALPHA_BOUND = 30.0
+_ALPHA_GAP = 0.1
+
+
+def _alphas(q: np.ndarray) -> np.ndarray:
+    """Sorted exponents from (α₁, gap₂, …, gap_N)."""
+    return np.cumsum(q)
+
+
+def _fit_ogden(lam, s, n):
+    from scipy.optimize import least_squares
+
+    def design(al):
+        return np.stack([_ogden_basis(lam, a) for a in al], 1)
+
+    def vp_resid(q):
+        A = design(_alphas(q))
+        return A @ np.linalg.lstsq(A, s, rcond=None)[0] - s
+
+    lo = np.r_[-_ALPHA_BOUND, np.full(n - 1, _ALPHA_GAP)]
+    hi = np.r_[_ALPHA_BOUND, np.full(n - 1, 2 * _ALPHA_BOUND)]
+    best = None
+    for start in itertools.combinations(_ALPHA_STARTS, n):
+        q0 = np.r_[start[0], np.diff(start)]
+        sol = least_squares(vp_resid, q0, bounds=(lo, hi), xtol=1e-12, ftol=1e-12,
+                            max_nfev=400)
+        cost = float(sol.fun @ sol.fun)
+        if best is None or cost < best[0]:
+            best = (cost, sol.x)
+    q = best[1]
+    mu = np.linalg.lstsq(design(_alphas(q)), s, rcond=None)[0]
+    scale = max(float(np.abs(mu).max()), 1e-12)
+
+    def resid(p):
+        return design(_alphas(p[n:])) @ (p[:n] * scale) - s
+
+    sol = least_squares(resid, np.r_[mu / scale, q],
+                        bounds=(np.r_[np.full(n, -np.inf), lo], np.r_[np.full(n, np.inf), hi]),
+                        xtol=1e-15, ftol=1e-15, gtol=1e-15, max_nfev=4000)
+    mu, al = sol.x[:n] * scale, _alphas(sol.x[n:])
+    # standard errors in (μ, α): the Jacobian of α = cumsum(q) is lower-triangular ones
+    jac = sol.jac.copy()
+    jac[:, n:] = jac[:, n:] @ np.linalg.inv(np.tril(np.ones((n, n))))
+    se = _stderr(jac, sol.fun, 2 * n)
+    se_mu, se_al = se[:n] * scale, se[n:]
+    try:
+        model = Ogden(mu=tuple(mu), alpha=tuple(al))
+    except SpecError as e:
+        raise SpecError(f"the Ogden fit with {n} terms is not a stable material ({e}); "
+                        "use fewer terms or more data") from None
+    return model, {"mu_MPa": se_mu.tolist(), "alpha": se_al.tolist()}
+
+
+def fit_uniaxial(stretch, stress, model: str = "arruda-boyce", *, terms: int = 3) -> FitResult:
+    """Fit a hyperelastic model to uniaxial true stress against stretch.
+
+    Parameters
+    ----------
+    stretch : (n,) float — λ (> 0)
+    stress : (n,) float — true (Cauchy) stress, MPa, tension positive
+    model : ``arruda-boyce`` | ``ogden`` | ``neo-hookean``
+    terms : int — Ogden terms N (1–4; the thesis uses 3)
+
+    Returns
+    -------
+    FitResult — fitted model, R², RMSE (MPa), standard errors
+
+    Notes
+    -----
+    scipy.optimize.least_squares on the true-stress residuals. Arruda–Boyce
+    is fitted in (μ, β = 1/λ_m²) with 0 ≤ β < 1, so the neo-Hookean limit
+    (β = 0, λ_m = ∞) is inside the search; μ is solved exactly on a β grid for
+    the start. Ogden: variable projection (μ solved linearly for given α)
+    from every combination of N starting exponents in ±{1, 2, 4, 8}, then all
+    2N parameters polished together; |α₁| ≤ 30 and the exponents, kept in
+    increasing order, at least 0.1 apart (equal exponents would let a pair of
+    terms cancel at any size). Ogden parameters of three or more terms are
+    often not identifiable from one uniaxial curve (the thesis's own Table 4.1
+    has a near-cancelling pair); R² and RMSE still judge the fit.
+    """
+    if model not in MODELS:
+        raise SpecError(f"model = {model!r} is not known; expected one of: " + ", ".join(MODELS))
+    lam = _stretch(stretch).reshape(-1)
+    s = finite_array("stress", stress, unit="MPa").reshape(-1)
+    if lam.shape != s.shape:
+        raise SpecError(f"stretch and stress have {lam.size} and {s.size} values; expected "
+                        "the same number")
+    n_par = {"arruda-boyce": 2, "neo-hookean": 1}.get(model, 0)
+    if model == "ogden":
+        terms = v.integer("terms", terms, lo=1, hi=4)
+        n_par = 2 * terms
+    if lam.size < n_par + 2:
+        raise SpecError(f"stress: {lam.size} data points are too few for {model} "
+                        f"({n_par} parameters); need at least {n_par + 2}")
+    if np.ptp(lam) <= 0:
+        raise SpecError("stretch: all data points have the same stretch; a fit needs a range")
+    if model == "arruda-boyce":
+        fitted, se = _fit_ab(lam, s)
+    elif model == "neo-hookean":
+        fitted, se = _fit_nh(lam, s)
+    else:
+        fitted, se = _fit_ogden(lam, s, terms)
+    r2, rmse = _quality(fitted.stress(lam), s)
+    return FitResult(model=fitted, r2=r2, rmse=rmse, n=int(lam.size), stderr=se,
+                     stretch=lam, stress=s)
+
+
+def fit_engineering(strain, stress, model: str = "arruda-boyce", *,
+                    terms: int = 3) -> FitResult:
+    """:func:`fit_uniaxial` from engineering strain and stress (MPa),
+    converted with eq. 4.2–4.3."""
+    lam, s = true_from_engineering(strain, stress)
+    return fit_uniaxial(lam, s, model, terms=terms)
+
+
+def synthetic_uniaxial(model, stretch, *, noise: float = 0.0,
+                       seed: int = 0) -> tuple[np.ndarray, np.ndarray]:
+    """Uniaxial true stress of ``model`` at ``stretch`` plus Gaussian noise.
+
+    Parameters
+    ----------
+    model : NeoHookean, ArrudaBoyce or Ogden
+    stretch : (n,) float — λ
+    noise : float — standard deviation of the additive noise as a fraction
+        of the largest |σ| of the clean curve (0.01 = 1 %)
+    seed : int — numpy random generator seed
+
+    Returns
+    -------
+    (stretch, true stress in MPa)
+    """
+    lam = _stretch(stretch).reshape(-1)
+    noise = v.real("noise", noise, lo=0.0, hi=1.0)
+    clean = model.stress(lam)
+    rng = np.random.default_rng(v.integer("seed", seed, lo=0))
+    return lam, clean + noise * float(np.abs(clean).max()) * rng.standard_normal(lam.size)
+
+
+# -----------------------------------------------------------------------------
+_COLS = {"strain": ("strain", 1.0), "stretch": ("stretch", 1.0),
+         "stress_mpa": ("stress", 1.0), "stress_kpa": ("stress", KPA),
+         "true_stress_mpa": ("true_stress", 1.0), "true_stress_kpa": ("true_stress", KPA)}
+
+
+def read_uniaxial_csv(path) -> tuple[np.ndarray, np.ndarray, dict[str, Any]]:
+    """Read uniaxial test data from CSV (``#`` starts a comment line).
+
+    The header names the columns: engineering data as ``strain`` with
+    ``stress_mpa`` (or ``stress_kpa``), or true data as ``stretch`` with
+    ``true_stress_mpa`` (or ``true_stress_kpa``). Other columns are ignored.
+
+    Returns
+    -------
+    (stretch, true stress in MPa, info) — engineering data converted by
+    eq. 4.2–4.3; ``info`` says which columns were read.
+    """
+    p = Path(path)
+    try:
+        text = p.read_text(encoding="utf-8")
+    except (OSError, UnicodeDecodeError) as e:
+        raise SpecError(f"data = '{path}' cannot be read: {e}") from None
+    lines = [ln for ln in text.splitlines() if ln.strip() and not ln.lstrip().startswith("#")]
+    if not lines:
+        raise SpecError(f"data = '{path}' has no rows")
+    rows = list(csv.reader(io.StringIO("\n".join(lines))))
+    header = [h.strip().lower() for h in rows[0]]
+    found = {_COLS[h][0]: (j, _COLS[h][1], h) for j, h in enumerate(header) if h in _COLS}
+    if "strain" in found and "stress" in found:
+        xkey, ykey, kind = "strain", "stress", "engineering"
+    elif "stretch" in found and "true_stress" in found:
+        xkey, ykey, kind = "stretch", "true_stress", "true"
+    else:
+        raise SpecError(f"data = '{path}': header {rows[0]} lacks the columns; expected "
+                        "strain,stress_mpa (engineering) or stretch,true_stress_mpa (true); "
+                        "_kpa variants accepted")
+    xs, ys = [], []
+    for r, row in enumerate(rows[1:], start=2):
+        vals = []
+        for key in (xkey, ykey):
+            j, scale, name = found[key]
+            cell = row[j].strip() if j < len(row) else ""
+            try:
+                val = float(cell) * scale
+            except ValueError:
+                raise SpecError(f"data = '{path}', data row {r - 1}, column '{name}': "
+                                f"{cell!r} is not a number") from None
+            if not math.isfinite(val):
+                raise SpecError(f"data = '{path}', data row {r - 1}, column '{name}': "
+                                f"{cell!r} is not finite; expected a finite number")
+            vals.append(val)
+        xs.append(vals[0])
+        ys.append(vals[1])
+    x, y = np.array(xs), np.array(ys)
+    if kind == "engineering":
+        lam, sig = true_from_engineering(x, y)
+    else:
+        lam, sig = _stretch(x), y
+    info = {"path": str(p), "kind": kind, "columns": [found[xkey][2], found[ykey][2]],
+            "rows": int(len(x))}
+    return lam, sig, info
+
+
+def uniaxial_csv_text(strain, stress, *, comments: list[str] | None = None) -> str:
+    """CSV text with columns ``strain,stress_mpa`` (engineering), fixed
+    decimals, optional ``#`` comment lines first."""
+    e = finite_array("strain", strain, lo=-1.0, lo_open=True).reshape(-1)
+    p = finite_array("stress", stress, unit="MPa").reshape(-1)
+    out = io.StringIO()
+    for c in comments or []:
+        out.write(f"# {c}\n")
+    out.write("strain,stress_mpa\n")
+    for a, b in zip(e, p):
+        out.write(f"{a:.6f},{b:.9f}\n")
+    return out.getvalue()

@@ -18,11 +18,10 @@ from __future__ import annotations
 import csv
 import io
 import json
-import os
-import tempfile
 import time
 from pathlib import Path
 
+from ._atomic import write_text_atomic
 from .build import build_tip
 from .io import export_tip
 from .presets import preset, preset_names
@@ -32,15 +31,7 @@ __all__ = ["run_demo"]
 
 
 def _atomic_text(path: Path, text: str) -> None:
-    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")
-    try:
-        with os.fdopen(fd, "w", encoding="utf-8") as f:
-            f.write(text)
-        os.replace(tmp, path)
-    except BaseException:
-        if os.path.exists(tmp):
-            os.unlink(tmp)
-        raise
+    write_text_atomic(path, text)
 
 
 #: Groups of samples whose angle curves are overlaid in one picture.

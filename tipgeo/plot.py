@@ -6,8 +6,6 @@ lowest cut point minus a little).
 
 from __future__ import annotations
 
-import os
-import tempfile
 from pathlib import Path
 
 import numpy as np
@@ -20,17 +18,12 @@ _CUT = ["#d1495b", "#2e86ab", "#edae49", "#66a182", "#8d6a9f", "#f49d37", "#0079
 
 def save_figure(fig, path) -> Path:
     """Save a matplotlib figure to ``path`` atomically (PNG by extension)."""
+    from ._atomic import write_atomic
+
     path = Path(path)
-    fd, tmp = tempfile.mkstemp(dir=path.parent or ".", prefix=f".{path.name}.", suffix=".tmp")
-    os.close(fd)
-    try:
-        fig.savefig(tmp, dpi=130, bbox_inches="tight", format=path.suffix.lstrip(".") or "png")
-        os.replace(tmp, path)
-    except BaseException:
-        if os.path.exists(tmp):
-            os.unlink(tmp)
-        raise
-    return path
+    fmt = path.suffix.lstrip(".") or "png"
+    return write_atomic(path, lambda tmp: fig.savefig(tmp, dpi=130, bbox_inches="tight",
+                                                      format=fmt))
 
 
 def render_tip(tip, path, *, views=((20, -60), (20, 30), (80, -90)), title: str | None = None,

@@ -27,9 +27,7 @@ value and the allowed range.
 from __future__ import annotations
 
 import math
-import os
 import sys
-import tempfile
 from dataclasses import dataclass
 from numbers import Real
 from pathlib import Path
@@ -499,16 +497,6 @@ def dumps_spec(spec: TipSpec) -> str:
 
 def save_spec(spec: TipSpec, path: str | Path) -> Path:
     """Write the spec as TOML, atomically."""
-    p = Path(path)
-    text = dumps_spec(spec)
-    fd, tmp = tempfile.mkstemp(dir=p.parent if str(p.parent) else ".", prefix=f".{p.name}.",
-                               suffix=".tmp")
-    try:
-        with os.fdopen(fd, "w", encoding="utf-8") as f:
-            f.write(text)
-        os.replace(tmp, p)
-    except BaseException:
-        if os.path.exists(tmp):
-            os.unlink(tmp)
-        raise
-    return p
+    from ._atomic import write_text_atomic
+
+    return write_text_atomic(path, dumps_spec(spec))

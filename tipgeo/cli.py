@@ -447,6 +447,9 @@ def _parser() -> argparse.ArgumentParser:
     from .cli_mechanics import register as _register_mechanics
 
     _register_mechanics(sub)
+    from .cli_optimize import register as _register_optimize
+
+    _register_optimize(sub)
     return p
 
 

@@ -172,9 +172,13 @@ def run_demo(out, *, tolerance: float | None = None, log=None, pictures: bool = 
     from .mechanics import demo_outputs as _mechanics_outputs
 
     mechanics_files = _mechanics_outputs(out, log=log, pictures=pictures)
+    from .optimize import demo_outputs as _optimize_outputs
+
+    optimize_files = _optimize_outputs(out, log=log)
     summary = {"out": str(out), "tolerance_um": None if tolerance is None else tolerance * 1e3,
                "tips": rows, "angles": angle_files, "laser": laser_files,
-               "grinding": grind_rows, "mechanics": mechanics_files}
+               "grinding": grind_rows, "mechanics": mechanics_files,
+               "optimize": optimize_files}
     _atomic_text(out / "summary.json", json.dumps(summary, indent=2) + "\n")
     buf = io.StringIO()
     w = csv.DictWriter(buf, fieldnames=list(rows[0]))

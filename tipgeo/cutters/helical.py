@@ -149,10 +149,11 @@ class HelicalCutter(Cutter):
             f, gr = self._f_needle(np.stack([x, y, z], 1))
             step = f / gr[:, 2]
             z -= step
-            if np.max(np.abs(step)) < 1e-13:
+            if np.max(np.abs(step)) < 1e-12:  # rounding noise is ~1e-13 mm here
                 break
         else:
-            raise BuildError(f"helicoid '{self.name}': edge height did not converge")
+            if np.max(np.abs(step)) > 1e-9:
+                raise BuildError(f"helicoid '{self.name}': edge height did not converge")
         return z
 
     def _placement(self, cannula: Cannula) -> tuple[float, float]:

@@ -1,0 +1,269 @@
+"""The Gaussian-process surrogate (thesis eq. 3.24–3.33) and the optimiser on
+synthetic problems with known answers."""
+
+import math
+
+import numpy as np
+import pytest
+
+from tipgeo.errors import SpecError
+from tipgeo.optimize import Objective, Surrogate, Term, optimize_objective, pareto_front
+from tipgeo.optimize.gp import Z95, GaussianProcess, length_scales
+
+
+def smooth(U):
+    """A smooth test function on the unit square."""
+    return np.sin(3 * U[:, 0]) + 2 * (U[:, 1] - 0.4) ** 2 + U[:, 0] * U[:, 1]
+
+
+@pytest.fixture(scope="module")
+def lhs25():
+    from scipy.stats import qmc
+
+    return qmc.LatinHypercube(2, seed=3).random(25)
+
+
+def test_interpolates_training_data_with_nugget_off(lhs25):
+    y = smooth(lhs25)
+    gp = GaussianProcess(nugget=False).fit(lhs25, y)
+    assert gp.fit_.nugget == 0.0
+    mean, std = gp.predict(lhs25, return_std=True)
+    # eq. 3.31 at a training point returns its value: g(xᵢ)ᵀV⁻¹ = eᵢᵀ
+    assert np.max(np.abs(mean - y)) < 1e-8 * np.ptp(y)
+    assert np.max(std) < 1e-4 * np.std(y)
+    # and it is a useful model between the points (smooth function, 25 points)
+    from scipy.stats import qmc
+
+    Ut = qmc.Sobol(2, seed=1).random(256)
+    assert np.max(np.abs(gp.predict(Ut) - smooth(Ut))) < 0.02 * np.ptp(y)
+
+
+def test_nugget_smooths_noise_and_estimates_its_level(lhs25):
+    from scipy.stats import qmc
+
+    U = qmc.LatinHypercube(2, seed=7).random(60)
+    rng = np.random.default_rng(11)
+    noise_sd = 0.05
+    y = smooth(U) + rng.normal(0.0, noise_sd, len(U))
+    gp = GaussianProcess(nugget=True).fit(U, y)
+    f = gp.fit_
+    est_sd = math.sqrt(f.nugget * f.sigma[0, 0])  # noise variance δσ̂² (§3.4.1)
+    assert 0.5 * noise_sd < est_sd < 2.0 * noise_sd
+    # no longer interpolates: residuals at the data are of the noise's size
+    assert np.std(gp.predict(U) - y) > 0.3 * noise_sd
+    # but the fixed-nugget option is accepted as given
+    assert GaussianProcess(nugget=1e-3).fit(U, y).fit_.nugget == 1e-3
+
+
+def test_kernel_is_sklearn_rbf_with_mapped_length_scales(lhs25):
+    """Same hyperparameters → same mean as scikit-learn's GPR on y − β̂; our
+    variance adds exactly eq. 3.32's term for the uncertainty of β̂."""
+    sk = pytest.importorskip("sklearn.gaussian_process")
+    from sklearn.gaussian_process.kernels import RBF, ConstantKernel
+
+    y = smooth(lhs25)
+    omega = np.array([1.2, 1.5])  # a well-conditioned C (κ ≈ 700): compare to round-off
+    gp = GaussianProcess().set_params(lhs25, y, omega)
+    f = gp.fit_
+    kern = ConstantKernel(f.sigma[0, 0], "fixed") * RBF(length_scales(omega), "fixed")
+    ref = sk.GaussianProcessRegressor(kern, alpha=0.0, optimizer=None,
+                                      normalize_y=False).fit(lhs25, y - f.beta[0])
+    Ut = np.random.default_rng(0).random((200, 2))
+    m_ref, s_ref = ref.predict(Ut, return_std=True)
+    mean, std = gp.predict(Ut, return_std=True)
+    assert np.max(np.abs(mean - (m_ref + f.beta[0]))) < 1e-9 * np.ptp(y)
+    # the β̂ term: σ̂² h² / (1ᵀC⁻¹1), h = 1 − 1ᵀC⁻¹r
+    C = np.exp(-(((lhs25[:, None, :] - lhs25[None]) ** 2) @ 10.0 ** omega))
+    r = np.exp(-(((Ut[:, None, :] - lhs25[None]) ** 2) @ 10.0 ** omega))
+    Ci1 = np.linalg.solve(C, np.ones(25))
+    h = 1.0 - r @ Ci1
+    extra = f.sigma[0, 0] * h ** 2 / Ci1.sum()
+    assert np.allclose(std ** 2 - s_ref ** 2, extra, rtol=1e-6, atol=1e-12 * f.sigma[0, 0])
+    # eq. 3.26 against the RBF form
+    d = 0.37
+    ell = length_scales([0.6])[0]
+    assert math.exp(-10 ** 0.6 * d * d) == pytest.approx(math.exp(-d * d / (2 * ell * ell)),
+                                                         rel=1e-14)
+
+
+@pytest.mark.parametrize("nugget", [False, True])
+def test_likelihood_gradient_matches_finite_differences(lhs25, nugget):
+    from scipy.optimize import approx_fprime
+
+    gp = GaussianProcess(nugget=nugget)
+    gp._prepare(lhs25, smooth(lhs25))
+    theta = np.array([1.2, 0.9] + ([-4.0] if nugget else []))
+    L, g = gp._objective(theta)
+    num = approx_fprime(theta, lambda t: gp._objective(t)[0], 1e-7)
+    assert np.allclose(g, num, rtol=1e-5, atol=1e-5)
+
+
+def test_mle_beats_a_grid_of_roughness_values(lhs25):
+    """Multi-start MLE (eq. 3.30) finds an L no worse than a 41 × 41 grid over ω."""
+    gp = GaussianProcess().fit(lhs25, smooth(lhs25))
+    grid = np.linspace(-3, 3, 41)
+    best = min(gp._objective(np.array([a, b]), False) for a in grid for b in grid)
+    assert gp.fit_.objective <= best + 1e-6
+
+
+def test_loo_closed_form_equals_refitting(lhs25):
+    y = smooth(lhs25)
+    gp = GaussianProcess().fit(lhs25, y)
+    res, std = gp.loo()
+    for i in range(len(y)):
+        keep = np.arange(len(y)) != i
+        other = GaussianProcess(min_rcond=0.0).set_params(lhs25[keep], y[keep], gp.fit_.omega)
+        m, s = other.predict(lhs25[i:i + 1], return_std=True)
+        assert res[i] == pytest.approx(y[i] - m[0], abs=1e-7 * np.ptp(y))
+        # observation variance σ̂²/Qᵢᵢ uses the full-data σ̂²; the refit profiles its own
+        s_full = s[0] * math.sqrt(gp.fit_.sigma[0, 0] / other.fit_.sigma[0, 0])
+        assert std[i] == pytest.approx(s_full, rel=1e-5)
+
+
+def test_intervals_cover_95_percent_of_draws_from_the_model():
+    """Functions drawn from the GP itself: the eq. 3.32 intervals (known ω)
+    contain the truth about 95 % of the time."""
+    rng = np.random.default_rng(5)
+    omega = np.array([0.8, 0.5])
+    Xall = rng.random((20 + 200, 2))
+    K = np.exp(-(((Xall[:, None, :] - Xall[None]) ** 2) @ 10.0 ** omega))
+    Lk = np.linalg.cholesky(K + 1e-10 * np.eye(len(K)))
+    inside = []
+    for _ in range(40):
+        f = 3.0 + 2.0 * Lk @ rng.normal(size=len(K))
+        gp = GaussianProcess().set_params(Xall[:20], f[:20], omega)
+        lo, hi = gp.interval(Xall[20:])
+        inside.append(np.mean((f[20:] >= lo) & (f[20:] <= hi)))
+    assert 0.90 <= float(np.mean(inside)) <= 0.99
+
+
+def test_separable_model_shares_omega_and_profiles_sigma(lhs25):
+    """Eq. 3.33: with a common ω the mean of each response is its own
+    single-response kriging predictor and Σ̂ᵢᵢ its σ̂²."""
+    Y = np.column_stack([smooth(lhs25), np.cos(2 * lhs25[:, 0]) + lhs25[:, 1] ** 3])
+    joint = GaussianProcess(separable=True).fit(lhs25, Y)
+    om = joint.fit_.omega
+    Ut = np.random.default_rng(1).random((50, 2))
+    mj, sj = joint.predict(Ut, return_std=True)
+    for k in range(2):
+        one = GaussianProcess().set_params(lhs25, Y[:, k], om)
+        m1, s1 = one.predict(Ut, return_std=True)
+        assert np.allclose(mj[:, k], m1, rtol=0, atol=1e-9)
+        assert np.allclose(sj[:, k], s1, rtol=1e-9, atol=1e-12)
+        assert joint.fit_.sigma[k, k] == pytest.approx(one.fit_.sigma[0, 0], rel=1e-9)
+    # the off-diagonal is the responses' process covariance (positive-definite Σ̂)
+    assert np.all(np.linalg.eigvalsh(joint.fit_.sigma) > 0)
+    with pytest.raises(SpecError, match="separable"):
+        GaussianProcess().fit(lhs25, Y)
+
+
+@pytest.mark.parametrize("kwargs, X, y, match", [
+    ({}, np.zeros((1, 2)), np.zeros(1), "at least 2"),
+    ({}, np.array([[0.0, 0.0], [1.0, np.nan]]), np.zeros(2), "NaN"),
+    ({}, np.zeros((3, 2)), np.zeros(4), "rows"),
+    ({"nugget": 2.0}, None, None, "nugget"),
+    ({"starts": 0}, None, None, "starts"),
+])
+def test_gp_rejects_bad_input(kwargs, X, y, match):
+    with pytest.raises(SpecError, match=match):
+        gp = GaussianProcess(**kwargs)
+        gp.fit(X, y)
+
+
+# -- optimiser on known problems ------------------------------------------------------
+BOX = [(2.0, 6.0), (-1.0, 1.0)]
+
+
+def bowl(X, centre=(0.3, 0.65)):
+    """A smooth function with its minimum 0 at a known point (unit coordinates)."""
+    lo = np.array([b[0] for b in BOX])
+    span = np.array([b[1] - b[0] for b in BOX])
+    U = (X - lo) / span
+    return 1.0 - np.exp(-((U[:, 0] - centre[0]) ** 2 / 0.08 + (U[:, 1] - centre[1]) ** 2 / 0.12))
+
+
+def _fit(fun_cols, names, n=30, seed=2):
+    from scipy.stats import qmc
+
+    lo = np.array([b[0] for b in BOX])
+    span = np.array([b[1] - b[0] for b in BOX])
+    X = lo + qmc.LatinHypercube(2, seed=seed).random(n) * span
+    Y = np.column_stack([f(X) for f in fun_cols])
+    return Surrogate(bounds=BOX, responses=names).fit(X, Y), lo, span
+
+
+def test_recovers_the_optimum_of_a_known_smooth_function():
+    sur, lo, span = _fit([bowl], ["f"])
+    opt = optimize_objective(sur, Objective("min-f", (Term("f", "min"),)))
+    true_x = lo + np.array([0.3, 0.65]) * span
+    assert np.max(np.abs((opt.x - true_x) / span)) < 0.005  # within 0.5 % of the box
+    assert opt.predicted["f"] == pytest.approx(0.0, abs=2e-3)
+    # maximising the negated function finds the same point
+    sur2, _, _ = _fit([lambda X: -bowl(X)], ["g"])
+    opt2 = optimize_objective(sur2, Objective("max-g", (Term("g", "max"),)))
+    assert np.max(np.abs((opt2.x - true_x) / span)) < 0.005
+
+
+def test_weighted_objective_has_the_analytic_compromise():
+    """Two bowls q_a = |u − a|², q_b = |u − b|²: the weighted, range-scaled sum
+    is minimised at the weighted mean of a and b (weights wₖ / rangeₖ)."""
+    a, b = np.array([0.2, 0.3]), np.array([0.7, 0.8])
+
+    def quad(c):
+        def f(X):
+            U = (X - np.array([2.0, -1.0])) / np.array([4.0, 2.0])
+            return ((U - c) ** 2).sum(1)
+        return f
+
+    sur, lo, span = _fit([quad(a), quad(b)], ["qa", "qb"], n=40)
+    obj = Objective("both", (Term("qa", "min", 1.0), Term("qb", "min", 3.0)))
+    opt = optimize_objective(sur, obj)
+    ra, rb = np.ptp(sur.Y_, axis=0)
+    wa, wb = 1.0 / ra, 3.0 / rb
+    u_true = (wa * a + wb * b) / (wa + wb)
+    assert np.max(np.abs((opt.x - lo) / span - u_true)) < 0.005
+
+
+def test_pareto_front_of_two_bowls_is_the_segment_between_them():
+    a, b = np.array([0.2, 0.3]), np.array([0.7, 0.8])
+
+    def quad(c):
+        def f(X):
+            U = (X - np.array([2.0, -1.0])) / np.array([4.0, 2.0])
+            return ((U - c) ** 2).sum(1)
+        return f
+
+    sur, lo, span = _fit([quad(a), quad(b)], ["qa", "qb"], n=40)
+    opt = optimize_objective(sur, Objective("p", (Term("qa"), Term("qb")), combine="pareto"),
+                             candidates=2048)
+    U = (opt.front["x"] - lo) / span
+    d = b - a
+    t = np.clip(((U - a) @ d) / (d @ d), 0, 1)
+    dist = np.linalg.norm(U - (a + t[:, None] * d), axis=1)
+    assert len(U) >= 10
+    # the front hugs the segment (a sampled, then locally resampled set) and spans it
+    assert np.median(dist) < 0.01
+    assert np.max(dist) < 0.03
+    assert t.min() < 0.05 and t.max() > 0.95
+    # equal weights, symmetric problem: the compromise is the segment's middle
+    uc = (opt.x - lo) / span
+    tc = (uc - a) @ d / (d @ d)
+    assert np.linalg.norm(uc - (a + tc * d)) < 0.005
+    assert 0.4 < tc < 0.6
+
+
+def test_pareto_front_filter():
+    F = np.array([[1, 5], [2, 3], [3, 4], [4, 1], [2, 3], [5, 5]], float)
+    assert pareto_front(F).tolist() == [True, True, False, True, True, False]
+
+
+def test_surrogate_loo_reports_every_response():
+    sur, _, _ = _fit([bowl, lambda X: X[:, 0] ** 2], ["f", "sq"])
+    loo = sur.loo()
+    assert set(loo) == {"f", "sq"}
+    for r in loo.values():
+        assert set(r) == {"rmse", "max_abs", "nrmse", "coverage95"}
+        assert math.isfinite(r["rmse"]) and r["max_abs"] >= r["rmse"] > 0
+    assert loo["sq"]["nrmse"] < 1e-3  # a quadratic is easy
+    assert loo["f"]["nrmse"] < 0.1
+    assert Z95 == pytest.approx(1.959963984540054, rel=1e-15)

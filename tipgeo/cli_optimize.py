@@ -1,0 +1,155 @@
+"""``tipgeo sweep`` and ``tipgeo optimize``: design sweeps and the GP optimiser
+(thesis §3.4) on the command line.
+
+CONFIG is a study TOML file (see :mod:`tipgeo.optimize.config`) or a built-in
+study name (``helical-study``). Variables are in their spec keys' units (mm,
+degrees), responses carry theirs in their names. Tables and reports go to
+files, a plain summary (or ``--json``) to stdout, progress to stderr.
+"""
+
+from __future__ import annotations
+
+import json
+import sys
+from pathlib import Path
+
+__all__ = ["register", "cmd_sweep", "cmd_optimize"]
+
+
+def _config(arg: str):
+    from .errors import SpecError
+    from .optimize.config import load_config
+    from .optimize.presets import STUDIES, study_preset
+
+    p = Path(arg)
+    if p.exists() or arg.endswith(".toml"):
+        return load_config(p)
+    if arg in STUDIES:
+        return study_preset(arg)
+    raise SpecError(f"CONFIG = '{arg}' is neither a study file (.toml) nor a built-in study; "
+                    "built-in: " + ", ".join(STUDIES))
+
+
+def _executor(args, config):
+    from .errors import SpecError
+    from .optimize.executors import DaskExecutor, make_executor
+
+    if args.workers is not None and args.workers < 1:
+        raise SpecError(f"--workers = {args.workers} is out of range; allowed an integer ≥ 1")
+    if args.scheduler:
+        if args.workers is not None:
+            raise SpecError("--workers and --scheduler exclude each other; the cluster "
+                            "decides its workers")
+        return DaskExecutor(args.scheduler)
+    return make_executor(args.workers if args.workers is not None else config.workers)
+
+
+def _cache(args):
+    if args.no_cache:
+        return False
+    if args.cache_dir:
+        return args.cache_dir
+    return None  # the config's
+
+
+def cmd_sweep(args) -> int:
+    """Run a design sweep and write its table."""
+    from .optimize.sweep import run_sweep, write_table
+
+    cfg = _config(args.config)
+    out = Path(args.output or f"{cfg.name}-sweep.csv")
+    res = run_sweep(cfg, executor=_executor(args, cfg), cache=_cache(args),
+                    progress=not args.quiet)
+    write_table(res, out)
+    s = res.summary() | {"table": str(out)}
+    if args.json:
+        print(json.dumps(s, indent=2))
+        return 0
+    print(f"{cfg.name}: {s['configurations']} configurations — {s['ok']} ok, "
+          f"{s['invalid']} invalid, {s['failed']} failed; {s['computed']} computed, "
+          f"{s['cached']} from the cache; {s['seconds']:.2f} s on {s['workers']} "
+          f"worker(s) ({s['executor']})")
+    for f in s["failures"]:
+        print(f"  [{f['index']}] {f['status']}: {f['error']}")
+    print(f"wrote {out}")
+    return 0
+
+
+def cmd_optimize(args) -> int:
+    """Sweep (cached), fit the GP, optimise every objective, verify the optima."""
+    from .optimize.objective import term_summary
+    from .optimize.study import run_study
+
+    cfg = _config(args.config)
+    out = Path(args.out or cfg.name)
+    table = "sweep.parquet" if args.parquet else "sweep.csv"
+    log = (lambda s: None) if args.quiet else (lambda s: print(s, file=sys.stderr, flush=True))
+    rep = run_study(cfg, out, executor=_executor(args, cfg), cache=_cache(args),
+                    progress=not args.quiet, build=not args.no_build,
+                    plots=not args.no_plots, table=table, log=log)
+    if args.json:
+        print(json.dumps(rep, indent=2))
+        return 0
+    s = rep["sweep"]
+    print(f"{cfg.name}: {s['configurations']} configurations ({s['ok']} ok, {s['invalid']} "
+          f"invalid, {s['failed']} failed) in {s['seconds']:.2f} s; GP "
+          f"{rep['surrogate']['mode']}, fitted in {rep['surrogate']['fit_seconds']:.2f} s")
+    print(f"{'response':<18}{'LOO RMSE':>12}{'NRMSE':>10}{'in 95 %':>9}")
+    for name, r in rep["surrogate"]["loo"].items():
+        nr = "—" if r["nrmse"] is None else f"{r['nrmse']:.3g}"
+        print(f"{name:<18}{r['rmse']:>12.4g}{nr:>10}{r['coverage95']:>9.0%}")
+    objs = {o.name: o for o in cfg.objectives}
+    for o in rep["optima"]:
+        print(f"\n{o['objective']} ({term_summary(objs[o['objective']])}, {o['combine']}): "
+              + ", ".join(f"{k} = {v:.4f}" for k, v in o["x"].items()))
+        if o["status"] != "ok":
+            print(f"  {o['status']}: {o['error']}")
+            continue
+        b = o.get("build")
+        if b:
+            print("  built: " + (f"{b['triangles']} triangles, {b['volume_mm3']:.4f} mm³, "
+                                 f"watertight {b['watertight']}" if "error" not in b
+                                 else b["error"]))
+        print(f"  {'response':<18}{'GP prediction ± 95 %':>26}{'actual':>12}{'error':>11}")
+        for name, r in o["responses"].items():
+            print(f"  {name:<18}{r['predicted']:>14.5f} ± {r['hi95'] - r['predicted']:<9.5f}"
+                  f"{r['actual']:>12.5f}{r['error']:>11.2e}"
+                  + ("" if r["inside95"] else "  (outside 95 %)"))
+    print()
+    for f in rep["files"]:
+        print(f"wrote {f}")
+    return 0
+
+
+def _common(p) -> None:
+    p.add_argument("config", metavar="CONFIG",
+                   help="study file (.toml) or built-in study (helical-study)")
+    p.add_argument("--workers", type=int, default=None, metavar="N",
+                   help="local processes (default: the config's sweep.workers, else all "
+                        "CPUs; 1 = in this process)")
+    p.add_argument("--scheduler", metavar="ADDRESS",
+                   help="run on a Dask distributed cluster (tcp://host:8786)")
+    p.add_argument("--cache-dir", metavar="DIR", help="result cache folder (default: the "
+                   "config's sweep.cache, else ~/.cache/tipgeo/sweep)")
+    p.add_argument("--no-cache", action="store_true", help="recompute everything")
+    p.add_argument("--quiet", action="store_true", help="no progress on stderr")
+    p.add_argument("--json", action="store_true", help="machine-readable summary on stdout")
+
+
+def register(subparsers) -> None:
+    """Add ``sweep`` and ``optimize`` to the ``tipgeo`` sub-command parsers."""
+    s = subparsers.add_parser("sweep", help="design sweep: angle analysis over a design of "
+                              "experiments (grid, LHS, Sobol)")
+    _common(s)
+    s.add_argument("-o", "--output", metavar="FILE",
+                   help="table: .csv or .parquet (default <name>-sweep.csv)")
+    s.set_defaults(func=cmd_sweep)
+    o = subparsers.add_parser("optimize", help="sweep, GP surrogate (thesis §3.4), optimise "
+                              "objectives, verify on the real geometry")
+    _common(o)
+    o.add_argument("--out", metavar="DIR", help="output folder (default ./<name>)")
+    o.add_argument("--parquet", action="store_true", help="sweep table as Parquet")
+    o.add_argument("--no-build", action="store_true",
+                   help="analyse the optima without building their meshes")
+    o.add_argument("--no-plots", action="store_true", help="skip the PNGs")
+    o.set_defaults(func=cmd_optimize)

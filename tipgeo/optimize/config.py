@@ -1,0 +1,564 @@
+"""Study configuration (TOML): what to vary, how to sample, what to record,
+the surrogate and the objectives.
+
+Units: each variable is in the unit of the spec key it varies (``*_mm`` in mm,
+``*_deg`` in degrees, ``tolerance_um`` in µm); responses carry their unit in
+their name (:data:`~tipgeo.optimize.responses.RESPONSES`).
+
+Example (``samples/helical-study.toml`` holds the thesis's study)::
+
+    name = "helical-study"
+    base = "helical-14G"            # a preset, or a spec file relative to this one
+
+    [[variables]]
+    name = "psi_deg"
+    path = "cutters[0].helix_angle_deg"
+    min = 9.0
+    max = 11.0
+
+    [design]
+    method = "grid"                 # grid | lhs | sobol
+    levels = 5                      # grid: per variable; lhs/sobol: points = N
+
+    [analysis]
+    method = "exact"                # exact | fourier | mesh
+    responses = ["l_c_mm", "theta_min_deg", "lambda_max_deg"]
+    # forces = { speed_ratio = 0.3, tissue = "soft-tissue-3.1.5" }   # + mean_F_*_N
+
+    [sweep]
+    workers = 2                     # local processes; 1 = in this process
+    cache = true                    # or a folder; false: no cache
+
+    [surrogate]
+    nugget = false                  # false | true (MLE) | δ
+    mode = "independent"            # or "separable" (eq. 3.33)
+
+    [[objectives]]
+    name = "min-theta-max-lambda"
+    terms = [{ response = "theta_min_deg", goal = "min" },
+             { response = "lambda_max_deg", goal = "max" }]
+
+Every bad key or value raises one :class:`~tipgeo.errors.SpecError` naming
+the key (``variables[1].min``), the value and the allowed range or form.
+"""
+
+from __future__ import annotations
+
+import copy
+import math
+import re
+import sys
+from dataclasses import dataclass, field
+from numbers import Real
+from pathlib import Path
+from typing import Any
+
+from ..errors import SpecError
+from .design import DESIGN_METHODS
+from .responses import FORCE_RESPONSES, RESPONSES, THESIS
+
+if sys.version_info >= (3, 11):
+    import tomllib
+else:  # pragma: no cover
+    import tomli as tomllib
+
+__all__ = ["Variable", "Term", "Objective", "StudyConfig", "load_config", "loads_config",
+           "config_from_dict", "ANALYSIS_METHODS", "GOALS", "COMBINE"]
+
+ANALYSIS_METHODS = ("exact", "fourier", "mesh")
+GOALS = ("min", "max")
+COMBINE = ("weighted", "pareto")
+SURROGATE_MODES = ("independent", "separable")
+
+_NAME = re.compile(r"^[A-Za-z_][A-Za-z0-9_.\-]*$")
+_PATH = re.compile(r"^(?:(?P<top>tolerance_um)|cannula\.(?P<ckey>\w+)|"
+                   r"cutters\[(?P<k>\d+)\]\.(?P<key>\w+))$")
+_CANNULA_NUMERIC = {"gauge": int, "outer_diameter_mm": float, "inner_diameter_mm": float,
+                    "length_mm": float}
+_INT_KEYS = {"count", "planes"}
+#: varying a key drops the keys it replaces (spec files give one of each pair)
+_ALTERNATIVES = {("multiplane", "xi_deg"): ("theta_deg",),
+                 ("multiplane", "theta_deg"): ("xi_deg",),
+                 ("conical", "theta_deg"): ("phi_g_deg", "varphi_deg"),
+                 ("conical", "phi_g_deg"): ("theta_deg",),
+                 ("serration", "count"): ("spacing_deg",),
+                 ("serration", "spacing_deg"): ("count",)}
+
+
+@dataclass(frozen=True)
+class Variable:
+    """One design variable: a numeric spec key and its range.
+
+    Attributes
+    ----------
+    name : str — column name (carry the unit: ``psi_deg``)
+    path : str — spec key, e.g. ``cutters[0].helix_angle_deg``, ``cannula.length_mm``
+    lo, hi : float — range, in the key's unit (mm, degrees, µm)
+    levels : int or None — grid levels for this variable
+    integer : bool — an integer key (``count``, ``planes``, ``gauge``): values rounded
+    """
+
+    name: str
+    path: str
+    lo: float
+    hi: float
+    levels: int | None = None
+    integer: bool = False
+
+
+@dataclass(frozen=True)
+class Term:
+    """One response in an objective: ``goal`` ``min`` or ``max``, a weight > 0."""
+
+    response: str
+    goal: str = "min"
+    weight: float = 1.0
+
+
+@dataclass(frozen=True)
+class Objective:
+    """An objective composed of responses.
+
+    ``combine = "weighted"``: minimise Σ wₖ sₖ / Σ wₖ where sₖ is the GP
+    prediction of term k scaled by its training range to [0, 1] (1 − that for
+    ``max`` terms), so that degrees and millimetres weigh alike.
+    ``combine = "pareto"``: the non-dominated set of the predictions over the
+    box, and its point nearest the ideal (every sₖ = 0) as the compromise.
+    """
+
+    name: str
+    terms: tuple[Term, ...]
+    combine: str = "weighted"
+
+
+@dataclass(frozen=True)
+class StudyConfig:
+    """A validated study (see the module docstring for the TOML form).
+
+    Attributes
+    ----------
+    name, description : str
+    base_name : str — preset name or spec file it came from
+    base : dict — the base spec in TOML form (mm, degrees)
+    variables : tuple of Variable
+    design : dict — ``method``, ``levels``, ``points``, ``seed``
+    analysis : dict — ``method``, ``harmonics``, ``samples``
+    responses : tuple of str — recorded and modelled responses
+    workers : int or None — local processes (None: all CPUs)
+    cache : str, bool — folder, ``True`` (default folder) or ``False``
+    surrogate : dict — ``nugget``, ``mode``, ``starts``, ``seed``
+    objectives : tuple of Objective
+    plots : dict — ``responses``, ``variables``, ``resolution``
+    source : Path or None — the config file
+    """
+
+    name: str
+    base_name: str
+    base: dict
+    variables: tuple[Variable, ...]
+    design: dict
+    analysis: dict
+    responses: tuple[str, ...]
+    workers: int | None = None
+    cache: str | bool = True
+    surrogate: dict = field(default_factory=dict)
+    objectives: tuple[Objective, ...] = ()
+    plots: dict = field(default_factory=dict)
+    description: str = ""
+    source: Path | None = None
+
+    # -- configurations -----------------------------------------------------------
+    def spec_dict(self, x, index: int | None = None) -> dict[str, Any]:
+        """The spec (TOML form) with the variables set to the values ``x``."""
+        d = copy.deepcopy(self.base)
+        d.pop("description", None)  # the base tip's; this is a variant of it
+        for v, val in zip(self.variables, x):
+            _set(d, v, int(round(val)) if v.integer else float(val))
+        if index is not None:
+            d["name"] = f"{self.name}-{index:04d}"
+        return d
+
+    def spec(self, x):
+        """The :class:`~tipgeo.TipSpec` at the values ``x`` (raises SpecError if invalid)."""
+        from ..spec import spec_from_dict
+
+        return spec_from_dict(self.spec_dict(x))
+
+    @property
+    def bounds(self) -> list[tuple[float, float]]:
+        """[(lo, hi)] per variable, in the variables' units."""
+        return [(v.lo, v.hi) for v in self.variables]
+
+    def objective(self, name: str) -> Objective:
+        for o in self.objectives:
+            if o.name == name:
+                return o
+        raise SpecError(f"objective {name!r} is not in the config; allowed: "
+                        + ", ".join(o.name for o in self.objectives))
+
+
+# -----------------------------------------------------------------------------
+def _set(d: dict, v: Variable, value) -> None:
+    m = _PATH.match(v.path)
+    if m["top"]:
+        d["tolerance_um"] = value
+        return
+    if m["ckey"]:
+        d["cannula"][m["ckey"]] = value
+        return
+    c = d["cutters"][int(m["k"])]
+    for other in _ALTERNATIVES.get((c.get("kind"), m["key"]), ()):
+        c.pop(other, None)
+    c[m["key"]] = value
+
+
+def _num(key: str, value: Any) -> float:
+    if isinstance(value, bool) or not isinstance(value, Real) or not math.isfinite(value):
+        raise SpecError(f"{key} = {value!r} is not a finite number; expected a number")
+    return float(value)
+
+
+def _int(key: str, value: Any, lo: int, hi: int) -> int:
+    if isinstance(value, bool) or not isinstance(value, int) or not lo <= value <= hi:
+        raise SpecError(f"{key} = {value!r} is out of range; allowed an integer {lo}–{hi}")
+    return int(value)
+
+
+def _str(key: str, value: Any) -> str:
+    if not isinstance(value, str):
+        raise SpecError(f"{key} = {value!r} is not a string; expected a string")
+    return value
+
+
+def _choice(key: str, value: Any, allowed) -> str:
+    if not isinstance(value, str) or value not in allowed:
+        raise SpecError(f"{key} = {value!r} is not valid; expected one of: " + ", ".join(allowed))
+    return value
+
+
+def _table(key: str, value: Any, allowed: tuple[str, ...]) -> dict:
+    if not isinstance(value, dict):
+        raise SpecError(f"{key} = {value!r} is not a table; expected a TOML table")
+    for k in value:
+        if k not in allowed:
+            raise SpecError(f"{key}.{k} is not a known key; allowed keys: " + ", ".join(allowed))
+    return value
+
+
+def _list(key: str, value: Any) -> list:
+    if not isinstance(value, list):
+        raise SpecError(f"{key} = {value!r} is not a list; expected an array")
+    return value
+
+
+def _responses(key: str, value: Any, allowed=None) -> tuple[str, ...]:
+    allowed = tuple(RESPONSES) if allowed is None else tuple(allowed)
+    items = _list(key, value)
+    if not items:
+        raise SpecError(f"{key} = [] is empty; expected at least one of: " + ", ".join(allowed))
+    out = []
+    for j, r in enumerate(items):
+        out.append(_choice(f"{key}[{j}]", r, allowed))
+    if len(set(out)) != len(out):
+        raise SpecError(f"{key} = {out!r} repeats a response; allowed each once")
+    return tuple(out)
+
+
+def _forces(value: Any) -> dict[str, Any]:
+    t = _table("analysis.forces", value, ("speed_ratio", "tissue"))
+    try:
+        from ..mechanics import tissue_names
+    except ImportError:
+        raise SpecError("analysis.forces needs tipgeo.mechanics, which this installation "
+                        "lacks") from None
+    if "speed_ratio" not in t:
+        raise SpecError("analysis.forces.speed_ratio is missing; expected S = v_r/v_a ≥ 0")
+    S = _num("analysis.forces.speed_ratio", t["speed_ratio"])
+    if not 0 <= S <= 1e3:
+        raise SpecError(f"analysis.forces.speed_ratio = {S:g} is out of range; allowed "
+                        "0 ≤ S ≤ 1000")
+    names = tissue_names()
+    tissue = _choice("analysis.forces.tissue", t.get("tissue", "soft-tissue-3.1.5"), names)
+    return {"speed_ratio": S, "tissue": tissue}
+
+
+def _base(value: Any, base_dir: Path | None) -> tuple[str, dict]:
+    from ..presets import PRESETS, preset
+    from ..spec import spec_to_dict
+
+    name = _str("base", value)
+    if name.endswith(".toml"):
+        p = Path(name)
+        if not p.is_absolute() and base_dir is not None:
+            p = base_dir / p
+        try:
+            data = tomllib.loads(p.read_text(encoding="utf-8"))
+        except FileNotFoundError:
+            raise SpecError(f"base = {name!r}: spec file '{p}' does not exist") from None
+        except (OSError, UnicodeDecodeError, tomllib.TOMLDecodeError) as e:
+            raise SpecError(f"base = {name!r}: cannot read '{p}': {e}") from None
+        from ..spec import spec_from_dict
+
+        try:
+            spec_from_dict(data, base_dir=p.parent)
+        except SpecError as e:
+            raise SpecError(f"base = {name!r}: {e}") from None
+        for c in data.get("cutters", []):  # mesh cutters: resolve their files now
+            if isinstance(c, dict) and c.get("kind") == "mesh" and "path" in c:
+                c["path"] = str((p.parent / c["path"]).resolve())
+        return name, data
+    if name not in PRESETS:
+        raise SpecError(f"base = {name!r} is neither a spec file (.toml) nor a preset; "
+                        "presets: " + ", ".join(PRESETS))
+    return name, spec_to_dict(preset(name))
+
+
+def _variable(k: int, t: Any, base: dict) -> Variable:
+    where = f"variables[{k}]"
+    t = _table(where, t, ("name", "path", "min", "max", "levels"))
+    if "path" not in t:
+        raise SpecError(f"{where}.path is missing; expected a spec key such as "
+                        "'cutters[0].helix_angle_deg' or 'cannula.length_mm'")
+    path = _str(f"{where}.path", t["path"])
+    m = _PATH.match(path)
+    if not m:
+        raise SpecError(f"{where}.path = {path!r} is not a spec key; expected 'tolerance_um', "
+                        "'cannula.<key>' or 'cutters[<k>].<key>'")
+    integer = False
+    if m["ckey"]:
+        if m["ckey"] not in _CANNULA_NUMERIC:
+            raise SpecError(f"{where}.path = {path!r}: cannula.{m['ckey']} is not a numeric "
+                            "key; allowed: " + ", ".join(f"cannula.{c}" for c in _CANNULA_NUMERIC))
+        if "preset" in base["cannula"] or (
+                "gauge" in base["cannula"] and m["ckey"].endswith("diameter_mm")):
+            raise SpecError(f"{where}.path = {path!r}: the base cannula is given by "
+                            f"{'preset' if 'preset' in base['cannula'] else 'gauge'}; write it "
+                            "with outer_diameter_mm and inner_diameter_mm to vary a diameter")
+        if m["ckey"] == "gauge" and "gauge" not in base["cannula"]:
+            raise SpecError(f"{where}.path = {path!r}: the base cannula is given by "
+                            "diameters; allowed cannula.outer_diameter_mm, "
+                            "cannula.inner_diameter_mm or cannula.length_mm")
+        integer = _CANNULA_NUMERIC[m["ckey"]] is int
+    elif m["key"]:
+        from ..spec import CUTTER_KINDS
+
+        cutters = base["cutters"]
+        ci = int(m["k"])
+        if ci >= len(cutters):
+            raise SpecError(f"{where}.path = {path!r}: the base spec has {len(cutters)} "
+                            f"cutter(s); allowed cutters[0]–cutters[{len(cutters) - 1}]")
+        kind = cutters[ci].get("kind")
+        key = m["key"]
+        numeric = [c for c in CUTTER_KINDS[kind]
+                   if (c.endswith(("_mm", "_deg")) and c != "rotations_deg") or c in _INT_KEYS]
+        if key not in numeric:
+            raise SpecError(f"{where}.path = {path!r}: '{key}' is not a numeric key of a "
+                            f"{kind} cutter; allowed: " + ", ".join(numeric))
+        integer = key in _INT_KEYS
+    name = _str(f"{where}.name", t.get("name", path.rsplit(".", 1)[-1]))
+    if not _NAME.match(name):
+        raise SpecError(f"{where}.name = {name!r} is not a valid column name; allowed "
+                        "letters, digits, '_', '.', '-' (not first)")
+    for key in ("min", "max"):
+        if key not in t:
+            raise SpecError(f"{where}.{key} is missing; it is required")
+    lo, hi = _num(f"{where}.min", t["min"]), _num(f"{where}.max", t["max"])
+    if not lo < hi:
+        raise SpecError(f"{where}.max = {hi:g} is out of range; allowed max > min = {lo:g}")
+    levels = _int(f"{where}.levels", t["levels"], 2, 10_000) if "levels" in t else None
+    if integer and (lo != round(lo) or hi != round(hi)):
+        raise SpecError(f"{where}: '{path}' is an integer key; allowed integer min and max "
+                        f"(got {lo:g}, {hi:g})")
+    return Variable(name=name, path=path, lo=lo, hi=hi, levels=levels, integer=integer)
+
+
+def _objective(k: int, t: Any, responses: tuple[str, ...]) -> Objective:
+    where = f"objectives[{k}]"
+    t = _table(where, t, ("name", "terms", "combine"))
+    name = _str(f"{where}.name", t.get("name", f"objective-{k}"))
+    if not _NAME.match(name):
+        raise SpecError(f"{where}.name = {name!r} is not a valid name; allowed letters, "
+                        "digits, '_', '.', '-' (not first)")
+    combine = _choice(f"{where}.combine", t.get("combine", "weighted"), COMBINE)
+    if "terms" not in t:
+        raise SpecError(f"{where}.terms is missing; expected an array of "
+                        "{{ response = ..., goal = 'min'|'max' }}")
+    items = _list(f"{where}.terms", t["terms"])
+    if not items:
+        raise SpecError(f"{where}.terms = [] is empty; expected at least one term")
+    terms = []
+    for j, tt in enumerate(items):
+        w = f"{where}.terms[{j}]"
+        tt = _table(w, tt, ("response", "goal", "weight"))
+        if "response" not in tt:
+            raise SpecError(f"{w}.response is missing; allowed: " + ", ".join(responses))
+        resp = _choice(f"{w}.response", tt["response"], responses)
+        goal = _choice(f"{w}.goal", tt.get("goal", "min"), GOALS)
+        weight = _num(f"{w}.weight", tt.get("weight", 1.0))
+        if not weight > 0:
+            raise SpecError(f"{w}.weight = {weight:g} is out of range; allowed > 0")
+        terms.append(Term(resp, goal, weight))
+    if combine == "pareto" and len(terms) < 2:
+        raise SpecError(f"{where}.combine = 'pareto' needs at least two terms")
+    return Objective(name=name, terms=tuple(terms), combine=combine)
+
+
+_TOP = ("name", "description", "base", "variables", "design", "analysis", "sweep",
+        "surrogate", "objectives", "plots")
+
+
+def config_from_dict(data: Any, *, base_dir: str | Path | None = None,
+                     source: Path | None = None) -> StudyConfig:
+    """Validate a parsed study TOML document.
+
+    Parameters
+    ----------
+    data : dict — the parsed TOML
+    base_dir : folder that relative paths (``base``, ``sweep.cache``) start from
+    source : the config file, if any (its stem is the default name)
+    """
+    t = _table("config", data, _TOP)
+    bdir = None if base_dir is None else Path(base_dir)
+    name = _str("name", t.get("name", source.stem if source else "study"))
+    if not _NAME.match(name):
+        raise SpecError(f"name = {name!r} is not a valid name; allowed letters, digits, '_', "
+                        "'.', '-' (not first)")
+    description = _str("description", t.get("description", ""))
+    if "base" not in t:
+        raise SpecError("base is missing; expected a preset name or a spec file (.toml)")
+    base_name, base = _base(t["base"], bdir)
+
+    design = _table("design", t.get("design", {}), ("method", "levels", "points", "seed"))
+    method = _choice("design.method", design.get("method", "grid"), tuple(DESIGN_METHODS))
+    levels = design.get("levels")
+    if levels is not None:
+        if isinstance(levels, list):
+            levels = [_int(f"design.levels[{j}]", x, 2, 10_000) for j, x in enumerate(levels)]
+        else:
+            levels = _int("design.levels", levels, 2, 10_000)
+    points = design.get("points")
+    if points is not None:
+        points = _int("design.points", points, 2, 1_000_000)
+    seed = _int("design.seed", design.get("seed", 0), 0, 2**32 - 1)
+
+    raw_vars = _list("variables", t.get("variables", []))
+    if not raw_vars:
+        raise SpecError("variables is missing or empty; expected at least one [[variables]] "
+                        "table with path, min and max")
+    variables = tuple(_variable(k, v, base) for k, v in enumerate(raw_vars))
+    names = [v.name for v in variables]
+    for v in variables:
+        if names.count(v.name) > 1:
+            raise SpecError(f"variables: name {v.name!r} is used twice; allowed unique names")
+        if [w.path for w in variables].count(v.path) > 1:
+            raise SpecError(f"variables: path {v.path!r} is varied twice; allowed once")
+    if method == "grid":
+        if isinstance(levels, list) and len(levels) != len(variables):
+            raise SpecError(f"design.levels = {levels!r} has {len(levels)} entries for "
+                            f"{len(variables)} variables; expected one integer or "
+                            f"{len(variables)}")
+        if levels is None and any(v.levels is None for v in variables):
+            raise SpecError("design.levels is missing; method 'grid' needs levels (in [design] "
+                            "or per variable)")
+        if points is not None:
+            raise SpecError("design.points is not used by method 'grid'; give levels instead")
+        lv = levels if isinstance(levels, list) else [v.levels or levels for v in variables]
+        total = math.prod(lv)
+        if total > 1_000_000:
+            raise SpecError(f"design.levels give {total} grid points; allowed ≤ 1000000")
+    else:
+        if points is None:
+            raise SpecError(f"design.points is missing; method '{method}' needs a number of "
+                            "points (≥ 2)")
+        if levels is not None:
+            raise SpecError(f"design.levels is not used by method '{method}'; give points")
+    design = {"method": method, "levels": levels, "points": points, "seed": seed}
+
+    an = _table("analysis", t.get("analysis", {}), ("method", "harmonics", "samples",
+                                                    "responses", "forces"))
+    analysis = {"method": _choice("analysis.method", an.get("method", "exact"),
+                                  ANALYSIS_METHODS),
+                "harmonics": _int("analysis.harmonics", an.get("harmonics", 5), 1, 50),
+                "samples": _int("analysis.samples", an.get("samples", 3600), 360, 10**6)}
+    if "forces" in an:
+        analysis["forces"] = _forces(an["forces"])
+    responses = _responses("analysis.responses", an.get("responses", list(THESIS)))
+    for j, r in enumerate(responses):
+        if r in FORCE_RESPONSES and "forces" not in analysis:
+            raise SpecError(f"analysis.responses[{j}] = {r!r} is a force; it needs "
+                            "[analysis.forces] with speed_ratio and tissue")
+
+    sw = _table("sweep", t.get("sweep", {}), ("workers", "cache"))
+    workers = _int("sweep.workers", sw["workers"], 1, 4096) if "workers" in sw else None
+    cache = sw.get("cache", True)
+    if not isinstance(cache, bool):
+        cache = _str("sweep.cache", cache)
+        if not cache:
+            raise SpecError("sweep.cache = '' is empty; expected true, false or a folder")
+        p = Path(cache)
+        cache = str(p if p.is_absolute() or bdir is None else bdir / p)
+
+    sg = _table("surrogate", t.get("surrogate", {}), ("nugget", "mode", "starts", "seed",
+                                                      "responses"))
+    nug = sg.get("nugget", False)
+    if not isinstance(nug, bool):
+        nug = _num("surrogate.nugget", nug)
+        if not 0 <= nug < 1:
+            raise SpecError(f"surrogate.nugget = {nug:g} is out of range; allowed false, true "
+                            "or a number 0 ≤ δ < 1")
+    surrogate = {"nugget": nug,
+                 "mode": _choice("surrogate.mode", sg.get("mode", "independent"),
+                                 SURROGATE_MODES),
+                 "starts": _int("surrogate.starts", sg.get("starts", 12), 1, 1000),
+                 "seed": _int("surrogate.seed", sg.get("seed", 0), 0, 2**32 - 1),
+                 "responses": (_responses("surrogate.responses", sg["responses"], responses)
+                               if "responses" in sg else responses)}
+
+    objs = tuple(_objective(k, o, surrogate["responses"])
+                 for k, o in enumerate(_list("objectives", t.get("objectives", []))))
+    if len({o.name for o in objs}) != len(objs):
+        raise SpecError("objectives: two objectives share a name; allowed unique names")
+
+    pl = _table("plots", t.get("plots", {}), ("responses", "variables", "resolution"))
+    pvars = pl.get("variables", names[:2])
+    pvars = _list("plots.variables", pvars)
+    if not 1 <= len(pvars) <= 2 or len(pvars) > len(names):
+        raise SpecError(f"plots.variables = {pvars!r}; allowed one or two of: "
+                        + ", ".join(names))
+    pvars = tuple(_choice(f"plots.variables[{j}]", x, names) for j, x in enumerate(pvars))
+    if len(set(pvars)) != len(pvars):
+        raise SpecError(f"plots.variables = {list(pvars)!r} repeats a variable")
+    plots = {"responses": (_responses("plots.responses", pl["responses"],
+                                      surrogate["responses"])
+                           if "responses" in pl else surrogate["responses"]),
+             "variables": pvars,
+             "resolution": _int("plots.resolution", pl.get("resolution", 61), 5, 401)}
+    return StudyConfig(name=name, description=description, base_name=base_name, base=base,
+                       variables=variables, design=design, analysis=analysis,
+                       responses=responses, workers=workers, cache=cache, surrogate=surrogate,
+                       objectives=objs, plots=plots, source=source)
+
+
+def loads_config(text: str, *, base_dir: str | Path | None = None,
+                 source: Path | None = None) -> StudyConfig:
+    """Parse study TOML text (relative paths start at ``base_dir``)."""
+    try:
+        data = tomllib.loads(text)
+    except tomllib.TOMLDecodeError as e:
+        raise SpecError(f"config is not valid TOML: {e}") from None
+    return config_from_dict(data, base_dir=base_dir, source=source)
+
+
+def load_config(path: str | Path) -> StudyConfig:
+    """Read a study config file (relative paths start at its folder)."""
+    p = Path(path)
+    try:
+        text = p.read_text(encoding="utf-8")
+    except FileNotFoundError:
+        raise SpecError(f"config file '{p}' does not exist") from None
+    except (OSError, UnicodeDecodeError) as e:
+        raise SpecError(f"config file '{p}' cannot be read: {e}") from None
+    try:
+        return loads_config(text, base_dir=p.parent, source=p)
+    except SpecError as e:
+        raise SpecError(f"{p.name}: {e}") from None

@@ -1,0 +1,228 @@
+"""Where a sweep's configurations are evaluated: in this process, on local
+cores, or on a Dask distributed cluster — same function, same results.
+
+Every executor runs ``fn(*args)`` for each task and calls ``on_done(i,
+result)`` as each task finishes (any order); :meth:`run` returns the results
+in task order. A task that raises on a remote worker (a broken worker
+environment, a lost worker) becomes a ``failed`` result instead of stopping
+the sweep.
+"""
+
+from __future__ import annotations
+
+import os
+import sys
+import time
+from collections.abc import Callable, Sequence
+from typing import Any
+
+from ..errors import SpecError
+
+__all__ = ["SerialExecutor", "ProcessExecutor", "DaskExecutor", "make_executor", "Progress"]
+
+
+def _failure(e: BaseException) -> dict[str, Any]:
+    return {"status": "failed", "error": f"{type(e).__name__}: {e}", "responses": {},
+            "deterministic": False}
+
+
+class SerialExecutor:
+    """Evaluate in this process, one task after another."""
+
+    name = "serial"
+    workers = 1
+
+    def run(self, fn: Callable, tasks: Sequence[tuple], on_done: Callable) -> list:
+        out = []
+        for i, args in enumerate(tasks):
+            r = fn(*args)
+            on_done(i, r)
+            out.append(r)
+        return out
+
+
+class ProcessExecutor:
+    """Evaluate on local cores (a process pool).
+
+    Parameters
+    ----------
+    workers : int — processes (default: the number of CPUs)
+
+    Each worker limits BLAS to one thread (``threadpoolctl``, when installed).
+    Workers are forked from this process when it runs no other thread (they
+    start at once, tipgeo already imported); otherwise they come from a
+    ``forkserver`` that has imported tipgeo (safe next to threads); on systems
+    with neither, ``spawn``.
+    """
+
+    name = "processes"
+
+    def __init__(self, workers: int | None = None):
+        self.workers = workers or os.cpu_count() or 1
+
+    def run(self, fn: Callable, tasks: Sequence[tuple], on_done: Callable) -> list:
+        from concurrent.futures import ProcessPoolExecutor, as_completed
+
+        ctx = _context()
+        out: list = [None] * len(tasks)
+        with ProcessPoolExecutor(max_workers=min(self.workers, max(len(tasks), 1)),
+                                 mp_context=ctx, initializer=_one_blas_thread) as pool:
+            futs = {pool.submit(fn, *args): i for i, args in enumerate(tasks)}
+            for f in as_completed(futs):
+                i = futs[f]
+                try:
+                    r = f.result()
+                except Exception as e:  # a worker died (memory, signal)
+                    r = _failure(e)
+                out[i] = r
+                on_done(i, r)
+        return out
+
+
+def _one_blas_thread() -> None:
+    """Worker initializer: one BLAS thread per worker process, so that N workers
+    use N cores rather than fighting over them (as Dask does for its workers)."""
+    try:
+        from threadpoolctl import threadpool_limits
+    except ImportError:  # pragma: no cover - then BLAS keeps its default
+        return
+    threadpool_limits(1)
+
+
+_PRELOAD = ("tipgeo.angles", "tipgeo.optimize.responses")
+
+
+def _context():
+    import multiprocessing as mp
+    import threading
+
+    methods = mp.get_all_start_methods()
+    if "fork" in methods and threading.active_count() == 1:
+        import importlib
+
+        for m in _PRELOAD:  # imported once here rather than in every worker
+            importlib.import_module(m)
+        return mp.get_context("fork")
+    if "forkserver" in methods:
+        ctx = mp.get_context("forkserver")
+        ctx.set_forkserver_preload(list(_PRELOAD))
+        return ctx
+    return mp.get_context("spawn")  # pragma: no cover - Windows
+
+
+class DaskExecutor:
+    """Evaluate on a Dask distributed cluster (``pip install "dask[distributed]"``).
+
+    Parameters
+    ----------
+    address : str, optional
+        Scheduler address (``tcp://host:8786``); the workers need tipgeo
+        installed (the same version: results are cached under this machine's
+        code fingerprint).
+    client : distributed.Client, optional
+        An existing client instead of an address (tests use a ``LocalCluster``).
+    timeout_s : float — how long to wait for the scheduler (s)
+    """
+
+    name = "dask"
+
+    def __init__(self, address: str | None = None, *, client=None, timeout_s: float = 10.0):
+        if (address is None) == (client is None):
+            raise SpecError("DaskExecutor needs exactly one of address and client")
+        self.address, self.client, self.timeout_s = address, client, timeout_s
+        self.workers = 0  # known once connected
+
+    def run(self, fn: Callable, tasks: Sequence[tuple], on_done: Callable) -> list:
+        try:
+            from distributed import Client, as_completed
+        except ImportError:
+            raise SpecError("--scheduler needs Dask: pip install \"dask[distributed]\" "
+                            "(or tipgeo[cluster])") from None
+        own = self.client is None
+        if own:
+            try:
+                self.client = Client(self.address, timeout=self.timeout_s)
+            except (OSError, TimeoutError, ValueError) as e:
+                raise SpecError(f"--scheduler = {self.address!r}: cannot connect ({e}); "
+                                "expected the address of a running Dask scheduler, e.g. "
+                                "tcp://host:8786") from None
+        try:
+            self.workers = len(self.client.scheduler_info().get("workers", {}))
+            out: list = [None] * len(tasks)
+            futs = [self.client.submit(fn, *args, pure=False) for args in tasks]
+            index = {f.key: i for i, f in enumerate(futs)}
+            for f in as_completed(futs):
+                i = index[f.key]
+                try:
+                    r = f.result()
+                except Exception as e:
+                    r = _failure(e)
+                out[i] = r
+                on_done(i, r)
+                f.release()
+            return out
+        finally:
+            if own:
+                self.client.close()
+                self.client = None
+
+
+def make_executor(workers: int | None = None, scheduler: str | None = None):
+    """The executor for ``workers`` local processes (1: in this process) or a
+    Dask ``scheduler`` address."""
+    if scheduler:
+        return DaskExecutor(scheduler)
+    if workers is not None and (isinstance(workers, bool) or not isinstance(workers, int)
+                                or workers < 1):
+        raise SpecError(f"workers = {workers!r} is out of range; allowed an integer ≥ 1")
+    if workers == 1:
+        return SerialExecutor()
+    return ProcessExecutor(workers)
+
+
+class Progress:
+    """A progress line on stderr: ``label: 12/25 48% 3.1 s ETA 3.4 s (2 cached, 1 failed)``.
+
+    On a terminal the line is redrawn in place; otherwise a line is printed at
+    most every ``interval_s`` seconds and at the end.
+    """
+
+    def __init__(self, total: int, label: str = "sweep", *, stream=None, enabled: bool = True,
+                 interval_s: float = 2.0):
+        self.total, self.label, self.enabled = total, label, enabled
+        self.stream = stream if stream is not None else sys.stderr
+        self.tty = bool(getattr(self.stream, "isatty", lambda: False)())
+        self.done = self.cached = self.failed = 0
+        self.t0 = time.perf_counter()
+        self._last = -1e9
+        self.interval_s = interval_s
+
+    def update(self, *, cached: bool = False, failed: bool = False) -> None:
+        """Count one finished configuration."""
+        self.done += 1
+        self.cached += cached
+        self.failed += failed
+        if not self.enabled:
+            return
+        now = time.perf_counter()
+        if self.tty or now - self._last >= self.interval_s or self.done == self.total:
+            self._last = now
+            self._draw(now)
+
+    def _draw(self, now: float) -> None:
+        dt = now - self.t0
+        frac = self.done / max(self.total, 1)
+        eta = dt / frac - dt if 0 < frac < 1 else 0.0
+        width = 24
+        bar = "#" * int(width * frac) + "-" * (width - int(width * frac))
+        extra = ", ".join(s for s in (f"{self.cached} cached" if self.cached else "",
+                                      f"{self.failed} failed" if self.failed else "") if s)
+        line = (f"{self.label}: [{bar}] {self.done}/{self.total} {100 * frac:3.0f}% "
+                f"{dt:.1f} s" + (f" ETA {eta:.1f} s" if self.done < self.total else "")
+                + (f" ({extra})" if extra else ""))
+        if self.tty:
+            end = "\n" if self.done == self.total else ""
+            self.stream.write("\r" + line + "\x1b[K" + end)
+        else:
+            self.stream.write(line + "\n")
+        self.stream.flush()

@@ -1,0 +1,370 @@
+r"""Gaussian-process surrogate of thesis §3.4.1 (eq. 3.24–3.33).
+
+Model (constant mean, Gaussian correlation)::
+
+    y(x) = β + ξ₀(x),   cov(ξ₀(x), ξ₀(x′)) = σ² r(x, x′),
+    r(x, x′) = exp(−Σᵢ 10^ωᵢ (xᵢ − x′ᵢ)²)                       (eq. 3.26)
+
+fitted by maximum likelihood with β and σ² profiled out (eq. 3.28–3.29), so
+that ω (and the nugget δ, when it is fitted) minimise
+
+    L(ω, δ) = n log σ̂² + log |C_δ|,   C_δ = C + δ I              (eq. 3.30)
+
+from several starting points (§3.4.1: "the optimization is done numerous times
+with different initial guesses"; ωᵢ ∈ [−20, 5]): a bounded Nelder–Mead search
+from each Latin-hypercube start, polished by L-BFGS-B with the analytic
+gradient dL = tr(W dC), W = q C⁻¹ − A Σ̂⁻¹ Aᵀ, A = C⁻¹(Y − 1β̂). Correlation
+matrices too ill-conditioned to trust are excluded (``min_rcond``), which is
+where smooth, noise-free responses put the optimum. Predictions are eq. 3.31
+and their variance eq. 3.32, *including* the term for the uncertainty of β̂;
+the 95 % interval is ŷ ± 1.96 sd.
+
+Several responses (q of them) are fitted either as independent GPs (each with
+its own ω, β, σ²) or jointly with the separable covariance Σ ⊗ r(x, x′) of
+eq. 3.33 (one ω for all, a constant mean per response, Σ̂ the q × q process
+covariance): then L = n log |Σ̂| + q log |C_δ|.
+
+Inputs: the GP works on whatever coordinates it is given; the sweep passes
+the design variables scaled to the unit box, u = (x − lo)/(hi − lo), so ω is
+per unit range of each variable. Outputs keep their own units.
+
+Why not scikit-learn's ``GaussianProcessRegressor``: its mean is zero (or the
+sample mean with ``normalize_y``), not the generalised-least-squares β̂ of eq.
+3.28, and its predictive variance lacks the β̂ term of eq. 3.32; it has no
+separable multi-response form (eq. 3.33). The kernel itself is the same — an
+anisotropic RBF with length scales ℓᵢ = 1/√(2·10^ωᵢ) (:func:`length_scales`) —
+and the tests check this model against scikit-learn's on that mapping.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from ..errors import SpecError
+
+__all__ = ["GaussianProcess", "FitResult", "length_scales", "Z95"]
+
+#: Two-sided 95 % normal quantile (eq. 3.31–3.32 intervals).
+Z95 = 1.959963984540054
+_LN10 = math.log(10.0)
+
+
+def length_scales(omega) -> np.ndarray:
+    """RBF length scales ℓᵢ = 1/√(2·10^ωᵢ) equivalent to the roughness ω of eq. 3.26.
+
+    ``exp(−10^ω Δ²) = exp(−Δ² / (2ℓ²))``; same units as the GP's inputs.
+    """
+    return 1.0 / np.sqrt(2.0 * 10.0 ** np.asarray(omega, float))
+
+
+@dataclass(frozen=True)
+class FitResult:
+    """Hyperparameters and profiled estimates of a fitted GP.
+
+    Attributes
+    ----------
+    omega : (d,) float — roughness parameters ω (eq. 3.26), log10 units
+    nugget : float — δ (0 when off)
+    beta : (q,) float — constant means β̂ (eq. 3.28), response units
+    sigma : (q, q) float — process covariance Σ̂ (σ̂² when q = 1, eq. 3.29)
+    objective : float — L at the optimum (eq. 3.30; lower is better)
+    starts : int — optimiser starts tried
+    """
+
+    omega: np.ndarray
+    nugget: float
+    beta: np.ndarray
+    sigma: np.ndarray
+    objective: float
+    starts: int
+
+
+@dataclass
+class GaussianProcess:
+    """Constant-mean GP with the Gaussian correlation of eq. 3.26.
+
+    Parameters
+    ----------
+    nugget : bool or float
+        ``False`` (default): interpolate (δ = 0). A number: that δ, fixed.
+        ``True``: δ fitted by MLE with log10 δ in ``nugget_bounds``.
+    separable : bool
+        Fit several responses (Y of shape (n, q)) jointly with the separable
+        covariance Σ ⊗ r of eq. 3.33: one ω, a mean per response. Otherwise Y
+        must be one response; independent models are one object each.
+    starts : int
+        MLE starting points (≥ 1), spread over ``start_box`` by a Latin
+        hypercube; the best optimum is kept.
+    omega_bounds : (lo, hi)
+        Search range of every ωᵢ (thesis: [−20, 5]).
+    start_box : (lo, hi)
+        Where the starting ω are drawn (inputs scaled to a unit box make
+        [−2, 3] the plausible range).
+    nugget_bounds : (lo, hi)
+        log10 δ range when the nugget is fitted.
+    min_rcond : float
+        Correlation matrices whose estimated reciprocal condition number falls
+        below this are rejected during MLE. For smooth, noise-free responses the
+        likelihood keeps improving towards ever smoother models until C is
+        numerically singular; the MLE then sits on this bound (a constrained
+        MLE). 1e-12 keeps interpolation round-off near 1e-11 of the response
+        and the LOO intervals honest on the helical study.
+    seed : int
+        Seed of the starting points (the fit is deterministic).
+    """
+
+    nugget: bool | float = False
+    separable: bool = False
+    starts: int = 12
+    omega_bounds: tuple[float, float] = (-20.0, 5.0)
+    start_box: tuple[float, float] = (-2.0, 3.0)
+    nugget_bounds: tuple[float, float] = (-12.0, 0.0)
+    min_rcond: float = 1e-12
+    seed: int = 0
+    fit_: FitResult | None = field(default=None, init=False, repr=False)
+
+    def __post_init__(self):
+        if isinstance(self.nugget, bool):
+            pass
+        elif isinstance(self.nugget, (int, float)) and math.isfinite(self.nugget) \
+                and 0 <= self.nugget < 1:
+            self.nugget = float(self.nugget)
+        else:
+            raise SpecError(f"nugget = {self.nugget!r} is not valid; allowed false, true or a "
+                            "number 0 ≤ δ < 1")
+        if not isinstance(self.starts, int) or isinstance(self.starts, bool) \
+                or not 1 <= self.starts <= 1000:
+            raise SpecError(f"starts = {self.starts!r} is out of range; allowed an integer "
+                            "1–1000")
+
+    # -- fitting ----------------------------------------------------------------
+    def fit(self, X, Y) -> GaussianProcess:
+        """Fit by maximum likelihood (eq. 3.27–3.30).
+
+        Parameters
+        ----------
+        X : (n, d) float — training inputs (any consistent units)
+        Y : (n,) or (n, q) float — training responses
+
+        Returns
+        -------
+        self
+        """
+        from scipy.optimize import minimize
+        from scipy.stats import qmc
+
+        self._prepare(X, Y)
+        d = self.X_.shape[1]
+        fit_nugget = self.nugget is True
+        lo, hi = self.omega_bounds
+        bounds = [(lo, hi)] * d + ([tuple(self.nugget_bounds)] if fit_nugget else [])
+        lhs = qmc.LatinHypercube(d + fit_nugget, seed=self.seed)
+        box = np.array([self.start_box] * d + ([(-8.0, -2.0)] if fit_nugget else []))
+        pts = box[:, 0] + lhs.random(self.starts) * (box[:, 1] - box[:, 0])
+        best = None
+        nd = len(bounds)
+        for p0 in pts:
+            # a start in the singular (too smooth) region: roughen until C is usable
+            while self._objective(p0, False) >= _BAD and np.any(p0[:d] < hi - 1.0):
+                p0[:d] = np.minimum(p0[:d] + 1.0, hi)
+            # Nelder–Mead first: the likelihood of smooth, noise-free data keeps
+            # falling towards smoother models until C becomes singular, and a
+            # simplex slides along that wall where a gradient method's line
+            # search stops; then a gradient polish for interior optima.
+            res = minimize(self._objective, p0, args=(False,), method="Nelder-Mead",
+                           bounds=bounds, options={"xatol": 1e-4, "fatol": 1e-8,
+                                                   "maxfev": 200 * nd})
+            pol = minimize(self._objective, res.x, jac=True, method="L-BFGS-B", bounds=bounds)
+            if pol.fun < res.fun:
+                res = pol
+            if best is None or res.fun < best.fun:
+                best = res
+        if best is None or not np.isfinite(best.fun) or best.fun >= _BAD:
+            raise SpecError("the GP likelihood could not be evaluated at any starting point: "
+                            "the training inputs repeat or the responses are degenerate")
+        omega = best.x[:d]
+        delta = 10.0 ** best.x[d] if fit_nugget else (0.0 if self.nugget is False
+                                                        else float(self.nugget))
+        self._set(omega, delta)
+        return self
+
+    def _corr(self, omega, delta):
+        C = np.exp(-np.tensordot(10.0 ** omega, self._D, axes=1))
+        if delta:
+            C = C + delta * np.eye(len(C))
+        return C
+
+    def _delta(self, theta):
+        d = self.X_.shape[1]
+        if self.nugget is True:
+            return 10.0 ** theta[d]
+        return 0.0 if self.nugget is False else float(self.nugget)
+
+    def _objective(self, theta, grad: bool = True):
+        """L(ω, δ) of eq. 3.30 (separable: eq. 3.33 form) and, with ``grad``, its
+        gradient."""
+        d = self.X_.shape[1]
+        r = self._profile(theta[:d], self._delta(theta), grad=grad)
+        if not grad:
+            return r[0]
+        L, g_omega, g_delta = r
+        if self.nugget is True:
+            return L, np.append(g_omega, g_delta)
+        return L, g_omega
+
+    def _profile(self, omega, delta, *, keep: bool = False, grad: bool = True):
+        """L, dL/dω and dL/dlog10 δ at (ω, δ); β̂ and Σ̂ profiled out."""
+        from scipy.linalg import lapack
+
+        n, q = self.Y_.shape
+        d = len(omega)
+        bad = (_BAD, np.zeros(d), 0.0)
+        C = self._corr(omega, delta)
+        Lc, info = lapack.dpotrf(C, lower=1, clean=1)
+        if info != 0:
+            return bad
+        rcond, info = lapack.dpocon(Lc, np.abs(C).sum(0).max(), uplo="L")
+        if info != 0 or rcond < self.min_rcond:
+            return bad
+        B, _ = lapack.dpotrs(Lc, np.column_stack([np.ones(n), self.Y_]), lower=1)
+        Ci1, CiY = B[:, 0], B[:, 1:]
+        s1 = Ci1.sum()
+        beta = CiY.sum(0) / s1  # eq. 3.28
+        A = CiY - np.outer(Ci1, beta)  # C⁻¹(Y − 1β̂)
+        R = self.Y_ - beta
+        S = R.T @ A / n  # Σ̂ (q × q), eq. 3.29
+        sign, logdetS = np.linalg.slogdet(S)
+        if sign <= 0 or not np.isfinite(logdetS):
+            return bad
+        L = float(n * logdetS + q * 2.0 * np.log(np.diag(Lc)).sum())
+        if keep:
+            self._cf, self._Ci1, self._A, self._one_Ci1 = (Lc, True), Ci1, A, float(s1)
+            self.fit_ = FitResult(omega=np.array(omega, float), nugget=float(delta),
+                                  beta=np.asarray(beta, float), sigma=S, objective=L,
+                                  starts=self.starts)
+            return L, np.zeros(d), 0.0
+        if not grad:
+            return L, None, None
+        # dL = tr(W dC) with W = q C⁻¹ − A Σ̂⁻¹ Aᵀ (β̂, Σ̂ at their optimum)
+        Ci, _ = lapack.dpotrs(Lc, np.eye(n), lower=1)
+        W = q * Ci - A @ np.linalg.solve(S, A.T)
+        C0 = C - delta * np.eye(n) if delta else C
+        g = np.array([np.sum(W * (-_LN10 * 10.0 ** omega[k] * self._D[k] * C0))
+                      for k in range(d)])
+        return L, g, float(_LN10 * delta * np.trace(W))
+
+    def _set(self, omega, delta):
+        L, _, _ = self._profile(np.asarray(omega, float), float(delta), keep=True)
+        if L >= _BAD:
+            raise SpecError(f"omega = {np.round(omega, 4).tolist()}, nugget = {delta:.3g}: "
+                            "the correlation matrix is singular or too ill-conditioned "
+                            f"(reciprocal condition < {self.min_rcond:g}); add a nugget")
+
+    def _prepare(self, X, Y):
+        X = np.asarray(X, float)
+        Y = np.asarray(Y, float)
+        if X.ndim != 2:
+            raise SpecError(f"X has shape {X.shape}; expected (n, d)")
+        self._vector = Y.ndim == 1
+        Y = Y.reshape(len(Y), -1)
+        n = len(X)
+        if len(Y) != n:
+            raise SpecError(f"X has {n} rows but Y has {len(Y)}; expected the same")
+        if n < 2:
+            raise SpecError(f"{n} training point(s); a GP needs at least 2")
+        if not (np.all(np.isfinite(X)) and np.all(np.isfinite(Y))):
+            raise SpecError("X or Y holds NaN or infinity; drop failed points first")
+        if Y.shape[1] > 1 and not self.separable:
+            raise SpecError(f"Y has {Y.shape[1]} responses; fit one GaussianProcess per "
+                            "response, or pass separable=True (eq. 3.33)")
+        self.X_, self.Y_ = X, Y
+        # pairwise squared differences per input, shape (d, n, n)
+        self._D = (X[:, None, :] - X[None, :, :]).transpose(2, 0, 1) ** 2
+
+    def set_params(self, X, Y, omega, nugget: float = 0.0) -> GaussianProcess:
+        """Condition on (X, Y) with given ω and δ (no MLE); β̂ and Σ̂ profiled.
+
+        Parameters
+        ----------
+        X : (n, d) float; Y : (n,) or (n, q) float
+        omega : (d,) float — roughness (eq. 3.26); nugget : float — δ ≥ 0
+        """
+        self._prepare(X, Y)
+        self._set(np.asarray(omega, float).reshape(self.X_.shape[1]), float(nugget))
+        return self
+
+    # -- prediction ---------------------------------------------------------------
+    def _check_fitted(self):
+        if self.fit_ is None:
+            raise SpecError("the GP is not fitted; call fit(X, Y) first")
+
+    def predict(self, Xs, *, return_std: bool = False):
+        """Predictive mean (eq. 3.31) and standard deviation (√ of eq. 3.32).
+
+        Parameters
+        ----------
+        Xs : (m, d) float — inputs, same coordinates as the training X
+
+        Returns
+        -------
+        mean : (m,) or (m, q) float
+        std : same shape, when ``return_std`` — of the latent response (the
+            nugget's noise is not added)
+        """
+        from scipy.linalg import cho_solve
+
+        self._check_fitted()
+        Xs = np.atleast_2d(np.asarray(Xs, float))
+        f = self.fit_
+        diff2 = (Xs[:, None, :] - self.X_[None, :, :]) ** 2  # (m, n, d)
+        r = np.exp(-(diff2 @ (10.0 ** f.omega)))  # (m, n)
+        mean = f.beta + r @ self._A
+        if self._vector:
+            mean = mean[:, 0]
+        if not return_std:
+            return mean
+        Cir = cho_solve(self._cf, r.T)  # (n, m)
+        h = 1.0 - self._Ci1 @ r.T
+        unit = 1.0 - np.einsum("mn,nm->m", r, Cir) + h ** 2 / self._one_Ci1
+        var = np.maximum(unit, 0.0)[:, None] * np.diag(f.sigma)[None, :]
+        std = np.sqrt(var)
+        return mean, (std[:, 0] if self._vector else std)
+
+    def interval(self, Xs, level: float = 0.95):
+        """(lower, upper) bounds of the two-sided ``level`` interval (normal)."""
+        from scipy.stats import norm
+
+        mean, std = self.predict(Xs, return_std=True)
+        z = Z95 if level == 0.95 else float(norm.ppf(0.5 + level / 2))
+        return mean - z * std, mean + z * std
+
+    def loo(self):
+        """Leave-one-out residuals with ω, δ kept, β̂ re-estimated (closed form).
+
+        Uses the top-left block Q of the inverse of [[C, 1], [1ᵀ, 0]]: the
+        prediction error at xᵢ from the other n − 1 points is (Q y)ᵢ / Qᵢᵢ and
+        its variance σ̂²/Qᵢᵢ (of the observation, nugget included).
+
+        Returns
+        -------
+        residuals : (n,) or (n, q) float — y − ŷ₋ᵢ (response units)
+        std : same shape — LOO predictive standard deviations
+        """
+        from scipy.linalg import cho_solve
+
+        self._check_fitted()
+        n = len(self.X_)
+        Ci = cho_solve(self._cf, np.eye(n))
+        Q = Ci - np.outer(self._Ci1, self._Ci1) / self._one_Ci1
+        qd = np.diag(Q)
+        res = (Q @ self.Y_) / qd[:, None]
+        std = np.sqrt(np.outer(1.0 / qd, np.diag(self.fit_.sigma)))
+        if self._vector:
+            return res[:, 0], std[:, 0]
+        return res, std
+
+
+_BAD = 1e300

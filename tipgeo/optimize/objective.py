@@ -1,0 +1,243 @@
+"""Objectives composed from GP-predicted responses, their optimisation over
+the design box, and the check of an optimum on the real geometry.
+
+An objective's terms are scaled by the training range of their response,
+sₖ = (ŷₖ − minₖ)/(maxₖ − minₖ) for ``min`` terms and 1 − that for ``max``
+terms, so that every term is 0 at its best training value and 1 at its worst,
+whatever its unit. ``weighted`` minimises Σ wₖ sₖ / Σ wₖ (eq. 3.34 for one
+term); ``pareto`` keeps the non-dominated predictions over the box and picks
+the one nearest the ideal point (all sₖ = 0, distance weighted by wₖ).
+
+Search: the GP mean is evaluated on a scrambled Sobol set of the box (plus
+its corners and the training points), infeasible configurations (the spec
+raises :class:`~tipgeo.errors.SpecError`) are dropped, and the best few are
+polished with bounded L-BFGS-B; a Pareto front is refined by resampling
+around its points at shrinking scales. Coordinates are the variables' units.
+"""
+
+from __future__ import annotations
+
+import math
+import warnings
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+
+from ..errors import SpecError
+from .config import Objective, Term
+
+__all__ = ["Optimum", "scaled_terms", "optimize_objective", "pareto_front", "verify_optimum",
+           "term_summary"]
+
+
+@dataclass
+class Optimum:
+    """The optimum of one objective (coordinates in the variables' units).
+
+    Attributes
+    ----------
+    objective : Objective
+    x : (d,) float — the optimum
+    value : float — objective value (scaled, see the module docstring)
+    predicted, std : dict name -> float — GP mean and standard deviation there
+    front : dict or None — ``pareto``: ``x`` (k, d) and ``terms`` (k, t) of the front
+    """
+
+    objective: Objective
+    x: np.ndarray
+    value: float
+    predicted: dict
+    std: dict
+    front: dict | None = None
+    verified: dict | None = field(default=None)
+
+
+def _ranges(surrogate, names) -> tuple[np.ndarray, np.ndarray]:
+    idx = [surrogate.responses.index(n) for n in names]
+    Y = surrogate.Y_[:, idx]
+    lo, hi = Y.min(0), Y.max(0)
+    span = np.where(hi > lo, hi - lo, 1.0)
+    return lo, span
+
+
+def scaled_terms(surrogate, objective: Objective, mean: np.ndarray) -> np.ndarray:
+    """(m, t) scaled term values sₖ (0 best, 1 worst over the training set)."""
+    names = [t.response for t in objective.terms]
+    lo, span = _ranges(surrogate, names)
+    cols = [surrogate.responses.index(n) for n in names]
+    s = (mean[:, cols] - lo) / span
+    flip = np.array([t.goal == "max" for t in objective.terms])
+    return np.where(flip, 1.0 - s, s)
+
+
+def _weights(objective: Objective) -> np.ndarray:
+    w = np.array([t.weight for t in objective.terms], float)
+    return w / w.sum()
+
+
+def pareto_front(F: np.ndarray) -> np.ndarray:
+    """(m,) bool — rows of F (m, t; all minimised) that no other row dominates."""
+    F = np.asarray(F, float)
+    keep = np.ones(len(F), bool)
+    for start in range(0, len(F), 512):
+        blk = F[start:start + 512]
+        le = np.all(F[None, :, :] <= blk[:, None, :], axis=2)
+        lt = np.any(F[None, :, :] < blk[:, None, :], axis=2)
+        keep[start:start + 512] = ~np.any(le & lt, axis=1)
+    return keep
+
+
+def optimize_objective(surrogate, objective: Objective, *, feasible=None,
+                       candidates: int = 4096, polish: int = 6, refine: int = 4,
+                       max_front: int = 200, seed: int = 0) -> Optimum:
+    """Minimise an objective of the surrogate's predictions over its box.
+
+    Parameters
+    ----------
+    surrogate : Surrogate (fitted)
+    objective : Objective
+    feasible : callable (m, d) -> (m,) bool, optional
+        Which configurations exist (e.g. the spec validates); default: all.
+    candidates : int — Sobol points of the global stage
+    polish : int — best candidates refined by L-BFGS-B (``weighted``)
+    refine : int — rounds of resampling around the front (``pareto``)
+    max_front : int — front points kept (thinned evenly along the first term)
+    seed : int
+
+    Returns
+    -------
+    Optimum
+    """
+    from scipy.optimize import minimize
+    from scipy.stats import qmc
+
+    lo = surrogate._lo
+    span = surrogate._span
+    d = len(lo)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", UserWarning)
+        U = qmc.Sobol(d, scramble=True, seed=seed).random(candidates)
+    corners = np.array(np.meshgrid(*[[0.0, 1.0]] * d)).reshape(d, -1).T if d <= 12 else []
+    U = np.vstack([U, corners, surrogate.unit(surrogate.X_)])
+    X = lo + U * span
+    ok = np.asarray(feasible(X), bool) if feasible is not None else np.ones(len(X), bool)
+    if not ok.any():
+        raise SpecError(f"objective '{objective.name}': no feasible configuration in the box")
+    X, U = X[ok], U[ok]
+    w = _weights(objective)
+
+    def value(u):
+        m = surrogate.predict(lo + np.atleast_2d(u) * span)
+        return scaled_terms(surrogate, objective, m) @ w
+
+    front = None
+    if objective.combine == "pareto":
+        S = scaled_terms(surrogate, objective, surrogate.predict(X))
+        mask = pareto_front(S)
+        Sf, Uf = S[mask], U[mask]
+        # refine: resample around the front at shrinking scales, keep the non-dominated
+        rng = np.random.default_rng(seed)
+        scale = 0.5 / len(U) ** (1.0 / d)
+        for _ in range(refine):
+            Un = np.clip(np.repeat(Uf, 8, axis=0)
+                         + rng.normal(0.0, scale, (8 * len(Uf), d)), 0.0, 1.0)
+            if feasible is not None:
+                Un = Un[np.asarray(feasible(lo + Un * span), bool)]
+            Uf = np.vstack([Uf, Un])
+            Sf = np.vstack([Sf, scaled_terms(surrogate, objective,
+                                             surrogate.predict(lo + Un * span))])
+            keep = pareto_front(Sf)
+            Uf, Sf = Uf[keep], Sf[keep]
+            if len(Uf) > max_front:  # thin evenly along the first term
+                idx = np.argsort(Sf[:, 0])[np.linspace(0, len(Uf) - 1, max_front).astype(int)]
+                Uf, Sf = Uf[idx], Sf[idx]
+            scale *= 0.5
+        Xf = lo + Uf * span
+        # distance to the ideal point, each term scaled by its range on the front
+        flo, fhi = Sf.min(0), Sf.max(0)
+        Sn = (Sf - flo) / np.where(fhi > flo, fhi - flo, 1.0)
+        dist = np.sqrt((w * Sn ** 2).sum(1))
+        k = int(np.argmin(dist))
+        order = np.argsort(Sf[:, 0])
+        front = {"x": Xf[order], "terms": Sf[order]}
+        best_x, best_v = Xf[k], float(dist[k])
+    else:
+        v = value(U)
+        best = np.argsort(v)
+        best_x, best_v = X[best[0]], float(v[best[0]])
+        seen: list[np.ndarray] = []
+        for i in best:
+            if len(seen) >= polish:
+                break
+            if any(np.max(np.abs(U[i] - s)) < 0.02 for s in seen):
+                continue
+            seen.append(U[i])
+            res = minimize(lambda u: float(value(u)[0]), U[i], method="L-BFGS-B",
+                           bounds=[(0.0, 1.0)] * d)
+            xr = lo + np.clip(res.x, 0.0, 1.0) * span
+            if res.fun < best_v and (feasible is None or bool(feasible(xr[None])[0])):
+                best_x, best_v = xr, float(res.fun)
+    mean, std = surrogate.predict(best_x[None], return_std=True)
+    return Optimum(objective=objective, x=np.asarray(best_x, float), value=best_v,
+                   predicted=dict(zip(surrogate.responses, mean[0].tolist())),
+                   std=dict(zip(surrogate.responses, std[0].tolist())), front=front)
+
+
+def verify_optimum(config, optimum: Optimum, *, build: bool = True) -> dict[str, Any]:
+    """Build and analyse the optimum for real; compare with the GP.
+
+    Parameters
+    ----------
+    config : StudyConfig
+    optimum : Optimum
+    build : bool — also build the tip mesh (watertight, volume)
+
+    Returns
+    -------
+    dict with ``status``, ``error``, ``x`` (name -> value), ``build`` (triangles,
+    volume_mm3, watertight) and ``responses``: name -> ``predicted``, ``std``,
+    ``lo95``, ``hi95``, ``actual``, ``error`` (actual − predicted) and
+    ``inside95``. Stored on ``optimum.verified`` as well.
+    """
+    from .gp import Z95
+    from .responses import evaluate_spec
+
+    x = optimum.x
+    spec_dict = config.spec_dict(x)
+    spec_dict["name"] = f"{config.name}-{optimum.objective.name}"
+    out: dict[str, Any] = {"objective": optimum.objective.name,
+                           "x": {v.name: (int(round(val)) if v.integer else float(val))
+                                 for v, val in zip(config.variables, x)},
+                           "spec": spec_dict}
+    r = evaluate_spec(spec_dict, dict(config.analysis))
+    out["status"], out["error"] = r["status"], r["error"]
+    if build and r["status"] == "ok":
+        from ..build import build_tip
+        from ..spec import spec_from_dict
+
+        try:
+            tip = build_tip(spec_from_dict(spec_dict))
+            out["build"] = {"triangles": int(len(tip.faces)), "volume_mm3": float(tip.volume),
+                            "watertight": bool(tip.is_watertight)}
+        except Exception as e:  # reported, not raised: the analysis may still hold
+            out["build"] = {"error": f"{type(e).__name__}: {e}"}
+    resp = {}
+    for name, pred in optimum.predicted.items():
+        sd = optimum.std[name]
+        act = r["responses"].get(name, math.nan) if r["status"] == "ok" else math.nan
+        resp[name] = {"predicted": pred, "std": sd, "lo95": pred - Z95 * sd,
+                      "hi95": pred + Z95 * sd, "actual": act, "error": act - pred,
+                      # at a training point sd = 0: allow the interpolation's round-off
+                      "inside95": bool(abs(act - pred) <= Z95 * sd + 1e-9 * max(1.0, abs(pred)))}
+    out["responses"] = resp
+    optimum.verified = out
+    return out
+
+
+def term_summary(objective: Objective) -> str:
+    """``min theta_min_deg & max lambda_max_deg`` (weights shown when not 1)."""
+    def one(t: Term) -> str:
+        return f"{t.goal} {t.response}" + (f"×{t.weight:g}" if t.weight != 1 else "")
+
+    return " & ".join(one(t) for t in objective.terms)

@@ -1,0 +1,97 @@
+"""Built-in study configs (the ``samples/`` folder holds them as TOML too; a
+test keeps both in step).
+
+Units: see :mod:`tipgeo.optimize.config` (variables in their spec keys' units).
+"""
+
+from __future__ import annotations
+
+from ..errors import SpecError
+
+__all__ = ["STUDIES", "study_preset", "HELICAL_STUDY_TOML"]
+
+#: The thesis's 25-point helical study (§3.4.2), as ``samples/helical-study.toml``.
+HELICAL_STUDY_TOML = """\
+# tipgeo study — the thesis's GP optimisation of the helical needle (§3.4.2).
+# 25 helical configurations (5 × 5 grid in ψ and φ around the thesis needle:
+# p_h = 100 mm, ψ = 10°, φ = 13.5°, γ_h* = 172.14° on a 14G cannula), the
+# seven outputs l_c and min/max of λ, θ, α (outer edge), one GP per output
+# (constant mean, Gaussian correlation eq. 3.26, MLE), and the three
+# objectives of Table 3.4.
+#
+#   tipgeo sweep samples/helical-study.toml
+#   tipgeo optimize samples/helical-study.toml --out helical-study
+#
+# Units: variables in their spec keys' units (degrees here); responses carry
+# theirs in their names (mm, deg).
+name = "helical-study"
+description = "thesis §3.4.2: GP of l_c, λ, θ, α over ψ and φ; Table 3.4 objectives"
+base = "helical-14G"
+
+# The range keeps every configuration buildable: the helix axis must clear
+# the tube (d = (p_h/2π)·γ_h*·tan ψ > r_o + (p_h/2π)·tan φ), and γ_h* stays at
+# the thesis value, so small ψ with large φ folds the helicoid (ψ = 8° fails
+# beyond φ ≈ 19.6°, ψ = 6° beyond 14°).
+[[variables]]
+name = "psi_deg"
+path = "cutters[0].helix_angle_deg"
+min = 9.0
+max = 11.0
+
+[[variables]]
+name = "phi_deg"
+path = "cutters[0].phi_deg"
+min = 10.0
+max = 17.0
+
+[design]
+method = "grid"
+levels = 5
+
+[analysis]
+method = "exact"
+responses = ["l_c_mm", "lambda_min_deg", "lambda_max_deg", "theta_min_deg",
+             "theta_max_deg", "alpha_min_deg", "alpha_max_deg"]
+
+[sweep]
+workers = 2
+cache = true
+
+[surrogate]
+nugget = false
+mode = "independent"
+starts = 12
+seed = 0
+
+[[objectives]]
+name = "min-theta-max-lambda"
+terms = [{ response = "theta_min_deg", goal = "min" },
+         { response = "lambda_max_deg", goal = "max" }]
+
+[[objectives]]
+name = "min-lc-max-lambda"
+terms = [{ response = "l_c_mm", goal = "min" },
+         { response = "lambda_max_deg", goal = "max" }]
+
+[[objectives]]
+name = "min-lc-min-theta"
+terms = [{ response = "l_c_mm", goal = "min" },
+         { response = "theta_min_deg", goal = "min" }]
+
+[plots]
+responses = ["l_c_mm", "lambda_max_deg", "theta_min_deg"]   # Fig. 3.17: (a) l_c, (b) λ_max
+variables = ["psi_deg", "phi_deg"]
+"""
+
+#: name -> TOML text
+STUDIES = {"helical-study": HELICAL_STUDY_TOML}
+
+
+def study_preset(name: str):
+    """The built-in study ``name`` as a :class:`~tipgeo.optimize.config.StudyConfig`."""
+    from .config import loads_config
+
+    if name not in STUDIES:
+        raise SpecError(f"study = {name!r} is not a built-in study; allowed: "
+                        + ", ".join(STUDIES))
+    return loads_config(STUDIES[name])

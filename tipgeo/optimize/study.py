@@ -1,0 +1,157 @@
+"""A whole study: sweep → GP surrogate → optima → verification → pictures.
+
+Outputs in one folder (all written atomically):
+
+- ``sweep.csv`` (or ``.parquet``) — the sweep table (see :mod:`.sweep`);
+- ``surrogate.json`` — hyperparameters (ω on unit-box inputs, length scales in
+  the variables' units, δ, β̂, Σ̂) and the leave-one-out errors;
+- ``optimum-<objective>.toml`` — each optimum as a tip spec (``tipgeo build`` it);
+- ``report.json`` — all of the above plus each optimum's GP prediction
+  against the real geometry's values;
+- ``surface-<response>.png``, ``loo.png``, ``pareto-<objective>.png``.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import sys
+import time
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from .config import StudyConfig
+from .objective import optimize_objective, term_summary, verify_optimum
+from .surrogate import fit_surrogate
+from .sweep import run_sweep, write_table
+
+__all__ = ["run_study", "feasibility"]
+
+
+def feasibility(config: StudyConfig):
+    """A callable (m, d) -> (m,) bool: does the spec at each row validate
+    (e.g. the helix axis clears the tube, thesis §3.1.1)?"""
+    from ..errors import SpecError
+
+    def feasible(X) -> np.ndarray:
+        out = np.empty(len(X), bool)
+        for i, x in enumerate(np.atleast_2d(X)):
+            try:
+                config.spec(x)
+                out[i] = True
+            except SpecError:
+                out[i] = False
+        return out
+
+    return feasible
+
+
+def _json_default(o):
+    if isinstance(o, np.ndarray):
+        return o.tolist()
+    if isinstance(o, (np.floating, np.integer)):
+        return o.item()
+    if isinstance(o, Path):
+        return str(o)
+    raise TypeError(f"{type(o).__name__} is not JSON serialisable")
+
+
+def _clean(o):
+    """NaN → None so that the JSON is standard."""
+    if isinstance(o, float) and not math.isfinite(o):
+        return None
+    if isinstance(o, dict):
+        return {k: _clean(v) for k, v in o.items()}
+    if isinstance(o, (list, tuple)):
+        return [_clean(v) for v in o]
+    return o
+
+
+def run_study(config: StudyConfig, out_dir: str | Path, *, executor=None, cache: Any = None,
+              progress: bool = True, build: bool = True, plots: bool = True,
+              table: str = "sweep.csv", log=None) -> dict[str, Any]:
+    """Run the sweep, fit the surrogate, optimise every objective and check
+    each optimum on the real geometry.
+
+    Parameters
+    ----------
+    config : StudyConfig
+    out_dir : folder for the outputs (created)
+    executor, cache, progress : see :func:`~tipgeo.optimize.sweep.run_sweep`
+    build : bool — build each optimum's mesh as well as analysing it
+    plots : bool — write the PNGs
+    table : file name of the sweep table in ``out_dir`` (``.csv`` or ``.parquet``)
+    log : callable(str), optional — progress messages (default: stderr)
+
+    Returns
+    -------
+    dict — the report (also written to ``report.json``)
+    """
+    from ..demo import _atomic_text
+    from ..spec import dumps_spec, spec_from_dict
+
+    log = log or (lambda s: print(s, file=sys.stderr, flush=True))
+    out = Path(out_dir)
+    out.mkdir(parents=True, exist_ok=True)
+    files: list[str] = []
+    sweep = run_sweep(config, executor=executor, cache=cache, progress=progress)
+    files.append(str(write_table(sweep, out / table)))
+    s = sweep.summary()
+    log(f"sweep {config.name}: {s['configurations']} configurations ({s['ok']} ok, "
+        f"{s['invalid']} invalid, {s['failed']} failed; {s['computed']} computed, "
+        f"{s['cached']} cached) in {s['seconds']:.2f} s")
+    for f in s["failures"][:5]:
+        log(f"  [{f['index']}] {f['status']}: {f['error']}")
+    t0 = time.perf_counter()
+    sur = fit_surrogate(sweep)
+    loo = sur.loo()
+    t_fit = time.perf_counter() - t0
+    log(f"surrogate: {len(sur.responses)} responses ({sur.mode}) fitted in {t_fit:.2f} s")
+    feasible = feasibility(config)
+    optima = []
+    for obj in config.objectives:
+        opt = optimize_objective(sur, obj, feasible=feasible, seed=config.surrogate["seed"])
+        verify_optimum(config, opt, build=build)
+        optima.append(opt)
+        v = opt.verified
+        log(f"objective {obj.name} ({term_summary(obj)}): "
+            + ", ".join(f"{k} = {x:.4g}" for k, x in v["x"].items()) + f" — {v['status']}")
+        if v["status"] == "ok":
+            spec = spec_from_dict(v["spec"])
+            p = out / f"optimum-{obj.name}.toml"
+            _atomic_text(p, dumps_spec(spec))
+            files.append(str(p))
+    sdict = sur.to_dict() | {"loo": loo, "fit_seconds": t_fit}
+    p = out / "surrogate.json"
+    _atomic_text(p, json.dumps(_clean(sdict), indent=2, default=_json_default))
+    files.append(str(p))
+    if plots:
+        from .plots import plot_loo, plot_pareto, plot_response
+
+        for name in config.plots["responses"]:
+            files.append(str(plot_response(sur, config, name, out / f"surface-{name}.png",
+                                           optima=optima, feasible=feasible)))
+
+        files.append(str(plot_loo(sur, out / "loo.png")))
+        for opt in optima:
+            if opt.front is not None:
+                files.append(str(plot_pareto(opt, out / f"pareto-{opt.objective.name}.png")))
+    report = {
+        "name": config.name, "description": config.description, "base": config.base_name,
+        "variables": [{"name": v.name, "path": v.path, "min": v.lo, "max": v.hi}
+                      for v in config.variables],
+        "sweep": s, "surrogate": sdict,
+        "optima": [{"objective": o.objective.name, "combine": o.objective.combine,
+                    "terms": [{"response": t.response, "goal": t.goal, "weight": t.weight}
+                              for t in o.objective.terms],
+                    "value": o.value, **{k: v for k, v in o.verified.items() if k != "spec"},
+                    **({"pareto_points": int(len(o.front["x"]))} if o.front else {})}
+                   for o in optima],
+        "files": files + [str(out / "report.json")],
+    }
+    p = out / "report.json"
+    _atomic_text(p, json.dumps(_clean(report), indent=2, default=_json_default))
+    return report
+

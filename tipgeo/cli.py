@@ -450,6 +450,9 @@ def _parser() -> argparse.ArgumentParser:
     from .cli_optimize import register as _register_optimize
 
     _register_optimize(sub)
+    from .cli_inspect import register as _register_inspect
+
+    _register_inspect(sub)
     return p
 
 

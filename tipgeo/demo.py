@@ -135,6 +135,30 @@ def _grind_outputs(out: Path, names, log) -> list[dict]:
     return rows
 
 
+def _inspect_outputs(out: Path, pictures: bool, log) -> dict:
+    """One scan-to-CAD comparison: a synthetic scan of the 14.5° bevel ground
+    at 15.0°, misaligned by 20° about the axis, 1° of tilt and 0.3 mm, with
+    1 µm noise, registered and measured against the exact surfaces."""
+    from .inspect import Misalignment, compare, synthetic_scan
+
+    spec = preset("bevel-14G-xi14.5")
+    scan = synthetic_scan(spec, points=100_000, noise=0.001, xi_deg=15.0,
+                          misalignment=Misalignment(about_axis_deg=20.0, tilt_deg=1.0,
+                                                    offset_mm=(0.3, 0.0, 0.0)))
+    folder = out / "inspect"
+    folder.mkdir(exist_ok=True)
+    path = scan.write(folder / "scan-bevel-xi15-as-made.ply")
+    res = compare(path, spec, out=folder, pictures=pictures)
+    r = res.to_dict()
+    face = next(iter((r["measured"].get("faces") or {}).values()), {})
+    row = {"scan": str(path), "rms_um": r["deviation"]["all"]["rms_um"],
+           "measured_xi_deg": face.get("xi_deg"), "outputs": r["outputs"]}
+    if log is not None:
+        print(f"inspect: bevel ground at 15.0°, measured ξ {row['measured_xi_deg']:.4f}°, "
+              f"RMS {row['rms_um']:.2f} µm", file=log, flush=True)
+    return row
+
+
 def run_demo(out, *, tolerance: float | None = None, log=None, pictures: bool = True,
              names: list[str] | None = None) -> dict:
     """Build the presets ``names`` (default: all) into folder ``out``.
@@ -174,11 +198,13 @@ def run_demo(out, *, tolerance: float | None = None, log=None, pictures: bool = 
     mechanics_files = _mechanics_outputs(out, log=log, pictures=pictures)
     from .optimize import demo_outputs as _optimize_outputs
 
-    optimize_files = _optimize_outputs(out, log=log)
+    optimize_files = _optimize_outputs(
+        out, log=None if log is None else (lambda msg: print(msg, file=log, flush=True)))
+    inspect_row = _inspect_outputs(out, pictures, log)
     summary = {"out": str(out), "tolerance_um": None if tolerance is None else tolerance * 1e3,
                "tips": rows, "angles": angle_files, "laser": laser_files,
                "grinding": grind_rows, "mechanics": mechanics_files,
-               "optimize": optimize_files}
+               "optimize": optimize_files, "inspect": inspect_row}
     _atomic_text(out / "summary.json", json.dumps(summary, indent=2) + "\n")
     buf = io.StringIO()
     w = csv.DictWriter(buf, fieldnames=list(rows[0]))

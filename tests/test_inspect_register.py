@@ -1,0 +1,157 @@
+"""Registration that survives the cylinder's symmetry, measured geometry and
+the virtual scanner, on synthetic scans with known truth."""
+
+import functools
+import math
+
+import numpy as np
+import pytest
+
+from tipgeo import preset
+from tipgeo.inspect import (
+    Burr,
+    ExactSolid,
+    Misalignment,
+    compare,
+    load_cad,
+    register,
+    synthetic_scan,
+)
+from tipgeo.inspect.register import apply
+
+BEVEL = "bevel-14G-xi14.5"
+
+
+@functools.cache
+def _cad(name):
+    return load_cad(preset(name))
+
+
+def _errors(T_est, cad_to_scan, spec):
+    """Rotation error (deg) and the largest displacement (µm) of the origin,
+    the heel and the apex under T_est ∘ misalignment (identity if exact)."""
+    D = T_est @ cad_to_scan
+    ang = math.degrees(math.acos(min(1.0, (np.trace(D[:3, :3]) - 1) / 2)))
+    ro = spec.cannula.r_o
+    apex_z = 2 * ro / math.tan(spec.cutters[0].xi)
+    pts = np.array([[0, 0, 0], [ro, 0, 0], [-ro, 0, apex_z]])
+    return ang, np.linalg.norm(apply(D, pts) - pts, axis=1).max() * 1e3
+
+
+def _random_frame(rng):
+    q = rng.normal(size=4)
+    q /= np.linalg.norm(q)
+    w, x, y, z = q
+    R = np.array([[1 - 2 * (y * y + z * z), 2 * (x * y - z * w), 2 * (x * z + y * w)],
+                  [2 * (x * y + z * w), 1 - 2 * (x * x + z * z), 2 * (y * z - x * w)],
+                  [2 * (x * z - y * w), 2 * (y * z + x * w), 1 - 2 * (x * x + y * y)]])
+    T = np.eye(4)
+    T[:3, :3] = R
+    T[:3, 3] = rng.uniform(-20, 20, 3)
+    return T
+
+
+@pytest.mark.parametrize("mis, frame_seed", [
+    (Misalignment(30.0, 2.0, 40.0, (0.5, 0.0, 0.0)), None),
+    (Misalignment(-30.0, 2.0, 200.0, (0.0, -0.3, 0.4)), None),
+    (Misalignment(17.0, 1.0, 120.0, (0.2, 0.2, -0.5)), 4),   # plus an arbitrary scanner frame
+])
+def test_registration_recovers_the_misalignment(mis, frame_seed):
+    """Up to 30° about the axis, 2° tilt, 0.5 mm offset, σ = 1 µm: the
+    transform comes back within 0.05° and 1 µm (at the heel and the apex)."""
+    spec = preset(BEVEL)
+    s = synthetic_scan(spec, points=60000, noise=0.001, misalignment=mis, seed=1)
+    M = s.cad_to_scan
+    pts = s.points
+    if frame_seed is not None:
+        F = _random_frame(np.random.default_rng(frame_seed))
+        pts = apply(F, pts)
+        M = F @ M
+    reg = register(pts, _cad(BEVEL))
+    ang, disp = _errors(reg.transform, M, spec)
+    assert ang <= 0.05
+    assert disp <= 1.0
+    assert reg.fitness > 0.99
+    assert reg.inlier_rmse == pytest.approx(0.001, rel=0.35)  # the noise, nothing else
+    assert not reg.warnings
+    assert reg.axis["outer_diameter_mm"] == pytest.approx(2.108, abs=2e-4)
+
+
+def test_a_bevel_ground_at_15_degrees_measures_15():
+    spec = preset(BEVEL)
+    s = synthetic_scan(spec, points=80000, noise=0.001, xi_deg=15.0,
+                       misalignment=Misalignment(-22.0, 1.5, 75.0, (0.3, 0.1, -0.2)), seed=5)
+    res = compare(s.points, spec)
+    f = res.measured["faces"]["cut:bevel"]
+    assert f["xi_deg"] == pytest.approx(15.0, abs=0.05)
+    assert f["cad_xi_deg"] == pytest.approx(14.5, abs=1e-12)
+    assert f["flatness_rms_um"] < 2.0
+    # the excess material shows where it is: on the rake face, not on the walls
+    reg = res.stats["regions"]
+    assert abs(reg["cut:bevel"]["mean_um"]) > 5
+    assert abs(reg["outer"]["mean_um"]) < 0.5
+
+
+def test_the_nominal_bevel_measures_nominal_geometry():
+    spec = preset(BEVEL)
+    s = synthetic_scan(spec, points=80000, noise=0.001,
+                       misalignment=Misalignment(10.0, 1.0, 0.0, (0.1, 0.0, 0.1)), seed=6)
+    res = compare(s.points, spec, tolerance=0.005)
+    m = res.measured
+    assert m["faces"]["cut:bevel"]["xi_deg"] == pytest.approx(14.5, abs=0.01)
+    assert m["outer"]["diameter_mm"] == pytest.approx(2.108, abs=5e-4)
+    assert m["inner"]["diameter_mm"] == pytest.approx(1.600, abs=5e-4)
+    assert m["tip"]["error_um"] < 2.0
+    ca = m["cutting_angles"]
+    assert ca["measured"]["outer"]["l_c_mm"] == pytest.approx(ca["cad"]["outer"]["l_c_mm"],
+                                                              abs=1e-3)
+    st = res.stats["all"]
+    assert st["within_tol_share"] > 0.999
+    assert st["rms_um"] == pytest.approx(1.0, rel=0.4)
+
+
+def test_the_virtual_scanner_puts_points_on_the_exact_surface():
+    spec = preset(BEVEL)
+    s = synthetic_scan(spec, points=20000, noise=0.0, seed=2)
+    d = ExactSolid(spec).distances(s.points)
+    assert np.max(np.abs(d.distance)) < 1e-12
+    assert np.allclose(s.points, s.points_cad)
+    lab = set(d.label_of().tolist())
+    assert {"outer", "inner", "cut:bevel"} <= lab
+    assert s.points[:, 2].min() >= -1.0 - 1e-12
+
+
+def test_edge_rounding_and_burr_have_the_right_sign_and_size():
+    spec = preset(BEVEL)
+    r = 0.005
+    s = synthetic_scan(spec, points=60000, noise=0.0, edge_radius=r,
+                       burr=Burr(gamma_deg=(170.0, 190.0), height=0.012, width=0.008), seed=3)
+    d = ExactSolid(spec).distances(s.points_cad).distance
+    rounded, burr = s.kind == 1, s.kind == 2
+    assert rounded.sum() > 20 and burr.sum() > 5
+    assert np.all(d[rounded] < 1e-12)          # material removed
+    assert np.all(d[burr] > 0)                 # material added
+    assert d[burr].max() <= 0.012 + 1e-9
+    # a rounded point lies exactly r from the eroded solid, inside the CAD
+    er = ExactSolid(spec, offset=r).distances(s.points_cad[rounded]).distance
+    assert np.allclose(er, r, atol=1e-12)
+
+
+def test_a_conical_tip_warns_that_its_rotation_is_free():
+    spec = preset("conical-14G-theta15")
+    s = synthetic_scan(spec, points=30000, noise=0.001,
+                       misalignment=Misalignment(40.0, 1.0, 10.0, (0.2, 0.0, 0.1)), seed=4)
+    reg = register(s.points, _cad("conical-14G-theta15"))
+    assert any("rotationally symmetric" in w for w in reg.warnings)
+    d = _cad("conical-14G-theta15").distances(reg.apply(s.points)).distance
+    assert np.sqrt(np.mean(d ** 2)) < 0.002
+
+
+def test_a_featureless_scan_is_flagged_ambiguous():
+    """Only the tube below the heel: nothing fixes the turn about the axis."""
+    spec = preset(BEVEL)
+    s = synthetic_scan(spec, points=30000, noise=0.001, z_min=-1.0, seed=8,
+                       misalignment=Misalignment(30.0, 1.0, 0.0, (0.0, 0.0, 0.0)))
+    tube = s.points_cad[:, 2] < -0.05
+    reg = register(s.points[tube], _cad(BEVEL))
+    assert any("ambiguous" in w or "not constrained" in w for w in reg.warnings)

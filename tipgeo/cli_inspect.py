@@ -1,0 +1,223 @@
+"""``tipgeo compare`` and ``tipgeo scan-synth``: thin wrappers around
+:func:`tipgeo.inspect.compare` and :func:`tipgeo.inspect.synthetic_scan`.
+
+Lengths in mm, angles in degrees, deviations and tolerances in µm at this
+boundary. Results on stdout (``--json`` for machines), progress on stderr.
+Exit status 0 on success, 2 on bad input (including unreadable or empty
+scans), 1 on a failed computation or write.
+"""
+
+from __future__ import annotations
+
+import json
+import sys
+from pathlib import Path
+
+__all__ = ["register", "cmd_compare", "cmd_scan_synth"]
+
+
+def _positive(name: str, value: float | None, hi: float | None = None) -> float | None:
+    from .errors import SpecError
+
+    if value is None:
+        return None
+    if not (value > 0 and (hi is None or value <= hi)):
+        raise SpecError(f"{name} = {value:g} is out of range; allowed 0 < value"
+                        + (f" ≤ {hi:g}" if hi is not None else ""))
+    return value
+
+
+def _log(args):
+    if getattr(args, "quiet", False):
+        return None
+    return lambda msg: print(f"[{args.command}] {msg}", file=sys.stderr, flush=True)
+
+
+def cmd_compare(args) -> int:
+    from .inspect import ScanError, compare
+
+    tol = _positive("--tolerance-um", args.tolerance_um, 1e4) * 1e-3
+    scale = _positive("--scale-um", args.scale_um, 1e5)
+    voxel = _positive("--voxel-um", args.voxel_um, 1e5)
+    try:
+        res = compare(args.scan, args.cad, tolerance=tol, units=args.units,
+                      register_scan=not args.no_register, z_min=args.z_min_mm,
+                      voxel=None if voxel is None else voxel * 1e-3, outliers=args.outliers,
+                      colour_scale=None if scale is None else scale * 1e-3, out=args.out,
+                      pictures=not args.no_pictures, progress=_log(args))
+    except ScanError as e:
+        print(f"tipgeo: error: {e}", file=sys.stderr)
+        return 2
+    if args.json:
+        from .inspect.report import _json_default
+
+        print(json.dumps(res.to_dict(), indent=2, default=_json_default))
+        return 0
+    r = res.to_dict()
+    st = r["deviation"]["all"]
+    print(f"{r['cad']['name']} vs {r['scan']['source']}: {r['compared_points']:,} points, "
+          f"measured against {r['cad']['method']}")
+    reg = r["registration"]
+    if reg:
+        print(f"  registration: fitness {reg['fitness']:.4f}, inlier RMSE "
+              f"{reg['inlier_rmse_mm'] * 1e3:.3f} µm, rotation {reg['rotation_angle_deg']:.3f}°, "
+              f"translation ({', '.join(f'{x:.4f}' for x in reg['translation_mm'])}) mm")
+    print(f"  deviation (µm): mean {st['mean_um']:+.3f}  std {st['std_um']:.3f}  RMS "
+          f"{st['rms_um']:.3f}  min {st['min_um']:+.2f}  max {st['max_um']:+.2f}  P5 "
+          f"{st['p5_um']:+.2f}  P95 {st['p95_um']:+.2f}  within ±{r['tolerance_um']:g}: "
+          f"{100 * st['within_tol_share']:.2f} %")
+    for name, b in r["deviation"]["regions"].items():
+        print(f"    {name:<22} {b['count']:>9,} pts  mean {b['mean_um']:+8.3f}  RMS "
+              f"{b['rms_um']:8.3f}  within {100 * b['within_tol_share']:6.2f} %")
+    m = r["measured"]
+    for wall in ("outer", "inner"):
+        if m.get(wall):
+            w = m[wall]
+            print(f"  {wall} diameter {w['diameter_mm']:.4f} mm (CAD {w['cad_diameter_mm']:.4f}, "
+                  f"{w['error_um']:+.2f} µm)")
+    for lab, f in (m.get("faces") or {}).items():
+        print(f"  {lab}: ξ {f['xi_deg']:.4f}° (CAD {f['cad_xi_deg']:.4f}°, "
+              f"{f['xi_error_deg']:+.4f}°), flatness RMS {f['flatness_rms_um']:.2f} µm")
+    tip = m.get("tip")
+    if tip and "error_um" in tip:
+        print(f"  tip position error {tip['error_um']:.2f} µm "
+              f"(axial {tip['axial_error_um']:+.2f} µm)")
+    for w in r["warnings"]:
+        print(f"  warning: {w}")
+    for o in r["outputs"]:
+        print(f"  wrote {o}")
+    return 0
+
+
+def cmd_scan_synth(args) -> int:
+    import math
+
+    import numpy as np
+
+    from .cli import _spec
+    from .errors import SpecError
+    from .inspect import Burr, Misalignment, default_views, synthetic_scan
+
+    spec = _spec(args.spec)
+    out = Path(args.output)
+    ext = out.suffix.lower()
+    if ext not in (".ply", ".xyz", ".txt", ".pcd"):
+        raise SpecError(f"-o '{out}': allowed extensions .ply .xyz .txt .pcd")
+    if not args.points >= 10:
+        raise SpecError(f"--points = {args.points}; allowed ≥ 10")
+    if not args.noise_um >= 0:
+        raise SpecError(f"--noise-um = {args.noise_um:g}; allowed ≥ 0")
+    mis = Misalignment(about_axis_deg=args.rotate_deg, tilt_deg=args.tilt_deg,
+                       tilt_axis_deg=args.tilt_axis_deg, offset_mm=tuple(args.offset_mm))
+    burr = None
+    if args.burr_um is not None:
+        h, w = args.burr_um
+        burr = Burr(gamma_deg=tuple(args.burr_gamma_deg), height=h * 1e-3, width=w * 1e-3,
+                    edge=args.burr_edge)
+    views = default_views(elevation_deg=args.views[0], count=int(args.views[1])) \
+        if args.views else None
+    log = _log(args)
+    if log:
+        log(f"scanning {spec.name or args.spec}: {args.points:,} points")
+    s = synthetic_scan(spec, points=args.points, noise=args.noise_um * 1e-3, misalignment=mis,
+                       views=views, xi_deg=args.xi_deg,
+                       edge_radius=(args.edge_radius_um or 0.0) * 1e-3, burr=burr,
+                       z_min=args.z_min_mm, seed=args.seed)
+    if ext == ".ply":
+        s.write(out)
+    elif ext in (".xyz", ".txt"):
+        from .demo import _atomic_text
+
+        _atomic_text(out, "\n".join(f"{x:.9f} {y:.9f} {z:.9f}" for x, y, z in s.points) + "\n")
+    else:
+        from ._open3d import import_open3d
+
+        o3d = import_open3d()
+        pc = o3d.geometry.PointCloud(o3d.utility.Vector3dVector(s.points))
+        if not o3d.io.write_point_cloud(str(out), pc, write_ascii=False):
+            raise OSError(f"open3d could not write '{out}'")
+    info = dict(s.info)
+    info["output"] = str(out)
+    if args.truth:
+        from .demo import _atomic_text
+
+        _atomic_text(Path(args.truth), json.dumps(info, indent=2) + "\n")
+    if args.json:
+        print(json.dumps(info, indent=2))
+        return 0
+    R = np.asarray(info["scan_to_cad"])[:3, :3]
+    ang = math.degrees(math.acos(max(-1.0, min(1.0, (np.trace(R) - 1) / 2))))
+    print(f"wrote {out}: {info['points']:,} points of {info['part']} (noise σ "
+          f"{args.noise_um:g} µm, misalignment {ang:.3f}° / "
+          f"{np.linalg.norm(args.offset_mm):.4f} mm)")
+    if args.truth:
+        print(f"wrote {args.truth}")
+    return 0
+
+
+def register(subparsers) -> None:
+    """Add ``compare`` and ``scan-synth`` to the ``tipgeo`` command line."""
+    c = subparsers.add_parser("compare", help="compare a scan with a tip spec or CAD mesh: "
+                              "registration, signed deviations, measured geometry, report")
+    c.add_argument("scan", metavar="SCAN",
+                   help="point cloud or mesh (.ply .pcd .xyz .txt .pts .stl .obj)")
+    c.add_argument("cad", metavar="SPEC|MESH",
+                   help="spec file or preset (exact surfaces), or a CAD mesh in the cannula "
+                        "frame (.stl .ply .obj .3mf .glb)")
+    c.add_argument("--out", metavar="DIR", help="write report.json, report.md, deviations.ply "
+                   "(coloured), deviation-map.png and histogram.png here")
+    c.add_argument("--tolerance-um", type=float, default=10.0, metavar="N",
+                   help="± tolerance band in µm (default 10)")
+    c.add_argument("--scale-um", type=float, default=None, metavar="S",
+                   help="colour scale ±S µm (default 2.5 × tolerance)")
+    c.add_argument("--units", choices=("mm", "um", "µm", "m"), default="mm",
+                   help="units of the scan file (default mm)")
+    c.add_argument("--no-register", action="store_true",
+                   help="the scan is already in the cannula frame")
+    c.add_argument("--z-min-mm", type=float, default=None, metavar="Z",
+                   help="compare only points with z ≥ Z after registration (crop)")
+    c.add_argument("--voxel-um", type=float, default=None, metavar="V",
+                   help="thin the scan to one point per V µm voxel first")
+    c.add_argument("--outliers", action="store_true",
+                   help="statistical outlier removal before comparing")
+    c.add_argument("--no-pictures", action="store_true", help="skip the PNGs")
+    c.add_argument("--quiet", action="store_true", help="no progress on stderr")
+    c.add_argument("--json", action="store_true", help="the full report as JSON on stdout")
+    c.set_defaults(func=cmd_compare)
+
+    s = subparsers.add_parser("scan-synth", help="synthetic scan of a tip (virtual "
+                              "profilometer) with known misalignment and errors")
+    s.add_argument("spec", metavar="SPEC", help="spec file or preset name")
+    s.add_argument("-o", "--output", required=True, metavar="FILE",
+                   help="scan file (.ply double precision, .xyz, .txt, .pcd); mm")
+    s.add_argument("--points", type=int, default=200_000, help="points (default 200000)")
+    s.add_argument("--noise-um", type=float, default=1.0,
+                   help="noise σ along the line of sight, µm (default 1)")
+    s.add_argument("--seed", type=int, default=0)
+    s.add_argument("--rotate-deg", type=float, default=0.0,
+                   help="misalignment: turn about the needle axis (degrees)")
+    s.add_argument("--tilt-deg", type=float, default=0.0, help="misalignment: tilt (degrees)")
+    s.add_argument("--tilt-axis-deg", type=float, default=0.0,
+                   help="direction of the tilt axis from +x (degrees)")
+    s.add_argument("--offset-mm", type=float, nargs=3, default=(0.0, 0.0, 0.0),
+                   metavar=("X", "Y", "Z"), help="misalignment: shift (mm)")
+    s.add_argument("--xi-deg", type=float, default=None,
+                   help="bevel angle the part was actually ground at (degrees)")
+    s.add_argument("--edge-radius-um", type=float, default=None,
+                   help="round every edge to this radius (µm)")
+    s.add_argument("--burr-um", type=float, nargs=2, default=None, metavar=("H", "W"),
+                   help="a burr of height H off the cut face and width W past the wall (µm)")
+    s.add_argument("--burr-gamma-deg", type=float, nargs=2, default=(160.0, 200.0),
+                   metavar=("G0", "G1"), help="where the burr runs (γ, degrees)")
+    s.add_argument("--burr-edge", choices=("inner", "outer"), default="inner")
+    s.add_argument("--z-min-mm", type=float, default=-1.0,
+                   help="lowest z scanned, cannula frame (default -1)")
+    s.add_argument("--views", type=float, nargs=2, default=None,
+                   metavar=("ELEVATION_DEG", "COUNT"),
+                   help="COUNT views around the axis at ELEVATION (plus one down the axis); "
+                        "default 30 8")
+    s.add_argument("--truth", metavar="FILE.json",
+                   help="write the truth (transform scan→CAD, parameters) as JSON")
+    s.add_argument("--quiet", action="store_true")
+    s.add_argument("--json", action="store_true")
+    s.set_defaults(func=cmd_scan_synth)

@@ -1,0 +1,42 @@
+"""Scan-to-CAD inspection of needle tips.
+
+A scan (point cloud or mesh, any frame) is registered onto the CAD tip — a
+spec, measured against its exact surfaces, or a mesh — in stages that survive
+the cylinder's symmetry; then every point gets its signed deviation (exact in
+double precision, signs decided robustly at the knife edge), statistics per
+CAD face, measured geometry (diameters, bevel angles, tip position, cutting
+angles) and a report (JSON, coloured PLY, PNG map and histogram, Markdown).
+A virtual profilometer makes synthetic scans with known errors.
+
+Frames and units: scans in their scanner frame, results in the cannula frame
+(+z along the axis towards the tip); mm and rad inside, µm and degrees in
+reports. open3d is imported only here (scan reading, ray casting), through
+:func:`tipgeo._open3d.import_open3d`.
+"""
+
+from .cad import CadModel, load_cad
+from .compare import (
+    Comparison,
+    compare,
+    crop,
+    estimate_normals,
+    remove_outliers,
+    voxel_down_sample,
+)
+from .deviation import STAT_KEYS, statistics
+from .exact import Distances, ExactSolid, UnsupportedCutter
+from .measure import fit_plane, measure
+from .meshdist import MeshSolid, closest_on_triangles
+from .register import Registration, fit_cylinder, register
+from .report import COLORMAP, deviation_colours, write_report
+from .scanio import SCAN_FORMATS, Scan, ScanError, load_scan, write_ply
+from .settings import InspectSettings, settings
+from .synth import Burr, Misalignment, SynthScan, actual_spec, default_views, synthetic_scan
+
+__all__ = ["CadModel", "load_cad", "Comparison", "compare", "crop", "estimate_normals",
+           "remove_outliers", "voxel_down_sample", "STAT_KEYS", "statistics", "Distances",
+           "ExactSolid", "UnsupportedCutter", "fit_plane", "measure", "MeshSolid",
+           "closest_on_triangles", "Registration", "fit_cylinder", "register", "COLORMAP",
+           "deviation_colours", "write_report", "SCAN_FORMATS", "Scan", "ScanError",
+           "load_scan", "write_ply", "InspectSettings", "settings", "Burr", "Misalignment",
+           "SynthScan", "actual_spec", "default_views", "synthetic_scan"]

@@ -1,0 +1,379 @@
+"""Registration of a scan onto the CAD tip, in stages that survive the
+cylinder's symmetry.
+
+Frames and units: the scan in its scanner frame, the CAD in the cannula frame
+(+z along the axis towards the tip); mm, rad. The result maps scanner →
+cannula frame: x_cad = R x_scan + t.
+
+1. **Axis**: a least-squares cylinder fit (robust loss) to the points whose
+   normals are perpendicular to the principal axis and whose distance to it is
+   near the nominal outer radius. It aligns the axes and measures the outer
+   diameter. ICP alone cannot do what follows: a cylinder matches itself
+   under any turn about and shift along its axis.
+2. **Global search** of the turn about the axis (both axis directions, every
+   ``settings.search_step``) with the axial offset from the tip's highest
+   point: each pose is scored by the mean clipped distance of a few thousand
+   points to the CAD solid. The bevel, planes or serrations decide.
+3. **Point-to-plane ICP** from the best few poses, with exact closest points
+   and normals of the CAD (the spec's exact surfaces where it has them),
+   Tukey weights, and directions the data do not constrain (a rotationally
+   symmetric tip's turn about its axis) held fixed.
+
+The report gives the transform, fitness (share of points within the inlier
+distance), inlier RMSE, and warnings: an ambiguous pose (a different pose fits
+almost as well), an unconstrained direction, too few points.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+
+from ..errors import TipGeoError
+from .settings import settings
+
+__all__ = ["Registration", "register", "fit_cylinder", "apply"]
+
+
+def apply(T: np.ndarray, points: np.ndarray) -> np.ndarray:
+    """x ↦ R x + t for a 4×4 matrix T, on (n, 3) points."""
+    return points @ T[:3, :3].T + T[:3, 3]
+
+
+def _rot(axis, angle) -> np.ndarray:
+    a = np.asarray(axis, float)
+    n = np.linalg.norm(a)
+    if n == 0 or angle == 0:
+        return np.eye(3)
+    a = a / n
+    K = np.array([[0, -a[2], a[1]], [a[2], 0, -a[0]], [-a[1], a[0], 0]])
+    return np.eye(3) + math.sin(angle) * K + (1 - math.cos(angle)) * K @ K
+
+
+def _align(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """A rotation taking unit vector a onto unit vector b."""
+    v = np.cross(a, b)
+    s, c = np.linalg.norm(v), float(a @ b)
+    if s < 1e-15:
+        if c > 0:
+            return np.eye(3)
+        p = np.array([1.0, 0, 0]) if abs(a[0]) < 0.9 else np.array([0, 1.0, 0])
+        return _rot(np.cross(a, p), math.pi)
+    return _rot(v, math.atan2(s, c))
+
+
+@dataclass
+class Registration:
+    """The result of :func:`register`.
+
+    Attributes
+    ----------
+    transform : (4, 4) float — scanner → cannula frame
+    fitness : float — share of registration points within ``inlier_distance``
+    inlier_rmse : float — RMS distance of those points (mm)
+    inlier_distance : float — mm
+    axis : dict — fitted cylinder in the scanner frame (point, direction,
+        outer radius, RMS of the fit)
+    search : dict — the global search: best angle, runner-up, scores
+    warnings : list of str
+    iterations : int — ICP iterations of the chosen pose
+    points : int — points used
+    """
+
+    transform: np.ndarray
+    fitness: float
+    inlier_rmse: float
+    inlier_distance: float
+    axis: dict[str, Any]
+    search: dict[str, Any]
+    warnings: list[str] = field(default_factory=list)
+    iterations: int = 0
+    points: int = 0
+    fixed_directions: list[str] = field(default_factory=list)
+
+    def apply(self, points: np.ndarray) -> np.ndarray:
+        """Scanner-frame points in the cannula frame."""
+        return apply(self.transform, np.asarray(points, float))
+
+    def to_dict(self) -> dict[str, Any]:
+        R = self.transform[:3, :3]
+        ang = math.degrees(math.acos(max(-1.0, min(1.0, (np.trace(R) - 1) / 2))))
+        return {"transform": self.transform.tolist(),
+                "rotation_angle_deg": ang,
+                "translation_mm": self.transform[:3, 3].tolist(),
+                "fitness": self.fitness, "inlier_rmse_mm": self.inlier_rmse,
+                "inlier_distance_mm": self.inlier_distance, "axis": self.axis,
+                "search": self.search, "warnings": list(self.warnings),
+                "iterations": self.iterations, "points": self.points,
+                "fixed_directions": list(self.fixed_directions)}
+
+
+# -----------------------------------------------------------------------------
+def _normals(p: np.ndarray, k: int = 12) -> np.ndarray:
+    from scipy.spatial import cKDTree
+
+    _, idx = cKDTree(p).query(p, k=min(k, len(p)), workers=-1)
+    nb = p[idx] - p[idx].mean(axis=1, keepdims=True)
+    cov = np.einsum("nki,nkj->nij", nb, nb)
+    _, vec = np.linalg.eigh(cov)
+    return vec[:, :, 0]
+
+
+def fit_cylinder(points: np.ndarray, axis_dir: np.ndarray, axis_point: np.ndarray,
+                 radius: float, *, scale: float = 0.005):
+    """Least-squares cylinder through points (robust soft-L1 loss of width
+    ``scale`` mm), from an initial axis and radius.
+
+    Returns
+    -------
+    point : (3,) — the axis point closest to the points' centroid (mm)
+    direction : (3,) unit
+    radius : float — mm
+    rms : float — RMS radial residual of the points within 3·scale (mm)
+    """
+    from scipy.optimize import least_squares
+
+    a0 = axis_dir / np.linalg.norm(axis_dir)
+    e1 = np.cross(a0, [1.0, 0, 0] if abs(a0[0]) < 0.9 else [0, 1.0, 0])
+    e1 /= np.linalg.norm(e1)
+    e2 = np.cross(a0, e1)
+    c0 = axis_point + a0 * ((points.mean(axis=0) - axis_point) @ a0)
+    q = points - c0
+
+    def model(x):
+        a = a0 + x[0] * e1 + x[1] * e2
+        a = a / np.linalg.norm(a)
+        c = x[2] * e1 + x[3] * e2
+        d = q - c
+        return np.linalg.norm(d - np.outer(d @ a, a), axis=1) - x[4], a, c
+
+    res = least_squares(lambda x: model(x)[0], np.array([0, 0, 0, 0, radius]),
+                        loss="soft_l1", f_scale=scale, x_scale=[1e-2, 1e-2, 1e-2, 1e-2, 1e-2],
+                        method="trf", max_nfev=200)
+    r, a, c = model(res.x)
+    ok = np.abs(r) < 3 * scale
+    rms = float(np.sqrt(np.mean(r[ok] ** 2))) if ok.any() else float("nan")
+    point = c0 + c
+    point = point + a * ((points.mean(axis=0) - point) @ a)
+    return point, a, float(res.x[4]), rms
+
+
+def _axis_stage(p: np.ndarray, r_nominal: float) -> tuple[np.ndarray, np.ndarray, float, float]:
+    cen = p.mean(axis=0)
+    _, vec = np.linalg.eigh(np.cov((p - cen).T))
+    a = vec[:, -1]
+    nrm = _normals(p)
+    point = cen
+    radius = r_nominal
+    sel = np.ones(len(p), bool)
+    for it in range(4):
+        d = p - point
+        rho = np.linalg.norm(d - np.outer(d @ a, a), axis=1)
+        wall = np.abs(nrm @ a) < (0.3 if it == 0 else 0.15)
+        band = 0.25 * r_nominal if it == 0 else max(0.02 * r_nominal, 0.005)
+        sel = wall & (np.abs(rho - radius) < band)
+        if sel.sum() < 20:
+            raise TipGeoError(f"only {int(sel.sum())} scan points look like the outer wall "
+                              f"(radius ≈ {r_nominal:.4g} mm); is the scan of this tip, in "
+                              "the right units?")
+        idx = np.flatnonzero(sel)
+        if len(idx) > 6000:  # plenty for five parameters
+            idx = idx[np.linspace(0, len(idx) - 1, 6000).astype(int)]
+        point, a, radius, rms = fit_cylinder(p[idx], a, point, radius,
+                                             scale=0.02 if it == 0 else 0.004)
+    return point, a, radius, rms
+
+
+def _frame(point, a, sign) -> np.ndarray:
+    """4×4 taking the fitted axis (direction a·sign) to +z through the origin."""
+    R = _align(a * sign, np.array([0.0, 0.0, 1.0]))
+    T = np.eye(4)
+    T[:3, :3] = R
+    T[:3, 3] = -R @ point
+    return T
+
+
+def _search(q_all, cad, step, npts, rng):
+    """Scores of turns about +z (rad) for points already on the axis."""
+    sub = q_all[rng.choice(len(q_all), min(npts, len(q_all)), replace=False)]
+    z_top = np.quantile(q_all[:, 2], 0.9995)
+    dz = cad.z_top - z_top
+    angles = np.arange(0.0, 2 * math.pi, step)
+    c, s = np.cos(angles), np.sin(angles)
+    scores = np.empty(len(angles))
+    for i in range(len(angles)):
+        x = np.stack([c[i] * sub[:, 0] - s[i] * sub[:, 1], s[i] * sub[:, 0] + c[i] * sub[:, 1],
+                      sub[:, 2] + dz], 1)
+        f = cad.bound(x)
+        scores[i] = np.mean(np.minimum(np.abs(f), settings.search_clip))
+    return angles, scores, dz
+
+
+def _pose(T_axis, angle, dz):
+    Rz = _rot((0, 0, 1), angle)
+    T = np.eye(4)
+    T[:3, :3] = Rz
+    T[2, 3] = dz
+    return T @ T_axis
+
+
+def _icp(p, cad, T, iterations, *, fix_rz=False):
+    """Point-to-plane ICP with Tukey weights; returns T, robust σ, info."""
+    info = {"iterations": 0, "fixed": []}
+    sigma = None
+    clip = settings.search_clip
+    for it in range(iterations):
+        q = apply(T, p)
+        D = cad.distances(q)
+        r = D.distance
+        n = D.normal
+        med = np.median(np.abs(r))
+        sigma = max(1.4826 * med, 1e-5)
+        c = min(max(4.685 * sigma, 2e-4), clip)
+        clip = max(c, 0.5 * clip)
+        u = r / c
+        w = np.where(np.abs(u) < 1, (1 - u * u) ** 2, 0.0)
+        ctr = np.average(q, axis=0, weights=w) if w.sum() > 0 else q.mean(axis=0)
+        J = np.hstack([np.cross(q - ctr, n), n])
+        H = (J * w[:, None]).T @ J
+        g = (J * w[:, None]).T @ r
+        lam, V = np.linalg.eigh(H)
+        if lam[-1] <= 0:
+            raise TipGeoError("registration failed: no scan point lies near the CAD surface")
+        keep = lam > settings.degenerate * lam[-1]
+        if fix_rz:
+            # a rotationally symmetric tip: the turn about +z is free; hold it
+            ez = np.zeros(6)
+            ez[2] = 1.0
+            keep &= np.abs(V.T @ ez) < 0.9
+        x = -V[:, keep] @ ((V[:, keep].T @ g) / lam[keep])
+        info["fixed"] = int((~keep).sum())
+        w_, t_ = x[:3], x[3:]
+        R = _rot(w_, np.linalg.norm(w_))
+        step = np.eye(4)
+        step[:3, :3] = R
+        step[:3, 3] = ctr - R @ ctr + t_
+        T = step @ T
+        info["iterations"] = it + 1
+        if np.linalg.norm(w_) < settings.icp_converge_rot and \
+                np.linalg.norm(t_) < settings.icp_converge_trans:
+            break
+    return T, sigma, info
+
+
+def register(points: np.ndarray, cad, *, inlier_distance: float = 0.01,
+             seed: int = 0, progress=None) -> Registration:
+    """Register scan points (scanner frame, mm) onto a :class:`CadModel`.
+
+    Parameters
+    ----------
+    points : (n, 3) float — mm
+    cad : CadModel
+    inlier_distance : float — fitness and inlier RMSE count points within this (mm)
+    seed : int — subsets are drawn with this seed (results are reproducible)
+    progress : callable(str), optional — stage messages
+
+    Returns
+    -------
+    Registration
+    """
+    say = progress or (lambda msg: None)
+    rng = np.random.default_rng(seed)
+    p_all = np.asarray(points, float)
+    n = min(len(p_all), settings.register_points)
+    p = p_all[rng.choice(len(p_all), n, replace=False)] if n < len(p_all) else p_all
+    warnings: list[str] = []
+    if len(p) < 200:
+        warnings.append(f"only {len(p)} points: registration may be unreliable")
+    p = _remove_outliers(p)
+    say(f"axis fit on {len(p)} points")
+    point, a, radius, rms = _axis_stage(p, cad.r_o)
+    axis = {"point_mm": point.tolist(), "direction": a.tolist(), "outer_radius_mm": radius,
+            "outer_diameter_mm": 2 * radius, "fit_rms_mm": rms}
+    if abs(radius - cad.r_o) > 0.05 * cad.r_o:
+        warnings.append(f"fitted outer diameter {2 * radius:.4f} mm differs from the CAD's "
+                        f"{2 * cad.r_o:.4f} mm by more than 5 %")
+    say("global search about the axis")
+    cands = []
+    search: dict[str, Any] = {"step_deg": math.degrees(settings.search_step)}
+    sym = cad.symmetry
+    for sign in (1.0, -1.0):
+        Ta = _frame(point, a, sign)
+        q = apply(Ta, p)
+        if sym == 0:
+            ang, sc, dz = np.array([0.0]), None, cad.z_top - np.quantile(q[:, 2], 0.9995)
+            cands.append((0.0, sign, 0.0, _pose(Ta, 0.0, dz)))
+            continue
+        ang, sc, dz = _search(q, cad, settings.search_step, settings.search_points, rng)
+        period = 2 * math.pi / sym
+        # local minima of the score, best first
+        mins = np.flatnonzero((sc <= np.roll(sc, 1)) & (sc <= np.roll(sc, -1)))
+        mins = mins[np.argsort(sc[mins])][:3]
+        for i in mins:
+            cands.append((float(sc[i]), sign, float(ang[i] % period), _pose(Ta, ang[i], dz)))
+        search[f"scores_{'plus' if sign > 0 else 'minus'}"] = sc.round(6).tolist()
+    cands.sort(key=lambda c: c[0])
+    say(f"ICP from {len(cands)} candidate poses")
+    small = p[rng.choice(len(p), min(3000, len(p)), replace=False)]
+    results = []
+    for score, sign, ang, T0 in cands[:4]:
+        T, sig, info = _icp(small, cad, T0, 10, fix_rz=(sym == 0))
+        d = cad.distances(apply(T, small)).distance
+        rrms = float(np.sqrt(np.mean(np.minimum(d * d, settings.search_clip ** 2))))
+        results.append((rrms, T, sign, ang, score))
+    results.sort(key=lambda r: r[0])
+    best = results[0]
+    T, sigma, info = _icp(p, cad, best[1], settings.icp_iterations, fix_rz=(sym == 0))
+    d = cad.distances(apply(T, p)).distance
+    ok = np.abs(d) <= inlier_distance
+    fitness = float(ok.mean())
+    rmse = float(np.sqrt(np.mean(d[ok] ** 2))) if ok.any() else float("nan")
+    search.update({"candidates": len(results), "best_robust_rms_mm": best[0]})
+    # ambiguity: a clearly different pose that fits almost as well
+    Rb = best[1][:3, :3]
+    for rr, Tr, *_ in results[1:]:
+        dR = Tr[:3, :3] @ Rb.T
+        ang = math.degrees(math.acos(max(-1.0, min(1.0, (np.trace(dR) - 1) / 2))))
+        if sym > 1:
+            ang = min(ang % (360 / sym), 360 / sym - ang % (360 / sym))
+        if ang > 2.0 and sym != 0:
+            search["runner_up_robust_rms_mm"] = rr
+            search["runner_up_angle_deg"] = ang
+            if rr < settings.ambiguity_ratio * best[0]:
+                warnings.append(
+                    f"ambiguous registration: a pose turned {ang:.1f}° away fits almost as "
+                    f"well (robust RMS {rr * 1e3:.2f} vs {best[0] * 1e3:.2f} µm); check "
+                    "that the scan shows the tip's features (bevel, planes, serrations)")
+            break
+    fixed = []
+    if sym == 0:
+        fixed.append("rotation about the axis (the tip is rotationally symmetric; the "
+                     "deviations do not depend on it)")
+        warnings.append("rotation about the axis is not determined: the tip is rotationally "
+                        "symmetric")
+    elif info.get("fixed"):
+        fixed.append(f"{info['fixed']} direction(s) the scan does not constrain")
+        warnings.append(f"{info['fixed']} degree(s) of freedom are not constrained by the scan; "
+                        "held at the search result")
+    if fitness < 0.5:
+        warnings.append(f"low fitness {fitness:.2f}: fewer than half the points lie within "
+                        f"{inlier_distance * 1e3:g} µm of the CAD surface")
+    search["sigma_mm"] = sigma
+    return Registration(T, fitness, rmse, inlier_distance, axis, search, warnings,
+                        info["iterations"], len(p), fixed)
+
+
+def _remove_outliers(p: np.ndarray, k: int = 8, ratio: float = 3.0) -> np.ndarray:
+    """Statistical outlier removal: drop points whose mean distance to their
+    k neighbours exceeds the mean by ``ratio`` standard deviations."""
+    from scipy.spatial import cKDTree
+
+    if len(p) <= k + 1:
+        return p
+    d, _ = cKDTree(p).query(p, k=k + 1, workers=-1)
+    m = d[:, 1:].mean(axis=1)
+    keep = m <= m.mean() + ratio * m.std()
+    return p[keep]

@@ -1,0 +1,340 @@
+"""A virtual profilometer: synthetic scans of a tip with known errors.
+
+Frames and units: the part is made in the cannula frame (mm); the scan is
+returned in a *scanner frame* that differs from it by a known rigid
+misalignment (:class:`Misalignment`, CAD → scanner). Angles in degrees only
+in the ``*_deg`` fields.
+
+What it models:
+
+* **the part**: the spec, optionally with the bevel angle of its planar
+  cutters changed (``xi_deg``: a bevel ground at 15.0° instead of 14.5°),
+  its edges rounded (``edge_radius``: a morphological opening — every convex
+  edge becomes a fillet of that radius, computed on the exact surfaces) and a
+  burr along part of a cutting edge (:class:`Burr`);
+* **the scanner**: orthographic views (unit directions *from* the scanner
+  *to* the part). A surface point is measured when some view sees it: it faces
+  that view within ``max_slope_deg`` and no other part of the tip occludes it
+  (ray casting on the tip mesh with open3d — float32, used for visibility
+  only; every coordinate is computed in double precision on the exact
+  surfaces). Noise is Gaussian along the line of sight.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field, replace
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from ..errors import SpecError
+from .exact import ExactSolid
+from .scanio import write_ply
+
+__all__ = ["Misalignment", "Burr", "SynthScan", "synthetic_scan", "default_views",
+           "actual_spec", "rigid"]
+
+
+def rigid(R: np.ndarray, t) -> np.ndarray:
+    """4×4 homogeneous matrix of x ↦ R x + t."""
+    T = np.eye(4)
+    T[:3, :3] = R
+    T[:3, 3] = np.asarray(t, float)
+    return T
+
+
+def _rot(axis, angle: float) -> np.ndarray:
+    a = np.asarray(axis, float)
+    a = a / np.linalg.norm(a)
+    K = np.array([[0, -a[2], a[1]], [a[2], 0, -a[0]], [-a[1], a[0], 0]])
+    return np.eye(3) + math.sin(angle) * K + (1 - math.cos(angle)) * K @ K
+
+
+@dataclass(frozen=True)
+class Misalignment:
+    """A rigid misalignment, CAD (cannula frame) → scanner frame.
+
+    x_scan = R_tilt · R_z(about_axis) · x + offset, where R_tilt turns by
+    ``tilt_deg`` about the horizontal direction at ``tilt_axis_deg`` from +x.
+
+    Attributes
+    ----------
+    about_axis_deg, tilt_deg, tilt_axis_deg : float — degrees
+    offset_mm : (3,) float — mm
+    """
+
+    about_axis_deg: float = 0.0
+    tilt_deg: float = 0.0
+    tilt_axis_deg: float = 0.0
+    offset_mm: tuple[float, float, float] = (0.0, 0.0, 0.0)
+
+    def matrix(self) -> np.ndarray:
+        """4×4 CAD → scanner."""
+        rz = _rot((0, 0, 1), math.radians(self.about_axis_deg))
+        ta = math.radians(self.tilt_axis_deg)
+        rt = _rot((math.cos(ta), math.sin(ta), 0.0), math.radians(self.tilt_deg))
+        return rigid(rt @ rz, self.offset_mm)
+
+
+@dataclass(frozen=True)
+class Burr:
+    """A burr along a cutting edge: a ridge of triangular section standing
+    ``height`` (mm) off the cut face and reaching ``width`` (mm) past the wall,
+    over cannula-frame angles γ in ``gamma_deg`` (degrees, from +x about +z).
+
+    ``edge``: ``inner`` (the bore side, where grinding burrs form) or ``outer``.
+    """
+
+    gamma_deg: tuple[float, float] = (160.0, 200.0)
+    height: float = 0.015
+    width: float = 0.010
+    edge: str = "inner"
+
+
+@dataclass
+class SynthScan:
+    """A synthetic scan and the truth it was made from.
+
+    Attributes
+    ----------
+    points : (n, 3) float — mm, scanner frame
+    points_cad : (n, 3) float — the same points, noise-free, in the cannula frame
+    cad_to_scan : (4, 4) float — the misalignment applied
+    part : TipSpec — the spec of the part as made (bevel angle changed etc.)
+    kind : (n,) int8 — 0 surface, 1 rounded edge, 2 burr
+    info : dict — the parameters (JSON-ready)
+    """
+
+    points: np.ndarray
+    points_cad: np.ndarray
+    cad_to_scan: np.ndarray
+    part: Any
+    kind: np.ndarray
+    info: dict[str, Any] = field(default_factory=dict)
+
+    @property
+    def scan_to_cad(self) -> np.ndarray:
+        """4×4 scanner → CAD: what registration should find."""
+        return np.linalg.inv(self.cad_to_scan)
+
+    def write(self, path) -> Path:
+        """Write the scan as a binary PLY (double coordinates, mm); returns the path."""
+        return write_ply(path, self.points, comments=[
+            "tipgeo synthetic scan, units mm, scanner frame",
+            f"part {self.info.get('part', '')}"])
+
+
+def actual_spec(spec, *, xi_deg: float | None = None):
+    """The spec with the bevel angle ξ of its planar cutters set to ``xi_deg``
+    (degrees): bevel, multi-plane, and the primary plane of a lancet."""
+    if xi_deg is None:
+        return spec
+    from ..cutters import BevelCutter, LancetCutter, MultiPlaneCutter
+
+    xi = math.radians(xi_deg)
+    cut = []
+    changed = False
+    for c in spec.cutters:
+        if isinstance(c, (BevelCutter, MultiPlaneCutter)):
+            c, changed = replace(c, xi=xi), True
+        elif isinstance(c, LancetCutter):
+            c, changed = replace(c, primary_xi=xi), True
+        cut.append(c)
+    if not changed:
+        raise SpecError(f"xi_deg = {xi_deg:g}: the spec has no bevel, multiplane or lancet "
+                        "cutter whose angle could change")
+    return spec.with_(cutters=tuple(cut), name=f"{spec.name or 'tip'}-as-made-xi{xi_deg:g}")
+
+
+def default_views(*, elevation_deg: float = 30.0, count: int = 8) -> np.ndarray:
+    """``count`` views around the axis looking down at the tip from
+    ``elevation_deg`` above the horizontal, plus one straight down the axis:
+    (count + 1, 3) unit directions from the scanner to the part (cannula
+    frame), like a profilometer with a rotation unit."""
+    e = math.radians(elevation_deg)
+    a = 2 * np.pi * np.arange(count) / count
+    v = np.stack([-np.cos(a) * math.cos(e), -np.sin(a) * math.cos(e),
+                  np.full(count, -math.sin(e))], 1)
+    return np.vstack([v, [0.0, 0.0, -1.0]])
+
+
+def synthetic_scan(spec, *, points: int = 200_000, noise: float = 0.001,
+                   misalignment: Misalignment | None = None, views=None,
+                   xi_deg: float | None = None, edge_radius: float = 0.0,
+                   burr: Burr | None = None, z_min: float = -1.0,
+                   max_slope_deg: float = 80.0, seed: int = 0) -> SynthScan:
+    """Scan a tip with a virtual profilometer (see module docstring).
+
+    Parameters
+    ----------
+    spec : TipSpec — the CAD tip
+    points : int — points in the scan (surface + burr)
+    noise : float — σ of the noise along the line of sight (mm)
+    misalignment : Misalignment — CAD → scanner (default none)
+    views : (k, 3) float — view directions, cannula frame (default
+        :func:`default_views`)
+    xi_deg : float — bevel angle the part was actually ground at (degrees)
+    edge_radius : float — fillet radius of every convex edge (mm)
+    burr : Burr — a burr along a cutting edge
+    z_min : float — lowest z scanned (mm, cannula frame; the heel is at 0)
+    max_slope_deg : float — steepest surface a view measures (degrees)
+    seed : int — random seed (scans are reproducible)
+
+    Returns
+    -------
+    SynthScan
+    """
+    from .._open3d import import_open3d
+    from ..build import build_tip
+
+    if not isinstance(points, (int, np.integer)) or points < 10:
+        raise SpecError(f"points = {points!r}; allowed an integer ≥ 10")
+    if not (np.isfinite(noise) and noise >= 0):
+        raise SpecError(f"noise = {noise!r} mm; allowed ≥ 0")
+    if not (np.isfinite(edge_radius) and 0 <= edge_radius < 0.5 * spec.cannula.wall):
+        raise SpecError(f"edge_radius = {edge_radius!r} mm; allowed 0 ≤ value < half the wall")
+    rng = np.random.default_rng(seed)
+    part = actual_spec(spec, xi_deg=xi_deg)
+    solid = ExactSolid(part)
+    tip = build_tip(part, tolerance=2e-4)  # sampling and visibility only
+    vw = default_views() if views is None else np.asarray(views, float).reshape(-1, 3)
+    vw = vw / np.linalg.norm(vw, axis=1, keepdims=True)
+    o3d = import_open3d()
+    scene = o3d.t.geometry.RaycastingScene()
+    scene.add_triangles(o3d.core.Tensor(tip.vertices.astype(np.float32)),
+                        o3d.core.Tensor(tip.faces.astype(np.uint32)))
+    cos_max = math.cos(math.radians(max_slope_deg))
+    eroded = ExactSolid(part, offset=edge_radius) if edge_radius > 0 else None
+
+    tri = tip.triangles
+    zc = tri[:, :, 2].max(axis=1)
+    roi = np.flatnonzero(zc >= z_min)
+    area = tip.face_areas[roi]
+    n_burr = 0
+    burr_pts = burr_dir = np.zeros((0, 3))
+    if burr is not None:
+        # burr points at the surface density of the rest of the scan
+        dens = points / max(area.sum(), 1e-12) * 0.5
+        burr_pts, burr_dir = _burr_points(part, solid, burr, rng, density=dens)
+        n_burr = min(len(burr_pts), points // 4)
+        burr_pts, burr_dir = burr_pts[:n_burr], burr_dir[:n_burr]
+    want = points - n_burr
+    got_p, got_v, got_k = [], [], []
+    have = 0
+    batch = int(want * 2.5) + 1000
+    for _ in range(20):
+        k = rng.choice(roi, batch, p=area / area.sum())
+        r1, r2 = rng.random(batch), rng.random(batch)
+        s = np.sqrt(r1)
+        p = tri[k, 0] * (1 - s)[:, None] + tri[k, 1] * (s * (1 - r2))[:, None] \
+            + tri[k, 2] * (s * r2)[:, None]
+        d = solid.distances(p)
+        p, nrm = d.closest, d.normal               # onto the exact surface
+        kind = np.zeros(len(p), np.int8)
+        keep = p[:, 2] >= z_min
+        p, nrm, kind = p[keep], nrm[keep], kind[keep]
+        if eroded is not None:
+            de = eroded.distances(p)
+            v = p - de.closest
+            dist = np.linalg.norm(v, axis=1)
+            moved = dist > edge_radius * (1 + 1e-9)
+            u = v / np.maximum(dist, 1e-300)[:, None]
+            p = np.where(moved[:, None], de.closest + edge_radius * u, p)
+            nrm = np.where(moved[:, None], u, nrm)
+            kind[moved] = 1
+        vis_view = _visible_view(scene, o3d, p, nrm, vw, cos_max, rng)
+        ok = vis_view >= 0
+        got_p.append(p[ok])
+        got_v.append(vw[vis_view[ok]])
+        got_k.append(kind[ok])
+        have += int(ok.sum())
+        if have >= want:
+            break
+    if have < want:
+        raise SpecError(f"points = {points}: the views see too little of the tip "
+                        f"({have} visible points); add views or lower points")
+    p = np.concatenate(got_p)[:want]
+    v = np.concatenate(got_v)[:want]
+    kind = np.concatenate(got_k)[:want]
+    if n_burr:
+        # burrs are seen from the view best facing them (no occlusion test)
+        p = np.vstack([p, burr_pts])
+        v = np.vstack([v, -burr_dir])
+        kind = np.concatenate([kind, np.full(n_burr, 2, np.int8)])
+    perm = rng.permutation(len(p))
+    p, v, kind = p[perm], v[perm], kind[perm]
+    noisy = p + rng.normal(0.0, noise, len(p))[:, None] * v if noise > 0 else p.copy()
+    M = (misalignment or Misalignment()).matrix()
+    scan = noisy @ M[:3, :3].T + M[:3, 3]
+    info = {"cad": spec.name, "part": part.name, "points": int(len(p)),
+            "noise_mm": noise, "xi_deg": xi_deg, "edge_radius_mm": edge_radius,
+            "burr": None if burr is None else {"gamma_deg": list(burr.gamma_deg),
+                                               "height_mm": burr.height,
+                                               "width_mm": burr.width, "edge": burr.edge,
+                                               "points": int(n_burr)},
+            "z_min_mm": z_min, "views": vw.tolist(), "max_slope_deg": max_slope_deg,
+            "seed": seed,
+            "misalignment": None if misalignment is None else {
+                "about_axis_deg": misalignment.about_axis_deg,
+                "tilt_deg": misalignment.tilt_deg,
+                "tilt_axis_deg": misalignment.tilt_axis_deg,
+                "offset_mm": list(misalignment.offset_mm)},
+            "cad_to_scan": M.tolist(), "scan_to_cad": np.linalg.inv(M).tolist()}
+    return SynthScan(scan, p, M, part, kind, info)
+
+
+def _visible_view(scene, o3d, p, nrm, views, cos_max, rng) -> np.ndarray:
+    """Index of a (random) view that sees each point, −1 where none does."""
+    n = len(p)
+    seen = np.zeros((n, len(views)), bool)
+    lift = 2e-3  # start rays just off the surface (float32 only decides visibility)
+    for j, v in enumerate(views):
+        facing = nrm @ (-v) >= cos_max
+        idx = np.flatnonzero(facing)
+        if not len(idx):
+            continue
+        o = p[idx] - v * lift
+        rays = np.hstack([o, np.broadcast_to(-v, o.shape)]).astype(np.float32)
+        occ = scene.test_occlusions(o3d.core.Tensor(rays)).numpy()
+        seen[idx[~occ], j] = True
+    r = rng.random((n, len(views))) * seen
+    out = np.argmax(r, axis=1)
+    return np.where(seen.any(axis=1), out, -1)
+
+
+def _burr_points(part, solid, burr: Burr, rng, density):
+    """Points on the exposed face of a burr ridge and its outward direction
+    (cannula frame)."""
+    if burr.edge not in ("inner", "outer"):
+        raise SpecError(f"burr.edge = {burr.edge!r}; allowed 'inner' or 'outer'")
+    if not (burr.height > 0 and burr.width > 0):
+        raise SpecError("burr height and width must be > 0 mm")
+    cn = part.cannula
+    r = cn.r_i if burr.edge == "inner" else cn.r_o
+    g0, g1 = (math.radians(a) for a in burr.gamma_deg)
+    length = abs(g1 - g0) * r * 2.0  # generous: the edge also climbs in z
+    span = math.hypot(burr.height, burr.width)
+    count = max(int(density * length * span), 16)
+    g = g0 + (g1 - g0) * rng.random(count)
+    zs = [c.edge_z(g, r, cn) for c in part.cutters]
+    if any(z is None for z in zs):
+        raise SpecError("burrs need cutters with an exact edge (planar, conical, helical)")
+    z = np.min(zs, axis=0)
+    e = np.stack([r * np.cos(g), r * np.sin(g), z], 1)
+    vals = solid.face_values(e)
+    cut_faces = [k for k, lab in enumerate(solid.labels) if lab.startswith("cut:")]
+    kc = np.asarray(cut_faces)[np.argmax(vals[:, cut_faces], axis=1)]
+    n_c = np.empty_like(e)
+    for k in np.unique(kc):
+        s = kc == k
+        n_c[s] = solid.faces[k].eval(e[s], 0.0)[1]
+    radial = e.copy()
+    radial[:, 2] = 0
+    radial /= np.linalg.norm(radial, axis=1, keepdims=True)
+    n_w = -radial if burr.edge == "inner" else radial
+    s = rng.random(count)[:, None]
+    out = burr.width * n_c + burr.height * n_w   # normal of the exposed face
+    out /= np.linalg.norm(out, axis=1, keepdims=True)
+    return e + (1 - s) * burr.height * n_c + s * burr.width * n_w, out

@@ -17,17 +17,9 @@ __all__ = ["register", "cmd_forces", "cmd_tissue"]
 
 
 def _spec(arg: str):
-    from .errors import SpecError
-    from .presets import PRESETS, preset
-    from .spec import load_spec
+    from .cli import _spec as spec_from_arg
 
-    p = Path(arg)
-    if p.exists() or arg.endswith(".toml"):
-        return load_spec(p)
-    if arg in PRESETS:
-        return preset(arg)
-    raise SpecError(f"SPEC = '{arg}' is neither a spec file nor a preset; presets: "
-                    + ", ".join(PRESETS))
+    return spec_from_arg(arg)
 
 
 def _sweep(args):

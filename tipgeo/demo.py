@@ -136,26 +136,14 @@ def _grind_outputs(out: Path, names, log) -> list[dict]:
 
 
 def _inspect_outputs(out: Path, pictures: bool, log) -> dict:
-    """One scan-to-CAD comparison: a synthetic scan of the 14.5° bevel ground
-    at 15.0°, misaligned by 20° about the axis, 1° of tilt and 0.3 mm, with
-    1 µm noise, registered and measured against the exact surfaces."""
-    from .inspect import Misalignment, compare, synthetic_scan
+    """One scan-to-CAD comparison (:func:`tipgeo.inspect.demo.run_inspect_demo`)."""
+    from .inspect.demo import run_inspect_demo
 
-    spec = preset("bevel-14G-xi14.5")
-    scan = synthetic_scan(spec, points=100_000, noise=0.001, xi_deg=15.0,
-                          misalignment=Misalignment(about_axis_deg=20.0, tilt_deg=1.0,
-                                                    offset_mm=(0.3, 0.0, 0.0)))
-    folder = out / "inspect"
-    folder.mkdir(exist_ok=True)
-    path = scan.write(folder / "scan-bevel-xi15-as-made.ply")
-    res = compare(path, spec, out=folder, pictures=pictures)
-    r = res.to_dict()
-    face = next(iter((r["measured"].get("faces") or {}).values()), {})
-    row = {"scan": str(path), "rms_um": r["deviation"]["all"]["rms_um"],
-           "measured_xi_deg": face.get("xi_deg"), "outputs": r["outputs"]}
+    row = run_inspect_demo(out / "inspect", points=100_000, log=log, pictures=pictures)
     if log is not None:
-        print(f"inspect: bevel ground at 15.0°, measured ξ {row['measured_xi_deg']:.4f}°, "
-              f"RMS {row['rms_um']:.2f} µm", file=log, flush=True)
+        print(f"inspect: bevel ground at 15.0°, measured ξ {row['xi_measured_deg']:.4f}°, "
+              f"registration residual {row['registration_residual_deg']:.4f}°",
+              file=log, flush=True)
     return row
 
 

@@ -375,15 +375,21 @@ def loads_spec(text: str, *, base_dir: str | Path | None = None) -> TipSpec:
     return spec_from_dict(data, base_dir=base_dir)
 
 
+def read_text_file(path: Path, what: str) -> str:
+    """The UTF-8 text of ``path``; a missing or unreadable file is a SpecError
+    naming ``what`` and the path."""
+    try:
+        return Path(path).read_text(encoding="utf-8")
+    except FileNotFoundError:
+        raise SpecError(f"{what} '{path}' does not exist") from None
+    except (OSError, UnicodeDecodeError) as e:
+        raise SpecError(f"{what} '{path}' cannot be read: {e}") from None
+
+
 def load_spec(path: str | Path) -> TipSpec:
     """Read a TOML spec file (relative mesh paths resolve from its folder)."""
     p = Path(path)
-    try:
-        text = p.read_text(encoding="utf-8")
-    except FileNotFoundError:
-        raise SpecError(f"spec file '{p}' does not exist") from None
-    except (OSError, UnicodeDecodeError) as e:
-        raise SpecError(f"spec file '{p}' cannot be read: {e}") from None
+    text = read_text_file(p, "spec file")
     try:
         spec = loads_spec(text, base_dir=p.parent)
     except SpecError as e:

@@ -551,13 +551,10 @@ def loads_config(text: str, *, base_dir: str | Path | None = None,
 
 def load_config(path: str | Path) -> StudyConfig:
     """Read a study config file (relative paths start at its folder)."""
+    from ..spec import read_text_file
+
     p = Path(path)
-    try:
-        text = p.read_text(encoding="utf-8")
-    except FileNotFoundError:
-        raise SpecError(f"config file '{p}' does not exist") from None
-    except (OSError, UnicodeDecodeError) as e:
-        raise SpecError(f"config file '{p}' cannot be read: {e}") from None
+    text = read_text_file(p, "config file")
     try:
         return loads_config(text, base_dir=p.parent, source=p)
     except SpecError as e:

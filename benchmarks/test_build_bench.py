@@ -34,3 +34,40 @@ def test_helical_edges_fit_angles(benchmark, method):
 
     s = benchmark(run)
     assert s["outer"]["l_c_mm"] > 0
+
+
+@pytest.mark.parametrize("blas", ["1-thread", "default-threads"])
+@pytest.mark.parametrize("load", ["quiet", "busy"])
+def test_fourier_angles_blas_threads(benchmark, blas, load, monkeypatch):
+    """The default angle path (``fourier``: ~130 small least-squares solves per
+    tip) with BLAS pinned to one thread (tipgeo's default) and with OpenBLAS's
+    default threads (``TIPGEO_BLAS_THREADS=0``), on a quiet machine and with
+    one busy process per core beside it."""
+    import multiprocessing as mp
+    import os
+
+    from tipgeo.angles import analyze
+
+    tol.strict = False
+    monkeypatch.setenv("TIPGEO_BLAS_THREADS", "1" if blas == "1-thread" else "0")
+    spec = preset("helical-14G")
+    hogs = []
+    if load == "busy":
+        ctx = mp.get_context("spawn")
+        hogs = [ctx.Process(target=_spin, daemon=True) for _ in range(os.cpu_count() or 1)]
+        for h in hogs:
+            h.start()
+    try:
+        s = benchmark.pedantic(lambda: analyze(spec, method="fourier").summary(), rounds=3,
+                               iterations=1)
+    finally:
+        for h in hogs:
+            h.terminate()
+            h.join()
+    assert s["outer"]["l_c_mm"] > 0
+
+
+def _spin():  # pragma: no cover - runs in the load processes
+    x = 0
+    while True:
+        x += 1

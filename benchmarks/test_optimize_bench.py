@@ -65,3 +65,16 @@ def test_gp_fit_and_optimise(benchmark):
 
     opts = benchmark.pedantic(run, rounds=3, iterations=1)
     assert all(np.isfinite(o.value) for o in opts)
+
+
+def test_study_demo_hook(benchmark, tmp_path_factory):
+    """The demo's whole study (sweep → GP → optima built → pictures); its
+    budget on two shared cores was 20 s (the test suite asserts no time)."""
+    from pathlib import Path
+
+    from tipgeo.optimize import demo_outputs
+
+    tol.strict = False
+    files = benchmark.pedantic(lambda: demo_outputs(tmp_path_factory.mktemp("study")),
+                               rounds=1, iterations=1)
+    assert any(Path(f).name == "report.json" for f in files)

@@ -64,18 +64,11 @@ whose plane crosses the needle axis at height h is ground at t1 = −h, t2 = 0.
 from __future__ import annotations
 
 import math
-import sys
 from dataclasses import dataclass, field, fields
-from pathlib import Path
 
 import numpy as np
 
 from tipgeo.errors import TipGeoError
-
-if sys.version_info >= (3, 11):
-    import tomllib
-else:  # pragma: no cover
-    import tomli as tomllib
 
 __all__ = ["CamError", "AxisLimit", "Machine", "wheel_from_needle", "f_surf", "plane_2_36",
            "near_generator", "wheel_height", "face_plane"]
@@ -139,10 +132,13 @@ class Machine:
     def from_toml(cls, path) -> Machine:
         """A machine from a TOML file: top-level keys override the defaults;
         ``[t1]`` … ``[r5]`` tables give ``lo``, ``hi``, ``resolution``."""
+        from tipgeo._toml import loads_toml, read_text_file
+        from tipgeo.errors import SpecError
+
         try:
-            data = tomllib.loads(Path(path).read_text(encoding="utf-8"))
-        except (OSError, tomllib.TOMLDecodeError) as e:
-            raise CamError(f"machine file '{path}' cannot be read: {e}") from None
+            data = loads_toml(read_text_file(path, "machine file"), f"machine file '{path}'")
+        except SpecError as e:
+            raise CamError(str(e)) from None
         known = {f.name for f in fields(cls)}
         kw = {}
         for k, v in data.items():

@@ -6,6 +6,7 @@ from hypothesis import strategies as st
 
 from tipgeo import GAUGES, Cannula, SpecError
 from tipgeo.cannula import GAUGE_SOURCE, gauge_table
+from tipgeo.tolerances import MIN_DIAMETER_MM, MIN_FEATURE_MM
 
 
 def test_gauge_table_covers_10_to_30_regular_wall():
@@ -53,7 +54,9 @@ def test_unknown_gauge():
 @given(de=st.floats(allow_nan=True, allow_infinity=True), di=st.floats(allow_nan=True,
                                                                        allow_infinity=True))
 def test_cannula_accepts_exactly_the_valid_range(de, di):
-    valid = (math.isfinite(de) and math.isfinite(di) and 0 < di < de <= 100)
+    # physical sizes only: d ≥ 0.05 mm and walls of at least 1 µm
+    valid = (math.isfinite(de) and math.isfinite(di) and MIN_DIAMETER_MM <= di
+             and di <= de - 2 * MIN_FEATURE_MM and de <= 100)
     if valid:
         c = Cannula(outer_diameter=de, inner_diameter=di)
         assert c.r_i < c.r_o

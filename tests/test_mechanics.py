@@ -42,6 +42,19 @@ R35 = 35 * J_PER_M2          # Table 2.4
 TH15 = math.radians(15.0)
 
 
+def _local_peak_deg(gamma, values, lo_deg: float, hi_deg: float) -> float:
+    """γ (degrees) of the largest value inside [lo_deg, hi_deg], asserted to be
+    a local maximum away from the window's ends (so a near-tie with a
+    peak elsewhere on the edge cannot decide the answer)."""
+    gd = np.degrees(np.asarray(gamma))
+    w = np.flatnonzero((gd >= lo_deg) & (gd <= hi_deg))
+    assert len(w) >= 5, f"window [{lo_deg}, {hi_deg}]° holds {len(w)} samples"
+    k = int(w[np.argmax(np.asarray(values)[w])])
+    assert w[0] < k < w[-1], f"the window's maximum lies on its end (γ = {gd[k]:.3f}°)"
+    assert values[k] >= values[k - 1] and values[k] >= values[k + 1]
+    return float(gd[k])
+
+
 def bevel(xi_deg):
     return TipSpec(cannula=C14, cutters=[BevelCutter(xi=math.radians(xi_deg))])
 
@@ -203,7 +216,9 @@ def test_bevel_edge_forces_structure():
                                atol=1e-15)
     np.testing.assert_allclose(ef.F_tangential, 0.3 * ef.F_axial, rtol=1e-14)
     peak = math.degrees(math.pi + math.asin(0.3 * math.tan(xi)))
-    assert math.degrees(ef.gamma[np.argmax(ef.F_perp)]) == pytest.approx(peak, abs=0.1)
+    # F_⊥ is almost as high near the heel: look for the tip's local maximum
+    # inside a stated window, never the global argmax over two near-ties
+    assert _local_peak_deg(ef.gamma, ef.F_perp, 150.0, 220.0) == pytest.approx(peak, abs=0.1)
     fv0 = rupture_forces(0.3, R=R45, d_i=2 * C14.r_i, theta=xi, mu_d=0.4)[0]
     assert ef.F_perp[0] == pytest.approx(0.35 * float(fv0), rel=1e-12)
     assert ef.F_perp.min() >= 0 and ef.F_par.min() >= 0
@@ -237,8 +252,9 @@ def test_helical_versus_bevel_qualitative_findings():
     for e in (bev, hel, hel_g):
         i = np.argmax(e.forces.F_perp)
         assert e.forces.F_perp[0] > 0.8 * e.forces.F_perp[i]           # heel near the max
-    assert 180.0 <= math.degrees(bev.forces.gamma[np.argmax(bev.forces.F_perp)]) < 186.0
-    assert 155.0 <= math.degrees(hel.forces.gamma[np.argmax(hel.forces.F_perp)]) < 165.0
+    # the tip's local maximum inside [120°, 240°] (the heel's lies outside it)
+    assert 180.0 <= _local_peak_deg(bev.forces.gamma, bev.forces.F_perp, 120.0, 240.0) < 186.0
+    assert 155.0 <= _local_peak_deg(hel.forces.gamma, hel.forces.F_perp, 120.0, 240.0) < 165.0
     for q in ("perp", "par"):
         ratio = hel_g.sweep[q] / bev.sweep[q]
         assert np.all(np.abs(ratio - 1) < 0.2)          # "similar force behavior"

@@ -5,7 +5,6 @@ import argparse
 import json
 import math
 import struct
-import time
 from pathlib import Path
 
 import numpy as np
@@ -21,12 +20,10 @@ OBJECTIVES = ["min-theta-max-lambda", "min-lc-max-lambda", "min-lc-min-theta"]
 @pytest.fixture(scope="module")
 def study(tmp_path_factory):
     root = tmp_path_factory.mktemp("demo")
-    t0 = time.perf_counter()
     files = demo_outputs(root)
-    dt = time.perf_counter() - t0
     out = root / "helical-study"
     report = json.loads((out / "report.json").read_text(encoding="utf-8"))
-    return out, files, report, dt
+    return out, files, report
 
 
 def _png_size(path: Path) -> tuple[int, int]:
@@ -35,9 +32,9 @@ def _png_size(path: Path) -> tuple[int, int]:
     return struct.unpack(">II", head[16:24])
 
 
-def test_demo_writes_the_study_quickly(study):
-    out, files, report, dt = study
-    assert dt < 20.0  # the demo hook's budget (2 shared cores)
+def test_demo_writes_the_study(study):
+    # its time is measured in benchmarks/test_optimize_bench.py, never here
+    out, files, report = study
     names = sorted(Path(f).name for f in files)
     for n in ["sweep.csv", "surrogate.json", "report.json", "loo.png",
               "surface-l_c_mm.png", "surface-lambda_max_deg.png"]:
@@ -52,7 +49,7 @@ def test_demo_writes_the_study_quickly(study):
 
 
 def test_sweep_of_the_thesis_study(study):
-    out, _, report, _ = study
+    out, _, report = study
     s = report["sweep"]
     assert s["configurations"] == 25 and s["ok"] == 25 and s["computed"] == 25
     t = read_table(out / "sweep.csv")
@@ -63,7 +60,7 @@ def test_sweep_of_the_thesis_study(study):
 
 
 def test_loo_error_is_reported_for_every_response(study):
-    _, _, report, _ = study
+    _, _, report = study
     loo = report["surrogate"]["loo"]
     assert list(loo) == list(THESIS)
     for name in THESIS:
@@ -82,7 +79,7 @@ def test_loo_error_is_reported_for_every_response(study):
 
 
 def test_three_objectives_of_table_3_4(study):
-    _, _, report, _ = study
+    _, _, report = study
     opt = {o["objective"]: o for o in report["optima"]}
     assert list(opt) == OBJECTIVES
     # min θ & max λ: both improve towards small ψ and large φ — the box corner
@@ -106,7 +103,7 @@ def test_three_objectives_of_table_3_4(study):
 def test_optima_are_optimal_on_the_real_geometry(study):
     """The weighted objective evaluated on real analyses (not the GP) is no
     better at neighbours of the reported optimum than at it."""
-    out, _, report, _ = study
+    out, _, report = study
     cfg = study_preset("helical-study")
     t = read_table(out / "sweep.csv")
     rng = {k: (min(t[k]), max(t[k]) - min(t[k])) for k in ("l_c_mm", "lambda_max_deg",
@@ -132,7 +129,7 @@ def test_optima_are_optimal_on_the_real_geometry(study):
 def test_optimum_spec_files_rebuild_the_optimum(study):
     import tipgeo
 
-    out, _, report, _ = study
+    out, _, report = study
     o = report["optima"][1]
     spec = tipgeo.load_spec(out / f"optimum-{o['objective']}.toml")
     c = spec.cutters[0]

@@ -1,36 +1,161 @@
-"""Atomic file output: write to a temporary file beside the target, then
-rename it over the target, so a failure never leaves a truncated file."""
+"""The one way tipgeo writes an output file: atomically and durably.
+
+The content goes to a temporary file beside the target, is flushed and
+fsynced, takes the target's mode (an existing file keeps its mode; a new one
+gets ``0o666 & ~umask``, like a plain ``open(path, "w")``), and is renamed over
+the target; the folder is fsynced so the rename survives a power cut. On any
+failure the temporary file is removed and the target is untouched.
+
+Temporaries are named ``.NAME.tipgeo-<host>-<pid>-<hex>.tmp``. A process killed
+mid-write (SIGKILL, power loss) cannot remove its own, so every write first
+removes the stale temporaries of this scheme in its folder: those of this
+host whose process no longer runs, and any older than a day.
+"""
 
 from __future__ import annotations
 
+import contextlib
 import os
-import tempfile
+import re
+import secrets
+import socket
+import stat
+import threading
+import time
+import zlib
 from collections.abc import Callable
 from pathlib import Path
 
-__all__ = ["write_atomic", "write_text_atomic"]
+__all__ = ["write_atomic", "write_text_atomic", "write_bytes_atomic", "remove_stale_temporaries",
+           "TEMP_PATTERN"]
+
+_HOST = f"{zlib.crc32(socket.gethostname().encode()) & 0xFFFFFFFF:08x}"
+
+#: Names of this helper's temporaries: ``.NAME.tipgeo-<host>-<pid>-<hex>.tmp``.
+TEMP_PATTERN = re.compile(r"^\..+\.tipgeo-(?P<host>[0-9a-f]{8})-(?P<pid>[0-9]+)-[0-9a-f]{12}\.tmp$")
+
+#: Temporaries older than this (s) are stale whoever made them.
+STALE_AGE_S = 86400.0
+
+_active: set[str] = set()
+_lock = threading.Lock()
 
 
-def write_atomic(path, write: Callable[[str], None]) -> Path:
-    """Call ``write(tmp_path)`` to fill a temporary file in ``path``'s folder,
-    then move it to ``path``; on any failure remove it and re-raise."""
-    path = Path(path)
-    fd, tmp = tempfile.mkstemp(dir=path.parent if str(path.parent) else ".",
-                               prefix=f".{path.name}.", suffix=".tmp")
-    os.close(fd)
+def _alive(pid: int) -> bool:
+    if pid == os.getpid():
+        return True
     try:
-        write(tmp)
-        os.replace(tmp, path)
-    except BaseException:
-        if os.path.exists(tmp):
-            os.unlink(tmp)
-        raise
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    except (PermissionError, OSError):
+        return True  # exists (another user's), or cannot tell: keep it
+    return True
+
+
+def remove_stale_temporaries(folder: str | Path) -> list[Path]:
+    """Remove this scheme's stale temporaries in ``folder`` (see the module
+    docstring); returns what was removed. Never raises for a file that went
+    away or cannot be removed."""
+    folder = Path(folder) if str(folder) else Path(".")
+    removed = []
+    now = time.time()
+    try:
+        entries = list(os.scandir(folder))
+    except OSError:
+        return removed
+    for e in entries:
+        m = TEMP_PATTERN.match(e.name)
+        if not m:
+            continue
+        path = folder / e.name
+        with _lock:
+            if str(path) in _active:
+                continue
+        try:
+            old = now - e.stat(follow_symlinks=False).st_mtime > STALE_AGE_S
+        except OSError:
+            continue
+        dead = m["host"] == _HOST and int(m["pid"]) != os.getpid() and not _alive(int(m["pid"]))
+        own_orphan = m["host"] == _HOST and int(m["pid"]) == os.getpid()
+        if old or dead or own_orphan:
+            with contextlib.suppress(OSError):
+                os.unlink(path)
+                removed.append(path)
+    return removed
+
+
+def _fsync_dir(folder: Path) -> None:
+    if os.name != "posix":
+        return
+    with contextlib.suppress(OSError):
+        dfd = os.open(folder, os.O_RDONLY)
+        try:
+            os.fsync(dfd)
+        finally:
+            os.close(dfd)
+
+
+def write_atomic(path: str | os.PathLike, write: Callable[[Path], None]) -> Path:
+    """Fill ``path`` atomically: ``write(tmp)`` writes a fresh temporary file
+    (a :class:`~pathlib.Path` in the same folder, already created, empty),
+    which is then fsynced and renamed over ``path``.
+
+    Parameters
+    ----------
+    path : str or os.PathLike
+        The target file; its folder must exist.
+    write : callable
+        Called once with the temporary file's path.
+
+    Returns
+    -------
+    Path
+        ``path``.
+    """
+    path = Path(path)
+    folder = path.parent if str(path.parent) else Path(".")
+    remove_stale_temporaries(folder)
+    tmp = folder / f".{path.name}.tipgeo-{_HOST}-{os.getpid()}-{secrets.token_hex(6)}.tmp"
+    with _lock:
+        _active.add(str(tmp))
+    try:
+        # os.open with 0o666 honours the umask, like a plain open(path, "w")
+        fd = os.open(tmp, os.O_WRONLY | os.O_CREAT | os.O_EXCL | getattr(os, "O_BINARY", 0),
+                     0o666)
+        os.close(fd)
+        try:
+            write(tmp)
+            fd = os.open(tmp, os.O_RDWR | getattr(os, "O_BINARY", 0))
+            try:
+                os.fsync(fd)
+            finally:
+                os.close(fd)
+            with contextlib.suppress(FileNotFoundError):
+                os.chmod(tmp, stat.S_IMODE(os.stat(path).st_mode))  # keep an existing file's mode
+            os.replace(tmp, path)
+        except BaseException:
+            with contextlib.suppress(OSError):
+                os.unlink(tmp)
+            raise
+    finally:
+        with _lock:
+            _active.discard(str(tmp))
+    _fsync_dir(folder)
     return path
 
 
-def write_text_atomic(path, text: str) -> Path:
-    """Write ``text`` (UTF-8) to ``path`` atomically."""
-    def w(tmp):
-        with open(tmp, "w", encoding="utf-8") as f:
+def write_bytes_atomic(path: str | os.PathLike, data: bytes) -> Path:
+    """Write ``data`` to ``path`` atomically and durably."""
+    def w(tmp: Path) -> None:
+        with open(tmp, "wb") as f:
+            f.write(data)
+    return write_atomic(path, w)
+
+
+def write_text_atomic(path: str | os.PathLike, text: str) -> Path:
+    """Write ``text`` (UTF-8, ``\\n`` line ends) to ``path`` atomically and durably."""
+    def w(tmp: Path) -> None:
+        with open(tmp, "w", encoding="utf-8", newline="\n") as f:
             f.write(text)
     return write_atomic(path, w)

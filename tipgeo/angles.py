@@ -35,6 +35,7 @@ import numpy as np
 from scipy.integrate import simpson
 
 from . import _validate as v
+from ._threads import small_linalg
 from .edges import Edge, EdgePiece, _combined, _rot, exact_edges, mesh_edges
 from .errors import SpecError
 from .fourier import FourierFit, fit_fourier
@@ -227,15 +228,17 @@ def analyze(source, *, method: str = "exact", n_harmonics: int = 5,
             raise SpecError("radii = None: a tip without a spec needs radii=(r_o, r_i) in mm")
         r = radii or (spec.cannula.r_o, spec.cannula.r_i)
         edges = mesh_edges(tip, radii=r)
-        walls = [_mesh_wall(e, n_harmonics) for e in edges]
+        with small_linalg():  # many tiny least-squares solves: one BLAS thread
+            walls = [_mesh_wall(e, n_harmonics) for e in edges]
     else:
         if spec is None:
             raise SpecError(f"method = '{method}' needs the tip's spec; this tip has none "
                             "(use method='mesh')")
         r = (spec.cannula.r_o, spec.cannula.r_i)
         edges = exact_edges(spec, samples=samples)
-        walls = [_exact_wall(e, spec, fourier=(method == "fourier"), n=n_harmonics)
-                 for e in edges]
+        with small_linalg():  # many tiny least-squares solves: one BLAS thread
+            walls = [_exact_wall(e, spec, fourier=(method == "fourier"), n=n_harmonics)
+                     for e in edges]
     return AngleReport(label, method, walls[0], walls[1], r, n_harmonics)
 
 

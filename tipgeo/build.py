@@ -15,7 +15,7 @@ from . import _validate as v
 from .construct import AUX, BuildContext, segments_for
 from .errors import BuildError, SpecError
 from .tip import Tip
-from .tolerances import tol
+from .tolerances import MAX_TIP_HEIGHT_MM, tol
 
 __all__ = ["build_tip"]
 
@@ -61,6 +61,9 @@ def build_tip(spec, *, tolerance: float | None = None, strict: bool | None = Non
     if not np.isfinite(z_top):
         raise SpecError("no cutter bounds the tip from above (serrations need a cutter "
                         "before them)")
+    if z_top > MAX_TIP_HEIGHT_MM:
+        raise SpecError(f"cutters: the tip reaches z = {z_top:.3g} mm above the heel; allowed "
+                        f"at most {MAX_TIP_HEIGHT_MM:g} mm (an angle too close to 0?)")
     z_top = max(z_top, 0.0) + 0.25 * cannula.r_o + 0.1
     ctx = BuildContext(cannula=cannula, chordal=chordal, segments=n,
                        z_bottom=-cannula.length, z_top=z_top)

@@ -13,6 +13,7 @@ from dataclasses import dataclass
 
 from . import _validate as v
 from .errors import SpecError
+from .tolerances import MIN_DIAMETER_MM, MIN_FEATURE_MM
 
 __all__ = ["Cannula", "GAUGES", "GAUGE_SOURCE", "gauge_table"]
 
@@ -74,13 +75,17 @@ class Cannula:
     name: str = ""
 
     def __post_init__(self) -> None:
-        de = v.length("outer_diameter", self.outer_diameter, hi=100.0)
-        di = v.length("inner_diameter", self.inner_diameter, hi=100.0)
-        if not di < de:
+        de = v.length("outer_diameter", self.outer_diameter, lo=MIN_DIAMETER_MM,
+                      lo_open=False, hi=100.0)
+        di = v.length("inner_diameter", self.inner_diameter, lo=MIN_DIAMETER_MM,
+                      lo_open=False, hi=100.0)
+        if not di <= de - 2 * MIN_FEATURE_MM:
             raise SpecError(
                 f"inner_diameter = {di:.6g} mm must be smaller than outer_diameter = {de:.6g} mm "
-                "(allowed 0 < inner_diameter < outer_diameter)")
-        v.length("length", self.length, hi=1000.0)
+                f"by two walls of at least {MIN_FEATURE_MM * 1e3:g} µm (allowed "
+                f"{MIN_DIAMETER_MM:g} ≤ inner_diameter ≤ outer_diameter − "
+                f"{2 * MIN_FEATURE_MM:g} mm)")
+        v.length("length", self.length, lo=MIN_FEATURE_MM, lo_open=False, hi=1000.0)
         object.__setattr__(self, "outer_diameter", de)
         object.__setattr__(self, "inner_diameter", di)
         object.__setattr__(self, "length", float(self.length))

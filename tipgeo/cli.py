@@ -14,7 +14,78 @@ import sys
 import time
 from pathlib import Path
 
-__all__ = ["main"]
+__all__ = ["main", "declare_files", "check_files", "PICTURE_EXTS"]
+
+from .plot import PICTURE_EXTS  # the formats every --plot/--png accepts
+
+
+def declare_files(parser, *, inputs=(), outputs=(), pictures=(), exts=None, derived=None,
+                  blas_threads: int | None = 1) -> None:
+    """Declare a sub-command's file arguments (by ``dest``) for :func:`check_files`.
+
+    ``inputs`` are read, ``outputs`` written (``pictures`` too, limited to
+    :data:`PICTURE_EXTS`); ``exts`` maps an output's dest to its allowed
+    extensions; ``derived(args)`` lists files a command writes beside the
+    named ones. ``blas_threads`` pins BLAS for the command (None: unchanged).
+    """
+    parser.set_defaults(_inputs=tuple(inputs), _outputs=tuple(outputs) + tuple(pictures),
+                        _exts={**{p: PICTURE_EXTS for p in pictures}, **(exts or {})},
+                        _derived=derived, _blas_threads=blas_threads)
+
+
+def _values(args, dest) -> list[str]:
+    v = getattr(args, dest, None)
+    if v is None:
+        return []
+    return [str(x) for x in (v if isinstance(v, (list, tuple)) else [v]) if str(x) != "-"]
+
+
+def _same(a: Path, b: Path) -> bool:
+    import os
+
+    if os.path.realpath(a) == os.path.realpath(b):
+        return True
+    try:
+        return a.exists() and b.exists() and os.path.samefile(a, b)
+    except OSError:
+        return False
+
+
+def check_files(args) -> None:
+    """Refuse, before any work, outputs with a wrong extension, an output named
+    twice, and an output that is one of the command's own inputs."""
+    from .errors import SpecError
+
+    outs: list[tuple[str, Path]] = []
+    for dest in getattr(args, "_outputs", ()):
+        allowed = getattr(args, "_exts", {}).get(dest)
+        opt = "--" + dest.replace("_", "-")
+        for v in _values(args, dest):
+            p = Path(v)
+            if allowed and p.suffix.lower() not in allowed:
+                raise SpecError(f"{opt} = '{v}' has extension '{p.suffix or '(none)'}'; "
+                                f"allowed: {', '.join(allowed)}")
+            if p.is_dir():
+                raise SpecError(f"{opt} = '{v}' is a directory; expected a file path")
+            outs.append((opt, p))
+    derived = getattr(args, "_derived", None)
+    if derived is not None:
+        outs += [("(derived)", Path(x)) for x in derived(args)]
+    for i, (opt, p) in enumerate(outs):
+        for opt2, q in outs[:i]:
+            if _same(p, q):
+                raise SpecError(f"{opt} = '{p}' is also given as {opt2} = '{q}'; allowed each "
+                                "output file once")
+    for dest in getattr(args, "_inputs", ()):
+        for v in _values(args, dest):
+            src = Path(v)
+            if not src.is_file():
+                continue  # a preset name, or missing (the command reports it)
+            for opt, p in outs:
+                if _same(src, p):
+                    raise SpecError(f"{opt} = '{p}' is the command's input {dest.upper()}; "
+                                    "allowed an output that is not one of its inputs "
+                                    "(nothing was written)")
 
 
 def _spec(arg: str):
@@ -102,12 +173,12 @@ def cmd_angles(args) -> int:
         if len(args.spec) > 1:
             print(f"[{k}/{len(args.spec)}] {name}", file=sys.stderr, flush=True)
     if args.csv:
-        from .demo import _atomic_text
+        from ._atomic import write_text_atomic
 
         text = reports[0].to_csv(args.step_deg)
         for r in reports[1:]:
             text += r.to_csv(args.step_deg).split("\n", 1)[1]
-        _atomic_text(Path(args.csv), text)
+        write_text_atomic(Path(args.csv), text)
     if args.plot:
         from .plot import plot_angles
 
@@ -161,9 +232,9 @@ def _laser_params(args):
 
 
 def _write_text(path, text: str) -> None:
-    from .demo import _atomic_text
+    from ._atomic import write_text_atomic
 
-    _atomic_text(Path(path), text)
+    write_text_atomic(Path(path), text)
 
 
 def cmd_laser(args) -> int:
@@ -355,6 +426,20 @@ def cmd_demo(args) -> int:
     return 0
 
 
+def _export_exts() -> tuple[str, ...]:
+    from .io import SUPPORTED_EXPORTS
+
+    return SUPPORTED_EXPORTS
+
+
+def _gcode_derived(args) -> list[str]:
+    """``gcode sim --plot FILE`` also writes FILE-rim.png."""
+    if args.action == "sim" and args.plot:
+        p = Path(args.plot)
+        return [str(p.with_name(p.stem + "-rim.png"))]
+    return []
+
+
 def _parser() -> argparse.ArgumentParser:
     p = argparse.ArgumentParser(prog="tipgeo", description="Geometry and CAM of hollow-needle "
                                 "tips (mm, degrees; needle axis +z towards the tip).")
@@ -369,6 +454,8 @@ def _parser() -> argparse.ArgumentParser:
     b.add_argument("--png", metavar="FILE", help="also write a picture of the tip")
     b.add_argument("--json", action="store_true", help="machine-readable summary")
     b.set_defaults(func=cmd_build)
+    declare_files(b, inputs=("spec",), outputs=("output",), pictures=("png",),
+                  exts={"output": _export_exts()})
     a = sub.add_parser("angles", help="cutting edges and angles (λ, θ, α, l_c) of tips")
     a.add_argument("spec", metavar="SPEC", nargs="+",
                    help="spec file, preset name, or mesh file (.stl .ply .obj .3mf .glb)")
@@ -386,6 +473,7 @@ def _parser() -> argparse.ArgumentParser:
     a.add_argument("--axis", type=float, nargs=6, metavar=("X", "Y", "Z", "DX", "DY", "DZ"),
                    help="a mesh file's needle axis: a point and the direction to the tip")
     a.set_defaults(func=cmd_angles)
+    declare_files(a, inputs=("spec",), outputs=("csv",), pictures=("plot",))
     la = sub.add_parser("laser", help="write the AeroBasic laser program of a serration spec")
     la.add_argument("spec", metavar="SPEC", help="spec file or preset with a serration cutter")
     la.add_argument("-o", "--output", required=True, metavar="FILE",
@@ -400,6 +488,7 @@ def _parser() -> argparse.ArgumentParser:
         la.add_argument(opt, type=float, default=None, help=hlp)
     la.add_argument("--finishing-passes", type=int, default=None, help="(80)")
     la.set_defaults(func=cmd_laser)
+    declare_files(la, inputs=("spec",), outputs=("output",))
     gc = sub.add_parser("gcode", help="check or simulate an AeroBasic laser program")
     gc.add_argument("action", choices=("check", "sim"))
     gc.add_argument("program", metavar="PROGRAM")
@@ -416,6 +505,8 @@ def _parser() -> argparse.ArgumentParser:
     gc.add_argument("--mesh", metavar="FILE", help="write the ablated tip (sim)")
     gc.add_argument("--json", action="store_true")
     gc.set_defaults(func=cmd_gcode)
+    declare_files(gc, inputs=("program", "spec"), outputs=("mesh",), pictures=("plot",),
+                  exts={"mesh": _export_exts()}, derived=_gcode_derived)
     gr = sub.add_parser("grind", help="five-axis grinding program, set-up and simulation")
     gr.add_argument("spec", metavar="SPEC")
     gr.add_argument("-o", "--output", metavar="FILE", help="axis program (.json or .csv)")
@@ -430,6 +521,8 @@ def _parser() -> argparse.ArgumentParser:
     gr.add_argument("--tolerance-um", type=float, default=None)
     gr.add_argument("--json", action="store_true")
     gr.set_defaults(func=cmd_grind)
+    declare_files(gr, inputs=("spec", "machine"), outputs=("output", "gcode", "sheet", "simulate"),
+                  exts={"output": (".json", ".csv"), "simulate": _export_exts()})
     g = sub.add_parser("gauges", help="the needle gauge table")
     g.add_argument("--json", action="store_true")
     g.set_defaults(func=cmd_gauges)
@@ -467,7 +560,11 @@ def main(argv: list[str] | None = None) -> int:
     try:
         if getattr(args, "output", None) == [] and args.command == "build" and not args.png:
             raise SpecError("build needs at least one -o FILE (or --png FILE)")
-        return args.func(args)
+        check_files(args)
+        from ._threads import small_linalg
+
+        with small_linalg(getattr(args, "_blas_threads", 1)):
+            return args.func(args)
     except (SpecError, GCodeError, CamError) as e:
         print(f"tipgeo: error: {e}", file=sys.stderr)
         return 2

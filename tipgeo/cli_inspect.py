@@ -126,7 +126,7 @@ def cmd_scan_synth(args) -> int:
     if ext == ".ply":
         s.write(out)
     elif ext in (".xyz", ".txt"):
-        from .demo import _atomic_text
+        from ._atomic import write_text_atomic as _atomic_text
 
         _atomic_text(out, "\n".join(f"{x:.9f} {y:.9f} {z:.9f}" for x, y, z in s.points) + "\n")
     else:
@@ -139,7 +139,7 @@ def cmd_scan_synth(args) -> int:
     info = dict(s.info)
     info["output"] = str(out)
     if args.truth:
-        from .demo import _atomic_text
+        from ._atomic import write_text_atomic as _atomic_text
 
         _atomic_text(Path(args.truth), json.dumps(info, indent=2) + "\n")
     if args.json:

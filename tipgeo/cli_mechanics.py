@@ -204,6 +204,9 @@ def register(subparsers) -> None:
                    "against S, 0–3 unless --sweep)")
     f.add_argument("--json", action="store_true", help="summaries, tables and sweeps as JSON")
     f.set_defaults(func=cmd_forces)
+    from .cli import declare_files
+
+    declare_files(f, inputs=("spec",), pictures=("plot",))
 
     t = subparsers.add_parser(
         "tissue", help="tissue models: fit uniaxial data, list the materials library",
@@ -220,3 +223,4 @@ def register(subparsers) -> None:
     t.add_argument("--plot", metavar="FILE", help="PNG of data and fits (like Fig. 4.4)")
     t.add_argument("--json", action="store_true", help="machine-readable output")
     t.set_defaults(func=cmd_tissue)
+    declare_files(t, inputs=("target",), pictures=("plot",))

@@ -13,7 +13,10 @@ import json
 import sys
 from pathlib import Path
 
-__all__ = ["register", "cmd_sweep", "cmd_optimize"]
+__all__ = ["register", "cmd_sweep", "cmd_optimize", "DRY_RUN_CHECKS"]
+
+#: ``sweep --dry-run`` validates the specs of at most this many configurations.
+DRY_RUN_CHECKS = 10_000
 
 
 def _config(arg: str):
@@ -58,6 +61,8 @@ def cmd_sweep(args) -> int:
 
     cfg = _config(args.config)
     out = Path(args.output or f"{cfg.name}-sweep.csv")
+    if args.dry_run:
+        return _dry_run(cfg, args)
     res = run_sweep(cfg, executor=_executor(args, cfg), cache=_cache(args),
                     progress=not args.quiet)
     write_table(res, out)
@@ -72,6 +77,39 @@ def cmd_sweep(args) -> int:
     for f in s["failures"]:
         print(f"  [{f['index']}] {f['status']}: {f['error']}")
     print(f"wrote {out}")
+    return 0
+
+
+def _dry_run(cfg, args) -> int:
+    """Validate the config and every configuration's spec; compute nothing."""
+    from .errors import SpecError
+    from .optimize.design import make_design
+    from .spec import spec_from_dict
+
+    X = make_design(cfg.variables, cfg.design["method"], levels=cfg.design["levels"],
+                    points=cfg.design["points"], seed=cfg.design["seed"])
+    rows = []
+    for i, x in enumerate(X[:DRY_RUN_CHECKS]):
+        try:
+            spec_from_dict(cfg.spec_dict(x, i))
+            rows.append({"index": i, "x": [float(v) for v in x], "status": "valid"})
+        except SpecError as e:
+            rows.append({"index": i, "x": [float(v) for v in x], "status": "invalid",
+                         "error": str(e)})
+    names = [v.name for v in cfg.variables]
+    valid = sum(r["status"] == "valid" for r in rows)
+    if args.json:
+        print(json.dumps({"name": cfg.name, "variables": names, "configurations": len(X),
+                          "checked": len(rows),
+                          "valid": valid, "rows": rows}, indent=2))
+        return 0
+    checked = "" if len(rows) == len(X) else f" (the first {len(rows)} checked)"
+    print(f"{cfg.name}: {len(X)} configurations of {', '.join(names)} "
+          f"({cfg.design['method']}){checked}; {valid} valid specs, {len(rows) - valid} "
+          "invalid; nothing computed (--dry-run)")
+    for r in rows:
+        if r["status"] != "valid":
+            print(f"  [{r['index']}] invalid: {r['error']}")
     return 0
 
 
@@ -143,7 +181,14 @@ def register(subparsers) -> None:
     _common(s)
     s.add_argument("-o", "--output", metavar="FILE",
                    help="table: .csv or .parquet (default <name>-sweep.csv)")
+    s.add_argument("--dry-run", action="store_true",
+                   help="validate the config and every configuration's spec; compute nothing")
     s.set_defaults(func=cmd_sweep)
+    from .cli import declare_files
+
+    # the sweep's workers pin one BLAS thread each; the GP fit is small too
+    declare_files(s, inputs=("config",), outputs=("output",),
+                  exts={"output": (".csv", ".parquet", ".pq")})
     o = subparsers.add_parser("optimize", help="sweep, GP surrogate (thesis §3.4), optimise "
                               "objectives, verify on the real geometry")
     _common(o)
@@ -153,3 +198,4 @@ def register(subparsers) -> None:
                    help="analyse the optima without building their meshes")
     o.add_argument("--no-plots", action="store_true", help="skip the PNGs")
     o.set_defaults(func=cmd_optimize)
+    declare_files(o, inputs=("config",))

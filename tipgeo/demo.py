@@ -30,10 +30,6 @@ from .spec import save_spec
 __all__ = ["run_demo"]
 
 
-def _atomic_text(path: Path, text: str) -> None:
-    write_text_atomic(path, text)
-
-
 #: Groups of samples whose angle curves are overlaid in one picture.
 ANGLE_GROUPS = {
     "angles-helical-vs-bevel": ["helical-14G", "bevel-14G-xi14.5"],
@@ -53,10 +49,10 @@ def _angle_outputs(out: Path, names, pictures: bool, log) -> list[str]:
     for k, rep in enumerate(reports.values()):
         t = rep.to_csv(1.0)
         text += t if k == 0 else t.split("\n", 1)[1]
-    _atomic_text(out / "angles.csv", text)
+    write_text_atomic(out / "angles.csv", text)
     files = [str(out / "angles.csv")]
     summaries = {n: r.summary() for n, r in reports.items()}
-    _atomic_text(out / "angles.json", json.dumps(summaries, indent=2) + "\n")
+    write_text_atomic(out / "angles.json", json.dumps(summaries, indent=2) + "\n")
     files.append(str(out / "angles.json"))
     if pictures:
         from .plot import plot_angles
@@ -86,7 +82,7 @@ def _laser_outputs(out: Path, names, pictures: bool, log) -> list[dict]:
         if not any(c.kind == "serration" for c in spec.cutters):
             continue
         text = emit_program(spec, laser)
-        _atomic_text(out / f"{name}.pgm", text)
+        write_text_atomic(out / f"{name}.pgm", text)
         tp = interpret(parse(text), tool_radii={0: 0.0, 1: laser.tool_radius})
         row = {"name": name, "program": str(out / f"{name}.pgm"), **tp.summary()}
         if name == "punch-C2":
@@ -121,9 +117,9 @@ def _grind_outputs(out: Path, names, log) -> list[dict]:
         except CamError as e:  # e.g. punches (flat land), helical tips: not this machine
             rows.append({"name": name, "ground": False, "reason": str(e)})
             continue
-        _atomic_text(out / f"{name}.grind.json", prog.to_json())
-        _atomic_text(out / f"{name}.grind.nc", prog.to_gcode())
-        _atomic_text(out / f"{name}.setup.md", prog.setup_sheet())
+        write_text_atomic(out / f"{name}.grind.json", prog.to_json())
+        write_text_atomic(out / f"{name}.grind.nc", prog.to_gcode())
+        write_text_atomic(out / f"{name}.setup.md", prog.setup_sheet())
         ground = simulate(prog, spec)
         cmp = compare_with_cad(ground, spec)
         worst = max(v for w in cmp["angles_max_diff_deg"].values() for v in w.values())
@@ -193,10 +189,10 @@ def run_demo(out, *, tolerance: float | None = None, log=None, pictures: bool = 
                "tips": rows, "angles": angle_files, "laser": laser_files,
                "grinding": grind_rows, "mechanics": mechanics_files,
                "optimize": optimize_files, "inspect": inspect_row}
-    _atomic_text(out / "summary.json", json.dumps(summary, indent=2) + "\n")
+    write_text_atomic(out / "summary.json", json.dumps(summary, indent=2) + "\n")
     buf = io.StringIO()
     w = csv.DictWriter(buf, fieldnames=list(rows[0]))
     w.writeheader()
     w.writerows(rows)
-    _atomic_text(out / "summary.csv", buf.getvalue())
+    write_text_atomic(out / "summary.csv", buf.getvalue())
     return summary

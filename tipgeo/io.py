@@ -29,12 +29,9 @@ already at ``path`` untouched.
 
 from __future__ import annotations
 
-import contextlib
 import math
 import os
 import re
-import secrets
-import stat
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from numbers import Real
@@ -44,6 +41,7 @@ from typing import Any
 
 import numpy as np
 
+from ._atomic import write_atomic
 from .errors import BuildError, SpecError, TipGeoError
 from .tip import Tip
 
@@ -179,7 +177,7 @@ def export_tip(tip: Tip, path: str | os.PathLike[str], *, binary: bool = True,
                     ref_point=_check_ref_point(ref_point))
     writer = _WRITERS[ext]
     try:
-        _atomic_write(p, lambda tmp: writer(tip, tmp, opts))
+        write_atomic(p, lambda tmp: writer(tip, tmp, opts))
     except TipGeoError:
         raise
     except Exception as exc:
@@ -242,36 +240,6 @@ def _check_ref_point(ref: object) -> str | tuple[float, float, float]:
             return (float(vals[0]), float(vals[1]), float(vals[2]))
     raise SpecError(f"ref_point = {ref!r} is invalid; allowed: 'centroid', 'top' or three finite "
                     f"numbers (x, y, z) in mm")
-
-
-def _atomic_write(path: Path, write: Callable[[Path], None]) -> None:
-    """Run ``write(tmp)`` on a fresh temporary file next to ``path``, fsync it
-    and rename it over ``path``; on any failure remove the temporary file."""
-    tmp = path.with_name(f".{path.name}.{secrets.token_hex(6)}.tmp")
-    # os.open with 0o666 honours the umask, like a plain open(path, "w")
-    fd = os.open(tmp, os.O_WRONLY | os.O_CREAT | os.O_EXCL | getattr(os, "O_BINARY", 0), 0o666)
-    os.close(fd)
-    try:
-        write(tmp)
-        fd = os.open(tmp, os.O_RDWR | getattr(os, "O_BINARY", 0))
-        try:
-            os.fsync(fd)
-        finally:
-            os.close(fd)
-        with contextlib.suppress(FileNotFoundError):
-            os.chmod(tmp, stat.S_IMODE(os.stat(path).st_mode))  # keep an existing file's mode
-        os.replace(tmp, path)
-    except BaseException:
-        with contextlib.suppress(OSError):
-            os.unlink(tmp)
-        raise
-    if os.name == "posix":  # make the rename itself durable
-        with contextlib.suppress(OSError):
-            dfd = os.open(path.parent, os.O_RDONLY)
-            try:
-                os.fsync(dfd)
-            finally:
-                os.close(dfd)
 
 
 # -- STL ---------------------------------------------------------------------

@@ -10,18 +10,35 @@ from pathlib import Path
 
 import numpy as np
 
-__all__ = ["render_tip", "save_figure"]
+__all__ = ["render_tip", "save_figure", "check_picture_path", "PICTURE_EXTS"]
 
 _COLORS = {"outer": "#9aa5b1", "inner": "#c7b79a", "base": "#555555"}
 _CUT = ["#d1495b", "#2e86ab", "#edae49", "#66a182", "#8d6a9f", "#f49d37", "#00798c"]
 
 
+#: Picture formats tipgeo writes (by the file's extension).
+PICTURE_EXTS = (".png", ".pdf", ".svg")
+
+
+def check_picture_path(path, what: str = "path") -> Path:
+    """``path`` as a Path if its extension is one of :data:`PICTURE_EXTS`,
+    else a :class:`~tipgeo.errors.SpecError` naming it."""
+    from .errors import SpecError
+
+    p = Path(path)
+    if p.suffix.lower() not in PICTURE_EXTS:
+        raise SpecError(f"{what} = '{p}' has extension '{p.suffix or '(none)'}'; allowed: "
+                        + ", ".join(PICTURE_EXTS))
+    return p
+
+
 def save_figure(fig, path) -> Path:
-    """Save a matplotlib figure to ``path`` atomically (PNG by extension)."""
+    """Save a matplotlib figure to ``path`` atomically (format by extension:
+    :data:`PICTURE_EXTS`)."""
     from ._atomic import write_atomic
 
-    path = Path(path)
-    fmt = path.suffix.lstrip(".") or "png"
+    path = check_picture_path(path)
+    fmt = path.suffix.lower().lstrip(".")
     return write_atomic(path, lambda tmp: fig.savefig(tmp, dpi=130, bbox_inches="tight",
                                                       format=fmt))
 

@@ -27,12 +27,12 @@ value and the allowed range.
 from __future__ import annotations
 
 import math
-import sys
 from dataclasses import dataclass
-from numbers import Real
 from pathlib import Path
 from typing import Any
 
+from ._toml import loads_toml, read_text_file
+from ._validate import brief, finite_float
 from .cannula import GAUGES, Cannula
 from .cutters import (
     BevelCutter,
@@ -46,11 +46,7 @@ from .cutters import (
 )
 from .cutters.planar import multiplane_xi_for_theta
 from .errors import SpecError
-
-if sys.version_info >= (3, 11):
-    import tomllib
-else:  # pragma: no cover
-    import tomli as tomllib
+from .tolerances import MAX_CUTTERS
 
 __all__ = ["TipSpec", "load_spec", "loads_spec", "spec_from_dict", "spec_to_dict", "dumps_spec",
            "save_spec", "CUTTER_KINDS"]
@@ -83,6 +79,9 @@ class TipSpec:
         object.__setattr__(self, "cutters", cutters)
         if not cutters:
             raise SpecError("cutters = [] is empty; a tip needs at least one cutter")
+        if len(cutters) > MAX_CUTTERS:
+            raise SpecError(f"cutters: {len(cutters)} cutters given; allowed at most "
+                            f"{MAX_CUTTERS} per tip")
         names = []
         for k, c in enumerate(cutters):
             if not isinstance(c, Cutter):
@@ -117,28 +116,24 @@ _DEG = math.radians
 
 
 def _num(key: str, value: Any) -> float:
-    if isinstance(value, bool) or not isinstance(value, Real):
-        raise SpecError(f"{key} = {value!r} is not a number; expected a number")
-    if not math.isfinite(float(value)):
-        raise SpecError(f"{key} = {value!r} is not finite; expected a finite number")
-    return float(value)
+    return finite_float(key, value)
 
 
 def _int(key: str, value: Any) -> int:
     if isinstance(value, bool) or not isinstance(value, int):
-        raise SpecError(f"{key} = {value!r} is not an integer; expected an integer")
+        raise SpecError(f"{key} = {brief(value)} is not an integer; expected an integer")
     return int(value)
 
 
 def _str(key: str, value: Any) -> str:
     if not isinstance(value, str):
-        raise SpecError(f"{key} = {value!r} is not a string; expected a string")
+        raise SpecError(f"{key} = {brief(value)} is not a string; expected a string")
     return value
 
 
 def _keys(where: str, table: Any, allowed: dict[str, str]) -> dict:
     if not isinstance(table, dict):
-        raise SpecError(f"{where} = {table!r} is not a table; expected a TOML table")
+        raise SpecError(f"{where} = {brief(table)} is not a table; expected a TOML table")
     unknown = [k for k in table if k not in allowed]
     if unknown:
         raise SpecError(f"{where}.{unknown[0]} is not a known key; allowed keys: "
@@ -220,15 +215,20 @@ def _cannula(table: Any) -> Cannula:
     except SpecError as e:
         msg = str(e)
         if not msg.startswith(where):
-            msg = f"{where}: {msg}".replace("outer_diameter =", "outer_diameter_mm =").replace(
-                "inner_diameter =", "inner_diameter_mm =").replace("length =", "length_mm =")
+            for arg in ("outer_diameter", "inner_diameter", "length"):
+                if msg.startswith(f"{arg} ="):
+                    msg = f"{where}.{arg}_mm" + msg[len(arg):]
+                    break
+            else:
+                msg = f"{where}: {msg}".replace("outer_diameter =", "outer_diameter_mm =").replace(
+                    "inner_diameter =", "inner_diameter_mm =").replace("length =", "length_mm =")
         raise SpecError(msg) from None
 
 
 def _cutter(k: int, table: Any, base_dir: Path | None) -> Cutter:
     where = f"cutters[{k}]"
     if not isinstance(table, dict):
-        raise SpecError(f"{where} = {table!r} is not a table")
+        raise SpecError(f"{where} = {brief(table)} is not a table")
     kind = _str(f"{where}.kind", _need(where, table, "kind"))
     if kind not in CUTTER_KINDS:
         raise SpecError(f"{where}.kind = {kind!r} is not a valid tip kind; expected one of: "
@@ -265,7 +265,8 @@ def _cutter(k: int, table: Any, base_dir: Path | None) -> Cutter:
                     raise SpecError(f"{where}: give planes or rotations_deg, not both")
                 rots = t["rotations_deg"]
                 if not isinstance(rots, list):
-                    raise SpecError(f"{where}.rotations_deg = {rots!r} is not a list of numbers")
+                    raise SpecError(f"{where}.rotations_deg = {brief(rots)} is not a list of "
+                                    "numbers")
                 kw["rotations"] = tuple(_DEG(_num(f"{where}.rotations_deg[{j}]", r))
                                         for j, r in enumerate(rots))
                 keymap["rotations"] = "rotations_deg"
@@ -350,8 +351,11 @@ def spec_from_dict(data: Any, *, base_dir: str | Path | None = None) -> TipSpec:
     cannula = _cannula(_need("spec", t, "cannula"))
     cutters_raw = _need("spec", t, "cutters")
     if not isinstance(cutters_raw, list) or not cutters_raw:
-        raise SpecError(f"cutters = {cutters_raw!r} must be a non-empty array of tables "
+        raise SpecError(f"cutters = {brief(cutters_raw)} must be a non-empty array of tables "
                         "([[cutters]])")
+    if len(cutters_raw) > MAX_CUTTERS:  # before any cutter is made
+        raise SpecError(f"cutters: {len(cutters_raw)} cutters given; allowed at most "
+                        f"{MAX_CUTTERS} per tip")
     base = None if base_dir is None else Path(base_dir)
     cutters = [_cutter(k, c, base) for k, c in enumerate(cutters_raw)]
     tolerance = None
@@ -368,22 +372,7 @@ def spec_from_dict(data: Any, *, base_dir: str | Path | None = None) -> TipSpec:
 
 def loads_spec(text: str, *, base_dir: str | Path | None = None) -> TipSpec:
     """Parse a TOML string into a :class:`TipSpec`."""
-    try:
-        data = tomllib.loads(text)
-    except tomllib.TOMLDecodeError as e:
-        raise SpecError(f"spec is not valid TOML: {e}") from None
-    return spec_from_dict(data, base_dir=base_dir)
-
-
-def read_text_file(path: Path, what: str) -> str:
-    """The UTF-8 text of ``path``; a missing or unreadable file is a SpecError
-    naming ``what`` and the path."""
-    try:
-        return Path(path).read_text(encoding="utf-8")
-    except FileNotFoundError:
-        raise SpecError(f"{what} '{path}' does not exist") from None
-    except (OSError, UnicodeDecodeError) as e:
-        raise SpecError(f"{what} '{path}' cannot be read: {e}") from None
+    return spec_from_dict(loads_toml(text, "spec"), base_dir=base_dir)
 
 
 def load_spec(path: str | Path) -> TipSpec:

@@ -10,13 +10,30 @@ The test suite switches it on in ``conftest.py``.
 
 from dataclasses import dataclass
 
-__all__ = ["Tolerances", "tol", "DEFAULT_CHORDAL_MM"]
+__all__ = ["Tolerances", "tol", "DEFAULT_CHORDAL_MM", "MIN_FEATURE_MM", "MIN_DIAMETER_MM",
+           "MAX_CUTTERS", "MAX_TIP_HEIGHT_MM"]
 
 #: Default chordal tolerance of a built tip (mm): the largest distance between
 #: the mesh and the exact surface it approximates. 0.05 µm keeps the faceting
 #: error of a 14G tube's volume below 6e-5 relative and the edge heights far
 #: below the 0.5 µm the angle analysis asks for.
 DEFAULT_CHORDAL_MM = 5.0e-5
+
+
+#: Smallest physical length a spec may give (mm): 1 µm. Tube lengths, walls,
+#: pitches, arc radii and depths below it describe nothing that can be built,
+#: ground or cut, and only make the geometry degenerate.
+MIN_FEATURE_MM = 1.0e-3
+
+#: Smallest cannula diameter (mm): 0.05 mm, well below a 34G needle's 0.18 mm.
+MIN_DIAMETER_MM = 0.05
+
+#: Highest a tip may reach above its heel (mm), like the longest cannula.
+MAX_TIP_HEIGHT_MM = 1000.0
+
+#: Most cutters one spec may apply (every thesis tip needs at most two; each
+#: cutter costs one boolean, so the cap bounds the build time).
+MAX_CUTTERS = 16
 
 
 @dataclass

@@ -80,6 +80,19 @@ class Cutter(ABC):
         (called when a :class:`TipSpec` is made). Default: nothing to check."""
         return None
 
+    def check_height(self, cannula: Cannula, what: str) -> None:
+        """Raise :class:`SpecError` if the kept material reaches higher than
+        :data:`~tipgeo.tolerances.MAX_TIP_HEIGHT_MM` above the heel (an angle
+        too close to 0 makes a tip metres long). For cutters whose
+        :meth:`z_upper` is cheap; ``what`` names the parameter to blame."""
+        from ..errors import SpecError
+        from ..tolerances import MAX_TIP_HEIGHT_MM
+
+        z = self.z_upper(cannula)
+        if not z <= MAX_TIP_HEIGHT_MM:  # also NaN
+            raise SpecError(f"{what}: the cut reaches z = {z:.3g} mm above the heel; allowed "
+                            f"at most {MAX_TIP_HEIGHT_MM:g} mm (the angle is too close to 0)")
+
     def edge_z(self, gamma: np.ndarray, radius: float, cannula: Cannula) -> np.ndarray | None:
         """Height z (mm) of the cut surface on the cylinder of ``radius`` at
         angles ``gamma`` (rad, cannula frame), or ``None`` if unknown."""

@@ -59,7 +59,7 @@ class ConicalCutter(Cutter):
                                                   lo_open=True, hi_open=True))
         if self.bevel_length is not None:
             object.__setattr__(self, "bevel_length",
-                               v.length("bevel_length", self.bevel_length, hi=1000.0))
+                               v.feature_length("bevel_length", self.bevel_length, hi=1000.0))
         _name(self.name)
 
     @classmethod
@@ -84,6 +84,9 @@ class ConicalCutter(Cutter):
     def _z_cone_top(self, cannula) -> float:
         z_apex = cannula.r_o / math.tan(self.theta)
         return z_apex if self.bevel_length is None else min(self.bevel_length, z_apex)
+
+    def check(self, cannula):
+        self.check_height(cannula, "theta")
 
     def z_upper(self, cannula):
         return float(min(self._z_cone_top(cannula), (cannula.r_o - 0.0) / math.tan(self.theta)))

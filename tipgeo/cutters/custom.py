@@ -122,7 +122,7 @@ class SDFCutter(Cutter):
         v.real("z_range[1]", hi, lo=lo, lo_open=True, unit="mm")
         object.__setattr__(self, "z_range", (lo, hi))
         if self.edge_length is not None:
-            v.length("edge_length", self.edge_length, hi=10.0)
+            v.feature_length("edge_length", self.edge_length, hi=10.0)
         _name(self.name)
 
     def face_labels(self):

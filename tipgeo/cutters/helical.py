@@ -94,7 +94,7 @@ class HelicalCutter(Cutter):
     _frame: tuple = field(init=False, repr=False, compare=False, hash=False, default=())
 
     def __post_init__(self):
-        v.length("pitch", self.pitch, hi=1e5)
+        v.feature_length("pitch", self.pitch, hi=1e5)
         v.angle("helix_angle", self.helix_angle, lo=0.0, hi=0.5 * math.pi, lo_open=True,
                 hi_open=True)
         v.angle("phi", self.phi, lo=0.0, hi=0.5 * math.pi, hi_open=True)

@@ -74,6 +74,9 @@ class PlanarCutter(Cutter):
     def face_labels(self) -> tuple[str, ...]:
         return tuple(p.label for p in self.planes(Cannula(outer_diameter=2, inner_diameter=1)))
 
+    def check(self, cannula: Cannula) -> None:
+        self.check_height(cannula, "xi")
+
     def solid(self, ctx: BuildContext) -> m3d.Manifold:
         out = None
         for p in self.planes(ctx.cannula):

@@ -213,7 +213,7 @@ class SerrationCutter(Cutter):
     needs_previous = True
 
     def __post_init__(self):
-        r_c = v.length("arc_radius", self.arc_radius, hi=50.0)
+        r_c = v.feature_length("arc_radius", self.arc_radius, hi=50.0)
         object.__setattr__(self, "arc_radius", r_c)
         if (self.count is None) == (self.spacing is None):
             raise SpecError("give exactly one of count (n_s) and spacing (rho); got "
@@ -223,7 +223,7 @@ class SerrationCutter(Cutter):
         else:
             sp = v.angle("spacing", self.spacing, lo=0.0, hi=2 * math.pi, lo_open=True)
             object.__setattr__(self, "spacing", sp)
-        depth = r_c if self.depth is None else v.length("depth", self.depth, hi=1000.0)
+        depth = r_c if self.depth is None else v.feature_length("depth", self.depth, hi=1000.0)
         object.__setattr__(self, "depth", depth)
         object.__setattr__(self, "edge_radius",
                            v.length("edge_radius", self.edge_radius, lo=0.0, lo_open=False,

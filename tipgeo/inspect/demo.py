@@ -24,7 +24,7 @@ def run_inspect_demo(out, *, points: int = 200_000, log=None,
 
     import numpy as np
 
-    from ..demo import _atomic_text
+    from .._atomic import write_text_atomic as _atomic_text
     from ..presets import preset
     from .compare import compare
     from .synth import Burr, Misalignment, synthetic_scan

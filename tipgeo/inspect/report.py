@@ -44,7 +44,7 @@ def _json_default(o):
 
 
 def write_json(res, path: Path) -> Path:
-    from ..demo import _atomic_text
+    from .._atomic import write_text_atomic as _atomic_text
 
     _atomic_text(path, json.dumps(res.to_dict(), indent=2, default=_json_default) + "\n")
     return path
@@ -216,7 +216,7 @@ def _f(x, nd=3):
 
 
 def _write_markdown(res, path: Path) -> None:
-    from ..demo import _atomic_text
+    from .._atomic import write_text_atomic as _atomic_text
 
     r = res.to_dict()
     L = [f"# Inspection: {r['cad']['name']} vs {r['scan']['source']}", ""]

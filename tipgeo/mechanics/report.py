@@ -198,7 +198,7 @@ def write_helical_vs_bevel(out_dir, *, S: float = 0.3, pictures: bool = True) ->
     """Write ``forces-helical-vs-bevel.json`` and (``pictures``) ``.png`` — the
     along-edge forces at S and the means over S = 0…3 (Fig. 3.12) — and
     ``fracture-vs-k.png`` (Fig. 2.8) into ``out_dir``. Returns the paths."""
-    from ..demo import _atomic_text
+    from .._atomic import write_text_atomic
 
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
@@ -212,7 +212,7 @@ def write_helical_vs_bevel(out_dir, *, S: float = 0.3, pictures: bool = True) ->
             "reverse_rotation": _reverse(entries)}
     files = []
     jp = out / "forces-helical-vs-bevel.json"
-    _atomic_text(jp, json.dumps(data, indent=2) + "\n")
+    write_text_atomic(jp, json.dumps(data, indent=2) + "\n")
     files.append(str(jp))
     if pictures:
         from .plots import plot_edge_forces, plot_fracture_vs_k

@@ -47,20 +47,14 @@ from __future__ import annotations
 import copy
 import math
 import re
-import sys
 from dataclasses import dataclass, field
-from numbers import Real
 from pathlib import Path
 from typing import Any
 
+from .._validate import brief, finite_float
 from ..errors import SpecError
 from .design import DESIGN_METHODS
 from .responses import FORCE_RESPONSES, RESPONSES, THESIS
-
-if sys.version_info >= (3, 11):
-    import tomllib
-else:  # pragma: no cover
-    import tomli as tomllib
 
 __all__ = ["Variable", "Term", "Objective", "StudyConfig", "load_config", "loads_config",
            "config_from_dict", "ANALYSIS_METHODS", "GOALS", "COMBINE"]
@@ -213,32 +207,31 @@ def _set(d: dict, v: Variable, value) -> None:
 
 
 def _num(key: str, value: Any) -> float:
-    if isinstance(value, bool) or not isinstance(value, Real) or not math.isfinite(value):
-        raise SpecError(f"{key} = {value!r} is not a finite number; expected a number")
-    return float(value)
+    return finite_float(key, value)
 
 
 def _int(key: str, value: Any, lo: int, hi: int) -> int:
     if isinstance(value, bool) or not isinstance(value, int) or not lo <= value <= hi:
-        raise SpecError(f"{key} = {value!r} is out of range; allowed an integer {lo}–{hi}")
+        raise SpecError(f"{key} = {brief(value)} is out of range; allowed an integer {lo}–{hi}")
     return int(value)
 
 
 def _str(key: str, value: Any) -> str:
     if not isinstance(value, str):
-        raise SpecError(f"{key} = {value!r} is not a string; expected a string")
+        raise SpecError(f"{key} = {brief(value)} is not a string; expected a string")
     return value
 
 
 def _choice(key: str, value: Any, allowed) -> str:
     if not isinstance(value, str) or value not in allowed:
-        raise SpecError(f"{key} = {value!r} is not valid; expected one of: " + ", ".join(allowed))
+        raise SpecError(f"{key} = {brief(value)} is not valid; expected one of: "
+                        + ", ".join(allowed))
     return value
 
 
 def _table(key: str, value: Any, allowed: tuple[str, ...]) -> dict:
     if not isinstance(value, dict):
-        raise SpecError(f"{key} = {value!r} is not a table; expected a TOML table")
+        raise SpecError(f"{key} = {brief(value)} is not a table; expected a TOML table")
     for k in value:
         if k not in allowed:
             raise SpecError(f"{key}.{k} is not a known key; allowed keys: " + ", ".join(allowed))
@@ -247,7 +240,7 @@ def _table(key: str, value: Any, allowed: tuple[str, ...]) -> dict:
 
 def _list(key: str, value: Any) -> list:
     if not isinstance(value, list):
-        raise SpecError(f"{key} = {value!r} is not a list; expected an array")
+        raise SpecError(f"{key} = {brief(value)} is not a list; expected an array")
     return value
 
 
@@ -291,13 +284,13 @@ def _base(value: Any, base_dir: Path | None) -> tuple[str, dict]:
         p = Path(name)
         if not p.is_absolute() and base_dir is not None:
             p = base_dir / p
-        try:
-            data = tomllib.loads(p.read_text(encoding="utf-8"))
-        except FileNotFoundError:
-            raise SpecError(f"base = {name!r}: spec file '{p}' does not exist") from None
-        except (OSError, UnicodeDecodeError, tomllib.TOMLDecodeError) as e:
-            raise SpecError(f"base = {name!r}: cannot read '{p}': {e}") from None
+        from .._toml import loads_toml, read_text_file
         from ..spec import spec_from_dict
+
+        try:
+            data = loads_toml(read_text_file(p, "spec file"), "spec")
+        except SpecError as e:
+            raise SpecError(f"base = {name!r}: {e}") from None
 
         try:
             spec_from_dict(data, base_dir=p.parent)
@@ -542,16 +535,14 @@ def config_from_dict(data: Any, *, base_dir: str | Path | None = None,
 def loads_config(text: str, *, base_dir: str | Path | None = None,
                  source: Path | None = None) -> StudyConfig:
     """Parse study TOML text (relative paths start at ``base_dir``)."""
-    try:
-        data = tomllib.loads(text)
-    except tomllib.TOMLDecodeError as e:
-        raise SpecError(f"config is not valid TOML: {e}") from None
-    return config_from_dict(data, base_dir=base_dir, source=source)
+    from .._toml import loads_toml
+
+    return config_from_dict(loads_toml(text, "config"), base_dir=base_dir, source=source)
 
 
 def load_config(path: str | Path) -> StudyConfig:
     """Read a study config file (relative paths start at its folder)."""
-    from ..spec import read_text_file
+    from .._toml import read_text_file
 
     p = Path(path)
     text = read_text_file(p, "config file")

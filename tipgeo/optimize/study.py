@@ -89,7 +89,7 @@ def run_study(config: StudyConfig, out_dir: str | Path, *, executor=None, cache:
     -------
     dict — the report (also written to ``report.json``)
     """
-    from ..demo import _atomic_text
+    from .._atomic import write_text_atomic
     from ..spec import dumps_spec, spec_from_dict
 
     log = log or (lambda s: print(s, file=sys.stderr, flush=True))
@@ -121,11 +121,11 @@ def run_study(config: StudyConfig, out_dir: str | Path, *, executor=None, cache:
         if v["status"] == "ok":
             spec = spec_from_dict(v["spec"])
             p = out / f"optimum-{obj.name}.toml"
-            _atomic_text(p, dumps_spec(spec))
+            write_text_atomic(p, dumps_spec(spec))
             files.append(str(p))
     sdict = sur.to_dict() | {"loo": loo, "fit_seconds": t_fit}
     p = out / "surrogate.json"
-    _atomic_text(p, json.dumps(_clean(sdict), indent=2, default=_json_default))
+    write_text_atomic(p, json.dumps(_clean(sdict), indent=2, default=_json_default))
     files.append(str(p))
     if plots:
         from .plots import plot_loo, plot_pareto, plot_response
@@ -152,6 +152,6 @@ def run_study(config: StudyConfig, out_dir: str | Path, *, executor=None, cache:
         "files": files + [str(out / "report.json")],
     }
     p = out / "report.json"
-    _atomic_text(p, json.dumps(_clean(report), indent=2, default=_json_default))
+    write_text_atomic(p, json.dumps(_clean(report), indent=2, default=_json_default))
     return report
 

@@ -15,9 +15,7 @@ import csv
 import io
 import json
 import math
-import os
 import sys
-import tempfile
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -25,6 +23,7 @@ from typing import Any
 
 import numpy as np
 
+from .._atomic import write_bytes_atomic
 from ..errors import SpecError
 from .cache import ResultCache, code_fingerprint, default_cache_dir, key_from_hash, spec_hash
 from .config import StudyConfig
@@ -121,25 +120,12 @@ class SweepResult:
                 "foreign_code": self.extra.get("foreign_code", 0)}
 
 
-def _atomic_bytes(path: Path, data: bytes) -> None:
-    fd, tmp = tempfile.mkstemp(dir=path.parent if str(path.parent) else ".",
-                               prefix=f".{path.name}.", suffix=".tmp")
-    try:
-        with os.fdopen(fd, "wb") as f:
-            f.write(data)
-        os.replace(tmp, path)
-    except BaseException:
-        if os.path.exists(tmp):
-            os.unlink(tmp)
-        raise
-
-
 def write_table(result: SweepResult, path: str | Path) -> Path:
     """Write the sweep table atomically: ``.csv`` or ``.parquet`` by extension."""
     p = Path(path)
     ext = p.suffix.lower()
     if ext == ".csv":
-        _atomic_bytes(p, result.to_csv().encode("utf-8"))
+        write_bytes_atomic(p, result.to_csv().encode("utf-8"))
     elif ext in (".parquet", ".pq"):
         try:
             import pyarrow as pa
@@ -150,7 +136,7 @@ def write_table(result: SweepResult, path: str | Path) -> Path:
         table = pa.table(result.columns())
         buf = pa.BufferOutputStream()
         pq.write_table(table, buf)
-        _atomic_bytes(p, buf.getvalue().to_pybytes())
+        write_bytes_atomic(p, buf.getvalue().to_pybytes())
     else:
         raise SpecError(f"table '{p}' has extension {ext or '(none)'!r}; allowed .csv, .parquet")
     return p

@@ -1,0 +1,84 @@
+"""The one reader of TOML input files (tip specs, study configs, machine
+files): size-capped, and every failure — unreadable file, bad TOML, nesting
+too deep for the parser — is one :class:`~tipgeo.errors.SpecError` line."""
+
+from __future__ import annotations
+
+import sys
+from pathlib import Path
+from typing import Any
+
+from .errors import SpecError
+
+if sys.version_info >= (3, 11):
+    import tomllib
+else:  # pragma: no cover
+    import tomli as tomllib
+
+__all__ = ["MAX_TOML_BYTES", "MAX_TOML_DEPTH", "read_text_file", "loads_toml"]
+
+#: Largest TOML input accepted (bytes); tipgeo's specs and configs are a few kB.
+MAX_TOML_BYTES = 1 << 20
+
+#: Deepest nesting of arrays and tables accepted (tipgeo's files need 4).
+MAX_TOML_DEPTH = 32
+
+
+def read_text_file(path: str | Path, what: str, *, max_bytes: int = MAX_TOML_BYTES) -> str:
+    """The UTF-8 text of ``path``; a missing, unreadable or oversized file is a
+    :class:`SpecError` naming ``what`` and the path."""
+    p = Path(path)
+    try:
+        with open(p, "rb") as f:
+            data = f.read(max_bytes + 1)
+    except FileNotFoundError:
+        raise SpecError(f"{what} '{p}' does not exist") from None
+    except IsADirectoryError:
+        raise SpecError(f"{what} '{p}' is a directory; expected a file") from None
+    except OSError as e:
+        raise SpecError(f"{what} '{p}' cannot be read: {e.strerror or e}") from None
+    if len(data) > max_bytes:
+        raise SpecError(f"{what} '{p}' is larger than {max_bytes} bytes; allowed at most "
+                        f"{max_bytes} bytes")
+    try:
+        return data.decode("utf-8")
+    except UnicodeDecodeError as e:
+        raise SpecError(f"{what} '{p}' is not UTF-8 text (byte {e.start}); expected a UTF-8 "
+                        "TOML file") from None
+
+
+def _depth(data: Any) -> int:
+    """Nesting depth of parsed TOML data (iterative: no recursion)."""
+    deepest, stack = 0, [(data, 1)]
+    while stack:
+        x, d = stack.pop()
+        deepest = max(deepest, d)
+        if d > MAX_TOML_DEPTH:
+            break
+        if isinstance(x, dict):
+            stack.extend((v, d + 1) for v in x.values())
+        elif isinstance(x, list):
+            stack.extend((v, d + 1) for v in x)
+    return deepest
+
+
+def loads_toml(text: str, what: str) -> dict[str, Any]:
+    """Parse TOML text; invalid TOML, input over :data:`MAX_TOML_BYTES` or
+    nesting deeper than :data:`MAX_TOML_DEPTH` levels is a :class:`SpecError`
+    naming ``what``."""
+    if not isinstance(text, str):
+        raise SpecError(f"{what}: expected TOML text (str), not {type(text).__name__}")
+    if len(text) > MAX_TOML_BYTES:
+        raise SpecError(f"{what} is {len(text)} characters long; allowed at most "
+                        f"{MAX_TOML_BYTES}")
+    try:
+        data = tomllib.loads(text)
+    except tomllib.TOMLDecodeError as e:
+        raise SpecError(f"{what} is not valid TOML: {e}") from None
+    except RecursionError:
+        raise SpecError(f"{what} nests arrays or inline tables too deeply for the TOML "
+                        f"parser; allowed at most {MAX_TOML_DEPTH} levels") from None
+    if _depth(data) > MAX_TOML_DEPTH:
+        raise SpecError(f"{what} nests arrays or tables more than {MAX_TOML_DEPTH} levels "
+                        f"deep; allowed at most {MAX_TOML_DEPTH} levels")
+    return data

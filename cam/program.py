@@ -20,8 +20,7 @@ import json
 import math
 from dataclasses import dataclass
 
-from tipgeo.cutters import ConicalCutter
-from tipgeo.cutters.planar import PlanarCutter
+from tipgeo.cutters import ConeSurface, Plane
 
 from .machine import CamError, Machine
 
@@ -42,25 +41,38 @@ class Face:
     spin: bool = False
 
 
-def setup_faces(spec) -> list[Face]:
-    """The faces the grinder must make for ``spec`` (cannula frame)."""
+def setup_faces(spec, machine: Machine | None = None) -> list[Face]:
+    """The faces the grinder must make for ``spec`` (cannula frame): every
+    analytic face of the cutters made by grinding (their
+    :meth:`~tipgeo.cutters.base.Cutter.surfaces`) — planes ground flat, cones
+    with the needle spinning. Each face's wheel angle r5 is checked against
+    ``machine``'s travel (default :class:`Machine`) as it is found."""
+    m = machine or Machine()
     faces: list[Face] = []
     for c in spec.cutters:
-        if isinstance(c, PlanarCutter):
-            for p in c.planes(spec.cannula):
-                faces.append(Face(p.label, p.xi, p.rotation, p.height))
-        elif isinstance(c, ConicalCutter):
-            if c.bevel_length is not None and c.bevel_length < (
-                    spec.cannula.r_o - spec.cannula.r_i) / math.tan(c.theta):
-                raise CamError(f"cutter '{c.name}': a flat land (bevel_length "
-                               f"{c.bevel_length:g} mm) needs a face at 90° to the axis; "
-                               "r5 would be 100°, beyond its travel")
-            faces.append(Face(c.label, c.theta, 0.0, spec.cannula.r_o / math.tan(c.theta),
-                              spin=True))
-        else:
+        surfaces = c.surfaces(spec.cannula) if c.process == "grind" else None
+        if not surfaces:
             raise CamError(f"cutter '{c.name}' ({c.kind}) cannot be ground on this machine; "
-                           "allowed: bevel, multiplane, lancet, conical")
+                           "allowed cutters made by grinding (planes and cones: bevel, "
+                           "multiplane, lancet, conical)")
+        for f in surfaces:
+            if isinstance(f, Plane):
+                faces.append(Face(f.label, f.xi, f.rotation, f.height))
+            elif isinstance(f, ConeSurface):
+                faces.append(Face(f.label, f.theta, 0.0, f.r_o / math.tan(f.theta), spin=True))
+            else:
+                raise CamError(f"cutter '{c.name}': face {f.label} ({type(f).__name__}) cannot "
+                               "be ground; allowed planes and cones")
+            _check_r5(faces[-1], m)
     return faces
+
+
+def _check_r5(f: Face, m: Machine) -> None:
+    phi_g = math.degrees(f.xi + m.phi)
+    if not m.r5.lo <= phi_g <= m.r5.hi:
+        flat = " (a flat land at 90° to the axis)" if f.xi >= 0.5 * math.pi else ""
+        raise CamError(f"face {f.label}: ξ = {math.degrees(f.xi):.4g}° needs r5 = ϕ_g = "
+                       f"{phi_g:.4g}°, outside its travel [{m.r5.lo:g}, {m.r5.hi:g}]°{flat}")
 
 
 @dataclass
@@ -168,7 +180,7 @@ def make_program(spec, *, machine: Machine | None = None, feed: float = 0.1,
         raise CamError(f"needle_rpm = {needle_rpm:g} is outside (0, {m.needle_rpm_max:g}] rpm")
     if not clearance > 0:
         raise CamError(f"clearance = {clearance:g} mm must be positive")
-    faces = setup_faces(spec)
+    faces = setup_faces(spec, m)
     rows: list[dict] = []
     t = 0.0
     c, s = math.cos(m.phi), math.sin(m.phi)
@@ -187,9 +199,6 @@ def make_program(spec, *, machine: Machine | None = None, feed: float = 0.1,
     prev = None
     for f in faces:
         phi_g = math.degrees(f.xi + m.phi)
-        if not m.r5.lo <= phi_g <= m.r5.hi:
-            raise CamError(f"face {f.label}: ξ = {math.degrees(f.xi):.4g}° needs r5 = ϕ_g = "
-                           f"{phi_g:.4g}°, outside its travel [{m.r5.lo:g}, {m.r5.hi:g}]°")
         r4 = math.degrees(f.beta + math.pi) % 360.0
         t1f, t2f = -f.h, 0.0
         t1a, t2a = t1f - clearance * c, t2f + clearance * s   # clear of the wheel along Z*

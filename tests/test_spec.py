@@ -10,6 +10,7 @@ from hypothesis import strategies as st
 
 from tipgeo import SpecError, dumps_spec, load_spec, loads_spec, preset, preset_names
 from tipgeo.spec import CUTTER_KINDS, spec_from_dict, spec_to_dict
+from tipgeo.tolerances import MAX_TIP_HEIGHT_MM
 
 SAMPLES = Path(__file__).resolve().parent.parent / "samples"
 
@@ -134,9 +135,12 @@ def test_fuzzed_specs_raise_only_spec_errors(name, data):
 def test_bevel_angle_range_is_exactly_0_to_90(xi):
     text = BEVEL.replace("xi_deg = 15", f"xi_deg = {xi!r}".replace("nan", "nan")
                          .replace("inf", "inf"))
-    if math.isfinite(xi) and 0 < math.radians(xi) <= math.pi / 2:
+    ok = math.isfinite(xi) and 0 < math.radians(xi) <= math.pi / 2
+    # a tip longer than MAX_TIP_HEIGHT_MM (1 m) is no needle: ξ ≳ 0.12° on 14G
+    height = 2 * 1.054 / math.tan(math.radians(xi)) if ok and xi < 90 else 0.0
+    if ok and height <= 0.999 * MAX_TIP_HEIGHT_MM:
         assert loads_spec(text).cutters[0].xi == pytest.approx(math.radians(xi))
-    else:
+    elif not ok or height >= 1.001 * MAX_TIP_HEIGHT_MM:
         with pytest.raises(SpecError, match=r"cutters\[0\]\.xi_deg"):
             loads_spec(text)
 

@@ -279,9 +279,7 @@ def cmd_gcode(args) -> int:
                            "slugs_removed": res.slugs_removed,
                            "triangles": int(len(res.tip.faces)),
                            "watertight": res.tip.is_watertight}
-        from tipgeo.cutters import SerrationCutter
-
-        if any(isinstance(c, SerrationCutter) for c in spec.cutters):
+        if any(c.process == "laser" for c in spec.cutters):
             out["comparison"] = compare_with_cutter(res, spec, beam_diameter=beam)
         if args.mesh:
             from .io import export_tip

@@ -27,6 +27,8 @@ value and the allowed range.
 from __future__ import annotations
 
 import math
+import re
+from collections.abc import Mapping
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -34,17 +36,9 @@ from typing import Any
 from ._toml import loads_toml, read_text_file
 from ._validate import brief, finite_float
 from .cannula import GAUGES, Cannula
-from .cutters import (
-    BevelCutter,
-    ConicalCutter,
-    Cutter,
-    HelicalCutter,
-    LancetCutter,
-    MeshCutter,
-    MultiPlaneCutter,
-    SerrationCutter,
-)
-from .cutters.planar import multiplane_xi_for_theta
+from .cutters import Cutter
+from .cutters.base import CUTTER_KINDS as _REGISTRY
+from .cutters.toml import CutterTable, round_for_toml
 from .errors import SpecError
 from .tolerances import MAX_CUTTERS
 
@@ -159,31 +153,26 @@ _CANNULA_KEYS = {"gauge": "needle gauge 10–30", "outer_diameter_mm": "d_e (mm)
                  "inner_diameter_mm": "d_i (mm)", "length_mm": "tube below the heel (mm)",
                  "preset": "'biopsy-punch'", "name": "label"}
 
+class _KindKeys(Mapping):
+    """kind -> {TOML key: description} of every registered cutter kind that
+    has a TOML form (read live from :data:`tipgeo.cutters.base.CUTTER_KINDS`)."""
+
+    def _kinds(self) -> dict[str, type]:
+        return {k: c for k, c in _REGISTRY.items() if c.toml_keys}
+
+    def __getitem__(self, kind: str) -> dict[str, str]:
+        cls = self._kinds()[kind]
+        return {"kind": "", "name": "face label", **cls.toml_keys}
+
+    def __iter__(self):
+        return iter(self._kinds())
+
+    def __len__(self) -> int:
+        return len(self._kinds())
+
+
 #: kind -> {key: description}
-CUTTER_KINDS: dict[str, dict[str, str]] = {
-    "bevel": {"kind": "", "name": "face label", "xi_deg": "bevel angle ξ, (0, 90]",
-              "rotation_deg": "heel direction about +z"},
-    "multiplane": {"kind": "", "name": "", "xi_deg": "bevel angle ξ, (0, 90)",
-                   "theta_deg": "included angle θ (eq. 2.3), instead of xi_deg",
-                   "planes": "P_l ≥ 2 (symmetric)",
-                   "rotations_deg": "explicit heel directions (asymmetric)",
-                   "rotation_deg": "rotation of the whole cutter"},
-    "lancet": {"kind": "", "name": "", "primary_xi_deg": "(0, 90)",
-               "secondary_xi_deg": "(0, 90)", "secondary_rotation_deg": "(0, 90)",
-               "rotation_deg": ""},
-    "conical": {"kind": "", "name": "", "theta_deg": "included angle θ, (0, 90)",
-                "phi_g_deg": "grinding-wheel angle ϕ_g (eq. 2.37), instead of theta_deg",
-                "varphi_deg": "needle–spindle angle φ, default 10",
-                "bevel_length_mm": "axial length of the cone"},
-    "helical": {"kind": "", "name": "", "pitch_mm": "p_h", "helix_angle_deg": "ψ, (0, 90)",
-                "phi_deg": "tilt φ, [0, 90)", "helix_position_deg": "γ_h* > 0",
-                "rotation_deg": ""},
-    "serration": {"kind": "", "name": "", "arc_radius_mm": "r_c", "count": "n_s",
-                  "spacing_deg": "ρ, instead of count", "depth_mm": "default r_c",
-                  "edge_radius_mm": "r_s, default 0", "rotation_deg": "γ of the first"},
-    "mesh": {"kind": "", "name": "", "path": "mesh file, relative to the spec file",
-             "units": "mm, um or m"},
-}
+CUTTER_KINDS: Mapping[str, dict[str, str]] = _KindKeys()
 
 
 def _cannula(table: Any) -> Cannula:
@@ -225,7 +214,7 @@ def _cannula(table: Any) -> Cannula:
         raise SpecError(msg) from None
 
 
-def _cutter(k: int, table: Any, base_dir: Path | None) -> Cutter:
+def _cutter_table(k: int, table: Any, base_dir: Path | None) -> CutterTable:
     where = f"cutters[{k}]"
     if not isinstance(table, dict):
         raise SpecError(f"{where} = {brief(table)} is not a table")
@@ -233,112 +222,16 @@ def _cutter(k: int, table: Any, base_dir: Path | None) -> Cutter:
     if kind not in CUTTER_KINDS:
         raise SpecError(f"{where}.kind = {kind!r} is not a valid tip kind; expected one of: "
                         + ", ".join(CUTTER_KINDS))
-    t = _keys(where, table, CUTTER_KINDS[kind])
-    kw: dict[str, Any] = {}
-    if "name" in t:
-        kw["name"] = _str(f"{where}.name", t["name"])
-    keymap: dict[str, str] = {}
+    return CutterTable(where, _keys(where, table, CUTTER_KINDS[kind]), base_dir)
 
-    def deg(key, arg, default=None):
-        if key in t:
-            kw[arg] = _DEG(_num(f"{where}.{key}", t[key]))
-            keymap[arg] = key
-        elif default is not None:
-            kw[arg] = _DEG(default)
 
-    def mm(key, arg):
-        if key in t:
-            kw[arg] = _num(f"{where}.{key}", t[key])
-            keymap[arg] = key
-
+def _cutter(t: CutterTable) -> Cutter:
+    """The registered kind's cutter of a table (its from_dict), errors naming keys."""
+    kind = t.table["kind"]
     try:
-        if kind == "bevel":
-            _need(where, t, "xi_deg")
-            deg("xi_deg", "xi")
-            deg("rotation_deg", "rotation")
-            return BevelCutter(**kw)
-        if kind == "multiplane":
-            which = _one_of(where, t, "xi_deg", "theta_deg")
-            deg("rotation_deg", "rotation")
-            if "rotations_deg" in t:
-                if "planes" in t:
-                    raise SpecError(f"{where}: give planes or rotations_deg, not both")
-                rots = t["rotations_deg"]
-                if not isinstance(rots, list):
-                    raise SpecError(f"{where}.rotations_deg = {brief(rots)} is not a list of "
-                                    "numbers")
-                kw["rotations"] = tuple(_DEG(_num(f"{where}.rotations_deg[{j}]", r))
-                                        for j, r in enumerate(rots))
-                keymap["rotations"] = "rotations_deg"
-            else:
-                kw["count"] = _int(f"{where}.planes", _need(where, t, "planes"))
-                keymap["count"] = "planes"
-            if which == "theta_deg":
-                if "rotations" in kw:
-                    raise SpecError(f"{where}.theta_deg needs a symmetric tip (planes), "
-                                    "not rotations_deg")
-                try:
-                    kw["xi"] = multiplane_xi_for_theta(_DEG(_num(f"{where}.theta_deg",
-                                                                 t["theta_deg"])), kw["count"])
-                except SpecError as e:
-                    raise SpecError(str(e).replace("theta =", "theta_deg:")) from None
-            else:
-                deg("xi_deg", "xi")
-            return MultiPlaneCutter(**kw)
-        if kind == "lancet":
-            for key in ("primary_xi_deg", "secondary_xi_deg", "secondary_rotation_deg"):
-                _need(where, t, key)
-                deg(key, key[:-4])
-            deg("rotation_deg", "rotation")
-            return LancetCutter(**kw)
-        if kind == "conical":
-            which = _one_of(where, t, "theta_deg", "phi_g_deg")
-            mm("bevel_length_mm", "bevel_length")
-            if which == "theta_deg":
-                if "varphi_deg" in t:
-                    raise SpecError(f"{where}.varphi_deg only goes with phi_g_deg")
-                deg("theta_deg", "theta")
-                return ConicalCutter(**kw)
-            deg("phi_g_deg", "phi_g")
-            deg("varphi_deg", "varphi", default=10.0)
-            return ConicalCutter.from_grinding(**kw)
-        if kind == "helical":
-            for key in ("pitch_mm", "helix_angle_deg", "phi_deg", "helix_position_deg"):
-                _need(where, t, key)
-            mm("pitch_mm", "pitch")
-            deg("helix_angle_deg", "helix_angle")
-            deg("phi_deg", "phi")
-            deg("helix_position_deg", "helix_position")
-            deg("rotation_deg", "rotation")
-            return HelicalCutter(**kw)
-        if kind == "serration":
-            _need(where, t, "arc_radius_mm")
-            which = _one_of(where, t, "count", "spacing_deg")
-            mm("arc_radius_mm", "arc_radius")
-            if which == "count":
-                kw["count"] = _int(f"{where}.count", t["count"])
-                keymap["count"] = "count"
-            else:
-                deg("spacing_deg", "spacing")
-            mm("depth_mm", "depth")
-            mm("edge_radius_mm", "edge_radius")
-            deg("rotation_deg", "rotation")
-            return SerrationCutter(**kw)
-        if kind == "mesh":
-            p = Path(_str(f"{where}.path", _need(where, t, "path")))
-            if not p.is_absolute() and base_dir is not None:
-                p = base_dir / p
-            units = _str(f"{where}.units", t.get("units", "mm"))
-            return MeshCutter.from_file(p, units=units, **kw)
+        return _REGISTRY[kind].from_dict(t)
     except SpecError as e:
-        msg = str(e)
-        if msg.startswith(where):
-            raise
-        for arg, key in keymap.items():
-            if msg.startswith((f"{arg} =", f"{arg}[")):
-                raise SpecError(f"{where}.{key}: {msg}") from None
-        raise SpecError(f"{where} ({kind}): {msg}") from None
-    raise SpecError(f"{where}.kind = {kind!r} is not handled")  # pragma: no cover
+        raise t.relabel(e, kind) from None
 
 
 _TOP_KEYS = {"name": "", "description": "", "tolerance_um": "chordal tolerance (µm)",
@@ -357,17 +250,25 @@ def spec_from_dict(data: Any, *, base_dir: str | Path | None = None) -> TipSpec:
         raise SpecError(f"cutters: {len(cutters_raw)} cutters given; allowed at most "
                         f"{MAX_CUTTERS} per tip")
     base = None if base_dir is None else Path(base_dir)
-    cutters = [_cutter(k, c, base) for k, c in enumerate(cutters_raw)]
+    tables = [_cutter_table(k, c, base) for k, c in enumerate(cutters_raw)]
+    cutters = [_cutter(t) for t in tables]
     tolerance = None
     if "tolerance_um" in t:
         tu = _num("tolerance_um", t["tolerance_um"])
         if not 0 < tu <= 100:
             raise SpecError(f"tolerance_um = {tu:.6g} is out of range; allowed 0 < value ≤ 100")
         tolerance = tu * 1e-3
-    return TipSpec(cannula=cannula, cutters=cutters,
-                   name=_str("name", t.get("name", "")),
-                   description=_str("description", t.get("description", "")),
-                   tolerance=tolerance)
+    name = _str("name", t.get("name", ""))
+    description = _str("description", t.get("description", ""))
+    try:
+        return TipSpec(cannula=cannula, cutters=cutters, name=name, description=description,
+                       tolerance=tolerance)
+    except SpecError as e:  # a cutter's check against the cannula: name the TOML key
+        m = re.match(r"cutters\[(\d+)\] \([^)]*\): (\w+)(.*)\Z", str(e), re.S)
+        if m and m[2] in tables[int(m[1])].keymap:
+            raise SpecError(f"cutters[{m[1]}].{tables[int(m[1])].keymap[m[2]]}: {m[2]}"
+                            f"{m[3]}") from None
+        raise
 
 
 def loads_spec(text: str, *, base_dir: str | Path | None = None) -> TipSpec:
@@ -389,52 +290,8 @@ def load_spec(path: str | Path) -> TipSpec:
 
 
 # --------------------------------------------------------------------------
-def _r(x: float) -> float:
-    """Round a converted value so that degrees print as typed (15.0, not
-    14.999999999999998)."""
-    return float(f"{x:.12g}")
-
-
 def _cutter_to_dict(c: Cutter) -> dict[str, Any]:
-    d: dict[str, Any] = {"kind": c.kind, "name": c.name}
-    deg = math.degrees
-    if isinstance(c, BevelCutter):
-        d["xi_deg"] = _r(deg(c.xi))
-    elif isinstance(c, MultiPlaneCutter):
-        d["xi_deg"] = _r(deg(c.xi))
-        if c.symmetric:
-            d["planes"] = c.count
-        else:
-            d["rotations_deg"] = [_r(deg(r)) for r in c.rotations]
-    elif isinstance(c, LancetCutter):
-        d["primary_xi_deg"] = _r(deg(c.primary_xi))
-        d["secondary_xi_deg"] = _r(deg(c.secondary_xi))
-        d["secondary_rotation_deg"] = _r(deg(c.secondary_rotation))
-    elif isinstance(c, ConicalCutter):
-        d["theta_deg"] = _r(deg(c.theta))
-        if c.bevel_length is not None:
-            d["bevel_length_mm"] = c.bevel_length
-    elif isinstance(c, HelicalCutter):
-        d["pitch_mm"] = c.pitch
-        d["helix_angle_deg"] = _r(deg(c.helix_angle))
-        d["phi_deg"] = _r(deg(c.phi))
-        d["helix_position_deg"] = _r(deg(c.helix_position))
-    elif isinstance(c, SerrationCutter):
-        d["arc_radius_mm"] = c.arc_radius
-        if c.count is not None:
-            d["count"] = c.count
-        else:
-            d["spacing_deg"] = _r(deg(c.spacing))
-        d["depth_mm"] = c.depth
-        d["edge_radius_mm"] = c.edge_radius
-    elif isinstance(c, MeshCutter) and c.source:
-        d["path"] = c.source
-    else:
-        raise SpecError(f"cutter kind '{c.kind}' has no TOML form (Python-only cutter)")
-    rot = getattr(c, "rotation", 0.0)
-    if rot:
-        d["rotation_deg"] = _r(deg(rot))
-    return d
+    return {"kind": c.kind, "name": c.name, **c.to_dict()}
 
 
 def spec_to_dict(spec: TipSpec) -> dict[str, Any]:
@@ -455,7 +312,7 @@ def spec_to_dict(spec: TipSpec) -> dict[str, Any]:
     if spec.description:
         out["description"] = spec.description
     if spec.tolerance is not None:
-        out["tolerance_um"] = _r(spec.tolerance * 1e3)
+        out["tolerance_um"] = round_for_toml(spec.tolerance * 1e3)
     out["cannula"] = can
     out["cutters"] = [_cutter_to_dict(x) for x in spec.cutters]
     return out

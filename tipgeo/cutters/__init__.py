@@ -3,7 +3,12 @@
 Every cutter follows the protocol of :mod:`tipgeo.cutters.base`.
 """
 
-from .base import Cutter
+# isort: off
+# The kinds register as their modules load; this order is the order users see
+# them listed in (bevel, multiplane, lancet, conical, helical, serration, mesh).
+from . import planar, conical, helical, serration, custom  # noqa: F401
+# isort: on
+from .base import CUTTER_KINDS, Cutter, check_name, cutter_kind, register_cutter
 from .conical import ConicalCutter
 from .custom import MeshCutter, SDFCutter
 from .helical import HelicalCutter, thesis_helical
@@ -17,9 +22,11 @@ from .planar import (
     multiplane_xi_for_theta,
 )
 from .serration import SERRATION_PRESETS, SerrationCutter, SerrationProfile
+from .surfaces import ConeSurface, ImplicitSurface, Surface
+from .toml import CutterTable
 
-__all__ = ["Cutter", "PlanarCutter", "PlaneSetCutter", "BevelCutter", "MultiPlaneCutter",
-           "LancetCutter", "Plane",
-           "ConicalCutter", "HelicalCutter", "SerrationCutter", "SerrationProfile",
-           "MeshCutter", "SDFCutter", "SERRATION_PRESETS", "multiplane_xi_for_theta",
-           "thesis_helical"]
+__all__ = ["Cutter", "CUTTER_KINDS", "register_cutter", "cutter_kind", "check_name",
+           "CutterTable", "ConeSurface", "ImplicitSurface", "Surface", "PlanarCutter",
+           "PlaneSetCutter", "BevelCutter", "MultiPlaneCutter", "LancetCutter", "Plane",
+           "ConicalCutter", "HelicalCutter", "SerrationCutter", "SerrationProfile", "MeshCutter",
+           "SDFCutter", "SERRATION_PRESETS", "multiplane_xi_for_theta", "thesis_helical"]

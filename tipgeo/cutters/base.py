@@ -13,20 +13,67 @@ axis towards the tip, γ about +z from +x, the heel of an unrotated cutter at
    its surface crosses the cylinder of radius r (bevel, multi-plane, conical,
    helical by root finding); ``None`` otherwise.
 
-A new tip kind is one new cutter class and nothing else.
+4. :meth:`Cutter.surfaces` — its analytic faces (:mod:`tipgeo.cutters.surfaces`)
+   for exact distances, measurement, synthetic scans and the grinder;
+5. :meth:`Cutter.from_dict` / :meth:`Cutter.to_dict` — its TOML form (keys in
+   :attr:`Cutter.toml_keys`), read through :class:`~tipgeo.cutters.toml.CutterTable`;
+6. :attr:`Cutter.process` — the process that makes it (``grind``, ``mill``,
+   ``laser``), and :attr:`Cutter.angle_field` — the field holding its rake
+   plane's bevel angle ξ, if any.
+
+A new tip kind is one new cutter class and nothing else: a concrete subclass
+that sets ``kind`` registers itself in :data:`CUTTER_KINDS` when it is
+defined, and from then on specs, the builder, the analysis, inspection and
+CAM handle it through this protocol.
 """
 
 from __future__ import annotations
 
 from abc import ABC, abstractmethod
+from typing import Any, ClassVar
 
 import manifold3d as m3d
 import numpy as np
 
 from ..cannula import Cannula
 from ..construct import BuildContext
+from ..errors import SpecError
 
-__all__ = ["Cutter"]
+__all__ = ["Cutter", "CUTTER_KINDS", "register_cutter", "cutter_kind", "check_name"]
+
+#: kind -> cutter class: every concrete cutter class that sets ``kind``.
+CUTTER_KINDS: dict[str, type] = {}
+
+
+def register_cutter(cls: type) -> type:
+    """Register ``cls`` under ``cls.kind`` (done automatically for subclasses of
+    :class:`Cutter` that set ``kind``). Re-defining a class of the same module
+    and name replaces it; another class claiming a taken kind is an error."""
+    kind = cls.__dict__.get("kind", "")
+    if not isinstance(kind, str) or not kind:
+        raise TypeError(f"{cls.__name__}.kind = {kind!r}; expected a non-empty str")
+    old = CUTTER_KINDS.get(kind)
+    if old is not None and (old.__module__, old.__qualname__) != (cls.__module__,
+                                                                  cls.__qualname__):
+        raise TypeError(f"cutter kind {kind!r} is taken by {old.__module__}.{old.__qualname__}")
+    CUTTER_KINDS[kind] = cls
+    return cls
+
+
+def cutter_kind(kind: str) -> type:
+    """The cutter class of a spec ``kind``, or a SpecError listing the kinds."""
+    cls = CUTTER_KINDS.get(kind)
+    if cls is None:
+        raise SpecError(f"kind = {kind!r} is not a valid tip kind; expected one of: "
+                        + ", ".join(CUTTER_KINDS))
+    return cls
+
+
+def check_name(name: object) -> None:
+    """A cutter name (it labels the faces ``cut:<name>``): letters, digits, - and _."""
+    if not isinstance(name, str) or not name or not all(c.isalnum() or c in "-_" for c in name):
+        raise SpecError(f"name = {name!r} is not a valid cutter name; allowed letters, digits, "
+                        "'-' and '_'")
 
 
 class Cutter(ABC):
@@ -34,11 +81,58 @@ class Cutter(ABC):
 
     name: str
 
-    #: spec ``kind`` of the cutter.
-    kind: str = ""
+    #: spec ``kind`` of the cutter; setting it registers the class.
+    kind: ClassVar[str] = ""
+
+    #: TOML keys besides ``kind`` and ``name``: key -> description. Empty for
+    #: Python-only cutters (no TOML form).
+    toml_keys: ClassVar[dict[str, str]] = {}
 
     #: True when the cutter shapes what earlier cutters made (serrations).
-    needs_previous: bool = False
+    needs_previous: ClassVar[bool] = False
+
+    #: How the cutter's faces are made: ``grind`` (planes, cones on the
+    #: five-axis grinder), ``mill``, ``laser`` (serrations), or None.
+    process: ClassVar[str | None] = None
+
+    #: Field holding the bevel angle ξ of its rake plane(s) (rad), if any: what
+    #: an as-made scan's measured ξ replaces.
+    angle_field: ClassVar[str | None] = None
+
+    #: True when the cutter is a surface of revolution about +z.
+    axisymmetric: ClassVar[bool] = False
+
+    def __init_subclass__(cls, **kwargs):
+        super().__init_subclass__(**kwargs)
+        if cls.__dict__.get("kind"):
+            register_cutter(cls)
+
+    # -- TOML form -------------------------------------------------------------
+    @classmethod
+    def from_dict(cls, table) -> Cutter:
+        """The cutter of a ``[[cutters]]`` table.
+
+        Parameters
+        ----------
+        table : CutterTable
+            Keys checked against :attr:`toml_keys`; read them with its
+            ``deg``/``mm``/``int``/``str`` methods (units converted, errors
+            naming the key).
+        """
+        raise SpecError(f"cutter kind '{cls.kind}' has no TOML form (Python-only cutter)")
+
+    def to_dict(self) -> dict[str, Any]:
+        """The TOML keys of this cutter besides ``kind`` and ``name`` (degrees,
+        mm); :meth:`from_dict` of them gives an equal cutter."""
+        raise SpecError(f"cutter kind '{self.kind}' has no TOML form (Python-only cutter)")
+
+    # -- analytic faces --------------------------------------------------------
+    def surfaces(self, cannula: Cannula) -> tuple | None:
+        """The analytic faces of the kept material (Plane, ConeSurface or
+        ImplicitSurface of :mod:`tipgeo.cutters.surfaces`, labelled as in the
+        built tip), or None when the cutter has no face-wise description
+        (consumers then fall back to the mesh)."""
+        return None
 
     @property
     def symmetry_order(self) -> int:
@@ -88,7 +182,8 @@ class Cutter(ABC):
         from ..errors import SpecError
         from ..tolerances import MAX_TIP_HEIGHT_MM
 
-        z = self.z_upper(cannula)
+        with np.errstate(all="ignore"):  # tiny angles overflow to ±inf/NaN: refused below
+            z = self.z_upper(cannula)
         if not z <= MAX_TIP_HEIGHT_MM:  # also NaN
             raise SpecError(f"{what}: the cut reaches z = {z:.3g} mm above the heel; allowed "
                             f"at most {MAX_TIP_HEIGHT_MM:g} mm (the angle is too close to 0)")

@@ -28,8 +28,9 @@ import numpy as np
 
 from .. import _validate as v
 from ..errors import SpecError
-from .base import Cutter
-from .planar import _name
+from .base import Cutter, check_name
+from .surfaces import ConeSurface, Plane
+from .toml import round_for_toml as _r
 
 __all__ = ["ConicalCutter"]
 
@@ -53,6 +54,36 @@ class ConicalCutter(Cutter):
     bevel_length: float | None = None
     name: str = "cone"
     kind = "conical"
+    process = "grind"
+    axisymmetric = True
+    toml_keys = {"theta_deg": "included angle θ, (0, 90)",
+                 "phi_g_deg": "grinding-wheel angle ϕ_g (eq. 2.37), instead of theta_deg",
+                 "varphi_deg": "needle–spindle angle φ, default 10",
+                 "bevel_length_mm": "axial length of the cone"}
+
+    @classmethod
+    def from_dict(cls, t):
+        which = t.one_of("theta_deg", "phi_g_deg")
+        kw = {"bevel_length": t.mm("bevel_length_mm"), "name": t.str("name", "cone")}
+        if which == "theta_deg":
+            if "varphi_deg" in t:
+                raise SpecError(f"{t.where}.varphi_deg only goes with phi_g_deg")
+            return cls(theta=t.deg("theta_deg"), **kw)
+        return cls.from_grinding(phi_g=t.deg("phi_g_deg"),
+                                 varphi=t.deg("varphi_deg", default=10.0), **kw)
+
+    def to_dict(self):
+        d = {"theta_deg": _r(math.degrees(self.theta))}
+        if self.bevel_length is not None:
+            d["bevel_length_mm"] = self.bevel_length
+        return d
+
+    def surfaces(self, cannula):
+        out = [ConeSurface(self.theta, cannula.r_o, self.label)]
+        if self.bevel_length is not None and self.bevel_length < (
+                cannula.r_o - cannula.r_i) / math.tan(self.theta):  # the land exists
+            out.append(Plane(0.5 * math.pi, 0.0, self.bevel_length, self.land_label))
+        return tuple(out)
 
     def __post_init__(self):
         object.__setattr__(self, "theta", v.angle("theta", self.theta, lo=0.0, hi=0.5 * math.pi,
@@ -60,7 +91,7 @@ class ConicalCutter(Cutter):
         if self.bevel_length is not None:
             object.__setattr__(self, "bevel_length",
                                v.feature_length("bevel_length", self.bevel_length, hi=1000.0))
-        _name(self.name)
+        check_name(self.name)
 
     @classmethod
     def from_grinding(cls, *, phi_g: float, varphi: float = math.radians(10.0),

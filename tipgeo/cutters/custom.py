@@ -21,8 +21,7 @@ import numpy as np
 from .. import _validate as v
 from ..construct import AUX, BuildContext
 from ..errors import SpecError
-from .base import Cutter
-from .planar import _name
+from .base import Cutter, check_name
 
 __all__ = ["MeshCutter", "SDFCutter"]
 
@@ -60,10 +59,21 @@ class MeshCutter(Cutter):
     name: str = "custom"
     source: str | None = None
     kind = "mesh"
+    toml_keys = {"path": "mesh file, relative to the spec file", "units": "mm, um or m"}
+
+    @classmethod
+    def from_dict(cls, t):
+        return cls.from_file(t.path("path"), units=t.str("units", "mm"),
+                             name=t.str("name", "custom"))
+
+    def to_dict(self):
+        if not self.source:
+            raise SpecError(f"mesh cutter '{self.name}' has no source file; it has no TOML form")
+        return {"path": self.source}
 
     def __post_init__(self):
         object.__setattr__(self, "solid_", _as_manifold(self.solid_))
-        _name(self.name)
+        check_name(self.name)
 
     @classmethod
     def from_file(cls, path, *, name: str = "custom", units: str = "mm") -> MeshCutter:
@@ -123,7 +133,7 @@ class SDFCutter(Cutter):
         object.__setattr__(self, "z_range", (lo, hi))
         if self.edge_length is not None:
             v.feature_length("edge_length", self.edge_length, hi=10.0)
-        _name(self.name)
+        check_name(self.name)
 
     def face_labels(self):
         return (self.label,)

@@ -54,8 +54,9 @@ import numpy as np
 from .. import _validate as v
 from ..cannula import Cannula
 from ..errors import BuildError, SpecError
-from .base import Cutter
-from .planar import _name
+from .base import Cutter, check_name
+from .surfaces import ImplicitSurface
+from .toml import round_for_toml as _r
 
 __all__ = ["HelicalCutter", "THESIS_HELIX_POSITION_DEG"]
 
@@ -91,7 +92,29 @@ class HelicalCutter(Cutter):
     rotation: float = 0.0
     name: str = "helix"
     kind = "helical"
+    process = "mill"
+    toml_keys = {"pitch_mm": "p_h", "helix_angle_deg": "ψ, (0, 90)", "phi_deg": "tilt φ, [0, 90)",
+                 "helix_position_deg": "γ_h* > 0", "rotation_deg": ""}
     _frame: tuple = field(init=False, repr=False, compare=False, hash=False, default=())
+
+    @classmethod
+    def from_dict(cls, t):
+        for key in ("pitch_mm", "helix_angle_deg", "phi_deg", "helix_position_deg"):
+            t.need(key)
+        return cls(pitch=t.mm("pitch_mm"), helix_angle=t.deg("helix_angle_deg"),
+                   phi=t.deg("phi_deg"), helix_position=t.deg("helix_position_deg"),
+                   rotation=t.deg("rotation_deg", default=0.0), name=t.str("name", "helix"))
+
+    def to_dict(self):
+        d = {"pitch_mm": self.pitch, "helix_angle_deg": _r(math.degrees(self.helix_angle)),
+             "phi_deg": _r(math.degrees(self.phi)),
+             "helix_position_deg": _r(math.degrees(self.helix_position))}
+        if self.rotation:
+            d["rotation_deg"] = _r(math.degrees(self.rotation))
+        return d
+
+    def surfaces(self, cannula):
+        return (ImplicitSurface(self, cannula, self.label),)
 
     def __post_init__(self):
         v.feature_length("pitch", self.pitch, hi=1e5)
@@ -100,7 +123,7 @@ class HelicalCutter(Cutter):
         v.angle("phi", self.phi, lo=0.0, hi=0.5 * math.pi, hi_open=True)
         v.angle("helix_position", self.helix_position, lo=0.0, lo_open=True, hi=200 * math.pi)
         v.angle("rotation", self.rotation)
-        _name(self.name)
+        check_name(self.name)
         for f in ("pitch", "helix_angle", "phi", "helix_position", "rotation"):
             object.__setattr__(self, f, float(getattr(self, f)))
         c = self.pitch / (2 * math.pi)

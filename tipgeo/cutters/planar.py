@@ -26,7 +26,9 @@ from .. import _validate as v
 from ..cannula import Cannula
 from ..construct import BuildContext
 from ..errors import SpecError
-from .base import Cutter
+from .base import Cutter, check_name
+from .surfaces import Plane
+from .toml import round_for_toml as _r
 
 __all__ = ["Plane", "PlanarCutter", "BevelCutter", "MultiPlaneCutter", "LancetCutter",
            "PlaneSetCutter", "multiplane_xi_for_theta"]
@@ -34,39 +36,13 @@ __all__ = ["Plane", "PlanarCutter", "BevelCutter", "MultiPlaneCutter", "LancetCu
 HALF_PI = 0.5 * math.pi
 
 
-@dataclass(frozen=True)
-class Plane:
-    """One bevel plane z ≤ height − (u·p) cot xi, u = (cos rotation, sin rotation, 0).
-
-    xi, rotation in rad; height in mm; label is the face label.
-    """
-
-    xi: float
-    rotation: float
-    height: float
-    label: str
-
-    @property
-    def normal(self) -> np.ndarray:
-        """Unit outward normal (cos ξ cos β, cos ξ sin β, sin ξ)."""
-        c = math.cos(self.xi)
-        return np.array([c * math.cos(self.rotation), c * math.sin(self.rotation),
-                         math.sin(self.xi)])
-
-    @property
-    def offset(self) -> float:
-        """n·p ≤ offset on the kept side (mm)."""
-        return self.height * math.sin(self.xi)
-
-    def z_on_cylinder(self, gamma: np.ndarray, radius: float) -> np.ndarray:
-        """Height (mm) where the plane meets the cylinder of ``radius``."""
-        if self.xi >= HALF_PI:
-            return np.full(np.shape(gamma), self.height)
-        return self.height - radius * np.cos(np.asarray(gamma) - self.rotation) / math.tan(self.xi)
-
-
 class PlanarCutter(Cutter):
     """A cutter whose kept material is an intersection of plane half-spaces."""
+
+    process = "grind"
+
+    def surfaces(self, cannula: Cannula) -> tuple:
+        return tuple(self.planes(cannula))
 
     def planes(self, cannula: Cannula) -> list[Plane]:  # pragma: no cover - abstract
         raise NotImplementedError
@@ -142,11 +118,21 @@ class BevelCutter(PlanarCutter):
     rotation: float = 0.0
     name: str = "bevel"
     kind = "bevel"
+    angle_field = "xi"
+    toml_keys = {"xi_deg": "bevel angle ξ, (0, 90]", "rotation_deg": "heel direction about +z"}
+
+    @classmethod
+    def from_dict(cls, t):
+        return cls(xi=t.deg("xi_deg", required=True), rotation=t.deg("rotation_deg", default=0.0),
+                   name=t.str("name", "bevel"))
+
+    def to_dict(self):
+        return {"xi_deg": _r(math.degrees(self.xi)), **_rotation(self.rotation)}
 
     def __post_init__(self):
         object.__setattr__(self, "xi", _xi("xi", self.xi))
         object.__setattr__(self, "rotation", v.angle("rotation", self.rotation))
-        _name(self.name)
+        check_name(self.name)
 
     def planes(self, cannula):
         return [Plane(self.xi, self.rotation, cannula.r_o * _cot(self.xi), self.label)]
@@ -186,6 +172,43 @@ class MultiPlaneCutter(PlanarCutter):
     name: str = "multiplane"
     kind = "multiplane"
 
+    angle_field = "xi"
+    toml_keys = {"xi_deg": "bevel angle ξ, (0, 90)",
+                 "theta_deg": "included angle θ (eq. 2.3), instead of xi_deg",
+                 "planes": "P_l ≥ 2 (symmetric)",
+                 "rotations_deg": "explicit heel directions (asymmetric)",
+                 "rotation_deg": "rotation of the whole cutter"}
+
+    @classmethod
+    def from_dict(cls, t):
+        which = t.one_of("xi_deg", "theta_deg")
+        kw = {"rotation": t.deg("rotation_deg", default=0.0), "name": t.str("name", "multiplane")}
+        if "rotations_deg" in t:
+            if "planes" in t:
+                raise SpecError(f"{t.where}: give planes or rotations_deg, not both")
+            kw["rotations"] = t.deg_list("rotations_deg", arg="rotations")
+        else:
+            kw["count"] = t.int("planes", arg="count", required=True)
+        if which == "theta_deg":
+            if "rotations" in kw:
+                raise SpecError(f"{t.where}.theta_deg needs a symmetric tip (planes), "
+                                "not rotations_deg")
+            try:
+                kw["xi"] = multiplane_xi_for_theta(t.deg("theta_deg"), kw["count"])
+            except SpecError as e:
+                raise SpecError(str(e).replace("theta =", "theta_deg:")) from None
+        else:
+            kw["xi"] = t.deg("xi_deg")
+        return cls(**kw)
+
+    def to_dict(self):
+        d: dict = {"xi_deg": _r(math.degrees(self.xi))}
+        if self.symmetric:
+            d["planes"] = self.count
+        else:
+            d["rotations_deg"] = [_r(math.degrees(r)) for r in self.rotations]
+        return d | _rotation(self.rotation)
+
     def __post_init__(self):
         xi = v.angle("xi", self.xi, lo=0.0, hi=HALF_PI, lo_open=True, hi_open=True)
         object.__setattr__(self, "xi", xi)
@@ -205,7 +228,7 @@ class MultiPlaneCutter(PlanarCutter):
                                 "allowed distinct angles")
             object.__setattr__(self, "rotations", rot)
             object.__setattr__(self, "count", len(rot))
-        _name(self.name)
+        check_name(self.name)
 
     @property
     def symmetry_order(self) -> int:
@@ -282,6 +305,22 @@ class LancetCutter(PlanarCutter):
     rotation: float = 0.0
     name: str = "lancet"
     kind = "lancet"
+    angle_field = "primary_xi"
+    toml_keys = {"primary_xi_deg": "(0, 90)", "secondary_xi_deg": "(0, 90)",
+                 "secondary_rotation_deg": "(0, 90)", "rotation_deg": ""}
+
+    @classmethod
+    def from_dict(cls, t):
+        return cls(primary_xi=t.deg("primary_xi_deg", required=True),
+                   secondary_xi=t.deg("secondary_xi_deg", required=True),
+                   secondary_rotation=t.deg("secondary_rotation_deg", required=True),
+                   rotation=t.deg("rotation_deg", default=0.0), name=t.str("name", "lancet"))
+
+    def to_dict(self):
+        return {"primary_xi_deg": _r(math.degrees(self.primary_xi)),
+                "secondary_xi_deg": _r(math.degrees(self.secondary_xi)),
+                "secondary_rotation_deg": _r(math.degrees(self.secondary_rotation)),
+                **_rotation(self.rotation)}
 
     def __post_init__(self):
         p = v.angle("primary_xi", self.primary_xi, lo=0, hi=HALF_PI, lo_open=True, hi_open=True)
@@ -299,7 +338,7 @@ class LancetCutter(PlanarCutter):
         object.__setattr__(self, "primary_xi", p)
         object.__setattr__(self, "secondary_xi", s)
         object.__setattr__(self, "secondary_rotation", b)
-        _name(self.name)
+        check_name(self.name)
 
     def planes(self, cannula):
         ro = cannula.r_o
@@ -316,14 +355,12 @@ class LancetCutter(PlanarCutter):
         return (f"{self.label}.primary", f"{self.label}.plus", f"{self.label}.minus")
 
 
+def _rotation(rotation: float) -> dict:
+    return {"rotation_deg": _r(math.degrees(rotation))} if rotation else {}
+
+
 def _cot(a: float) -> float:
     return 0.0 if a >= HALF_PI else 1.0 / math.tan(a)
-
-
-def _name(name: object) -> None:
-    if not isinstance(name, str) or not name or not all(c.isalnum() or c in "-_" for c in name):
-        raise SpecError(f"name = {name!r} is not a valid cutter name; allowed letters, digits, "
-                        "'-' and '_'")
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -350,7 +387,7 @@ class PlaneSetCutter(PlanarCutter):
             if not n[2] > 0:
                 raise SpecError(f"plane_normals[{k}] has n_z = {n[2]:.6g}; allowed n_z > 0 (the "
                                 "plane must face the tip)")
-        _name(self.name)
+        check_name(self.name)
 
     def planes(self, cannula):
         out = []

@@ -38,8 +38,8 @@ from .. import _validate as v
 from ..cannula import Cannula
 from ..construct import AUX
 from ..errors import SpecError
-from .base import Cutter
-from .planar import _name
+from .base import Cutter, check_name
+from .toml import round_for_toml as _r
 
 __all__ = ["SerrationCutter", "SerrationProfile", "SERRATION_PRESETS"]
 
@@ -211,6 +211,36 @@ class SerrationCutter(Cutter):
     name: str = "serrations"
     kind = "serration"
     needs_previous = True
+    process = "laser"
+    toml_keys = {"arc_radius_mm": "r_c", "count": "n_s", "spacing_deg": "ρ, instead of count",
+                 "depth_mm": "default r_c", "edge_radius_mm": "r_s, default 0",
+                 "rotation_deg": "γ of the first"}
+
+    @classmethod
+    def from_dict(cls, t):
+        t.need("arc_radius_mm")
+        which = t.one_of("count", "spacing_deg")
+        kw = {"arc_radius": t.mm("arc_radius_mm"), "depth": t.mm("depth_mm"),
+              "rotation": t.deg("rotation_deg", default=0.0), "name": t.str("name", "serrations")}
+        if "edge_radius_mm" in t:
+            kw["edge_radius"] = t.mm("edge_radius_mm")
+        if which == "count":
+            kw["count"] = t.int("count")
+        else:
+            kw["spacing"] = t.deg("spacing_deg")
+        return cls(**kw)
+
+    def to_dict(self):
+        d = {"arc_radius_mm": self.arc_radius}
+        if self.count is not None:
+            d["count"] = self.count
+        else:
+            d["spacing_deg"] = _r(math.degrees(self.spacing))
+        d["depth_mm"] = self.depth
+        d["edge_radius_mm"] = self.edge_radius
+        if self.rotation:
+            d["rotation_deg"] = _r(math.degrees(self.rotation))
+        return d
 
     def __post_init__(self):
         r_c = v.feature_length("arc_radius", self.arc_radius, hi=50.0)
@@ -229,7 +259,7 @@ class SerrationCutter(Cutter):
                            v.length("edge_radius", self.edge_radius, lo=0.0, lo_open=False,
                                     hi=50.0))
         object.__setattr__(self, "rotation", v.angle("rotation", self.rotation))
-        _name(self.name)
+        check_name(self.name)
 
     @property
     def n(self) -> int:

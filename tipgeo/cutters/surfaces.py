@@ -1,0 +1,78 @@
+"""The analytic faces a cutter's kept material is bounded by, in a form every
+consumer understands without knowing the cutter: exact distances and
+synthetic scans (:mod:`tipgeo.inspect`), plane fits of measured faces, and
+the grinder's set-up (:mod:`cam`).
+
+Frame and units: cannula frame (+z along the axis towards the tip, γ about +z
+from +x, heel at z = 0); mm and radians. Every surface keeps the material on
+its inner side and carries the face label it has in a built tip.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+__all__ = ["Plane", "ConeSurface", "ImplicitSurface", "Surface"]
+
+HALF_PI = 0.5 * math.pi
+
+
+@dataclass(frozen=True)
+class Plane:
+    """One bevel plane z ≤ height − (u·p) cot xi, u = (cos rotation, sin rotation, 0).
+
+    xi, rotation in rad; height in mm; label is the face label.
+    """
+
+    xi: float
+    rotation: float
+    height: float
+    label: str
+
+    @property
+    def normal(self) -> np.ndarray:
+        """Unit outward normal (cos ξ cos β, cos ξ sin β, sin ξ)."""
+        c = math.cos(self.xi)
+        return np.array([c * math.cos(self.rotation), c * math.sin(self.rotation),
+                         math.sin(self.xi)])
+
+    @property
+    def offset(self) -> float:
+        """n·p ≤ offset on the kept side (mm)."""
+        return self.height * math.sin(self.xi)
+
+    def z_on_cylinder(self, gamma: np.ndarray, radius: float) -> np.ndarray:
+        """Height (mm) where the plane meets the cylinder of ``radius``."""
+        if self.xi >= HALF_PI:
+            return np.full(np.shape(gamma), self.height)
+        return self.height - radius * np.cos(np.asarray(gamma) - self.rotation) / math.tan(self.xi)
+
+
+@dataclass(frozen=True)
+class ConeSurface:
+    """The cone of revolution about +z that keeps r ≤ r_o − z tan θ: included
+    angle ``theta`` (rad) at the outer wall's heel circle (z = 0, r = r_o);
+    ``label`` is the face label."""
+
+    theta: float
+    r_o: float
+    label: str
+
+
+@dataclass(frozen=True)
+class ImplicitSurface:
+    """A surface known only by its cutter's implicit function
+    (:meth:`~tipgeo.cutters.base.Cutter.implicit`: f ≤ 0 inside, with ∇f);
+    distances to it come from foot-point iteration."""
+
+    cutter: Any
+    cannula: Any
+    label: str
+
+
+#: Any analytic face a cutter may report.
+Surface = Plane | ConeSurface | ImplicitSurface

@@ -8,8 +8,9 @@ r3, r4, r5): see :mod:`cam.machine`. mm, degrees in programs, rad inside.
 """
 
 from .machine import CamError, Machine
+from .pipeline import GrindResult, grind, write_grind_outputs
 from .program import GrindProgram, make_program, setup_faces
 from .simulate import compare_with_cad, simulate
 
 __all__ = ["CamError", "Machine", "GrindProgram", "make_program", "setup_faces", "simulate",
-           "compare_with_cad"]
+           "compare_with_cad", "grind", "GrindResult", "write_grind_outputs"]

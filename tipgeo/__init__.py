@@ -5,9 +5,29 @@ pointing to the tip, the heel (where the outer cutting edge starts) at z = 0
 and γ = 0, γ measured about +z; lengths in mm, angles in radians inside the
 library (``*_deg`` only in spec files, CLI and reports).
 
-``import tipgeo`` stays light: trimesh, matplotlib and open3d are imported
-only by the functions that need them.
+The pipeline and its entry points, stage by stage:
+
+- **Design** — :class:`TipSpec` (a :class:`Cannula` and cutters from
+  :mod:`tipgeo.cutters`; TOML through :func:`load_spec`/:func:`dumps_spec`;
+  :func:`resolve_spec` takes a file or a preset name), :func:`build_tip` → a
+  labelled :class:`Tip`; :mod:`tipgeo.io` writes and reads meshes
+  (:func:`tipgeo.io.export_tip`, :func:`tipgeo.io.load_tip`).
+- **Analyse** — :mod:`tipgeo.angles` (:func:`tipgeo.angles.analyze`: edges,
+  Fourier fits, λ θ α, l_c), :mod:`tipgeo.closedforms`, :mod:`tipgeo.mechanics`
+  (slice/push, fracture and insertion forces, tissue fits),
+  :mod:`tipgeo.optimize` (sweeps, the GP optimiser of §3.4).
+- **Make** — the top-level packages :mod:`cam` (five-axis grinding:
+  :func:`cam.grind`) and :mod:`gcode` (A3200 laser programs:
+  :func:`gcode.laser_check`, :func:`gcode.emit_program`).
+- **Inspect** — :mod:`tipgeo.inspect` (:func:`tipgeo.inspect.compare`: scans
+  registered to the CAD tip, deviations, measured geometry).
+
+``import tipgeo`` stays light: the subpackages above load on first access
+(``tipgeo.angles`` works without importing it), and trimesh, matplotlib,
+open3d and scipy only with the functions that need them.
 """
+
+import importlib as _importlib
 
 from .build import build_tip
 from .cannula import GAUGES, Cannula
@@ -23,7 +43,7 @@ from .cutters import (
     SerrationCutter,
 )
 from .errors import BuildError, SpecError, TipGeoError
-from .presets import preset, preset_names
+from .presets import preset, preset_names, resolve_spec
 from .spec import TipSpec, dumps_spec, load_spec, loads_spec, save_spec
 from .tip import Tip
 from .tolerances import tol
@@ -33,5 +53,21 @@ __version__ = "0.1.0"
 __all__ = ["build_tip", "Cannula", "GAUGES", "Cutter", "BevelCutter", "MultiPlaneCutter",
            "LancetCutter", "ConicalCutter", "HelicalCutter", "SerrationCutter", "MeshCutter",
            "SDFCutter", "TipSpec", "load_spec", "loads_spec", "dumps_spec", "save_spec", "Tip",
-           "preset", "preset_names", "tol", "TipGeoError", "SpecError", "BuildError",
+           "preset", "preset_names", "resolve_spec", "tol", "TipGeoError", "SpecError", "BuildError",
            "__version__"]
+
+#: Subpackages and modules that load on first access (``tipgeo.angles``).
+_LAZY = ("angles", "closedforms", "edges", "fourier", "io", "inspect", "mechanics", "optimize",
+         "plot", "demo", "cli")
+
+
+def __getattr__(name: str):
+    if name in _LAZY:
+        module = _importlib.import_module(f".{name}", __name__)
+        globals()[name] = module
+        return module
+    raise AttributeError(f"module 'tipgeo' has no attribute {name!r}")
+
+
+def __dir__():
+    return sorted(set(globals()) | set(_LAZY))

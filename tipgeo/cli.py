@@ -89,17 +89,9 @@ def check_files(args) -> None:
 
 
 def _spec(arg: str):
-    from .errors import SpecError
-    from .presets import PRESETS, preset
-    from .spec import load_spec
+    from .presets import resolve_spec
 
-    p = Path(arg)
-    if p.exists() or arg.endswith(".toml"):
-        return load_spec(p)
-    if arg in PRESETS:
-        return preset(arg)
-    raise SpecError(f"SPEC = '{arg}' is neither a spec file nor a preset; presets: "
-                    + ", ".join(PRESETS))
+    return resolve_spec(arg)
 
 
 def _tolerance(args) -> float | None:
@@ -250,52 +242,18 @@ def cmd_laser(args) -> int:
     return 0
 
 
-def _load_program(path: str, lenient: bool):
-    from gcode.errors import GCodeError
-    from gcode.parser import parse
-
-    try:
-        text = Path(path).read_text(encoding="utf-8")
-    except (OSError, UnicodeDecodeError) as e:
-        raise GCodeError(f"cannot read '{path}': {e}") from None
-    return parse(text, lenient=lenient)
-
-
 def cmd_gcode(args) -> int:
-    from gcode.interpreter import interpret
+    from gcode.pipeline import laser_check, read_program, write_laser_outputs
 
-    prog = _load_program(args.program, args.lenient)
     beam = (args.beam_diameter_um or 20.0) * 1e-3
-    tp = interpret(prog, tool_radii={0: 0.0, 1: beam / 2})
-    s = tp.summary()
-    out = {"program": args.program, "toolpath": s, "warnings": tp.warnings[:50]}
-    if args.action == "sim":
-        from gcode.ablation import ablate, compare_with_cutter
-
-        spec = _spec(args.spec)
-        res = ablate(tp, spec, beam_diameter=beam, origin=tuple(args.origin),
-                     tolerance=_tolerance(args))
-        out["ablation"] = {"notches": res.notches, "c_angles_deg": res.c_angles_deg,
-                           "slugs_removed": res.slugs_removed,
-                           "triangles": int(len(res.tip.faces)),
-                           "watertight": res.tip.is_watertight}
-        if any(c.process == "laser" for c in spec.cutters):
-            out["comparison"] = compare_with_cutter(res, spec, beam_diameter=beam)
-        if args.mesh:
-            from .io import export_tip
-
-            export_tip(res.tip, args.mesh)
-        if args.plot:
-            from gcode.plots import plot_rim, plot_toolpath
-
-            plot_toolpath(tp, args.plot)
-            rim = Path(args.plot).with_name(Path(args.plot).stem + "-rim.png")
-            plot_rim(res.tip, spec, rim)
-            out["pictures"] = [args.plot, str(rim)]
-    elif args.plot:
-        from gcode.plots import plot_toolpath
-
-        plot_toolpath(tp, args.plot)
+    spec = _spec(args.spec) if args.action == "sim" else None
+    res = laser_check(read_program(args.program), beam_diameter=beam, spec=spec,
+                      origin=tuple(args.origin), tolerance=_tolerance(args),
+                      lenient=args.lenient)
+    write_laser_outputs(res, spec, mesh=args.mesh if args.action == "sim" else None,
+                        plot=args.plot)
+    out = res.summary(source=args.program)
+    prog, tp, s = res.program, res.toolpath, out["toolpath"]
     if args.json:
         print(json.dumps(out, indent=2, default=str))
         return 0
@@ -320,41 +278,23 @@ def cmd_gcode(args) -> int:
               f"{c['radius_mm']['fitted_max_error'] * 1e3:.3f} µm), spacing max error "
               f"{c['spacing_deg']['fitted_max_error']}°, Hausdorff "
               f"{c['hausdorff_mm'] * 1e3:.3f} µm")
-    for o in (args.mesh, args.plot):
-        if o:
-            print(f"  wrote {o}")
+    for o in res.files:
+        print(f"  wrote {o}")
     return 0
 
 
 def cmd_grind(args) -> int:
-    from cam import Machine, compare_with_cad, make_program, simulate
+    from cam import Machine, grind, write_grind_outputs
 
     spec = _spec(args.spec)
     machine = Machine.from_toml(args.machine) if args.machine else Machine()
-    prog = make_program(spec, machine=machine, feed=args.feed, needle_rpm=args.needle_rpm)
-    wrote = []
-    if args.output:
-        text = prog.to_csv() if args.output.lower().endswith(".csv") else prog.to_json()
-        _write_text(args.output, text)
-        wrote.append(args.output)
-    if args.gcode:
-        _write_text(args.gcode, prog.to_gcode())
-        wrote.append(args.gcode)
-    if args.sheet:
-        _write_text(args.sheet, prog.setup_sheet())
-        wrote.append(args.sheet)
-    out = {"program": prog.summary()}
-    if args.simulate or args.report:
-        ground = simulate(prog, spec, tolerance=_tolerance(args))
-        if args.simulate:
-            from .io import export_tip
-
-            export_tip(ground, args.simulate)
-            wrote.append(args.simulate)
-        if args.report:
-            out["comparison"] = compare_with_cad(ground, spec)
+    res = grind(spec, machine=machine, feed=args.feed, needle_rpm=args.needle_rpm,
+                simulate_tip=bool(args.simulate or args.report), compare=args.report,
+                tolerance=_tolerance(args))
+    write_grind_outputs(res, program=args.output, gcode=args.gcode, sheet=args.sheet,
+                        mesh=args.simulate)
+    out = res.summary()
     if args.json:
-        out["wrote"] = wrote
         print(json.dumps(out, indent=2, default=str))
         return 0
     s = out["program"]
@@ -364,13 +304,11 @@ def cmd_grind(args) -> int:
         print(f"  {f['face']:<22} ξ {f['xi_deg']:8.4f}°  r5=ϕ_g {f['r5_phi_g_deg']:8.4f}°  "
               f"r4 {f['r4_deg']:8.4f}°  t1 {f['t1_mm']:8.4f} mm  OC {f['OC_mm']:.3f} mm"
               + (f"  spin {f['spin_rpm']:.0f} rpm" if f["spin_rpm"] else ""))
-    if "comparison" in out:
-        c = out["comparison"]
-        worst = max(v for w in c["angles_max_diff_deg"].values() for v in w.values())
-        worst_m = max(v for w in c["mesh_angles_max_diff_deg"].values() for v in w.values())
-        print(f"  ground vs CAD: Hausdorff {c['hausdorff_mm'] * 1e3:.4f} µm, angles within "
-              f"{worst:.2e}° (exact surfaces), {worst_m:.3f}° (mesh path)")
-    for w in wrote:
+    if res.comparison is not None:
+        worst, worst_m = res.worst_angle_diff_deg()
+        print(f"  ground vs CAD: Hausdorff {res.comparison['hausdorff_mm'] * 1e3:.4f} µm, angles "
+              f"within {worst:.2e}° (exact surfaces), {worst_m:.3f}° (mesh path)")
+    for w in res.files:
         print(f"  wrote {w}")
     return 0
 

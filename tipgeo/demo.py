@@ -70,33 +70,25 @@ def _laser_outputs(out: Path, names, pictures: bool, log) -> list[dict]:
     """The laser programs of the serrated punches (C1–C5), each checked by
     the interpreter; the C2 program simulated back into a tip and compared
     with its spec (toolpath and rim pictures)."""
-    from gcode.ablation import ablate, compare_with_cutter
     from gcode.emitter import LaserParams, emit_program
-    from gcode.interpreter import interpret
-    from gcode.parser import parse
+    from gcode.pipeline import laser_check, write_laser_outputs
 
     laser = LaserParams()
     rows = []
     for name in names:
         spec = preset(name)
-        if not any(c.kind == "serration" for c in spec.cutters):
+        if not any(c.process == "laser" for c in spec.cutters):
             continue
         text = emit_program(spec, laser)
         write_text_atomic(out / f"{name}.pgm", text)
-        tp = interpret(parse(text), tool_radii={0: 0.0, 1: laser.tool_radius})
-        row = {"name": name, "program": str(out / f"{name}.pgm"), **tp.summary()}
-        if name == "punch-C2":
-            res = ablate(tp, spec, beam_diameter=laser.beam_diameter)
-            row["comparison"] = compare_with_cutter(res, spec,
-                                                    beam_diameter=laser.beam_diameter)
-            from .io import export_tip
-
-            export_tip(res.tip, out / f"{name}-laser-sim.stl")
-            if pictures:
-                from gcode.plots import plot_rim, plot_toolpath
-
-                plot_toolpath(tp, out / f"{name}-toolpath.png")
-                plot_rim(res.tip, spec, out / f"{name}-rim.png")
+        sim = name == "punch-C2"
+        res = laser_check(text, beam_diameter=laser.beam_diameter, spec=spec if sim else None)
+        row = {"name": name, "program": str(out / f"{name}.pgm"), **res.toolpath.summary()}
+        if sim:
+            row["comparison"] = res.comparison
+            write_laser_outputs(res, spec, mesh=out / f"{name}-laser-sim.stl",
+                                plot=out / f"{name}-toolpath.png" if pictures else None,
+                                rim=out / f"{name}-rim.png" if pictures else None)
         rows.append(row)
         if log is not None:
             print(f"laser: {name}: {row['segments']} moves, {row['time_s']:.0f} s, "
@@ -107,26 +99,24 @@ def _laser_outputs(out: Path, names, pictures: bool, log) -> list[dict]:
 def _grind_outputs(out: Path, names, log) -> list[dict]:
     """Grinding programs (JSON, G-code, set-up sheet) of the thesis needles the
     grinder makes, each simulated and compared with its CAD tip."""
-    from cam import CamError, compare_with_cad, make_program, simulate
+    from cam import CamError, grind, write_grind_outputs
 
     rows = []
     for name in names:
         spec = preset(name)
         try:
-            prog = make_program(spec)
+            res = grind(spec)
         except CamError as e:  # e.g. punches (flat land), helical tips: not this machine
             rows.append({"name": name, "ground": False, "reason": str(e)})
             continue
-        write_text_atomic(out / f"{name}.grind.json", prog.to_json())
-        write_text_atomic(out / f"{name}.grind.nc", prog.to_gcode())
-        write_text_atomic(out / f"{name}.setup.md", prog.setup_sheet())
-        ground = simulate(prog, spec)
-        cmp = compare_with_cad(ground, spec)
-        worst = max(v for w in cmp["angles_max_diff_deg"].values() for v in w.values())
-        rows.append({"name": name, "ground": True, "time_s": prog.summary()["time_s"],
-                     "hausdorff_um": cmp["hausdorff_mm"] * 1e3, "angles_max_diff_deg": worst})
+        write_grind_outputs(res, program=out / f"{name}.grind.json",
+                            gcode=out / f"{name}.grind.nc", sheet=out / f"{name}.setup.md")
+        worst = res.worst_angle_diff_deg()[0]
+        haus = res.comparison["hausdorff_mm"]
+        rows.append({"name": name, "ground": True, "time_s": res.program.summary()["time_s"],
+                     "hausdorff_um": haus * 1e3, "angles_max_diff_deg": worst})
         if log is not None:
-            print(f"grind: {name}: Hausdorff {cmp['hausdorff_mm'] * 1e3:.2e} µm, angles "
+            print(f"grind: {name}: Hausdorff {haus * 1e3:.2e} µm, angles "
                   f"within {worst:.1e}°", file=log, flush=True)
     return rows
 

@@ -26,7 +26,7 @@ from .cutters import (
 from .errors import SpecError
 from .spec import TipSpec
 
-__all__ = ["PRESETS", "preset", "preset_names"]
+__all__ = ["PRESETS", "preset", "preset_names", "resolve_spec"]
 
 _D = math.radians
 _14G = Cannula.from_gauge(14)
@@ -95,3 +95,29 @@ def preset(name: str) -> TipSpec:
         raise SpecError(f"preset = {name!r} is not known; expected one of: "
                         + ", ".join(PRESETS))
     return PRESETS[name]()
+
+
+def resolve_spec(arg) -> TipSpec:
+    """A spec from what a user typed: a :class:`TipSpec` as it is, a path to a
+    spec file (``.toml``, or any existing file), or a preset name.
+
+    Raises :class:`~tipgeo.errors.SpecError` naming ``arg`` and the presets
+    when it is none of these.
+    """
+    from pathlib import Path
+
+    from .errors import SpecError
+    from .spec import load_spec
+
+    if isinstance(arg, TipSpec):
+        return arg
+    if not isinstance(arg, (str, Path)):
+        raise SpecError(f"SPEC = {type(arg).__name__} is not a spec, a spec file or a preset "
+                        "name")
+    p = Path(arg)
+    if p.exists() or str(arg).endswith(".toml"):
+        return load_spec(p)
+    if arg in PRESETS:
+        return preset(arg)
+    raise SpecError(f"SPEC = '{arg}' is neither a spec file nor a preset; presets: "
+                    + ", ".join(PRESETS))

@@ -1,0 +1,110 @@
+"""The grinding pipeline as one call: program → (optional) simulation →
+comparison with the CAD tip, and the files a user asks for.
+
+Frames and units as in :mod:`cam.machine` (cannula frame; mm, rad inside,
+degrees in programs and reports). Used by ``tipgeo grind`` and ``tipgeo demo``.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+from .machine import Machine
+from .program import GrindProgram, make_program
+from .simulate import compare_with_cad, simulate
+
+__all__ = ["GrindResult", "grind", "write_grind_outputs"]
+
+
+@dataclass
+class GrindResult:
+    """What :func:`grind` made.
+
+    Attributes
+    ----------
+    program : GrindProgram — the axis program with its set-up
+    ground : Tip or None — the simulated ground tip (mm, cannula frame)
+    comparison : dict or None — :func:`cam.compare_with_cad` of the ground tip
+    """
+
+    program: GrindProgram
+    ground: Any = None
+    comparison: dict | None = None
+    files: list[str] = field(default_factory=list)
+
+    def summary(self) -> dict[str, Any]:
+        """Program summary, comparison (if any) and files written (report units)."""
+        out: dict[str, Any] = {"program": self.program.summary()}
+        if self.comparison is not None:
+            out["comparison"] = self.comparison
+        out["wrote"] = list(self.files)
+        return out
+
+    def worst_angle_diff_deg(self) -> tuple[float, float] | None:
+        """Largest λ/θ/α difference ground vs CAD (deg): exact surfaces, mesh path."""
+        c = self.comparison
+        if c is None:
+            return None
+        worst = max(v for w in c["angles_max_diff_deg"].values() for v in w.values())
+        worst_m = max(v for w in c["mesh_angles_max_diff_deg"].values() for v in w.values())
+        return worst, worst_m
+
+
+def grind(spec, *, machine: Machine | None = None, feed: float = 0.1,
+          needle_rpm: float = 1000.0, simulate_tip: bool = True, compare: bool = True,
+          tolerance: float | None = None) -> GrindResult:
+    """Grind ``spec`` on ``machine``: the program, then (by default) the
+    simulated ground tip and its comparison with the CAD tip.
+
+    Parameters
+    ----------
+    spec : TipSpec — cutters made by grinding (bevel, multi-plane, lancet, conical)
+    machine : Machine, optional — limits and set-up (default :class:`Machine`)
+    feed : float — infeed (mm/s)
+    needle_rpm : float — needle spin for conical faces (rpm)
+    simulate_tip, compare : bool — run the simulator / the comparison
+    tolerance : float, optional — chordal tolerance of the simulated tip (mm)
+
+    Raises
+    ------
+    CamError — the machine cannot make the tip (naming the axis or limit).
+    """
+    prog = make_program(spec, machine=machine or Machine(), feed=feed, needle_rpm=needle_rpm)
+    res = GrindResult(prog)
+    if simulate_tip or compare:
+        res.ground = simulate(prog, spec, tolerance=tolerance)
+        if compare:
+            res.comparison = compare_with_cad(res.ground, spec)
+    return res
+
+
+def write_grind_outputs(res: GrindResult, *, program: str | Path | None = None,
+                        gcode: str | Path | None = None, sheet: str | Path | None = None,
+                        mesh: str | Path | None = None) -> list[str]:
+    """Write the files of a :func:`grind` result, each atomically: the axis
+    program (``.json`` or ``.csv`` by extension), ISO G-code, the Markdown
+    set-up sheet, the simulated tip mesh (any :mod:`tipgeo.io` format)."""
+    from tipgeo._atomic import write_text_atomic
+    from tipgeo.io import export_tip
+
+    wrote = []
+    if program is not None:
+        p = Path(program)
+        write_text_atomic(p, res.program.to_csv() if p.suffix.lower() == ".csv"
+                          else res.program.to_json())
+        wrote.append(str(p))
+    if gcode is not None:
+        write_text_atomic(Path(gcode), res.program.to_gcode())
+        wrote.append(str(gcode))
+    if sheet is not None:
+        write_text_atomic(Path(sheet), res.program.setup_sheet())
+        wrote.append(str(sheet))
+    if mesh is not None:
+        if res.ground is None:
+            raise ValueError("mesh: the result has no simulated tip (grind(simulate_tip=True))")
+        export_tip(res.ground, mesh)
+        wrote.append(str(mesh))
+    res.files += wrote
+    return wrote

@@ -1,0 +1,131 @@
+"""The laser pipeline as one call: a program is parsed and interpreted
+(length, time, pulses), and — given the punch it cuts — simulated back into a
+tip by ablation and compared with the spec's serrations.
+
+Machine frame and units as in :mod:`gcode.ablation` (mm, degrees in programs;
+the simulated tip in the cannula frame). Used by ``tipgeo gcode`` and
+``tipgeo demo``.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+from . import ast
+from .errors import GCodeError
+from .interpreter import Limits, Toolpath, interpret
+from .parser import parse
+
+__all__ = ["LaserCheck", "laser_check", "read_program", "write_laser_outputs"]
+
+
+def read_program(path: str | Path) -> str:
+    """The text of a program file; unreadable files are a GCodeError."""
+    try:
+        return Path(path).read_text(encoding="utf-8")
+    except (OSError, UnicodeDecodeError) as e:
+        raise GCodeError(f"cannot read '{path}': {e}") from None
+
+
+@dataclass
+class LaserCheck:
+    """What :func:`laser_check` found.
+
+    Attributes
+    ----------
+    program : gcode.ast.Program
+    toolpath : Toolpath — the interpreted moves (beam radius compensated)
+    ablation : AblationResult or None — the simulated tip (cannula frame)
+    comparison : dict or None — :func:`gcode.ablation.compare_with_cutter`
+    """
+
+    program: ast.Program
+    toolpath: Toolpath
+    ablation: Any = None
+    comparison: dict | None = None
+    files: list[str] = field(default_factory=list)
+
+    def summary(self, *, source: str = "", max_warnings: int = 50) -> dict[str, Any]:
+        """The report (mm, s, degrees): toolpath, warnings, ablation, comparison."""
+        out: dict[str, Any] = {"program": source, "statements": len(self.program.body),
+                               "toolpath": self.toolpath.summary(),
+                               "warnings": self.toolpath.warnings[:max_warnings],
+                               "warnings_total": len(self.toolpath.warnings)}
+        if self.ablation is not None:
+            res = self.ablation
+            out["ablation"] = {"notches": res.notches, "c_angles_deg": res.c_angles_deg,
+                               "slugs_removed": res.slugs_removed,
+                               "triangles": int(len(res.tip.faces)),
+                               "watertight": res.tip.is_watertight}
+        if self.comparison is not None:
+            out["comparison"] = self.comparison
+        if self.files:
+            out["pictures"] = [f for f in self.files if f.lower().endswith(".png")]
+        return out
+
+
+def laser_check(program: str | ast.Program, *, beam_diameter: float = 0.020, spec=None,
+                origin: tuple[float, float] = (0.0, 0.0), tolerance: float | None = None,
+                lenient: bool = False, limits: Limits | None = None) -> LaserCheck:
+    """Parse and interpret a laser program, and — with ``spec``, the punch it
+    cuts — simulate it by ablation and compare it with the spec's serrations.
+
+    Parameters
+    ----------
+    program : str or gcode.ast.Program — AeroBasic text, or a parsed program
+    beam_diameter : float — mm; tool T1's radius is half of it (G41/G42)
+    spec : TipSpec, optional — the punch to cut (then the ablation runs)
+    origin : (X0, Y0) — program coordinates of the first serration's centre
+        on the rim (mm)
+    tolerance : float, optional — chordal tolerance of the simulated tip (mm)
+    lenient : bool — skip unsupported statements with a warning
+    limits : Limits, optional — interpreter bounds (statements, loops, moves)
+
+    Raises
+    ------
+    GCodeError — a program error, quoting its line and column.
+    """
+    prog = parse(program, lenient=lenient) if isinstance(program, str) else program
+    kw = {} if limits is None else {"limits": limits}
+    tp = interpret(prog, tool_radii={0: 0.0, 1: beam_diameter / 2}, **kw)
+    res = LaserCheck(prog, tp)
+    if spec is not None:
+        from .ablation import ablate, compare_with_cutter
+
+        res.ablation = ablate(tp, spec, beam_diameter=beam_diameter, origin=tuple(origin),
+                              tolerance=tolerance)
+        if any(c.process == "laser" for c in spec.cutters):
+            res.comparison = compare_with_cutter(res.ablation, spec, beam_diameter=beam_diameter)
+    return res
+
+
+def write_laser_outputs(res: LaserCheck, spec=None, *, mesh: str | Path | None = None,
+                        plot: str | Path | None = None,
+                        rim: str | Path | None = None) -> list[str]:
+    """Write the simulated tip (any :mod:`tipgeo.io` format) and the toolpath
+    picture, and with ``spec`` and a simulation the unwrapped rim picture
+    (``rim``, default ``<plot>-rim.png``), each atomically."""
+    wrote = []
+    if mesh is not None:
+        if res.ablation is None:
+            raise GCodeError("mesh: nothing was simulated (give the punch's spec)")
+        from tipgeo.io import export_tip
+
+        export_tip(res.ablation.tip, mesh)
+        wrote.append(str(mesh))
+    if plot is not None:
+        from .plots import plot_rim, plot_toolpath
+
+        plot_toolpath(res.toolpath, plot)
+        wrote.append(str(plot))
+        if rim is None:
+            rim = Path(plot).with_name(Path(plot).stem + "-rim.png")
+    if rim is not None and res.ablation is not None and spec is not None:
+        from .plots import plot_rim
+
+        plot_rim(res.ablation.tip, spec, rim)
+        wrote.append(str(rim))
+    res.files += wrote
+    return wrote

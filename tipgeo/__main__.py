@@ -1,0 +1,7 @@
+"""``python -m tipgeo``: the ``tipgeo`` command."""
+
+import sys
+
+from .cli import main
+
+sys.exit(main())

@@ -53,8 +53,8 @@ __version__ = "0.1.0"
 __all__ = ["build_tip", "Cannula", "GAUGES", "Cutter", "BevelCutter", "MultiPlaneCutter",
            "LancetCutter", "ConicalCutter", "HelicalCutter", "SerrationCutter", "MeshCutter",
            "SDFCutter", "TipSpec", "load_spec", "loads_spec", "dumps_spec", "save_spec", "Tip",
-           "preset", "preset_names", "resolve_spec", "tol", "TipGeoError", "SpecError", "BuildError",
-           "__version__"]
+           "preset", "preset_names", "resolve_spec", "tol", "TipGeoError", "SpecError",
+           "BuildError", "__version__"]
 
 #: Subpackages and modules that load on first access (``tipgeo.angles``).
 _LAZY = ("angles", "closedforms", "edges", "fourier", "io", "inspect", "mechanics", "optimize",

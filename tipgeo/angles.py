@@ -26,7 +26,6 @@ from __future__ import annotations
 
 import csv
 import io
-import json
 import math
 from dataclasses import dataclass, field
 from typing import Any
@@ -39,6 +38,7 @@ from ._threads import small_linalg
 from .edges import Edge, EdgePiece, _combined, _rot, exact_edges, mesh_edges
 from .errors import SpecError
 from .fourier import FourierFit, fit_fourier
+from .jsonio import dumps
 
 __all__ = ["AngleReport", "WallAngles", "analyze", "edge_angles", "METHODS"]
 
@@ -177,9 +177,7 @@ class AngleReport:
 
     def to_json(self, step_deg: float = 1.0) -> str:
         t = self.table(step_deg)
-        return json.dumps({"summary": self.summary(),
-                           "table": {k: np.asarray(x).tolist() for k, x in t.items()}},
-                          indent=2)
+        return dumps({"summary": self.summary(), "table": t})
 
 
 # -----------------------------------------------------------------------------

@@ -14,6 +14,8 @@ import sys
 import time
 from pathlib import Path
 
+from .jsonio import dumps as _dumps
+
 __all__ = ["main", "declare_files", "check_files", "PICTURE_EXTS"]
 
 from .plot import PICTURE_EXTS  # the formats every --plot/--png accepts
@@ -120,7 +122,7 @@ def cmd_build(args) -> int:
         outs.append(render_tip(tip, args.png))
     info = tip.summary() | {"build_seconds": dt, "outputs": [str(o) for o in outs]}
     if args.json:
-        print(json.dumps(info, indent=2, default=str))
+        print(_dumps(info))
     else:
         print(f"{spec.name or args.spec}: {info['triangles']} triangles, volume "
               f"{info['volume_mm3']:.6f} mm³, tolerance {info['tolerance_um']:g} µm, "
@@ -177,7 +179,7 @@ def cmd_angles(args) -> int:
         plot_angles(reports, args.plot)
     if args.json:
         data = [json.loads(r.to_json(args.step_deg)) for r in reports]
-        print(json.dumps(data if len(data) > 1 else data[0], indent=2))
+        print(_dumps(data if len(data) > 1 else data[0]))
         return 0
     for r in reports:
         s = r.summary()
@@ -255,7 +257,7 @@ def cmd_gcode(args) -> int:
     out = res.summary(source=args.program)
     prog, tp, s = res.program, res.toolpath, out["toolpath"]
     if args.json:
-        print(json.dumps(out, indent=2, default=str))
+        print(_dumps(out))
         return 0
     print(f"{args.program}: {len(prog.body)} statements, {s['segments']} moves")
     print(f"  path {s['path_length_mm']:.4f} mm, beam on {s['beam_on_length_mm']:.4f} mm, "
@@ -295,7 +297,7 @@ def cmd_grind(args) -> int:
                         mesh=args.simulate)
     out = res.summary()
     if args.json:
-        print(json.dumps(out, indent=2, default=str))
+        print(_dumps(out))
         return 0
     s = out["program"]
     print(f"{s['name']}: faces {s['faces']}, {s['rows']} program rows, time {s['time_s']:.1f} s, "
@@ -318,7 +320,7 @@ def cmd_gauges(args) -> int:
 
     rows = gauge_table()
     if args.json:
-        print(json.dumps({"source": GAUGE_SOURCE, "gauges": rows}, indent=2))
+        print(_dumps({"source": GAUGE_SOURCE, "gauges": rows}))
         return 0
     print("gauge  d_e_mm  d_i_mm  wall_mm")
     for r in rows:
@@ -352,7 +354,7 @@ def cmd_demo(args) -> int:
     summary = run_demo(args.out, tolerance=_tolerance(args), log=sys.stderr,
                        pictures=not args.no_pictures)
     if args.json:
-        print(json.dumps(summary, indent=2, default=str))
+        print(_dumps(summary))
     else:
         print("name                  triangles  volume_mm3  build_s  watertight")
         for r in summary["tips"]:

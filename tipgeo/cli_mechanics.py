@@ -9,9 +9,10 @@ main dispatcher prints it and exits 2).
 
 from __future__ import annotations
 
-import json
 import math
 from pathlib import Path
+
+from .jsonio import dumps as _dumps
 
 __all__ = ["register", "cmd_forces", "cmd_tissue"]
 
@@ -69,7 +70,7 @@ def cmd_forces(args) -> int:
     if args.json:
         data = [r.to_dict(args.step_deg) for r in results]
         out = {"tips": data, "wrote": wrote}
-        print(json.dumps(out, indent=2))
+        print(_dumps(out))
         return 0
     for r in results:
         s = r.forces.summary()
@@ -119,8 +120,7 @@ def cmd_tissue(args) -> int:
 
     if args.action == "list":
         if args.json:
-            print(json.dumps([t.summary() for t in TISSUES.values()], indent=2,
-                             default=_json_default))
+            print(_dumps([t.summary() for t in TISSUES.values()]))
             return 0
         for t in TISSUES.values():
             print(f"{t.name:<20} {t.description}")
@@ -129,7 +129,7 @@ def cmd_tissue(args) -> int:
         if not args.target:
             raise SpecError("tissue show: give a tissue NAME; names: " + ", ".join(TISSUES))
         s = tissue(args.target).summary()
-        print(json.dumps(s, indent=2, default=_json_default))
+        print(_dumps(s))
         return 0
     from .mechanics.tissue import fit_uniaxial, read_uniaxial_csv
 
@@ -146,8 +146,7 @@ def cmd_tissue(args) -> int:
                                          title=f"{Path(args.target).name}: true stress "
                                                "against stretch")))
     if args.json:
-        print(json.dumps({"data": info, "fits": [f.summary() for f in fits], "wrote": wrote},
-                         indent=2, default=_json_default))
+        print(_dumps({"data": info, "fits": [f.summary() for f in fits], "wrote": wrote}))
         return 0
     print(f"{info['path']}: {info['rows']} rows ({info['kind']} "
           f"{'/'.join(info['columns'])})")
@@ -157,16 +156,6 @@ def cmd_tissue(args) -> int:
     for w in wrote:
         print(f"wrote {w}")
     return 0
-
-
-def _json_default(o):
-    import numpy as np
-
-    if isinstance(o, np.generic):
-        return o.item()
-    if isinstance(o, float) and math.isinf(o):
-        return None
-    return str(o)
 
 
 def register(subparsers) -> None:

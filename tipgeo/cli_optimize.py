@@ -9,9 +9,10 @@ files, a plain summary (or ``--json``) to stdout, progress to stderr.
 
 from __future__ import annotations
 
-import json
 import sys
 from pathlib import Path
+
+from .jsonio import dumps as _dumps
 
 __all__ = ["register", "cmd_sweep", "cmd_optimize", "DRY_RUN_CHECKS"]
 
@@ -68,7 +69,7 @@ def cmd_sweep(args) -> int:
     write_table(res, out)
     s = res.summary() | {"table": str(out)}
     if args.json:
-        print(json.dumps(s, indent=2))
+        print(_dumps(s))
         return 0
     print(f"{cfg.name}: {s['configurations']} configurations — {s['ok']} ok, "
           f"{s['invalid']} invalid, {s['failed']} failed; {s['computed']} computed, "
@@ -99,9 +100,9 @@ def _dry_run(cfg, args) -> int:
     names = [v.name for v in cfg.variables]
     valid = sum(r["status"] == "valid" for r in rows)
     if args.json:
-        print(json.dumps({"name": cfg.name, "variables": names, "configurations": len(X),
+        print(_dumps({"name": cfg.name, "variables": names, "configurations": len(X),
                           "checked": len(rows),
-                          "valid": valid, "rows": rows}, indent=2))
+                          "valid": valid, "rows": rows}))
         return 0
     checked = "" if len(rows) == len(X) else f" (the first {len(rows)} checked)"
     print(f"{cfg.name}: {len(X)} configurations of {', '.join(names)} "
@@ -126,7 +127,7 @@ def cmd_optimize(args) -> int:
                     progress=not args.quiet, build=not args.no_build,
                     plots=not args.no_plots, table=table, log=log)
     if args.json:
-        print(json.dumps(rep, indent=2))
+        print(_dumps(rep))
         return 0
     s = rep["sweep"]
     print(f"{cfg.name}: {s['configurations']} configurations ({s['ok']} ok, {s['invalid']} "

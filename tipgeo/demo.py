@@ -17,13 +17,13 @@ from __future__ import annotations
 
 import csv
 import io
-import json
 import time
 from pathlib import Path
 
 from ._atomic import write_text_atomic
 from .build import build_tip
 from .io import export_tip
+from .jsonio import dumps as _dumps
 from .presets import preset, preset_names
 from .spec import save_spec
 
@@ -52,7 +52,7 @@ def _angle_outputs(out: Path, names, pictures: bool, log) -> list[str]:
     write_text_atomic(out / "angles.csv", text)
     files = [str(out / "angles.csv")]
     summaries = {n: r.summary() for n, r in reports.items()}
-    write_text_atomic(out / "angles.json", json.dumps(summaries, indent=2) + "\n")
+    write_text_atomic(out / "angles.json", _dumps(summaries) + "\n")
     files.append(str(out / "angles.json"))
     if pictures:
         from .plot import plot_angles
@@ -179,7 +179,7 @@ def run_demo(out, *, tolerance: float | None = None, log=None, pictures: bool = 
                "tips": rows, "angles": angle_files, "laser": laser_files,
                "grinding": grind_rows, "mechanics": mechanics_files,
                "optimize": optimize_files, "inspect": inspect_row}
-    write_text_atomic(out / "summary.json", json.dumps(summary, indent=2) + "\n")
+    write_text_atomic(out / "summary.json", _dumps(summary) + "\n")
     buf = io.StringIO()
     w = csv.DictWriter(buf, fieldnames=list(rows[0]))
     w.writeheader()

@@ -8,7 +8,6 @@ analysis frame of :mod:`tipgeo.angles`.
 
 from __future__ import annotations
 
-import json
 import math
 import warnings
 from dataclasses import dataclass
@@ -19,6 +18,7 @@ import numpy as np
 
 from .. import _validate as v
 from ..errors import SpecError
+from ..jsonio import dumps as _dumps
 from ._common import J_PER_M2, ValidityWarning
 from .fracture import DEFAULT_G, EdgeForces, edge_forces, mean_forces_vs_speed_ratio
 from .materials import Tissue, tissue
@@ -212,7 +212,7 @@ def write_helical_vs_bevel(out_dir, *, S: float = 0.3, pictures: bool = True) ->
             "reverse_rotation": _reverse(entries)}
     files = []
     jp = out / "forces-helical-vs-bevel.json"
-    write_text_atomic(jp, json.dumps(data, indent=2) + "\n")
+    write_text_atomic(jp, _dumps(data) + "\n")
     files.append(str(jp))
     if pictures:
         from .plots import plot_edge_forces, plot_fracture_vs_k

@@ -13,8 +13,6 @@ Outputs in one folder (all written atomically):
 
 from __future__ import annotations
 
-import json
-import math
 import sys
 import time
 from pathlib import Path
@@ -22,6 +20,7 @@ from typing import Any
 
 import numpy as np
 
+from ..jsonio import dumps as _dumps
 from .config import StudyConfig
 from .objective import optimize_objective, term_summary, verify_optimum
 from .surrogate import fit_surrogate
@@ -46,27 +45,6 @@ def feasibility(config: StudyConfig):
         return out
 
     return feasible
-
-
-def _json_default(o):
-    if isinstance(o, np.ndarray):
-        return o.tolist()
-    if isinstance(o, (np.floating, np.integer)):
-        return o.item()
-    if isinstance(o, Path):
-        return str(o)
-    raise TypeError(f"{type(o).__name__} is not JSON serialisable")
-
-
-def _clean(o):
-    """NaN → None so that the JSON is standard."""
-    if isinstance(o, float) and not math.isfinite(o):
-        return None
-    if isinstance(o, dict):
-        return {k: _clean(v) for k, v in o.items()}
-    if isinstance(o, (list, tuple)):
-        return [_clean(v) for v in o]
-    return o
 
 
 def run_study(config: StudyConfig, out_dir: str | Path, *, executor=None, cache: Any = None,
@@ -125,7 +103,7 @@ def run_study(config: StudyConfig, out_dir: str | Path, *, executor=None, cache:
             files.append(str(p))
     sdict = sur.to_dict() | {"loo": loo, "fit_seconds": t_fit}
     p = out / "surrogate.json"
-    write_text_atomic(p, json.dumps(_clean(sdict), indent=2, default=_json_default))
+    write_text_atomic(p, _dumps(sdict))
     files.append(str(p))
     if plots:
         from .plots import plot_loo, plot_pareto, plot_response
@@ -152,6 +130,6 @@ def run_study(config: StudyConfig, out_dir: str | Path, *, executor=None, cache:
         "files": files + [str(out / "report.json")],
     }
     p = out / "report.json"
-    write_text_atomic(p, json.dumps(_clean(report), indent=2, default=_json_default))
+    write_text_atomic(p, _dumps(report))
     return report
 

@@ -13,6 +13,8 @@ from .emitter import LaserParams, emit_program
 from .errors import GCodeError
 from .interpreter import Limits, Segment, Toolpath, interpret
 from .parser import parse
+from .pipeline import LaserCheck, laser_check, make_limits, read_program, write_laser_outputs
 
 __all__ = ["GCodeError", "parse", "interpret", "Toolpath", "Segment", "Limits",
-           "LaserParams", "emit_program"]
+           "LaserParams", "emit_program", "LaserCheck", "laser_check", "make_limits",
+           "read_program", "write_laser_outputs"]

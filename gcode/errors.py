@@ -17,3 +17,20 @@ class GCodeError(TipGeoError, ValueError):
         where = f"line {line}, column {column}: " if line else ""
         what = f" — '{text}'" if text else ""
         super().__init__(f"{where}{message}{what}")
+
+
+def check_limit(name: str, value) -> int:
+    """``value`` if it is a valid cost bound (an int ≥ 0, not a bool).
+
+    Raises
+    ------
+    TypeError
+        Not an int.
+    ValueError
+        Negative.
+    """
+    if isinstance(value, bool) or not isinstance(value, int):
+        raise TypeError(f"{name} must be a whole number ≥ 0, not {value!r}")
+    if value < 0:
+        raise ValueError(f"{name} must be a whole number ≥ 0, not {value!r}")
+    return value

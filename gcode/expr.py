@@ -51,6 +51,8 @@ def evaluate(expr: ast.Expr, variables: Mapping[str, float],
             return GCodeError(message)
         return GCodeError(message, span.line, span.col, span.text)
 
+    if type(expr) is ast.Num and type(expr.value) is float and math.isfinite(expr.value):
+        return expr.value         # fast path: a literal (most words)
     values: list[float] = []
     stack: list[tuple[object, bool]] = [(expr, False)]
     while stack:

@@ -20,29 +20,85 @@ intersection, convex joints get a round corner about the programmed point;
 the move that switches compensation on (off) ramps from (to) the
 uncompensated point. An arc smaller than the tool collapses to its centre
 (with a warning).
+
+What cannot run is a :class:`~gcode.errors.GCodeError` located at its
+statement: a feed move (G01–G03, LINEAR, CW, CCW) before any F; F, E ≤ 0; a
+tool number that is not whole or not in the tool table; an arc without I/J,
+of radius ≤ :data:`ARC_TOLERANCE` (centre on the start point) — unless
+cutter compensation collapses it to its centre anyway, as when Appendix C's
+roughing radius passes through 0 — or whose end is more than
+:data:`ARC_TOLERANCE` off its circle; a position beyond
+:data:`MAX_POSITION_MM` (:data:`MAX_ANGLE_DEG` for C); bad PSOPULSE timing
+or CYCLES; going past a bound of :class:`Limits`.
 """
 
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field
+import operator
+from dataclasses import dataclass, field, fields
 
 import numpy as np
 
 from . import ast
-from .errors import GCodeError
+from .errors import GCodeError, check_limit
 from .expr import evaluate
 
-__all__ = ["Segment", "Toolpath", "interpret", "Limits"]
+__all__ = ["Segment", "Toolpath", "interpret", "Limits", "ARC_TOLERANCE", "MAX_POSITION_MM",
+           "MAX_ANGLE_DEG"]
+
+#: An arc's end must lie on the circle through its start within this many mm
+#: (relative to the radius above 1 mm); its radius must exceed it too.
+ARC_TOLERANCE = 1e-6
+#: Largest |X|, |Y|, |Z| and arc-centre coordinate, mm (1 km: beyond any
+#: stage, and far from float overflow in the geometry).
+MAX_POSITION_MM = 1e6
+#: Largest |C|, degrees (about 2.8 million turns).
+MAX_ANGLE_DEG = 1e9
 
 
 @dataclass(frozen=True)
 class Limits:
-    """Bounds that keep a hostile program from hanging or exhausting memory."""
+    """Bounds that keep a hostile program from hanging or exhausting memory.
+
+    Each default is set from measurements so that reaching it costs at most
+    about 5 s of CPU on the reference 2-core machine (and, for moves, about
+    250 MB); a program near several bounds at once costs at most their sum.
+    Appendix C executes 13 541 statements, 75 864 operations and 9 616
+    programmed moves (9 974 segments), with REPEAT counts up to 80: every
+    default is at least ten times that. Every bound is a whole number ≥ 0
+    (TypeError, ValueError otherwise).
+
+    Attributes
+    ----------
+    max_repeat : int
+        Largest ``REPEAT`` count; a larger one is refused before its loop
+        starts. Default 1 000 000.
+    max_statements : int
+        Statements executed, counted once per execution (a REPEAT header
+        once, its body's statements once per pass). A REPEAT whose passes
+        would certainly go beyond is refused before its loop starts. Default
+        1 000 000 (about 1.5–4.5 µs a statement, its operations included).
+    max_segments : int
+        Programmed moves (before cutter compensation). Default 100 000
+        (about 15–26 µs and 2.2 kB a move, compensation included).
+    max_operations : int
+        Work inside statements, all executions together: one for each
+        number, variable or operator of an evaluated expression, each word of
+        a block, each argument of a PSO command or ENABLE, each name of a
+        DVAR (``$a = $a + 1`` is 3, ``G01 X1 F1`` 6). A REPEAT whose passes
+        would certainly go beyond is refused before its loop starts. Default
+        4 000 000 (about 0.1–0.9 µs an operation).
+    """
 
     max_repeat: int = 1_000_000
-    max_statements: int = 20_000_000
-    max_segments: int = 2_000_000
+    max_statements: int = 1_000_000
+    max_segments: int = 100_000
+    max_operations: int = 4_000_000
+
+    def __post_init__(self):
+        for f in fields(self):
+            check_limit(f.name, getattr(self, f.name))
 
 
 @dataclass
@@ -180,17 +236,37 @@ def interpret(program: ast.Program, *, tool_radii: dict[int, float] | None = Non
     ----------
     program : gcode.ast.Program
     tool_radii : {tool number: radius mm} — the tool table (default T0 = 0,
-        T1 = 0.010 mm: the 20 µm beam of the thesis's laser)
-    limits : Limits — loop, statement and segment bounds (GCodeError beyond)
-    rapid_speed : float — mm/s used to time G0 moves
+        T1 = 0.010 mm: the 20 µm beam of the thesis's laser); numbers whole
+        and ≥ 0, radii finite and ≥ 0
+    limits : Limits — loop, statement, operation and move bounds (GCodeError
+        beyond)
+    rapid_speed : float — mm/s used to time G0 moves, finite and > 0
+
+    Raises
+    ------
+    GCodeError
+        A program that cannot run (located at its statement): a feed move
+        before any F, a zero-radius arc or one whose end is off its circle,
+        a bad word value, a position out of range, a bound of ``limits``
+        exceeded …
+    TypeError, ValueError
+        Bad ``tool_radii``, ``limits`` or ``rapid_speed``.
     """
-    tools = {0: 0.0, 1: 0.010} if tool_radii is None else dict(tool_radii)
+    if not isinstance(limits, Limits):
+        raise TypeError(f"limits must be a gcode.Limits, not {type(limits).__name__}")
+    tools = {0: 0.0, 1: 0.010} if tool_radii is None else _tool_table(tool_radii)
+    if isinstance(rapid_speed, bool) or not isinstance(rapid_speed, (int, float)) \
+            or not (math.isfinite(rapid_speed) and rapid_speed > 0):
+        raise ValueError(f"rapid_speed must be a finite number > 0 (mm/s), not {rapid_speed!r}")
     st = _State()
     vars_: dict[str, float] = {}
     declared: set[str] = set()
     raw: list[dict] = []          # programmed moves, compensation applied afterwards
     warnings: list[str] = list(program.warnings)
-    count = [0]
+    max_statements, max_ops = limits.max_statements, limits.max_operations
+    executed = 0                  # statements
+    ops = 0                       # operations (see Limits.max_operations)
+    weights: dict[int, int] = {}  # id(statement) -> its operations (the tree outlives the run)
 
     def err(msg, span: ast.Span):
         return GCodeError(msg, span.line, span.col, span.text)
@@ -198,21 +274,47 @@ def interpret(program: ast.Program, *, tool_radii: dict[int, float] | None = Non
     def ev(expr, span):
         return evaluate(expr, vars_, span=span)
 
+    def weight(s) -> int:
+        w = weights.get(id(s))
+        if w is None:
+            w = weights[id(s)] = _weight(s)
+        return w
+
     def run(body):
+        nonlocal executed, ops
         for s in body:
-            count[0] += 1
-            if count[0] > limits.max_statements:
-                raise err(f"more than {limits.max_statements} statements executed "
-                          "(runaway loop?)", s.span)
+            executed += 1
+            if executed > max_statements:
+                raise err(f"more than {max_statements} statements executed "
+                          f"(max_statements = {max_statements}; runaway loop?)", s.span)
+            w = weights.get(id(s))
+            if w is None:
+                w = weights[id(s)] = _weight(s)
+            ops += w
+            if ops > max_ops:
+                raise err(f"more than {max_ops} operations executed "
+                          f"(max_operations = {max_ops}; runaway loop?)", s.span)
             if isinstance(s, ast.Repeat):
                 n = ev(s.count, s.span)
                 k = round(n)
                 if abs(n - k) > 1e-9 * max(1.0, abs(n)) or k < 0:
                     raise err(f"REPEAT count {n:.12g} is not a whole number ≥ 0", s.span)
                 if k > limits.max_repeat:
-                    raise err(f"REPEAT count {k} exceeds the limit {limits.max_repeat}",
+                    raise err(f"REPEAT count {k} exceeds max_repeat = {limits.max_repeat}",
                               s.span)
-                for _ in range(int(k)):
+                if not s.body or k == 0:
+                    continue          # nothing to run: no empty loop of a billion passes
+                # each pass executes every statement of the body at least once
+                if k * len(s.body) > max_statements - executed:
+                    raise err(f"REPEAT {k} × {len(s.body)} statements would execute more than "
+                              f"{max_statements} statements (max_statements = "
+                              f"{max_statements}; runaway loop?)", s.span)
+                per_pass = sum(weight(b) for b in s.body)
+                if k * per_pass > max_ops - ops:
+                    raise err(f"REPEAT {k} × {per_pass} operations would execute more than "
+                              f"{max_ops} operations (max_operations = {max_ops}; "
+                              "runaway loop?)", s.span)
+                for _ in range(k):
                     run(s.body)
             elif isinstance(s, ast.Assign):
                 vars_[s.name] = ev(s.expr, s.span)
@@ -227,7 +329,8 @@ def interpret(program: ast.Program, *, tool_radii: dict[int, float] | None = Non
             elif isinstance(s, ast.Block):
                 _block(st, s, ev, err, raw, tools)
                 if len(raw) > limits.max_segments:
-                    raise err(f"more than {limits.max_segments} moves", s.span)
+                    raise err(f"more than {limits.max_segments} moves "
+                              f"(max_segments = {limits.max_segments})", s.span)
             else:  # pragma: no cover - parser guarantees the node types
                 raise GCodeError(f"unknown statement {type(s).__name__}")
 
@@ -235,6 +338,64 @@ def interpret(program: ast.Program, *, tool_radii: dict[int, float] | None = Non
     segments = _compensate(raw, warnings)
     return Toolpath(segments, st.period_us, st.on_us,
                     "seconds" if st.time_per_unit == 1.0 else "minutes", warnings, rapid_speed)
+
+
+def _tool_table(tool_radii) -> dict[int, float]:
+    """Validated copy of a tool table {tool number: radius mm}."""
+    try:
+        items = list(dict(tool_radii).items())
+    except (TypeError, ValueError):
+        raise TypeError(f"tool_radii must map tool numbers to radii, not {tool_radii!r}") from None
+    tools: dict[int, float] = {}
+    for k, r in items:
+        try:
+            t = operator.index(k)
+        except TypeError:
+            t = None
+        if t is None or isinstance(k, bool) or t < 0:
+            raise ValueError(f"tool_radii: tool number {k!r} must be a whole number ≥ 0")
+        try:
+            radius = float(r)
+        except (TypeError, ValueError):
+            radius = math.nan
+        if isinstance(r, bool) or not (math.isfinite(radius) and radius >= 0):
+            raise ValueError(f"tool_radii: the radius of T{t}, {r!r}, must be a finite number "
+                             "≥ 0 (mm)")
+        tools[t] = radius
+    return tools
+
+
+def _size(expr) -> int:
+    """Number of nodes of an expression tree."""
+    n = 0
+    stack = [expr]
+    while stack:
+        node = stack.pop()
+        n += 1
+        if isinstance(node, ast.Neg):
+            stack.append(node.operand)
+        elif isinstance(node, ast.BinOp):
+            stack.append(node.left)
+            stack.append(node.right)
+    return n
+
+
+def _weight(s) -> int:
+    """Operations one execution of statement ``s`` costs (see Limits)."""
+    if isinstance(s, ast.Repeat):
+        return _size(s.count)
+    if isinstance(s, ast.Assign):
+        return _size(s.expr)
+    if isinstance(s, ast.Block):
+        return len(s.words) + len(s.keywords) + sum(
+            _size(w.value) for w in s.words if w.value is not None)
+    if isinstance(s, ast.Pso):
+        return sum(1 if isinstance(a, str) else _size(a) for a in s.args)
+    if isinstance(s, ast.DVar):
+        return len(s.names)
+    if isinstance(s, ast.Mode):
+        return len(s.args)
+    return 1  # pragma: no cover - parser guarantees the node types
 
 
 def _mode(st: _State, s: ast.Mode, err) -> None:
@@ -278,6 +439,14 @@ def _pso(st: _State, s: ast.Pso, ev, err) -> None:
                 raise err(f"PSOPULSE TIME {period:g} {on:g}: need period > 0 and "
                           "0 < on ≤ period (µs)", s.span)
             st.period_us, st.on_us = period, on
+        if "CYCLES" in args:
+            i = args.index("CYCLES")
+            if i + 1 >= len(args) or isinstance(args[i + 1], str):
+                raise err("PSOPULSE CYCLES needs a pulse count", s.span)
+            n = ev(args[i + 1], s.span)
+            if n != int(n) or n < 1:
+                raise err(f"PSOPULSE CYCLES {n:g}: the pulse count must be a whole number ≥ 1",
+                          s.span)
     # other PSO commands configure the output and do not change the path
 
 
@@ -320,14 +489,17 @@ def _block(st: _State, b: ast.Block, ev, err, raw, tools) -> None:
             center[w.letter] = val * st.scale
         elif w.letter == "F":
             if not val > 0:
-                raise err(f"F{val:g}: feed must be positive", w.span)
+                raise err(f"F{val:g}: the feed rate F must be > 0 (length per time unit)", w.span)
             st.feed = val * st.scale
         elif w.letter == "E":
             if not val > 0:
-                raise err(f"E{val:g}: rotary feed must be positive", w.span)
+                raise err(f"E{val:g}: the rotary feed rate E must be > 0 (degrees per time "
+                          "unit)", w.span)
             st.rotary_feed = val
         elif w.letter == "T":
-            t = int(round(val))
+            if val != int(val) or val < 0:
+                raise err(f"T{val:g}: the tool number T must be a whole number ≥ 0", w.span)
+            t = int(val)
             if t not in tools:
                 raise err(f"T{t}: no such tool in the tool table (have "
                           f"{', '.join(f'T{k}' for k in sorted(tools))})", w.span)
@@ -338,6 +510,7 @@ def _block(st: _State, b: ast.Block, ev, err, raw, tools) -> None:
             raise err(f"word {w.letter} is not supported", w.span)
     if g92:  # preset: the current position takes the given values
         for a, v in target.items():
+            _check_position(a, v, b.span, err)
             st.offset[a] = st.pos[a] + st.offset[a] - v
             st.pos[a] = v
         return
@@ -349,10 +522,15 @@ def _block(st: _State, b: ast.Block, ev, err, raw, tools) -> None:
     new = dict(st.pos)
     for a, v in target.items():
         new[a] = v if st.absolute else st.pos[a] + v
+        _check_position(a, new[a], b.span, err)
     motion = st.motion
-    if motion in ("line", "cw", "ccw") and st.feed is None and any(
-            new[a] != st.pos[a] for a in ("X", "Y", "Z")):
-        raise err("a feed move before any F word", b.span)
+    if motion != "rapid" and st.feed is None:
+        how = {"line": "G01/LINEAR", "cw": "G02/CW", "ccw": "G03/CCW"}[motion]
+        raise err(f"a {how} move needs a feed rate, but no feed rate (F) has been programmed "
+                  "yet: give F (> 0) in this block or before it", b.span)
+    if st.tool not in tools:
+        raise err(f"T{st.tool}, the current tool, is not in the tool table (have "
+                  f"{', '.join(f'T{k}' for k in sorted(tools)) or 'none'})", b.span)
     move = {"kind": "rapid" if motion == "rapid" else ("arc" if motion in ("cw", "ccw")
                                                         else "line"),
             "start": (st.pos["X"], st.pos["Y"]), "end": (new["X"], new["Y"]),
@@ -365,20 +543,42 @@ def _block(st: _State, b: ast.Block, ev, err, raw, tools) -> None:
     if move["kind"] == "arc":
         if "I" not in center and "J" not in center:
             raise err("arc without I or J (centre offset)", b.span)
-        cx = st.pos["X"] + center.get("I", 0.0)
-        cy = st.pos["Y"] + center.get("J", 0.0)
+        i, j = center.get("I", 0.0), center.get("J", 0.0)
+        cx, cy = st.pos["X"] + i, st.pos["Y"] + j
+        _check_position("arc centre X", cx, b.span, err)
+        _check_position("arc centre Y", cy, b.span, err)
         r0 = math.dist((cx, cy), move["start"])
         r1 = math.dist((cx, cy), move["end"])
-        if abs(r0 - r1) > 1e-6 * max(1.0, r0):
+        tol = ARC_TOLERANCE * max(1.0, r0)
+        ccw = motion == "ccw"
+        side = st.comp if comp_change is None or comp_change == st.comp else 0
+        tool_r = tools[st.tool]
+        collapses = (side != 0 and side * (1 if ccw else -1) > 0 and tool_r > 0
+                     and r0 - tool_r <= 1e-12)
+        if r0 <= tol and not collapses:
+            raise err(f"arc radius {r0:.6g} mm: I{i:g} J{j:g} put the centre on the start "
+                      f"point; the radius must exceed {tol:.3g} mm (ARC_TOLERANCE)", b.span)
+        if abs(r0 - r1) > tol:
             raise err(f"arc end is {abs(r0 - r1) * 1e3:.4g} µm off its circle "
-                      f"(radius {r0:.6g} vs {r1:.6g} mm)", b.span)
+                      f"(radius {r0:.6g} mm at the start, {r1:.6g} mm at the end; the "
+                      f"tolerance is {tol * 1e3:.3g} µm, ARC_TOLERANCE)", b.span)
         move["center"] = (cx, cy)
-        move["ccw"] = motion == "ccw"
+        move["ccw"] = ccw
     if comp_change is not None:
         st.comp = comp_change
     move["comp_after"] = st.comp
     raw.append(move)
     st.pos = new
+
+
+def _check_position(axis: str, value: float, span: ast.Span, err) -> None:
+    if axis == "C":
+        if not abs(value) <= MAX_ANGLE_DEG:
+            raise err(f"C position {value:.6g}° is beyond ±{MAX_ANGLE_DEG:g}° (MAX_ANGLE_DEG)",
+                      span)
+    elif not abs(value) <= MAX_POSITION_MM:
+        raise err(f"{axis} position {value:.6g} mm is beyond ±{MAX_POSITION_MM:g} mm "
+                  "(MAX_POSITION_MM)", span)
 
 
 # -- cutter compensation --------------------------------------------------------------------------

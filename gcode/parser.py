@@ -35,6 +35,17 @@ of the offending text and that text; nothing else escapes :func:`parse`, for
 any string. Parentheses and REPEAT nest at most :data:`MAX_NESTING` deep and
 expression trees are at most :data:`MAX_EXPR_DEPTH` deep, so downstream
 recursion is bounded.
+
+Cost bounds. A line is at most :data:`~gcode.lexer.MAX_LINE_LENGTH`
+characters and :data:`~gcode.lexer.MAX_LINE_TOKENS` tokens (refused while
+lexing, before the work is done); a program at most ``max_lines`` lines,
+``max_tokens`` tokens and ``max_statements`` statements (arguments of
+:func:`parse`, defaults :data:`DEFAULT_MAX_LINES`, :data:`DEFAULT_MAX_TOKENS`,
+:data:`DEFAULT_MAX_STATEMENTS`). The defaults are set from measurements so
+that reaching any one of them costs at most about 4 s of CPU on the
+reference 2-core machine (parsing costs about 5–13 µs a token, 2–3 µs a blank
+line) and at most about 200 MB; Appendix C is 50 lines, 47 statements and 244
+tokens.
 """
 
 from __future__ import annotations
@@ -42,12 +53,13 @@ from __future__ import annotations
 import re
 
 from . import ast
-from .errors import GCodeError
-from .lexer import Token, UnsupportedError, split_lines, tokenize_line
+from .errors import GCodeError, check_limit
+from .lexer import Token, UnsupportedError, iter_lines, tokenize_line
 
 __all__ = ["parse", "parse_expression", "is_statement", "G_CODES", "WORD_LETTERS",
            "AXIS_LETTERS", "MOTION_KEYWORDS", "MODE_KEYWORDS", "MAX_NESTING",
-           "MAX_EXPR_DEPTH"]
+           "MAX_EXPR_DEPTH", "DEFAULT_MAX_STATEMENTS", "DEFAULT_MAX_TOKENS",
+           "DEFAULT_MAX_LINES"]
 
 #: G codes accepted (``G00``–``G03`` may be written with a leading zero).
 G_CODES = frozenset({0, 1, 2, 3, 40, 41, 42, 44, 90, 91, 92, 98})
@@ -64,6 +76,16 @@ MODE_KEYWORDS = frozenset({"SECONDS", "MINUTES", "METRIC", "ENGLISH", "ABSOLUTE"
 MAX_NESTING = 64
 #: Deepest expression tree (long operator chains count too).
 MAX_EXPR_DEPTH = 200
+#: Default ``max_statements`` of :func:`parse` (REPEAT and END REPEAT lines
+#: count, skipped ones too): 200 000 one-token statements parse in about 2 s.
+DEFAULT_MAX_STATEMENTS = 200_000
+#: Default ``max_tokens`` of :func:`parse`, all lines together: at most about
+#: 4 s of CPU (125 000 ``G1`` lines, the costliest per token measured) and
+#: 120 MB of syntax tree.
+DEFAULT_MAX_TOKENS = 250_000
+#: Default ``max_lines`` of :func:`parse`, blank and comment lines included
+#: (about 2–3 µs each).
+DEFAULT_MAX_LINES = 1_000_000
 
 _STRUCTURAL = re.compile(r"[ \t\f\v]*(?:N[0-9]+[ \t\f\v]*)?(?:REPEAT|END[ \t\f\v]*REPEAT)\b",
                          re.IGNORECASE)
@@ -83,7 +105,10 @@ class _RepeatEnd:
         self.span = span
 
 
-def parse(text: str, *, lenient: bool = False, max_statements: int = 1_000_000) -> ast.Program:
+def parse(text: str, *, lenient: bool = False,
+          max_statements: int = DEFAULT_MAX_STATEMENTS,
+          max_tokens: int = DEFAULT_MAX_TOKENS,
+          max_lines: int = DEFAULT_MAX_LINES) -> ast.Program:
     """Parse a program.
 
     Parameters
@@ -94,11 +119,18 @@ def parse(text: str, *, lenient: bool = False, max_statements: int = 1_000_000) 
         Skip statements outside the subset (unknown keywords, G codes and word
         letters, M words, foreign characters) and record a warning (with line
         and column) in :attr:`~gcode.ast.Program.warnings` instead of raising.
-        Syntax errors in supported statements and REPEAT structure errors
-        still raise.
+        Syntax errors in supported statements, REPEAT structure errors and
+        the cost bounds still raise.
     max_statements : int
         Upper bound on the number of statements (nested ones included,
-        skipped ones too).
+        skipped ones and REPEAT/END REPEAT lines too); default
+        :data:`DEFAULT_MAX_STATEMENTS`.
+    max_tokens : int
+        Upper bound on the number of tokens of the whole program; default
+        :data:`DEFAULT_MAX_TOKENS`.
+    max_lines : int
+        Upper bound on the number of lines, blank and comment lines included;
+        default :data:`DEFAULT_MAX_LINES`.
 
     Returns
     -------
@@ -108,27 +140,39 @@ def parse(text: str, *, lenient: bool = False, max_statements: int = 1_000_000) 
     ------
     GCodeError
         Unsupported or malformed text, unbalanced REPEAT/END REPEAT, nesting
-        deeper than :data:`MAX_NESTING`, more than ``max_statements``
-        statements.
+        deeper than :data:`MAX_NESTING`, a line longer than
+        :data:`~gcode.lexer.MAX_LINE_LENGTH` or with more than
+        :data:`~gcode.lexer.MAX_LINE_TOKENS` tokens, more than
+        ``max_statements`` statements, ``max_tokens`` tokens or ``max_lines``
+        lines (each located at the first line, column and text beyond).
+    TypeError, ValueError
+        ``text`` is not a str; a bound is not a whole number ≥ 0.
     """
     if not isinstance(text, str):
         raise TypeError(f"parse() needs a str, not {type(text).__name__}")
-    if isinstance(max_statements, bool) or not isinstance(max_statements, int) \
-            or max_statements < 0:
-        raise ValueError(f"max_statements must be a non-negative int, not {max_statements!r}")
+    check_limit("max_statements", max_statements)
+    check_limit("max_tokens", max_tokens)
+    check_limit("max_lines", max_lines)
     stack: list[tuple[_RepeatStart | None, list]] = [(None, [])]
     warnings: list[str] = []
     count = 0
-    for lineno, line in enumerate(split_lines(text), 1):
+    tokens = 0
+    for lineno, line in enumerate(iter_lines(text), 1):
+        if lineno > max_lines:
+            raise GCodeError(f"more than {max_lines} lines (max_lines = {max_lines})", lineno, 1,
+                             line[:20])
+        lexed: list[Token] = []   # filled even when lexing fails: skipped text costs too
         try:
-            item = _Line(line, lineno).statement()
+            item = _Line(line, lineno, lexed).statement()
         except UnsupportedError as err:
+            tokens = _count_tokens(tokens, lexed, max_tokens, lineno)
             if not lenient or _STRUCTURAL.match(line):
                 raise
             count += 1
             _check_count(count, max_statements, err.line, err.column, err.text)
             warnings.append(f"{err} (statement skipped)")
             continue
+        tokens = _count_tokens(tokens, lexed, max_tokens, lineno)
         if item is None:
             continue
         span = item.span
@@ -172,12 +216,14 @@ def parse_expression(text: str) -> ast.Expr:
     """
     if not isinstance(text, str):
         raise TypeError(f"parse_expression() needs a str, not {type(text).__name__}")
-    lines = split_lines(text)
-    if len(lines) > 1:
-        raise GCodeError("an expression must be on one line", 2, 1, lines[1][:40])
-    p = _Line(lines[0], 1)
+    lines = iter_lines(text)
+    first = next(lines)
+    second = next(lines, None)
+    if second is not None:
+        raise GCodeError("an expression must be on one line", 2, 1, second[:40])
+    p = _Line(first, 1)
     if not p.tokens:
-        raise GCodeError("empty expression", 1, 1, lines[0])
+        raise GCodeError("empty expression", 1, 1, first)
     expr, _ = p.expr(0)
     p.expect_end()
     return expr
@@ -199,7 +245,7 @@ def is_statement(line: str) -> bool:
     -------
     bool
     """
-    if not isinstance(line, str) or len(split_lines(line)) != 1:
+    if not isinstance(line, str) or "\n" in line or "\r" in line:
         return False
     try:
         return _Line(line, 1).statement() is not None
@@ -207,17 +253,28 @@ def is_statement(line: str) -> bool:
         return False
 
 
+def _count_tokens(total: int, lexed: list[Token], limit: int, line: int) -> int:
+    """``total`` plus the tokens of one line; GCodeError at the first beyond ``limit``."""
+    total += len(lexed)
+    if total > limit:
+        tok = lexed[len(lexed) - (total - limit)]
+        raise GCodeError(f"more than {limit} tokens (max_tokens = {limit})", line, tok.col,
+                         tok.text)
+    return total
+
+
 def _check_count(count: int, limit: int, line: int, col: int, text: str) -> None:
     if count > limit:
-        raise GCodeError(f"more than {limit} statements", line, col, text)
+        raise GCodeError(f"more than {limit} statements (max_statements = {limit})", line, col,
+                         text)
 
 
 class _Line:
     """Recursive-descent parser of the tokens of one line."""
 
-    def __init__(self, line: str, lineno: int):
+    def __init__(self, line: str, lineno: int, tokens: list[Token] | None = None):
         self.line, self.lineno = line, lineno
-        self.tokens: list[Token] = tokenize_line(line, lineno)
+        self.tokens: list[Token] = tokenize_line(line, lineno, out=tokens)
         self.pos = 0
 
     # -- token helpers ----------------------------------------------------------

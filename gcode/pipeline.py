@@ -18,7 +18,7 @@ from .errors import GCodeError
 from .interpreter import Limits, Toolpath, interpret
 from .parser import parse
 
-__all__ = ["LaserCheck", "laser_check", "read_program", "write_laser_outputs"]
+__all__ = ["LaserCheck", "laser_check", "make_limits", "read_program", "write_laser_outputs"]
 
 
 def read_program(path: str | Path) -> str:
@@ -66,9 +66,20 @@ class LaserCheck:
         return out
 
 
+def make_limits(**bounds) -> Limits:
+    """:class:`Limits` from keyword bounds (None keeps the default); a bound
+    that is not a whole number ≥ 0 is a GCodeError naming it."""
+    kw = {k: v for k, v in bounds.items() if v is not None}
+    try:
+        return Limits(**kw)
+    except (TypeError, ValueError) as e:
+        raise GCodeError(f"interpreter limit: {e}") from None
+
+
 def laser_check(program: str | ast.Program, *, beam_diameter: float = 0.020, spec=None,
                 origin: tuple[float, float] = (0.0, 0.0), tolerance: float | None = None,
-                lenient: bool = False, limits: Limits | None = None) -> LaserCheck:
+                lenient: bool = False, limits: Limits | None = None,
+                max_tokens: int | None = None) -> LaserCheck:
     """Parse and interpret a laser program, and — with ``spec``, the punch it
     cuts — simulate it by ablation and compare it with the spec's serrations.
 
@@ -81,13 +92,25 @@ def laser_check(program: str | ast.Program, *, beam_diameter: float = 0.020, spe
         on the rim (mm)
     tolerance : float, optional — chordal tolerance of the simulated tip (mm)
     lenient : bool — skip unsupported statements with a warning
-    limits : Limits, optional — interpreter bounds (statements, loops, moves)
+    limits : Limits, optional — interpreter bounds (statements executed, REPEAT
+        count, moves, operations; :func:`make_limits`)
+    max_tokens : int, optional — the parser's token bound (default
+        :data:`gcode.parser.DEFAULT_MAX_TOKENS`)
 
     Raises
     ------
     GCodeError — a program error, quoting its line and column.
     """
-    prog = parse(program, lenient=lenient) if isinstance(program, str) else program
+    if isinstance(program, str):
+        pkw = {} if max_tokens is None else {"max_tokens": max_tokens}
+        try:
+            prog = parse(program, lenient=lenient, **pkw)
+        except (TypeError, ValueError) as e:
+            if isinstance(e, GCodeError):
+                raise
+            raise GCodeError(f"parser limit: {e}") from None
+    else:
+        prog = program
     kw = {} if limits is None else {"limits": limits}
     tp = interpret(prog, tool_radii={0: 0.0, 1: beam_diameter / 2}, **kw)
     res = LaserCheck(prog, tp)

@@ -35,7 +35,7 @@ from scipy.integrate import simpson
 
 from . import _validate as v
 from ._threads import small_linalg
-from .edges import Edge, EdgePiece, _combined, _rot, exact_edges, mesh_edges
+from .edges import Edge, EdgePiece, exact_edges, lowest_cut, mesh_edges, rotate_z
 from .errors import SpecError
 from .fourier import FourierFit, fit_fourier
 from .jsonio import dumps
@@ -286,7 +286,7 @@ def _exact_wall(edge: Edge, spec, *, fourier: bool, n: int) -> WallAngles:
 
     def evaluate(g):
         g = np.atleast_1d(g)
-        z, face, owner = _combined(cutters, g + gh, r, cannula)
+        z, face, owner = lowest_cut(cutters, g + gh, r, cannula)
         k_piece = _find_piece(edge.pieces, g)
         # at a kink, take the face of the piece that starts there
         for k, p in enumerate(edge.pieces):
@@ -294,7 +294,7 @@ def _exact_wall(edge: Edge, spec, *, fourier: bool, n: int) -> WallAngles:
             if np.any(s) and np.any(face[s] != p.face):
                 gg = _unwrap_to(p, g[s])
                 nudge = np.clip(gg, p.gamma[0] + 1e-10, p.gamma[-1] - 1e-10)
-                z2, f2, o2 = _combined(cutters, nudge + gh, r, cannula)
+                z2, f2, o2 = lowest_cut(cutters, nudge + gh, r, cannula)
                 z[s], face[s], owner[s] = z2, f2, o2
         zz = z - zh
         pts = np.stack([r * np.cos(g + gh), r * np.sin(g + gh), z], 1)
@@ -302,7 +302,7 @@ def _exact_wall(edge: Edge, spec, *, fourier: bool, n: int) -> WallAngles:
         for k in np.unique(owner):
             s = owner == k
             nrm[s] = cutters[k].normals(pts[s], cannula, tuple(cutters[:k]))
-        nrm = _rot(nrm, -gh)
+        nrm = rotate_z(nrm, -gh)
         e_g = np.stack([-np.sin(g), np.cos(g), np.zeros_like(g)], 1)
         if fourier:
             dz = np.empty(len(g))

@@ -245,13 +245,15 @@ def cmd_laser(args) -> int:
 
 
 def cmd_gcode(args) -> int:
-    from gcode.pipeline import laser_check, read_program, write_laser_outputs
+    from gcode.pipeline import laser_check, make_limits, read_program, write_laser_outputs
 
     beam = (args.beam_diameter_um or 20.0) * 1e-3
     spec = _spec(args.spec) if args.action == "sim" else None
+    limits = make_limits(max_statements=args.max_statements, max_repeat=args.max_repeat,
+                         max_segments=args.max_moves, max_operations=args.max_operations)
     res = laser_check(read_program(args.program), beam_diameter=beam, spec=spec,
                       origin=tuple(args.origin), tolerance=_tolerance(args),
-                      lenient=args.lenient)
+                      lenient=args.lenient, limits=limits, max_tokens=args.max_tokens)
     write_laser_outputs(res, spec, mesh=args.mesh if args.action == "sim" else None,
                         plot=args.plot)
     out = res.summary(source=args.program)
@@ -442,6 +444,13 @@ def _parser() -> argparse.ArgumentParser:
     gc.add_argument("--plot", metavar="FILE", help="toolpath picture (and FILE-rim.png)")
     gc.add_argument("--mesh", metavar="FILE", help="write the ablated tip (sim)")
     gc.add_argument("--json", action="store_true")
+    for opt, hlp in (("--max-statements", "statements executed (1000000)"),
+                     ("--max-repeat", "largest REPEAT count (1000000)"),
+                     ("--max-moves", "programmed moves (100000)"),
+                     ("--max-operations", "expression and word operations (4000000)"),
+                     ("--max-tokens", "tokens in the program file (250000)")):
+        gc.add_argument(opt, type=int, default=None, metavar="N",
+                        help=f"bound: {hlp}; each default costs at most ~5 s to reach")
     gc.set_defaults(func=cmd_gcode)
     declare_files(gc, inputs=("program", "spec"), outputs=("mesh",), pictures=("plot",),
                   exts={"mesh": _export_exts()}, derived=_gcode_derived)

@@ -33,7 +33,7 @@ from .cannula import Cannula
 from .errors import SpecError, TipGeoError
 
 __all__ = ["EdgePiece", "Edge", "Kink", "Jump", "exact_edges", "mesh_edges",
-           "label_by_geometry", "heel_of"]
+           "label_by_geometry", "heel_of", "lowest_cut", "rotate_z"]
 
 #: Samples around a full turn for the exact path (pieces get their share).
 DEFAULT_SAMPLES = 3600
@@ -127,8 +127,9 @@ class Edge:
 
 # -----------------------------------------------------------------------------
 # exact path
-def _combined(cutters, gamma, radius, cannula):
-    """Lowest cut surface over each γ: (z, face key, cutter index)."""
+def lowest_cut(cutters, gamma, radius, cannula):
+    """The lowest cut surface over each γ on the cylinder of ``radius`` (mm;
+    γ in rad, cannula frame): (z (mm), face key, index of the cutter)."""
     g = np.atleast_1d(np.asarray(gamma, float))
     zbest = np.full(g.shape, np.inf)
     face = np.full(g.shape, "", dtype=object)
@@ -152,7 +153,7 @@ def heel_of(cutters, cannula: Cannula) -> tuple[float, float]:
     """Cannula-frame (γ, z) of the outer edge's lowest point (rad, mm)."""
     r = cannula.r_o
     g = np.linspace(0.0, 2 * np.pi, 7200, endpoint=False)
-    z, _, _ = _combined(cutters, g, r, cannula)
+    z, _, _ = lowest_cut(cutters, g, r, cannula)
     if z.max() - z.min() < 1e-9:
         return 0.0, float(z.min())
     low = np.flatnonzero(z <= z.min() + 1e-12)  # equal heels: the one nearest γ = 0
@@ -161,13 +162,13 @@ def heel_of(cutters, cannula: Cannula) -> tuple[float, float]:
     for _ in range(90):
         a = hi - 0.6180339887498949 * (hi - lo)
         b = lo + 0.6180339887498949 * (hi - lo)
-        za, zb = _combined(cutters, np.array([a, b]), r, cannula)[0]
+        za, zb = lowest_cut(cutters, np.array([a, b]), r, cannula)[0]
         if za < zb:
             hi = b
         else:
             lo = a
     gh = _flat_point(cutters, cannula, r, 0.5 * (lo + hi), hi - lo)
-    zh = float(_combined(cutters, np.array([gh]), r, cannula)[0][0])
+    zh = float(lowest_cut(cutters, np.array([gh]), r, cannula)[0][0])
     if zh > z[k]:  # a kink minimum: the sample is the better estimate
         gh, zh = float(g[k]), float(z[k])
     return float(np.mod(gh, 2 * np.pi)), zh
@@ -175,7 +176,7 @@ def heel_of(cutters, cannula: Cannula) -> tuple[float, float]:
 
 def _dz(cutters, cannula, r, g: np.ndarray) -> np.ndarray:
     """Exact z′(γ) = −r n_γ / n_z on the cylinder of radius r."""
-    z, _, owner = _combined(cutters, g, r, cannula)
+    z, _, owner = lowest_cut(cutters, g, r, cannula)
     pts = np.stack([r * np.cos(g), r * np.sin(g), z], 1)
     out = np.empty(len(g))
     for k in np.unique(owner):
@@ -207,7 +208,7 @@ def _breaks(cutters, radius, cannula, g0: float, n: int):
     """Face changes around the wall: sorted cannula-frame γ (rad), refined
     by bisection to 1e-13 rad."""
     g = g0 + np.linspace(0.0, 2 * np.pi, n, endpoint=False)
-    _, face, _ = _combined(cutters, g, radius, cannula)
+    _, face, _ = lowest_cut(cutters, g, radius, cannula)
     nxt = np.roll(face, -1)
     idx = np.flatnonzero(face != nxt)
     if len(idx) == 0:
@@ -217,7 +218,7 @@ def _breaks(cutters, radius, cannula, g0: float, n: int):
     f_lo = face[idx]
     for _ in range(46):
         mid = 0.5 * (lo + hi)
-        _, fm, _ = _combined(cutters, mid, radius, cannula)
+        _, fm, _ = lowest_cut(cutters, mid, radius, cannula)
         same = fm == f_lo
         lo = np.where(same, mid, lo)
         hi = np.where(same, hi, mid)
@@ -255,7 +256,7 @@ def _exact_wall(cutters, cannula, wall, r, gh, zh, samples) -> Edge:
             continue
         m = max(24, int(math.ceil(samples * (b - a) / (2 * np.pi))))
         g = np.linspace(a + eps, b - eps, m + 1)
-        z, face, owner = _combined(cutters, g, r, cannula)
+        z, face, owner = lowest_cut(cutters, g, r, cannula)
         k = int(owner[m // 2])
         key = face[m // 2]
         if np.any(face != key):  # a face change the sampling missed: split again
@@ -269,7 +270,7 @@ def _exact_wall(cutters, cannula, wall, r, gh, zh, samples) -> Edge:
         t = nz[:, None] * e_g - ng[:, None] * np.array([0.0, 0.0, 1.0])
         t *= np.sign(nz)[:, None]
         t /= np.linalg.norm(t, axis=1, keepdims=True)
-        pieces.append(EdgePiece(str(key), g - gh, z - zh, _rot(t, -gh), _rot(n, -gh)))
+        pieces.append(EdgePiece(str(key), g - gh, z - zh, rotate_z(t, -gh), rotate_z(n, -gh)))
     # kinks and jumps between consecutive pieces (cyclic)
     for p, q in zip(pieces, pieces[1:] + pieces[:1]):
         gq = q.gamma[0] if q is not pieces[0] else q.gamma[0] + 2 * np.pi
@@ -289,7 +290,8 @@ def _exact_wall(cutters, cannula, wall, r, gh, zh, samples) -> Edge:
     return Edge(wall, r, pieces, kinks, jumps, "exact", (gh, zh))
 
 
-def _rot(v: np.ndarray, a: float) -> np.ndarray:
+def rotate_z(v: np.ndarray, a: float) -> np.ndarray:
+    """Vectors (n, 3) rotated by ``a`` (rad) about +z (cannula frame)."""
     c, s = math.cos(a), math.sin(a)
     out = v.copy()
     out[:, 0] = c * v[:, 0] - s * v[:, 1]
@@ -370,7 +372,7 @@ def mesh_edges(tip, *, radii: tuple[float, float] | None = None) -> tuple[Edge, 
         p = v[vid]
         g = np.mod(np.arctan2(p[:, 1], p[:, 0]) - gh, 2 * np.pi)
         seg_face = tip.labels[tris]
-        seg_n = _rot(fn[tris], -gh)
+        seg_n = rotate_z(fn[tris], -gh)
         # orient the loop by increasing γ
         dg = np.angle(np.exp(1j * (np.roll(g, -1) - g)))
         if np.sum(dg) < 0:

@@ -72,7 +72,7 @@ def test_study_demo_hook(benchmark, tmp_path_factory):
     budget on two shared cores was 20 s (the test suite asserts no time)."""
     from pathlib import Path
 
-    from tipgeo.optimize import demo_outputs
+    from tipgeo.demo.optimize import demo_outputs
 
     tol.strict = False
     files = benchmark.pedantic(lambda: demo_outputs(tmp_path_factory.mktemp("study")),

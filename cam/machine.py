@@ -132,8 +132,8 @@ class Machine:
     def from_toml(cls, path) -> Machine:
         """A machine from a TOML file: top-level keys override the defaults;
         ``[t1]`` … ``[r5]`` tables give ``lo``, ``hi``, ``resolution``."""
-        from tipgeo._toml import loads_toml, read_text_file
         from tipgeo.errors import SpecError
+        from tipgeo.tomlio import loads_toml, read_text_file
 
         try:
             data = loads_toml(read_text_file(path, "machine file"), f"machine file '{path}'")

@@ -86,7 +86,7 @@ def write_grind_outputs(res: GrindResult, *, program: str | Path | None = None,
     """Write the files of a :func:`grind` result, each atomically: the axis
     program (``.json`` or ``.csv`` by extension), ISO G-code, the Markdown
     set-up sheet, the simulated tip mesh (any :mod:`tipgeo.io` format)."""
-    from tipgeo._atomic import write_text_atomic
+    from tipgeo.atomic import write_text_atomic
     from tipgeo.io import export_tip
 
     wrote = []

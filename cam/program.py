@@ -16,11 +16,11 @@ from __future__ import annotations
 
 import csv
 import io
-import json
 import math
 from dataclasses import dataclass
 
 from tipgeo.cutters import ConeSurface, Plane
+from tipgeo.jsonio import dumps
 
 from .machine import CamError, Machine
 
@@ -104,10 +104,10 @@ class GrindProgram:
                 "H_mm": H, "OC_mm": oc, "spin_rpm": self.needle_rpm if f.spin else 0.0}
 
     def to_json(self) -> str:
-        return json.dumps({"machine": self.machine.name, "units": {
+        return dumps({"machine": self.machine.name, "units": {
             "t1": "mm", "t2": "mm", "r3": "deg", "r4": "deg", "r5": "deg", "feed": "mm/s",
             "t": "s", "spindle_rpm": "rpm", "needle_rpm": "rpm"},
-            "summary": self.summary(), "rows": self.rows}, indent=2)
+            "summary": self.summary(), "rows": self.rows})
 
     def to_csv(self) -> str:
         buf = io.StringIO()

@@ -28,7 +28,6 @@ from dataclasses import dataclass
 import manifold3d as m3d
 import numpy as np
 
-from tipgeo.cutters import SerrationCutter
 from tipgeo.errors import TipGeoError
 from tipgeo.tip import Tip
 
@@ -135,7 +134,7 @@ def ablate(toolpath: Toolpath, spec, *, beam_diameter: float = 0.020,
     from tipgeo.build import build_tip
     from tipgeo.construct import BuildContext
 
-    base_cutters = [c for c in spec.cutters if not isinstance(c, SerrationCutter)]
+    base_cutters = [c for c in spec.cutters if c.process != "laser"]
     if not base_cutters:
         raise GCodeError("the spec has no punch cutter to ablate (only serrations)")
     plain = spec.with_(cutters=base_cutters)
@@ -243,7 +242,7 @@ def compare_with_cutter(result: AblationResult, spec, *, beam_diameter: float = 
 
     from tipgeo.build import build_tip
 
-    ser = [c for c in spec.cutters if isinstance(c, SerrationCutter)]
+    ser = [c for c in spec.cutters if c.process == "laser"]
     if len(ser) != 1:
         raise GCodeError("the spec needs exactly one serration cutter to compare with")
     s = ser[0]

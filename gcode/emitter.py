@@ -23,8 +23,7 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
-from tipgeo import _validate as v
-from tipgeo.cutters import SerrationCutter
+from tipgeo import validate as v
 from tipgeo.errors import SpecError
 
 __all__ = ["LaserParams", "emit_program", "LENGTH_DECIMALS"]
@@ -118,7 +117,7 @@ def emit_program(spec, laser: LaserParams | None = None, *, name: str | None = N
     str — the program text (deterministic)
     """
     laser = laser or LaserParams()
-    ser = [c for c in spec.cutters if isinstance(c, SerrationCutter)]
+    ser = [c for c in spec.cutters if c.process == "laser"]
     if len(ser) != 1:
         raise SpecError(f"spec '{spec.name}' has {len(ser)} serration cutters; the laser "
                         "program needs exactly one")

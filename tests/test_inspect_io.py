@@ -34,25 +34,10 @@ def scan():
 
 
 def _cli(argv):
-    """``tipgeo`` main, with compare/scan-synth registered if cli.py does not
-    register them yet."""
-    from tipgeo import cli
-    from tipgeo.cli_inspect import register
+    """``tipgeo`` main, in this process."""
+    from tipgeo.cli import main
 
-    parser = cli._parser
-
-    def patched():
-        p = parser()
-        sub = next(a for a in p._actions if a.__class__.__name__ == "_SubParsersAction")
-        if "compare" not in sub.choices:
-            register(sub)
-        return p
-
-    cli._parser = patched
-    try:
-        return cli.main(argv)
-    finally:
-        cli._parser = parser
+    return main(argv)
 
 
 # -----------------------------------------------------------------------------
@@ -236,7 +221,7 @@ def test_sample_scan_measures_its_bevel():
 
 
 def test_demo_comparison(tmp_path):
-    from tipgeo.inspect.demo import run_inspect_demo
+    from tipgeo.demo.inspect import run_inspect_demo
 
     r = run_inspect_demo(tmp_path, points=30000, pictures=False)
     assert r["xi_measured_deg"] == pytest.approx(15.0, abs=0.05)

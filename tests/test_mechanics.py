@@ -11,7 +11,8 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from tipgeo import BevelCutter, Cannula, ConicalCutter, SpecError, TipSpec, preset
-from tipgeo.cli_mechanics import register
+from tipgeo.cli.mechanics import register
+from tipgeo.demo.mechanics import demo_outputs
 from tipgeo.mechanics import (
     FORCE_SURFACES,
     J_PER_M2,
@@ -20,7 +21,6 @@ from tipgeo.mechanics import (
     bevel_slice_push_ratio,
     bevel_tangent,
     cutting_forces,
-    demo_outputs,
     edge_forces,
     edge_geometry,
     force_surface,

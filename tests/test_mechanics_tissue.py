@@ -11,7 +11,7 @@ import pytest
 from scipy.integrate import quad
 
 from tipgeo import SpecError
-from tipgeo.cli_mechanics import register
+from tipgeo.cli.mechanics import register
 from tipgeo.mechanics import (
     KPA,
     TISSUES,

@@ -10,8 +10,9 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from tipgeo.demo.optimize import demo_outputs
 from tipgeo.errors import SpecError
-from tipgeo.optimize import demo_outputs, read_table, study_preset
+from tipgeo.optimize import read_table, study_preset
 from tipgeo.optimize.responses import THESIS, evaluate_spec
 
 OBJECTIVES = ["min-theta-max-lambda", "min-lc-max-lambda", "min-lc-min-theta"]
@@ -169,7 +170,7 @@ terms = [{ response = "l_c_mm", goal = "min" }, { response = "lambda_max_deg", g
 
 
 def _run(argv):
-    from tipgeo.cli_optimize import register
+    from tipgeo.cli.optimize import register
 
     p = argparse.ArgumentParser()
     sub = p.add_subparsers(dest="command", required=True)

@@ -12,7 +12,6 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 import tipgeo
-from tipgeo._toml import loads_toml
 from tipgeo.angles import analyze
 from tipgeo.errors import SpecError
 from tipgeo.optimize import (
@@ -31,6 +30,7 @@ from tipgeo.optimize import (
 )
 from tipgeo.optimize import responses as responses_mod
 from tipgeo.optimize.responses import RESPONSES, THESIS, responses_from_summary
+from tipgeo.tomlio import loads_toml
 
 SAMPLES = Path(__file__).resolve().parents[1] / "samples"
 

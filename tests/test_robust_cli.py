@@ -13,11 +13,11 @@ from pathlib import Path
 import pytest
 
 from tipgeo import SpecError, loads_spec, preset
-from tipgeo._atomic import TEMP_PATTERN, remove_stale_temporaries, write_text_atomic
-from tipgeo._toml import MAX_TOML_DEPTH
+from tipgeo.atomic import TEMP_PATTERN, remove_stale_temporaries, write_text_atomic
 from tipgeo.cli import main
 from tipgeo.spec import dumps_spec
 from tipgeo.tolerances import MAX_CUTTERS, MIN_FEATURE_MM
+from tipgeo.tomlio import MAX_TOML_DEPTH
 
 BEVEL = dumps_spec(preset("bevel-14G-xi15"))
 
@@ -173,7 +173,7 @@ def test_outputs_share_one_file_mode(tmp_path, capsys):
 _KILLED_WRITER = textwrap.dedent("""
     import sys, threading
     from pathlib import Path
-    from tipgeo._atomic import write_atomic
+    from tipgeo.atomic import write_atomic
 
     def slow(tmp):
         with open(tmp, "wb") as f:
@@ -217,13 +217,13 @@ def test_stale_cleanup_keeps_live_and_foreign_files(tmp_path):
 
 
 def _host():
-    from tipgeo import _atomic
+    from tipgeo import atomic
 
-    return _atomic._HOST
+    return atomic._HOST
 
 
 def test_a_failed_write_leaves_nothing_and_keeps_the_target(tmp_path):
-    from tipgeo._atomic import write_atomic
+    from tipgeo.atomic import write_atomic
 
     target = tmp_path / "t.txt"
     target.write_text("old")

@@ -42,7 +42,7 @@ from .cutters import (
     SDFCutter,
     SerrationCutter,
 )
-from .errors import BuildError, SpecError, TipGeoError
+from .errors import BuildError, ExportError, InputError, ScanError, SpecError, TipGeoError
 from .presets import preset, preset_names, resolve_spec
 from .spec import TipSpec, dumps_spec, load_spec, loads_spec, save_spec
 from .tip import Tip
@@ -54,7 +54,7 @@ __all__ = ["build_tip", "Cannula", "GAUGES", "Cutter", "BevelCutter", "MultiPlan
            "LancetCutter", "ConicalCutter", "HelicalCutter", "SerrationCutter", "MeshCutter",
            "SDFCutter", "TipSpec", "load_spec", "loads_spec", "dumps_spec", "save_spec", "Tip",
            "preset", "preset_names", "resolve_spec", "tol", "TipGeoError", "SpecError",
-           "BuildError", "__version__"]
+           "InputError", "ScanError", "BuildError", "ExportError", "__version__"]
 
 #: Subpackages and modules that load on first access (``tipgeo.angles``).
 _LAZY = ("angles", "closedforms", "edges", "fourier", "io", "inspect", "mechanics", "optimize",

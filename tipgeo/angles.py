@@ -33,7 +33,7 @@ from typing import Any
 import numpy as np
 from scipy.integrate import simpson
 
-from . import _validate as v
+from . import validate as v
 from ._threads import small_linalg
 from .edges import Edge, EdgePiece, exact_edges, lowest_cut, mesh_edges, rotate_z
 from .errors import SpecError

@@ -11,7 +11,7 @@ import math
 import manifold3d as m3d
 import numpy as np
 
-from . import _validate as v
+from . import validate as v
 from .construct import AUX, BuildContext, segments_for
 from .errors import BuildError, SpecError
 from .tip import Tip

@@ -11,7 +11,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-from . import _validate as v
+from . import validate as v
 from .errors import SpecError
 from .tolerances import MIN_DIAMETER_MM, MIN_FEATURE_MM
 

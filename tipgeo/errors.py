@@ -1,20 +1,56 @@
-"""Exception types of tipgeo (one per failure domain)."""
+"""Every error tipgeo raises on purpose, in one place.
 
-__all__ = ["TipGeoError", "SpecError", "BuildError"]
+Two families, which the command line maps to its exit codes:
+
+- bad input — :class:`InputError` and its kinds :class:`SpecError` (a tip
+  spec or study config), :class:`ScanError` (a scan file or array); ``cam``
+  and ``gcode`` add :class:`cam.CamError` and :class:`gcode.GCodeError` as
+  subclasses of :class:`TipGeoError` and ``ValueError``: exit code 2;
+- a failed operation — :class:`BuildError` (a boolean, a construction) and
+  its kind :class:`ExportError` (a file could not be written),
+  :class:`UnsupportedCutter` (no face-wise exact surface): exit code 1.
+
+Every message names the parameter (or key, file, line), the offending value
+and the allowed range or form.
+"""
+
+__all__ = ["TipGeoError", "InputError", "SpecError", "ScanError", "BuildError", "ExportError",
+           "UnsupportedCutter"]
 
 
 class TipGeoError(Exception):
     """Base class of every error tipgeo raises on purpose."""
 
 
-class SpecError(TipGeoError, ValueError):
-    """A tip specification (spec file, dataclass argument) is invalid.
+class InputError(TipGeoError, ValueError):
+    """An argument, option, path or file a user gave is invalid (and is not a
+    spec): the message names it, its value and the allowed range or form."""
+
+
+class SpecError(InputError):
+    """A tip specification (spec file, dataclass argument) or a study config
+    is invalid.
 
     The message names the parameter (or spec key), the offending value and the
     allowed range or form.
     """
 
 
+class ScanError(InputError):
+    """A scan file or point array is missing, empty, unreadable, non-finite,
+    degenerate, or does not show the CAD tip."""
+
+
 class BuildError(TipGeoError, RuntimeError):
     """A geometric operation failed: a boolean was not manifold, a cutter did
-    not reach across the tube, an output could not be written."""
+    not reach across the tube."""
+
+
+class ExportError(BuildError):
+    """A mesh file could not be written (the writer failed, or an optional
+    dependency is missing); nothing was written."""
+
+
+class UnsupportedCutter(TipGeoError):
+    """A cutter (serration, mesh, SDF) has no face-wise exact surface; the
+    analysis falls back to the tip mesh."""

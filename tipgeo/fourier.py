@@ -14,7 +14,7 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.optimize import minimize_scalar
 
-from . import _validate as v
+from . import validate as v
 from .errors import SpecError
 
 __all__ = ["FourierFit", "fit_fourier"]

@@ -35,7 +35,7 @@ def check_picture_path(path, what: str = "path") -> Path:
 def save_figure(fig, path) -> Path:
     """Save a matplotlib figure to ``path`` atomically (format by extension:
     :data:`PICTURE_EXTS`)."""
-    from ._atomic import write_atomic
+    from .atomic import write_atomic
 
     path = check_picture_path(path)
     fmt = path.suffix.lower().lstrip(".")

@@ -104,20 +104,9 @@ def resolve_spec(arg) -> TipSpec:
     Raises :class:`~tipgeo.errors.SpecError` naming ``arg`` and the presets
     when it is none of these.
     """
-    from pathlib import Path
-
-    from .errors import SpecError
     from .spec import load_spec
+    from .tomlio import resolve_file_or_name
 
-    if isinstance(arg, TipSpec):
-        return arg
-    if not isinstance(arg, (str, Path)):
-        raise SpecError(f"SPEC = {type(arg).__name__} is not a spec, a spec file or a preset "
-                        "name")
-    p = Path(arg)
-    if p.exists() or str(arg).endswith(".toml"):
-        return load_spec(p)
-    if arg in PRESETS:
-        return preset(arg)
-    raise SpecError(f"SPEC = '{arg}' is neither a spec file nor a preset; presets: "
-                    + ", ".join(PRESETS))
+    return resolve_file_or_name(arg, kind=TipSpec, load=load_spec, named=preset, names=PRESETS,
+                                what="SPEC", file_word="spec file", named_as="preset",
+                                listing="presets")

@@ -33,14 +33,14 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-from ._toml import loads_toml, read_text_file
-from ._validate import brief, finite_float
 from .cannula import GAUGES, Cannula
 from .cutters import Cutter
 from .cutters.base import CUTTER_KINDS as _REGISTRY
 from .cutters.toml import CutterTable, round_for_toml
 from .errors import SpecError
 from .tolerances import MAX_CUTTERS
+from .tomlio import loads_toml, read_text_file
+from .validate import brief, finite_float
 
 __all__ = ["TipSpec", "load_spec", "loads_spec", "spec_from_dict", "spec_to_dict", "dumps_spec",
            "save_spec", "CUTTER_KINDS"]
@@ -93,7 +93,7 @@ class TipSpec:
             except SpecError as e:
                 raise SpecError(f"cutters[{k}] ({c.kind} '{c.name}'): {e}") from None
         if self.tolerance is not None:
-            from ._validate import length
+            from .validate import length
 
             object.__setattr__(self, "tolerance", length("tolerance", self.tolerance, hi=0.1))
 
@@ -349,6 +349,6 @@ def dumps_spec(spec: TipSpec) -> str:
 
 def save_spec(spec: TipSpec, path: str | Path) -> Path:
     """Write the spec as TOML, atomically."""
-    from ._atomic import write_text_atomic
+    from .atomic import write_text_atomic
 
     return write_text_atomic(path, dumps_spec(spec))

@@ -159,7 +159,7 @@ class Tip:
     def export(self, path, **kwargs) -> None:
         """Write the tip to ``path``; the format follows the extension
         (see :func:`tipgeo.io.export_tip`). Written atomically."""
-        from .io import export_tip
+        from .io.export import export_tip
 
         export_tip(self, path, **kwargs)
 

@@ -26,7 +26,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .. import _validate as v
+from .. import validate as v
 from ..errors import SpecError
 from .base import Cutter, check_name
 from .surfaces import ConeSurface, Plane

@@ -18,7 +18,7 @@ from dataclasses import dataclass, field
 import manifold3d as m3d
 import numpy as np
 
-from .. import _validate as v
+from .. import validate as v
 from ..construct import AUX, BuildContext
 from ..errors import SpecError
 from .base import Cutter, check_name

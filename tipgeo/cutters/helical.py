@@ -51,7 +51,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from .. import _validate as v
+from .. import validate as v
 from ..cannula import Cannula
 from ..errors import BuildError, SpecError
 from .base import Cutter, check_name

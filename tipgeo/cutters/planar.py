@@ -22,7 +22,7 @@ from dataclasses import dataclass
 import manifold3d as m3d
 import numpy as np
 
-from .. import _validate as v
+from .. import validate as v
 from ..cannula import Cannula
 from ..construct import BuildContext
 from ..errors import SpecError

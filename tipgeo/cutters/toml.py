@@ -15,8 +15,8 @@ import math
 from pathlib import Path
 from typing import Any
 
-from .._validate import brief, finite_float
 from ..errors import SpecError
+from ..validate import brief, finite_float
 
 __all__ = ["CutterTable", "round_for_toml"]
 

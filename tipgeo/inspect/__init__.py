@@ -8,13 +8,22 @@ CAD face, measured geometry (diameters, bevel angles, tip position, cutting
 angles) and a report (JSON, coloured PLY, PNG map and histogram, Markdown).
 A virtual profilometer makes synthetic scans with known errors.
 
+Robustness: degenerate scans (too few points, all at one place, on a line;
+for registration on a plane; non-finite or absurdly large coordinates) and
+scans that do not match the CAD (inlier share, fitness, fitted diameters:
+:mod:`tipgeo.inspect.checks`) are :class:`ScanError`; large scans are read
+in chunks and kept in float32 offsets from a float64 origin (rounding
+≤ 2⁻²¹ mm), every deviation computed in float64.
+
 Frames and units: scans in their scanner frame, results in the cannula frame
 (+z along the axis towards the tip); mm and rad inside, µm and degrees in
 reports. open3d is imported only here (scan reading, ray casting), through
 :func:`tipgeo._open3d.import_open3d`.
 """
 
+from ..tolerances import InspectSettings
 from .cad import CadModel, load_cad
+from .checks import check_geometry, check_match
 from .compare import (
     Comparison,
     compare,
@@ -30,13 +39,13 @@ from .meshdist import MeshSolid, closest_on_triangles
 from .register import Registration, fit_cylinder, register
 from .report import COLORMAP, deviation_colours, write_report
 from .scanio import SCAN_FORMATS, Scan, ScanError, load_scan, write_ply
-from .settings import InspectSettings, settings
 from .synth import Burr, Misalignment, SynthScan, actual_spec, default_views, synthetic_scan
 
-__all__ = ["CadModel", "load_cad", "Comparison", "compare", "crop", "estimate_normals",
+__all__ = ["CadModel", "load_cad", "check_geometry", "check_match", "Comparison", "compare",
+           "crop", "estimate_normals",
            "remove_outliers", "voxel_down_sample", "STAT_KEYS", "statistics", "Distances",
            "ExactSolid", "UnsupportedCutter", "fit_plane", "measure", "MeshSolid",
            "closest_on_triangles", "Registration", "fit_cylinder", "register", "COLORMAP",
            "deviation_colours", "write_report", "SCAN_FORMATS", "Scan", "ScanError",
-           "load_scan", "write_ply", "InspectSettings", "settings", "Burr", "Misalignment",
+           "load_scan", "write_ply", "InspectSettings", "Burr", "Misalignment",
            "SynthScan", "actual_spec", "default_views", "synthetic_scan"]

@@ -96,9 +96,7 @@ def _mesh_method(tip) -> str:
 
 
 def _symmetry(spec) -> int:
-    from ..cutters import ConicalCutter
-
-    if all(isinstance(c, ConicalCutter) for c in spec.cutters):
+    if all(c.axisymmetric for c in spec.cutters):
         return 0
     return math.lcm(*(c.symmetry_order for c in spec.cutters))
 

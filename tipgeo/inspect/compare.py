@@ -1,8 +1,17 @@
 """``compare``: scan → registration → signed deviations → measured geometry
-→ report. The public call behind ``tipgeo compare``.
+→ match check → report. The public call behind ``tipgeo compare``.
 
 Frames and units: the scan in its scanner frame (mm after ``units``); every
 result in the CAD's cannula frame; mm inside, µm and degrees in reports.
+
+Memory: a scan file is read in chunks and kept as float32 offsets from a
+float64 origin (:func:`tipgeo.inspect.load_scan` with ``compact=True``: no
+coordinate moves by more than 2⁻²¹ mm ≈ 0.0005 µm). Registration works on a
+float64 subset; the deviations are computed in float64, chunk by chunk, from
+the stored offsets and the registration transform, and kept in float64; the
+registered points, closest points and normals are kept in float32 (cannula
+frame, |x| of a few mm: rounding ≤ 0.0005 µm), face ids in int16. A scan of
+2·10⁷ points thus peaks at about 1.6 GB instead of 4.5 GB.
 """
 
 from __future__ import annotations
@@ -15,7 +24,9 @@ from typing import Any
 import numpy as np
 
 from ..errors import SpecError
+from ..tolerances import tol
 from .cad import CadModel, load_cad
+from .checks import check_geometry, check_match
 from .deviation import statistics
 from .exact import Distances
 from .measure import measure
@@ -36,7 +47,7 @@ class Comparison:
     cad : CadModel
     registration : Registration or None — None when the scan was already in
         the cannula frame (``register=False``)
-    points : (m, 3) float — the compared points in the cannula frame (mm)
+    points : (m, 3) float32 — the compared points in the cannula frame (mm)
     distances : Distances — their signed deviations
     stats : dict — :func:`tipgeo.inspect.deviation.statistics`
     measured : dict — :func:`tipgeo.inspect.measure.measure`
@@ -45,6 +56,9 @@ class Comparison:
     dropped : dict — points left out (crop, far from the CAD)
     timings : dict — seconds per stage
     outputs : list of Path
+    match : dict — :func:`tipgeo.inspect.checks.check_match` (inlier share,
+        fitness, diameters, problems)
+    notes : list of str — further warnings (a mismatch let through)
     """
 
     scan: Scan
@@ -59,11 +73,13 @@ class Comparison:
     dropped: dict[str, int] = field(default_factory=dict)
     timings: dict[str, float] = field(default_factory=dict)
     outputs: list[Path] = field(default_factory=list)
+    match: dict[str, Any] = field(default_factory=dict)
+    notes: list[str] = field(default_factory=list)
 
     @property
     def warnings(self) -> list[str]:
         w = list(self.registration.warnings) if self.registration else []
-        return w + list(self.cad.notes)
+        return w + list(self.cad.notes) + list(self.notes)
 
     def to_dict(self) -> dict[str, Any]:
         """JSON-ready report."""
@@ -82,6 +98,7 @@ class Comparison:
                              "edge": int(np.sum(self.distances.feature == 1)),
                              "vertex": int(np.sum(self.distances.feature == 2))},
                 "measured": self.measured,
+                "match": self.match,
                 "warnings": self.warnings,
                 "timings_s": dict(self.timings),
                 "outputs": [str(o) for o in self.outputs]}
@@ -136,18 +153,83 @@ def remove_outliers(points: np.ndarray, *, neighbours: int = 8, ratio: float = 3
 
 def estimate_normals(points: np.ndarray, *, neighbours: int = 12) -> np.ndarray:
     """(n, 3) unit normals by local PCA (sign arbitrary)."""
-    from .register import _normals
+    from .register import point_normals
 
-    return _normals(points, neighbours)
+    return point_normals(points, neighbours)
 
 
 # -----------------------------------------------------------------------------
+def _shift(v) -> np.ndarray:
+    T = np.eye(4)
+    T[:3, 3] = v
+    return T
+
+
+def _deviations(model: CadModel, local: np.ndarray, T: np.ndarray, *, z_min, max_distance,
+                chunk: int):
+    """Signed deviations of ``local`` (offsets, any float) mapped by ``T``
+    into the cannula frame, chunk by chunk in float64. Points that cannot lie
+    within ``max_distance`` of the CAD (outside its bounding cylinder grown by
+    it) skip the exact query; the rest are kept when |d| ≤ max_distance.
+
+    Returns the kept points (float32), their Distances, and counts: cropped,
+    far, compared (after the crop), in the envelope (the bounding cylinder
+    grown by ``max_distance``), within ``tol.inspect.match_distance``."""
+    m = len(local)
+    P = np.empty((m, 3), np.float32)
+    dist = np.empty(m)
+    clo = np.empty((m, 3), np.float32)
+    nrm = np.empty((m, 3), np.float32)
+    face = np.empty(m, np.int16)
+    feat = np.empty(m, np.int8)
+    cnt = {"crop": 0, "far": 0, "compared": 0, "envelope": 0, "match": 0}
+    reach = model.r_o + max_distance
+    z_lo, z_hi = model.z_base - max_distance, model.z_top + max_distance
+    cur = 0
+    R, t = T[:3, :3], T[:3, 3]
+
+    def take(mask, *arrays):
+        """The rows of ``arrays`` where ``mask`` holds (no copy when all do)."""
+        if mask.all():
+            return arrays
+        return tuple(a[mask] for a in arrays)
+
+    for i in range(0, m, chunk):
+        x = np.asarray(local[i:i + chunk], np.float64)
+        q = np.empty_like(x)
+        for k in range(3):  # R x + t by columns: no BLAS call (threads, small matrices)
+            q[:, k] = x[:, 0] * R[k, 0] + x[:, 1] * R[k, 1] + x[:, 2] * R[k, 2] + t[k]
+        del x
+        if z_min is not None:
+            keep = q[:, 2] >= z_min
+            cnt["crop"] += int(len(q) - np.count_nonzero(keep))
+            (q,) = take(keep, q)
+        cnt["compared"] += len(q)
+        box = (np.hypot(q[:, 0], q[:, 1]) <= reach) & (q[:, 2] >= z_lo) & (q[:, 2] <= z_hi)
+        (q,) = take(box, q)
+        cnt["envelope"] += len(q)
+        if not len(q):
+            continue
+        D = model.distances(q)
+        ad = np.abs(D.distance)
+        cnt["match"] += int(np.count_nonzero(ad <= tol.inspect.match_distance))
+        ok = ad <= max_distance
+        k = int(np.count_nonzero(ok))
+        sl = slice(cur, cur + k)
+        P[sl], dist[sl], clo[sl], nrm[sl], face[sl], feat[sl] = take(
+            ok, q, D.distance, D.closest, D.normal, D.face, D.feature)
+        cur += k
+    cnt["far"] = cnt["compared"] - cur
+    return P[:cur], Distances(dist[:cur], clo[:cur], nrm[:cur], face[:cur], feat[:cur],
+                              tuple(model.labels)), cnt
+
+
 def compare(scan, cad, *, tolerance: float = 0.01, units: str = "mm",
             register_scan: bool = True, z_min: float | None = None,
             voxel: float | None = None, outliers: bool = False,
             max_distance: float = 0.5, colour_scale: float | None = None,
             out: str | Path | None = None, pictures: bool = True, seed: int = 0,
-            progress=None) -> Comparison:
+            progress=None, allow_mismatch: bool = False) -> Comparison:
     """Compare a scan with a CAD tip.
 
     Parameters
@@ -165,12 +247,27 @@ def compare(scan, cad, *, tolerance: float = 0.01, units: str = "mm",
     colour_scale : float — half-range of the colour map (mm; default 2.5 ×
         tolerance)
     out : path — write report.json, report.md, deviations.ply and the PNGs here
+        (all or nothing: on a failure no new file is left there)
     pictures : bool — write the PNGs
     progress : callable(str) — stage messages
+    allow_mismatch : bool — a scan that does not match the CAD (see Raises)
+        is compared anyway, with a warning in the report
 
     Returns
     -------
     Comparison
+
+    Raises
+    ------
+    ScanError
+        Unreadable, empty or non-finite scan; too few points or points at one
+        place, on a line or (registration) a plane; no outer wall found; and,
+        unless ``allow_mismatch``, a scan that does not match the CAD: fewer
+        than ``tol.inspect.match_min_share`` of the points within
+        ``tol.inspect.match_distance`` of the CAD surface, a registration
+        fitness below ``tol.inspect.match_min_fitness``, or a fitted diameter
+        more than ``tol.inspect.match_diameter`` off the CAD's
+        (:func:`tipgeo.inspect.checks.check_match`).
     """
     say = progress or (lambda msg: None)
     if not (np.isfinite(tolerance) and tolerance > 0):
@@ -178,13 +275,17 @@ def compare(scan, cad, *, tolerance: float = 0.01, units: str = "mm",
     scale = 2.5 * tolerance if colour_scale is None else float(colour_scale)
     if not (np.isfinite(scale) and scale > 0):
         raise SpecError(f"colour_scale = {colour_scale!r} mm; allowed > 0")
+    if not (np.isfinite(max_distance) and max_distance > 0):
+        raise SpecError(f"max_distance = {max_distance!r} mm; allowed > 0")
+    if z_min is not None and not np.isfinite(z_min):
+        raise SpecError(f"z_min = {z_min!r} mm; allowed a finite value")
     timings: dict[str, float] = {}
     t0 = time.perf_counter()
     if isinstance(scan, Scan):
         sc = scan
     elif isinstance(scan, (str, Path)):
         say(f"reading {scan}")
-        sc = load_scan(scan, units=units)
+        sc = load_scan(scan, units=units, compact=True)
     else:
         sc = Scan(check_points(scan, "scan"))
     timings["load_scan"] = time.perf_counter() - t0
@@ -193,63 +294,74 @@ def compare(scan, cad, *, tolerance: float = 0.01, units: str = "mm",
     model = cad if isinstance(cad, CadModel) else load_cad(cad)
     timings["load_cad"] = time.perf_counter() - t
     dropped: dict[str, int] = {}
-    pts = sc.points
+    loc, origin = sc.local, sc.origin
     if voxel:
-        idx = voxel_down_sample(pts, voxel)
-        dropped["voxel"] = int(len(pts) - len(idx))
-        pts = pts[idx]
+        idx = voxel_down_sample(loc, voxel)
+        dropped["voxel"] = int(len(loc) - len(idx))
+        loc = loc[idx]
     if outliers:
-        keep = remove_outliers(pts)
+        keep = remove_outliers(loc)
         dropped["outliers"] = int((~keep).sum())
-        pts = pts[keep]
+        loc = loc[keep]
+    where = f"scan '{sc.source}'"
+    check_geometry(loc, model.r_o, register=register_scan, origin=origin, where=where)
     reg = None
     t = time.perf_counter()
     if register_scan:
         say("registering")
-        reg = register(pts, model, seed=seed, progress=lambda m: say(f"  {m}"))
-        pts = reg.apply(pts)
+        try:
+            reg = register(loc, model, seed=seed, progress=lambda m: say(f"  {m}"))
+        except ScanError as e:
+            raise ScanError(f"{where}: {e}") from None
+        T_loc = reg.transform          # offsets → cannula frame
+        reg.transform = T_loc @ _shift(-origin)   # scanner frame → cannula frame
+        reg.axis["point_mm"] = (np.asarray(reg.axis["point_mm"]) + origin).tolist()
+    else:
+        T_loc = _shift(origin)
     timings["register"] = time.perf_counter() - t
     if reg:
         say(f"registered in {timings['register']:.2f} s: fitness {reg.fitness:.3f}, inlier "
             f"RMSE {reg.inlier_rmse * 1e3:.3f} µm")
-    if z_min is not None:
-        keep = crop(pts, z_min=z_min)
-        dropped["crop"] = int((~keep).sum())
-        pts = pts[keep]
-    if not len(pts):
-        raise ScanError("no scan points left to compare after cropping")
     t = time.perf_counter()
-    say(f"deviations of {len(pts):,} points ({model.method})")
-    dist = model.distances(pts)
+    say(f"deviations of {len(loc):,} points ({model.method})")
+    pts, dist, cnt = _deviations(model, loc, T_loc, z_min=z_min, max_distance=max_distance,
+                                 chunk=tol.inspect.chunk)
     timings["deviations"] = time.perf_counter() - t
-    far = np.abs(dist.distance) > max_distance
-    if far.any():
-        dropped["far"] = int(far.sum())
-        pts = pts[~far]
-        dist = Distances(dist.distance[~far], dist.closest[~far], dist.normal[~far],
-                         dist.face[~far], dist.feature[~far], dist.labels)
+    if z_min is not None:
+        dropped["crop"] = cnt["crop"]
+    if not cnt["compared"]:
+        raise ScanError(f"no scan points left to compare after cropping at z_min = {z_min} mm")
+    if cnt["far"]:
+        dropped["far"] = cnt["far"]
     if not len(pts):
-        raise ScanError(f"no scan point lies within {max_distance} mm of the CAD surface; "
-                        "wrong tip, units or registration?")
+        raise ScanError(f"{where}: none of its {cnt['compared']:,} points lies within "
+                        f"{max_distance} mm of the CAD surface; wrong tip, units or "
+                        "registration?")
     say(f"deviations in {timings['deviations']:.2f} s")
     t = time.perf_counter()
-    stats = statistics(dist.distance, dist.label_of(), tolerance)
+    stats = statistics(dist.distance, dist.face, tolerance, names=dist.labels)
     timings["statistics"] = time.perf_counter() - t
     t = time.perf_counter()
     measured = measure(pts, dist, model)
     timings["measure"] = time.perf_counter() - t
+    # background far from the part (a fixture, a table) does not count against it
+    share = cnt["match"] / cnt["envelope"]
+    match = check_match(model, share=share, fitness=reg.fitness if reg else None,
+                        registered_od=reg.axis["outer_diameter_mm"] if reg else None,
+                        measured=measured)
+    notes = []
+    if not match["ok"]:
+        msg = (f"{where} does not match the CAD '{model.name}': "
+               + "; ".join(match["problems"]))
+        if not allow_mismatch:
+            raise ScanError(msg + " (--allow-mismatch compares it anyway)")
+        notes.append(msg + " (compared anyway: --allow-mismatch)")
     res = Comparison(sc, model, reg, pts, dist, stats, measured, tolerance, scale, dropped,
-                     timings)
+                     timings, match=match, notes=notes)
+    timings["total"] = time.perf_counter() - t0
     if out is not None:
         from .report import write_report
 
-        t = time.perf_counter()
         say(f"writing the report to {out}")
-        res.outputs = write_report(res, out, pictures=pictures)
-        timings["report"] = time.perf_counter() - t
-    timings["total"] = time.perf_counter() - t0
-    if out is not None:
-        from .report import write_json
-
-        write_json(res, Path(out) / "report.json")  # with the final timings
+        write_report(res, out, pictures=pictures)
     return res

@@ -18,25 +18,39 @@ STAT_KEYS = ("count", "mean_um", "std_um", "rms_um", "min_um", "max_um", "p5_um"
              "within_tol_share")
 
 
-def _block(d: np.ndarray, tol: float) -> dict[str, Any]:
+def _block(d: np.ndarray, tol: float, chunk: int = 1 << 20) -> dict[str, Any]:
     if not len(d):
         return {k: None for k in STAT_KEYS} | {"count": 0}
-    um = d * 1e3
-    p5, p95 = np.percentile(um, [5.0, 95.0])
-    return {"count": int(len(d)), "mean_um": float(um.mean()), "std_um": float(um.std()),
-            "rms_um": float(np.sqrt(np.mean(um * um))), "min_um": float(um.min()),
-            "max_um": float(um.max()), "p5_um": float(p5), "p95_um": float(p95),
-            "within_tol_share": float(np.mean(np.abs(d) <= tol))}
+    # float64 sums over chunks: no full-size temporary but the percentiles' copy
+    n = len(d)
+    mean = float(np.mean(d))
+    ss = sum(float(np.sum((d[i:i + chunk] - mean) ** 2)) for i in range(0, n, chunk))
+    sq = sum(float(np.sum(d[i:i + chunk] ** 2)) for i in range(0, n, chunk))
+    within = sum(int(np.count_nonzero(np.abs(d[i:i + chunk]) <= tol))
+                 for i in range(0, n, chunk))
+    p5, p95 = np.percentile(d, [5.0, 95.0]) * 1e3
+    return {"count": int(n), "mean_um": mean * 1e3, "std_um": float(np.sqrt(ss / n)) * 1e3,
+            "rms_um": float(np.sqrt(sq / n)) * 1e3, "min_um": float(d.min()) * 1e3,
+            "max_um": float(d.max()) * 1e3, "p5_um": float(p5), "p95_um": float(p95),
+            "within_tol_share": within / n}
 
 
-def statistics(distance: np.ndarray, labels: np.ndarray, tolerance: float) -> dict[str, Any]:
+def _order(name: str):
+    return (not name.startswith("cut:"), name)
+
+
+def statistics(distance: np.ndarray, labels: np.ndarray, tolerance: float, *,
+               names=None) -> dict[str, Any]:
     """Statistics of signed deviations.
 
     Parameters
     ----------
     distance : (n,) float — signed deviations (mm)
-    labels : (n,) str — CAD face of every point (``outer``, ``inner``, ``cut:…``)
+    labels : (n,) str — CAD face of every point (``outer``, ``inner``, ``cut:…``);
+        with ``names``, (n,) int indices into it (no string per point: what
+        ``compare`` passes for large scans)
     tolerance : float — ± band for ``within_tol_share`` (mm)
+    names : sequence of str, optional — the face labels ``labels`` index
 
     Returns
     -------
@@ -45,8 +59,20 @@ def statistics(distance: np.ndarray, labels: np.ndarray, tolerance: float) -> di
     percentiles by linear interpolation; share of |d| ≤ tolerance).
     """
     d = np.asarray(distance, float)
-    lab = np.asarray(labels, dtype=object)
     out = {"tolerance_um": tolerance * 1e3, "all": _block(d, tolerance), "regions": {}}
-    for name in sorted(set(lab.tolist()), key=lambda s: (not s.startswith("cut:"), s)):
-        out["regions"][name] = _block(d[lab == name], tolerance)
+    if names is None:
+        lab = np.asarray(labels, dtype=object)
+        for name in sorted(set(lab.tolist()), key=_order):
+            out["regions"][name] = _block(d[lab == name], tolerance)
+        return out
+    ids = np.asarray(labels)
+    counts = np.bincount(ids.astype(np.int64), minlength=len(names))
+    present = {}
+    for k, c in enumerate(counts):
+        if c:
+            present.setdefault(str(names[k]), []).append(k)
+    for name in sorted(present, key=_order):
+        ks = present[name]
+        sel = ids == ks[0] if len(ks) == 1 else np.isin(ids, ks)
+        out["regions"][name] = _block(d[sel], tolerance)
     return out

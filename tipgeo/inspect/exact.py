@@ -34,14 +34,10 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..errors import TipGeoError
-from .settings import settings
+from ..errors import TipGeoError, UnsupportedCutter
+from ..tolerances import tol
 
 __all__ = ["Distances", "ExactSolid", "UnsupportedCutter"]
-
-
-class UnsupportedCutter(TipGeoError):
-    """A cutter has no face-wise exact description (serration, mesh, SDF)."""
 
 
 @dataclass
@@ -169,7 +165,7 @@ class _ImplicitFace(_Face):
         for _ in range(3):
             f, g = self.eval(x, off)
             x = x - f[:, None] * g
-        for _ in range(settings.max_iterations):
+        for _ in range(tol.inspect.max_iterations):
             f, g = self.eval(x, off)
             y = p - np.einsum("ij,ij->i", p - x, g)[:, None] * g  # tangent plane
             for _ in range(2):
@@ -177,7 +173,7 @@ class _ImplicitFace(_Face):
                 y = y - fy[:, None] * gy
             step = np.linalg.norm(y - x, axis=1)
             x = y
-            if step.max(initial=0.0) < settings.converge:
+            if step.max(initial=0.0) < tol.inspect.converge:
                 break
         return x
 
@@ -188,27 +184,29 @@ class _ImplicitFace(_Face):
 
 
 def _faces_of(spec) -> list[_Face]:
-    """The analytic faces of a spec (labels as in the built tip)."""
-    from ..cutters import ConicalCutter, HelicalCutter
-    from ..cutters.planar import PlanarCutter
+    """The analytic faces of a spec (labels as in the built tip), from each
+    cutter's :meth:`~tipgeo.cutters.base.Cutter.surfaces`."""
+    from ..cutters import ConeSurface, ImplicitSurface, Plane
 
     cn = spec.cannula
     faces: list[_Face] = [_CylinderFace(cn.r_o, True, "outer"),
                           _CylinderFace(cn.r_i, False, "inner"),
                           _PlaneFace((0.0, 0.0, -1.0), cn.length, "base")]
     for c in spec.cutters:
-        if isinstance(c, PlanarCutter):
-            faces += [_PlaneFace(p.normal, p.offset, p.label) for p in c.planes(cn)]
-        elif isinstance(c, ConicalCutter):
-            faces.append(_ConeFace(c.theta, cn.r_o, c.label))
-            if c.bevel_length is not None:
-                faces.append(_PlaneFace((0.0, 0.0, 1.0), c.bevel_length, c.land_label))
-        elif isinstance(c, HelicalCutter):
-            faces.append(_ImplicitFace(c, cn, c.label))
-        else:
+        surfaces = c.surfaces(cn)
+        if not surfaces:
             raise UnsupportedCutter(
                 f"cutter '{c.name}' ({c.kind}) has no face-wise exact surface; "
                 "deviations are measured against the tip mesh instead")
+        for f in surfaces:
+            if isinstance(f, Plane):
+                faces.append(_PlaneFace(f.normal, f.offset, f.label))
+            elif isinstance(f, ConeSurface):
+                faces.append(_ConeFace(f.theta, f.r_o, f.label))
+            elif isinstance(f, ImplicitSurface):
+                faces.append(_ImplicitFace(f.cutter, f.cannula, f.label))
+            else:
+                raise UnsupportedCutter(f"cutter '{c.name}': face {f!r} is of no known kind")
     return faces
 
 
@@ -286,10 +284,10 @@ class ExactSolid:
         if len(out):
             G = self._values(x[out])
             G[np.arange(len(out)), k[out]] = -np.inf
-            bad = G.max(axis=1) > settings.feasible
+            bad = G.max(axis=1) > tol.inspect.feasible
             todo = out[bad]
             if len(todo):
-                viol = (F[todo] > 0) | (G[bad] > settings.feasible)
+                viol = (F[todo] > 0) | (G[bad] > tol.inspect.feasible)
                 viol[np.arange(len(todo)), k[todo]] = True
                 d2, x2, f2, ft2 = self._features(p[todo], x[todo], viol)
                 dist[todo], x[todo], face_id[todo], feature[todo] = d2, x2, f2, ft2
@@ -320,46 +318,70 @@ class ExactSolid:
         bx = seed.copy()
         bface = np.zeros(m, np.int64)
         bfeat = np.ones(m, np.int8)
+        # the closest point may lie inside another violated face (not only the
+        # most violated one's): e.g. a point in the bore above a two-plane ridge
+        for a in range(K):
+            s = np.flatnonzero(viol[:, a])
+            if not len(s):
+                continue
+            xf = self.faces[a].foot(p[s], self.offset)
+            G = self._values(xf)
+            G[:, a] = -np.inf
+            feas = G.max(axis=1) <= tol.inspect.feasible
+            d = np.linalg.norm(p[s] - xf, axis=1)
+            better = feas & (d < best[s])
+            sb = s[better]
+            best[sb], bx[sb], bface[sb], bfeat[sb] = d[better], xf[better], a, 0
+        def try_edge(s, seeds, a, b, accelerate):
+            xe, lam, ok = self._edge(p[s], seeds, a, b, accelerate=accelerate)
+            G = self._values(xe)
+            G[:, [a, b]] = -np.inf
+            feas = ok & (G.max(axis=1) <= tol.inspect.feasible) & np.all(lam >= -1e-9, axis=1)
+            d = np.linalg.norm(p[s] - xe, axis=1)
+            better = feas & (d < best[s])
+            sb = s[better]
+            best[sb], bx[sb] = d[better], xe[better]
+            bface[sb] = np.where(lam[better, 0] >= lam[better, 1], a, b)
+            bfeat[sb] = 1
+            # a third face cuts the edge there: try the vertex
+            third = ~feas & ok
+            if third.any():
+                c_of = np.argmax(np.where(np.isfinite(G), G, -np.inf), axis=1)
+                for c in np.unique(c_of[third]):
+                    key = tuple(sorted((a, b, int(c))))
+                    sv = s[third & (c_of == c)]
+                    xv, lv, okv = self._vertex(p[sv], xe[third & (c_of == c)], key)
+                    Gv = self._values(xv)
+                    Gv[:, list(key)] = -np.inf
+                    fv = okv & (Gv.max(axis=1) <= tol.inspect.feasible) & np.all(
+                        lv >= -1e-9, axis=1)
+                    dv = np.linalg.norm(p[sv] - xv, axis=1)
+                    bv = fv & (dv < best[sv])
+                    svb = sv[bv]
+                    best[svb], bx[svb] = dv[bv], xv[bv]
+                    bface[svb] = np.asarray(key)[np.argmax(lv[bv], axis=1)]
+                    bfeat[svb] = 2
+
         for a in range(K):
             for b in range(a + 1, K):
                 s = np.flatnonzero(viol[:, a] & viol[:, b])
-                if not len(s):
-                    continue
-                xe, lam, ok = self._edge(p[s], seed[s], a, b)
-                G = self._values(xe)
-                G[:, [a, b]] = -np.inf
-                feas = ok & (G.max(axis=1) <= settings.feasible) & np.all(lam >= -1e-9, axis=1)
-                d = np.linalg.norm(p[s] - xe, axis=1)
-                better = feas & (d < best[s])
-                sb = s[better]
-                best[sb], bx[sb] = d[better], xe[better]
-                bface[sb] = np.where(lam[better, 0] >= lam[better, 1], a, b)
-                bfeat[sb] = 1
-                # a third face cuts the edge there: try the vertex
-                third = ~feas & ok
-                if third.any():
-                    c_of = np.argmax(np.where(np.isfinite(G), G, -np.inf), axis=1)
-                    for c in np.unique(c_of[third]):
-                        key = tuple(sorted((a, b, int(c))))
-                        sv = s[third & (c_of == c)]
-                        xv, lv, okv = self._vertex(p[sv], xe[third & (c_of == c)], key)
-                        Gv = self._values(xv)
-                        Gv[:, list(key)] = -np.inf
-                        fv = okv & (Gv.max(axis=1) <= settings.feasible) & np.all(
-                            lv >= -1e-9, axis=1)
-                        dv = np.linalg.norm(p[sv] - xv, axis=1)
-                        bv = fv & (dv < best[sv])
-                        svb = sv[bv]
-                        best[svb], bx[svb] = dv[bv], xv[bv]
-                        bface[svb] = np.asarray(key)[np.argmax(lv[bv], axis=1)]
-                        bfeat[svb] = 2
+                if len(s):
+                    try_edge(s, seed[s], a, b, True)
+        lost = np.flatnonzero(~np.isfinite(best))
+        if len(lost):  # rare: the accelerated walk along an edge overshot; walk again,
+            for a in range(K):  # from both faces' feet, without acceleration
+                for b in range(a + 1, K):
+                    s = lost[viol[lost, a] & viol[lost, b]]
+                    for f in (a, b):
+                        if len(s):
+                            try_edge(s, self.faces[f].foot(p[s], self.offset), a, b, False)
         lost = ~np.isfinite(best)
         if lost.any():
             raise TipGeoError(f"{int(lost.sum())} point(s): no closest point on the exact "
                               "surfaces (far outside the tip?)")
         return best, bx, bface, bfeat
 
-    def _edge(self, p, x, a, b):
+    def _edge(self, p, x, a, b, *, accelerate: bool = True):
         """Closest point to p on the curve f_a = f_b = 0, from seeds x.
 
         Alternates a Newton step onto the curve (minimum-norm correction) with
@@ -386,7 +408,7 @@ class ExactSolid:
                 xx = xx - la[:, None] * ga - lb[:, None] * gb
             return xx, ga, gb, good
 
-        for _ in range(settings.max_iterations):
+        for _ in range(tol.inspect.max_iterations):
             xa, ga, gb, good = onto(x[act])
             ok[act] &= good
             t = np.cross(ga, gb)
@@ -395,10 +417,14 @@ class ExactSolid:
             pr = prev[act]
             with np.errstate(divide="ignore", invalid="ignore"):
                 rho = np.where(np.abs(pr) > np.abs(h), h / pr, 0.0)
-            rho = np.clip(np.nan_to_num(rho), -0.5, 0.9)
-            x[act] = xa + (h / (1.0 - rho))[:, None] * t
+            rho = np.clip(np.nan_to_num(rho), -0.5, 0.9) if accelerate else 0.0 * h
+            step = h / (1.0 - rho)
+            if not accelerate:  # damped: at most a quarter of the distance to p
+                lim = 0.25 * np.linalg.norm(p[act] - xa, axis=1)
+                step = np.clip(step, -lim, lim)
+            x[act] = xa + step[:, None] * t
             prev[act] = h
-            done = np.abs(h) < settings.converge
+            done = np.abs(h) < tol.inspect.converge
             act = act[~done]
             if not len(act):
                 break
@@ -417,7 +443,7 @@ class ExactSolid:
         off = self.offset
         x = x.copy()
         ok = np.ones(len(p), bool)
-        for _ in range(settings.max_iterations):
+        for _ in range(tol.inspect.max_iterations):
             ev = [f.eval(x, off) for f in faces]
             f = np.stack([e[0] for e in ev], 1)
             J = np.stack([e[1] for e in ev], 1)  # (m, 3, 3) rows = gradients
@@ -426,7 +452,7 @@ class ExactSolid:
             Js = np.where(ok[:, None, None], J, np.eye(3))
             dx = np.linalg.solve(Js, f[:, :, None])[:, :, 0]
             x = x - dx
-            if np.abs(dx).max(initial=0.0) < settings.converge:
+            if np.abs(dx).max(initial=0.0) < tol.inspect.converge:
                 break
         J = np.stack([f.eval(x, off)[1] for f in faces], 1)
         Js = np.where(ok[:, None, None], J, np.eye(3))

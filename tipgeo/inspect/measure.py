@@ -7,7 +7,7 @@ mm and rad inside, ``*_deg`` / ``*_um`` in the returned dictionaries.
 The part is measured against *itself*: a bevel angle is the angle between
 the plane fitted to the scanned rake face and the axis of the cylinder fitted
 to the scanned outer wall, so a registration compromise between a wrong bevel
-and the walls does not bias it. Points within ``settings.edge_exclusion`` of
+and the walls does not bias it. Points within ``tol.inspect.edge_exclusion`` of
 another face (edge rounding, burrs) stay out of the plane fits.
 """
 
@@ -18,14 +18,28 @@ from typing import Any
 
 import numpy as np
 
+from ..tolerances import tol
 from .register import fit_cylinder
-from .settings import settings
 
 __all__ = ["measure", "fit_plane"]
 
 
+_ROWS = 1 << 20  # rows per chunk of the plane fit (memory only)
+
+
+def _chunks(n: int):
+    for i in range(0, n, _ROWS):
+        yield slice(i, min(n, i + _ROWS))
+
+
 def fit_plane(points: np.ndarray, *, rounds: int = 4) -> tuple[np.ndarray, float, float, int]:
-    """Robust least-squares plane: SVD, dropping residuals beyond 3 robust σ.
+    """Robust least-squares plane: the smallest principal direction of the
+    kept points, dropping residuals beyond 3 robust σ.
+
+    ``points`` may be float32 (large scans): every sum is taken in float64,
+    chunk by chunk, about the kept points' centroid (the 3×3 scatter matrix's
+    normal direction is as accurate as an SVD's: its eigenvalue gap is the
+    face's extent squared, not the noise).
 
     Returns
     -------
@@ -34,31 +48,43 @@ def fit_plane(points: np.ndarray, *, rounds: int = 4) -> tuple[np.ndarray, float
     rms : float — RMS residual of the kept points (mm)
     kept : int — points kept
     """
-    keep = np.ones(len(points), bool)
+    n_pts = len(points)
+    keep = np.ones(n_pts, bool)
+    r = np.empty(n_pts)
     for _ in range(rounds):
-        c = points[keep].mean(axis=0)
-        _, _, vt = np.linalg.svd(points[keep] - c, full_matrices=False)
-        n = vt[-1]
-        r = (points - c) @ n
+        cnt = int(np.count_nonzero(keep))
+        c = np.zeros(3)
+        for sl in _chunks(n_pts):
+            c += np.asarray(points[sl][keep[sl]], np.float64).sum(axis=0)
+        c /= cnt
+        M = np.zeros((3, 3))
+        for sl in _chunks(n_pts):
+            q = np.asarray(points[sl][keep[sl]], np.float64) - c
+            M += q.T @ q
+        n = np.linalg.eigh(M)[1][:, 0]
+        for sl in _chunks(n_pts):
+            r[sl] = (np.asarray(points[sl], np.float64) - c) @ n
         s = 1.4826 * np.median(np.abs(r[keep])) + 1e-12
         new = np.abs(r) <= 3 * s
         if new.sum() < 3 or np.array_equal(new, keep):
             break
         keep = new
-    r = (points[keep] - c) @ n
-    return n, float(n @ c), float(np.sqrt(np.mean(r ** 2))), int(keep.sum())
+    rk = r[keep]
+    return n, float(n @ c), float(np.sqrt(np.mean(rk ** 2))), int(keep.sum())
 
 
 def _planar_faces(spec):
-    from ..cutters.planar import PlanarCutter
+    """label -> Plane of every plane face of the spec's cutters (their
+    :meth:`~tipgeo.cutters.base.Cutter.surfaces`)."""
+    from ..cutters import Plane
 
     out = {}
     if spec is None:
         return out
     for c in spec.cutters:
-        if isinstance(c, PlanarCutter):
-            for p in c.planes(spec.cannula):
-                out[p.label] = p
+        for f in c.surfaces(spec.cannula) or ():
+            if isinstance(f, Plane):
+                out[f.label] = f
     return out
 
 
@@ -112,7 +138,13 @@ def measure(points: np.ndarray, dist, cad, *, min_points: int = 50,
     (measured vs CAD), ``notes``.
     """
     out: dict[str, Any] = {"notes": []}
-    lab = dist.label_of()
+    labels = tuple(dist.labels)
+
+    def on(label):  # (n,) bool: points whose closest CAD face is ``label``
+        if label not in labels:
+            return np.zeros(len(dist.face), bool)
+        return dist.face == labels.index(label)
+
     d = dist.distance
     # fits take every point of a face that is not far off (robust fits drop
     # the rest): a bevel ground 0.5° off lies up to ~70 µm from the CAD plane
@@ -120,7 +152,7 @@ def measure(points: np.ndarray, dist, cad, *, min_points: int = 50,
     ez = np.array([0.0, 0.0, 1.0])
     axis_pt, axis_dir = np.zeros(3), ez
     for wall, r_nom in (("outer", cad.r_o), ("inner", cad.r_i)):
-        sel = (lab == wall) & near & (dist.feature == 0)
+        sel = on(wall) & near & (dist.feature == 0)
         if sel.sum() < min_points:
             out[wall] = None
             out["notes"].append(f"{wall} wall: {int(sel.sum())} points, too few to fit")
@@ -128,7 +160,8 @@ def measure(points: np.ndarray, dist, cad, *, min_points: int = 50,
         idx = np.flatnonzero(sel)
         if len(idx) > 20000:
             idx = idx[np.linspace(0, len(idx) - 1, 20000).astype(int)]
-        pt, a, r, rms = fit_cylinder(points[idx], ez, np.zeros(3), r_nom, scale=0.002)
+        pt, a, r, rms = fit_cylinder(np.asarray(points[idx], np.float64), ez, np.zeros(3),
+                                     r_nom, scale=0.002)
         if a @ ez < 0:
             a = -a
         out[wall] = {"diameter_mm": 2 * r, "cad_diameter_mm": 2 * r_nom,
@@ -147,12 +180,14 @@ def measure(points: np.ndarray, dist, cad, *, min_points: int = 50,
     fitted = []
     for label, plane in planes.items():
         k = cad.labels.index(label) if label in cad.labels else None
-        sel = (lab == label) & near & (dist.feature == 0)
+        sel = on(label) & near & (dist.feature == 0)
         if k is not None and sel.any():
             idx = np.flatnonzero(sel)
-            fv = np.abs(cad.engine.face_values(dist.closest[idx]))
-            fv[:, k] = np.inf
-            sel[idx[fv.min(axis=1) < settings.edge_exclusion]] = False
+            for ch in _chunks(len(idx)):
+                ic = idx[ch]
+                fv = np.abs(cad.engine.face_values(np.asarray(dist.closest[ic], np.float64)))
+                fv[:, k] = np.inf
+                sel[ic[fv.min(axis=1) < tol.inspect.edge_exclusion]] = False
         if sel.sum() < min_points:
             out["notes"].append(f"{label}: {int(sel.sum())} points away from its edges, too "
                                 "few to fit a plane")
@@ -205,8 +240,9 @@ def _tip(points, d, near, fitted, planes, axis_pt, axis_dir, out, cad):
         sel = np.flatnonzero(near)
         if not len(sel):
             return None
-        top = sel[np.argsort(points[sel, 2])[-20:]]
-        apex = points[top].mean(axis=0)
+        z = points[sel, 2]
+        top = sel[np.argpartition(z, len(z) - 20)[-20:]] if len(z) > 20 else sel
+        apex = np.asarray(points[top], np.float64).mean(axis=0)
         cad_apex = None
         how = "mean of the 20 highest scan points near the surface"
     res = {"apex_mm": apex.tolist(), "method": how}
@@ -221,12 +257,17 @@ def _tip(points, d, near, fitted, planes, axis_pt, axis_dir, out, cad):
 def _cutting_angles(cad, faces, out, min_points):
     """λ, θ, α and l_c of the measured bevel (fitted ξ and diameters) by the
     angle analysis, next to the CAD's."""
-    from ..cutters import BevelCutter
+    from dataclasses import replace
+
+    from ..cutters import Plane
 
     spec = cad.spec
-    if spec is None or len(spec.cutters) != 1 or not isinstance(spec.cutters[0], BevelCutter):
+    if spec is None or len(spec.cutters) != 1:
         return None
     c = spec.cutters[0]
+    surfaces = c.surfaces(spec.cannula) or ()
+    if not (c.angle_field and len(surfaces) == 1 and isinstance(surfaces[0], Plane)):
+        return None  # one rake plane whose ξ the scan measured: a bevel
     f = faces.get(c.label)
     if f is None or f["points"] < min_points:
         return {"note": "too few rake-face points for cutting angles"}
@@ -239,7 +280,7 @@ def _cutting_angles(cad, faces, out, min_points):
     try:
         meas = TipSpec(cannula=Cannula(outer_diameter=do, inner_diameter=di,
                                        length=spec.cannula.length),
-                       cutters=[BevelCutter(xi=math.radians(f["xi_deg"]), name=c.name)],
+                       cutters=[replace(c, **{c.angle_field: math.radians(f["xi_deg"])})],
                        name="measured")
         rm = analyze(meas, method="exact").summary()
         rc = analyze(spec, method="exact").summary()

@@ -27,8 +27,8 @@ from __future__ import annotations
 import numpy as np
 
 from ..errors import TipGeoError
+from ..tolerances import tol
 from .exact import Distances
-from .settings import settings
 
 __all__ = ["MeshSolid", "closest_on_triangles"]
 
@@ -255,7 +255,7 @@ class MeshSolid:
         self.f = np.ascontiguousarray(tip.faces, np.int64)
         self.labels = tuple(tip.label_names)
         self.label_ids = np.asarray(tip.label_ids)
-        self.cell = float(cell or settings.mesh_cell)
+        self.cell = float(cell or tol.inspect.mesh_cell)
         self._index = None
         self._pseudo()
 
@@ -381,7 +381,7 @@ class MeshSolid:
     def _finish(self, p, t):
         tri = self.v[self.f[t]]
         q, bary = closest_on_triangles(p, tri[:, 0], tri[:, 1], tri[:, 2])
-        eps = settings.feature_eps
+        eps = tol.inspect.feature_eps
         zero = bary <= eps
         nz = zero.sum(axis=1)
         pn = self.fn[t].copy()

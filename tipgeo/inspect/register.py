@@ -11,7 +11,7 @@ cannula frame: x_cad = R x_scan + t.
    diameter. ICP alone cannot do what follows: a cylinder matches itself
    under any turn about and shift along its axis.
 2. **Global search** of the turn about the axis (both axis directions, every
-   ``settings.search_step``) with the axial offset from the tip's highest
+   ``tol.inspect.search_step``) with the axial offset from the tip's highest
    point: each pose is scored by the mean clipped distance of a few thousand
    points to the CAD solid. The bevel, planes or serrations decide.
 3. **Point-to-plane ICP** from the best few poses, with exact closest points
@@ -32,10 +32,10 @@ from typing import Any
 
 import numpy as np
 
-from ..errors import TipGeoError
-from .settings import settings
+from ..tolerances import tol
+from .scanio import ScanError
 
-__all__ = ["Registration", "register", "fit_cylinder", "apply"]
+__all__ = ["Registration", "register", "fit_cylinder", "apply", "point_normals"]
 
 
 def apply(T: np.ndarray, points: np.ndarray) -> np.ndarray:
@@ -112,7 +112,9 @@ class Registration:
 
 
 # -----------------------------------------------------------------------------
-def _normals(p: np.ndarray, k: int = 12) -> np.ndarray:
+def point_normals(p: np.ndarray, k: int = 12) -> np.ndarray:
+    """Unit normals (n, 3) of a point cloud by PCA over each point's ``k``
+    nearest neighbours (mm, any frame; the sign is arbitrary)."""
     from scipy.spatial import cKDTree
 
     _, idx = cKDTree(p).query(p, k=min(k, len(p)), workers=-1)
@@ -165,7 +167,7 @@ def _axis_stage(p: np.ndarray, r_nominal: float) -> tuple[np.ndarray, np.ndarray
     cen = p.mean(axis=0)
     _, vec = np.linalg.eigh(np.cov((p - cen).T))
     a = vec[:, -1]
-    nrm = _normals(p)
+    nrm = point_normals(p)
     point = cen
     radius = r_nominal
     sel = np.ones(len(p), bool)
@@ -176,9 +178,10 @@ def _axis_stage(p: np.ndarray, r_nominal: float) -> tuple[np.ndarray, np.ndarray
         band = 0.25 * r_nominal if it == 0 else max(0.02 * r_nominal, 0.005)
         sel = wall & (np.abs(rho - radius) < band)
         if sel.sum() < 20:
-            raise TipGeoError(f"only {int(sel.sum())} scan points look like the outer wall "
-                              f"(radius ≈ {r_nominal:.4g} mm); is the scan of this tip, in "
-                              "the right units?")
+            raise ScanError(f"only {int(sel.sum())} of {len(p)} scan points look like the "
+                            f"outer wall (radius {r_nominal:.4g} ± {band:.2g} mm, normals "
+                            "across the axis; registration needs ≥ 20): is the scan of this "
+                            "tip, in the right units, and does it show part of the outer wall?")
         idx = np.flatnonzero(sel)
         if len(idx) > 6000:  # plenty for five parameters
             idx = idx[np.linspace(0, len(idx) - 1, 6000).astype(int)]
@@ -208,7 +211,7 @@ def _search(q_all, cad, step, npts, rng):
         x = np.stack([c[i] * sub[:, 0] - s[i] * sub[:, 1], s[i] * sub[:, 0] + c[i] * sub[:, 1],
                       sub[:, 2] + dz], 1)
         f = cad.bound(x)
-        scores[i] = np.mean(np.minimum(np.abs(f), settings.search_clip))
+        scores[i] = np.mean(np.minimum(np.abs(f), tol.inspect.search_clip))
     return angles, scores, dz
 
 
@@ -224,7 +227,7 @@ def _icp(p, cad, T, iterations, *, fix_rz=False):
     """Point-to-plane ICP with Tukey weights; returns T, robust σ, info."""
     info = {"iterations": 0, "fixed": []}
     sigma = None
-    clip = settings.search_clip
+    clip = tol.inspect.search_clip
     for it in range(iterations):
         q = apply(T, p)
         D = cad.distances(q)
@@ -241,9 +244,10 @@ def _icp(p, cad, T, iterations, *, fix_rz=False):
         H = (J * w[:, None]).T @ J
         g = (J * w[:, None]).T @ r
         lam, V = np.linalg.eigh(H)
-        if lam[-1] <= 0:
-            raise TipGeoError("registration failed: no scan point lies near the CAD surface")
-        keep = lam > settings.degenerate * lam[-1]
+        if not lam[-1] > 0:
+            raise ScanError("registration failed: no scan point lies within "
+                            f"{c * 1e3:.3g} µm of the CAD surface; is the scan of this tip?")
+        keep = lam > tol.inspect.degenerate * lam[-1]
         if fix_rz:
             # a rotationally symmetric tip: the turn about +z is free; hold it
             ez = np.zeros(6)
@@ -258,8 +262,8 @@ def _icp(p, cad, T, iterations, *, fix_rz=False):
         step[:3, 3] = ctr - R @ ctr + t_
         T = step @ T
         info["iterations"] = it + 1
-        if np.linalg.norm(w_) < settings.icp_converge_rot and \
-                np.linalg.norm(t_) < settings.icp_converge_trans:
+        if np.linalg.norm(w_) < tol.inspect.icp_converge_rot and \
+                np.linalg.norm(t_) < tol.inspect.icp_converge_trans:
             break
     return T, sigma, info
 
@@ -279,12 +283,30 @@ def register(points: np.ndarray, cad, *, inlier_distance: float = 0.01,
     Returns
     -------
     Registration
+
+    Raises
+    ------
+    ScanError
+        Too few points, or points on one place, a line or a plane
+        (:func:`tipgeo.inspect.checks.check_geometry`); no outer wall found;
+        no point near the CAD surface (the scan does not show this tip).
+
+    Points may be float32 (offsets from an origin): only the subset the
+    registration uses is taken to float64.
     """
+    from .checks import check_geometry
+
     say = progress or (lambda msg: None)
     rng = np.random.default_rng(seed)
-    p_all = np.asarray(points, float)
-    n = min(len(p_all), settings.register_points)
+    p_all = points if isinstance(points, np.ndarray) else np.asarray(points, float)
+    if p_all.ndim != 2 or p_all.shape[1] != 3:
+        raise ScanError(f"points have shape {p_all.shape}; expected (n, 3)")
+    n = min(len(p_all), tol.inspect.register_points)
     p = p_all[rng.choice(len(p_all), n, replace=False)] if n < len(p_all) else p_all
+    p = np.asarray(p, np.float64)
+    if not np.all(np.isfinite(p)):
+        raise ScanError("scan points have non-finite (NaN or infinite) coordinates")
+    check_geometry(p, cad.r_o, register=True)
     warnings: list[str] = []
     if len(p) < 200:
         warnings.append(f"only {len(p)} points: registration may be unreliable")
@@ -298,7 +320,7 @@ def register(points: np.ndarray, cad, *, inlier_distance: float = 0.01,
                         f"{2 * cad.r_o:.4f} mm by more than 5 %")
     say("global search about the axis")
     cands = []
-    search: dict[str, Any] = {"step_deg": math.degrees(settings.search_step)}
+    search: dict[str, Any] = {"step_deg": math.degrees(tol.inspect.search_step)}
     sym = cad.symmetry
     for sign in (1.0, -1.0):
         Ta = _frame(point, a, sign)
@@ -307,7 +329,7 @@ def register(points: np.ndarray, cad, *, inlier_distance: float = 0.01,
             ang, sc, dz = np.array([0.0]), None, cad.z_top - np.quantile(q[:, 2], 0.9995)
             cands.append((0.0, sign, 0.0, _pose(Ta, 0.0, dz)))
             continue
-        ang, sc, dz = _search(q, cad, settings.search_step, settings.search_points, rng)
+        ang, sc, dz = _search(q, cad, tol.inspect.search_step, tol.inspect.search_points, rng)
         period = 2 * math.pi / sym
         # local minima of the score, best first
         mins = np.flatnonzero((sc <= np.roll(sc, 1)) & (sc <= np.roll(sc, -1)))
@@ -322,11 +344,11 @@ def register(points: np.ndarray, cad, *, inlier_distance: float = 0.01,
     for score, sign, ang, T0 in cands[:4]:
         T, sig, info = _icp(small, cad, T0, 10, fix_rz=(sym == 0))
         d = cad.distances(apply(T, small)).distance
-        rrms = float(np.sqrt(np.mean(np.minimum(d * d, settings.search_clip ** 2))))
+        rrms = float(np.sqrt(np.mean(np.minimum(d * d, tol.inspect.search_clip ** 2))))
         results.append((rrms, T, sign, ang, score))
     results.sort(key=lambda r: r[0])
     best = results[0]
-    T, sigma, info = _icp(p, cad, best[1], settings.icp_iterations, fix_rz=(sym == 0))
+    T, sigma, info = _icp(p, cad, best[1], tol.inspect.icp_iterations, fix_rz=(sym == 0))
     d = cad.distances(apply(T, p)).distance
     ok = np.abs(d) <= inlier_distance
     fitness = float(ok.mean())
@@ -342,7 +364,7 @@ def register(points: np.ndarray, cad, *, inlier_distance: float = 0.01,
         if ang > 2.0 and sym != 0:
             search["runner_up_robust_rms_mm"] = rr
             search["runner_up_angle_deg"] = ang
-            if rr < settings.ambiguity_ratio * best[0]:
+            if rr < tol.inspect.ambiguity_ratio * best[0]:
                 warnings.append(
                     f"ambiguous registration: a pose turned {ang:.1f}° away fits almost as "
                     f"well (robust RMS {rr * 1e3:.2f} vs {best[0] * 1e3:.2f} µm); check "

@@ -11,15 +11,14 @@ report state it.
 
 from __future__ import annotations
 
-import json
 import math
+import os
 from pathlib import Path
 
 import numpy as np
 
-from .scanio import write_ply
-
-__all__ = ["write_report", "write_json", "deviation_colours", "COLORMAP"]
+__all__ = ["write_report", "write_json", "write_deviation_ply", "deviation_colours",
+           "COLORMAP"]
 
 #: matplotlib colormap of every deviation picture and the coloured PLY.
 COLORMAP = "RdYlBu_r"
@@ -35,48 +34,121 @@ def deviation_colours(d: np.ndarray, scale: float) -> np.ndarray:
     return lut[k]
 
 
-def _json_default(o):
-    if isinstance(o, np.generic):
-        return o.item()
-    if isinstance(o, np.ndarray):
-        return o.tolist()
-    return str(o)
-
-
 def write_json(res, path: Path) -> Path:
-    from .._atomic import write_text_atomic as _atomic_text
+    from ..atomic import write_text_atomic
+    from ..jsonio import dumps
 
-    _atomic_text(path, json.dumps(res.to_dict(), indent=2, default=_json_default) + "\n")
+    write_text_atomic(path, dumps(res.to_dict()) + "\n")
     return path
+
+
+_PLY_COMMENTS = ("tipgeo compare: scan points in the CAD's cannula frame, units mm",
+                 "colour scale {cmap}: -{s:g} um (blue) .. 0 .. +{s:g} um (red), saturated "
+                 "beyond",
+                 "deviation_mm > 0: outside the CAD solid (excess material)")
+
+
+def write_deviation_ply(res, path: Path, *, chunk: int = 1 << 20) -> Path:
+    """The compared points (cannula frame, float32 mm) coloured by deviation,
+    with ``deviation_mm`` and ``face`` properties: a binary little-endian PLY,
+    written chunk by chunk and atomically."""
+    from ..atomic import write_atomic
+
+    s = res.colour_scale
+    d = res.distances
+    fields = [("x", "<f4"), ("y", "<f4"), ("z", "<f4"), ("red", "u1"), ("green", "u1"),
+              ("blue", "u1"), ("deviation_mm", "<f4"), ("face", "<f4")]
+    names = {"<f4": "float", "u1": "uchar"}
+    comments = [c.format(cmap=COLORMAP, s=s * 1e3) for c in _PLY_COMMENTS]
+    comments.append("face: " + ", ".join(f"{k}={n}" for k, n in enumerate(d.labels)))
+    n = len(res.points)
+    header = ["ply", "format binary_little_endian 1.0", *(f"comment {c}" for c in comments),
+              f"element vertex {n}", *(f"property {names[t]} {k}" for k, t in fields),
+              "end_header"]
+
+    def write(tmp) -> None:
+        with open(tmp, "wb") as fh:
+            fh.write(("\n".join(header) + "\n").encode("ascii", "replace"))
+            for i in range(0, n, chunk):
+                j = min(n, i + chunk)
+                arr = np.empty(j - i, dtype=fields)
+                pc = res.points[i:j]
+                arr["x"], arr["y"], arr["z"] = pc[:, 0], pc[:, 1], pc[:, 2]
+                col = deviation_colours(d.distance[i:j], s)
+                arr["red"], arr["green"], arr["blue"] = col[:, 0], col[:, 1], col[:, 2]
+                arr["deviation_mm"] = d.distance[i:j]
+                arr["face"] = d.face[i:j]
+                arr.tofile(fh)
+
+    return write_atomic(path, write)
+
+
+def _missing_parents(out: Path) -> list[Path]:
+    """``out`` and those of its parents that do not exist yet (deepest first)."""
+    missing = []
+    q = out
+    while not q.exists():
+        missing.append(q)
+        if q.parent == q:
+            break
+        q = q.parent
+    return missing
 
 
 def write_report(res, out, *, pictures: bool = True) -> list[Path]:
     """Write ``report.json``, ``report.md``, ``deviations.ply`` and (with
-    ``pictures``) ``deviation-map.png`` and ``histogram.png`` into ``out``."""
+    ``pictures``) ``deviation-map.png`` and ``histogram.png`` into ``out``.
+
+    All or nothing: the files are written into a hidden staging folder in
+    ``out`` and moved into place only when every one of them is complete; on
+    a failure the staging folder goes, and so do ``out`` and its parents if
+    this call created them. ``res.timings`` gets ``report`` (and ``total``
+    grows by it) before report.json is written."""
+    import shutil
+    import tempfile
+    import time
+
+    from ..errors import SpecError
+
+    t = time.perf_counter()
     out = Path(out)
+    if out.exists() and not out.is_dir():
+        raise SpecError(f"--out = '{out}' is a file; expected a folder (or a new name)")
+    created = _missing_parents(out)
     out.mkdir(parents=True, exist_ok=True)
-    paths = []
-    s = res.colour_scale
-    col = deviation_colours(res.distances.distance, s)
-    label_ids = res.distances.face.astype(np.float32)
-    paths.append(write_ply(
-        out / "deviations.ply", res.points, colors=col, double=False,
-        scalars={"deviation_mm": res.distances.distance.astype(np.float32),
-                 "face": label_ids},
-        comments=["tipgeo compare: scan points in the CAD's cannula frame, units mm",
-                  f"colour scale {COLORMAP}: -{s * 1e3:g} um (blue) .. 0 .. +{s * 1e3:g} um "
-                  "(red), saturated beyond",
-                  "deviation_mm > 0: outside the CAD solid (excess material)",
-                  "face: " + ", ".join(f"{k}={n}" for k, n in enumerate(res.distances.labels))]))
-    if pictures:
-        paths.append(plot_map(res, out / "deviation-map.png"))
-        paths.append(plot_histogram(res, out / "histogram.png"))
-    paths.append(out / "report.md")
-    paths.append(out / "report.json")
-    res.outputs = paths
-    _write_markdown(res, out / "report.md")
-    write_json(res, out / "report.json")
-    return paths
+    stage = Path(tempfile.mkdtemp(prefix=".tipgeo-report-", dir=out))
+    ok = False
+    try:
+        names = ["deviations.ply"]
+        write_deviation_ply(res, stage / "deviations.ply")
+        if pictures:
+            plot_map(res, stage / "deviation-map.png")
+            plot_histogram(res, stage / "histogram.png")
+            names += ["deviation-map.png", "histogram.png"]
+        names += ["report.md", "report.json"]
+        res.outputs = [out / n for n in names]
+        _write_markdown(res, stage / "report.md")
+        dt = time.perf_counter() - t
+        res.timings["report"] = dt
+        if "total" in res.timings:
+            res.timings["total"] += dt
+        write_json(res, stage / "report.json")
+        for n in names:
+            try:  # an existing report file keeps its mode
+                os.chmod(stage / n, os.stat(out / n).st_mode & 0o7777)
+            except FileNotFoundError:
+                pass
+            os.replace(stage / n, out / n)
+        ok = True
+    finally:
+        shutil.rmtree(stage, ignore_errors=True)
+        if not ok:
+            for q in created:
+                try:
+                    q.rmdir()
+                except OSError:
+                    break
+    return res.outputs
 
 
 # -----------------------------------------------------------------------------
@@ -89,10 +161,11 @@ def _view_basis(res):
     if faces:
         n = np.asarray(next(iter(faces.values()))["normal"], float)
     if n is None:
-        lab = res.distances.label_of()
-        cut = np.array([str(x).startswith("cut:") for x in lab])
-        if cut.any():
-            n = res.distances.normal[cut].mean(axis=0)
+        dd = res.distances
+        cut = [k for k, lab in enumerate(dd.labels) if str(lab).startswith("cut:")]
+        sel = np.isin(dd.face, cut)
+        if sel.any():
+            n = np.asarray(dd.normal[sel], np.float64).mean(axis=0)
     if n is None or np.linalg.norm(n[:2]) < 1e-9:
         n = np.array([1.0, 0.0, 0.2])
     h = np.array([n[0], n[1], 0.0])
@@ -108,14 +181,24 @@ def _view_basis(res):
     return views
 
 
-def _zbuffer_image(p, d, look, right, up, max_px: int = 900, max_points: int = 400_000):
+_MAX_PICTURE_POINTS = 400_000
+
+
+def _picture_sample(p, d, max_points: int = _MAX_PICTURE_POINTS):
+    """At most ``max_points`` of the points (seeded: reproducible), float64."""
+    if len(p) > max_points:  # a picture needs no more
+        k = np.random.default_rng(0).choice(len(p), max_points, replace=False)
+        p, d = p[k], d[k]
+    return np.asarray(p, np.float64), np.asarray(d, np.float64)
+
+
+def _zbuffer_image(p, d, look, right, up, max_px: int = 900,
+                   max_points: int = _MAX_PICTURE_POINTS):
     """Deviation of the point nearest the viewer in every pixel (NaN where
     none). Pixels are sized to the point density (about three points of one
     surface per pixel, each point splatted on 2×2 pixels) so that a sparse
     front surface does not let the surface behind it show through."""
-    if len(p) > max_points:  # a picture needs no more (seeded: reproducible)
-        k = np.random.default_rng(0).choice(len(p), max_points, replace=False)
-        p, d = p[k], d[k]
+    p, d = _picture_sample(p, d, max_points)
     u, v, depth = p @ right, p @ up, p @ look
     su, sv = max(np.ptp(u), 1e-9), max(np.ptp(v), 1e-9)
     res = max(np.sqrt(0.6 * su * sv / max(len(p) / 8.0, 1.0)), max(su, sv) / max_px)
@@ -149,8 +232,9 @@ def plot_map(res, path: Path) -> Path:
     views = _view_basis(res)
     fig, axes = plt.subplots(1, len(views), figsize=(3.6 * len(views) + 1.5, 7.2))
     im = None
+    p, dv = _picture_sample(res.points, res.distances.distance)  # once for every view
     for ax, (name, look, right, up) in zip(axes, views):
-        img, ext = _zbuffer_image(res.points, res.distances.distance * 1e3, look, right, up)
+        img, ext = _zbuffer_image(p, dv * 1e3, look, right, up)
         im = ax.imshow(img, origin="lower", extent=ext, cmap=COLORMAP, vmin=-s, vmax=s,
                        interpolation="nearest", aspect="equal")
         ax.set_title(name)
@@ -178,21 +262,25 @@ def plot_histogram(res, path: Path) -> Path:
 
     from ..plot import save_figure
 
-    d = res.distances.distance * 1e3
-    lab = res.distances.label_of()
+    dd = res.distances
     s = res.colour_scale * 1e3
-    lo, hi = np.percentile(d, [0.1, 99.9])
+    lo, hi = np.percentile(dd.distance, [0.1, 99.9]) * 1e3
     lim = max(abs(lo), abs(hi), s)
     bins = np.linspace(-lim, lim, 121)
     fig, ax = plt.subplots(figsize=(9, 5))
-    dc = np.clip(d, -lim, lim)
-    ax.stairs(np.histogram(dc, bins)[0], bins, fill=True, color="#888888", alpha=0.5,
-              label="all")
+    # every face's histogram in one pass: bin b of face k counts at k·nb + b
+    nb, K = len(bins) - 1, len(dd.labels)
+    counts = np.zeros(K * nb, np.int64)
+    for i in range(0, len(dd.distance), 1 << 20):
+        x = np.clip((dd.distance[i:i + (1 << 20)] * 1e3 + lim) * (nb / (2 * lim)), 0, nb - 1)
+        counts += np.bincount(dd.face[i:i + (1 << 20)].astype(np.int64) * nb
+                              + x.astype(np.int64), minlength=K * nb)
+    counts = counts.reshape(K, nb)
+    ax.stairs(counts.sum(axis=0), bins, fill=True, color="#888888", alpha=0.5, label="all")
     for name in res.stats["regions"]:
-        sel = lab == name
-        if sel.sum() > 0:
-            ax.stairs(np.histogram(dc[sel], bins)[0], bins, lw=1.4,
-                      label=f"{name} ({int(sel.sum()):,})")
+        h = counts[[k for k, lab in enumerate(dd.labels) if lab == name]].sum(axis=0)
+        if h.sum() > 0:
+            ax.stairs(h, bins, lw=1.4, label=f"{name} ({int(h.sum()):,})")
     t = res.tolerance * 1e3
     for x in (-t, t):
         ax.axvline(x, color="k", ls="--", lw=1)
@@ -216,7 +304,7 @@ def _f(x, nd=3):
 
 
 def _write_markdown(res, path: Path) -> None:
-    from .._atomic import write_text_atomic as _atomic_text
+    from ..atomic import write_text_atomic as _atomic_text
 
     r = res.to_dict()
     L = [f"# Inspection: {r['cad']['name']} vs {r['scan']['source']}", ""]
@@ -228,7 +316,18 @@ def _write_markdown(res, path: Path) -> None:
           f"- tolerance ±{r['tolerance_um']:g} µm; colour scale `{COLORMAP}` fixed at "
           f"{r['colour_scale_um'][0]:g} … +{r['colour_scale_um'][1]:g} µm (blue: missing "
           "material, red: excess), saturated beyond",
-          f"- sign: {r['sign_convention']}", ""]
+          f"- sign: {r['sign_convention']}"]
+    mt = r.get("match") or {}
+    if mt:
+        fit = "" if mt["fitness"] is None else \
+            f", registration fitness {mt['fitness']:.3f} (needs ≥ {mt['min_fitness']:g})"
+        dia = "".join(f", {k} {v['mm']:.4f} mm (CAD {v['cad_mm']:.4f}, allowed "
+                      f"±{100 * mt['diameter_tolerance']:g} %)"
+                      for k, v in mt["diameters"].items())
+        L.append(f"- match with the CAD: {'yes' if mt['ok'] else '**no**'} — inlier share "
+                 f"{100 * mt['inlier_share']:.1f} % within {mt['match_distance_mm'] * 1e3:g} µm "
+                 f"(needs ≥ {100 * mt['min_inlier_share']:g} %){fit}{dia}")
+    L.append("")
     if r["warnings"]:
         L += ["**Warnings**", ""] + [f"- {w}" for w in r["warnings"]] + [""]
     reg = r["registration"]

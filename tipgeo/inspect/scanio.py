@@ -4,25 +4,38 @@ Units: coordinates are scaled to mm on reading (``units``: ``mm``, ``um``,
 ``m``); the frame is whatever the scanner used (registration finds the
 cannula frame).
 
-Formats: PLY (point cloud or mesh), PCD, XYZ/TXT/PTS/XYZN (through open3d),
-STL and OBJ (through trimesh; their vertices are the measured points). Errors
-for missing, empty, unreadable or non-finite input are :class:`ScanError`
-and name the file and the problem.
+Formats: PLY (point cloud or mesh), PCD, XYZ/TXT/PTS/XYZN, STL and OBJ
+(through trimesh; their vertices are the measured points). XYZ/TXT/PTS/XYZN
+text and PLY vertices (binary or ASCII) are read in chunks with numpy, so a
+scan of 10⁷ points never sits in memory as text or as Python objects; PCD
+goes through open3d. Errors for missing, empty, unreadable, non-finite or
+absurdly large input are :class:`ScanError` and name the file, the value and
+what is allowed.
+
+Storage: :func:`load_scan` keeps every coordinate exactly as read (float64).
+With ``compact=True`` (what :func:`tipgeo.inspect.compare` uses) the points
+are kept as float32 offsets from a float64 origin (the centre of the first
+chunk read) wherever the offsets stay below :data:`F32_OFFSET_LIMIT_MM`, so
+that no coordinate moves by more than half a float32 ulp at 16 mm,
+2⁻²¹ mm ≈ 4.8·10⁻⁴ µm; a scan reaching farther from its origin is kept in
+float64 instead (exact, twice the memory).
 """
 
 from __future__ import annotations
 
+import io
 import os
-import tempfile
-from dataclasses import dataclass, field
+import re
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
-from ..errors import TipGeoError
+from ..atomic import write_atomic
+from ..errors import ScanError
 
-__all__ = ["Scan", "ScanError", "load_scan", "write_ply", "SCAN_FORMATS", "UNITS"]
+__all__ = ["Scan", "ScanError", "load_scan", "write_ply", "check_points", "SCAN_FORMATS",
+           "UNITS", "MAX_COORDINATE_MM", "F32_OFFSET_LIMIT_MM"]
 
 #: Length units accepted for scan files, and their size in mm.
 UNITS: dict[str, float] = {"mm": 1.0, "um": 1.0e-3, "µm": 1.0e-3, "m": 1.0e3}
@@ -31,45 +44,111 @@ UNITS: dict[str, float] = {"mm": 1.0, "um": 1.0e-3, "µm": 1.0e-3, "m": 1.0e3}
 SCAN_FORMATS: tuple[str, ...] = (".ply", ".pcd", ".xyz", ".xyzn", ".txt", ".pts", ".stl",
                                  ".obj")
 
+#: Largest |coordinate| a scan may have, in mm after the unit conversion (1 km:
+#: far beyond any scanner's frame, far below where squares of coordinates
+#: lose precision or overflow in double precision).
+MAX_COORDINATE_MM = 1.0e6
 
-class ScanError(TipGeoError, ValueError):
-    """A scan file or point array is missing, empty, unreadable or non-finite."""
+#: Compact storage keeps float32 offsets only while |offset| < this (mm):
+#: the rounding is then at most 2⁻²¹ mm (half a float32 ulp below 16).
+F32_OFFSET_LIMIT_MM = 16.0
+
+_CHUNK_ROWS = 1 << 20          # points per chunk of a binary PLY
+_CHUNK_BYTES = 1 << 25         # bytes per chunk of a text file
 
 
-@dataclass
 class Scan:
     """A measured point cloud.
 
-    Attributes
+    Parameters
     ----------
-    points : (n, 3) float — mm, scanner frame
+    points : (n, 3) float — mm, scanner frame; with ``origin``, the offsets
+        from it (float32 or float64, already checked)
     normals : (n, 3) float or None — unit normals from the file, if any
     source : str — file name or description
-    meta : dict — format, file units, point count as read
+    meta : dict — format, file units, point count as read, storage
+    origin : (3,) float, optional — see ``points``
+
+    Attributes
+    ----------
+    points : (n, 3) float64 — absolute coordinates (mm); computed from
+        ``origin + local`` for a compact scan (a new array each time)
+    local : (n, 3) float32 or float64 — the stored offsets from ``origin``
+    origin : (3,) float64 — mm
+    rounding_mm : float — bound of |stored − read| per coordinate (0: exact)
     """
 
-    points: np.ndarray
-    normals: np.ndarray | None = None
-    source: str = "array"
-    meta: dict[str, Any] = field(default_factory=dict)
-
-    def __post_init__(self):
-        self.points = check_points(self.points, self.source)
-        if self.normals is not None:
-            n = np.asarray(self.normals, dtype=np.float64).reshape(-1, 3)
-            if len(n) != len(self.points) or not np.all(np.isfinite(n)):
+    def __init__(self, points, normals=None, source: str = "array",
+                 meta: dict[str, Any] | None = None, *, origin=None):
+        self.source = source
+        self.meta = dict(meta or {})
+        if origin is None:
+            self._local = check_points(points, source)
+            self.origin = np.zeros(3)
+        else:
+            loc = np.asarray(points)
+            if loc.dtype not in (np.float32, np.float64) or loc.ndim != 2 or loc.shape[1] != 3:
+                raise ScanError(f"{source}: offsets must be an (n, 3) float32/float64 array")
+            if len(loc) == 0:
+                raise ScanError(f"{source}: the scan is empty (0 points)")
+            self._local = loc
+            self.origin = np.asarray(origin, np.float64).reshape(3)
+        if normals is not None:
+            n = np.asarray(normals)
+            if n.dtype not in (np.float32, np.float64):
+                n = n.astype(np.float64)
+            n = n.reshape(-1, 3)
+            if len(n) != len(self._local) or not np.all(np.isfinite(n)):
                 n = None
-            self.normals = n
+            normals = n
+        self.normals = normals
+
+    @property
+    def points(self) -> np.ndarray:
+        if self._local.dtype == np.float64 and not self.origin.any():
+            return self._local
+        return self.origin + self._local.astype(np.float64)
+
+    @points.setter
+    def points(self, value) -> None:
+        self._local = check_points(value, self.source)
+        self.origin = np.zeros(3)
+
+    @property
+    def local(self) -> np.ndarray:
+        return self._local
+
+    @property
+    def rounding_mm(self) -> float:
+        if self._local.dtype == np.float64:
+            return 0.0
+        m = np.float32(max(self._local.max(initial=0.0), -self._local.min(initial=0.0)))
+        return float(np.spacing(m)) / 2
 
     def __len__(self) -> int:
-        return len(self.points)
+        return len(self._local)
+
+    def __repr__(self) -> str:
+        return (f"Scan({len(self):,} points, source={self.source!r}, "
+                f"storage={self._local.dtype.name})")
+
+
+def _coordinate_limit_error(where: str, biggest: float, unit: str = "mm",
+                            factor: float = 1.0) -> ScanError:
+    if unit == "mm":
+        got = f"coordinates up to {biggest:.3g} mm"
+    else:
+        got = f"coordinates up to {biggest:.3g} {unit} ({biggest * factor:.3g} mm)"
+    return ScanError(f"{where}: {got}; allowed |x| ≤ {MAX_COORDINATE_MM:.0e} mm "
+                     "(wrong --units, or a corrupt file?)")
 
 
 def check_points(points, where: str = "points") -> np.ndarray:
-    """Return ``points`` as a finite (n ≥ 1, 3) float64 array, else ScanError."""
+    """Return ``points`` as a finite (n ≥ 1, 3) float64 array with every
+    |coordinate| ≤ :data:`MAX_COORDINATE_MM`, else ScanError."""
     try:
         p = np.asarray(points, dtype=np.float64)
-    except (TypeError, ValueError) as e:
+    except (TypeError, ValueError, OverflowError) as e:
         raise ScanError(f"{where}: not numeric point coordinates ({e})") from None
     if p.ndim != 2 or p.shape[1] != 3:
         raise ScanError(f"{where}: points have shape {p.shape}; expected (n, 3)")
@@ -78,11 +157,120 @@ def check_points(points, where: str = "points") -> np.ndarray:
     bad = ~np.all(np.isfinite(p), axis=1)
     if bad.any():
         raise ScanError(f"{where}: {int(bad.sum())} of {len(p)} points have non-finite "
-                        "(NaN or infinite) coordinates")
+                        f"(NaN or infinite) coordinates (the first is point "
+                        f"{int(np.argmax(bad)) + 1})")
+    biggest = float(np.abs(p).max())
+    if biggest > MAX_COORDINATE_MM:
+        raise _coordinate_limit_error(where, biggest)
     return np.ascontiguousarray(p)
 
 
-def load_scan(path: str | os.PathLike[str], *, units: str = "mm") -> Scan:
+class _Accumulator:
+    """Collects point chunks (file units): counts non-finite points, tracks
+    the largest |coordinate|, converts to mm and stores them (exact float64,
+    or compact float32 offsets from the first chunk's centre)."""
+
+    def __init__(self, where: str, units: str, compact: bool, capacity: int | None = None):
+        self.where, self.units, self.factor = where, units, UNITS[units]
+        self.compact = compact
+        self.count = 0
+        self.bad = 0
+        self.first_bad = -1
+        self.biggest = 0.0
+        self.origin: np.ndarray | None = None
+        self.parts: list[np.ndarray] = []
+        self.nparts: list[np.ndarray] = []
+        self.normals_ok = True
+        self.dtype = np.float32 if compact else np.float64
+        self.buf = None
+        if capacity is not None and capacity > 0:
+            self.buf = np.empty((capacity, 3), self.dtype)
+        self.stored = 0
+
+    @property
+    def failed(self) -> bool:
+        return self.bad > 0 or self.biggest * self.factor > MAX_COORDINATE_MM
+
+    def add(self, xyz: np.ndarray, nrm: np.ndarray | None = None) -> None:
+        m = len(xyz)
+        if not m:
+            return
+        fin = np.isfinite(xyz).all(axis=1)
+        nb = m - int(np.count_nonzero(fin))
+        if nb:
+            if not self.bad:
+                self.first_bad = self.count + int(np.argmin(fin))
+            self.bad += nb
+        self.count += m
+        big = float(np.abs(xyz[fin]).max(initial=0.0)) if nb else float(np.abs(xyz).max())
+        self.biggest = max(self.biggest, big)
+        if self.failed:
+            self.parts, self.nparts, self.buf = [], [], None  # nothing more is stored
+            return
+        mm = np.asarray(xyz, np.float64) * self.factor if self.factor != 1.0 else \
+            np.asarray(xyz, np.float64)
+        if self.origin is None:
+            self.origin = 0.5 * (mm.min(axis=0) + mm.max(axis=0)) if self.compact \
+                else np.zeros(3)
+        loc = mm - self.origin if self.compact else mm
+        if self.dtype == np.float32 and np.abs(loc).max() >= F32_OFFSET_LIMIT_MM:
+            self._widen()
+        self._store(loc)
+        if nrm is not None and self.normals_ok:
+            self.nparts.append(np.asarray(nrm, self.dtype))
+        else:
+            self.normals_ok = False
+            self.nparts = []
+
+    def _widen(self) -> None:
+        """Switch the storage to float64 (points stored so far were within
+        the float32 limit, so their rounding stays within its bound)."""
+        self.dtype = np.float64
+        if self.buf is not None:
+            wide = np.empty(self.buf.shape, np.float64)
+            wide[:self.stored] = self.buf[:self.stored]   # only what was filled
+            self.buf = wide
+        self.parts = [p.astype(np.float64) for p in self.parts]
+
+    def _store(self, loc: np.ndarray) -> None:
+        if self.buf is not None and self.stored + len(loc) <= len(self.buf):
+            self.buf[self.stored:self.stored + len(loc)] = loc
+        else:
+            if self.buf is not None:  # more points than the header said: keep them all
+                self.parts.append(self.buf[:self.stored])
+                self.buf = None
+            self.parts.append(loc.astype(self.dtype, copy=False))
+        self.stored += len(loc)
+
+    def finish(self, meta: dict[str, Any]) -> Scan:
+        where = self.where
+        if self.bad:
+            raise ScanError(f"{where}: {self.bad} of {self.count} points have non-finite "
+                            f"(NaN or infinite) coordinates (the first is point "
+                            f"{self.first_bad + 1})")
+        if self.biggest * self.factor > MAX_COORDINATE_MM:
+            raise _coordinate_limit_error(where, self.biggest, self.units, self.factor)
+        if self.count == 0:
+            raise ScanError(f"{where} holds no points")
+        if self.buf is not None:
+            local = self.buf[:self.stored]
+        else:
+            local = self.parts[0] if len(self.parts) == 1 else np.concatenate(self.parts)
+            self.parts = []
+        normals = None
+        if self.normals_ok and self.nparts:
+            normals = self.nparts[0] if len(self.nparts) == 1 else np.concatenate(self.nparts)
+        meta = dict(meta, points=int(self.count), file_units=self.units,
+                    storage=("float32 offsets from a float64 origin"
+                             if local.dtype == np.float32 else "float64"))
+        s = Scan(local, normals, source=meta.get("source", where), meta=meta,
+                 origin=self.origin if self.compact else np.zeros(3))
+        s.meta["rounding_mm"] = s.rounding_mm
+        return s
+
+
+def load_scan(path: str | os.PathLike[str], *, units: str = "mm",
+              compact: bool = False) -> Scan:
     """Read a scan file.
 
     Parameters
@@ -91,6 +279,10 @@ def load_scan(path: str | os.PathLike[str], *, units: str = "mm") -> Scan:
         ``.ply .pcd .xyz .xyzn .txt .pts .stl .obj`` (case-insensitive).
     units : {'mm', 'um', 'm'}
         Length unit of the file's coordinates; they are scaled to mm.
+    compact : bool
+        Keep float32 offsets from a float64 origin where that rounds no
+        coordinate by more than 2⁻²¹ mm (see the module docstring); default:
+        every coordinate exactly as read (float64).
 
     Returns
     -------
@@ -100,7 +292,7 @@ def load_scan(path: str | os.PathLike[str], *, units: str = "mm") -> Scan:
     ------
     ScanError
         Unknown extension or units; missing, empty or unreadable file; no
-        points; non-finite coordinates.
+        points; non-finite coordinates; |coordinate| > MAX_COORDINATE_MM.
     """
     if units not in UNITS:
         raise ScanError(f"units = {units!r} is not supported; allowed: mm, um, m")
@@ -115,51 +307,161 @@ def load_scan(path: str | os.PathLike[str], *, units: str = "mm") -> Scan:
         raise ScanError(f"scan '{p}' is not a regular file")
     if p.stat().st_size == 0:
         raise ScanError(f"scan '{p}' is empty (0 bytes)")
+    where = f"scan '{p}'"
+    acc = None
     try:
         if ext in (".stl", ".obj"):
+            acc = _Accumulator(where, units, compact)
             pts, nrm = _read_trimesh(p)
+            acc.add(np.asarray(pts, np.float64), nrm)
         elif ext == ".ply":
-            pts, nrm = _read_ply_fast(p)
-            if pts is None:
-                pts, nrm = _read_open3d(p, ext)
+            acc = _read_ply(p, where, units, compact)
+        elif ext in (".xyz", ".txt", ".pts", ".xyzn"):
+            acc = _Accumulator(where, units, compact)
+            _read_text(p, acc, normals=(ext == ".xyzn"), count_line=(ext == ".pts"))
         else:
+            acc = _Accumulator(where, units, compact)
             pts, nrm = _read_open3d(p, ext)
+            acc.add(pts, nrm)
     except ScanError:
         raise
+    except MemoryError:
+        raise ScanError(f"{where}: too large to read into memory") from None
     except Exception as e:  # any reader failure is a bad file
-        raise ScanError(f"scan '{p}' could not be read as {ext}: {type(e).__name__}: {e}") \
+        raise ScanError(f"{where} could not be read as {ext}: {type(e).__name__}: {e}") \
             from None
-    if pts is None or len(pts) == 0:
-        raise ScanError(f"scan '{p}' holds no points")
-    pts = check_points(pts, f"scan '{p}'") * UNITS[units]
-    return Scan(pts, nrm, source=p.name, meta={"path": str(p), "format": ext[1:],
-                                                "file_units": units, "points": len(pts)})
+    return acc.finish({"path": str(p), "format": ext[1:], "source": p.name})
 
 
 def _read_open3d(p: Path, ext: str):
     from .._open3d import import_open3d
 
     o3d = import_open3d()
-    fmt = {".txt": "xyz", ".pts": "pts"}.get(ext, "auto")
-    pc = o3d.io.read_point_cloud(str(p), format=fmt, print_progress=False)
+    pc = o3d.io.read_point_cloud(str(p), format="auto", print_progress=False)
     pts = np.asarray(pc.points, dtype=np.float64)
-    if len(pts) == 0 and ext in (".txt", ".xyz"):
-        pts = _read_text(p)
-        return pts, None
     nrm = np.asarray(pc.normals, dtype=np.float64) if pc.has_normals() else None
     return pts, nrm
 
 
-def _read_text(p: Path) -> np.ndarray:
+# -----------------------------------------------------------------------------
+# text: XYZ, TXT, PTS, XYZN (and the vertex lines of an ASCII PLY)
+_COMMENT = re.compile(rb"^\s*(#|//|$)")
+_INLINE = re.compile(rb"#|//")
+_ROW = re.compile(r"at row (\d+)")
+
+
+def _is_number(tok: bytes) -> bool:
     try:
-        a = np.loadtxt(p, comments=("#", "//"), delimiter=None, ndmin=2,
-                       usecols=(0, 1, 2), dtype=np.float64)
+        float(tok)
     except ValueError:
-        a = np.loadtxt(p, comments=("#", "//"), delimiter=",", ndmin=2, usecols=(0, 1, 2),
-                       dtype=np.float64)
-    return a
+        return False
+    return True
 
 
+def _blocks(fh, first: bytes, max_rows: int | None):
+    """Chunks of whole lines (bytes), at most ``max_rows`` lines in all."""
+    rows = 0
+    tail = first
+    while True:
+        buf = fh.read(_CHUNK_BYTES)
+        if buf:
+            buf = tail + buf
+            k = buf.rfind(b"\n")
+            if k < 0:
+                tail = buf
+                continue
+            block, tail = buf[:k + 1], buf[k + 1:]
+        else:
+            block, tail = tail, b""
+            if not block.strip():
+                return
+        if max_rows is not None:
+            n = block.count(b"\n") + (0 if block.endswith(b"\n") else 1)
+            if rows + n >= max_rows:
+                nl = np.flatnonzero(np.frombuffer(block, np.uint8) == 10)
+                cut = max_rows - rows
+                yield rows, block[:nl[cut - 1] + 1] if cut <= len(nl) else block
+                return
+            yield rows, block
+            rows += n
+        else:
+            yield rows, block
+            rows += block.count(b"\n")
+        if not buf:
+            return
+
+
+def _parse_block(block: bytes, ncols: int, where: str, line0: int) -> np.ndarray:
+    """The first ``ncols`` columns of a chunk of lines, (m, ncols) float64:
+    numpy's C parser on the plain chunk; comments (# and //), commas and a
+    varying number of extra columns take a slower path."""
+    a = None
+    if b"#" not in block and b"/" not in block and b"," not in block:
+        try:
+            a = np.loadtxt(io.BytesIO(block), dtype=np.float64, ndmin=2)
+        except ValueError:
+            a = None  # ragged columns, or a bad value: the slow path names the line
+        if a is not None and a.size and a.shape[1] < ncols:
+            a = None
+    if a is None:
+        try:
+            a = np.loadtxt(io.BytesIO(block.replace(b",", b" ")), dtype=np.float64,
+                           comments=("#", "//"), usecols=range(ncols), ndmin=2)
+        except ValueError as e:
+            msg = _ROW.sub(lambda m: f"on line {line0 + int(m.group(1)) + 1}", str(e))
+            raise ScanError(f"{where}: {msg}") from None
+    return a[:, :ncols] if a.size else np.zeros((0, ncols))
+
+
+def _read_text(p: Path, acc: _Accumulator, *, normals: bool, count_line: bool,
+               start: int = 0, max_rows: int | None = None, cols=(0, 1, 2),
+               ncols: int | None = None) -> None:
+    """Parse a whitespace- or comma-separated text file in chunks. Comment
+    lines (# or //) and, before the first point, one header line (a column
+    title such as ``X Y Z``, or a PTS point count) are skipped."""
+    where = acc.where
+    with open(p, "rb") as fh:
+        fh.seek(start)
+        head = fh.read(min(_CHUNK_BYTES, 1 << 16))
+        lines = head.split(b"\n")
+        skip, line0 = 0, 0
+        if ncols is None:
+            header_seen = False
+            whole = len(head) < 1 << 16           # the head is the whole file
+            for i, ln in enumerate(lines if whole else lines[:-1]):
+                if _COMMENT.match(ln):
+                    continue
+                toks = _INLINE.split(ln, maxsplit=1)[0].replace(b",", b" ").split()
+                if not all(_is_number(t) for t in toks) and not header_seen:
+                    header_seen, skip = True, i + 1
+                    continue
+                if count_line and len(toks) == 1 and not header_seen:
+                    header_seen, skip = True, i + 1
+                    continue
+                bad = [t for t in toks if not _is_number(t)]
+                if bad:
+                    raise ScanError(f"{where}: line {i + 1}: '{bad[0].decode('ascii', 'replace')}'"
+                                    " is not a number")
+                ncols = len(toks)
+                break
+            if ncols is None:
+                if whole:
+                    raise ScanError(f"{where} holds no points")
+                raise ScanError(f"{where}: no point in its first 64 KiB")
+            if ncols < 3:
+                raise ScanError(f"{where}: lines have {ncols} value(s); expected x y z "
+                                "(3 or more columns)")
+            if skip:
+                cut = sum(len(x) + 1 for x in lines[:skip])
+                head, line0 = head[cut:], skip
+        normals = normals and ncols >= 6
+        want = max(6 if normals else 3, max(cols) + 1)
+        for rows, block in _blocks(fh, head, max_rows):
+            a = _parse_block(block, want, where, line0 + rows)
+            acc.add(a[:, list(cols)], a[:, 3:6] if normals else None)
+
+
+# -----------------------------------------------------------------------------
 def _read_trimesh(p: Path):
     import trimesh
 
@@ -184,49 +486,80 @@ _PLY_TYPES = {"char": "i1", "int8": "i1", "uchar": "u1", "uint8": "u1", "short":
               "float64": "f8"}
 
 
-def _read_ply_fast(p: Path):
-    """Binary PLY whose first element is 'vertex' with scalar properties:
-    read straight into numpy (double precision kept). Returns (None, None)
-    for anything else (open3d reads those)."""
+def _read_ply(p: Path, where: str, units: str, compact: bool) -> _Accumulator:
+    """PLY whose first element is 'vertex' with scalar properties: binary
+    vertices in chunks straight into numpy (double precision kept), ASCII ones
+    by the chunked text parser; anything else through open3d."""
     with open(p, "rb") as fh:
         head = fh.read(65536)
     end = head.find(b"end_header")
     if not head.startswith(b"ply") or end < 0:
-        raise ScanError(f"scan '{p}' is not a PLY file (no 'ply' magic or no end_header)")
+        raise ScanError(f"{where} is not a PLY file (no 'ply' magic or no end_header)")
     nl = head.find(b"\n", end)
+    if nl < 0:
+        nl = len(head) - 1
     lines = head[:end].decode("ascii", "replace").splitlines()
-    fmt = next((ln.split()[1] for ln in lines if ln.startswith("format")), "")
-    if fmt not in ("binary_little_endian", "binary_big_endian"):
-        return None, None
+    fmt = next((ln.split()[1] for ln in lines if ln.startswith("format") and
+                len(ln.split()) > 1), "")
+    if fmt not in ("binary_little_endian", "binary_big_endian", "ascii"):
+        raise ScanError(f"{where}: PLY format '{fmt}'; allowed ascii, binary_little_endian, "
+                        "binary_big_endian")
     bo = "<" if fmt == "binary_little_endian" else ">"
     elements: list[tuple[str, int, list]] = []
+    simple = True
     for ln in lines:
         t = ln.split()
         if not t:
             continue
         if t[0] == "element":
+            if len(t) < 3 or not re.fullmatch(r"\d+", t[2]):
+                raise ScanError(f"{where}: PLY header line '{ln.strip()}'; expected "
+                                "'element NAME COUNT' with a count ≥ 0")
             elements.append((t[1], int(t[2]), []))
         elif t[0] == "property" and elements:
-            if t[1] == "list" or t[1] not in _PLY_TYPES:
+            if len(t) < 3 or t[1] == "list" or t[1] not in _PLY_TYPES:
                 if elements[-1][0] == "vertex":
-                    return None, None
+                    simple = False
                 continue
             elements[-1][2].append((t[2], bo + _PLY_TYPES[t[1]]))
-    if not elements or elements[0][0] != "vertex":
-        return None, None
+    acc = _Accumulator(where, units, compact)
+    if not simple or not elements or elements[0][0] != "vertex":
+        pts, nrm = _read_open3d(p, ".ply")
+        acc.add(pts, nrm)
+        return acc
     _, n, props = elements[0]
-    dt = np.dtype(props)
-    data = np.fromfile(p, dtype=dt, count=n, offset=nl + 1)
-    if len(data) < n:
-        raise ScanError(f"scan '{p}' is truncated: {len(data)} of {n} vertices")
-    names = dt.names
+    names = [k for k, _ in props]
     if not {"x", "y", "z"} <= set(names):
-        raise ScanError(f"scan '{p}': the vertex element has no x, y, z properties")
-    pts = np.stack([data["x"], data["y"], data["z"]], 1).astype(np.float64)
-    nrm = None
-    if {"nx", "ny", "nz"} <= set(names):
-        nrm = np.stack([data["nx"], data["ny"], data["nz"]], 1).astype(np.float64)
-    return pts, nrm
+        raise ScanError(f"{where}: the vertex element has no x, y, z properties")
+    has_n = {"nx", "ny", "nz"} <= set(names)
+    if fmt == "ascii":
+        cols = tuple(names.index(c) for c in ("x", "y", "z"))
+        if has_n and [names.index(c) for c in ("nx", "ny", "nz")] != [3, 4, 5]:
+            has_n = False
+        if n:
+            _read_text(p, acc, normals=has_n, count_line=False, start=nl + 1, max_rows=n,
+                       cols=cols, ncols=len(names))
+        if acc.count < n and not acc.failed:
+            raise ScanError(f"{where} is truncated: {acc.count} of {n} vertices")
+        return acc
+    dt = np.dtype(props)
+    avail = (p.stat().st_size - (nl + 1)) // dt.itemsize
+    if avail < n:
+        raise ScanError(f"{where} is truncated: {max(avail, 0)} of {n} vertices")
+    acc = _Accumulator(where, units, compact, capacity=n)
+    with open(p, "rb") as fh:
+        fh.seek(nl + 1)
+        done = 0
+        while done < n:
+            k = min(_CHUNK_ROWS, n - done)
+            data = np.fromfile(fh, dtype=dt, count=k)
+            if len(data) < k:
+                raise ScanError(f"{where} is truncated: {done + len(data)} of {n} vertices")
+            xyz = np.stack([data["x"], data["y"], data["z"]], 1).astype(np.float64)
+            nrm = np.stack([data["nx"], data["ny"], data["nz"]], 1) if has_n else None
+            acc.add(xyz, nrm)
+            done += k
+    return acc
 
 
 def write_ply(path: str | os.PathLike[str], points: np.ndarray, *,
@@ -268,18 +601,10 @@ def write_ply(path: str | os.PathLike[str], points: np.ndarray, *,
     header = ["ply", "format binary_little_endian 1.0", *(f"comment {c}" for c in comments),
               f"element vertex {len(pts)}",
               *(f"property {names[t]} {n}" for n, t in fields), "end_header"]
-    fd, tmp = tempfile.mkstemp(dir=path.parent if str(path.parent) else ".",
-                               prefix=f".{path.name}.", suffix=".tmp")
-    try:
-        with os.fdopen(fd, "wb") as fh:
+    def write(tmp):
+        with open(tmp, "wb") as fh:
             fh.write(("\n".join(header) + "\n").encode("ascii", "replace"))
             arr.tofile(fh)
-        umask = os.umask(0)
-        os.umask(umask)
-        os.chmod(tmp, 0o666 & ~umask)
-        os.replace(tmp, path)
-    except BaseException:
-        if os.path.exists(tmp):
-            os.unlink(tmp)
-        raise
+
+    write_atomic(path, write)
     return path

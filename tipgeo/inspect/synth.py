@@ -131,16 +131,12 @@ def actual_spec(spec, *, xi_deg: float | None = None):
     (degrees): bevel, multi-plane, and the primary plane of a lancet."""
     if xi_deg is None:
         return spec
-    from ..cutters import BevelCutter, LancetCutter, MultiPlaneCutter
-
     xi = math.radians(xi_deg)
     cut = []
     changed = False
     for c in spec.cutters:
-        if isinstance(c, (BevelCutter, MultiPlaneCutter)):
-            c, changed = replace(c, xi=xi), True
-        elif isinstance(c, LancetCutter):
-            c, changed = replace(c, primary_xi=xi), True
+        if c.angle_field:  # the cutter's rake-plane bevel angle ξ
+            c, changed = replace(c, **{c.angle_field: xi}), True
         cut.append(c)
     if not changed:
         raise SpecError(f"xi_deg = {xi_deg:g}: the spec has no bevel, multiplane or lancet "

@@ -24,8 +24,6 @@ Modules, one per model family:
 
 from __future__ import annotations
 
-from pathlib import Path
-
 from ._common import J_PER_M2, KPA, ValidityWarning
 from .cutting import (
     FORCE_SURFACES,
@@ -87,20 +85,4 @@ __all__ = [
     "Tissue", "TISSUES", "tissue", "tissue_names",
     "column_radius", "column_stretch", "insertion_force", "insertion_with_rotation",
     "TipForces", "tip_forces", "helical_vs_bevel", "write_helical_vs_bevel",
-    "demo_outputs",
 ]
-
-
-def demo_outputs(out_dir: Path, log=None, *, pictures: bool = True) -> list[str]:
-    """The mechanics part of ``tipgeo demo``: the helical-versus-bevel
-    fracture force comparison (``forces-helical-vs-bevel.json`` and, with
-    ``pictures``, ``.png``, like thesis Fig. 3.12) and the fracture forces
-    against k (``fracture-vs-k.png``, like Fig. 2.8) in ``out_dir``.
-
-    Returns the paths written; a progress line goes to ``log`` if given.
-    """
-    files = write_helical_vs_bevel(Path(out_dir), pictures=pictures)
-    if log is not None:
-        print(f"mechanics: helical vs bevel fracture forces, {len(files)} files", file=log,
-              flush=True)
-    return files

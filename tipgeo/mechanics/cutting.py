@@ -25,7 +25,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from .. import _validate as v
+from .. import validate as v
 from ..errors import SpecError
 from ._common import KPA, finite_array, warn_outside
 from .fracture import rupture_forces

@@ -52,7 +52,7 @@ from typing import Any
 
 import numpy as np
 
-from .. import _validate as v
+from .. import validate as v
 from ..errors import SpecError
 from ._common import J_PER_M2, finite_array
 from .slicepush import EdgeGeometry, slice_push

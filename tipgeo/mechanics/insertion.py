@@ -33,7 +33,7 @@ import math
 
 import numpy as np
 
-from .. import _validate as v
+from .. import validate as v
 from ..errors import SpecError
 from ._common import finite_array
 from .tissue import ArrudaBoyce, NeoHookean

@@ -16,7 +16,7 @@ from typing import Any
 
 import numpy as np
 
-from .. import _validate as v
+from .. import validate as v
 from ..errors import SpecError
 from ..jsonio import dumps as _dumps
 from ._common import J_PER_M2, ValidityWarning
@@ -198,7 +198,7 @@ def write_helical_vs_bevel(out_dir, *, S: float = 0.3, pictures: bool = True) ->
     """Write ``forces-helical-vs-bevel.json`` and (``pictures``) ``.png`` — the
     along-edge forces at S and the means over S = 0…3 (Fig. 3.12) — and
     ``fracture-vs-k.png`` (Fig. 2.8) into ``out_dir``. Returns the paths."""
-    from .._atomic import write_text_atomic
+    from ..atomic import write_text_atomic
 
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)

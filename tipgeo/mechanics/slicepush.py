@@ -32,7 +32,7 @@ from typing import NamedTuple
 
 import numpy as np
 
-from .. import _validate as v
+from .. import validate as v
 from ..errors import SpecError
 
 __all__ = ["EdgeGeometry", "SlicePush", "edge_geometry", "velocity", "slice_push",

@@ -36,7 +36,7 @@ from typing import Any
 
 import numpy as np
 
-from .. import _validate as v
+from .. import validate as v
 from ..errors import SpecError
 from ._common import KPA, finite_array
 

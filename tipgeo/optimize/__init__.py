@@ -17,8 +17,6 @@ imported by the functions that use them.
 
 from __future__ import annotations
 
-from pathlib import Path
-
 from .cache import ResultCache, code_fingerprint, default_cache_dir, spec_hash, spec_key
 from .config import (
     Objective,
@@ -33,7 +31,7 @@ from .design import DESIGN_METHODS, make_design, unit_design
 from .executors import DaskExecutor, ProcessExecutor, Progress, SerialExecutor, make_executor
 from .gp import GaussianProcess, length_scales
 from .objective import Optimum, optimize_objective, pareto_front, scaled_terms, verify_optimum
-from .presets import STUDIES, study_preset
+from .presets import STUDIES, resolve_study, study_preset
 from .responses import RESPONSES, THESIS, evaluate_spec, responses_from_summary
 from .study import feasibility, run_study
 from .surrogate import Surrogate, fit_surrogate
@@ -47,20 +45,5 @@ __all__ = ["ResultCache", "code_fingerprint", "default_cache_dir", "spec_hash", 
            "length_scales", "Optimum", "optimize_objective", "pareto_front", "scaled_terms",
            "verify_optimum", "RESPONSES", "THESIS", "evaluate_spec", "responses_from_summary",
            "feasibility", "run_study", "Surrogate", "fit_surrogate", "SweepResult",
-           "read_table", "run_sweep", "write_table", "demo_outputs", "STUDIES",
+           "read_table", "run_sweep", "write_table", "STUDIES", "resolve_study",
            "study_preset"]
-
-
-def demo_outputs(out_dir: Path, log=None) -> list[str]:
-    """Run the thesis's helical study into ``out_dir/helical-study/`` in this
-    process, without a cache; return the files written.
-
-    25 exact analyses (~50 ms each), seven GP fits, three optima built and
-    analysed, the pictures: about 10 s on one core.
-    """
-    from .executors import SerialExecutor
-
-    cfg = study_preset("helical-study")
-    rep = run_study(cfg, Path(out_dir) / cfg.name, executor=SerialExecutor(), cache=False,
-                    progress=False, log=log or (lambda s: None))
-    return rep["files"]

@@ -125,7 +125,7 @@ class ResultCache:
         path = self._path(key)
         path.parent.mkdir(parents=True, exist_ok=True)
         text = json.dumps({"key": key, "result": result}, allow_nan=True)
-        from .._atomic import write_text_atomic
+        from ..atomic import write_text_atomic
 
         write_text_atomic(path, text)
         self.writes += 1

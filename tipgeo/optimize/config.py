@@ -51,8 +51,8 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-from .._validate import brief, finite_float
 from ..errors import SpecError
+from ..validate import brief, finite_float
 from .design import DESIGN_METHODS
 from .responses import FORCE_RESPONSES, RESPONSES, THESIS
 
@@ -284,8 +284,8 @@ def _base(value: Any, base_dir: Path | None) -> tuple[str, dict]:
         p = Path(name)
         if not p.is_absolute() and base_dir is not None:
             p = base_dir / p
-        from .._toml import loads_toml, read_text_file
         from ..spec import spec_from_dict
+        from ..tomlio import loads_toml, read_text_file
 
         try:
             data = loads_toml(read_text_file(p, "spec file"), "spec")
@@ -535,14 +535,14 @@ def config_from_dict(data: Any, *, base_dir: str | Path | None = None,
 def loads_config(text: str, *, base_dir: str | Path | None = None,
                  source: Path | None = None) -> StudyConfig:
     """Parse study TOML text (relative paths start at ``base_dir``)."""
-    from .._toml import loads_toml
+    from ..tomlio import loads_toml
 
     return config_from_dict(loads_toml(text, "config"), base_dir=base_dir, source=source)
 
 
 def load_config(path: str | Path) -> StudyConfig:
     """Read a study config file (relative paths start at its folder)."""
-    from .._toml import read_text_file
+    from ..tomlio import read_text_file
 
     p = Path(path)
     text = read_text_file(p, "config file")

@@ -8,7 +8,7 @@ from __future__ import annotations
 
 from ..errors import SpecError
 
-__all__ = ["STUDIES", "study_preset", "HELICAL_STUDY_TOML"]
+__all__ = ["STUDIES", "study_preset", "resolve_study", "HELICAL_STUDY_TOML"]
 
 #: The thesis's 25-point helical study (§3.4.2), as ``samples/helical-study.toml``.
 HELICAL_STUDY_TOML = """\
@@ -95,3 +95,18 @@ def study_preset(name: str):
         raise SpecError(f"study = {name!r} is not a built-in study; allowed: "
                         + ", ".join(STUDIES))
     return loads_config(STUDIES[name])
+
+
+def resolve_study(arg):
+    """A study config from what a user typed: a StudyConfig as it is, a study
+    file (``.toml``, or any existing file) or a built-in study name.
+
+    Raises :class:`~tipgeo.errors.SpecError` naming ``arg`` and the built-in
+    studies when it is none of these.
+    """
+    from ..tomlio import resolve_file_or_name
+    from .config import StudyConfig, load_config
+
+    return resolve_file_or_name(arg, kind=StudyConfig, load=load_config, named=study_preset,
+                                names=STUDIES, what="CONFIG", file_word="study file (.toml)",
+                                named_as="built-in study", listing="built-in")

@@ -67,7 +67,7 @@ def run_study(config: StudyConfig, out_dir: str | Path, *, executor=None, cache:
     -------
     dict — the report (also written to ``report.json``)
     """
-    from .._atomic import write_text_atomic
+    from ..atomic import write_text_atomic
     from ..spec import dumps_spec, spec_from_dict
 
     log = log or (lambda s: print(s, file=sys.stderr, flush=True))

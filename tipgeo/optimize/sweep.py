@@ -23,7 +23,7 @@ from typing import Any
 
 import numpy as np
 
-from .._atomic import write_bytes_atomic
+from ..atomic import write_bytes_atomic
 from ..errors import SpecError
 from .cache import ResultCache, code_fingerprint, default_cache_dir, key_from_hash, spec_hash
 from .config import StudyConfig

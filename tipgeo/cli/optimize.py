@@ -12,7 +12,8 @@ from __future__ import annotations
 import sys
 from pathlib import Path
 
-from .jsonio import dumps as _dumps
+from ..jsonio import dumps as _dumps
+from .common import declare_files
 
 __all__ = ["register", "cmd_sweep", "cmd_optimize", "DRY_RUN_CHECKS"]
 
@@ -21,22 +22,14 @@ DRY_RUN_CHECKS = 10_000
 
 
 def _config(arg: str):
-    from .errors import SpecError
-    from .optimize.config import load_config
-    from .optimize.presets import STUDIES, study_preset
+    from ..optimize.presets import resolve_study
 
-    p = Path(arg)
-    if p.exists() or arg.endswith(".toml"):
-        return load_config(p)
-    if arg in STUDIES:
-        return study_preset(arg)
-    raise SpecError(f"CONFIG = '{arg}' is neither a study file (.toml) nor a built-in study; "
-                    "built-in: " + ", ".join(STUDIES))
+    return resolve_study(arg)
 
 
 def _executor(args, config):
-    from .errors import SpecError
-    from .optimize.executors import DaskExecutor, make_executor
+    from ..errors import SpecError
+    from ..optimize.executors import DaskExecutor, make_executor
 
     if args.workers is not None and args.workers < 1:
         raise SpecError(f"--workers = {args.workers} is out of range; allowed an integer ≥ 1")
@@ -58,7 +51,7 @@ def _cache(args):
 
 def cmd_sweep(args) -> int:
     """Run a design sweep and write its table."""
-    from .optimize.sweep import run_sweep, write_table
+    from ..optimize.sweep import run_sweep, write_table
 
     cfg = _config(args.config)
     out = Path(args.output or f"{cfg.name}-sweep.csv")
@@ -83,9 +76,9 @@ def cmd_sweep(args) -> int:
 
 def _dry_run(cfg, args) -> int:
     """Validate the config and every configuration's spec; compute nothing."""
-    from .errors import SpecError
-    from .optimize.design import make_design
-    from .spec import spec_from_dict
+    from ..errors import SpecError
+    from ..optimize.design import make_design
+    from ..spec import spec_from_dict
 
     X = make_design(cfg.variables, cfg.design["method"], levels=cfg.design["levels"],
                     points=cfg.design["points"], seed=cfg.design["seed"])
@@ -116,8 +109,8 @@ def _dry_run(cfg, args) -> int:
 
 def cmd_optimize(args) -> int:
     """Sweep (cached), fit the GP, optimise every objective, verify the optima."""
-    from .optimize.objective import term_summary
-    from .optimize.study import run_study
+    from ..optimize.objective import term_summary
+    from ..optimize.study import run_study
 
     cfg = _config(args.config)
     out = Path(args.out or cfg.name)
@@ -185,8 +178,6 @@ def register(subparsers) -> None:
     s.add_argument("--dry-run", action="store_true",
                    help="validate the config and every configuration's spec; compute nothing")
     s.set_defaults(func=cmd_sweep)
-    from .cli import declare_files
-
     # the sweep's workers pin one BLAS thread each; the GP fit is small too
     declare_files(s, inputs=("config",), outputs=("output",),
                   exts={"output": (".csv", ".parquet", ".pq")})

@@ -12,21 +12,16 @@ from __future__ import annotations
 import math
 from pathlib import Path
 
-from .jsonio import dumps as _dumps
+from ..jsonio import dumps as _dumps
+from .common import declare_files, spec_arg
 
 __all__ = ["register", "cmd_forces", "cmd_tissue"]
-
-
-def _spec(arg: str):
-    from .cli import _spec as spec_from_arg
-
-    return spec_from_arg(arg)
 
 
 def _sweep(args):
     import numpy as np
 
-    from . import _validate as v
+    from .. import validate as v
 
     if args.sweep is None:
         return None
@@ -41,9 +36,9 @@ def cmd_forces(args) -> int:
     """Fracture forces along the edges of one or more tips."""
     import numpy as np
 
-    from . import _validate as v
-    from .mechanics import J_PER_M2
-    from .mechanics.report import tip_forces
+    from .. import validate as v
+    from ..mechanics import J_PER_M2
+    from ..mechanics.report import tip_forces
 
     S_values = _sweep(args)
     if args.plot and S_values is None:
@@ -56,14 +51,14 @@ def cmd_forces(args) -> int:
                                     lo_open=True, hi_open=True))
     results = []
     for arg in args.spec:
-        spec = _spec(arg)
+        spec = spec_arg(arg)
         results.append(tip_forces(spec, args.speed_ratio, tissue_name=args.tissue, R=R,
                                   mu_d=args.mu_d, G=args.G, theta=theta, wall=args.wall,
                                   method=args.method, S_values=S_values,
                                   label=spec.name or Path(arg).stem))
     wrote = []
     if args.plot:
-        from .mechanics.plots import plot_edge_forces
+        from ..mechanics.plots import plot_edge_forces
 
         wrote.append(str(plot_edge_forces([(r.label, r.forces, r.sweep) for r in results],
                                           args.plot)))
@@ -115,8 +110,8 @@ def _fit_text(res) -> list[str]:
 
 def cmd_tissue(args) -> int:
     """``tissue fit``, ``tissue list`` and ``tissue show``."""
-    from .errors import SpecError
-    from .mechanics.materials import TISSUES, tissue
+    from ..errors import SpecError
+    from ..mechanics.materials import TISSUES, tissue
 
     if args.action == "list":
         if args.json:
@@ -131,7 +126,7 @@ def cmd_tissue(args) -> int:
         s = tissue(args.target).summary()
         print(_dumps(s))
         return 0
-    from .mechanics.tissue import fit_uniaxial, read_uniaxial_csv
+    from ..mechanics.tissue import fit_uniaxial, read_uniaxial_csv
 
     if not args.target:
         raise SpecError("tissue fit: give a data file (CSV)")
@@ -140,7 +135,7 @@ def cmd_tissue(args) -> int:
     fits = [fit_uniaxial(lam, sig, m, terms=args.terms) for m in models]
     wrote = []
     if args.plot:
-        from .mechanics.plots import plot_tissue_fit
+        from ..mechanics.plots import plot_tissue_fit
 
         wrote.append(str(plot_tissue_fit(lam, sig, fits, args.plot,
                                          title=f"{Path(args.target).name}: true stress "
@@ -160,7 +155,7 @@ def cmd_tissue(args) -> int:
 
 def register(subparsers) -> None:
     """Add ``forces`` and ``tissue`` to the main parser's subparsers."""
-    from .mechanics.fracture import DEFAULT_G
+    from ..mechanics.fracture import DEFAULT_G
 
     f = subparsers.add_parser(
         "forces", help="fracture forces along the cutting edge (thesis eq. 3.19–3.23)",
@@ -193,8 +188,6 @@ def register(subparsers) -> None:
                    "against S, 0–3 unless --sweep)")
     f.add_argument("--json", action="store_true", help="summaries, tables and sweeps as JSON")
     f.set_defaults(func=cmd_forces)
-    from .cli import declare_files
-
     declare_files(f, inputs=("spec",), pictures=("plot",))
 
     t = subparsers.add_parser(

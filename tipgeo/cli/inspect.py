@@ -1,23 +1,27 @@
-"""``tipgeo compare`` and ``tipgeo scan-synth``: thin wrappers around
+"""``tipgeo compare`` and ``tipgeo scan-synth`` (the inspection stage): thin wrappers around
 :func:`tipgeo.inspect.compare` and :func:`tipgeo.inspect.synthetic_scan`.
 
 Lengths in mm, angles in degrees, deviations and tolerances in µm at this
 boundary. Results on stdout (``--json`` for machines), progress on stderr.
-Exit status 0 on success, 2 on bad input (including unreadable or empty
-scans), 1 on a failed computation or write.
+Exit status 0 on success, 2 on bad input (including unreadable, empty or
+degenerate scans, and scans that do not match the CAD unless
+``--allow-mismatch``), 1 on a failed computation or write. On any failure
+``--out`` gets no new file.
 """
 
 from __future__ import annotations
 
-import json
 import sys
 from pathlib import Path
+
+from ..jsonio import dumps as _dumps
+from .common import declare_files, spec_arg
 
 __all__ = ["register", "cmd_compare", "cmd_scan_synth"]
 
 
 def _positive(name: str, value: float | None, hi: float | None = None) -> float | None:
-    from .errors import SpecError
+    from ..errors import InputError as SpecError  # options and paths, not specs
 
     if value is None:
         return None
@@ -33,25 +37,40 @@ def _log(args):
     return lambda msg: print(f"[{args.command}] {msg}", file=sys.stderr, flush=True)
 
 
+def _one_line(e: BaseException) -> str:
+    return " ".join(str(e).split())
+
+
 def cmd_compare(args) -> int:
-    from .inspect import ScanError, compare
+    import math
+
+    import numpy as np
+
+    from ..errors import InputError as SpecError  # options and paths, not specs
+    from ..inspect import ScanError, compare
 
     tol = _positive("--tolerance-um", args.tolerance_um, 1e4) * 1e-3
     scale = _positive("--scale-um", args.scale_um, 1e5)
     voxel = _positive("--voxel-um", args.voxel_um, 1e5)
+    if args.z_min_mm is not None and not math.isfinite(args.z_min_mm):
+        raise SpecError(f"--z-min-mm = {args.z_min_mm}; allowed a finite value")
+    if args.out is not None and Path(args.out).exists() and not Path(args.out).is_dir():
+        raise SpecError(f"--out = '{args.out}' is a file; expected a folder (or a new name)")
     try:
         res = compare(args.scan, args.cad, tolerance=tol, units=args.units,
                       register_scan=not args.no_register, z_min=args.z_min_mm,
                       voxel=None if voxel is None else voxel * 1e-3, outliers=args.outliers,
                       colour_scale=None if scale is None else scale * 1e-3, out=args.out,
-                      pictures=not args.no_pictures, progress=_log(args))
+                      pictures=not args.no_pictures, progress=_log(args),
+                      allow_mismatch=args.allow_mismatch)
     except ScanError as e:
-        print(f"tipgeo: error: {e}", file=sys.stderr)
+        print(f"tipgeo: error: {_one_line(e)}", file=sys.stderr)
         return 2
+    except (np.linalg.LinAlgError, FloatingPointError, OverflowError, MemoryError) as e:
+        print(f"tipgeo: failed: {type(e).__name__}: {_one_line(e)}", file=sys.stderr)
+        return 1
     if args.json:
-        from .inspect.report import _json_default
-
-        print(json.dumps(res.to_dict(), indent=2, default=_json_default))
+        print(_dumps(res.to_dict()))
         return 0
     r = res.to_dict()
     st = r["deviation"]["all"]
@@ -94,15 +113,24 @@ def cmd_scan_synth(args) -> int:
 
     import numpy as np
 
-    from .cli import _spec
-    from .errors import SpecError
-    from .inspect import Burr, Misalignment, default_views, synthetic_scan
+    from ..errors import InputError as SpecError  # options and paths, not specs
+    from ..inspect import Burr, Misalignment, default_views, synthetic_scan
 
-    spec = _spec(args.spec)
+    spec = spec_arg(args.spec)
     out = Path(args.output)
     ext = out.suffix.lower()
     if ext not in (".ply", ".xyz", ".txt", ".pcd"):
         raise SpecError(f"-o '{out}': allowed extensions .ply .xyz .txt .pcd")
+    for opt, f in (("-o", out), ("--truth", Path(args.truth) if args.truth else None)):
+        if f is None:
+            continue
+        if f.is_dir():
+            raise SpecError(f"{opt} = '{f}' is a folder; expected a file path")
+        folder = f.parent if str(f.parent) else Path(".")
+        if not folder.is_dir():
+            raise SpecError(f"{opt} = '{f}': the folder '{folder}' does not exist")
+    if args.truth and Path(args.truth).resolve() == out.resolve():
+        raise SpecError(f"--truth = '{args.truth}' is also -o; allowed two different files")
     if not args.points >= 10:
         raise SpecError(f"--points = {args.points}; allowed ≥ 10")
     if not args.noise_um >= 0:
@@ -123,14 +151,20 @@ def cmd_scan_synth(args) -> int:
                        views=views, xi_deg=args.xi_deg,
                        edge_radius=(args.edge_radius_um or 0.0) * 1e-3, burr=burr,
                        z_min=args.z_min_mm, seed=args.seed)
+    existed = out.exists()
     if ext == ".ply":
         s.write(out)
     elif ext in (".xyz", ".txt"):
-        from ._atomic import write_text_atomic as _atomic_text
+        from ..atomic import write_atomic
 
-        _atomic_text(out, "\n".join(f"{x:.9f} {y:.9f} {z:.9f}" for x, y, z in s.points) + "\n")
+        def text(tmp):
+            with open(tmp, "wb") as fh:
+                for i in range(0, len(s.points), 1 << 18):
+                    np.savetxt(fh, s.points[i:i + (1 << 18)], fmt="%.9f")
+
+        write_atomic(out, text)
     else:
-        from ._open3d import import_open3d
+        from .._open3d import import_open3d
 
         o3d = import_open3d()
         pc = o3d.geometry.PointCloud(o3d.utility.Vector3dVector(s.points))
@@ -139,11 +173,16 @@ def cmd_scan_synth(args) -> int:
     info = dict(s.info)
     info["output"] = str(out)
     if args.truth:
-        from ._atomic import write_text_atomic as _atomic_text
+        from ..atomic import write_text_atomic as _atomic_text
 
-        _atomic_text(Path(args.truth), json.dumps(info, indent=2) + "\n")
+        try:
+            _atomic_text(Path(args.truth), _dumps(info) + "\n")
+        except BaseException:
+            if not existed:  # nothing half-done stays behind
+                out.unlink(missing_ok=True)
+            raise
     if args.json:
-        print(json.dumps(info, indent=2))
+        print(_dumps(info))
         return 0
     R = np.asarray(info["scan_to_cad"])[:3, :3]
     ang = math.degrees(math.acos(max(-1.0, min(1.0, (np.trace(R) - 1) / 2))))
@@ -180,10 +219,22 @@ def register(subparsers) -> None:
                    help="thin the scan to one point per V µm voxel first")
     c.add_argument("--outliers", action="store_true",
                    help="statistical outlier removal before comparing")
+    from ..tolerances import tol
+
+    st = tol.inspect
+
+    c.add_argument("--allow-mismatch", action="store_true",
+                   help="compare even a scan that does not match the CAD (fewer than "
+                        f"{100 * st.match_min_share:g} %% of its points within "
+                        f"{st.match_distance * 1e3:g} µm of the CAD surface, registration "
+                        f"fitness below {st.match_min_fitness:g}, or a fitted diameter off by "
+                        f"more than {100 * st.match_diameter:g} %%): a warning in the report "
+                        "instead of the refusal (exit 2)")
     c.add_argument("--no-pictures", action="store_true", help="skip the PNGs")
     c.add_argument("--quiet", action="store_true", help="no progress on stderr")
     c.add_argument("--json", action="store_true", help="the full report as JSON on stdout")
     c.set_defaults(func=cmd_compare)
+    declare_files(c, inputs=("scan", "cad"), blas_threads=None)  # large arrays
 
     s = subparsers.add_parser("scan-synth", help="synthetic scan of a tip (virtual "
                               "profilometer) with known misalignment and errors")
@@ -221,3 +272,4 @@ def register(subparsers) -> None:
     s.add_argument("--quiet", action="store_true")
     s.add_argument("--json", action="store_true")
     s.set_defaults(func=cmd_scan_synth)
+    declare_files(s, inputs=("spec",), outputs=("output", "truth"))

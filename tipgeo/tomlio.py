@@ -15,7 +15,8 @@ if sys.version_info >= (3, 11):
 else:  # pragma: no cover
     import tomli as tomllib
 
-__all__ = ["MAX_TOML_BYTES", "MAX_TOML_DEPTH", "read_text_file", "loads_toml"]
+__all__ = ["MAX_TOML_BYTES", "MAX_TOML_DEPTH", "read_text_file", "loads_toml",
+           "resolve_file_or_name"]
 
 #: Largest TOML input accepted (bytes); tipgeo's specs and configs are a few kB.
 MAX_TOML_BYTES = 1 << 20
@@ -82,3 +83,23 @@ def loads_toml(text: str, what: str) -> dict[str, Any]:
         raise SpecError(f"{what} nests arrays or tables more than {MAX_TOML_DEPTH} levels "
                         f"deep; allowed at most {MAX_TOML_DEPTH} levels")
     return data
+
+
+def resolve_file_or_name(arg, *, kind: type, load, named, names, what: str, file_word: str,
+                         named_as: str, listing: str):
+    """What a user typed for a TOML input: an object of ``kind`` as it is, a
+    file (``.toml``, or any existing file) read by ``load(path)``, or one of
+    ``names`` made by ``named(name)``; else a SpecError naming ``what`` (the
+    argument, e.g. ``SPEC``) and listing the names."""
+    if isinstance(arg, kind):
+        return arg
+    if not isinstance(arg, (str, Path)):
+        raise SpecError(f"{what} = {type(arg).__name__} is neither a {file_word} nor a "
+                        f"{named_as}")
+    p = Path(arg)
+    if p.exists() or str(arg).endswith(".toml"):
+        return load(p)
+    if arg in names:
+        return named(arg)
+    raise SpecError(f"{what} = '{arg}' is neither a {file_word} nor a {named_as}; {listing}: "
+                    + ", ".join(names))

@@ -1,0 +1,73 @@
+"""The ``tipgeo`` command line: thin wrappers around library calls, one module
+per stage (:mod:`.design`, :mod:`.analyse`, :mod:`.make`, :mod:`.mechanics`,
+:mod:`.optimize`, :mod:`.inspect`, :mod:`.demo`), each registering its
+commands; errors map to exit codes here, in one place.
+
+Lengths in mm, angles in degrees, tolerances in µm at this boundary. Plain,
+scriptable output on stdout; progress and errors on stderr; ``--json`` where
+a machine reads it. Exit status 0 on success, 2 on bad input, 1 on a failed
+build or write.
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+
+from .common import check_files, declare_files
+
+__all__ = ["main", "build_parser", "declare_files", "check_files", "STAGES"]
+
+#: The stages whose commands ``tipgeo`` offers, in the order of ``--help``.
+STAGES = ("design", "analyse", "make", "mechanics", "optimize", "inspect", "demo")
+
+
+def build_parser() -> argparse.ArgumentParser:
+    """The ``tipgeo`` argument parser, every stage's commands registered."""
+    import importlib
+
+    p = argparse.ArgumentParser(prog="tipgeo", description="Geometry and CAM of hollow-needle "
+                                "tips (mm, degrees; needle axis +z towards the tip).")
+    sub = p.add_subparsers(dest="command", required=True)
+    for stage in STAGES:
+        importlib.import_module(f".{stage}", __name__).register(sub)
+    return p
+
+
+def _exit_code(e: BaseException) -> tuple[int, str] | None:
+    """(exit code, prefix) for an error the CLI reports in one line: 2 for bad
+    input (:class:`~tipgeo.errors.InputError` — specs, scans, options, paths —
+    and cam's and gcode's errors), 1 for a failed build, computation or write;
+    None: not ours (a bug: its traceback is shown)."""
+    from cam.machine import CamError
+    from gcode.errors import GCodeError
+
+    from ..errors import InputError, TipGeoError
+
+    if isinstance(e, (InputError, GCodeError, CamError)):
+        return 2, "error"
+    if isinstance(e, (TipGeoError, OSError)):
+        return 1, "failed"
+    return None
+
+
+def main(argv: list[str] | None = None) -> int:
+    """Entry point of the ``tipgeo`` command."""
+    from ..errors import SpecError
+
+    args = build_parser().parse_args(argv)
+    try:
+        if getattr(args, "output", None) == [] and args.command == "build" and not args.png:
+            raise SpecError("build needs at least one -o FILE (or --png FILE)")
+        check_files(args)
+        from .._threads import small_linalg
+
+        with small_linalg(getattr(args, "_blas_threads", 1)):
+            return args.func(args)
+    except Exception as e:
+        mapped = _exit_code(e)
+        if mapped is None:
+            raise
+        code, word = mapped
+        print(f"tipgeo: {word}: {e}", file=sys.stderr)
+        return code

@@ -1,0 +1,108 @@
+"""``tipgeo angles``: cutting edges and angles (λ, θ, α, l_c) on the command
+line (angles degrees, lengths mm)."""
+
+from __future__ import annotations
+
+import json
+import sys
+from pathlib import Path
+
+from ..jsonio import dumps as _dumps
+from .common import declare_files, spec_arg
+
+__all__ = ["register", "cmd_angles"]
+
+
+def _angle_source(arg: str, args):
+    """A spec/preset, or a mesh file labelled by geometry (needs diameters)."""
+    from ..edges import label_by_geometry
+    from ..errors import SpecError
+    from ..io import SUPPORTED_IMPORTS, load_tip
+
+    if Path(arg).suffix.lower() in SUPPORTED_IMPORTS:
+        if args.diameters_mm is None:
+            raise SpecError(f"'{arg}' is a mesh: give --diameters-mm DE DI (its outer and inner "
+                            "diameters; axis along +z through the origin unless --axis)")
+        de, di = args.diameters_mm
+        if not 0 < di < de:
+            raise SpecError(f"--diameters-mm = {de:g} {di:g}; allowed 0 < DI < DE")
+        ax = args.axis or [0, 0, 0, 0, 0, 1]
+        tip = label_by_geometry(load_tip(arg), r_o=de / 2, r_i=di / 2, axis_point=ax[:3],
+                                axis_dir=ax[3:])
+        return tip, (de / 2, di / 2), Path(arg).stem
+    spec = spec_arg(arg)
+    return spec, None, spec.name or Path(arg).stem
+
+
+def cmd_angles(args) -> int:
+    from ..angles import analyze
+
+    reports = []
+    for k, arg in enumerate(args.spec, 1):
+        src, radii, name = _angle_source(arg, args)
+        method = args.method or ("mesh" if radii is not None else "fourier")
+        rep = analyze(src, method=method, n_harmonics=args.harmonics, radii=radii, name=name)
+        reports.append(rep)
+        if len(args.spec) > 1:
+            print(f"[{k}/{len(args.spec)}] {name}", file=sys.stderr, flush=True)
+    if args.csv:
+        from ..atomic import write_text_atomic
+
+        text = reports[0].to_csv(args.step_deg)
+        for r in reports[1:]:
+            text += r.to_csv(args.step_deg).split("\n", 1)[1]
+        write_text_atomic(Path(args.csv), text)
+    if args.plot:
+        from ..plot import plot_angles
+
+        plot_angles(reports, args.plot)
+    if args.json:
+        data = [json.loads(r.to_json(args.step_deg)) for r in reports]
+        print(_dumps(data if len(data) > 1 else data[0]))
+        return 0
+    for r in reports:
+        s = r.summary()
+        print(f"{r.name} (method {r.method}, {r.n_harmonics} harmonics)")
+        for wall, key in (("outer", "o"), ("inner", "i")):
+            w = s[wall]
+            th = w["theta_deg"] if key == "o" else w["theta_i_deg"]
+            print(f"  {wall:<5} l_c {w['l_c_mm']:9.5f} mm  top z {w['z_max_mm']:8.5f} mm at "
+                  f"γ {w['gamma_of_z_max_deg']:7.2f}°  λ {w[f'lambda_{key}_deg'][0]:6.2f}…"
+                  f"{w[f'lambda_{key}_deg'][1]:6.2f}°  θ {th[0]:6.2f}…{th[1]:6.2f}°  "
+                  f"α {w[f'alpha_{key}_deg'][0]:6.2f}…{w[f'alpha_{key}_deg'][1]:6.2f}°")
+            for p in w["pieces"]:
+                if "fit" in p:
+                    f = p["fit"]
+                    print(f"        fit {p['face']:<22} R² {f['r2']:.9f}  RMSE "
+                          f"{f['rmse_mm'] * 1e3:8.4f} µm  w {f['w']:.6f}")
+            for kk in w["kinks"]:
+                print(f"        kink at γ {kk['gamma_deg']:7.2f}°: θ {kk['theta_deg']:.4f}° "
+                      f"({kk['faces'][0]} | {kk['faces'][1]})")
+            if w["jumps"]:
+                print(f"        {len(w['jumps'])} vertical stretches")
+    for o in (args.csv, args.plot):
+        if o:
+            print(f"wrote {o}")
+    return 0
+
+
+def register(sub) -> None:
+    """Add this stage's commands to the ``tipgeo`` sub-command parsers."""
+    a = sub.add_parser("angles", help="cutting edges and angles (λ, θ, α, l_c) of tips")
+    a.add_argument("spec", metavar="SPEC", nargs="+",
+                   help="spec file, preset name, or mesh file (.stl .ply .obj .3mf .glb)")
+    a.add_argument("--method", choices=("exact", "fourier", "mesh"), default=None,
+                   help="default: fourier (the thesis's path) for specs, mesh for mesh files")
+    a.add_argument("--harmonics", type=int, default=5, metavar="N",
+                   help="Fourier harmonics (default 5, eq. 3.12)")
+    a.add_argument("--step-deg", type=float, default=1.0, metavar="S",
+                   help="γ step of the table (default 1°)")
+    a.add_argument("--csv", metavar="FILE", help="write the table (all tips)")
+    a.add_argument("--plot", metavar="FILE", help="write the angle plots (PNG)")
+    a.add_argument("--json", action="store_true", help="summary and table as JSON")
+    a.add_argument("--diameters-mm", type=float, nargs=2, metavar=("DE", "DI"),
+                   help="outer and inner diameter of a mesh file's tube")
+    a.add_argument("--axis", type=float, nargs=6, metavar=("X", "Y", "Z", "DX", "DY", "DZ"),
+                   help="a mesh file's needle axis: a point and the direction to the tip")
+    a.set_defaults(func=cmd_angles)
+    declare_files(a, inputs=("spec",), outputs=("csv",), pictures=("plot",))

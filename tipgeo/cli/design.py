@@ -1,0 +1,96 @@
+"""``tipgeo build``, ``gauges``, ``samples``: the design stage on the command line
+(lengths mm, angles degrees, tolerances µm at this boundary)."""
+
+from __future__ import annotations
+
+import sys
+import time
+from pathlib import Path
+
+from ..jsonio import dumps as _dumps
+from .common import declare_files, export_exts, spec_arg, tolerance_arg
+
+__all__ = ["register", "cmd_build", "cmd_gauges", "cmd_samples"]
+
+
+def cmd_build(args) -> int:
+    from ..build import build_tip
+    from ..io import export_tip
+
+    spec = spec_arg(args.spec)
+    t0 = time.perf_counter()
+    tip = build_tip(spec, tolerance=tolerance_arg(args))
+    dt = time.perf_counter() - t0
+    outs = [export_tip(tip, o) for o in args.output]
+    if args.png:
+        from ..plot import render_tip
+
+        outs.append(render_tip(tip, args.png))
+    info = tip.summary() | {"build_seconds": dt, "outputs": [str(o) for o in outs]}
+    if args.json:
+        print(_dumps(info))
+    else:
+        print(f"{spec.name or args.spec}: {info['triangles']} triangles, volume "
+              f"{info['volume_mm3']:.6f} mm³, tolerance {info['tolerance_um']:g} µm, "
+              f"built in {dt:.3f} s")
+        for label, n in info["labels"].items():
+            print(f"  {label:<24} {n:>8} triangles")
+        for o in outs:
+            print(f"  wrote {o}")
+    return 0
+
+
+def cmd_gauges(args) -> int:
+    from ..cannula import GAUGE_SOURCE, gauge_table
+
+    rows = gauge_table()
+    if args.json:
+        print(_dumps({"source": GAUGE_SOURCE, "gauges": rows}))
+        return 0
+    print("gauge  d_e_mm  d_i_mm  wall_mm")
+    for r in rows:
+        print(f"{r['gauge']:>4}G  {r['outer_diameter_mm']:6.4f}  {r['inner_diameter_mm']:6.4f}"
+              f"  {r['wall_mm']:7.4f}")
+    print(f"# {GAUGE_SOURCE}")
+    return 0
+
+
+def cmd_samples(args) -> int:
+    from ..presets import preset, preset_names
+    from ..spec import dumps_spec, save_spec
+
+    if args.write:
+        out = Path(args.write)
+        out.mkdir(parents=True, exist_ok=True)
+        for n in preset_names():
+            print(save_spec(preset(n), out / f"{n}.toml"))
+        return 0
+    if args.name:
+        sys.stdout.write(dumps_spec(preset(args.name)))
+        return 0
+    for n in preset_names():
+        print(f"{n:<22} {preset(n).description}")
+    return 0
+
+
+def register(sub) -> None:
+    """Add this stage's commands to the ``tipgeo`` sub-command parsers."""
+    b = sub.add_parser("build", help="build a tip from a TOML spec (or preset name)")
+    b.add_argument("spec", metavar="SPEC", help="spec file (.toml) or preset name")
+    b.add_argument("-o", "--output", action="append", default=[], metavar="FILE",
+                   help="mesh file; format from the extension (.stl .ply .obj .3mf .glb "
+                        ".step .inp); repeatable")
+    b.add_argument("--tolerance-um", type=float, default=None, metavar="N",
+                   help="chordal tolerance in µm (default 0.05)")
+    b.add_argument("--png", metavar="FILE", help="also write a picture of the tip")
+    b.add_argument("--json", action="store_true", help="machine-readable summary")
+    b.set_defaults(func=cmd_build)
+    declare_files(b, inputs=("spec",), outputs=("output",), pictures=("png",),
+                  exts={"output": export_exts()})
+    g = sub.add_parser("gauges", help="the needle gauge table")
+    g.add_argument("--json", action="store_true")
+    g.set_defaults(func=cmd_gauges)
+    s = sub.add_parser("samples", help="list the built-in specs, print one, or write all")
+    s.add_argument("name", nargs="?", help="print this preset's TOML")
+    s.add_argument("--write", metavar="DIR", help="write every preset as DIR/<name>.toml")
+    s.set_defaults(func=cmd_samples)

@@ -1,0 +1,184 @@
+"""``tipgeo laser``, ``gcode``, ``grind``: the making stage on the command line
+(laser programs for the A3200, five-axis grinding; mm, degrees, µm)."""
+
+from __future__ import annotations
+
+import sys
+from pathlib import Path
+
+from ..jsonio import dumps as _dumps
+from .common import declare_files, export_exts, spec_arg, tolerance_arg, write_text
+
+__all__ = ["register", "cmd_laser", "cmd_gcode", "cmd_grind"]
+
+
+def _laser_params(args):
+    from gcode.emitter import LaserParams
+
+    kw = {}
+    for opt, key, scale in (("beam_diameter_um", "beam_diameter", 1e-3),
+                            ("overlap", "overlap", 1.0),
+                            ("roughing_depth_um", "roughing_depth", 1e-3),
+                            ("finishing_passes", "finishing_passes", None),
+                            ("feed_mm_s", "feed", 1.0),
+                            ("pulse_period_us", "pulse_period_us", 1.0),
+                            ("pulse_on_us", "pulse_on_us", 1.0),
+                            ("compensation_mm", "compensation", 1.0)):
+        val = getattr(args, opt, None)
+        if val is not None:
+            kw[key] = val if scale is None else val * scale
+    return LaserParams(**kw)
+
+
+def cmd_laser(args) -> int:
+    from gcode.emitter import emit_program
+
+    spec = spec_arg(args.spec)
+    text = emit_program(spec, _laser_params(args))
+    if args.output == "-":
+        sys.stdout.write(text)
+    else:
+        write_text(args.output, text)
+        print(f"wrote {args.output} ({len(text.splitlines())} lines)")
+    return 0
+
+
+def cmd_gcode(args) -> int:
+    from gcode.pipeline import laser_check, make_limits, read_program, write_laser_outputs
+
+    beam = (args.beam_diameter_um or 20.0) * 1e-3
+    spec = spec_arg(args.spec) if args.action == "sim" else None
+    limits = make_limits(max_statements=args.max_statements, max_repeat=args.max_repeat,
+                         max_segments=args.max_moves, max_operations=args.max_operations)
+    res = laser_check(read_program(args.program), beam_diameter=beam, spec=spec,
+                      origin=tuple(args.origin), tolerance=tolerance_arg(args),
+                      lenient=args.lenient, limits=limits, max_tokens=args.max_tokens)
+    write_laser_outputs(res, spec, mesh=args.mesh if args.action == "sim" else None,
+                        plot=args.plot)
+    out = res.summary(source=args.program)
+    prog, tp, s = res.program, res.toolpath, out["toolpath"]
+    if args.json:
+        print(_dumps(out))
+        return 0
+    print(f"{args.program}: {len(prog.body)} statements, {s['segments']} moves")
+    print(f"  path {s['path_length_mm']:.4f} mm, beam on {s['beam_on_length_mm']:.4f} mm, "
+          f"time {s['time_s']:.2f} s (beam on {s['beam_on_time_s']:.2f} s), "
+          f"pulses {s['pulses'] if s['pulses'] is not None else 'n/a'}")
+    print(f"  C positions firing: {len(s['c_angles_with_beam_deg'])} "
+          f"{[round(c, 4) for c in s['c_angles_with_beam_deg']][:24]}")
+    for w in tp.warnings[:10]:
+        print(f"  warning: {w}")
+    if len(tp.warnings) > 10:
+        print(f"  … {len(tp.warnings) - 10} more warnings")
+    if "ablation" in out:
+        a = out["ablation"]
+        print(f"  ablation: {a['notches']} notches, {a['slugs_removed']} slugs fell out, "
+              f"watertight {a['watertight']}")
+    if "comparison" in out:
+        c = out["comparison"]
+        print(f"  vs spec: radius {c['radius_mm']['fitted_mean'] * 1e3:.3f} µm fitted "
+              f"(spec {c['radius_mm']['spec'] * 1e3:.3f}, max error "
+              f"{c['radius_mm']['fitted_max_error'] * 1e3:.3f} µm), spacing max error "
+              f"{c['spacing_deg']['fitted_max_error']}°, Hausdorff "
+              f"{c['hausdorff_mm'] * 1e3:.3f} µm")
+    for o in res.files:
+        print(f"  wrote {o}")
+    return 0
+
+
+def cmd_grind(args) -> int:
+    from cam import Machine, grind, write_grind_outputs
+
+    spec = spec_arg(args.spec)
+    machine = Machine.from_toml(args.machine) if args.machine else Machine()
+    res = grind(spec, machine=machine, feed=args.feed, needle_rpm=args.needle_rpm,
+                simulate_tip=bool(args.simulate or args.report), compare=args.report,
+                tolerance=tolerance_arg(args))
+    write_grind_outputs(res, program=args.output, gcode=args.gcode, sheet=args.sheet,
+                        mesh=args.simulate)
+    out = res.summary()
+    if args.json:
+        print(_dumps(out))
+        return 0
+    s = out["program"]
+    print(f"{s['name']}: faces {s['faces']}, {s['rows']} program rows, time {s['time_s']:.1f} s, "
+          f"feed {s['feed_mm_s']:g} mm/s")
+    for f in s["setup"]:
+        print(f"  {f['face']:<22} ξ {f['xi_deg']:8.4f}°  r5=ϕ_g {f['r5_phi_g_deg']:8.4f}°  "
+              f"r4 {f['r4_deg']:8.4f}°  t1 {f['t1_mm']:8.4f} mm  OC {f['OC_mm']:.3f} mm"
+              + (f"  spin {f['spin_rpm']:.0f} rpm" if f["spin_rpm"] else ""))
+    if res.comparison is not None:
+        worst, worst_m = res.worst_angle_diff_deg()
+        print(f"  ground vs CAD: Hausdorff {res.comparison['hausdorff_mm'] * 1e3:.4f} µm, angles "
+              f"within {worst:.2e}° (exact surfaces), {worst_m:.3f}° (mesh path)")
+    for w in res.files:
+        print(f"  wrote {w}")
+    return 0
+
+
+def gcode_derived(args) -> list[str]:
+    """``gcode sim --plot FILE`` also writes FILE-rim.png."""
+    if args.action == "sim" and args.plot:
+        p = Path(args.plot)
+        return [str(p.with_name(p.stem + "-rim.png"))]
+    return []
+
+
+def register(sub) -> None:
+    """Add this stage's commands to the ``tipgeo`` sub-command parsers."""
+    la = sub.add_parser("laser", help="write the AeroBasic laser program of a serration spec")
+    la.add_argument("spec", metavar="SPEC", help="spec file or preset with a serration cutter")
+    la.add_argument("-o", "--output", required=True, metavar="FILE",
+                    help="program file (.pgm), or - for stdout")
+    for opt, hlp in (("--beam-diameter-um", "beam diameter (20)"),
+                     ("--overlap", "pass overlap (0.95)"),
+                     ("--roughing-depth-um", "radial roughing depth (20)"),
+                     ("--feed-mm-s", "feed (0.1)"),
+                     ("--pulse-period-us", "PSOPULSE period (10)"),
+                     ("--pulse-on-us", "PSOPULSE on time (5)"),
+                     ("--compensation-mm", "G41 lead-in (0.05)")):
+        la.add_argument(opt, type=float, default=None, help=hlp)
+    la.add_argument("--finishing-passes", type=int, default=None, help="(80)")
+    la.set_defaults(func=cmd_laser)
+    declare_files(la, inputs=("spec",), outputs=("output",))
+    gc = sub.add_parser("gcode", help="check or simulate an AeroBasic laser program")
+    gc.add_argument("action", choices=("check", "sim"))
+    gc.add_argument("program", metavar="PROGRAM")
+    gc.add_argument("--spec", default="punch-plain",
+                    help="the punch to cut (spec or preset; default punch-plain)")
+    gc.add_argument("--origin", type=float, nargs=2, default=(0.0, 0.0), metavar=("X0", "Y0"),
+                    help="program coordinates of the first serration's centre on the rim")
+    gc.add_argument("--beam-diameter-um", type=float, default=None,
+                    help="beam diameter (20); T1's radius is half of it")
+    gc.add_argument("--tolerance-um", type=float, default=None)
+    gc.add_argument("--lenient", action="store_true",
+                    help="skip unsupported statements with a warning")
+    gc.add_argument("--plot", metavar="FILE", help="toolpath picture (and FILE-rim.png)")
+    gc.add_argument("--mesh", metavar="FILE", help="write the ablated tip (sim)")
+    gc.add_argument("--json", action="store_true")
+    for opt, hlp in (("--max-statements", "statements executed (1000000)"),
+                     ("--max-repeat", "largest REPEAT count (1000000)"),
+                     ("--max-moves", "programmed moves (100000)"),
+                     ("--max-operations", "expression and word operations (4000000)"),
+                     ("--max-tokens", "tokens in the program file (250000)")):
+        gc.add_argument(opt, type=int, default=None, metavar="N",
+                        help=f"bound: {hlp}; each default costs at most ~5 s to reach")
+    gc.set_defaults(func=cmd_gcode)
+    declare_files(gc, inputs=("program", "spec"), outputs=("mesh",), pictures=("plot",),
+                  exts={"mesh": export_exts()}, derived=gcode_derived)
+    gr = sub.add_parser("grind", help="five-axis grinding program, set-up and simulation")
+    gr.add_argument("spec", metavar="SPEC")
+    gr.add_argument("-o", "--output", metavar="FILE", help="axis program (.json or .csv)")
+    gr.add_argument("--gcode", metavar="FILE", help="ISO G-code rendering")
+    gr.add_argument("--sheet", metavar="FILE", help="Markdown set-up sheet")
+    gr.add_argument("--simulate", metavar="FILE", help="write the simulated ground tip mesh")
+    gr.add_argument("--report", action="store_true", help="compare the simulation with CAD")
+    gr.add_argument("--machine", metavar="TOML", help="machine limits and set-up overrides")
+    gr.add_argument("--feed", type=float, default=0.1, help="infeed, mm/s (0.1)")
+    gr.add_argument("--needle-rpm", type=float, default=1000.0,
+                    help="needle spin for conical tips (1000)")
+    gr.add_argument("--tolerance-um", type=float, default=None)
+    gr.add_argument("--json", action="store_true")
+    gr.set_defaults(func=cmd_grind)
+    declare_files(gr, inputs=("spec", "machine"), outputs=("output", "gcode", "sheet", "simulate"),
+                  exts={"output": (".json", ".csv"), "simulate": export_exts()})

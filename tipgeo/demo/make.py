@@ -1,0 +1,70 @@
+"""The making part of ``tipgeo demo``: laser programs of the serrated
+punches (one simulated back into a tip) and grinding programs of the needles
+the grinder makes (each simulated and compared with its CAD tip), through the
+public pipelines :func:`gcode.laser_check` and :func:`cam.grind`."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+from ..atomic import write_text_atomic
+from ..presets import preset
+
+__all__ = ["laser_outputs", "grind_outputs"]
+
+
+def laser_outputs(out: Path, names, pictures: bool, log) -> list[dict]:
+    """The laser programs of the serrated punches (C1–C5), each checked by
+    the interpreter; the C2 program simulated back into a tip and compared
+    with its spec (toolpath and rim pictures)."""
+    from gcode.emitter import LaserParams, emit_program
+    from gcode.pipeline import laser_check, write_laser_outputs
+
+    laser = LaserParams()
+    rows = []
+    for name in names:
+        spec = preset(name)
+        if not any(c.process == "laser" for c in spec.cutters):
+            continue
+        text = emit_program(spec, laser)
+        write_text_atomic(out / f"{name}.pgm", text)
+        sim = name == "punch-C2"
+        res = laser_check(text, beam_diameter=laser.beam_diameter, spec=spec if sim else None)
+        row = {"name": name, "program": str(out / f"{name}.pgm"), **res.toolpath.summary()}
+        if sim:
+            row["comparison"] = res.comparison
+            write_laser_outputs(res, spec, mesh=out / f"{name}-laser-sim.stl",
+                                plot=out / f"{name}-toolpath.png" if pictures else None,
+                                rim=out / f"{name}-rim.png" if pictures else None)
+        rows.append(row)
+        if log is not None:
+            print(f"laser: {name}: {row['segments']} moves, {row['time_s']:.0f} s, "
+                  f"{row['pulses']} pulses", file=log, flush=True)
+    return rows
+
+
+def grind_outputs(out: Path, names, log) -> list[dict]:
+    """Grinding programs (JSON, G-code, set-up sheet) of the thesis needles the
+    grinder makes, each simulated and compared with its CAD tip."""
+    from cam import CamError, grind, write_grind_outputs
+
+    rows = []
+    for name in names:
+        spec = preset(name)
+        try:
+            res = grind(spec)
+        except CamError as e:  # e.g. punches (flat land), helical tips: not this machine
+            rows.append({"name": name, "ground": False, "reason": str(e)})
+            continue
+        write_grind_outputs(res, program=out / f"{name}.grind.json",
+                            gcode=out / f"{name}.grind.nc", sheet=out / f"{name}.setup.md")
+        worst = res.worst_angle_diff_deg()[0]
+        haus = res.comparison["hausdorff_mm"]
+        rows.append({"name": name, "ground": True, "time_s": res.program.summary()["time_s"],
+                     "hausdorff_um": haus * 1e3, "angles_max_diff_deg": worst})
+        if log is not None:
+            print(f"grind: {name}: Hausdorff {haus * 1e3:.2e} µm, angles "
+                  f"within {worst:.1e}°", file=log, flush=True)
+    return rows
+
+

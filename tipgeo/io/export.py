@@ -1,0 +1,122 @@
+"""Writing a tip to a file: :func:`export_tip` checks the tip, the path and
+the options, picks the writer registered for the extension
+(:data:`~tipgeo.io.registry.EXPORTERS`) and runs it through the atomic writer
+:func:`tipgeo.atomic.write_atomic`.
+
+Frame and units: the cannula frame (+z along the needle axis towards the tip,
+heel at z = 0), lengths in mm, whatever the format's own convention.
+"""
+
+from __future__ import annotations
+
+import os
+from collections.abc import Sequence
+from pathlib import Path
+from typing import TYPE_CHECKING
+
+from ..atomic import write_atomic
+from ..errors import SpecError, TipGeoError
+from .common import ExportError, as_path, check_ref_point, check_tip, object_name
+from .registry import EXPORTERS, ExportOptions
+
+if TYPE_CHECKING:
+    from ..tip import Tip
+
+__all__ = ["export_tip"]
+
+
+def export_tip(tip: Tip, path: str | os.PathLike[str], *, binary: bool = True,
+               name: str | None = None,
+               ref_point: str | Sequence[float] = "centroid") -> Path:
+    """Write a tip to a mesh, CAD or FE file, atomically.
+
+    The format follows the extension of ``path`` (case-insensitive, one of
+    :data:`~tipgeo.io.SUPPORTED_EXPORTS`). Coordinates are written in the
+    cannula frame (+z along the needle axis towards the tip, heel at z = 0) in
+    mm.
+
+    Parameters
+    ----------
+    tip : Tip
+        The tip to write (vertices in mm, cannula frame).
+    path : str or os.PathLike
+        Target file. Its directory must exist (none is created). A file
+        already there is replaced only once the new one is complete.
+    binary : bool, default True
+        STL and PLY only: write the binary (default) or the ASCII variant.
+        The other formats have one encoding and ignore it.
+    name : str, optional
+        Object, solid or part name written into the file (STL header, PLY and
+        OBJ comments, 3MF/GLB object, STEP product, INP ``*Part``). Default:
+        the spec name, else ``tip.meta['name']``, else the file stem.
+    ref_point : {'centroid', 'top'} or sequence of 3 floats, default 'centroid'
+        INP only: the reference node of the rigid body (mm, cannula frame).
+        ``'centroid'`` puts it on the needle axis at the height of the volume
+        centroid, ``(0, 0, z_c)``; ``'top'`` at the tip top ``(0, 0, z_max)``;
+        three numbers give the point itself.
+
+    Returns
+    -------
+    pathlib.Path
+        ``path`` as a ``Path``.
+
+    Raises
+    ------
+    SpecError
+        ``tip`` is not a non-empty finite ``Tip``; the extension is not
+        supported; the parent directory does not exist; ``path`` is a
+        directory; ``binary``, ``name`` or ``ref_point`` is invalid; a label
+        name contains a line break.
+    ExportError
+        Writing failed (disk error, missing ``OCP`` for STEP, a mesh that is
+        not closed for STEP). Subclass of :class:`~tipgeo.errors.BuildError`.
+        No partial file is left behind.
+
+    Notes
+    -----
+    Precision: PLY and OBJ keep every double exactly; 3MF is written as
+    shortest round-trip decimals (exact with current trimesh); STL and GLB
+    store float32 (about 1e-6 mm at 10 mm); INP uses fixed-point numbers with
+    12 decimals (5e-13 mm); STEP stores doubles.
+
+    Labels: PLY keeps them as the face property ``label`` plus one
+    ``comment label <id> <name>`` header line per entry of
+    ``tip.label_names``; OBJ starts a group (``g outer``, ``g cut:bevel``)
+    wherever the label changes along the face list, so the face order is kept
+    (``# label <id> <name>`` comments hold the exact names); GLB keeps them in
+    the mesh ``extras`` (``tipgeo.label_names`` and run-length
+    ``tipgeo.label_runs``); INP has one ``*Elset`` per label present
+    (``cut:multiplane.0`` becomes ``CUT_MULTIPLANE_0``) plus ``ALL``. STL, 3MF
+    and STEP carry no labels.
+
+    INP: the part follows Abaqus conventions (``*Part``, ``R3D3``, ``*Rigid
+    Body``); the reference node is node ``n + 1``, in node set ``RefPt``.
+    Element normals follow the outward triangle orientation. CalculiX has no
+    ``R3D3`` element and no ``*Part``, so the file is for Abaqus.
+    """
+    check_tip(tip)
+    p = as_path(path)
+    ext = p.suffix.lower()
+    if ext not in EXPORTERS:
+        raise SpecError(f"path '{p}' has extension '{p.suffix}'; allowed: "
+                        f"{', '.join(EXPORTERS)}")
+    parent = p.parent
+    if not parent.is_dir():
+        raise SpecError(f"path '{p}': parent directory '{parent}' does not exist or is not a "
+                        f"directory; create it first (export_tip creates no directories)")
+    if p.is_dir():
+        raise SpecError(f"path '{p}' is a directory; expected a file path ending in "
+                        f"{', '.join(EXPORTERS)}")
+    if not isinstance(binary, bool):
+        raise SpecError(f"binary = {binary!r} is not a bool; expected True or False")
+    opts = ExportOptions(binary=binary, name=object_name(tip, p, name),
+                         ref_point=check_ref_point(ref_point))
+    writer = EXPORTERS[ext]
+    try:
+        write_atomic(p, lambda tmp: writer(tip, tmp, opts))
+    except TipGeoError:
+        raise
+    except Exception as exc:
+        raise ExportError(f"writing {ext} file '{p}' failed: {type(exc).__name__}: {exc}; "
+                          f"nothing was written") from exc
+    return p

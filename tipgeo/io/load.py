@@ -1,0 +1,201 @@
+"""Reading meshes back: :func:`load_tip` checks the path and the units, reads
+the file with the reader registered for its extension
+(:data:`~tipgeo.io.registry.IMPORTERS`), checks the mesh and makes a
+:class:`~tipgeo.tip.Tip` in mm; :func:`read_trimesh` is the reader of the
+formats read through trimesh.
+
+Frame and units: the mesh is taken to be in the cannula frame (+z along the
+needle axis towards the tip); coordinates are scaled from ``units`` to mm.
+"""
+
+from __future__ import annotations
+
+import os
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from ..errors import SpecError
+from ..tip import Tip
+from .common import as_path
+from .registry import IMPORTERS, LoadedMesh
+
+__all__ = ["UNITS", "UNLABELLED", "labels_from_ids", "load_tip", "read_trimesh"]
+
+#: Length units :func:`load_tip` accepts, with their size in mm.
+UNITS: dict[str, float] = {"mm": 1.0, "um": 1.0e-3, "m": 1.0e3}
+#: The label of every triangle of a file that carries no labels.
+UNLABELLED = "unlabelled"
+
+
+def load_tip(path: str | os.PathLike[str], *, units: str = "mm") -> Tip:
+    """Read a triangle mesh file as a :class:`~tipgeo.tip.Tip`.
+
+    Parameters
+    ----------
+    path : str or os.PathLike
+        An ``.stl``, ``.ply``, ``.obj``, ``.3mf`` or ``.glb`` file (extension
+        case-insensitive, see :data:`~tipgeo.io.SUPPORTED_IMPORTS`). The mesh
+        is taken to be in the cannula frame (+z along the needle axis towards
+        the tip).
+    units : {'mm', 'um', 'm'}, default 'mm'
+        Length unit of the coordinates in the file; they are scaled to mm.
+
+    Returns
+    -------
+    Tip
+        Vertices in mm, ``source`` set to the file name, ``spec``,
+        ``tolerance`` and ``segments`` ``None``. Labels are restored from a
+        PLY written by :func:`~tipgeo.io.export_tip` (face property ``label``
+        and ``comment label`` lines), an OBJ written by it (groups) and a GLB
+        written by it (mesh ``extras``); otherwise every triangle is labelled
+        :data:`UNLABELLED`. STL vertices (one triple per triangle) are merged
+        where they are bit-identical, nowhere else.
+
+    Raises
+    ------
+    SpecError
+        Unknown extension or units; the file is missing, not a file, empty,
+        unreadable, holds no triangles, has non-finite vertices or faces
+        indexing missing vertices.
+    """
+    p = as_path(path)
+    if not isinstance(units, str) or units not in UNITS:
+        raise SpecError(f"units = {units!r} is not supported; allowed: "
+                        f"{', '.join(repr(u) for u in UNITS)}")
+    ext = p.suffix.lower()
+    if ext not in IMPORTERS:
+        raise SpecError(f"path '{p}' has extension '{p.suffix}'; allowed: "
+                        f"{', '.join(IMPORTERS)}")
+    if not p.exists():
+        raise SpecError(f"path '{p}' does not exist")
+    if not p.is_file():
+        raise SpecError(f"path '{p}' is not a regular file")
+    try:
+        size = p.stat().st_size
+    except OSError as exc:
+        raise SpecError(f"path '{p}' cannot be read: {exc}") from exc
+    if size == 0:
+        raise SpecError(f"path '{p}' is empty (0 bytes); expected a {ext} mesh")
+    try:
+        mesh = IMPORTERS[ext](p)
+    except SpecError:
+        raise
+    except Exception as exc:
+        raise SpecError(f"path '{p}' could not be read as {ext}: "
+                        f"{type(exc).__name__}: {exc}") from exc
+
+    v = np.asarray(mesh.vertices, dtype=np.float64).reshape(-1, 3)
+    f = np.asarray(mesh.faces, dtype=np.int64).reshape(-1, 3)
+    if len(f) == 0:
+        raise SpecError(f"path '{p}' holds no triangles; expected a triangle mesh")
+    if not np.all(np.isfinite(v)):
+        raise SpecError(f"path '{p}' has non-finite (NaN or infinite) vertex coordinates")
+    if f.min() < 0 or f.max() >= len(v):
+        raise SpecError(f"path '{p}': faces index vertices {int(f.min())}…{int(f.max())}; "
+                        f"the file has {len(v)} vertices")
+    labels_from_file = mesh.label_ids is not None
+    if labels_from_file:
+        lab = np.asarray(mesh.label_ids, dtype=np.int64)
+        names = tuple(mesh.label_names)
+    else:
+        lab, names = np.zeros(len(f), dtype=np.int64), (UNLABELLED,)
+    meta: dict[str, Any] = {"path": str(p), "format": ext[1:], "file_units": units,
+                            "labels_from_file": labels_from_file}
+    if mesh.name:
+        meta["name"] = mesh.name
+    return Tip(vertices=v * UNITS[units], faces=f, label_ids=lab, label_names=names,
+               source=p.name, meta=meta)
+
+
+def labels_from_ids(ids: np.ndarray, named: dict[int, str], n_faces: int,
+                    where: str) -> tuple[np.ndarray, tuple[str, ...]]:
+    """Face labels read from a file (ids ≥ 0, one per face) and their names:
+    ``named`` where given, ``label<k>`` for the other ids up to the largest.
+    SpecError (naming ``where``) for a wrong count or implausible ids."""
+    ids = np.asarray(ids).astype(np.int64).reshape(-1)
+    if len(ids) != n_faces:
+        raise SpecError(f"{where}: {len(ids)} face labels for {n_faces} faces")
+    if len(ids) and ids.min() < 0:
+        raise SpecError(f"{where}: negative face label {int(ids.min())}; expected ids ≥ 0")
+    top = max([int(ids.max()) if len(ids) else -1, *named.keys()]) + 1
+    if top > 1_000_000:
+        raise SpecError(f"{where}: face label id {top - 1} is implausibly large; "
+                        f"allowed 0…999999")
+    return ids, tuple(named.get(k, f"label{k}") for k in range(top))
+
+
+# -- trimesh (STL, 3MF, GLB, foreign OBJ/PLY) --------------------------------------
+def read_trimesh(p: Path) -> LoadedMesh:
+    """Read ``p`` through trimesh (STL, 3MF, GLB, and OBJ or PLY files the
+    direct readers do not handle): all triangle meshes of a scene, placed by
+    their node transforms, joined in one mesh; labels only from the ``extras``
+    of a GLB written by :func:`~tipgeo.io.export_tip`. STL vertices are
+    merged where bit-identical."""
+    import trimesh
+
+    loaded = trimesh.load(str(p), file_type=p.suffix.lower()[1:], process=False)
+    parts: list[tuple[np.ndarray, Any, str | None]] = []
+    if isinstance(loaded, trimesh.Scene):
+        for node in loaded.graph.nodes_geometry:
+            transform, gname = loaded.graph[node]
+            g = loaded.geometry[gname]
+            if isinstance(g, trimesh.Trimesh) and len(g.faces):
+                v = np.asarray(g.vertices, dtype=np.float64)
+                if not np.array_equal(transform, np.eye(4)):
+                    v = trimesh.transform_points(v, transform)
+                parts.append((v, g, gname))
+    elif isinstance(loaded, trimesh.Trimesh):
+        parts.append((np.asarray(loaded.vertices, dtype=np.float64), loaded, None))
+    if not parts:
+        raise SpecError(f"path '{p}' holds no triangle mesh")
+    vs, fs, ls, names = [], [], [], []
+    offset, any_labels, name = 0, False, None
+    for v, g, gname in parts:
+        f = np.asarray(g.faces, dtype=np.int64)
+        lab, lnames = _trimesh_labels(g, len(f))
+        any_labels |= lab is not None
+        if lab is None:
+            lab, lnames = np.zeros(len(f), dtype=np.int64), (UNLABELLED,)
+        remap = []
+        for ln in lnames:
+            if ln not in names:
+                names.append(ln)
+            remap.append(names.index(ln))
+        vs.append(v)
+        fs.append(f + offset)
+        ls.append(np.asarray(remap, dtype=np.int64)[lab])
+        offset += len(v)
+        name = name or g.metadata.get("name") or gname
+    v, f = np.concatenate(vs), np.concatenate(fs)
+    if p.suffix.lower() == ".stl":
+        v, f = _merge_identical(v, f)
+    mesh = LoadedMesh(v, f, name=name if isinstance(name, str) else None)
+    if any_labels:
+        mesh.label_ids, mesh.label_names = np.concatenate(ls), tuple(names)
+    return mesh
+
+
+def _trimesh_labels(g, n_faces: int) -> tuple[np.ndarray | None, tuple[str, ...]]:
+    """Labels a GLB written by export_tip keeps in the mesh extras."""
+    info = g.metadata.get("tipgeo") if isinstance(g.metadata, dict) else None
+    try:
+        names = tuple(str(n) for n in info["label_names"])
+        runs = np.asarray(info["label_runs"], dtype=np.int64).reshape(-1, 2)
+        if (runs[:, 1].sum() != n_faces or runs.min() < 0
+                or runs[:, 0].max(initial=-1) >= len(names)):
+            return None, ()
+        return np.repeat(runs[:, 0], runs[:, 1]), names
+    except (TypeError, KeyError, ValueError):
+        return None, ()
+
+
+def _merge_identical(v: np.ndarray, f: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Merge bit-identical vertices (STL repeats them per triangle), keeping
+    the order of first use."""
+    uniq, first, inv = np.unique(v, axis=0, return_index=True, return_inverse=True)
+    order = np.argsort(first, kind="stable")
+    rank = np.empty(len(order), dtype=np.int64)
+    rank[order] = np.arange(len(order))
+    return uniq[order], rank[inv.reshape(-1)][f]

@@ -1,0 +1,109 @@
+"""The registry of file formats: one writer and/or one reader per extension.
+
+Each format module (:mod:`tipgeo.io.stl`, :mod:`tipgeo.io.ply`, …) registers
+its functions when it is imported, like trimesh's ``exchange`` modules;
+:mod:`tipgeo.io` imports them in a fixed order and derives
+:data:`~tipgeo.io.SUPPORTED_EXPORTS` and :data:`~tipgeo.io.SUPPORTED_IMPORTS`
+from :data:`EXPORTERS` and :data:`IMPORTERS` (registration order).
+
+A writer is called as ``writer(tip, tmp, opts)`` by
+:func:`~tipgeo.io.export_tip` once the tip, the path and the options are
+checked: it writes ``tip`` (mm, cannula frame: +z along the needle axis towards
+the tip, heel at z = 0) to the temporary file ``tmp``; the atomic rename over
+the target is :func:`~tipgeo.io.export_tip`'s job. A reader is called as
+``reader(path)`` by :func:`~tipgeo.io.load_tip` for an existing, non-empty file
+and returns a :class:`LoadedMesh` in the file's own length unit.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass
+from pathlib import Path
+from typing import TYPE_CHECKING
+
+import numpy as np
+
+if TYPE_CHECKING:
+    from ..tip import Tip
+
+
+__all__ = [
+    "EXPORTERS",
+    "IMPORTERS",
+    "ExportOptions",
+    "LoadedMesh",
+    "Reader",
+    "Writer",
+    "register_exporter",
+    "register_importer",
+    "supported_exports",
+    "supported_imports",
+]
+
+
+@dataclass(frozen=True)
+class ExportOptions:
+    """The checked options of :func:`~tipgeo.io.export_tip`, passed to every
+    writer: ``binary`` (STL, PLY), the object ``name`` and the INP
+    ``ref_point`` (``'centroid'``, ``'top'`` or a point in mm)."""
+
+    binary: bool
+    name: str
+    ref_point: str | tuple[float, float, float]
+
+
+@dataclass
+class LoadedMesh:
+    """A triangle mesh as a reader returns it: vertices in the file's unit,
+    faces indexing them, and the labels if the file carries any
+    (``label_ids`` ``None`` otherwise)."""
+
+    vertices: np.ndarray
+    faces: np.ndarray
+    label_ids: np.ndarray | None = None
+    label_names: tuple[str, ...] = ()
+    name: str | None = None
+
+
+#: ``writer(tip, tmp, opts)``: write ``tip`` to the temporary file ``tmp``.
+Writer = Callable[["Tip", Path, "ExportOptions"], None]
+#: ``reader(path)``: read the mesh in ``path``.
+Reader = Callable[[Path], LoadedMesh]
+
+#: Writers by lower-case extension (with the dot), in registration order.
+EXPORTERS: dict[str, Writer] = {}
+#: Readers by lower-case extension (with the dot), in registration order.
+IMPORTERS: dict[str, Reader] = {}
+
+
+def _check_ext(ext: object) -> str:
+    if not (isinstance(ext, str) and len(ext) > 1 and ext.startswith(".")
+            and ext == ext.lower() and ext.count(".") == 1):
+        raise ValueError(f"extension {ext!r} is invalid; expected a lower-case extension "
+                         f"with one leading dot, e.g. '.stl'")
+    return ext
+
+
+def register_exporter(ext: str, writer: Writer) -> Writer:
+    """Register ``writer`` for files ending in ``ext`` (e.g. ``'.stl'``); a
+    writer already registered for ``ext`` is replaced. Returns ``writer``."""
+    EXPORTERS[_check_ext(ext)] = writer
+    return writer
+
+
+def register_importer(ext: str, reader: Reader) -> Reader:
+    """Register ``reader`` for files ending in ``ext`` (e.g. ``'.stl'``); a
+    reader already registered for ``ext`` is replaced. Returns ``reader``."""
+    IMPORTERS[_check_ext(ext)] = reader
+    return reader
+
+
+def supported_exports() -> tuple[str, ...]:
+    """The extensions with a writer, in registration order."""
+    return tuple(EXPORTERS)
+
+
+def supported_imports() -> tuple[str, ...]:
+    """The extensions with a reader, in registration order."""
+    return tuple(IMPORTERS)

@@ -1,0 +1,134 @@
+"""STEP (``.step``, ``.stp``): an AP214 solid (B-rep), one planar face per
+triangle, through the OpenCASCADE bindings OCP (``pip install "tipgeo[step]"``).
+
+Unit mm, the cannula frame (+z along the needle axis towards the tip, heel at
+z = 0), coordinates as doubles. The tip must be a closed, consistently oriented
+mesh; the faces point outwards. Export only; no labels.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+from types import SimpleNamespace
+
+from ..tip import Tip
+from .common import ExportError
+from .registry import ExportOptions, register_exporter
+
+__all__ = ["step_solid", "write_step"]
+
+
+def _ocp() -> SimpleNamespace:
+    """The OCP classes the STEP writer uses (ExportError if OCP is missing)."""
+    try:
+        from OCP.BRep import BRep_Builder
+        from OCP.BRepBuilderAPI import BRepBuilderAPI_MakeShapeOnMesh
+        from OCP.gp import gp_Pnt
+        from OCP.IFSelect import IFSelect_RetDone
+        from OCP.Interface import Interface_Static
+        from OCP.Message import Message, Message_Gravity
+        from OCP.Poly import Poly_Triangle, Poly_Triangulation
+        from OCP.StepBasic import StepBasic_Product
+        from OCP.STEPControl import STEPControl_AsIs, STEPControl_Writer
+        from OCP.TCollection import TCollection_HAsciiString
+        from OCP.TopAbs import TopAbs_FACE
+        from OCP.TopExp import TopExp_Explorer
+        from OCP.TopoDS import TopoDS_Shell, TopoDS_Solid
+    except ImportError as exc:
+        raise ExportError(f"STEP export needs the OpenCASCADE bindings OCP, which are not "
+                          f"installed ({exc}); install them with: pip install \"tipgeo[step]\""
+                          ) from exc
+    return SimpleNamespace(
+        BRep_Builder=BRep_Builder, BRepBuilderAPI_MakeShapeOnMesh=BRepBuilderAPI_MakeShapeOnMesh,
+        gp_Pnt=gp_Pnt, IFSelect_RetDone=IFSelect_RetDone, Interface_Static=Interface_Static,
+        Message=Message, Message_Gravity=Message_Gravity, Poly_Triangle=Poly_Triangle,
+        Poly_Triangulation=Poly_Triangulation, StepBasic_Product=StepBasic_Product,
+        STEPControl_AsIs=STEPControl_AsIs, STEPControl_Writer=STEPControl_Writer,
+        TCollection_HAsciiString=TCollection_HAsciiString, TopAbs_FACE=TopAbs_FACE,
+        TopExp_Explorer=TopExp_Explorer, TopoDS_Shell=TopoDS_Shell, TopoDS_Solid=TopoDS_Solid)
+
+
+def step_solid(tip: Tip):
+    """The tip as an OCCT solid bounded by one planar face per triangle, the
+    faces pointing outwards (mm, cannula frame).
+
+    ``BRepBuilderAPI_MakeShapeOnMesh`` shares the edges of neighbouring
+    triangles by construction, so the faces form a closed shell without
+    ``BRepBuilderAPI_Sewing`` (which is slow on large meshes).
+    """
+    occ = _ocp()
+    if not tip.is_watertight:
+        raise ExportError("STEP export needs a closed, consistently oriented triangle mesh; "
+                          "this tip has open or non-manifold edges")
+    v, f = tip.vertices, tip.faces + 1
+    if tip.volume < 0:  # inside out: flip, so the faces point outwards
+        f = f[:, ::-1]
+    tri = occ.Poly_Triangulation(len(v), len(f), False)
+    for i, (x, y, z) in enumerate(v.tolist(), 1):
+        tri.SetNode(i, occ.gp_Pnt(x, y, z))
+    for i, (a, b, c) in enumerate(f.tolist(), 1):
+        tri.SetTriangle(i, occ.Poly_Triangle(a, b, c))
+    maker = occ.BRepBuilderAPI_MakeShapeOnMesh(tri)
+    maker.Build()
+    if not maker.IsDone():
+        raise ExportError("STEP export: OCCT could not build faces from the triangles")
+    builder = occ.BRep_Builder()
+    shell = occ.TopoDS_Shell()
+    builder.MakeShell(shell)
+    n_faces = 0
+    explorer = occ.TopExp_Explorer(maker.Shape(), occ.TopAbs_FACE)
+    while explorer.More():
+        builder.Add(shell, explorer.Current())
+        n_faces += 1
+        explorer.Next()
+    if n_faces != len(f):
+        raise ExportError(f"STEP export: OCCT made {n_faces} faces from {len(f)} triangles "
+                          f"(degenerate triangles?); the shell would not close")
+    shell.Closed(True)
+    solid = occ.TopoDS_Solid()
+    builder.MakeSolid(solid)
+    builder.Add(solid, shell)  # the faces keep the (outward) triangle orientation
+    return solid
+
+
+def write_step(tip: Tip, tmp: Path, opts: ExportOptions) -> None:
+    """Write ``tip`` as a STEP AP214 solid (unit mm, product named
+    ``opts.name``), leaving OCCT's global settings as they were."""
+    occ = _ocp()
+    static = occ.Interface_Static
+    # silence OCCT's console chatter while we work; OCCT's STEP settings are
+    # global too: set ours and restore the caller's afterwards
+    levels = [(pr, pr.GetTraceLevel()) for pr in occ.Message.DefaultMessenger_s().Printers()]
+    saved_unit = static.CVal_s("write.step.unit")
+    saved_pcurves = static.IVal_s("write.surfacecurve.mode")
+    try:
+        for printer, _ in levels:
+            printer.SetTraceLevel(occ.Message_Gravity.Message_Fail)
+        solid = step_solid(tip)
+        # No p-curves (write.surfacecurve.mode 0): planar faces do not need
+        # them; leaving them out makes the file 2.3x smaller and 40 % faster.
+        static.SetCVal_s("write.step.unit", "MM")
+        static.SetIVal_s("write.surfacecurve.mode", 0)
+        writer = occ.STEPControl_Writer()
+        if writer.Transfer(solid, occ.STEPControl_AsIs) != occ.IFSelect_RetDone:
+            raise ExportError("STEP export: OCCT could not translate the solid")
+        model = writer.Model()
+        name = occ.TCollection_HAsciiString(opts.name)
+        for i in range(1, model.NbEntities() + 1):  # the one PRODUCT comes first
+            entity = model.Value(i)
+            if isinstance(entity, occ.StepBasic_Product):
+                entity.SetId(name)
+                entity.SetName(name)
+                break
+        if writer.Write(str(tmp)) != occ.IFSelect_RetDone:
+            raise ExportError(f"STEP export: OCCT could not write '{tmp}'")
+    finally:
+        if saved_unit:
+            static.SetCVal_s("write.step.unit", saved_unit)
+        static.SetIVal_s("write.surfacecurve.mode", saved_pcurves)
+        for printer, level in levels:
+            printer.SetTraceLevel(level)
+
+
+register_exporter(".step", write_step)
+register_exporter(".stp", write_step)

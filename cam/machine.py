@@ -69,6 +69,7 @@ from dataclasses import dataclass, field, fields
 import numpy as np
 
 from tipgeo.errors import TipGeoError
+from tipgeo.tolerances import tol
 
 __all__ = ["CamError", "AxisLimit", "Machine", "wheel_from_needle", "f_surf", "plane_2_36",
            "near_generator", "wheel_height", "face_plane"]
@@ -88,7 +89,7 @@ class AxisLimit:
     resolution: float
 
     def check(self, name: str, value: float, unit: str) -> float:
-        if not (self.lo - 1e-12 <= value <= self.hi + 1e-12):
+        if not (self.lo - tol.cam.travel <= value <= self.hi + tol.cam.travel):
             raise CamError(f"axis {name} = {value:.6g} {unit} is outside its travel "
                            f"[{self.lo:g}, {self.hi:g}] {unit}")
         return round(value / self.resolution) * self.resolution
@@ -224,7 +225,7 @@ def wheel_height(X, Y, phi: float, H: float, phi_g: float, infeed: float = 0.0):
         df = c + (Xs * c + Z * s - H * s) * s / (r * math.tan(phi_g))
         step = f / df
         Z = Z - step
-        if np.max(np.abs(step)) < 1e-13:
+        if np.max(np.abs(step)) < tol.cam.converge:
             break
     else:
         raise CamError("the wheel surface does not cross the needle's axis direction there")

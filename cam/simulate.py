@@ -17,6 +17,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from tipgeo.tolerances import tol
+
 from .machine import CamError, face_plane
 from .program import GrindProgram
 
@@ -78,7 +80,7 @@ def simulate(program: GrindProgram, spec, *, tolerance: float | None = None,
     if not faces:
         raise CamError("the program has no feed move: nothing is ground")
     for f in faces:
-        if not f.m[2] > 1e-9:
+        if not f.m[2] > tol.cam.axial:
             raise CamError("a wheel face is parallel to the needle axis or faces away "
                            "from the tip; the needle would be cut off")
     planes = [f for f in faces if not f.spin]
@@ -90,7 +92,7 @@ def simulate(program: GrindProgram, spec, *, tolerance: float | None = None,
     for k, f in enumerate(f for f in faces if f.spin):
         mh, mz = f.m[0], f.m[2]
         z_heel = (f.d - mh * cannula.r_o) / mz
-        if abs(z_heel) > 1e-9:
+        if abs(z_heel) > tol.cam.heel:
             raise CamError(f"a spun face meets the outer wall at z = {z_heel:.6g} mm; the "
                            "simulator needs conical faces that start at the heel (z = 0)")
         cutters.append(ConicalCutter(theta=math.atan2(mz, mh), name=f"ground-cone{k}"))

@@ -30,6 +30,7 @@ import numpy as np
 
 from tipgeo.errors import TipGeoError
 from tipgeo.tip import Tip
+from tipgeo.tolerances import tol
 
 from .errors import GCodeError
 from .interpreter import Segment, Toolpath
@@ -57,7 +58,7 @@ def _stadium(p, q, r, chordal):
     """Polygon of the segment pq swept by a disc of radius r (CCW)."""
     d = np.subtract(q, p)
     L = float(np.hypot(*d))
-    if L < 1e-12:
+    if L < tol.gcode.length:
         return _disc(p, r, chordal)
     ang = math.atan2(d[1], d[0])
     n = max(6, math.ceil(math.pi / (2 * math.acos(max(1 - chordal / r, -1.0)))))
@@ -74,9 +75,9 @@ def _arc_band(seg: Segment, r, chordal):
     c = seg.center
     sweep = seg.sweep
     a0 = math.atan2(seg.start[1] - c[1], seg.start[0] - c[0])
-    if abs(sweep) >= 2 * math.pi - 1e-12:
+    if abs(sweep) >= 2 * math.pi - tol.gcode.full_turn:
         outer = _disc(c, R + r, chordal)
-        if R - r > 1e-9:
+        if R - r > tol.gcode.point:
             inner = _disc(c, R - r, chordal)[::-1]
             return [outer, inner]
         return [outer]
@@ -149,7 +150,7 @@ def ablate(toolpath: Toolpath, spec, *, beam_diameter: float = 0.020,
         raise GCodeError("the program never fires the laser (no PSOCONTROL … FIRE moves)")
     groups: dict[float, list[Segment]] = {}
     for s in on:
-        if abs(s.c1 - s.c0) > 1e-9:
+        if abs(s.c1 - s.c0) > tol.gcode.c_angle:
             raise GCodeError(f"line {s.line}: the beam fires during a C move; the simulator "
                              "needs C fixed while cutting")
         groups.setdefault(round(s.c0, 9), []).append(s)
@@ -186,7 +187,7 @@ def ablate(toolpath: Toolpath, spec, *, beam_diameter: float = 0.020,
             p = np.asarray(p, float)
             q = np.stack([p[:, 0] - x0, z_rim - (p[:, 1] - y0)], 1)
             polys.append(q[::-1])  # the Y flip mirrors: keep CCW
-        half = max(float(np.abs(np.concatenate(polys)[:, 0]).max()), 1e-6)
+        half = max(float(np.abs(np.concatenate(polys)[:, 0]).max()), tol.gcode.half_floor)
         if not half < cannula.r_i:
             raise GCodeError(f"the cut at C = {c_deg:g}° is {2 * half:.4g} mm wide; wider "
                              f"than the bore ({2 * cannula.r_i:.4g} mm)")
@@ -255,7 +256,7 @@ def compare_with_cutter(result: AblationResult, spec, *, beam_diameter: float = 
     cannula = spec.cannula
     v = sim.vertices[np.unique(sim.faces[sim.mask("cut:laser")])]
     rho = np.hypot(v[:, 0], v[:, 1])
-    wall = np.abs(rho - cannula.r_i) < 2 * sim.tolerance + 1e-9
+    wall = np.abs(rho - cannula.r_i) < 2 * sim.tolerance + tol.gcode.point
     pts = v[wall]
     ang = np.arctan2(pts[:, 1], pts[:, 0])
     radii, centers = [], []

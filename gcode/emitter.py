@@ -25,6 +25,7 @@ from dataclasses import dataclass
 
 from tipgeo import validate as v
 from tipgeo.errors import SpecError
+from tipgeo.tolerances import tol
 
 __all__ = ["LaserParams", "emit_program", "LENGTH_DECIMALS"]
 
@@ -127,7 +128,7 @@ def emit_program(spec, laser: LaserParams | None = None, *, name: str | None = N
     if not r_c > laser.tool_radius:
         raise SpecError(f"arc_radius = {r_c:g} mm is not larger than the beam radius "
                         f"{laser.tool_radius:g} mm")
-    if laser.roughing_depth >= r_c - laser.tool_radius + 1e-12:
+    if laser.roughing_depth >= r_c - laser.tool_radius + tol.gcode.length:
         raise SpecError(f"roughing_depth = {laser.roughing_depth:g} mm leaves no arc: "
                         f"allowed < arc_radius − beam radius = {r_c - laser.tool_radius:g} mm")
     comp, lead = laser.compensation, laser.clearance

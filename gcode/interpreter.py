@@ -40,6 +40,8 @@ from dataclasses import dataclass, field, fields
 
 import numpy as np
 
+from tipgeo.tolerances import tol
+
 from . import ast
 from .errors import GCodeError, check_limit
 from .expr import evaluate
@@ -49,7 +51,7 @@ __all__ = ["Segment", "Toolpath", "interpret", "Limits", "ARC_TOLERANCE", "MAX_P
 
 #: An arc's end must lie on the circle through its start within this many mm
 #: (relative to the radius above 1 mm); its radius must exceed it too.
-ARC_TOLERANCE = 1e-6
+ARC_TOLERANCE = tol.gcode.arc  # alias, imported by tests
 #: Largest |X|, |Y|, |Z| and arc-centre coordinate, mm (1 km: beyond any
 #: stage, and far from float overflow in the geometry).
 MAX_POSITION_MM = 1e6
@@ -140,11 +142,11 @@ class Segment:
         d = a1 - a0
         if self.ccw:
             d = d % (2 * math.pi)
-            if d < 1e-12:
+            if d < tol.gcode.full_turn:
                 d = 2 * math.pi
         else:
             d = -((-d) % (2 * math.pi))
-            if d > -1e-12:
+            if d > -tol.gcode.full_turn:
                 d = -2 * math.pi
         return d
 
@@ -161,7 +163,7 @@ class Segment:
             return np.array([self.start, self.end], float)
         r = self.radius
         step = 2 * math.acos(max(1 - chordal / r, -1.0)) if chordal < r else math.pi / 2
-        n = max(2, math.ceil(abs(self.sweep) / max(step, 1e-9)))
+        n = max(2, math.ceil(abs(self.sweep) / max(step, tol.gcode.step_floor)))
         a0 = math.atan2(self.start[1] - self.center[1], self.start[0] - self.center[0])
         a = a0 + np.linspace(0, self.sweep, n + 1)
         return np.stack([self.center[0] + r * np.cos(a), self.center[1] + r * np.sin(a)], 1)
@@ -297,7 +299,7 @@ def interpret(program: ast.Program, *, tool_radii: dict[int, float] | None = Non
             if isinstance(s, ast.Repeat):
                 n = ev(s.count, s.span)
                 k = round(n)
-                if abs(n - k) > 1e-9 * max(1.0, abs(n)) or k < 0:
+                if abs(n - k) > tol.gcode.whole * max(1.0, abs(n)) or k < 0:
                     raise err(f"REPEAT count {n:.12g} is not a whole number ≥ 0", s.span)
                 if k > limits.max_repeat:
                     raise err(f"REPEAT count {k} exceeds max_repeat = {limits.max_repeat}",
@@ -549,19 +551,19 @@ def _block(st: _State, b: ast.Block, ev, err, raw, tools) -> None:
         _check_position("arc centre Y", cy, b.span, err)
         r0 = math.dist((cx, cy), move["start"])
         r1 = math.dist((cx, cy), move["end"])
-        tol = ARC_TOLERANCE * max(1.0, r0)
+        arc_tol = tol.gcode.arc * max(1.0, r0)
         ccw = motion == "ccw"
         side = st.comp if comp_change is None or comp_change == st.comp else 0
         tool_r = tools[st.tool]
         collapses = (side != 0 and side * (1 if ccw else -1) > 0 and tool_r > 0
-                     and r0 - tool_r <= 1e-12)
-        if r0 <= tol and not collapses:
+                     and r0 - tool_r <= tol.gcode.length)
+        if r0 <= arc_tol and not collapses:
             raise err(f"arc radius {r0:.6g} mm: I{i:g} J{j:g} put the centre on the start "
-                      f"point; the radius must exceed {tol:.3g} mm (ARC_TOLERANCE)", b.span)
-        if abs(r0 - r1) > tol:
+                      f"point; the radius must exceed {arc_tol:.3g} mm (ARC_TOLERANCE)", b.span)
+        if abs(r0 - r1) > arc_tol:
             raise err(f"arc end is {abs(r0 - r1) * 1e3:.4g} µm off its circle "
                       f"(radius {r0:.6g} mm at the start, {r1:.6g} mm at the end; the "
-                      f"tolerance is {tol * 1e3:.3g} µm, ARC_TOLERANCE)", b.span)
+                      f"tolerance is {arc_tol * 1e3:.3g} µm, ARC_TOLERANCE)", b.span)
         move["center"] = (cx, cy)
         move["ccw"] = ccw
     if comp_change is not None:
@@ -604,7 +606,7 @@ def _offset(move, side: int, r_t: float, warnings: list[str]):
     # left of a CCW arc is towards the centre
     towards = side * (1 if move["ccw"] else -1)
     rn = r - towards * r_t
-    if rn <= 1e-12:
+    if rn <= tol.gcode.length:
         warnings.append(f"line {move['line']}: arc radius {r:.6g} mm is not larger than the "
                         f"tool radius {r_t:.6g} mm; the compensated path collapses to its centre")
         rn = 0.0
@@ -632,14 +634,14 @@ def _intersect(a, b, corner):
         p, d = ga[1], ga[2]
         q, e = gb[1], gb[2]
         den = d[0] * e[1] - d[1] * e[0]
-        if abs(den) > 1e-12:
+        if abs(den) > tol.gcode.parallel:
             t = ((q[0] - p[0]) * e[1] - (q[1] - p[1]) * e[0]) / den
             pts.append((p[0] + t * d[0], p[1] + t * d[1]))
     else:
         if ga[0] == "c" and gb[0] == "c":
             (c0, r0), (c1, r1) = (ga[1], ga[2]), (gb[1], gb[2])
             dd = math.dist(c0, c1)
-            if 1e-12 < dd <= r0 + r1 and dd >= abs(r0 - r1):
+            if tol.gcode.length < dd <= r0 + r1 and dd >= abs(r0 - r1):
                 a_ = (r0 * r0 - r1 * r1 + dd * dd) / (2 * dd)
                 h = math.sqrt(max(r0 * r0 - a_ * a_, 0.0))
                 ex = ((c1[0] - c0[0]) / dd, (c1[1] - c0[1]) / dd)
@@ -678,10 +680,11 @@ def _compensate(raw: list[dict], warnings: list[str]) -> list[Segment]:
             if prev is not None and out:
                 # join with the previous compensated element
                 p_end = out[-1]["end"]
-                if math.dist(p_end, cur["start"]) > 1e-9:
+                if math.dist(p_end, cur["start"]) > tol.gcode.point:
                     q = _intersect(out[-1], cur, m["start"]) if (
                         out[-1]["kind"] != "point" and cur["kind"] != "point") else None
-                    if q is not None and math.dist(q, m["start"]) <= 2 * m["tool_r"] + 1e-9:
+                    if q is not None and \
+                            math.dist(q, m["start"]) <= 2 * m["tool_r"] + tol.gcode.point:
                         out[-1] = _trim_end(out[-1], q)
                         cur = _trim_start(cur, q)
                     else:  # convex corner: round it about the programmed point
@@ -699,7 +702,7 @@ def _compensate(raw: list[dict], warnings: list[str]) -> list[Segment]:
                 mm["kind"] = "line"
         if m["comp_before"] and not m["comp_after"] and out:
             mm["start"] = out[-1]["end"]
-        elif out and math.dist(out[-1]["end"], mm["start"]) > 1e-9 and \
+        elif out and math.dist(out[-1]["end"], mm["start"]) > tol.gcode.point and \
                 out[-1].get("comp_after") and m["kind"] != "rapid":
             mm["start"] = out[-1]["end"]
         out.append(mm)

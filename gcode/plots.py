@@ -7,6 +7,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from tipgeo.tolerances import tol
+
 __all__ = ["plot_toolpath", "plot_rim"]
 
 
@@ -25,7 +27,7 @@ def plot_toolpath(toolpath, path, *, c_deg: float | None = None, chordal: float 
     c_sel = cs[0] if c_deg is None and cs else c_deg
     fig, ax = plt.subplots(1, 2, figsize=(12, 5.2), gridspec_kw={"width_ratios": [2, 1]})
     for s in segs:
-        if c_sel is not None and abs(s.c0 - c_sel) > 1e-9:
+        if c_sel is not None and abs(s.c0 - c_sel) > tol.gcode.c_angle:
             continue
         p = s.points(chordal)
         ax[0].plot(p[:, 0], p[:, 1], color="#d1495b" if s.beam else "#9aa5b1",

@@ -39,6 +39,7 @@ from .edges import Edge, EdgePiece, exact_edges, lowest_cut, mesh_edges, rotate_
 from .errors import SpecError
 from .fourier import FourierFit, fit_fourier
 from .jsonio import dumps
+from .tolerances import tol
 
 __all__ = ["AngleReport", "WallAngles", "analyze", "edge_angles", "METHODS"]
 
@@ -114,7 +115,7 @@ class AngleReport:
         ``z_i_mm``, ``lambda_o_deg``, ``lambda_i_deg``, ``theta_deg`` (outer,
         eq. 3.14), ``theta_i_deg``, ``alpha_o_deg``, ``alpha_i_deg``."""
         step = v.real("step_deg", step_deg, lo=1e-3, hi=90.0)
-        gd = np.arange(0.0, 360.0 - 1e-9, step)
+        gd = np.arange(0.0, 360.0 - tol.grid_end_deg, step)
         g = np.radians(gd)
         o, i = self.outer.at(g), self.inner.at(g)
         d = np.degrees
@@ -253,7 +254,7 @@ def _find_piece(pieces: list[EdgePiece], g: np.ndarray) -> np.ndarray:
     for k, p in enumerate(pieces):
         a, b = p.gamma[0], p.gamma[-1]
         for shift in (-2 * np.pi, 0.0, 2 * np.pi):
-            inside = (g + shift >= a - 1e-9) & (g + shift <= b + 1e-9) & (idx < 0)
+            inside = (g + shift >= a - tol.angle) & (g + shift <= b + tol.angle) & (idx < 0)
             idx[inside] = k
     return idx
 
@@ -261,8 +262,8 @@ def _find_piece(pieces: list[EdgePiece], g: np.ndarray) -> np.ndarray:
 def _unwrap_to(p: EdgePiece, g: np.ndarray) -> np.ndarray:
     """γ shifted by a whole turn into the piece's span."""
     out = g.copy()
-    out[out < p.gamma[0] - 1e-9] += 2 * np.pi
-    out[out > p.gamma[-1] + 1e-9] -= 2 * np.pi
+    out[out < p.gamma[0] - tol.angle] += 2 * np.pi
+    out[out > p.gamma[-1] + tol.angle] -= 2 * np.pi
     return out
 
 
@@ -293,7 +294,7 @@ def _exact_wall(edge: Edge, spec, *, fourier: bool, n: int) -> WallAngles:
             s = k_piece == k
             if np.any(s) and np.any(face[s] != p.face):
                 gg = _unwrap_to(p, g[s])
-                nudge = np.clip(gg, p.gamma[0] + 1e-10, p.gamma[-1] - 1e-10)
+                nudge = np.clip(gg, p.gamma[0] + tol.angle_nudge, p.gamma[-1] - tol.angle_nudge)
                 z2, f2, o2 = lowest_cut(cutters, nudge + gh, r, cannula)
                 z[s], face[s], owner[s] = z2, f2, o2
         zz = z - zh

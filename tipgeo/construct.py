@@ -152,7 +152,7 @@ class BuildContext:
         tris = np.asarray(mesh.tri_verts).astype(np.int64)
         p = verts[tris]
         nrm = np.cross(p[:, 1] - p[:, 0], p[:, 2] - p[:, 0])
-        nrm /= np.maximum(np.linalg.norm(nrm, axis=1, keepdims=True), 1e-300)
+        nrm /= np.maximum(np.linalg.norm(nrm, axis=1, keepdims=True), tol.tiny)
         ids = np.asarray(classify(p.mean(axis=1), nrm), dtype=np.int64)
         return _manifold(verts, tris, ids, what)
 
@@ -173,7 +173,8 @@ class BuildContext:
         scale = max(self.reach, abs(self.z_lo), abs(self.z_hi))
 
         def classify(cent, nr):
-            on = (np.abs(cent @ nrm - offset) <= 1e3 * tol.plane * scale) & (nr @ nrm > 1 - 1e-9)
+            on = ((np.abs(cent @ nrm - offset) <= 1e3 * tol.plane * scale)
+                  & (nr @ nrm > 1 - tol.parallel))
             return np.where(on, lid, aux)
         return self.labelled(man, classify, label)
 

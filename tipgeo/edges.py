@@ -31,6 +31,7 @@ import numpy as np
 
 from .cannula import Cannula
 from .errors import SpecError, TipGeoError
+from .tolerances import tol
 
 __all__ = ["EdgePiece", "Edge", "Kink", "Jump", "exact_edges", "mesh_edges",
            "label_by_geometry", "heel_of", "lowest_cut", "rotate_z"]
@@ -154,9 +155,9 @@ def heel_of(cutters, cannula: Cannula) -> tuple[float, float]:
     r = cannula.r_o
     g = np.linspace(0.0, 2 * np.pi, 7200, endpoint=False)
     z, _, _ = lowest_cut(cutters, g, r, cannula)
-    if z.max() - z.min() < 1e-9:
+    if z.max() - z.min() < tol.level:
         return 0.0, float(z.min())
-    low = np.flatnonzero(z <= z.min() + 1e-12)  # equal heels: the one nearest γ = 0
+    low = np.flatnonzero(z <= z.min() + tol.heel_tie)  # equal heels: the one nearest γ = 0
     k = int(low[np.argmin(np.abs(np.angle(np.exp(1j * g[low]))))])
     lo, hi = g[k] - 2 * np.pi / 7200, g[k] + 2 * np.pi / 7200
     for _ in range(90):
@@ -190,7 +191,7 @@ def _dz(cutters, cannula, r, g: np.ndarray) -> np.ndarray:
 def _flat_point(cutters, cannula, r, g0: float, width: float) -> float:
     """Refine a smooth minimum of z(γ) to z′(γ) = 0 by bisection (the golden
     section alone stops at √ε ≈ 1e-8 rad)."""
-    a, b = g0 - 2 * width - 1e-7, g0 + 2 * width + 1e-7
+    a, b = g0 - 2 * width - tol.bracket_pad, g0 + 2 * width + tol.bracket_pad
     da, db = _dz(cutters, cannula, r, np.array([a, b]))
     if not (da < 0 < db):
         return g0
@@ -246,7 +247,7 @@ def exact_edges(spec, *, samples: int = DEFAULT_SAMPLES) -> tuple[Edge, Edge]:
 
 
 def _exact_wall(cutters, cannula, wall, r, gh, zh, samples) -> Edge:
-    eps = 1e-12  # pieces stop this short of a break (rad)
+    eps = tol.break_gap  # pieces stop this short of a break (rad)
     br = _breaks(cutters, r, cannula, gh, max(samples, 720))
     # pieces run between face changes (one piece may wrap past the heel)
     bounds = np.append(br, br[0] + 2 * np.pi) if len(br) else np.array([gh, gh + 2 * np.pi])
@@ -277,10 +278,10 @@ def _exact_wall(cutters, cannula, wall, r, gh, zh, samples) -> Edge:
         zp, zq = p.z[-1], q.z[0]
         if len(pieces) == 1:
             break
-        if p.face == q.face and abs(zp - zq) < 1e-6:
+        if p.face == q.face and abs(zp - zq) < tol.join:
             continue
         gb = 0.5 * (p.gamma[-1] + gq)
-        if abs(zp - zq) < 1e-6:
+        if abs(zp - zq) < tol.join:
             cos = float(np.clip(p.normal[-1] @ q.normal[0], -1, 1))
             kinks.append(Kink(float(np.mod(gb, 2 * np.pi)), float(0.5 * (zp + zq)),
                               (p.face, q.face), math.pi - math.acos(cos)))
@@ -358,11 +359,11 @@ def mesh_edges(tip, *, radii: tuple[float, float] | None = None) -> tuple[Edge, 
     v = tip.vertices
     vo = v[loops["outer"][0]]
     zo = vo[:, 2]
-    if zo.max() - zo.min() < 1e-9:
+    if zo.max() - zo.min() < tol.level:
         gh, zh = 0.0, float(zo.min())
     else:
         # the lowest vertex; among equal ones (multi-plane heels) the nearest γ = 0
-        low = np.flatnonzero(zo <= zo.min() + 1e-9)
+        low = np.flatnonzero(zo <= zo.min() + tol.level)
         k = int(low[np.argmin(np.abs(np.arctan2(vo[low, 1], vo[low, 0])))])
         gh, zh = float(np.arctan2(vo[k, 1], vo[k, 0])), float(zo[k])
     fn = tip.face_normals
@@ -396,10 +397,10 @@ def _mesh_pieces(wall, r, g, z, seg_face, seg_n, heel) -> Edge:
     gv = np.append(g, g[0] + 2 * np.pi)
     zv = np.append(z, z[0])
     dg = np.diff(gv)
-    if np.any(dg < -1e-9):
+    if np.any(dg < -tol.angle):
         raise TipGeoError(f"the {wall} edge turns back in γ; it is not a single loop "
                           "around the axis")
-    vertical = dg < 1e-9
+    vertical = dg < tol.angle
     keys = [(str(f), bool(vv)) for f, vv in zip(seg_face, vertical)]
     runs, s0 = [], 0
     for i in range(1, len(keys) + 1):
@@ -426,7 +427,7 @@ def _mesh_pieces(wall, r, g, z, seg_face, seg_n, heel) -> Edge:
     pieces = [x for x in items if isinstance(x, _MeshPiece)]
     jumps = [x for x in items if isinstance(x, Jump)]
     for p, q in zip(pieces, pieces[1:] + pieces[:1]):
-        if p.face != q.face and abs(p.z[-1] - q.z[0]) < 1e-6:
+        if p.face != q.face and abs(p.z[-1] - q.z[0]) < tol.join:
             cos = float(np.clip(p.normal[-1] @ q.normal[0], -1, 1))
             kinks.append(Kink(float(np.mod(p.gamma[-1], 2 * np.pi)), float(p.z[-1]),
                               (p.face, q.face), math.pi - math.acos(cos)))
@@ -471,13 +472,13 @@ def label_by_geometry(tip, *, r_o: float, r_i: float, axis_point=(0.0, 0.0, 0.0)
     basis = np.stack([x, y, d])
     v = (tip.vertices - np.asarray(axis_point, float)) @ basis.T
     f = tip.faces
-    tol_r = radial_tol if radial_tol is not None else 2e-3 * (r_o - r_i)
+    tol_r = radial_tol if radial_tol is not None else tol.radial_ratio * (r_o - r_i)
     tri = v[f]
     rho = np.hypot(tri[..., 0], tri[..., 1])
     cen = tri.mean(axis=1)
     nrm = np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])
-    nrm /= np.maximum(np.linalg.norm(nrm, axis=1, keepdims=True), 1e-300)
-    er = cen[:, :2] / np.maximum(np.hypot(cen[:, 0], cen[:, 1]), 1e-300)[:, None]
+    nrm /= np.maximum(np.linalg.norm(nrm, axis=1, keepdims=True), tol.tiny)
+    er = cen[:, :2] / np.maximum(np.hypot(cen[:, 0], cen[:, 1]), tol.tiny)[:, None]
     radial = np.einsum("ij,ij->i", nrm[:, :2], er)
     outer = np.all(np.abs(rho - r_o) <= tol_r, axis=1) & (radial > 0.99)
     inner = np.all(np.abs(rho - r_i) <= tol_r, axis=1) & (radial < -0.99)

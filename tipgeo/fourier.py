@@ -16,6 +16,7 @@ from scipy.optimize import minimize_scalar
 
 from . import validate as v
 from .errors import SpecError
+from .tolerances import tol
 
 __all__ = ["FourierFit", "fit_fourier"]
 
@@ -119,17 +120,18 @@ def fit_fourier(gamma, z, *, n: int = 5, w: float | None = None) -> FourierFit:
         minima = np.flatnonzero((rss <= left) & (rss <= right) & ((rss < left) | (rss < right)))
         minima = minima[np.argsort(rss[minima])][:n + 1]  # w/k mimics w: n valleys + 1
         cand = []
-        if tss0 <= 1e-30 * g.size or len(minima) == 0:  # a constant profile: w = 2π/span
+        # a constant profile: w = 2π/span
+        if tss0 <= tol.fourier_constant * g.size or len(minima) == 0:
             cand.append((w0, _solve(g, zz, n, w0)[1]))
             minima = []
         for k in minima:
             lo, hi = grid[max(k - 1, 0)], grid[min(k + 1, len(grid) - 1)]
             r = minimize_scalar(lambda x: _solve(g, zz, n, x)[1], bounds=(lo, hi),
-                                method="bounded", options={"xatol": 1e-13 * w0})
+                                method="bounded", options={"xatol": tol.fourier_xatol * w0})
             cand.append((float(r.x), float(r.fun)) if r.fun <= rss[k] else
                         (float(grid[k]), float(rss[k])))
         best = min(c[1] for c in cand)
-        floor = best * (1 + 1e-6) + 1e-12 * tss0
+        floor = best * (1 + tol.fourier_tie) + tol.fourier_floor * tss0
         w = max(c[0] for c in cand if c[1] <= floor)
     else:
         w = v.real("w", w, lo=0.0, lo_open=True)

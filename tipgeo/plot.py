@@ -10,6 +10,8 @@ from pathlib import Path
 
 import numpy as np
 
+from .tolerances import tol
+
 __all__ = ["render_tip", "save_figure", "check_picture_path", "PICTURE_EXTS"]
 
 _COLORS = {"outer": "#9aa5b1", "inner": "#c7b79a", "base": "#555555"}
@@ -75,7 +77,7 @@ def render_tip(tip, path, *, views=((20, -60), (20, 30), (80, -90)), title: str 
     light = np.array([0.3, -0.5, 0.8])
     light /= np.linalg.norm(light)
     nrm = np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])
-    nrm /= np.maximum(np.linalg.norm(nrm, axis=1, keepdims=True), 1e-300)
+    nrm /= np.maximum(np.linalg.norm(nrm, axis=1, keepdims=True), tol.tiny)
     shade = 0.55 + 0.45 * np.abs(nrm @ light)
     base = np.array([matplotlib.colors.to_rgb(colors.get(lab, "#555555")) for lab in labels])
     fc = np.clip(base * shade[:, None], 0, 1)

@@ -11,6 +11,8 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
+from .tolerances import tol
+
 if TYPE_CHECKING:  # pragma: no cover
     import trimesh
 
@@ -85,7 +87,7 @@ class Tip:
         """(m, 3) float — unit outward normals."""
         t = self.triangles
         n = np.cross(t[:, 1] - t[:, 0], t[:, 2] - t[:, 0])
-        return n / np.maximum(np.linalg.norm(n, axis=1, keepdims=True), 1e-300)
+        return n / np.maximum(np.linalg.norm(n, axis=1, keepdims=True), tol.tiny)
 
     @property
     def face_areas(self) -> np.ndarray:

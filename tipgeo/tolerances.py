@@ -10,8 +10,9 @@ The test suite switches it on in ``conftest.py``.
 
 from dataclasses import dataclass, field
 
-__all__ = ["Tolerances", "InspectSettings", "tol", "DEFAULT_CHORDAL_MM", "MIN_FEATURE_MM",
-           "MIN_DIAMETER_MM", "MAX_CUTTERS", "MAX_TIP_HEIGHT_MM"]
+__all__ = ["Tolerances", "InspectSettings", "GCodeTolerances", "CamTolerances", "tol",
+           "DEFAULT_CHORDAL_MM", "MIN_FEATURE_MM", "MIN_DIAMETER_MM", "MAX_CUTTERS",
+           "MAX_TIP_HEIGHT_MM"]
 
 #: Default chordal tolerance of a built tip (mm): the largest distance between
 #: the mesh and the exact surface it approximates. 0.05 µm keeps the faceting
@@ -103,6 +104,43 @@ class InspectSettings:
         Fitted diameters must lie within this fraction of the CAD's.
     chunk : int
         Points per chunk of the deviation pass (memory, not results).
+    multiplier : float
+        An edge or vertex closest point is feasible when its Lagrange
+        multipliers are ≥ −this (dimensionless; round-off slack).
+    gram_det : float
+        The Gram determinant of two face gradients below this makes an edge
+        projection degenerate (the faces are tangent there; mm⁻⁴ for unit-scale
+        gradients, dimensionless in practice).
+    jacobian_det : float
+        The Jacobian determinant of three face gradients below this makes a
+        vertex projection degenerate (dimensionless).
+    bound_rel, bound_abs : float
+        The upper bound of a mesh distance query is inflated by this relative
+        and absolute (mm) margin so round-off never drops the true triangle.
+    align_parallel : float
+        Two unit vectors whose cross product is shorter than this are parallel
+        or antiparallel in the registration's alignment (dimensionless).
+    sigma_floor : float
+        Floor of the robust residual scale of the registration (mm).
+    loss_floor : float
+        Floor of the soft-L1 loss scale of the registration (mm).
+    view_normal : float
+        A mean normal whose XY part is shorter than this gives no view
+        direction for the report pictures (dimensionless).
+    picture_span : float
+        Floor of a picture's extent, against a zero-size image (mm).
+    synth_chordal : float
+        Chordal tolerance of the mesh a synthetic scan samples and ray-casts
+        (mm; sampling and visibility only, points lie on the exact surface).
+    area_floor : float
+        Floor of the sampled area of a synthetic scan, against division by
+        zero (mm²).
+    ray_lift : float
+        Visibility rays of a synthetic scan start this far off the surface
+        (mm; float32 ray casting only decides visibility).
+    scale_floor : float
+        Added to the robust residual scale of a plane fit, so exact data
+        never makes it zero (mm).
     """
 
     feasible: float = 1.0e-10
@@ -131,6 +169,90 @@ class InspectSettings:
     match_min_fitness: float = 0.3
     match_diameter: float = 0.05
     chunk: int = 1 << 17
+    multiplier: float = 1.0e-9
+    gram_det: float = 1.0e-24
+    jacobian_det: float = 1.0e-12
+    bound_rel: float = 1.0e-12
+    bound_abs: float = 1.0e-15
+    align_parallel: float = 1.0e-15
+    sigma_floor: float = 1.0e-5
+    loss_floor: float = 2.0e-4
+    view_normal: float = 1.0e-9
+    picture_span: float = 1.0e-9
+    synth_chordal: float = 2.0e-4
+    area_floor: float = 1.0e-12
+    ray_lift: float = 2.0e-3
+    scale_floor: float = 1.0e-12
+
+
+@dataclass
+class GCodeTolerances:
+    """Tolerances of the G-code interpreter, emitter and ablation simulator
+    (:mod:`gcode`), as ``tol.gcode``.
+
+    Attributes
+    ----------
+    arc : float
+        An arc's end must lie on the circle through its start within this
+        (mm, relative to the radius above 1 mm); its radius must exceed it too.
+        ``gcode.interpreter.ARC_TOLERANCE`` is this value.
+    full_turn : float
+        An arc sweep within this of 0 or 2π is a full circle (rad).
+    length : float
+        Lengths and radii up to this are zero: degenerate segments, collapsed
+        compensated arcs, coincident circle centres, a roughing depth that
+        leaves no arc (mm).
+    parallel : float
+        Two unit directions whose cross product is at most this are parallel
+        (no line–line intersection; dimensionless).
+    point : float
+        Two points closer than this are the same (mm): contour closure, tool
+        compensation joins, radii of an annulus, the bore wall of the result.
+    c_angle : float
+        Two C-axis positions closer than this are the same (degrees).
+    step_floor : float
+        Floor of the angular step when an arc is sampled (rad).
+    whole : float
+        A REPEAT count within this (relative above 1) of an integer is whole
+        (dimensionless).
+    half_floor : float
+        Floor of the half-width of the ablated profile (mm).
+    """
+
+    arc: float = 1.0e-6
+    full_turn: float = 1.0e-12
+    length: float = 1.0e-12
+    parallel: float = 1.0e-12
+    point: float = 1.0e-9
+    c_angle: float = 1.0e-9
+    step_floor: float = 1.0e-9
+    whole: float = 1.0e-9
+    half_floor: float = 1.0e-6
+
+
+@dataclass
+class CamTolerances:
+    """Tolerances of the grinding CAM (:mod:`cam`), as ``tol.cam``.
+
+    Attributes
+    ----------
+    axial : float
+        A wheel face whose unit normal has an axial component at most this is
+        parallel to the needle axis (dimensionless).
+    heel : float
+        A spun face must meet the outer wall at z = 0 within this (mm).
+    travel : float
+        An axis value may exceed its travel by this round-off (mm or degrees,
+        the axis's unit).
+    converge : float
+        The machine-coordinate Newton iteration stops when a step is below
+        this (mm).
+    """
+
+    axial: float = 1.0e-9
+    heel: float = 1.0e-9
+    travel: float = 1.0e-12
+    converge: float = 1.0e-13
 
 
 @dataclass
@@ -162,6 +284,88 @@ class Tolerances:
     inspect : InspectSettings
         Distance queries, registration, scan checks and reports of
         :mod:`tipgeo.inspect` (``tol.inspect.feasible`` …).
+    gcode : GCodeTolerances
+        Tolerances of :mod:`gcode` (``tol.gcode.arc`` …).
+    cam : CamTolerances
+        Tolerances of :mod:`cam` (``tol.cam.travel`` …).
+    tiny : float
+        Floor of norms, spans, areas and volumes against division by zero
+        (any unit; far below every physical value).
+    parallel : float
+        Two unit normals whose dot product exceeds 1 − this point the same way
+        (dimensionless).
+    unit : float
+        A vector whose length differs from 1 by more than this is not a unit
+        vector (dimensionless).
+    angle : float
+        Two azimuths γ closer than this are the same angle; also the slack of
+        γ-interval membership and monotonicity checks (rad).
+    angle_nudge : float
+        Queries at the ends of a γ range are moved this far inside it (rad).
+    grid_end_deg : float
+        An angle grid over [0°, 360°) stops this short of 360° (degrees).
+    rel : float
+        Relative round-off slack of comparisons of dimensionless ratios and
+        counts (serration spacing, edge rounding, prediction intervals,
+        upper bound of a fit parameter below 1).
+    level : float
+        A height profile whose range is below this is level; heights within
+        this of the lowest tie (mm).
+    heel_tie : float
+        Heights within this of the lowest point are the heel (mm).
+    bracket_pad : float
+        Root brackets of the edge analysis are widened by this (rad).
+    break_gap : float
+        Edge pieces stop this short of a break point (rad).
+    join : float
+        Two edge pieces join when their heights at the join match within this
+        (mm).
+    radial_ratio : float
+        Default radial tolerance of the edge classification, as a fraction of
+        the wall thickness (dimensionless).
+    newton_converge : float
+        Newton iterations of cutter edge heights stop when a step is below
+        this (mm; rounding noise is about 1e-13 mm).
+    newton_fail : float
+        A Newton iteration whose last step exceeds this did not converge (mm).
+    fd_step : float
+        Central-difference step of custom cutter gradients (mm).
+    fd_step_fine : float
+        Central-difference step of serration gradients (mm).
+    aux_face : float
+        Faces within this of the bounding box sides of a custom cutter are
+        auxiliary (mm).
+    rotation_gap : float
+        Two plane rotations closer than this repeat a plane (rad).
+    vertical : float
+        A plane whose inclination is within this of π/2 has no azimuth (rad).
+    straight_edge : float
+        Width of the straight-edge band of a serration notch (mm).
+    dedup : float
+        Consecutive polygon points closer than this are one point (mm).
+    root_xtol : float
+        Absolute tolerance of the root finder of the cutting mechanics.
+    fit_zero : float
+        Fit parameters and scales of the tissue models at most this are zero
+        (limits and floors; dimensionless).
+    fit_converge : float
+        ``xtol``, ``ftol`` and ``gtol`` of the final tissue model fits
+        (dimensionless).
+    fit_start : float
+        ``xtol`` and ``ftol`` of the tissue model start searches
+        (dimensionless).
+    fourier_constant : float
+        A profile whose total sum of squares per sample is at most this is
+        constant (mm²).
+    fourier_xatol : float
+        Tolerance of the Fourier wavelength search, relative to the base
+        wavelength (dimensionless).
+    fourier_tie, fourier_floor : float
+        Fourier candidates within this relative slack of the best residual,
+        plus this fraction of the total sum of squares, tie (dimensionless).
+    gp_xatol, gp_fatol : float
+        Nelder–Mead convergence of the GP hyperparameters (log space; and
+        objective value).
     """
 
     chordal: float = DEFAULT_CHORDAL_MM
@@ -173,6 +377,40 @@ class Tolerances:
     segment_multiple: int = 24
     strict: bool = False
     inspect: InspectSettings = field(default_factory=InspectSettings)
+    gcode: GCodeTolerances = field(default_factory=GCodeTolerances)
+    cam: CamTolerances = field(default_factory=CamTolerances)
+    tiny: float = 1.0e-300
+    parallel: float = 1.0e-9
+    unit: float = 1.0e-9
+    angle: float = 1.0e-9
+    angle_nudge: float = 1.0e-10
+    grid_end_deg: float = 1.0e-9
+    rel: float = 1.0e-9
+    level: float = 1.0e-9
+    heel_tie: float = 1.0e-12
+    bracket_pad: float = 1.0e-7
+    break_gap: float = 1.0e-12
+    join: float = 1.0e-6
+    radial_ratio: float = 2.0e-3
+    newton_converge: float = 1.0e-12
+    newton_fail: float = 1.0e-9
+    fd_step: float = 1.0e-6
+    fd_step_fine: float = 1.0e-7
+    aux_face: float = 1.0e-6
+    rotation_gap: float = 1.0e-6
+    vertical: float = 1.0e-15
+    straight_edge: float = 1.0e-15
+    dedup: float = 1.0e-12
+    root_xtol: float = 1.0e-14
+    fit_zero: float = 1.0e-12
+    fit_converge: float = 1.0e-15
+    fit_start: float = 1.0e-12
+    fourier_constant: float = 1.0e-30
+    fourier_xatol: float = 1.0e-13
+    fourier_tie: float = 1.0e-6
+    fourier_floor: float = 1.0e-12
+    gp_xatol: float = 1.0e-4
+    gp_fatol: float = 1.0e-8
 
 
 #: The process-wide tolerance object. Tests set ``tol.strict = True``.

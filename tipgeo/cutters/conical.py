@@ -28,6 +28,7 @@ import numpy as np
 
 from .. import validate as v
 from ..errors import SpecError
+from ..tolerances import tol
 from .base import Cutter, check_name
 from .surfaces import ConeSurface, Plane
 from .toml import round_for_toml as _r
@@ -135,7 +136,7 @@ class ConicalCutter(Cutter):
         rho = np.hypot(p[:, 0], p[:, 1])
         c, s = math.cos(self.theta), math.sin(self.theta)
         f = rho * c + p[:, 2] * s - cannula.r_o * c
-        safe = np.maximum(rho, 1e-300)
+        safe = np.maximum(rho, tol.tiny)
         g = np.stack([c * p[:, 0] / safe, c * p[:, 1] / safe, np.full(len(p), s)], 1)
         if self.bevel_length is not None:
             fl = p[:, 2] - self.bevel_length

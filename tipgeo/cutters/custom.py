@@ -21,6 +21,7 @@ import numpy as np
 from .. import validate as v
 from ..construct import AUX, BuildContext
 from ..errors import SpecError
+from ..tolerances import tol
 from .base import Cutter, check_name
 
 __all__ = ["MeshCutter", "SDFCutter"]
@@ -151,7 +152,7 @@ class SDFCutter(Cutter):
 
     def implicit(self, points, cannula):
         p = np.asarray(points, float).reshape(-1, 3)
-        h = 1e-6
+        h = tol.fd_step
         f = self._values(p)
         g = np.stack([(self._values(p + h * e) - self._values(p - h * e)) / (2 * h)
                       for e in np.eye(3)], 1)
@@ -178,5 +179,6 @@ class SDFCutter(Cutter):
             (-r, -r, ctx.z_lo))
         man = (ls + below)
         return ctx.labelled(man, lambda c, n: np.where(
-            (np.abs(np.abs(c[:, 0]) - r) < 1e-6) | (np.abs(np.abs(c[:, 1]) - r) < 1e-6)
+            (np.abs(np.abs(c[:, 0]) - r) < tol.aux_face)
+            | (np.abs(np.abs(c[:, 1]) - r) < tol.aux_face)
             | (c[:, 2] < band[0] - edge) | (c[:, 2] > band[1]), aux, lid), self.label)

@@ -54,6 +54,7 @@ import numpy as np
 from .. import validate as v
 from ..cannula import Cannula
 from ..errors import BuildError, SpecError
+from ..tolerances import tol
 from .base import Cutter, check_name
 from .surfaces import ImplicitSurface
 from .toml import round_for_toml as _r
@@ -172,10 +173,10 @@ class HelicalCutter(Cutter):
             f, gr = self._f_needle(np.stack([x, y, z], 1))
             step = f / gr[:, 2]
             z -= step
-            if np.max(np.abs(step)) < 1e-12:  # rounding noise is ~1e-13 mm here
+            if np.max(np.abs(step)) < tol.newton_converge:  # rounding noise is ~1e-13 mm here
                 break
         else:
-            if np.max(np.abs(step)) > 1e-9:
+            if np.max(np.abs(step)) > tol.newton_fail:
                 raise BuildError(f"helicoid '{self.name}': edge height did not converge")
         return z
 

@@ -26,6 +26,7 @@ from .. import validate as v
 from ..cannula import Cannula
 from ..construct import BuildContext
 from ..errors import SpecError
+from ..tolerances import tol
 from .base import Cutter, check_name
 from .surfaces import Plane
 from .toml import round_for_toml as _r
@@ -223,7 +224,7 @@ class MultiPlaneCutter(PlanarCutter):
                                 "allowed at least 2")
             s = sorted(rot)
             gaps = np.diff(s + [s[0] + 2 * math.pi])
-            if gaps.min() < 1e-6:
+            if gaps.min() < tol.rotation_gap:
                 raise SpecError(f"rotations = {list(self.rotations)} repeats a plane; "
                                 "allowed distinct angles")
             object.__setattr__(self, "rotations", rot)
@@ -382,7 +383,8 @@ class PlaneSetCutter(PlanarCutter):
                             "must be non-empty and of the same length")
         for k, n in enumerate(self.plane_normals):
             n = np.asarray(n, float)
-            if n.shape != (3,) or not np.all(np.isfinite(n)) or abs(np.linalg.norm(n) - 1) > 1e-9:
+            if (n.shape != (3,) or not np.all(np.isfinite(n))
+                    or abs(np.linalg.norm(n) - 1) > tol.unit):
                 raise SpecError(f"plane_normals[{k}] = {tuple(n)} is not a unit 3-vector")
             if not n[2] > 0:
                 raise SpecError(f"plane_normals[{k}] has n_z = {n[2]:.6g}; allowed n_z > 0 (the "
@@ -393,7 +395,7 @@ class PlaneSetCutter(PlanarCutter):
         out = []
         for k, (n, d) in enumerate(zip(self.plane_normals, self.plane_offsets)):
             xi = math.asin(min(n[2], 1.0))
-            beta = math.atan2(n[1], n[0]) if xi < HALF_PI - 1e-15 else 0.0
+            beta = math.atan2(n[1], n[0]) if xi < HALF_PI - tol.vertical else 0.0
             out.append(Plane(xi, beta, d / math.sin(xi), f"{self.label}.{k}"))
         return out
 

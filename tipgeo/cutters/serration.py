@@ -38,6 +38,7 @@ from .. import validate as v
 from ..cannula import Cannula
 from ..construct import AUX
 from ..errors import SpecError
+from ..tolerances import tol
 from .base import Cutter, check_name
 from .toml import round_for_toml as _r
 
@@ -127,7 +128,7 @@ class SerrationProfile:
         right = np.concatenate(right)
         left = right[::-1] * np.array([-1.0, 1.0])
         poly = np.concatenate([right, left[:-1]])  # left ends at the shared bottom point
-        keep = np.r_[True, np.linalg.norm(np.diff(poly, axis=0), axis=1) > 1e-12]
+        keep = np.r_[True, np.linalg.norm(np.diff(poly, axis=0), axis=1) > tol.dedup]
         return poly[keep]
 
     def bottom(self, u: np.ndarray) -> np.ndarray:
@@ -142,7 +143,7 @@ class SerrationProfile:
             on_f = (u > ut) & (u <= uf)
             out[on_f] = zf + np.sqrt(np.maximum(self.r_s ** 2 - (u[on_f] - uf) ** 2, 0.0))
             if self.straight:
-                out[(u > ut) & (u <= ut + 1e-15)] = self.z_c
+                out[(u > ut) & (u <= ut + tol.straight_edge)] = self.z_c
         elif self.straight:
             out[(u <= w)] = np.where(u[u <= w] <= self.r_c, out[u <= w], self.z_c)
         return out
@@ -266,7 +267,7 @@ class SerrationCutter(Cutter):
         """Number of serrations n_s."""
         if self.count is not None:
             return self.count
-        return max(1, int(math.floor(2 * math.pi / self.spacing + 1e-9)))
+        return max(1, int(math.floor(2 * math.pi / self.spacing + tol.rel)))
 
     @property
     def symmetry_order(self) -> int:
@@ -293,7 +294,7 @@ class SerrationCutter(Cutter):
                             f"{self.edge_radius:.6g} mm makes notches {2 * w:.4g} mm wide; "
                             f"allowed narrower than the bore ({2 * cannula.r_i:.4g} mm)")
         need = 2 * math.asin(w / cannula.r_i)
-        if self.n > 1 and self.rho < need * (1 + 1e-9):
+        if self.n > 1 and self.rho < need * (1 + tol.rel):
             n_max = int(math.floor(2 * math.pi / need))
             which = (f"count = {self.count}" if self.count is not None
                      else f"spacing = {math.degrees(self.rho):.6g}°")
@@ -301,7 +302,7 @@ class SerrationCutter(Cutter):
                 f"{which}: serrations of arc_radius {self.arc_radius * 1e3:.6g} µm overlap on "
                 f"the inner wall; allowed spacing ≥ {math.degrees(need):.4g}° "
                 f"(count ≤ {n_max})")
-        if self.count is None and 2 * math.pi - (self.n - 1) * self.rho < need * (1 - 1e-9):
+        if self.count is None and 2 * math.pi - (self.n - 1) * self.rho < need * (1 - tol.rel):
             raise SpecError(f"spacing = {math.degrees(self.rho):.6g}°: the last serration "
                             "overlaps the first; allowed 2π/spacing close to a whole number")
 
@@ -373,7 +374,7 @@ class SerrationCutter(Cutter):
                 out[s] = -profs[j].signed_distance(u[s], q[s, 2])
             return out
 
-        h = 1e-7
+        h = tol.fd_step_fine
         val = f(p)
         grad = np.stack([(f(p + h * e) - f(p - h * e)) / (2 * h) for e in np.eye(3)], 1)
         return val, grad

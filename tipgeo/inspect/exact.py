@@ -336,7 +336,8 @@ class ExactSolid:
             xe, lam, ok = self._edge(p[s], seeds, a, b, accelerate=accelerate)
             G = self._values(xe)
             G[:, [a, b]] = -np.inf
-            feas = ok & (G.max(axis=1) <= tol.inspect.feasible) & np.all(lam >= -1e-9, axis=1)
+            feas = ok & (G.max(axis=1) <= tol.inspect.feasible) & np.all(
+                lam >= -tol.inspect.multiplier, axis=1)
             d = np.linalg.norm(p[s] - xe, axis=1)
             better = feas & (d < best[s])
             sb = s[better]
@@ -354,7 +355,7 @@ class ExactSolid:
                     Gv = self._values(xv)
                     Gv[:, list(key)] = -np.inf
                     fv = okv & (Gv.max(axis=1) <= tol.inspect.feasible) & np.all(
-                        lv >= -1e-9, axis=1)
+                        lv >= -tol.inspect.multiplier, axis=1)
                     dv = np.linalg.norm(p[sv] - xv, axis=1)
                     bv = fv & (dv < best[sv])
                     svb = sv[bv]
@@ -401,7 +402,7 @@ class ExactSolid:
                 fb, gb = fb_.eval(xx, off)
                 aa, ab, bb = _rows(ga, ga), _rows(ga, gb), _rows(gb, gb)
                 det = aa * bb - ab * ab
-                good = det > 1e-24
+                good = det > tol.inspect.gram_det
                 det = np.where(good, det, 1.0)
                 la = (bb * fa - ab * fb) / det
                 lb = (aa * fb - ab * fa) / det
@@ -412,7 +413,7 @@ class ExactSolid:
             xa, ga, gb, good = onto(x[act])
             ok[act] &= good
             t = np.cross(ga, gb)
-            t /= np.maximum(np.linalg.norm(t, axis=1, keepdims=True), 1e-300)
+            t /= np.maximum(np.linalg.norm(t, axis=1, keepdims=True), tol.tiny)
             h = _rows(p[act] - xa, t)
             pr = prev[act]
             with np.errstate(divide="ignore", invalid="ignore"):
@@ -432,7 +433,7 @@ class ExactSolid:
         ok &= good
         r = p - x
         aa, ab, bb = _rows(ga, ga), _rows(ga, gb), _rows(gb, gb)
-        det = np.where(np.abs(aa * bb - ab * ab) > 1e-24, aa * bb - ab * ab, 1.0)
+        det = np.where(np.abs(aa * bb - ab * ab) > tol.inspect.gram_det, aa * bb - ab * ab, 1.0)
         ra, rb = _rows(r, ga), _rows(r, gb)
         lam = np.stack([(bb * ra - ab * rb) / det, (aa * rb - ab * ra) / det], 1)
         return x, lam, ok & np.all(np.isfinite(x), axis=1)
@@ -448,7 +449,7 @@ class ExactSolid:
             f = np.stack([e[0] for e in ev], 1)
             J = np.stack([e[1] for e in ev], 1)  # (m, 3, 3) rows = gradients
             det = np.linalg.det(J)
-            ok &= np.abs(det) > 1e-12
+            ok &= np.abs(det) > tol.inspect.jacobian_det
             Js = np.where(ok[:, None, None], J, np.eye(3))
             dx = np.linalg.solve(Js, f[:, :, None])[:, :, 0]
             x = x - dx

@@ -64,7 +64,7 @@ def fit_plane(points: np.ndarray, *, rounds: int = 4) -> tuple[np.ndarray, float
         n = np.linalg.eigh(M)[1][:, 0]
         for sl in _chunks(n_pts):
             r[sl] = (np.asarray(points[sl], np.float64) - c) @ n
-        s = 1.4826 * np.median(np.abs(r[keep])) + 1e-12
+        s = 1.4826 * np.median(np.abs(r[keep])) + tol.inspect.scale_floor
         new = np.abs(r) <= 3 * s
         if new.sum() < 3 or np.array_equal(new, keep):
             break

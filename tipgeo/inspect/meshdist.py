@@ -126,7 +126,7 @@ class _BVH:
     def __init__(self, sub: np.ndarray, parent: np.ndarray):
         lo, hi = sub.min(axis=1), sub.max(axis=1)
         c = 0.5 * (lo + hi)
-        span = np.maximum(c.max(axis=0) - c.min(axis=0), 1e-300)
+        span = np.maximum(c.max(axis=0) - c.min(axis=0), tol.tiny)
         q = np.clip(((c - c.min(axis=0)) / span * 1023).astype(np.int64), 0, 1023)
         order = np.argsort(_morton(q), kind="stable")
         self.lo, self.hi, self.parent = lo[order], hi[order], parent[order]
@@ -271,7 +271,7 @@ class MeshSolid:
             e1 = t[:, (i + 1) % 3] - t[:, i]
             e2 = t[:, (i + 2) % 3] - t[:, i]
             cosang = _dot(e1, e2) / np.maximum(
-                np.linalg.norm(e1, axis=1) * np.linalg.norm(e2, axis=1), 1e-300)
+                np.linalg.norm(e1, axis=1) * np.linalg.norm(e2, axis=1), tol.tiny)
             ang = np.arccos(np.clip(cosang, -1.0, 1.0))
             np.add.at(vn, f[:, i], ang[:, None] * self.fn)
         self.vn = vn
@@ -323,7 +323,7 @@ class MeshSolid:
             self._build()
         bvh, tree, owner, grid = self._index
         # spatial order: neighbouring points walk the same boxes (cache-friendly)
-        lo, span = p.min(axis=0), np.maximum(np.ptp(p, axis=0), 1e-300)
+        lo, span = p.min(axis=0), np.maximum(np.ptp(p, axis=0), tol.tiny)
         order_pts = np.argsort(_morton(np.clip(((p - lo) / span * 1023).astype(np.int64),
                                                0, 1023)), kind="stable")
         p_in = p
@@ -337,7 +337,8 @@ class MeshSolid:
             t0 = owner[i]
             tri = self.v[self.f[t0]]
             c0, _ = closest_on_triangles(q, tri[:, 0], tri[:, 1], tri[:, 2])
-            ub = np.linalg.norm(q - c0, axis=1) * (1 + 1e-12) + 1e-15
+            ub = (np.linalg.norm(q - c0, axis=1) * (1 + tol.inspect.bound_rel)
+                  + tol.inspect.bound_abs)
             pp, prim = self._candidates(q, ub, bvh, grid)
             # exact distance to each candidate sub-triangle (a subset of its
             # parent's plane, so the minimum over them is the mesh distance)

@@ -57,7 +57,7 @@ def _align(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     """A rotation taking unit vector a onto unit vector b."""
     v = np.cross(a, b)
     s, c = np.linalg.norm(v), float(a @ b)
-    if s < 1e-15:
+    if s < tol.inspect.align_parallel:
         if c > 0:
             return np.eye(3)
         p = np.array([1.0, 0, 0]) if abs(a[0]) < 0.9 else np.array([0, 1.0, 0])
@@ -234,8 +234,8 @@ def _icp(p, cad, T, iterations, *, fix_rz=False):
         r = D.distance
         n = D.normal
         med = np.median(np.abs(r))
-        sigma = max(1.4826 * med, 1e-5)
-        c = min(max(4.685 * sigma, 2e-4), clip)
+        sigma = max(1.4826 * med, tol.inspect.sigma_floor)
+        c = min(max(4.685 * sigma, tol.inspect.loss_floor), clip)
         clip = max(c, 0.5 * clip)
         u = r / c
         w = np.where(np.abs(u) < 1, (1 - u * u) ** 2, 0.0)

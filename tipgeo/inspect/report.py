@@ -17,6 +17,8 @@ from pathlib import Path
 
 import numpy as np
 
+from ..tolerances import tol
+
 __all__ = ["write_report", "write_json", "write_deviation_ply", "deviation_colours",
            "COLORMAP"]
 
@@ -166,7 +168,7 @@ def _view_basis(res):
         sel = np.isin(dd.face, cut)
         if sel.any():
             n = np.asarray(dd.normal[sel], np.float64).mean(axis=0)
-    if n is None or np.linalg.norm(n[:2]) < 1e-9:
+    if n is None or np.linalg.norm(n[:2]) < tol.inspect.view_normal:
         n = np.array([1.0, 0.0, 0.2])
     h = np.array([n[0], n[1], 0.0])
     h /= np.linalg.norm(h)
@@ -200,7 +202,7 @@ def _zbuffer_image(p, d, look, right, up, max_px: int = 900,
     front surface does not let the surface behind it show through."""
     p, d = _picture_sample(p, d, max_points)
     u, v, depth = p @ right, p @ up, p @ look
-    su, sv = max(np.ptp(u), 1e-9), max(np.ptp(v), 1e-9)
+    su, sv = max(np.ptp(u), tol.inspect.picture_span), max(np.ptp(v), tol.inspect.picture_span)
     res = max(np.sqrt(0.6 * su * sv / max(len(p) / 8.0, 1.0)), max(su, sv) / max_px)
     near = np.argsort(depth, kind="stable")   # nearest first
     iu = np.floor((u[near] - u.min()) / res).astype(np.int64)

@@ -30,6 +30,7 @@ from typing import Any
 import numpy as np
 
 from ..errors import SpecError
+from ..tolerances import tol
 from .exact import ExactSolid
 from .scanio import write_ply
 
@@ -194,7 +195,7 @@ def synthetic_scan(spec, *, points: int = 200_000, noise: float = 0.001,
     rng = np.random.default_rng(seed)
     part = actual_spec(spec, xi_deg=xi_deg)
     solid = ExactSolid(part)
-    tip = build_tip(part, tolerance=2e-4)  # sampling and visibility only
+    tip = build_tip(part, tolerance=tol.inspect.synth_chordal)  # sampling and visibility only
     vw = default_views() if views is None else np.asarray(views, float).reshape(-1, 3)
     vw = vw / np.linalg.norm(vw, axis=1, keepdims=True)
     o3d = import_open3d()
@@ -212,7 +213,7 @@ def synthetic_scan(spec, *, points: int = 200_000, noise: float = 0.001,
     burr_pts = burr_dir = np.zeros((0, 3))
     if burr is not None:
         # burr points at the surface density of the rest of the scan
-        dens = points / max(area.sum(), 1e-12) * 0.5
+        dens = points / max(area.sum(), tol.inspect.area_floor) * 0.5
         burr_pts, burr_dir = _burr_points(part, solid, burr, rng, density=dens)
         n_burr = min(len(burr_pts), points // 4)
         burr_pts, burr_dir = burr_pts[:n_burr], burr_dir[:n_burr]
@@ -235,8 +236,8 @@ def synthetic_scan(spec, *, points: int = 200_000, noise: float = 0.001,
             de = eroded.distances(p)
             v = p - de.closest
             dist = np.linalg.norm(v, axis=1)
-            moved = dist > edge_radius * (1 + 1e-9)
-            u = v / np.maximum(dist, 1e-300)[:, None]
+            moved = dist > edge_radius * (1 + tol.rel)
+            u = v / np.maximum(dist, tol.tiny)[:, None]
             p = np.where(moved[:, None], de.closest + edge_radius * u, p)
             nrm = np.where(moved[:, None], u, nrm)
             kind[moved] = 1
@@ -285,7 +286,7 @@ def _visible_view(scene, o3d, p, nrm, views, cos_max, rng) -> np.ndarray:
     """Index of a (random) view that sees each point, −1 where none does."""
     n = len(p)
     seen = np.zeros((n, len(views)), bool)
-    lift = 2e-3  # start rays just off the surface (float32 only decides visibility)
+    lift = tol.inspect.ray_lift  # start rays just off the surface (float32 only decides visibility)
     for j, v in enumerate(views):
         facing = nrm @ (-v) >= cos_max
         idx = np.flatnonzero(facing)

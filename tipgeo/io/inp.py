@@ -19,6 +19,7 @@ from pathlib import Path
 import numpy as np
 
 from ..tip import Tip
+from ..tolerances import tol
 from .common import FRAME_NOTE
 from .registry import ExportOptions, register_exporter
 
@@ -62,11 +63,11 @@ def ref_point(tip: Tip, ref: str | tuple[float, float, float]) -> tuple[float, f
     o = tip.vertices.mean(axis=0)
     t = tip.triangles - o
     vol6 = np.einsum("ij,ij->i", t[:, 0], np.cross(t[:, 1], t[:, 2]))
-    if abs(vol6.sum()) > 1e-300:
+    if abs(vol6.sum()) > tol.tiny:
         zc = float((vol6 * t[:, :, 2].sum(axis=1)).sum() / (4.0 * vol6.sum()) + o[2])
     else:  # not a closed solid: area centroid
         a = tip.face_areas
-        zc = float((a * tip.triangles[:, :, 2].mean(axis=1)).sum() / max(a.sum(), 1e-300))
+        zc = float((a * tip.triangles[:, :, 2].mean(axis=1)).sum() / max(a.sum(), tol.tiny))
     return (0.0, 0.0, zc)
 
 

@@ -27,6 +27,7 @@ import numpy as np
 
 from .. import validate as v
 from ..errors import SpecError
+from ..tolerances import tol
 from ._common import KPA, finite_array, warn_outside
 from .fracture import rupture_forces
 
@@ -343,4 +344,5 @@ def optimal_slice_push_ratio(x: float, *, R: float, r_i: float, r_o: float, thet
     j = int(sign[0])
     if vals[j] == 0:
         return float(grid[j])
-    return float(brentq(gap, grid[j], grid[j + 1], xtol=1e-14, rtol=4 * np.finfo(float).eps))
+    return float(brentq(gap, grid[j], grid[j + 1], xtol=tol.root_xtol,
+                        rtol=4 * np.finfo(float).eps))

@@ -54,6 +54,7 @@ import numpy as np
 
 from .. import validate as v
 from ..errors import SpecError
+from ..tolerances import tol
 from ._common import J_PER_M2, finite_array
 from .slicepush import EdgeGeometry, slice_push
 
@@ -193,7 +194,7 @@ class EdgeForces:
         """Values every ``step_deg`` degrees (nearest grid points)."""
         step = v.real("step_deg", step_deg, lo=1e-3, hi=90.0)
         gd = np.degrees(self.gamma)
-        want = np.arange(0.0, 360.0 - 1e-9, step)
+        want = np.arange(0.0, 360.0 - tol.grid_end_deg, step)
         idx = np.unique(np.clip(np.searchsorted(gd, want), 0, len(gd) - 1))
         return {"gamma_deg": gd[idx].tolist(),
                 "k": [float(x) if np.isfinite(x) else None for x in self.k[idx]],

@@ -38,6 +38,7 @@ import numpy as np
 
 from .. import validate as v
 from ..errors import SpecError
+from ..tolerances import tol
 from ._common import KPA, finite_array
 
 __all__ = ["NeoHookean", "ArrudaBoyce", "Ogden", "AB_C", "MODELS", "FitResult",
@@ -145,7 +146,7 @@ def _ogden_basis(lam: np.ndarray, alpha: float) -> np.ndarray:
     """(2/α)(λ^α − λ^(−α/2)), with its limit 3 ln λ as α → 0 (computed with
     expm1 so that small α loses no digits)."""
     L = np.log(lam)
-    if abs(alpha) < 1e-12:
+    if abs(alpha) < tol.fit_zero:
         return 3.0 * L
     return 2.0 / alpha * (np.expm1(alpha * L) - np.expm1(-0.5 * alpha * L))
 
@@ -296,24 +297,25 @@ def _fit_ab(lam, s):
     best = None
     for beta in np.linspace(0.0, 0.98, 50):
         b = basis(beta)
-        mu = max(float(b @ s) / float(b @ b), 1e-12)
+        mu = max(float(b @ s) / float(b @ b), tol.fit_zero)
         r = s - mu * b
         if best is None or r @ r < best[0]:
             best = (float(r @ r), mu, beta)
     _, mu0, beta0 = best
-    scale = max(mu0, 1e-12)
+    scale = max(mu0, tol.fit_zero)
 
     def resid(p):
         return basis(p[1]) * p[0] * scale - s
 
-    sol = least_squares(resid, [1.0, beta0], bounds=([1e-12, 0.0], [np.inf, 1.0 - 1e-9]),
-                        x_scale=[1.0, 0.1], xtol=1e-15, ftol=1e-15, gtol=1e-15,
+    sol = least_squares(resid, [1.0, beta0], bounds=([tol.fit_zero, 0.0], [np.inf, 1.0 - tol.rel]),
+                        x_scale=[1.0, 0.1], xtol=tol.fit_converge, ftol=tol.fit_converge,
+                        gtol=tol.fit_converge,
                         max_nfev=2000)
     mu, beta = sol.x[0] * scale, float(sol.x[1])
     se = _stderr(sol.jac, sol.fun, 2)
     se_mu = se[0] * scale
-    lam_m = math.inf if beta <= 1e-12 else 1.0 / math.sqrt(beta)
-    se_lm = math.inf if beta <= 1e-12 else 0.5 * beta ** -1.5 * se[1]
+    lam_m = math.inf if beta <= tol.fit_zero else 1.0 / math.sqrt(beta)
+    se_lm = math.inf if beta <= tol.fit_zero else 0.5 * beta ** -1.5 * se[1]
     return ArrudaBoyce(mu=mu, lambda_m=lam_m), {"mu_MPa": se_mu, "lambda_m": se_lm}
 
 
@@ -356,21 +358,22 @@ def _fit_ogden(lam, s, n):
     best = None
     for start in itertools.combinations(_ALPHA_STARTS, n):
         q0 = np.r_[start[0], np.diff(start)]
-        sol = least_squares(vp_resid, q0, bounds=(lo, hi), xtol=1e-12, ftol=1e-12,
+        sol = least_squares(vp_resid, q0, bounds=(lo, hi), xtol=tol.fit_start, ftol=tol.fit_start,
                             max_nfev=400)
         cost = float(sol.fun @ sol.fun)
         if best is None or cost < best[0]:
             best = (cost, sol.x)
     q = best[1]
     mu = np.linalg.lstsq(design(_alphas(q)), s, rcond=None)[0]
-    scale = max(float(np.abs(mu).max()), 1e-12)
+    scale = max(float(np.abs(mu).max()), tol.fit_zero)
 
     def resid(p):
         return design(_alphas(p[n:])) @ (p[:n] * scale) - s
 
     sol = least_squares(resid, np.r_[mu / scale, q],
                         bounds=(np.r_[np.full(n, -np.inf), lo], np.r_[np.full(n, np.inf), hi]),
-                        xtol=1e-15, ftol=1e-15, gtol=1e-15, max_nfev=4000)
+                        xtol=tol.fit_converge, ftol=tol.fit_converge, gtol=tol.fit_converge,
+                        max_nfev=4000)
     mu, al = sol.x[:n] * scale, _alphas(sol.x[n:])
     # standard errors in (μ, α): the Jacobian of α = cumsum(q) is lower-triangular ones
     jac = sol.jac.copy()

@@ -44,6 +44,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ..errors import SpecError
+from ..tolerances import tol
 
 __all__ = ["GaussianProcess", "FitResult", "length_scales", "Z95"]
 
@@ -175,7 +176,7 @@ class GaussianProcess:
             # simplex slides along that wall where a gradient method's line
             # search stops; then a gradient polish for interior optima.
             res = minimize(self._objective, p0, args=(False,), method="Nelder-Mead",
-                           bounds=bounds, options={"xatol": 1e-4, "fatol": 1e-8,
+                           bounds=bounds, options={"xatol": tol.gp_xatol, "fatol": tol.gp_fatol,
                                                    "maxfev": 200 * nd})
             pol = minimize(self._objective, res.x, jac=True, method="L-BFGS-B", bounds=bounds)
             if pol.fun < res.fun:

@@ -25,6 +25,7 @@ from typing import Any
 import numpy as np
 
 from ..errors import SpecError
+from ..tolerances import tol
 from .config import Objective, Term
 
 __all__ = ["Optimum", "scaled_terms", "optimize_objective", "pareto_front", "verify_optimum",
@@ -229,7 +230,7 @@ def verify_optimum(config, optimum: Optimum, *, build: bool = True) -> dict[str,
         resp[name] = {"predicted": pred, "std": sd, "lo95": pred - Z95 * sd,
                       "hi95": pred + Z95 * sd, "actual": act, "error": act - pred,
                       # at a training point sd = 0: allow the interpolation's round-off
-                      "inside95": bool(abs(act - pred) <= Z95 * sd + 1e-9 * max(1.0, abs(pred)))}
+                      "inside95": bool(abs(act - pred) <= Z95 * sd + tol.rel * max(1.0, abs(pred)))}
     out["responses"] = resp
     optimum.verified = out
     return out

@@ -332,12 +332,17 @@ class ExactSolid:
             better = feas & (d < best[s])
             sb = s[better]
             best[sb], bx[sb], bface[sb], bfeat[sb] = d[better], xf[better], a, 0
+        def inside_others(x, own, lam, ok):
+            """Face values at x (own faces masked) and whether x is a feasible
+            closest point: inside every other face, multipliers ≥ 0."""
+            G = self._values(x)
+            G[:, own] = -np.inf
+            return G, ok & (G.max(axis=1) <= tol.inspect.feasible) & np.all(
+                lam >= -tol.inspect.multiplier, axis=1)
+
         def try_edge(s, seeds, a, b, accelerate):
             xe, lam, ok = self._edge(p[s], seeds, a, b, accelerate=accelerate)
-            G = self._values(xe)
-            G[:, [a, b]] = -np.inf
-            feas = ok & (G.max(axis=1) <= tol.inspect.feasible) & np.all(
-                lam >= -tol.inspect.multiplier, axis=1)
+            G, feas = inside_others(xe, [a, b], lam, ok)
             d = np.linalg.norm(p[s] - xe, axis=1)
             better = feas & (d < best[s])
             sb = s[better]
@@ -352,10 +357,7 @@ class ExactSolid:
                     key = tuple(sorted((a, b, int(c))))
                     sv = s[third & (c_of == c)]
                     xv, lv, okv = self._vertex(p[sv], xe[third & (c_of == c)], key)
-                    Gv = self._values(xv)
-                    Gv[:, list(key)] = -np.inf
-                    fv = okv & (Gv.max(axis=1) <= tol.inspect.feasible) & np.all(
-                        lv >= -tol.inspect.multiplier, axis=1)
+                    _, fv = inside_others(xv, list(key), lv, okv)
                     dv = np.linalg.norm(p[sv] - xv, axis=1)
                     bv = fv & (dv < best[sv])
                     svb = sv[bv]

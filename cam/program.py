@@ -22,6 +22,7 @@ from dataclasses import dataclass
 from tipgeo.cutters import ConeSurface, Plane
 from tipgeo.jsonio import dumps
 
+from .iso import iso_comment, iso_end, iso_start
 from .machine import CamError, Machine
 
 __all__ = ["Face", "GrindProgram", "setup_faces", "make_program", "COLUMNS"]
@@ -120,31 +121,36 @@ class GrindProgram:
                         "" if r["feed"] is None else f"{r['feed']:.4f}"])
         return buf.getvalue()
 
-    def to_gcode(self) -> str:
-        """ISO G-code with named axes: Z = t1, X = t2, A = r3, C = r4, B = r5;
-        S the wheel speed, F the feed (mm/min), M3/M5 the spindle."""
+    def to_gcode(self, program_number: int = 1000) -> str:
+        """The ISO program (Fanuc-style G-code) with named axes: Z = t1,
+        X = t2, A = r3, C = r4, B = r5; S the wheel speed, F the feed (mm/min),
+        M3/M5 the spindle. ``%``, ``O<program_number>`` and the safety line
+        :data:`cam.iso.SAFETY_LINE` open it; ``M5``, ``M30`` and ``%`` close
+        it; comments are plain ASCII without nested parentheses
+        (:func:`cam.iso.iso_comment`)."""
         m = self.machine
-        out = [f"( {self.name}: needle grinding program written by tipgeo )",
-               f"( machine: {m.name} )",
-               f"( units: mm, degrees, feed F in mm/min; phi = {m.phi_deg:g} deg fixed; "
-               f"contact radius {m.contact_radius:g} mm, H = {m.H:.4f} mm )",
-               "( axes: Z = t1 needle axis, X = t2, A = r3 about Z*, C = r4 needle rotation, "
-               "B = r5 wheel angle phi_g )"]
+        c = iso_comment
+        out = iso_start(program_number, f"{self.name}: needle grinding program by tipgeo")
+        out += [c(f"machine: {m.name}"),
+                c(f"units: mm, degrees, feed F in mm/min, phi = {m.phi_deg:g} deg fixed, "
+                  f"contact radius {m.contact_radius:g} mm, H = {m.H:.4f} mm"),
+                c("axes: Z = t1 needle axis, X = t2, A = r3 about Z*, C = r4 needle rotation, "
+                  "B = r5 wheel angle phi_g")]
         for f in self.faces:
             s = self.face_setup(f)
-            out.append(f"( face {f.label}: xi {s['xi_deg']:.4f} deg -> B{s['r5_phi_g_deg']:.4f}, "
-                       f"C{s['r4_deg']:.4f}, Z{s['t1_mm']:.4f}, OC {s['OC_mm']:.4f} mm )")
-        out += ["G21 G90 G94", f"S{m.wheel_rpm:.0f} M3"]
+            out.append(c(f"face {f.label}: xi {s['xi_deg']:.4f} deg -> B{s['r5_phi_g_deg']:.4f}, "
+                         f"C{s['r4_deg']:.4f}, Z{s['t1_mm']:.4f}, OC {s['OC_mm']:.4f} mm"))
+        out.append(f"S{m.wheel_rpm:.0f} M3")
         spin = 0.0
         for r in self.rows:
             if r["needle_rpm"] != spin:
                 spin = r["needle_rpm"]
-                out.append(f"( needle spin {spin:.0f} rpm )")
+                out.append(c(f"needle spin {spin:.0f} rpm"))
             words = (f"X{r['t2']:.4f} Z{r['t1']:.4f} A{r['r3']:.4f} C{r['r4']:.4f} "
                      f"B{r['r5']:.4f}")
             out.append(f"G00 {words}" if r["feed"] is None
                        else f"G01 {words} F{r['feed'] * 60:.3f}")
-        out += ["M5", "M30", ""]
+        out += iso_end()
         return "\n".join(out)
 
     def setup_sheet(self) -> str:

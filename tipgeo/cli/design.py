@@ -21,7 +21,8 @@ def cmd_build(args) -> int:
     t0 = time.perf_counter()
     tip = build_tip(spec, tolerance=tolerance_arg(args))
     dt = time.perf_counter() - t0
-    outs = [export_tip(tip, o) for o in args.output]
+    outs = [export_tip(tip, o, gltf_units=args.gltf_units, gltf_up=args.gltf_up)
+            for o in args.output]
     if args.png:
         from ..plot import render_tip
 
@@ -82,6 +83,11 @@ def register(sub) -> None:
                         ".step .inp); repeatable")
     b.add_argument("--tolerance-um", type=float, default=None, metavar="N",
                    help="chordal tolerance in µm (default 0.05)")
+    b.add_argument("--gltf-units", choices=("m", "mm"), default="m",
+                   help="GLB length unit: m (glTF's, viewers show true size; default) or mm")
+    b.add_argument("--gltf-up", choices=("y", "z"), default="y",
+                   help="GLB axis of the needle: y (glTF's up, tip up in viewers; default) or "
+                        "z (the cannula frame as it is)")
     b.add_argument("--png", metavar="FILE", help="also write a picture of the tip")
     b.add_argument("--json", action="store_true", help="machine-readable summary")
     b.set_defaults(func=cmd_build)

@@ -10,10 +10,11 @@ Formats (chosen by the file extension, case-insensitive), one module each:
            ASCII with ``binary=False`` (:mod:`tipgeo.io.ply`)
 ``.obj``   Wavefront OBJ, one group per label, full double precision
            (:mod:`tipgeo.io.obj`)
-``.3mf``   3MF (through trimesh; unit ``millimeter``)
-           (:mod:`tipgeo.io.threemf`)
-``.glb``   binary glTF 2.0 (through trimesh; float32; labels in ``extras``)
-           (:mod:`tipgeo.io.gltf`)
+``.3mf``   3MF core package (unit ``millimeter``; no extension namespaces,
+           read by lib3mf in strict mode) (:mod:`tipgeo.io.threemf`)
+``.glb``   binary glTF 2.0 (through trimesh; float32; metres and the needle
+           along +y by default, ``gltf_units``/``gltf_up``; units, axes and
+           labels in ``extras``) (:mod:`tipgeo.io.gltf`)
 ``.step``  STEP AP214 solid (B-rep), one planar face per triangle (needs
 ``.stp``   ``OCP``: ``pip install "tipgeo[step]"``) (:mod:`tipgeo.io.step`)
 ``.inp``   Abaqus input: a rigid part of ``R3D3`` elements with one element
@@ -30,8 +31,10 @@ modules are imported below. The checks the writers share are in
 
 Frame and units: every file is written in the cannula frame (+z along the
 needle axis towards the tip, heel at z = 0, γ about +z from +x) with lengths in
-mm, whatever the format's own convention (glTF nominally uses metres and +y up;
-a GLB written here holds mm and +z along the needle).
+mm, whatever the format's own convention, except GLB: glTF means metres and
++y up, so a GLB is written in metres with the needle axis along +y unless
+``gltf_units='mm'``/``gltf_up='z'`` ask otherwise (the ``extras`` say which,
+and :func:`load_tip` turns it back).
 
 Every export is atomic: the data go to a temporary file in the target
 directory, which is flushed to disk and then renamed over ``path``. A failure

@@ -100,22 +100,31 @@ def check_ref_point(ref: object) -> str | tuple[float, float, float]:
                     f"numbers (x, y, z) in mm")
 
 
-def tip_scene(tip: Tip, opts: ExportOptions, with_labels: bool):
-    """The tip as a one-mesh ``trimesh.Scene`` (mm, cannula frame), the mesh
-    and its node named ``opts.name``. With ``with_labels`` the mesh metadata
-    (glTF ``extras``) hold ``tipgeo.label_names`` and the run-length
-    ``tipgeo.label_runs`` (``[id, count, id, count, …]`` along the faces)."""
+def tip_scene(tip: Tip, opts: ExportOptions, with_labels: bool,
+              transform: np.ndarray | None = None, info: dict[str, Any] | None = None):
+    """The tip as a one-mesh ``trimesh.Scene``, the mesh and its node named
+    ``opts.name``: vertices in mm and the cannula frame, or mapped by the 4×4
+    ``transform`` (cannula mm → file coordinates) when given. With
+    ``with_labels`` the mesh metadata (glTF ``extras``) hold ``tipgeo``:
+    ``info``, ``frame``, ``label_names`` and the run-length ``label_runs``
+    (``[id, count, id, count, …]`` along the faces); the scene metadata hold
+    ``tipgeo`` without the labels."""
     import trimesh
 
     meta: dict[str, Any] = {"name": opts.name}
+    scene_meta: dict[str, Any] = {}
+    v = tip.vertices.copy()
+    if transform is not None:
+        v = v @ transform[:3, :3].T + transform[:3, 3]
     if with_labels:
         lab = tip.label_ids
         starts = np.flatnonzero(np.r_[True, lab[1:] != lab[:-1]])
         counts = np.diff(np.r_[starts, len(lab)])
-        meta["tipgeo"] = {"units": "mm", "frame": FRAME_NOTE,
-                          "label_names": list(tip.label_names),
+        head = {"units": "mm", **(info or {}), "frame": FRAME_NOTE}
+        scene_meta = {"tipgeo": dict(head)}
+        meta["tipgeo"] = {**head, "label_names": list(tip.label_names),
                           "label_runs": np.column_stack([lab[starts], counts]).ravel().tolist()}
-    mesh = trimesh.Trimesh(tip.vertices.copy(), tip.faces.copy(), process=False, metadata=meta)
-    scene = trimesh.Scene()
+    mesh = trimesh.Trimesh(v, tip.faces.copy(), process=False, metadata=meta)
+    scene = trimesh.Scene(metadata=scene_meta)
     scene.add_geometry(mesh, geom_name=opts.name, node_name=opts.name)
     return scene

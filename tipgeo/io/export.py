@@ -17,7 +17,7 @@ from typing import TYPE_CHECKING
 from ..atomic import write_atomic
 from ..errors import SpecError, TipGeoError
 from .common import ExportError, as_path, check_ref_point, check_tip, object_name
-from .registry import EXPORTERS, ExportOptions
+from .registry import EXPORTERS, GLTF_UNITS, GLTF_UP, ExportOptions
 
 if TYPE_CHECKING:
     from ..tip import Tip
@@ -27,7 +27,8 @@ __all__ = ["export_tip"]
 
 def export_tip(tip: Tip, path: str | os.PathLike[str], *, binary: bool = True,
                name: str | None = None,
-               ref_point: str | Sequence[float] = "centroid") -> Path:
+               ref_point: str | Sequence[float] = "centroid", gltf_units: str = "m",
+               gltf_up: str = "y") -> Path:
     """Write a tip to a mesh, CAD or FE file, atomically.
 
     The format follows the extension of ``path`` (case-insensitive, one of
@@ -54,6 +55,15 @@ def export_tip(tip: Tip, path: str | os.PathLike[str], *, binary: bool = True,
         ``'centroid'`` puts it on the needle axis at the height of the volume
         centroid, ``(0, 0, z_c)``; ``'top'`` at the tip top ``(0, 0, z_max)``;
         three numbers give the point itself.
+    gltf_units : {'m', 'mm'}, default 'm'
+        GLB only: the length unit of the file. glTF means metres, so stock
+        viewers show a ``'m'`` file at its true size; ``'mm'`` keeps the
+        numbers of the cannula frame. Stated in the ``extras``.
+    gltf_up : {'y', 'z'}, default 'y'
+        GLB only: the file axis the needle axis points along. ``'y'`` (glTF's
+        up) writes a cannula-frame point ``(x, y, z)`` as ``(x, z, -y)``, so
+        viewers show the needle standing, tip up; ``'z'`` writes the cannula
+        frame as it is. Stated in the ``extras``, undone by :func:`load_tip`.
 
     Returns
     -------
@@ -75,7 +85,7 @@ def export_tip(tip: Tip, path: str | os.PathLike[str], *, binary: bool = True,
     Notes
     -----
     Precision: PLY and OBJ keep every double exactly; 3MF is written as
-    shortest round-trip decimals (exact with current trimesh); STL and GLB
+    shortest round-trip decimals (exact); STL and GLB
     store float32 (about 1e-6 mm at 10 mm); INP uses fixed-point numbers with
     12 decimals (5e-13 mm); STEP stores doubles.
 
@@ -109,8 +119,14 @@ def export_tip(tip: Tip, path: str | os.PathLike[str], *, binary: bool = True,
                         f"{', '.join(EXPORTERS)}")
     if not isinstance(binary, bool):
         raise SpecError(f"binary = {binary!r} is not a bool; expected True or False")
+    for key, val, allowed in (("gltf_units", gltf_units, GLTF_UNITS),
+                              ("gltf_up", gltf_up, GLTF_UP)):
+        if not isinstance(val, str) or val not in allowed:
+            raise SpecError(f"{key} = {val!r} is not supported; allowed: "
+                            f"{', '.join(repr(a) for a in allowed)}")
     opts = ExportOptions(binary=binary, name=object_name(tip, p, name),
-                         ref_point=check_ref_point(ref_point))
+                         ref_point=check_ref_point(ref_point), gltf_units=gltf_units,
+                         gltf_up=gltf_up)
     writer = EXPORTERS[ext]
     try:
         write_atomic(p, lambda tmp: writer(tip, tmp, opts))

@@ -29,7 +29,7 @@ UNITS: dict[str, float] = {"mm": 1.0, "um": 1.0e-3, "m": 1.0e3}
 UNLABELLED = "unlabelled"
 
 
-def load_tip(path: str | os.PathLike[str], *, units: str = "mm") -> Tip:
+def load_tip(path: str | os.PathLike[str], *, units: str | None = None) -> Tip:
     """Read a triangle mesh file as a :class:`~tipgeo.tip.Tip`.
 
     Parameters
@@ -39,8 +39,12 @@ def load_tip(path: str | os.PathLike[str], *, units: str = "mm") -> Tip:
         case-insensitive, see :data:`~tipgeo.io.SUPPORTED_IMPORTS`). The mesh
         is taken to be in the cannula frame (+z along the needle axis towards
         the tip).
-    units : {'mm', 'um', 'm'}, default 'mm'
+    units : {'mm', 'um', 'm'}, optional
         Length unit of the coordinates in the file; they are scaled to mm.
+        Default: the unit the file declares (a GLB written by
+        :func:`~tipgeo.io.export_tip` says ``'m'`` or ``'mm'`` in its
+        ``extras``; its axes are turned back to the cannula frame too), else
+        ``'mm'``. A unit given here that contradicts the file's is an error.
 
     Returns
     -------
@@ -56,12 +60,13 @@ def load_tip(path: str | os.PathLike[str], *, units: str = "mm") -> Tip:
     Raises
     ------
     SpecError
-        Unknown extension or units; the file is missing, not a file, empty,
+        Unknown extension or units, or units contradicting the unit the file
+        declares; the file is missing, not a file, empty,
         unreadable, holds no triangles, has non-finite vertices or faces
         indexing missing vertices.
     """
     p = as_path(path)
-    if not isinstance(units, str) or units not in UNITS:
+    if units is not None and (not isinstance(units, str) or units not in UNITS):
         raise SpecError(f"units = {units!r} is not supported; allowed: "
                         f"{', '.join(repr(u) for u in UNITS)}")
     ext = p.suffix.lower()
@@ -86,6 +91,10 @@ def load_tip(path: str | os.PathLike[str], *, units: str = "mm") -> Tip:
         raise SpecError(f"path '{p}' could not be read as {ext}: "
                         f"{type(exc).__name__}: {exc}") from exc
 
+    if mesh.units is not None and units is not None and units != mesh.units:
+        raise SpecError(f"units = {units!r} contradicts the unit the file '{p}' declares "
+                        f"({mesh.units!r}); leave units out to use the file's")
+    units = units or mesh.units or "mm"
     v = np.asarray(mesh.vertices, dtype=np.float64).reshape(-1, 3)
     f = np.asarray(mesh.faces, dtype=np.int64).reshape(-1, 3)
     if len(f) == 0:
@@ -130,9 +139,10 @@ def labels_from_ids(ids: np.ndarray, named: dict[int, str], n_faces: int,
 def read_trimesh(p: Path) -> LoadedMesh:
     """Read ``p`` through trimesh (STL, 3MF, GLB, and OBJ or PLY files the
     direct readers do not handle): all triangle meshes of a scene, placed by
-    their node transforms, joined in one mesh; labels only from the ``extras``
-    of a GLB written by :func:`~tipgeo.io.export_tip`. STL vertices are
-    merged where bit-identical."""
+    their node transforms, joined in one mesh; labels, declared unit and the
+    turn back to the cannula frame only from the ``extras`` of a GLB written
+    by :func:`~tipgeo.io.export_tip`. STL vertices are merged where
+    bit-identical."""
     import trimesh
 
     loaded = trimesh.load(str(p), file_type=p.suffix.lower()[1:], process=False)
@@ -151,9 +161,13 @@ def read_trimesh(p: Path) -> LoadedMesh:
     if not parts:
         raise SpecError(f"path '{p}' holds no triangle mesh")
     vs, fs, ls, names = [], [], [], []
-    offset, any_labels, name = 0, False, None
+    offset, any_labels, name, declared = 0, False, None, set()
     for v, g, gname in parts:
         f = np.asarray(g.faces, dtype=np.int64)
+        unit, rot = _trimesh_frame(g)
+        if unit is not None:
+            declared.add(unit)
+            v = v @ rot.T
         lab, lnames = _trimesh_labels(g, len(f))
         any_labels |= lab is not None
         if lab is None:
@@ -171,10 +185,33 @@ def read_trimesh(p: Path) -> LoadedMesh:
     v, f = np.concatenate(vs), np.concatenate(fs)
     if p.suffix.lower() == ".stl":
         v, f = _merge_identical(v, f)
-    mesh = LoadedMesh(v, f, name=name if isinstance(name, str) else None)
+    if len(declared) > 1:
+        raise SpecError(f"path '{p}': its meshes declare different units "
+                        f"{sorted(declared)}; expected one")
+    mesh = LoadedMesh(v, f, name=name if isinstance(name, str) else None,
+                      units=declared.pop() if declared else None)
     if any_labels:
         mesh.label_ids, mesh.label_names = np.concatenate(ls), tuple(names)
     return mesh
+
+
+def _trimesh_frame(g) -> tuple[str | None, np.ndarray]:
+    """The unit a GLB written by export_tip declares and the rotation from its
+    axes to the cannula frame's (``None`` and the identity otherwise)."""
+    info = g.metadata.get("tipgeo") if isinstance(g.metadata, dict) else None
+    if not isinstance(info, dict) or info.get("units") not in UNITS:
+        return None, np.eye(3)
+    unit = info["units"]
+    try:
+        m = np.asarray(info.get("to_cannula_mm", np.eye(4).ravel()), dtype=np.float64)
+        rot = m.reshape(4, 4)[:3, :3] / UNITS[unit]
+    except (TypeError, ValueError):
+        return None, np.eye(3)
+    if not np.allclose(rot @ rot.T, np.eye(3), atol=1e-12) or np.linalg.det(rot) < 0:
+        raise SpecError(f"tipgeo.to_cannula_mm in the file's extras is not a rotation scaled by "
+                        f"its unit {unit!r}")
+    exact = np.round(rot)  # an axis permutation (what export_tip writes), exactly
+    return unit, exact if np.allclose(exact, rot, atol=1e-12) else rot
 
 
 def _trimesh_labels(g, n_faces: int) -> tuple[np.ndarray | None, tuple[str, ...]]:

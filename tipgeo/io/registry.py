@@ -30,6 +30,8 @@ if TYPE_CHECKING:
 
 __all__ = [
     "EXPORTERS",
+    "GLTF_UNITS",
+    "GLTF_UP",
     "IMPORTERS",
     "ExportOptions",
     "LoadedMesh",
@@ -42,28 +44,42 @@ __all__ = [
 ]
 
 
+#: GLB ``gltf_units`` choices and their size in mm.
+GLTF_UNITS: dict[str, float] = {"m": 1.0e3, "mm": 1.0}
+#: GLB ``gltf_up`` choices: the file axis the needle axis (+z of the cannula
+#: frame) maps to.
+GLTF_UP: tuple[str, ...] = ("y", "z")
+
+
 @dataclass(frozen=True)
 class ExportOptions:
     """The checked options of :func:`~tipgeo.io.export_tip`, passed to every
-    writer: ``binary`` (STL, PLY), the object ``name`` and the INP
-    ``ref_point`` (``'centroid'``, ``'top'`` or a point in mm)."""
+    writer: ``binary`` (STL, PLY), the object ``name``, the INP ``ref_point``
+    (``'centroid'``, ``'top'`` or a point in mm), the GLB ``gltf_units``
+    (``'m'`` or ``'mm'``) and ``gltf_up`` (``'y'``: the needle axis along +y,
+    or ``'z'``: the cannula frame as it is)."""
 
     binary: bool
     name: str
     ref_point: str | tuple[float, float, float]
+    gltf_units: str = "m"
+    gltf_up: str = "y"
 
 
 @dataclass
 class LoadedMesh:
-    """A triangle mesh as a reader returns it: vertices in the file's unit,
-    faces indexing them, and the labels if the file carries any
-    (``label_ids`` ``None`` otherwise)."""
+    """A triangle mesh as a reader returns it: vertices in the file's unit and
+    the cannula frame, faces indexing them, the labels if the file carries any
+    (``label_ids`` ``None`` otherwise) and the unit the file declares."""
 
     vertices: np.ndarray
     faces: np.ndarray
     label_ids: np.ndarray | None = None
     label_names: tuple[str, ...] = ()
     name: str | None = None
+    #: the length unit the file declares itself (a key of
+    #: :data:`~tipgeo.io.UNITS`), ``None`` when it declares none
+    units: str | None = None
 
 
 #: ``writer(tip, tmp, opts)``: write ``tip`` to the temporary file ``tmp``.

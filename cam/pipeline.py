@@ -27,12 +27,15 @@ class GrindResult:
     program : GrindProgram — the axis program with its set-up
     ground : Tip or None — the simulated ground tip (mm, cannula frame)
     comparison : dict or None — :func:`cam.compare_with_cad` of the ground tip
+    files : list of str — files written by :func:`write_grind_outputs`
+    failed : list of dict — files it could not write: ``path``, ``error``
     """
 
     program: GrindProgram
     ground: Any = None
     comparison: dict | None = None
     files: list[str] = field(default_factory=list)
+    failed: list[dict] = field(default_factory=list)
 
     def summary(self) -> dict[str, Any]:
         """Program summary, comparison (if any) and files written (report units)."""
@@ -40,6 +43,8 @@ class GrindResult:
         if self.comparison is not None:
             out["comparison"] = self.comparison
         out["wrote"] = list(self.files)
+        if self.failed:
+            out["failed"] = list(self.failed)
         return out
 
     def worst_angle_diff_deg(self) -> tuple[float, float] | None:
@@ -82,13 +87,35 @@ def grind(spec, *, machine: Machine | None = None, feed: float = 0.1,
 
 def write_grind_outputs(res: GrindResult, *, program: str | Path | None = None,
                         gcode: str | Path | None = None, sheet: str | Path | None = None,
-                        mesh: str | Path | None = None) -> list[str]:
+                        mesh: str | Path | None = None, on_error=None) -> list[str]:
     """Write the files of a :func:`grind` result, each atomically: the axis
     program (``.json`` or ``.csv`` by extension), ISO G-code, the Markdown
-    set-up sheet, the simulated tip mesh (any :mod:`tipgeo.io` format)."""
-    from tipgeo.atomic import write_text_atomic
-    from tipgeo.io import export_tip
+    set-up sheet, the simulated tip mesh (any :mod:`tipgeo.io` format).
 
+    The mesh export is checked first (:func:`tipgeo.io.check_export`: e.g. a
+    STEP file without OCP). If it cannot be written, ``on_error(path, exc)``
+    is called before any file is written and the other files are written
+    (``res.failed`` records it); with ``on_error`` ``None`` the error is
+    raised before anything is written.
+    """
+    from tipgeo.atomic import write_text_atomic
+    from tipgeo.errors import TipGeoError
+    from tipgeo.io import check_export, export_tip
+
+    def failed(path, exc):
+        res.failed.append({"path": str(path), "error": str(exc)})
+        on_error(Path(path), exc)
+
+    if mesh is not None:
+        if res.ground is None:
+            raise ValueError("mesh: the result has no simulated tip (grind(simulate_tip=True))")
+        try:
+            check_export(res.ground, mesh)
+        except TipGeoError as exc:
+            if on_error is None:
+                raise
+            failed(mesh, exc)
+            mesh = None
     wrote = []
     if program is not None:
         p = Path(program)
@@ -102,9 +129,12 @@ def write_grind_outputs(res: GrindResult, *, program: str | Path | None = None,
         write_text_atomic(Path(sheet), res.program.setup_sheet())
         wrote.append(str(sheet))
     if mesh is not None:
-        if res.ground is None:
-            raise ValueError("mesh: the result has no simulated tip (grind(simulate_tip=True))")
-        export_tip(res.ground, mesh)
-        wrote.append(str(mesh))
+        try:
+            export_tip(res.ground, mesh)
+            wrote.append(str(mesh))
+        except TipGeoError as exc:
+            if on_error is None:
+                raise
+            failed(mesh, exc)
     res.files += wrote
     return wrote

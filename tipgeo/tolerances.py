@@ -366,6 +366,14 @@ class Tolerances:
     gp_xatol, gp_fatol : float
         Nelder–Mead convergence of the GP hyperparameters (log space; and
         objective value).
+    step_fit_share : float
+        An exact STEP export fits each non-analytic cutter surface (a height
+        field, e.g. the helicoid) with a B-spline whose height stays within
+        this share of the tip's build tolerance of the exact surface
+        (dimensionless; the rest of the budget is OCCT's own tolerance).
+    step_fit_max_grid : int
+        Most interpolation nodes along each side of such a B-spline; a surface
+        needing more is an ``ExportError`` (raise the build tolerance).
     """
 
     chordal: float = DEFAULT_CHORDAL_MM
@@ -411,6 +419,8 @@ class Tolerances:
     fourier_floor: float = 1.0e-12
     gp_xatol: float = 1.0e-4
     gp_fatol: float = 1.0e-8
+    step_fit_share: float = 0.5
+    step_fit_max_grid: int = 385
 
 
 #: The process-wide tolerance object. Tests set ``tol.strict = True``.

@@ -15,19 +15,26 @@ __all__ = ["register", "cmd_build", "cmd_gauges", "cmd_samples"]
 
 def cmd_build(args) -> int:
     from ..build import build_tip
-    from ..io import export_tip
+    from ..io import export_many
 
     spec = spec_arg(args.spec)
     t0 = time.perf_counter()
     tip = build_tip(spec, tolerance=tolerance_arg(args))
     dt = time.perf_counter() - t0
-    outs = [export_tip(tip, o, gltf_units=args.gltf_units, gltf_up=args.gltf_up)
-            for o in args.output]
+
+    def cannot(path, exc):  # said before the other files are written
+        print(f"tipgeo: failed: cannot write {path}: {exc}", file=sys.stderr)
+
+    report = export_many(tip, args.output, on_error=cannot, gltf_units=args.gltf_units,
+                         gltf_up=args.gltf_up, step_form=args.step_form)
+    outs = list(report.written)
     if args.png:
         from ..plot import render_tip
 
         outs.append(render_tip(tip, args.png))
-    info = tip.summary() | {"build_seconds": dt, "outputs": [str(o) for o in outs]}
+    info = tip.summary() | {"build_seconds": dt, "outputs": [str(o) for o in outs],
+                            "failed": [{"path": str(p), "error": m} for p, m in report.failed]}
+    status = 1 if report.failed else 0
     if args.json:
         print(_dumps(info))
     else:
@@ -38,7 +45,9 @@ def cmd_build(args) -> int:
             print(f"  {label:<24} {n:>8} triangles")
         for o in outs:
             print(f"  wrote {o}")
-    return 0
+        for p, _ in report.failed:
+            print(f"  NOT written: {p}")
+    return status
 
 
 def cmd_gauges(args) -> int:
@@ -88,6 +97,10 @@ def register(sub) -> None:
     b.add_argument("--gltf-up", choices=("y", "z"), default="y",
                    help="GLB axis of the needle: y (glTF's up, tip up in viewers; default) or "
                         "z (the cannula frame as it is)")
+    b.add_argument("--step-form", choices=("auto", "exact", "faceted"), default="auto",
+                   help="STEP: exact surfaces (planes, cylinders, cones, B-spline helicoid), "
+                        "faceted (a plane per triangle), or auto (exact where the cutters "
+                        "allow; default)")
     b.add_argument("--png", metavar="FILE", help="also write a picture of the tip")
     b.add_argument("--json", action="store_true", help="machine-readable summary")
     b.set_defaults(func=cmd_build)

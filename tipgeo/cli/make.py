@@ -94,12 +94,16 @@ def cmd_grind(args) -> int:
     res = grind(spec, machine=machine, feed=args.feed, needle_rpm=args.needle_rpm,
                 simulate_tip=bool(args.simulate or args.report), compare=args.report,
                 tolerance=tolerance_arg(args))
+    def cannot(path, exc):  # said before the other files are written
+        print(f"tipgeo: failed: cannot write {path}: {exc}", file=sys.stderr)
+
     write_grind_outputs(res, program=args.output, gcode=args.gcode, sheet=args.sheet,
-                        mesh=args.simulate)
+                        mesh=args.simulate, on_error=cannot)
     out = res.summary()
+    status = 1 if res.failed else 0
     if args.json:
         print(_dumps(out))
-        return 0
+        return status
     s = out["program"]
     print(f"{s['name']}: faces {s['faces']}, {s['rows']} program rows, time {s['time_s']:.1f} s, "
           f"feed {s['feed_mm_s']:g} mm/s")
@@ -113,7 +117,9 @@ def cmd_grind(args) -> int:
               f"within {worst:.2e}° (exact surfaces), {worst_m:.3f}° (mesh path)")
     for w in res.files:
         print(f"  wrote {w}")
-    return 0
+    for f in res.failed:
+        print(f"  NOT written: {f['path']}")
+    return status
 
 
 def gcode_derived(args) -> list[str]:

@@ -22,11 +22,12 @@ from .planar import (
     multiplane_xi_for_theta,
 )
 from .serration import SERRATION_PRESETS, SerrationCutter, SerrationProfile
-from .surfaces import ConeSurface, ImplicitSurface, Surface
+from .surfaces import ConeSurface, HeightSurface, ImplicitSurface, Surface
 from .toml import CutterTable
 
 __all__ = ["Cutter", "CUTTER_KINDS", "register_cutter", "cutter_kind", "check_name",
-           "CutterTable", "ConeSurface", "ImplicitSurface", "Surface", "PlanarCutter",
-           "PlaneSetCutter", "BevelCutter", "MultiPlaneCutter", "LancetCutter", "Plane",
-           "ConicalCutter", "HelicalCutter", "SerrationCutter", "SerrationProfile", "MeshCutter",
-           "SDFCutter", "SERRATION_PRESETS", "multiplane_xi_for_theta", "thesis_helical"]
+           "CutterTable", "ConeSurface", "HeightSurface", "ImplicitSurface", "Surface",
+           "PlanarCutter", "PlaneSetCutter", "BevelCutter", "MultiPlaneCutter", "LancetCutter",
+           "Plane", "ConicalCutter", "HelicalCutter", "SerrationCutter", "SerrationProfile",
+           "MeshCutter", "SDFCutter", "SERRATION_PRESETS", "multiplane_xi_for_theta",
+           "thesis_helical"]

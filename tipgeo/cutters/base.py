@@ -17,7 +17,10 @@ axis towards the tip, γ about +z from +x, the heel of an unrotated cutter at
    for exact distances, measurement, synthetic scans and the grinder;
 5. :meth:`Cutter.from_dict` / :meth:`Cutter.to_dict` — its TOML form (keys in
    :attr:`Cutter.toml_keys`), read through :class:`~tipgeo.cutters.toml.CutterTable`;
-6. :attr:`Cutter.process` — the process that makes it (``grind``, ``mill``,
+6. :meth:`Cutter.exact_bounds` — the exact surfaces whose kept sides
+   intersect to its kept material (planes, cones, height fields), for exact
+   B-rep exports (STEP);
+7. :attr:`Cutter.process` — the process that makes it (``grind``, ``mill``,
    ``laser``), and :attr:`Cutter.angle_field` — the field holding its rake
    plane's bevel angle ξ, if any.
 
@@ -132,6 +135,14 @@ class Cutter(ABC):
         ImplicitSurface of :mod:`tipgeo.cutters.surfaces`, labelled as in the
         built tip), or None when the cutter has no face-wise description
         (consumers then fall back to the mesh)."""
+        return None
+
+    def exact_bounds(self, cannula: Cannula, previous: tuple = ()) -> tuple | None:
+        """The exact surfaces (Plane, ConeSurface, HeightSurface of
+        :mod:`tipgeo.cutters.surfaces`) whose kept sides intersect to the kept
+        material around the tube wall (cannula frame, mm), or None when the
+        cutter has no such description (exact B-rep exports then fall back to
+        the mesh). ``previous``: the cutters applied before this one."""
         return None
 
     @property

@@ -86,6 +86,14 @@ class ConicalCutter(Cutter):
             out.append(Plane(0.5 * math.pi, 0.0, self.bevel_length, self.land_label))
         return tuple(out)
 
+    def exact_bounds(self, cannula, previous=()):
+        """The cone ρ ≤ r_o − z tan θ and, with a bevel length, the plane
+        z ≤ l_b (whether or not the land reaches the wall)."""
+        out = [ConeSurface(self.theta, cannula.r_o, self.label)]
+        if self.bevel_length is not None:
+            out.append(Plane(0.5 * math.pi, 0.0, self.bevel_length, self.land_label))
+        return tuple(out)
+
     def __post_init__(self):
         object.__setattr__(self, "theta", v.angle("theta", self.theta, lo=0.0, hi=0.5 * math.pi,
                                                   lo_open=True, hi_open=True))

@@ -56,7 +56,7 @@ from ..cannula import Cannula
 from ..errors import BuildError, SpecError
 from ..tolerances import tol
 from .base import Cutter, check_name
-from .surfaces import ImplicitSurface
+from .surfaces import HeightSurface, ImplicitSurface
 from .toml import round_for_toml as _r
 
 __all__ = ["HelicalCutter", "THESIS_HELIX_POSITION_DEG"]
@@ -116,6 +116,15 @@ class HelicalCutter(Cutter):
 
     def surfaces(self, cannula):
         return (ImplicitSurface(self, cannula, self.label),)
+
+    def exact_bounds(self, cannula, previous=()):
+        """The helicoid as the height field :meth:`height` (no closed form in
+        the cannula frame: exporters fit it), valid over 2 r_o around the
+        needle axis (the helix axis is farther than r_o + c tan φ, :meth:`check`)."""
+        self.check(cannula)
+        c, d, _, _ = self._frame
+        radius = min(2.0 * cannula.r_o, d - c * math.tan(self.phi))
+        return (HeightSurface(lambda x, y: self.height(x, y, cannula), radius, self.label),)
 
     def __post_init__(self):
         v.feature_length("pitch", self.pitch, hi=1e5)

@@ -45,6 +45,10 @@ class PlanarCutter(Cutter):
     def surfaces(self, cannula: Cannula) -> tuple:
         return tuple(self.planes(cannula))
 
+    def exact_bounds(self, cannula: Cannula, previous: tuple = ()) -> tuple:
+        """The planes: the kept material is the intersection of their half-spaces."""
+        return tuple(self.planes(cannula))
+
     def planes(self, cannula: Cannula) -> list[Plane]:  # pragma: no cover - abstract
         raise NotImplementedError
 

@@ -16,7 +16,7 @@ from typing import Any
 
 import numpy as np
 
-__all__ = ["Plane", "ConeSurface", "ImplicitSurface", "Surface"]
+__all__ = ["Plane", "ConeSurface", "ImplicitSurface", "HeightSurface", "Surface"]
 
 HALF_PI = 0.5 * math.pi
 
@@ -74,5 +74,18 @@ class ImplicitSurface:
     label: str
 
 
+@dataclass(frozen=True)
+class HeightSurface:
+    """A height field z = ``height(x, y)`` (mm, cannula frame), the material
+    kept below it; defined and smooth over the disc x² + y² ≤ ``radius`` (mm)
+    around the needle axis. ``height`` takes and returns float arrays of one
+    shape. Exporters fit it (a B-spline within a tolerance) where no closed
+    form exists."""
+
+    height: Any
+    radius: float
+    label: str
+
+
 #: Any analytic face a cutter may report.
-Surface = Plane | ConeSurface | ImplicitSurface
+Surface = Plane | ConeSurface | ImplicitSurface | HeightSurface

@@ -15,13 +15,17 @@ Formats (chosen by the file extension, case-insensitive), one module each:
 ``.glb``   binary glTF 2.0 (through trimesh; float32; metres and the needle
            along +y by default, ``gltf_units``/``gltf_up``; units, axes and
            labels in ``extras``) (:mod:`tipgeo.io.gltf`)
-``.step``  STEP AP214 solid (B-rep), one planar face per triangle (needs
-``.stp``   ``OCP``: ``pip install "tipgeo[step]"``) (:mod:`tipgeo.io.step`)
+``.step``  STEP AP214 solid (B-rep): exact planes, cylinders, cones and a
+``.stp``   fitted B-spline helicoid for a spec's tip, or one planar face per
+           triangle (``step_form``; needs ``OCP``: ``pip install
+           "tipgeo[step]"``) (:mod:`tipgeo.io.step`, :mod:`tipgeo.io.brep`)
 ``.inp``   Abaqus input: a rigid part of ``R3D3`` elements with one element
            set per label and a reference node (:mod:`tipgeo.io.inp`)
 =========  ================================================================
 
-:func:`export_tip` writes all of them (:mod:`tipgeo.io.export`);
+:func:`export_tip` writes all of them (:mod:`tipgeo.io.export`), :func:`export_many`
+several at once (reporting what cannot be written before writing the others),
+:func:`check_export` checks without writing;
 :func:`load_tip` reads ``.stl``, ``.ply``, ``.obj``, ``.3mf`` and ``.glb``
 (:mod:`tipgeo.io.load`). Each format module registers its writer and reader
 in :mod:`tipgeo.io.registry` when imported; :data:`SUPPORTED_EXPORTS` and
@@ -55,7 +59,7 @@ import os  # noqa: F401  (``tipgeo.io.os``, as before the split: tests patch os.
 from . import stl, ply, obj, threemf, gltf, step, inp  # noqa: F401
 # isort: on
 from .common import ExportError
-from .export import export_tip
+from .export import ExportReport, check_export, export_many, export_tip
 from .load import UNITS, UNLABELLED, load_tip
 from .registry import EXPORTERS, IMPORTERS
 
@@ -65,6 +69,9 @@ __all__ = [
     "UNITS",
     "UNLABELLED",
     "ExportError",
+    "ExportReport",
+    "check_export",
+    "export_many",
     "export_tip",
     "load_tip",
 ]

@@ -10,25 +10,26 @@ heel at z = 0), lengths in mm, whatever the format's own convention.
 from __future__ import annotations
 
 import os
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING
 
 from ..atomic import write_atomic
 from ..errors import SpecError, TipGeoError
 from .common import ExportError, as_path, check_ref_point, check_tip, object_name
-from .registry import EXPORTERS, GLTF_UNITS, GLTF_UP, ExportOptions
+from .registry import EXPORTERS, GLTF_UNITS, GLTF_UP, PRECHECKS, STEP_FORMS, ExportOptions
 
 if TYPE_CHECKING:
     from ..tip import Tip
 
-__all__ = ["export_tip"]
+__all__ = ["ExportReport", "check_export", "export_many", "export_tip"]
 
 
 def export_tip(tip: Tip, path: str | os.PathLike[str], *, binary: bool = True,
                name: str | None = None,
                ref_point: str | Sequence[float] = "centroid", gltf_units: str = "m",
-               gltf_up: str = "y") -> Path:
+               gltf_up: str = "y", step_form: str = "auto") -> Path:
     """Write a tip to a mesh, CAD or FE file, atomically.
 
     The format follows the extension of ``path`` (case-insensitive, one of
@@ -64,6 +65,15 @@ def export_tip(tip: Tip, path: str | os.PathLike[str], *, binary: bool = True,
         up) writes a cannula-frame point ``(x, y, z)`` as ``(x, z, -y)``, so
         viewers show the needle standing, tip up; ``'z'`` writes the cannula
         frame as it is. Stated in the ``extras``, undone by :func:`load_tip`.
+    step_form : {'auto', 'exact', 'faceted'}, default 'auto'
+        STEP only. ``'exact'``: the spec's solid with exact planes, cylinders
+        and cones, the helicoid (any height-field cutter surface) as a bicubic
+        B-spline within half the build tolerance, made by OCCT booleans of
+        exact solids (:mod:`tipgeo.io.brep`); its volume is checked against
+        the mesh's (within tolerance × area). ``'faceted'``: one planar face
+        per triangle of the mesh. ``'auto'``: exact for a tip built from a
+        spec whose every cutter has exact bounds, faceted otherwise (simulated,
+        imported and custom-cutter tips).
 
     Returns
     -------
@@ -79,7 +89,8 @@ def export_tip(tip: Tip, path: str | os.PathLike[str], *, binary: bool = True,
         name contains a line break.
     ExportError
         Writing failed (disk error, missing ``OCP`` for STEP, a mesh that is
-        not closed for STEP). Subclass of :class:`~tipgeo.errors.BuildError`.
+        not closed for faceted STEP, ``step_form='exact'`` for a tip without
+        an exact form, an OCCT boolean that fails). Subclass of :class:`~tipgeo.errors.BuildError`.
         No partial file is left behind.
 
     Notes
@@ -104,6 +115,88 @@ def export_tip(tip: Tip, path: str | os.PathLike[str], *, binary: bool = True,
     Element normals follow the outward triangle orientation. CalculiX has no
     ``R3D3`` element and no ``*Part``, so the file is for Abaqus.
     """
+    p, opts = _checked(tip, path, binary=binary, name=name, ref_point=ref_point,
+                       gltf_units=gltf_units, gltf_up=gltf_up, step_form=step_form)
+    ext = p.suffix.lower()
+    writer = EXPORTERS[ext]
+    try:
+        write_atomic(p, lambda tmp: writer(tip, tmp, opts))
+    except TipGeoError:
+        raise
+    except Exception as exc:
+        raise ExportError(f"writing {ext} file '{p}' failed: {type(exc).__name__}: {exc}; "
+                          f"nothing was written") from exc
+    return p
+
+
+def check_export(tip: Tip, path: str | os.PathLike[str], **options) -> Path:
+    """Check, without writing, that :func:`export_tip` could write ``tip`` to
+    ``path`` with ``options`` (the same keywords): the tip, the path, the
+    options, and the format's pre-flight check (OCP present for STEP, the
+    exact form available when asked for). Returns ``path`` as a ``Path``.
+
+    Raises
+    ------
+    SpecError, ExportError
+        As :func:`export_tip` would, before any work.
+    """
+    p, opts = _checked(tip, path, **options)
+    pre = PRECHECKS.get(p.suffix.lower())
+    if pre is not None:
+        pre(tip, opts)
+    return p
+
+
+@dataclass
+class ExportReport:
+    """What :func:`export_many` wrote (``written``, in order) and what it
+    could not (``failed``: ``(path, message)`` pairs)."""
+
+    written: list[Path] = field(default_factory=list)
+    failed: list[tuple[Path, str]] = field(default_factory=list)
+
+
+def export_many(tip: Tip, paths: Sequence[str | os.PathLike[str]], *,
+                on_error: Callable[[Path, Exception], None] | None = None,
+                **options) -> ExportReport:
+    """Write ``tip`` to several files (each as :func:`export_tip` would, with
+    ``options``), telling what cannot be written before writing the others.
+
+    Every path is first checked (:func:`check_export`: options, path, a
+    missing OCP for STEP …). With ``on_error`` ``None`` the first problem is
+    raised before anything is written. Otherwise ``on_error(path, exc)`` is
+    called for every path that fails its check — all before the first write —
+    and then for every write that fails; the other files are written.
+
+    Returns
+    -------
+    ExportReport
+        The files written and the ones that failed, with the reason.
+    """
+    report = ExportReport()
+    ok: list[Path] = []
+    for path in paths:
+        try:
+            ok.append(check_export(tip, path, **options))
+        except TipGeoError as exc:
+            if on_error is None:
+                raise
+            report.failed.append((Path(os.fspath(path)), str(exc)))
+            on_error(Path(os.fspath(path)), exc)
+    for p in ok:
+        try:
+            report.written.append(export_tip(tip, p, **options))
+        except TipGeoError as exc:
+            if on_error is None:
+                raise
+            report.failed.append((p, str(exc)))
+            on_error(p, exc)
+    return report
+
+
+def _checked(tip, path, *, binary: bool = True, name: str | None = None,
+             ref_point: str | Sequence[float] = "centroid", gltf_units: str = "m",
+             gltf_up: str = "y", step_form: str = "auto") -> tuple[Path, ExportOptions]:
     check_tip(tip)
     p = as_path(path)
     ext = p.suffix.lower()
@@ -120,19 +213,12 @@ def export_tip(tip: Tip, path: str | os.PathLike[str], *, binary: bool = True,
     if not isinstance(binary, bool):
         raise SpecError(f"binary = {binary!r} is not a bool; expected True or False")
     for key, val, allowed in (("gltf_units", gltf_units, GLTF_UNITS),
-                              ("gltf_up", gltf_up, GLTF_UP)):
+                              ("gltf_up", gltf_up, GLTF_UP),
+                              ("step_form", step_form, STEP_FORMS)):
         if not isinstance(val, str) or val not in allowed:
             raise SpecError(f"{key} = {val!r} is not supported; allowed: "
                             f"{', '.join(repr(a) for a in allowed)}")
     opts = ExportOptions(binary=binary, name=object_name(tip, p, name),
                          ref_point=check_ref_point(ref_point), gltf_units=gltf_units,
-                         gltf_up=gltf_up)
-    writer = EXPORTERS[ext]
-    try:
-        write_atomic(p, lambda tmp: writer(tip, tmp, opts))
-    except TipGeoError:
-        raise
-    except Exception as exc:
-        raise ExportError(f"writing {ext} file '{p}' failed: {type(exc).__name__}: {exc}; "
-                          f"nothing was written") from exc
-    return p
+                         gltf_up=gltf_up, step_form=step_form)
+    return p, opts

@@ -32,7 +32,9 @@ __all__ = [
     "EXPORTERS",
     "GLTF_UNITS",
     "GLTF_UP",
+    "STEP_FORMS",
     "IMPORTERS",
+    "PRECHECKS",
     "ExportOptions",
     "LoadedMesh",
     "Reader",
@@ -49,6 +51,8 @@ GLTF_UNITS: dict[str, float] = {"m": 1.0e3, "mm": 1.0}
 #: GLB ``gltf_up`` choices: the file axis the needle axis (+z of the cannula
 #: frame) maps to.
 GLTF_UP: tuple[str, ...] = ("y", "z")
+#: STEP ``step_form`` choices (:mod:`tipgeo.io.step`).
+STEP_FORMS: tuple[str, ...] = ("auto", "exact", "faceted")
 
 
 @dataclass(frozen=True)
@@ -57,13 +61,15 @@ class ExportOptions:
     writer: ``binary`` (STL, PLY), the object ``name``, the INP ``ref_point``
     (``'centroid'``, ``'top'`` or a point in mm), the GLB ``gltf_units``
     (``'m'`` or ``'mm'``) and ``gltf_up`` (``'y'``: the needle axis along +y,
-    or ``'z'``: the cannula frame as it is)."""
+    or ``'z'``: the cannula frame as it is), the STEP ``step_form``
+    (``'auto'``, ``'exact'`` or ``'faceted'``)."""
 
     binary: bool
     name: str
     ref_point: str | tuple[float, float, float]
     gltf_units: str = "m"
     gltf_up: str = "y"
+    step_form: str = "auto"
 
 
 @dataclass
@@ -89,6 +95,9 @@ Reader = Callable[[Path], LoadedMesh]
 
 #: Writers by lower-case extension (with the dot), in registration order.
 EXPORTERS: dict[str, Writer] = {}
+#: Pre-flight checks by extension: ``check(tip, opts)`` raises what the
+#: writer would (a missing package, a form the tip lacks) without writing.
+PRECHECKS: dict[str, Callable[[Tip, ExportOptions], None]] = {}
 #: Readers by lower-case extension (with the dot), in registration order.
 IMPORTERS: dict[str, Reader] = {}
 
@@ -101,10 +110,17 @@ def _check_ext(ext: object) -> str:
     return ext
 
 
-def register_exporter(ext: str, writer: Writer) -> Writer:
-    """Register ``writer`` for files ending in ``ext`` (e.g. ``'.stl'``); a
-    writer already registered for ``ext`` is replaced. Returns ``writer``."""
+def register_exporter(ext: str, writer: Writer,
+                      precheck: Callable[[Tip, ExportOptions], None] | None = None
+                      ) -> Writer:
+    """Register ``writer`` for files ending in ``ext`` (e.g. ``'.stl'``), and
+    its cheap pre-flight ``precheck`` if it has one; a writer already
+    registered for ``ext`` is replaced. Returns ``writer``."""
     EXPORTERS[_check_ext(ext)] = writer
+    if precheck is None:
+        PRECHECKS.pop(ext, None)
+    else:
+        PRECHECKS[ext] = precheck
     return writer
 
 

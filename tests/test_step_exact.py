@@ -1,0 +1,227 @@
+"""Exact STEP export (tipgeo.io.brep, tipgeo.io.step): exact planes, cylinders
+and cones, the helicoid as a fitted B-spline, made by OCCT booleans; read
+back with OCP's STEP reader and checked by BRepCheck_Analyzer, meshed by
+gmsh; multi-output commands that say what they cannot write before writing.
+
+Tolerances (mm, cannula frame):
+
+* volume: the mesh's vertices lie on the exact surfaces and its facets within
+  the build tolerance ``t`` of them, so |V_exact − V_mesh| ≤ t · area;
+* the fitted helicoid: its height within ``tol.step_fit_share · t`` of the
+  cutter's exact height (what the fit guarantees at its check points), checked
+  here at fresh random points over the tube wall;
+* gmsh's coarse tetrahedra: their total volume within 1 % of OCCT's (the
+  facets of a 0.4 mm mesh cut the curved walls by ~(h/2)²/(2r)).
+"""
+
+from __future__ import annotations
+
+import sys
+
+import numpy as np
+import pytest
+
+from tipgeo.errors import ExportError
+from tipgeo.io import check_export, export_many, export_tip
+from tipgeo.tip import Tip
+from tipgeo.tolerances import tol
+
+pytest.importorskip("OCP", reason="cadquery-ocp (the 'step' extra) is not installed")
+
+#: preset → the exact surface kinds its STEP must hold (OCCT names)
+CASES = {
+    "bevel-14G-xi15": {"Cylinder": 2, "Plane": 2},
+    "lancet-14G": {"Cylinder": 2, "Plane": 5},
+    "punch-plain": {"Cylinder": 2, "Cone": 1, "Plane": 2},
+    "helical-14G": {"Cylinder": 2, "BSplineSurface": 1, "Plane": 1},
+}
+
+
+def _read_step(path):
+    from OCP.IFSelect import IFSelect_RetDone
+    from OCP.STEPControl import STEPControl_Reader
+
+    reader = STEPControl_Reader()
+    assert reader.ReadFile(str(path)) == IFSelect_RetDone
+    reader.TransferRoots()
+    return reader.OneShape()
+
+
+def _sub(shape, kind) -> list:
+    from OCP.TopExp import TopExp_Explorer
+
+    out, e = [], TopExp_Explorer(shape, kind)
+    while e.More():
+        out.append(e.Current())
+        e.Next()
+    return out
+
+
+def _face_kinds(shape) -> dict:
+    from OCP.BRepAdaptor import BRepAdaptor_Surface
+    from OCP.TopAbs import TopAbs_FACE
+    from OCP.TopoDS import TopoDS
+
+    kinds: dict[str, int] = {}
+    for f in _sub(shape, TopAbs_FACE):
+        k = BRepAdaptor_Surface(TopoDS.Face(f)).GetType().name.removeprefix("GeomAbs_")
+        kinds[k] = kinds.get(k, 0) + 1
+    return kinds
+
+
+@pytest.fixture(scope="module")
+def exported(build_preset, tmp_path_factory):
+    d = tmp_path_factory.mktemp("step")
+    return {n: (build_preset(n), export_tip(build_preset(n), d / f"{n}.step")) for n in CASES}
+
+
+@pytest.mark.parametrize("name", list(CASES))
+def test_exact_step_is_a_valid_closed_solid(exported, name):
+    from OCP.BRepCheck import BRepCheck_Analyzer, BRepCheck_NoError, BRepCheck_Shell
+    from OCP.BRepGProp import BRepGProp
+    from OCP.GProp import GProp_GProps
+    from OCP.TopAbs import TopAbs_SHELL, TopAbs_SOLID
+    from OCP.TopoDS import TopoDS
+
+    tip, path = exported[name]
+    text = path.read_text(errors="replace")
+    assert text.startswith("ISO-10303-21;") and f"PRODUCT('{name}','{name}'" in text
+    shape = _read_step(path)
+    solids = _sub(shape, TopAbs_SOLID)
+    assert len(solids) == 1
+    solid = TopoDS.Solid(solids[0])
+    assert BRepCheck_Analyzer(solid).IsValid()
+    shells = _sub(solid, TopAbs_SHELL)
+    assert len(shells) == 1
+    assert BRepCheck_Shell(TopoDS.Shell(shells[0])).Closed() == BRepCheck_NoError
+    assert _face_kinds(solid) == CASES[name]  # exact surfaces, not a face per triangle
+    props = GProp_GProps()
+    BRepGProp.VolumeProperties_s(solid, props)
+    assert props.Mass() > 0
+    assert abs(props.Mass() - tip.volume) <= tip.tolerance * tip.area
+
+
+def test_helicoid_bspline_is_within_the_fit_tolerance(exported):
+    from OCP.BRep import BRep_Tool
+    from OCP.BRepAdaptor import BRepAdaptor_Surface
+    from OCP.GeomAbs import GeomAbs_BSplineSurface
+    from OCP.TopAbs import TopAbs_FACE
+    from OCP.TopoDS import TopoDS
+
+    tip, path = exported["helical-14G"]
+    cutter, can = tip.spec.cutters[0], tip.spec.cannula
+    faces = [TopoDS.Face(f) for f in _sub(_read_step(path), TopAbs_FACE)
+             if BRepAdaptor_Surface(TopoDS.Face(f)).GetType() == GeomAbs_BSplineSurface]
+    assert len(faces) == 1
+    surf = BRep_Tool.Surface_s(faces[0])
+    rng = np.random.default_rng(7)
+    rho = np.sqrt(rng.uniform(can.r_i ** 2, can.r_o ** 2, 400))
+    g = rng.uniform(0.0, 2 * np.pi, 400)
+    x, y = rho * np.cos(g), rho * np.sin(g)
+    pts = [surf.Value(u, v) for u, v in zip(x.tolist(), y.tolist())]  # parameters are (x, y)
+    got = np.array([[p.X(), p.Y(), p.Z()] for p in pts])
+    np.testing.assert_allclose(got[:, :2], np.c_[x, y], rtol=0, atol=1e-12)
+    want = cutter.height(x, y, can)
+    assert np.max(np.abs(got[:, 2] - want)) <= tol.step_fit_share * tip.tolerance
+
+
+@pytest.mark.parametrize("name", ["helical-14G", "punch-plain"])
+def test_gmsh_meshes_the_exact_volume(exported, name):
+    gmsh = pytest.importorskip("gmsh")
+    from OCP.BRepGProp import BRepGProp
+    from OCP.GProp import GProp_GProps
+
+    _, path = exported[name]
+    props = GProp_GProps()
+    BRepGProp.VolumeProperties_s(_read_step(path), props)
+    gmsh.initialize(["-nt", "1"])
+    try:
+        gmsh.option.setNumber("General.Terminal", 0)
+        gmsh.option.setNumber("General.NumThreads", 1)
+        gmsh.model.occ.importShapes(str(path))
+        gmsh.model.occ.synchronize()
+        assert len(gmsh.model.getEntities(3)) == 1
+        gmsh.option.setNumber("Mesh.MeshSizeMax", 0.4)  # coarse: a test, not an analysis
+        gmsh.option.setNumber("Mesh.MeshSizeFromCurvature", 12)
+        gmsh.model.mesh.generate(3)
+        _, _, conn = gmsh.model.mesh.getElements(3)
+        tags, coords, _ = gmsh.model.mesh.getNodes()
+    finally:
+        gmsh.finalize()
+    xyz = np.zeros((int(tags.max()) + 1, 3))
+    xyz[tags] = coords.reshape(-1, 3)
+    tet = np.asarray(conn[0], dtype=np.int64).reshape(-1, 4)
+    a, b, c, d = (xyz[tet[:, k]] for k in range(4))
+    vols = np.einsum("ij,ij->i", b - a, np.cross(c - a, d - a)) / 6.0
+    assert len(tet) > 100 and np.all(np.abs(vols) > 0)
+    assert abs(np.abs(vols).sum() - props.Mass()) <= 0.01 * props.Mass()
+
+
+def test_faceted_form_and_auto_choice(tmp_path):
+    from tipgeo import build_tip, preset
+
+    tip = build_tip(preset("bevel-14G-xi15"), tolerance=1e-2)  # few facets: fast to read
+    shape = _read_step(export_tip(tip, tmp_path / "f.step", step_form="faceted"))
+    assert _face_kinds(shape) == {"Plane": len(tip.faces)}
+    # a tip without its spec has no exact form: auto writes it faceted, exact refuses
+    bare = Tip(tip.vertices, tip.faces, tip.label_ids, tip.label_names)
+    assert _face_kinds(_read_step(export_tip(bare, tmp_path / "b.step"))) == \
+        {"Plane": len(tip.faces)}
+    with pytest.raises(ExportError, match="no spec.*step_form='faceted'"):
+        export_tip(bare, tmp_path / "e.step", step_form="exact")
+    assert not (tmp_path / "e.step").exists()
+
+
+def test_export_many_says_what_fails_before_writing(build_preset, tmp_path, monkeypatch):
+    tip = build_preset("bevel-14G-xi15")
+    monkeypatch.setitem(sys.modules, "OCP", None)
+    monkeypatch.setitem(sys.modules, "OCP.BRep", None)
+    outs = [tmp_path / "a.stl", tmp_path / "b.step", tmp_path / "c.ply"]
+    with pytest.raises(ExportError, match=r'tipgeo\[step\]'):
+        check_export(tip, outs[1])
+    seen = []
+
+    def on_error(path, exc):
+        seen.append((path, sorted(p.name for p in tmp_path.iterdir())))
+
+    rep = export_many(tip, outs, on_error=on_error)
+    assert seen == [(outs[1], [])]  # told before anything was written
+    assert rep.written == [outs[0], outs[2]] and [p for p, _ in rep.failed] == [outs[1]]
+    assert "OCP" in rep.failed[0][1]
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["a.stl", "c.ply"]
+    with pytest.raises(ExportError):  # without a handler: raised before any write
+        export_many(tip, [tmp_path / "d.stl", tmp_path / "e.step"])
+    assert not (tmp_path / "d.stl").exists()
+
+
+def test_cli_build_reports_the_failed_export(tmp_path, monkeypatch, capsys):
+    import json
+
+    from tipgeo.cli import main
+
+    monkeypatch.setitem(sys.modules, "OCP", None)
+    monkeypatch.setitem(sys.modules, "OCP.BRep", None)
+    a, b = tmp_path / "t.stl", tmp_path / "t.step"
+    assert main(["build", "bevel-14G-xi15", "--tolerance-um", "5", "-o", str(b), "-o", str(a),
+                 "--json"]) == 1
+    cap = capsys.readouterr()
+    info = json.loads(cap.out)
+    assert info["outputs"] == [str(a)] and info["failed"][0]["path"] == str(b)
+    assert f"cannot write {b}" in cap.err and "tipgeo[step]" in cap.err
+    assert a.exists() and not b.exists()
+
+
+def test_grind_outputs_report_the_failed_mesh(build_preset, tmp_path, monkeypatch):
+    from cam import GrindResult, make_program, write_grind_outputs
+
+    tip = build_preset("bevel-14G-xi15")
+    res = GrindResult(make_program(tip.spec), ground=tip)
+    monkeypatch.setitem(sys.modules, "OCP", None)
+    monkeypatch.setitem(sys.modules, "OCP.BRep", None)
+    seen = []
+    prog, mesh = tmp_path / "p.nc", tmp_path / "g.step"
+    write_grind_outputs(res, gcode=prog, mesh=mesh,
+                        on_error=lambda p, e: seen.append((p, prog.exists())))
+    assert seen == [(mesh, False)]
+    assert res.files == [str(prog)] and res.summary()["failed"][0]["path"] == str(mesh)
+    assert prog.exists() and not mesh.exists()

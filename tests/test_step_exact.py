@@ -16,6 +16,7 @@ Tolerances (mm, cannula frame):
 
 from __future__ import annotations
 
+import math
 import sys
 
 import numpy as np
@@ -34,6 +35,8 @@ CASES = {
     "lancet-14G": {"Cylinder": 2, "Plane": 5},
     "punch-plain": {"Cylinder": 2, "Cone": 1, "Plane": 2},
     "helical-14G": {"Cylinder": 2, "BSplineSurface": 1, "Plane": 1},
+    # 3 notches (arc + 2 fillets each) cut the cone into 3 pieces
+    "punch-C5": {"Cylinder": 2 + 3 * 3, "Cone": 3, "Plane": 4},
 }
 
 
@@ -225,3 +228,57 @@ def test_grind_outputs_report_the_failed_mesh(build_preset, tmp_path, monkeypatc
     assert seen == [(mesh, False)]
     assert res.files == [str(prog)] and res.summary()["failed"][0]["path"] == str(mesh)
     assert prog.exists() and not mesh.exists()
+
+
+def _circle3(p0, pm, p1) -> tuple[np.ndarray, float]:
+    """Centre and radius of the circle through three points."""
+    a = np.array([[p0[0] - pm[0], p0[1] - pm[1]], [pm[0] - p1[0], pm[1] - p1[1]]]) * 2.0
+    b = np.array([p0[0] ** 2 + p0[1] ** 2 - pm[0] ** 2 - pm[1] ** 2,
+                  pm[0] ** 2 + pm[1] ** 2 - p1[0] ** 2 - p1[1] ** 2])
+    c = np.linalg.solve(a, b)
+    return c, float(np.hypot(*(np.asarray(p0) - c)))
+
+
+def _outline_area(outline) -> float:
+    """Exact area of a closed outline of lines and arcs: the shoelace sum of
+    its chords plus each arc's circular segment (signed by its turning)."""
+    area = 0.0
+    for kind, *pts in outline:
+        p0, p1 = pts[0], pts[-1]
+        area += 0.5 * (p0[0] * p1[1] - p1[0] * p0[1])
+        if kind == "arc":
+            c, r = _circle3(*pts)
+            chord = float(np.hypot(p1[0] - p0[0], p1[1] - p0[1]))
+            half = math.asin(min(chord / (2 * r), 1.0))
+            # the mid point lies left of the chord p0→p1 for a bulge to the left
+            side = ((p1[0] - p0[0]) * (pts[1][1] - p0[1]) - (p1[1] - p0[1]) * (pts[1][0] - p0[0]))
+            far = np.hypot(pts[1][0] - 0.5 * (p0[0] + p1[0]), pts[1][1] - 0.5 * (p0[1] + p1[1]))
+            theta = 2 * half if far <= r else 2 * math.pi - 2 * half  # the arc's angle
+            seg = 0.5 * r * r * (theta - math.sin(theta))
+            area -= math.copysign(seg, side)
+    return area
+
+
+@pytest.mark.parametrize("r_c, depth, r_s", [(0.15, 0.15, 0.015), (0.15, 0.15, 0.0),
+                                             (0.15, 0.3, 0.0), (0.15, 0.3, 0.015),
+                                             (0.15, 0.1, 0.015), (0.15, 0.1, 0.0)])
+def test_serration_outline_is_closed_and_matches_the_profile(r_c, depth, r_s):
+    from tipgeo.cutters import SerrationProfile
+
+    prof = SerrationProfile(r_c, depth, r_s, 0.0)
+    out = prof.outline(0.5)
+    for piece, nxt in zip(out, out[1:] + out[:1]):
+        assert math.dist(piece[-1], nxt[1]) <= 1e-15  # each piece starts where one ends
+    for kind, *pts in out:
+        if kind == "arc":  # every arc is the main arc (r_c) or a fillet (r_s)
+            _, r = _circle3(*pts)
+            assert min(abs(r - r_c), abs(r - r_s)) <= 1e-12
+    a = _outline_area(out)
+    assert a == pytest.approx(_poly_area(prof.polygon(1e-9, 0.5)), abs=1e-8)
+    if r_s == 0 and depth == r_c:  # a half disc under a 2 r_c × 0.5 rectangle
+        assert a == pytest.approx(0.5 * math.pi * r_c ** 2 + 2 * r_c * 0.5, rel=1e-13)
+
+
+def _poly_area(p) -> float:
+    x, y = p[:, 0], p[:, 1]
+    return float(0.5 * np.sum(x * np.roll(y, -1) - np.roll(x, -1) * y))

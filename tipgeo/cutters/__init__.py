@@ -22,11 +22,12 @@ from .planar import (
     multiplane_xi_for_theta,
 )
 from .serration import SERRATION_PRESETS, SerrationCutter, SerrationProfile
-from .surfaces import ConeSurface, HeightSurface, ImplicitSurface, Surface
+from .surfaces import ConeSurface, HeightSurface, ImplicitSurface, NotchPrism, Surface
 from .toml import CutterTable
 
 __all__ = ["Cutter", "CUTTER_KINDS", "register_cutter", "cutter_kind", "check_name",
-           "CutterTable", "ConeSurface", "HeightSurface", "ImplicitSurface", "Surface",
+           "CutterTable", "ConeSurface", "HeightSurface", "ImplicitSurface", "NotchPrism",
+           "Surface",
            "PlanarCutter", "PlaneSetCutter", "BevelCutter", "MultiPlaneCutter", "LancetCutter",
            "Plane", "ConicalCutter", "HelicalCutter", "SerrationCutter", "SerrationProfile",
            "MeshCutter", "SDFCutter", "SERRATION_PRESETS", "multiplane_xi_for_theta",

@@ -40,6 +40,7 @@ from ..construct import AUX
 from ..errors import SpecError
 from ..tolerances import tol
 from .base import Cutter, check_name
+from .surfaces import NotchPrism
 from .toml import round_for_toml as _r
 
 __all__ = ["SerrationCutter", "SerrationProfile", "SERRATION_PRESETS"]
@@ -106,10 +107,10 @@ class SerrationProfile:
             return max(2, math.ceil(span / (2 * math.acos(max(1 - chordal / r, -1.0)))))
 
         uf, zf, ut, zt = self.fillet()
-        if self.r_s > 0:
-            a_t = math.atan2(zt - z_c, ut)              # end of the main arc (right)
-        elif self.straight:
+        if self.straight:  # the arc ends level with its centre; the sides go on up
             a_t = 0.0
+        elif self.r_s > 0:
+            a_t = math.atan2(zt - z_c, ut)              # end of the main arc (right)
         else:
             a_t = math.atan2(self.z_e - z_c, self.half_width)
         a = np.linspace(-0.5 * math.pi, a_t, nseg(r_c, a_t + 0.5 * math.pi) + 1)
@@ -130,6 +131,52 @@ class SerrationProfile:
         poly = np.concatenate([right, left[:-1]])  # left ends at the shared bottom point
         keep = np.r_[True, np.linalg.norm(np.diff(poly, axis=0), axis=1) > tol.dedup]
         return poly[keep]
+
+    def outline(self, z_top: float) -> tuple:
+        """The exact closed notch outline up to ``z_top`` (mm), counter-clockwise
+        in (u, z): circular arcs (three points each) and straight lines, as
+        :class:`~tipgeo.cutters.surfaces.NotchPrism` takes it. Main arc
+        through the lowest point (0, z_c − r_c); straight sides u = ±r_c up to
+        the fillets when depth > r_c; fillets of radius r_s; vertical walls
+        from the rim up to ``z_top``; the top closed by a line."""
+        r_c, r_s, z_c, z_e = self.r_c, self.r_s, self.z_c, self.z_e
+        right: list[tuple] = []  # pieces of the right half, from the bottom up
+
+        def arc(cu, cz, r, a0, a1):
+            am = 0.5 * (a0 + a1)
+            return ("arc", (cu + r * math.cos(a0), cz + r * math.sin(a0)),
+                    (cu + r * math.cos(am), cz + r * math.sin(am)),
+                    (cu + r * math.cos(a1), cz + r * math.sin(a1)))
+
+        if r_s > 0:
+            uf, zf, ut, zt = self.fillet()
+            a_t = 0.0 if self.straight else math.atan2(zt - z_c, ut)
+            right.append(arc(0.0, z_c, r_c, -0.5 * math.pi, a_t))
+            if self.straight and zf > z_c:
+                right.append(("line", (r_c, z_c), (r_c, zf)))
+            b0 = math.pi if self.straight else math.atan2(zt - zf, ut - uf)
+            right.append(arc(uf, zf, r_s, b0, 0.5 * math.pi))
+            w, z_w = uf, z_e
+        elif self.straight:
+            right.append(arc(0.0, z_c, r_c, -0.5 * math.pi, 0.0))
+            w, z_w = r_c, z_c
+        else:
+            w = self.half_width
+            right.append(arc(0.0, z_c, r_c, -0.5 * math.pi, math.atan2(z_e - z_c, w)))
+            w, z_w = w, z_e
+        right.append(("line", (w, z_w), (w, z_top)))
+
+        def mirror(piece):
+            kind, *pts = piece
+            return (kind, *[(-u, z) for u, z in reversed(pts)])
+
+        left = [mirror(pc) for pc in reversed(right)]  # from the top down to the bottom
+        # the main arc is one piece through the bottom point: join its halves
+        (_, l0, lm, _), (_, _, rm, r1) = left[-1], right[0]
+        bottom = ("arc", l0, (0.0, z_c - r_c), r1)
+        del lm, rm
+        pieces = [bottom, *right[1:], ("line", (w, z_top), (-w, z_top)), *left[:-1]]
+        return tuple(pieces)
 
     def bottom(self, u: np.ndarray) -> np.ndarray:
         """Lowest z of the notch above tangential offset u (+inf outside)."""
@@ -159,9 +206,12 @@ class SerrationProfile:
         ang = np.arctan2(z - z_c, u)
         uf, zf, ut, zt = self.fillet() if self.r_s > 0 else (
             self.r_c, self.z_e, self.half_width, self.z_e)
-        a_t = math.atan2(zt - z_c, ut)
+        # the arc ends where the fillet (or the rim) takes over, or level with
+        # its centre where straight sides go on up
+        a_t = 0.0 if self.straight else math.atan2(zt - z_c, ut)
+        u_t, z_t = (r_c, z_c) if self.straight else (ut, zt)
         # beyond the arc's span use the distance to its end point
-        d_arc = np.where(ang <= a_t, d_arc, np.hypot(u - ut, z - zt))
+        d_arc = np.where(ang <= a_t, d_arc, np.hypot(u - u_t, z - z_t))
         d = d_arc
         if self.straight:
             top = zf if self.r_s > 0 else self.z_e
@@ -333,6 +383,26 @@ class SerrationCutter(Cutter):
 
     def z_upper(self, cannula):
         return math.inf
+
+    def exact_bounds(self, cannula, previous=()):
+        """One :class:`~tipgeo.cutters.surfaces.NotchPrism` per serration (the
+        notches are removed): the exact outline (:meth:`SerrationProfile.outline`)
+        up to above the preceding cutters' material, through the wall as in
+        :meth:`solid`."""
+        if not previous:
+            return None
+        self.check(cannula)
+        tops = [c.z_upper(cannula) for c in previous]
+        top = min(t for t in tops if math.isfinite(t)) if any(map(math.isfinite, tops)) else None
+        if top is None:
+            return None
+        margin = tol.margin_ratio * cannula.r_o
+        out = []
+        for g, prof in zip(self.angles(), self.profiles(cannula, previous)):
+            r0 = 0.5 * math.sqrt(cannula.r_i ** 2 - prof.half_width ** 2)
+            out.append(NotchPrism(prof.outline(max(top, prof.z_e) + 2 * margin), float(g), r0,
+                                  cannula.r_o + margin, self.label))
+        return tuple(out)
 
     def solid(self, ctx):
         cannula = ctx.cannula

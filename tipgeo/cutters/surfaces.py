@@ -16,7 +16,7 @@ from typing import Any
 
 import numpy as np
 
-__all__ = ["Plane", "ConeSurface", "ImplicitSurface", "HeightSurface", "Surface"]
+__all__ = ["Plane", "ConeSurface", "ImplicitSurface", "HeightSurface", "NotchPrism", "Surface"]
 
 HALF_PI = 0.5 * math.pi
 
@@ -87,5 +87,25 @@ class HeightSurface:
     label: str
 
 
+@dataclass(frozen=True)
+class NotchPrism:
+    """Material *removed* (kept outside): a right prism through the wall at
+    azimuth ``angle`` (rad). Its cross-section lies in the plane spanned by
+    the tangential unit vector t = (−sin γ, cos γ, 0) (coordinate u) and +z
+    (coordinate z); it is extruded along the radial unit vector
+    w = (cos γ, sin γ, 0) from ρ = ``r_in`` to ``r_out`` (mm).
+
+    ``outline`` is the closed cross-section as consecutive pieces, each
+    ``('line', (u0, z0), (u1, z1))`` or ``('arc', (u0, z0), (um, zm), (u1,
+    z1))`` — a circular arc through three of its points (mm), so the outline
+    is exact."""
+
+    outline: tuple
+    angle: float
+    r_in: float
+    r_out: float
+    label: str
+
+
 #: Any analytic face a cutter may report.
-Surface = Plane | ConeSurface | ImplicitSurface | HeightSurface
+Surface = Plane | ConeSurface | ImplicitSurface | HeightSurface | NotchPrism

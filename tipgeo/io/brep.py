@@ -16,10 +16,14 @@ sides of exact surfaces (:meth:`~tipgeo.cutters.base.Cutter.exact_bounds`):
   height field (the helicoid): a bicubic B-spline interpolating the exact
   heights on a square grid around the wall, refined until its height is within
   ``tol.step_fit_share`` × the build tolerance of the exact surface at every
-  cell centre and edge midpoint, extruded downwards.
+  cell centre and edge midpoint, extruded downwards;
+* :class:`~tipgeo.cutters.surfaces.NotchPrism` — material removed (the
+  serration notches): a prism over an outline of exact lines and circular
+  arcs, extruded radially through the wall.
 
-The tip is the tube ∩ every kept material (BRepAlgoAPI_Common), with faces of
-one surface merged again (ShapeUpgrade_UnifySameDomain). OCP is imported
+The tip is the tube ∩ every kept material (BRepAlgoAPI_Common) minus every
+removed prism (BRepAlgoAPI_Cut), with faces of one surface merged again
+(ShapeUpgrade_UnifySameDomain). OCP is imported
 where used; without it the functions raise :class:`ExportError`.
 """
 
@@ -41,6 +45,7 @@ def occ() -> SimpleNamespace:
     """The OCP modules the exact B-rep uses (ExportError if OCP is missing)."""
     try:
         from OCP import (
+            GC,
             BRepAlgoAPI,
             BRepBuilderAPI,
             BRepCheck,
@@ -62,7 +67,7 @@ def occ() -> SimpleNamespace:
     return SimpleNamespace(BRepAlgoAPI=BRepAlgoAPI, BRepBuilderAPI=BRepBuilderAPI,
                            BRepCheck=BRepCheck, BRepGProp=BRepGProp, BRepPrimAPI=BRepPrimAPI,
                            GeomAPI=GeomAPI, GProp=GProp, ShapeUpgrade=ShapeUpgrade,
-                           TopAbs=TopAbs, TopExp=TopExp, TopoDS=TopoDS, gp=gp,
+                           TopAbs=TopAbs, TopExp=TopExp, TopoDS=TopoDS, gp=gp, GC=GC,
                            Array2_double=Array2_double)
 
 
@@ -134,6 +139,9 @@ def exact_solid(spec, tolerance: float) -> ExactSolid:
     shape = _tube(o, can.r_o, can.r_i, z_bottom, z_top)
     for k, cutter in enumerate(spec.cutters):
         for b in cutter.exact_bounds(can, tuple(spec.cutters[:k])):
+            if type(b).__name__ == "NotchPrism":
+                shape = _boolean(o, "Cut", shape, _notch(o, b), f"tube − {b.label}")
+                continue
             region = _region(o, b, can, z_bottom - 2 * margin, z_top + 2 * margin, span,
                              tolerance, res)
             shape = _boolean(o, "Common", shape, region, f"tube ∩ {b.label}")
@@ -183,6 +191,31 @@ def _region(o, b, can, z_lo: float, z_hi: float, span: float, tolerance: float,
         depth = fit["z_max_mm"] - z_lo
         return o.BRepPrimAPI.BRepPrimAPI_MakePrism(face, o.gp.gp_Vec(0.0, 0.0, -depth)).Shape()
     raise ExportError(f"exact STEP export: surface {b.label} ({kind}) has no exact solid form")
+
+
+def _notch(o, b):
+    """The removed prism of a NotchPrism: its outline's exact lines and arcs
+    in the plane (t, z) at ρ = r_in, extruded along w to r_out."""
+    c, s = math.cos(b.angle), math.sin(b.angle)
+    w = np.array([c, s, 0.0])
+    t = np.array([-s, c, 0.0])
+
+    def pnt(uz):
+        x = b.r_in * w + uz[0] * t + np.array([0.0, 0.0, uz[1]])
+        return o.gp.gp_Pnt(*x.tolist())
+
+    wire = o.BRepBuilderAPI.BRepBuilderAPI_MakeWire()
+    for kind, *pts in b.outline:
+        if kind == "arc":
+            curve = o.GC.GC_MakeArcOfCircle(*(pnt(q) for q in pts)).Value()
+        else:
+            curve = o.GC.GC_MakeSegment(pnt(pts[0]), pnt(pts[1])).Value()
+        wire.Add(o.BRepBuilderAPI.BRepBuilderAPI_MakeEdge(curve).Edge())
+    if not wire.IsDone():
+        raise ExportError(f"exact STEP export: the outline of {b.label} is not a closed wire")
+    face = o.BRepBuilderAPI.BRepBuilderAPI_MakeFace(wire.Wire(), True).Face()
+    depth = (b.r_out - b.r_in) * w
+    return o.BRepPrimAPI.BRepPrimAPI_MakePrism(face, o.gp.gp_Vec(*depth.tolist())).Shape()
 
 
 def fit_height(o, b, can, tolerance: float):

@@ -99,7 +99,7 @@ def write_grind_outputs(res: GrindResult, *, program: str | Path | None = None,
     raised before anything is written.
     """
     from tipgeo.atomic import write_text_atomic
-    from tipgeo.errors import TipGeoError
+    from tipgeo.errors import ExportError
     from tipgeo.io import check_export, export_tip
 
     def failed(path, exc):
@@ -111,7 +111,7 @@ def write_grind_outputs(res: GrindResult, *, program: str | Path | None = None,
             raise ValueError("mesh: the result has no simulated tip (grind(simulate_tip=True))")
         try:
             check_export(res.ground, mesh)
-        except TipGeoError as exc:
+        except ExportError as exc:
             if on_error is None:
                 raise
             failed(mesh, exc)
@@ -132,7 +132,7 @@ def write_grind_outputs(res: GrindResult, *, program: str | Path | None = None,
         try:
             export_tip(res.ground, mesh)
             wrote.append(str(mesh))
-        except TipGeoError as exc:
+        except ExportError as exc:
             if on_error is None:
                 raise
             failed(mesh, exc)

@@ -374,6 +374,9 @@ class Tolerances:
     step_fit_max_grid : int
         Most interpolation nodes along each side of such a B-spline; a surface
         needing more is an ``ExportError`` (raise the build tolerance).
+    step_occ : float
+        Tolerance of the faces OCCT makes for the exact STEP export (mm):
+        OCCT's own ``Precision::Confusion``.
     """
 
     chordal: float = DEFAULT_CHORDAL_MM
@@ -421,6 +424,7 @@ class Tolerances:
     gp_fatol: float = 1.0e-8
     step_fit_share: float = 0.5
     step_fit_max_grid: int = 385
+    step_occ: float = 1.0e-7
 
 
 #: The process-wide tolerance object. Tests set ``tol.strict = True``.

@@ -130,10 +130,10 @@ def exact_solid(spec, tolerance: float) -> ExactSolid:
     if why is not None:
         raise ExportError(f"exact STEP export: {why}; use step_form='faceted'")
     can = spec.cannula
-    z_top = min(c.z_upper(can) for c in spec.cutters)
-    z_top = max(z_top, 0.0) + 0.25 * can.r_o + 0.1  # as the mesh builder does
-    z_bottom = -can.length
     margin = tol.margin_ratio * can.r_o
+    # the uncut tube reaches past the tip's top (the cutters bound it from above)
+    z_top = max(min(c.z_upper(can) for c in spec.cutters), 0.0) + 4.0 * margin
+    z_bottom = -can.length
     span = 2.0 * (can.r_o + abs(z_bottom) + abs(z_top)) + 1.0
     res = ExactSolid(shape=None)
     shape = _tube(o, can.r_o, can.r_i, z_bottom, z_top)
@@ -187,7 +187,7 @@ def _region(o, b, can, z_lo: float, z_hi: float, span: float, tolerance: float,
     if kind == "HeightSurface":
         surf, fit = fit_height(o, b, can, tolerance)
         res.fits.append(fit)
-        face = o.BRepBuilderAPI.BRepBuilderAPI_MakeFace(surf, 1e-7).Face()
+        face = o.BRepBuilderAPI.BRepBuilderAPI_MakeFace(surf, tol.step_occ).Face()
         depth = fit["z_max_mm"] - z_lo
         return o.BRepPrimAPI.BRepPrimAPI_MakePrism(face, o.gp.gp_Vec(0.0, 0.0, -depth)).Shape()
     raise ExportError(f"exact STEP export: surface {b.label} ({kind}) has no exact solid form")

@@ -163,10 +163,12 @@ def export_many(tip: Tip, paths: Sequence[str | os.PathLike[str]], *,
     ``options``), telling what cannot be written before writing the others.
 
     Every path is first checked (:func:`check_export`: options, path, a
-    missing OCP for STEP …). With ``on_error`` ``None`` the first problem is
-    raised before anything is written. Otherwise ``on_error(path, exc)`` is
-    called for every path that fails its check — all before the first write —
-    and then for every write that fails; the other files are written.
+    missing OCP for STEP …); bad input (:class:`~tipgeo.errors.SpecError`)
+    is raised then, before anything is written. An export that cannot be
+    made (:class:`ExportError`) is raised too when ``on_error`` is ``None``;
+    otherwise ``on_error(path, exc)`` is called for every path that fails
+    its check — all before the first write — and then for every write that
+    fails, and the other files are written.
 
     Returns
     -------
@@ -178,7 +180,7 @@ def export_many(tip: Tip, paths: Sequence[str | os.PathLike[str]], *,
     for path in paths:
         try:
             ok.append(check_export(tip, path, **options))
-        except TipGeoError as exc:
+        except ExportError as exc:  # bad input (SpecError) is raised as it is
             if on_error is None:
                 raise
             report.failed.append((Path(os.fspath(path)), str(exc)))
@@ -186,7 +188,7 @@ def export_many(tip: Tip, paths: Sequence[str | os.PathLike[str]], *,
     for p in ok:
         try:
             report.written.append(export_tip(tip, p, **options))
-        except TipGeoError as exc:
+        except ExportError as exc:
             if on_error is None:
                 raise
             report.failed.append((p, str(exc)))

@@ -16,6 +16,8 @@ import struct
 
 import numpy as np
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 from tipgeo import preset
 from tipgeo.errors import SpecError
@@ -261,3 +263,19 @@ def test_cli_grind_writes_a_parseable_program(tmp_path):
     out = tmp_path / "p.nc"
     assert main(["grind", "threeplane-14G-xi15", "--gcode", str(out)]) == 0
     check_iso_program(out.read_text(encoding="ascii"))
+
+
+@settings(max_examples=200, deadline=None)
+@given(st.text(max_size=80))
+def test_any_comment_text_becomes_one_parseable_ascii_comment(text):
+    from pygcode import Line
+
+    from cam.iso import iso_comment
+
+    c = iso_comment(text)
+    c.encode("ascii")
+    assert c.startswith("(") and c.endswith(")") and c.count("(") == 1 and c.count(")") == 1
+    assert not set(";%\n\r\t") & set(c)
+    line = Line(f"G00 X1.0000 {c}")
+    assert line.comment is not None and line.comment.text == c[1:-1]
+    assert [str(g) for g in line.block.gcodes] == ["G00 X1"]

@@ -60,11 +60,12 @@ class MeshCutter(Cutter):
     name: str = "custom"
     source: str | None = None
     kind = "mesh"
-    toml_keys = {"path": "mesh file, relative to the spec file", "units": "mm, um or m"}
+    toml_keys = {"path": "mesh file, relative to the spec file",
+                 "units": "mm, um or m; default the file's own (a tipgeo GLB says), else mm"}
 
     @classmethod
     def from_dict(cls, t):
-        return cls.from_file(t.path("path"), units=t.str("units", "mm"),
+        return cls.from_file(t.path("path"), units=t.str("units"),
                              name=t.str("name", "custom"))
 
     def to_dict(self):
@@ -77,8 +78,10 @@ class MeshCutter(Cutter):
         check_name(self.name)
 
     @classmethod
-    def from_file(cls, path, *, name: str = "custom", units: str = "mm") -> MeshCutter:
-        """Load the kept solid from a mesh file (STL, PLY, OBJ, …)."""
+    def from_file(cls, path, *, name: str = "custom", units: str | None = None) -> MeshCutter:
+        """Load the kept solid from a mesh file (STL, PLY, OBJ, …) in
+        ``units`` (default: the unit the file declares, else mm; see
+        :func:`tipgeo.io.load_tip`)."""
         from ..io import load_tip
 
         tip = load_tip(path, units=units)

@@ -102,6 +102,17 @@ def test_exact_step_is_a_valid_closed_solid(exported, name):
     BRepGProp.VolumeProperties_s(solid, props)
     assert props.Mass() > 0
     assert abs(props.Mass() - tip.volume) <= tip.tolerance * tip.area
+    # the same place and orientation (a plane turned by π keeps the volume):
+    # boundaries within t move the first moment by ≤ t·area·max|p|, so the
+    # centroids differ by ≤ t·area·(max|p| + |c|)/V
+    c = props.CentreOfMass()
+    c_exact = np.array([c.X(), c.Y(), c.Z()])
+    tri = tip.vertices[tip.faces]
+    six_v = np.einsum("ij,ij->i", tri[:, 0], np.cross(tri[:, 1], tri[:, 2]))
+    c_mesh = (six_v[:, None] * tri.sum(axis=1)).sum(axis=0) / (4.0 * six_v.sum())
+    reach = np.linalg.norm(tip.vertices, axis=1).max()
+    bound = tip.tolerance * tip.area * (reach + np.linalg.norm(c_mesh)) / tip.volume
+    assert np.linalg.norm(c_exact - c_mesh) <= bound
 
 
 def test_helicoid_bspline_is_within_the_fit_tolerance(exported):

@@ -336,7 +336,10 @@ def interpret(program: ast.Program, *, tool_radii: dict[int, float] | None = Non
             else:  # pragma: no cover - parser guarantees the node types
                 raise GCodeError(f"unknown statement {type(s).__name__}")
 
-    run(program.body)
+    try:
+        run(program.body)
+    except _EndOfProgram:
+        pass
     segments = _compensate(raw, warnings)
     return Toolpath(segments, st.period_us, st.on_us,
                     "seconds" if st.time_per_unit == 1.0 else "minutes", warnings, rapid_speed)
@@ -400,6 +403,10 @@ def _weight(s) -> int:
     return 1  # pragma: no cover - parser guarantees the node types
 
 
+class _EndOfProgram(Exception):
+    """``END``, ``END PROGRAM``, ``M2`` or ``M30``: nothing after it runs."""
+
+
 def _mode(st: _State, s: ast.Mode, err) -> None:
     k = s.keyword
     if k == "SECONDS":
@@ -414,7 +421,9 @@ def _mode(st: _State, s: ast.Mode, err) -> None:
         st.absolute = True
     elif k == "INCREMENTAL":
         st.absolute = False
-    elif k in ("ENABLE", "END"):
+    elif k == "END":
+        raise _EndOfProgram
+    elif k == "ENABLE":
         pass
     else:
         raise err(f"keyword {k} is not supported", s.span)

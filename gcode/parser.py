@@ -386,6 +386,11 @@ class _Line:
                     raise self.error(f"ENABLE expects axis letters, found {tok.text!r}", tok)
             if not args:
                 raise self.error("ENABLE needs at least one axis", head)
+        elif head.value == "END" and (tok := self.peek()) is not None and tok.kind == "ident" \
+                and tok.value == "PROGRAM":
+            self.advance()
+            args.append("PROGRAM")
+            self.expect_end()
         else:
             self.expect_end()
         return ast.Mode(head.value, tuple(args), span)

@@ -605,8 +605,8 @@ def _block(st: _State, b: ast.Block, ev, err, raw, tools, note, dwell) -> None:
                 st.absolute = False
             elif code == 92:
                 g92 = True
-            elif code in (44, 98):
-                pass  # axis selection for compensation / accepted as in Appendix C
+            elif code in (17, 44, 98):
+                pass  # the XY plane (the only one) / compensation axes / as in Appendix C
             elif code == 4:
                 g4 = True
             elif code in (70, 71):

@@ -70,8 +70,8 @@ __all__ = ["parse", "parse_expression", "is_statement", "G_CODES", "WORD_LETTERS
            "MAX_MACROS"]
 
 #: G codes accepted (``G00``–``G03`` may be written with a leading zero).
-G_CODES = frozenset({0, 1, 2, 3, 4, 40, 41, 42, 44, 70, 71, 75, 76, 90, 91, 92, 98, 108, 109,
-                     359, 360, 361})
+G_CODES = frozenset({0, 1, 2, 3, 4, 17, 40, 41, 42, 44, 70, 71, 75, 76, 90, 91, 92, 98, 108,
+                     109, 359, 360, 361})
 #: Letters that may start a word (P: the dwell time of G4, s).
 WORD_LETTERS = frozenset("GXYZABCIJKFETNP")
 #: Axis letters: may stand bare (``G44 X Y``), name PSO and ENABLE axes.
@@ -742,6 +742,10 @@ class _Line:
         if self.peek().kind == "str" and self.pos + 1 == len(self.tokens):
             self.advance()
             return ast.NoMotion("STRING", f"sets the string {self.source(var)}", span)
+        if self.peek().kind == "ident" and self.peek().value in NO_MOTION:
+            kw = self.advance().value       # $h = FILEOPEN "log.txt", 2
+            self.pos = len(self.tokens)
+            return ast.NoMotion(kw, f"{NO_MOTION[kw]} (result in {self.source(var)})", span)
         expr, _ = self.expr(0)
         self.expect_end()
         if index or IO_NAME.match(var.value):

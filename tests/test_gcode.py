@@ -149,10 +149,10 @@ def test_cli_laser_check_and_sim(tmp_path, capsys):
     assert png.stat().st_size > 10_000 and (tmp_path / "p-rim.png").exists()
     assert stl.stat().st_size > 1000
     bad = tmp_path / "bad.pgm"
-    bad.write_text("G01 X1 F1\nG17\n")
+    bad.write_text("G01 X1 F1\nG18\n")
     assert main(["gcode", "check", str(bad)]) == 2
     err = capsys.readouterr().err
-    assert "line 2" in err and "G17" in err
+    assert "line 2" in err and "G18" in err
     assert main(["gcode", "check", str(bad), "--lenient"]) == 0
 
 

@@ -14,6 +14,18 @@ feeds F and E, tool T (radius from the tool table), cutter compensation
 C angle, the laser (PSOCONTROL … FIRE/ON/OFF) and its pulse timing (PSOPULSE
 … TIME period on CYCLES n, µs).
 
+Control flow and the rest of the A3200 language: WHILE, IF/ELSEIF/ELSE
+(conditions evaluated as 1/0), CALL of a DFS subroutine with letter
+arguments (``$p``, ``$q`` … inside, restored after; calls nest at most
+:data:`MAX_CALL_DEPTH`), DWELL and G4 P (seconds whatever the time base;
+:attr:`Toolpath.dwells`, counted in the summary's time), G70/G71 and
+G75/G76 (units and time base), END/END PROGRAM/M2/M30 stop the run.
+Statements that move nothing (I/O and system variables, VELOCITY, G359, file
+and message commands …) are recorded in :attr:`Toolpath.no_motion` with what
+they did and how often; the last value written to each output in
+:attr:`Toolpath.io`. Z moves count in the path length and time (XYZ); the
+beam-centre geometry is XY.
+
 Cutter compensation offsets lines and arcs by the tool radius to the chosen
 side of the travel direction; concave joints are trimmed to the offsets'
 intersection, convex joints get a round corner about the programmed point;

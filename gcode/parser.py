@@ -1,30 +1,68 @@
-"""Parser of the Aerotech A3200 AeroBasic subset of the thesis's laser program.
+"""Parser of Aerotech A3200 AeroBasic: the thesis's laser program (Appendix C)
+and the A3200 that laser-writing and direct-ink-writing programs are written in.
 
-The language is the one of Appendix C (micro-serrations ablated with a
-pulsed laser): one statement per line, keywords case-insensitive, comments
-``;`` or ``//`` to the end of the line. Statements (see :mod:`gcode.ast`):
+One statement per line, keywords case-insensitive, comments ``;``, ``//`` or
+``'`` to the end of the line (outside a ``"string"``). Statements (see
+:mod:`gcode.ast`); "interpreted" ones change the toolpath or its time,
+"no motion" ones are parsed, recorded with what they do and reported by
+``tipgeo gcode check``:
 
-``DVAR $a, $b``                     :class:`~gcode.ast.DVar` (commas optional)
-``$name = expr``                    :class:`~gcode.ast.Assign`
-``REPEAT expr`` … ``END REPEAT``    :class:`~gcode.ast.Repeat` (nested; also
-                                    ``ENDREPEAT``)
-``PSOPULSE X TIME 10 5 CYCLES 1e7`` :class:`~gcode.ast.Pso` (any ``PSO…``
-                                    command: command, axis letter, then
-                                    upper-case keywords and expressions)
-``SECONDS`` ``MINUTES`` ``METRIC``  :class:`~gcode.ast.Mode`; ``ENABLE X Y``
-``ENGLISH`` ``ABSOLUTE``            keeps its axes in ``args``; ``END`` ends
-``INCREMENTAL`` ``ENABLE`` ``END``  the program
-``G01 G41 X$comp F $feed``          :class:`~gcode.ast.Block` of words and
-                                    motion keywords (``LINEAR`` ``RAPID``
-                                    ``CW`` ``CCW``)
+=========================================  =========================================
+``#define NAME text``, ``#undef NAME``     preprocessor: object-like macros,
+                                           substituted (rescanned, C-style) before
+                                           the line is read; tokens keep the
+                                           line and column of the macro's use.
+                                           ``#include``/``#if…`` and function-like
+                                           macros are refused
+``DVAR $a, $b`` (any of space, tab,        :class:`~gcode.ast.DVar` (arrays
+comma), ``DVAR $pts[100]``                 ``$pts[n]`` declared)
+``$name = expr``                           :class:`~gcode.ast.Assign`
+``$DO[0].X = 1``, ``$AO[0].X = 2``,        :class:`~gcode.ast.SysAssign` — I/O and
+``$DO0.0 = 0``, ``$global[2] = 4``         system variables: no motion, value
+                                           recorded
+``REPEAT n`` … ``END REPEAT``              :class:`~gcode.ast.Repeat` (``ENDREPEAT``)
+``WHILE cond [DO]`` … ``ENDWHILE``         :class:`~gcode.ast.While`
+``IF cond THEN`` … ``ELSEIF cond THEN``    :class:`~gcode.ast.If`; conditions have
+… ``ELSE`` … ``ENDIF``                     ``== = <> != < > <= >=``, ``AND OR NOT``
+``DFS name`` … ``ENDDFS``                  :class:`~gcode.ast.Sub`, anywhere at the
+                                           top level (usually after ``END
+                                           PROGRAM``)
+``CALL name P1 Q$x``                       :class:`~gcode.ast.Call`; the letters are
+                                           ``$p``, ``$q`` … inside the subroutine
+``DWELL t``, ``G4 P t``                    :class:`~gcode.ast.Dwell`, seconds, in the
+                                           time
+``PSOPULSE X TIME 10, 5 CYCLES 1e7``       :class:`~gcode.ast.Pso` (any ``PSO…``
+                                           command: command, axis letter, then
+                                           keywords and expressions)
+``SECONDS MINUTES METRIC ENGLISH           :class:`~gcode.ast.Mode`; ``END``, ``END
+ABSOLUTE INCREMENTAL ENABLE END``,         PROGRAM``, ``M2``, ``M30`` end the
+``END PROGRAM``, ``M2``, ``M30``           program
+``G01 G41 X$comp F $feed``                 :class:`~gcode.ast.Block` of words and
+                                           motion keywords (``LINEAR`` ``RAPID``
+                                           ``CW`` ``CCW``)
+``VELOCITY ON``, ``ROUNDING``, ``WAIT …``, :class:`~gcode.ast.NoMotion` (see
+``CRITICAL START/END``, ``FREERUN A 1``    :data:`NO_MOTION`; FREERUN of an axis
+(not X Y Z C), file, message and string    outside X Y Z C), and the mode G codes
+commands (``FILECLOSE $h``, ``$h =         of :data:`G_NO_MOTION` (``G108``,
+FILEOPEN "f", 2``, ``$s = "text"``)        ``G359`` …)
+=========================================  =========================================
+
+Refused in every mode, even lenient: Ensemble AeroBasic (``HEADER … END
+HEADER``, ``PROGRAM``, ``DIM … AS``), named as that dialect; moves tipgeo
+cannot simulate (:data:`UNSIMULATED_MOTION`: ``HOME``, ``MOVEINC`` …;
+``FREERUN`` of X, Y, Z or C); and, in lenient mode, any skipped statement
+that names a motion G code or keyword or an axis with a value (a move that
+cannot be evaluated is never dropped).
 
 Words are a letter of :data:`WORD_LETTERS` and a value: a number, a
 ``$variable``, a parenthesised expression, or a sign applied to one of those
 (``X-0.05``, ``X$comp``, ``F $feed``, ``I-$radius``, ``X-($radius*2)``,
 ``G0 X (2*$r-2*$c)``), glued or spaced. A bare axis letter (``G44 X Y``) is a
 word with value None. G codes are those of :data:`G_CODES`; a leading ``N``
-line number is accepted and dropped. Expressions have ``+ - * /``, unary
-signs and parentheses with the usual precedence, left-associative; a minus
+line number is accepted and dropped; ``P`` is G4's dwell time. Expressions
+have ``+ - * /``, unary signs and parentheses with the usual precedence,
+left-associative (and, in conditions or parentheses, comparisons below
+them, then NOT, AND, OR); a minus
 directly before a number literal is folded into it (``-0.05`` is
 ``Num(-0.05)``), any other unary minus is :class:`~gcode.ast.Neg`. Inside
 PSO arguments expressions follow one another without separator (``TIME 10
@@ -32,9 +70,13 @@ PSO arguments expressions follow one another without separator (``TIME 10
 
 Errors are :class:`~gcode.errors.GCodeError` with the 1-based line and column
 of the offending text and that text; nothing else escapes :func:`parse`, for
-any string. Parentheses and REPEAT nest at most :data:`MAX_NESTING` deep and
-expression trees are at most :data:`MAX_EXPR_DEPTH` deep, so downstream
-recursion is bounded.
+any string. Parentheses and blocks (REPEAT, WHILE, IF, DFS) nest at most
+:data:`MAX_NESTING` deep and expression trees are at most
+:data:`MAX_EXPR_DEPTH` deep, so downstream recursion is bounded; a program
+has at most :data:`MAX_MACROS` macros, and one line at most
+:data:`MAX_EXPANSIONS` macro replacements and, expanded, at most
+:data:`~gcode.lexer.MAX_LINE_LENGTH` characters. ``#define``/``#undef``
+lines count as statements.
 
 Cost bounds. A line is at most :data:`~gcode.lexer.MAX_LINE_LENGTH`
 characters and :data:`~gcode.lexer.MAX_LINE_TOKENS` tokens (refused while
@@ -67,7 +109,7 @@ __all__ = ["parse", "parse_expression", "is_statement", "G_CODES", "WORD_LETTERS
            "AXIS_LETTERS", "MOTION_KEYWORDS", "MODE_KEYWORDS", "MAX_NESTING",
            "MAX_EXPR_DEPTH", "DEFAULT_MAX_STATEMENTS", "DEFAULT_MAX_TOKENS",
            "DEFAULT_MAX_LINES", "NO_MOTION", "G_NO_MOTION", "UNSIMULATED_MOTION", "IO_NAME",
-           "MAX_MACROS"]
+           "MAX_MACROS", "MAX_EXPANSIONS"]
 
 #: G codes accepted (``G00``–``G03`` may be written with a leading zero).
 G_CODES = frozenset({0, 1, 2, 3, 4, 17, 40, 41, 42, 44, 70, 71, 75, 76, 90, 91, 92, 98, 108,
@@ -147,6 +189,8 @@ _SUB_NAME = re.compile(r"[A-Za-z_][A-Za-z0-9_]*")
 IO_NAME = re.compile(r"(?:do|di|ao|ai)[0-9]*\Z")
 #: Most ``#define`` macros in one program.
 MAX_MACROS = 10_000
+#: Most macro replacements made in one line, nested ones included.
+MAX_EXPANSIONS = 4096
 
 
 class _Open:
@@ -382,12 +426,15 @@ def _directive(line: str, lineno: int, macros: dict[str, str], lexed: list) -> N
 
 
 def _expand(code: str, macros: dict[str, str], lineno: int,
-            active: frozenset = frozenset()) -> tuple[str, list]:
+            active: frozenset = frozenset(), budget: list | None = None) -> tuple[str, list]:
     """``code`` with every macro name replaced, and the pieces it was made of:
     ``(start in the result, start in code, length in code, from a macro)``.
 
     As in C, a replacement is rescanned for further macros, except the ones
-    being expanded (no recursion); the result is at most MAX_LINE_LENGTH."""
+    being expanded (no recursion); the result is at most MAX_LINE_LENGTH
+    characters and costs at most MAX_EXPANSIONS replacements (empty macros
+    nested in each other would otherwise cost exponential time for nothing)."""
+    budget = [MAX_EXPANSIONS] if budget is None else budget
     out: list[str] = []
     pieces: list[tuple[int, int, int, bool]] = []
     pos = 0
@@ -402,11 +449,18 @@ def _expand(code: str, macros: dict[str, str], lineno: int,
             pieces.append((size, pos, m.start() - pos, False))
             size += m.start() - pos
         rep = macros[name]
+        budget[0] -= 1
+        if budget[0] < 0:
+            raise GCodeError(f"more than {MAX_EXPANSIONS} macro replacements in one line "
+                             "(MAX_EXPANSIONS)", lineno, m.start() + 1, name)
         if len(active) >= MAX_NESTING:
             raise GCodeError(f"macros nested deeper than {MAX_NESTING}", lineno, m.start() + 1,
                              name)
         if _MACRO_USE.search(rep) is not None:
-            rep = _expand(rep, macros, lineno, active | {name})[0]
+            try:
+                rep = _expand(rep, macros, lineno, active | {name}, budget)[0]
+            except GCodeError as err:    # located at this use, not inside a replacement
+                raise GCodeError(err.reason, lineno, m.start() + 1, name) from None
         out.append(rep)
         pieces.append((size, m.start(), len(name), True))
         size += len(rep)

@@ -98,6 +98,27 @@ def test_undef_and_refused_directives():
             parse(directive + "\n", lenient=True)     # what it selects could move: never skipped
     with pytest.raises(GCodeError, match="after macro expansion"):
         parse("#define A $" + "v" * 1500 + "\n$x = A+A+A\n")
+    # empty macros nested in each other: a billion replacements of nothing, refused cheaply
+    nest = "#define E\n#define D " + "E " * 1000 + "\n#define C " + "D " * 1000 + "\n"
+    with pytest.raises(GCodeError, match=r"more than 4096 macro replacements") as info:
+        parse(nest + "$x = 1 C\n")
+    assert (info.value.line, info.value.column) == (4, 8)
+
+
+NAMES_OK = st.from_regex(r"[A-Za-z_][A-Za-z0-9_]{2,10}", fullmatch=True).filter(
+    lambda n: n.upper() not in {"AND", "NOT", "END", "DVAR", "THEN", "ELSE", "CALL", "DFS"})
+
+
+@settings(max_examples=100, deadline=None)
+@given(NAMES_OK, st.floats(-1e3, 1e3, allow_nan=False).map(lambda v: round(v, 6)),
+       st.integers(0, 6))
+def test_a_macro_runs_like_its_text_and_errors_point_at_its_use(name, value, pad):
+    text = f"#define {name} {value!r}\nF1\n{' ' * pad}G01 X {name} Y1\n"
+    macro, literal = run(text), run(f"; no macro\nF1\n{' ' * pad}G01 X {value!r} Y1\n")
+    assert macro.segments == literal.segments
+    with pytest.raises(GCodeError, match="needs a value") as info:
+        parse(f"#define {name} F\nG1 X1 {name}\n")
+    assert (info.value.line, info.value.column, info.value.text) == (2, 7, name)
 
 
 # -- system variables and I/O ------------------------------------------------------------

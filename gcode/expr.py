@@ -80,6 +80,27 @@ def evaluate(expr: ast.Expr, variables: Mapping[str, float],
             if not math.isfinite(value):
                 raise fail(f"variable ${node.name} is not finite: {value!r}")
             values.append(value)
+        elif isinstance(node, ast.BinOp) and node.op in _PRECEDENCE:
+            if not ready:
+                stack.append((node, True))
+                stack.append((node.right, False))
+                stack.append((node.left, False))
+                continue
+            right = values.pop()
+            left = values.pop()
+            if node.op == "+":
+                result = left + right
+            elif node.op == "-":
+                result = left - right
+            elif node.op == "*":
+                result = left * right
+            elif right == 0.0:
+                raise fail(f"division by zero in {to_source(node)}")
+            else:
+                result = left / right
+            if not math.isfinite(result):
+                raise fail(f"result out of range in {to_source(node)}")
+            values.append(result)
         elif isinstance(node, (ast.Neg, ast.Not)):
             if ready:
                 value = values.pop()
@@ -102,27 +123,6 @@ def evaluate(expr: ast.Expr, variables: Mapping[str, float],
                 values.append(float(left != 0.0 and right != 0.0))
             else:
                 values.append(float(left != 0.0 or right != 0.0))
-        elif isinstance(node, ast.BinOp) and node.op in _PRECEDENCE:
-            if not ready:
-                stack.append((node, True))
-                stack.append((node.right, False))
-                stack.append((node.left, False))
-                continue
-            right = values.pop()
-            left = values.pop()
-            if node.op == "+":
-                result = left + right
-            elif node.op == "-":
-                result = left - right
-            elif node.op == "*":
-                result = left * right
-            elif right == 0.0:
-                raise fail(f"division by zero in {to_source(node)}")
-            else:
-                result = left / right
-            if not math.isfinite(result):
-                raise fail(f"result out of range in {to_source(node)}")
-            values.append(result)
         else:
             raise fail(f"not an expression: {node!r}")
     return values[0]

@@ -361,7 +361,18 @@ def interpret(program: ast.Program, *, tool_radii: dict[int, float] | None = Non
             if ops > max_ops:
                 raise err(f"more than {max_ops} operations executed "
                           f"(max_operations = {max_ops}; runaway loop?)", s.span)
-            if isinstance(s, ast.Repeat):
+            if isinstance(s, ast.Block):
+                _block(st, s, ev, err, raw, tools, note, dwell)
+                if len(raw) > limits.max_segments:
+                    raise err(f"more than {limits.max_segments} moves "
+                              f"(max_segments = {limits.max_segments})", s.span)
+            elif isinstance(s, ast.Assign):
+                vars_[s.name] = ev(s.expr, s.span)
+            elif isinstance(s, ast.Pso):
+                _pso(st, s, ev, err)
+            elif isinstance(s, ast.Mode):
+                _mode(st, s, err)
+            elif isinstance(s, ast.Repeat):
                 n = ev(s.count, s.span)
                 k = round(n)
                 if abs(n - k) > tol.gcode.whole * max(1.0, abs(n)) or k < 0:
@@ -383,8 +394,6 @@ def interpret(program: ast.Program, *, tool_radii: dict[int, float] | None = Non
                               "runaway loop?)", s.span)
                 for _ in range(k):
                     run(s.body)
-            elif isinstance(s, ast.Assign):
-                vars_[s.name] = ev(s.expr, s.span)
             elif isinstance(s, ast.DVar):
                 for n in s.names:
                     declared.add(n)
@@ -431,15 +440,6 @@ def interpret(program: ast.Program, *, tool_radii: dict[int, float] | None = Non
                      f"sets {key} = {io[key]:.12g}")
             elif isinstance(s, ast.NoMotion):
                 note(s.span, s.keyword, s.what)
-            elif isinstance(s, ast.Mode):
-                _mode(st, s, err)
-            elif isinstance(s, ast.Pso):
-                _pso(st, s, ev, err)
-            elif isinstance(s, ast.Block):
-                _block(st, s, ev, err, raw, tools, note, dwell)
-                if len(raw) > limits.max_segments:
-                    raise err(f"more than {limits.max_segments} moves "
-                              f"(max_segments = {limits.max_segments})", s.span)
             else:  # pragma: no cover - parser guarantees the node types
                 raise GCodeError(f"unknown statement {type(s).__name__}")
 

@@ -180,6 +180,7 @@ _MOTION_HINT = re.compile(
 _ENSEMBLE = re.compile(
     rf"{_WS_RE}*(HEADER|END{_WS_RE}+HEADER|PROGRAM|DIM{_WS_RE}+[A-Za-z_$][A-Za-z0-9_$]*"
     rf"(?:{_WS_RE}*\([^)]*\))?{_WS_RE}+AS)(?![A-Za-z0-9_])", re.IGNORECASE)
+_ENSEMBLE_START = frozenset("HhPpDdEe")
 _DIRECTIVE = re.compile(rf"{_WS_RE}*#{_WS_RE}*([A-Za-z]*)")
 _MACRO_DEF = re.compile(rf"{_WS_RE}*#{_WS_RE}*define{_WS_RE}+([A-Za-z_][A-Za-z0-9_]*)(\(?)",
                         re.IGNORECASE)
@@ -275,14 +276,15 @@ def parse(text: str, *, lenient: bool = False,
         if lineno > max_lines:
             raise GCodeError(f"more than {max_lines} lines (max_lines = {max_lines})", lineno, 1,
                              line[:20])
-        if (m := _ENSEMBLE.match(line)) is not None:
+        head = line.lstrip(" \t\f\v")[:1]
+        if head in _ENSEMBLE_START and (m := _ENSEMBLE.match(line)) is not None:
             raise GCodeError(
                 f"this is Ensemble AeroBasic, not A3200 AeroBasic: {m.group(1).split()[0].upper()}"
                 " belongs to the Ensemble dialect (HEADER … END HEADER, PROGRAM … END PROGRAM, "
                 "DIM … AS, ' comments); tipgeo reads A3200 programs — translate it (DVAR "
                 "$name for DIM, no HEADER/PROGRAM block) or write it for the A3200",
                 lineno, m.start(1) + 1, m.group(1))
-        if _DIRECTIVE.match(line) is not None:
+        if head == "#":
             count += 1
             _check_count(count, max_statements, lineno, 1, line[:40])
             lexed: list[Token] = []

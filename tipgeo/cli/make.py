@@ -155,7 +155,7 @@ def register(sub) -> None:
                     help="beam diameter (20); T1's radius is half of it")
     gc.add_argument("--tolerance-um", type=float, default=None)
     gc.add_argument("--lenient", action="store_true",
-                    help="skip unsupported statements with a warning")
+                    help="skip unsupported statements with a warning (never a move)")
     gc.add_argument("--plot", metavar="FILE", help="toolpath picture (and FILE-rim.png)")
     gc.add_argument("--mesh", metavar="FILE", help="write the ablated tip (sim)")
     gc.add_argument("--json", action="store_true")

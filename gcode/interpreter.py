@@ -11,7 +11,7 @@ Modal state: units (METRIC; ENGLISH scales linear axes by 25.4, never C),
 ABSOLUTE/INCREMENTAL (G90/G91), motion mode (G0–G3; RAPID, LINEAR, CW, CCW),
 feeds F and E, tool T (radius from the tool table), cutter compensation
 (G40 off, G41 left, G42 right; G44 selects its axes), G92 position preset,
-C angle, the laser (PSOCONTROL … FIRE/ON/OFF) and its pulse timing (PSOPULSE
+C angle, the laser (PSOCONTROL … FIRE/ON/ARM on, OFF/RESET off) and its pulse timing (PSOPULSE
 … TIME period on CYCLES n, µs).
 
 Control flow and the rest of the A3200 language: WHILE, IF/ELSEIF/ELSE
@@ -562,12 +562,12 @@ def _pso(st: _State, s: ast.Pso, ev, err) -> None:
     args = list(s.args)
     if s.command == "PSOCONTROL":
         words = [a for a in args if isinstance(a, str)]
-        if "FIRE" in words or "ON" in words:
-            st.laser = True
+        if "FIRE" in words or "ON" in words or "ARM" in words:
+            st.laser = True       # ARM: pulses on distance events while moving — beam on
         elif "OFF" in words or "RESET" in words:
             st.laser = False
         else:
-            raise err("PSOCONTROL needs FIRE, ON, OFF or RESET", s.span)
+            raise err("PSOCONTROL needs FIRE, ON, ARM, OFF or RESET", s.span)
     elif s.command == "PSOPULSE":
         if "TIME" in args:
             i = args.index("TIME")

@@ -1024,6 +1024,10 @@ class _Line:
         if tok.kind == "num":
             return ast.Num(tok.value), 1
         if tok.kind == "var":
+            nxt = self.peek()
+            if nxt is not None and nxt.kind == "op" and nxt.value in "[.":
+                raise self.error(f"{tok.text}{nxt.text}…: reading an input, system variable or "
+                                 "array element cannot be simulated", tok)
             return ast.Var(tok.value), 1
         if tok.kind == "op" and tok.value == "(":
             if nest >= MAX_NESTING:

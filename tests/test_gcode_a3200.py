@@ -353,6 +353,14 @@ def test_no_motion_statements_are_parsed_and_reported(text, kind):
     assert (rec["line"], rec["statement"], rec["kind"], rec["executed"]) == (2, text, kind, 1)
 
 
+def test_reading_inputs_is_refused_and_arm_fires():
+    with pytest.raises(GCodeError, match="reading an input") as info:
+        parse("WHILE $DI[0].X == 0\nENDWHILE\n")
+    assert (info.value.line, info.value.column, info.value.text) == (1, 7, "$DI")
+    tp = run("F1\nPSOCONTROL X ARM\nG01 X2\nPSOCONTROL X OFF\nG01 X3\n")
+    assert [s.beam for s in tp.segments] == [True, False]
+
+
 def test_units_and_time_codes():
     tp = run("G70\nF1\nG01 X1\nG71\nG75\nG01 X2\n")
     assert tp.segments[0].end == (25.4, 0.0)

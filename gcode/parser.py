@@ -74,7 +74,8 @@ any string. Parentheses and blocks (REPEAT, WHILE, IF, DFS) nest at most
 :data:`MAX_NESTING` deep and expression trees are at most
 :data:`MAX_EXPR_DEPTH` deep, so downstream recursion is bounded; a program
 has at most :data:`MAX_MACROS` macros, and one line at most
-:data:`MAX_EXPANSIONS` macro replacements and, expanded, at most
+:data:`MAX_EXPANSIONS` macro replacements (the program at most
+:data:`MAX_PROGRAM_EXPANSIONS`) and, expanded, at most
 :data:`~gcode.lexer.MAX_LINE_LENGTH` characters. ``#define``/``#undef``
 lines count as statements.
 
@@ -109,7 +110,7 @@ __all__ = ["parse", "parse_expression", "is_statement", "G_CODES", "WORD_LETTERS
            "AXIS_LETTERS", "MOTION_KEYWORDS", "MODE_KEYWORDS", "MAX_NESTING",
            "MAX_EXPR_DEPTH", "DEFAULT_MAX_STATEMENTS", "DEFAULT_MAX_TOKENS",
            "DEFAULT_MAX_LINES", "NO_MOTION", "G_NO_MOTION", "UNSIMULATED_MOTION", "IO_NAME",
-           "MAX_MACROS", "MAX_EXPANSIONS"]
+           "MAX_MACROS", "MAX_EXPANSIONS", "MAX_PROGRAM_EXPANSIONS"]
 
 #: G codes accepted (``G00``–``G03`` may be written with a leading zero).
 G_CODES = frozenset({0, 1, 2, 3, 4, 17, 40, 41, 42, 44, 70, 71, 75, 76, 90, 91, 92, 98, 108,
@@ -192,6 +193,9 @@ IO_NAME = re.compile(r"(?:do|di|ao|ai)[0-9]*\Z")
 MAX_MACROS = 10_000
 #: Most macro replacements made in one line, nested ones included.
 MAX_EXPANSIONS = 4096
+#: Most macro replacements in a whole program: about 2.3 µs each measured, so
+#: reaching it costs about 2–3 s of CPU.
+MAX_PROGRAM_EXPANSIONS = 1_000_000
 
 
 class _Open:
@@ -272,6 +276,7 @@ def parse(text: str, *, lenient: bool = False,
     warnings: list[str] = []
     count = 0
     tokens = 0
+    expansions = [MAX_PROGRAM_EXPANSIONS]     # replacements left for the whole program
     for lineno, line in enumerate(iter_lines(text), 1):
         if lineno > max_lines:
             raise GCodeError(f"more than {max_lines} lines (max_lines = {max_lines})", lineno, 1,
@@ -300,13 +305,13 @@ def parse(text: str, *, lenient: bool = False,
             continue
         lexed = []   # filled even when lexing fails: skipped text costs too
         try:
-            item = _Line(line, lineno, lexed, macros).statement()
+            item = _Line(line, lineno, lexed, macros, expansions).statement()
         except UnsupportedError as err:
             tokens = _count_tokens(tokens, lexed, max_tokens, lineno)
             if not lenient or _STRUCTURAL.match(line):
                 raise
-            code = _expand(line[:split_comment(line)], macros, lineno)[0] if macros else \
-                line[:split_comment(line)]
+            code = _expand(line[:split_comment(line)], macros, lineno, budget=expansions)[0] \
+                if macros else line[:split_comment(line)]
             if _MOTION_HINT.search(code):
                 raise GCodeError(f"{err.reason}; this statement moves an axis, and a move tipgeo "
                                  "cannot evaluate is an error even in lenient mode", err.line,
@@ -436,7 +441,10 @@ def _expand(code: str, macros: dict[str, str], lineno: int,
     being expanded (no recursion); the result is at most MAX_LINE_LENGTH
     characters and costs at most MAX_EXPANSIONS replacements (empty macros
     nested in each other would otherwise cost exponential time for nothing)."""
-    budget = [MAX_EXPANSIONS] if budget is None else budget
+    if budget is None:
+        budget = [MAX_PROGRAM_EXPANSIONS]
+    if len(budget) == 1:            # a new line: its own bound, within the program's
+        budget = [budget, MAX_EXPANSIONS]
     out: list[str] = []
     pieces: list[tuple[int, int, int, bool]] = []
     pos = 0
@@ -451,10 +459,14 @@ def _expand(code: str, macros: dict[str, str], lineno: int,
             pieces.append((size, pos, m.start() - pos, False))
             size += m.start() - pos
         rep = macros[name]
-        budget[0] -= 1
-        if budget[0] < 0:
+        budget[1] -= 1
+        budget[0][0] -= 1
+        if budget[1] < 0:
             raise GCodeError(f"more than {MAX_EXPANSIONS} macro replacements in one line "
                              "(MAX_EXPANSIONS)", lineno, m.start() + 1, name)
+        if budget[0][0] < 0:
+            raise GCodeError(f"more than {MAX_PROGRAM_EXPANSIONS} macro replacements in the "
+                             "program (MAX_PROGRAM_EXPANSIONS)", lineno, m.start() + 1, name)
         if len(active) >= MAX_NESTING:
             raise GCodeError(f"macros nested deeper than {MAX_NESTING}", lineno, m.start() + 1,
                              name)
@@ -579,7 +591,7 @@ class _Line:
     """Recursive-descent parser of the tokens of one line."""
 
     def __init__(self, line: str, lineno: int, tokens: list[Token] | None = None,
-                 macros: dict[str, str] | None = None):
+                 macros: dict[str, str] | None = None, expansions: list | None = None):
         self.line, self.lineno = line, lineno
         self.cond = False           # inside an IF/WHILE condition: '=' compares
         self.pos = 0
@@ -587,7 +599,7 @@ class _Line:
             self.tokens: list[Token] = tokenize_line(line, lineno, out=tokens)
             return
         end = split_comment(line)
-        code, pieces = _expand(line[:end], macros, lineno)
+        code, pieces = _expand(line[:end], macros, lineno, budget=expansions)
         if len(pieces) == 1:        # no macro used on this line
             self.tokens = tokenize_line(line, lineno, out=tokens)
             return

@@ -105,6 +105,18 @@ def test_undef_and_refused_directives():
     assert (info.value.line, info.value.column) == (4, 8)
 
 
+def test_macro_replacements_are_bounded_for_the_whole_program(monkeypatch):
+    import gcode.parser as parser
+
+    nest = "#define E\n#define D " + "E " * 1000 + "\n"
+    parse(nest + "$x = 1 D\n" * 9)                  # 9 x 1001 replacements
+    monkeypatch.setattr(parser, "MAX_PROGRAM_EXPANSIONS", 9000)
+    with pytest.raises(GCodeError, match=r"more than 9000 macro replacements in the program "
+                       r"\(MAX_PROGRAM_EXPANSIONS\)") as info:
+        parse(nest + "$x = 1 D\n" * 9)
+    assert (info.value.line, info.value.column) == (11, 8)   # the 9th use: 9009 > 9000
+
+
 NAMES_OK = st.from_regex(r"[A-Za-z_][A-Za-z0-9_]{2,10}", fullmatch=True).filter(
     lambda n: n.upper() not in {"AND", "NOT", "END", "DVAR", "THEN", "ELSE", "CALL", "DFS"})
 

@@ -61,7 +61,7 @@ from .parser import G_NO_MOTION, MAX_NESTING
 from .parser import IO_NAME as _IO
 
 __all__ = ["Segment", "Toolpath", "interpret", "Limits", "ARC_TOLERANCE", "MAX_POSITION_MM",
-           "MAX_ANGLE_DEG", "MAX_CALL_DEPTH"]
+           "MAX_ANGLE_DEG", "MAX_CALL_DEPTH", "MAX_IO_NAMES"]
 
 #: An arc's end must lie on the circle through its start within this many mm
 #: (relative to the radius above 1 mm); its radius must exceed it too.
@@ -73,6 +73,9 @@ MAX_POSITION_MM = 1e6
 MAX_ANGLE_DEG = 1e9
 #: Deepest nesting of subroutine calls (CALL inside a DFS …).
 MAX_CALL_DEPTH = MAX_NESTING
+#: Most different outputs and system variables one run writes (``$DO[i].X`` for
+#: 10 000 values of i), so that the record of their values stays small.
+MAX_IO_NAMES = 10_000
 
 
 @dataclass(frozen=True)
@@ -98,8 +101,9 @@ class Limits:
         would certainly go beyond is refused before its loop starts. Default
         1 000 000 (about 1.5–4.5 µs a statement, its operations included).
     max_segments : int
-        Programmed moves (before cutter compensation). Default 100 000
-        (about 15–26 µs and 2.2 kB a move, compensation included).
+        Programmed moves (before cutter compensation) and dwells together.
+        Default 100 000 (about 15–26 µs and 2.2 kB a move, compensation
+        included).
     max_operations : int
         Work inside statements, all executions together: one for each
         number, variable or operator of an evaluated expression, each word of
@@ -322,6 +326,9 @@ def interpret(program: ast.Program, *, tool_radii: dict[int, float] | None = Non
         if not seconds >= 0:
             raise err(f"dwell time {seconds:g} s: must be ≥ 0", span)
         dwells.append((seconds, st.laser, span.line))
+        if len(raw) + len(dwells) > limits.max_segments:
+            raise err(f"more than {limits.max_segments} moves and dwells "
+                      f"(max_segments = {limits.max_segments})", span)
 
     def count_one(s) -> None:
         """Charge one more execution of ``s``'s header (a WHILE test)."""
@@ -363,7 +370,7 @@ def interpret(program: ast.Program, *, tool_radii: dict[int, float] | None = Non
                           f"(max_operations = {max_ops}; runaway loop?)", s.span)
             if isinstance(s, ast.Block):
                 _block(st, s, ev, err, raw, tools, note, dwell)
-                if len(raw) > limits.max_segments:
+                if len(raw) + len(dwells) > limits.max_segments:
                     raise err(f"more than {limits.max_segments} moves "
                               f"(max_segments = {limits.max_segments})", s.span)
             elif isinstance(s, ast.Assign):
@@ -435,6 +442,9 @@ def interpret(program: ast.Program, *, tool_radii: dict[int, float] | None = Non
                 dwell(ev(s.seconds, s.span), s.span)
             elif isinstance(s, ast.SysAssign):
                 key = _io_key(s, ev)
+                if key not in io and len(io) >= MAX_IO_NAMES:
+                    raise err(f"more than {MAX_IO_NAMES} different outputs and system "
+                              "variables written (MAX_IO_NAMES)", s.span)
                 io[key] = ev(s.expr, s.span)
                 note(s.span, "I/O" if _IO.match(s.name) else "system variable",
                      f"sets {key} = {io[key]:.12g}")

@@ -339,6 +339,17 @@ def test_dwells_are_counted_in_the_time():
     assert run("MINUTES\nDWELL 3\n").summary()["time_s"] == 3.0
 
 
+def test_dwells_count_as_moves_and_outputs_are_bounded(monkeypatch):
+    import gcode.interpreter as interpreter
+
+    located("F1\nREPEAT 10\nG01 X1\nDWELL 0.1\nEND REPEAT\n", 4, 1, "DWELL 0.1",
+            r"more than 15 moves and dwells \(max_segments = 15\)",
+            limits=Limits(max_segments=15))
+    monkeypatch.setattr(interpreter, "MAX_IO_NAMES", 5)
+    located("$i = 0\nREPEAT 10\n$DO[$i].X = 1\n$i = $i + 1\nEND REPEAT\n", 3, 1,
+            "$DO[$i].X = 1", r"more than 5 different outputs")
+
+
 @pytest.mark.parametrize("text, match", [
     ("G4", "G4 needs P"), ("G1 P2", "P is the dwell time of G4"),
     ("G4 P1 X2", "no axis words"), ("DWELL -1", "must be ≥ 0"), ("G4 P-0.5", "must be ≥ 0"),

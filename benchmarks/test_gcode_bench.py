@@ -48,6 +48,9 @@ HOSTILE = {
     "parse-max_tokens": ("G1\n" * 125_001, "max_tokens = 250000"),
     "parse-max_statements": ("END\n" * 200_001, "max_statements = 200000"),
     "parse-max_lines": ("\n" * 1_000_001, "max_lines = 1000000"),
+    # empty macros nested: 4004 replacements a line, refused at 1 000 000 in all
+    "parse-macro-expansions": ("#define E\n#define D " + "E " * 1000 + "\n#define C D D D D\n"
+                               + "$x = 1 C\n" * 300, "MAX_PROGRAM_EXPANSIONS"),
     # interpret (nested loops, so no REPEAT is refused before its passes run)
     "max_repeat": ("$a = 0\nREPEAT 100000000\n$a = $a + 1\nEND REPEAT\n",
                    "max_repeat = 1000000"),

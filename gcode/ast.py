@@ -11,8 +11,9 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import Union
 
-__all__ = ["Span", "Num", "Var", "Neg", "BinOp", "Expr", "Word", "Block", "Assign", "DVar",
-           "Mode", "Pso", "Repeat", "Program", "Stmt"]
+__all__ = ["Span", "Num", "Var", "Neg", "BinOp", "Compare", "Logic", "Not", "Expr", "Word",
+           "Block", "Assign", "SysAssign", "DVar", "Mode", "Pso", "Repeat", "While", "If", "Call",
+           "Dwell", "NoMotion", "Sub", "Program", "Stmt"]
 
 
 @dataclass(frozen=True)
@@ -55,7 +56,33 @@ class BinOp:
     right: Expr
 
 
-Expr = Union[Num, Var, Neg, BinOp]  # noqa: UP007 - a runtime alias (3.10)
+@dataclass(frozen=True)
+class Compare:
+    """``left op right`` with op one of ``== <> < > <= >=`` (``=`` and ``!=``
+    are read as ``==`` and ``<>``); 1 if true, else 0."""
+
+    op: str
+    left: Expr
+    right: Expr
+
+
+@dataclass(frozen=True)
+class Logic:
+    """``left AND right`` or ``left OR right`` (op upper-case); 1 or 0."""
+
+    op: str
+    left: Expr
+    right: Expr
+
+
+@dataclass(frozen=True)
+class Not:
+    """``NOT operand``: 1 if the operand is 0, else 0."""
+
+    operand: Expr
+
+
+Expr = Union[Num, Var, Neg, BinOp, Compare, Logic, Not]  # noqa: UP007 - a runtime alias
 
 
 # -- statements --------------------------------------------------------------------
@@ -87,6 +114,22 @@ class Assign:
     """``$name = expr``."""
 
     name: str
+    expr: Expr
+    span: Span
+
+
+@dataclass(frozen=True)
+class SysAssign:
+    """An assignment to a system variable or I/O: ``$DO[0].X = 1``,
+    ``$AO[1].Y = 2.5``, ``$DO0.0 = 0``, ``$global[3] = $a``. No motion; the
+    interpreter records the value set.
+
+    ``name`` is the lower-case base name without ``$``; ``index`` the
+    suffix parts in order: an expression for ``[i]``, a string for ``.X``
+    (upper-case) or a glued ``.0`` (its text)."""
+
+    name: str
+    index: tuple
     expr: Expr
     span: Span
 
@@ -132,13 +175,78 @@ class Repeat:
     span: Span
 
 
-Stmt = Union[Block, Assign, DVar, Mode, Pso, Repeat]  # noqa: UP007
+@dataclass(frozen=True)
+class While:
+    """``WHILE cond [DO]`` … ``ENDWHILE`` (or ``END WHILE``)."""
+
+    cond: Expr
+    body: tuple
+    span: Span
+
+
+@dataclass(frozen=True)
+class If:
+    """``IF cond THEN`` … ``ELSEIF cond THEN`` … ``ELSE`` … ``ENDIF``.
+
+    ``branches`` are ``(cond, body)`` pairs in order; the ``ELSE`` branch
+    has cond None."""
+
+    branches: tuple
+    span: Span
+
+
+@dataclass(frozen=True)
+class Call:
+    """``CALL name P1 Q$x``: runs subroutine ``name`` (upper-case); ``args``
+    are ``(letter, expr)`` pairs, visible in the subroutine as ``$p``,
+    ``$q`` …"""
+
+    name: str
+    args: tuple
+    span: Span
+
+
+@dataclass(frozen=True)
+class Dwell:
+    """``DWELL t`` or ``G4 P t``: wait ``t`` seconds."""
+
+    seconds: Expr
+    span: Span
+
+
+@dataclass(frozen=True)
+class NoMotion:
+    """A statement that moves nothing the simulation follows: ``VELOCITY
+    ON``, ``ROUNDING``, ``G359``, ``CRITICAL START``, ``FILECLOSE $h``,
+    ``MSGDISPLAY …``, ``FREERUN`` of an axis outside X Y Z C, ``WAIT …``.
+    ``keyword`` is upper-case (with its mode word: ``VELOCITY ON``), ``what``
+    says what it does."""
+
+    keyword: str
+    what: str
+    span: Span
+
+
+@dataclass(frozen=True)
+class Sub:
+    """``DFS name`` … ``ENDDFS``: a subroutine (name upper-case)."""
+
+    name: str
+    body: tuple
+    span: Span
+
+
+Stmt = Union[Block, Assign, SysAssign, DVar, Mode, Pso, Repeat, While, If, Call, Dwell,  # noqa: UP007
+             NoMotion]
 
 
 @dataclass(frozen=True)
 class Program:
-    """A parsed program: statements in order, and warnings of skipped text
-    (lenient mode)."""
+    """A parsed program: statements in order, warnings of skipped text
+    (lenient mode), subroutines (``DFS``, wherever they were written) and
+    ``#define`` macros (name → replacement text)."""
 
     body: tuple
     warnings: tuple[str, ...] = ()
+    subroutines: tuple = ()
+    macros: tuple = ()

@@ -15,7 +15,39 @@ radius is reset for every serration (Appendix C as printed keeps shrinking it
 across serrations). ``LINEAR C…`` indexes the punch by ρ between serrations.
 
 Numbers are printed with fixed decimals per word kind — lengths 4 (0.1 µm),
-angles 4, feeds 3 — never ``%g``; the output is deterministic.
+angles 4, feeds 3 — never ``%g``; the output is deterministic and ASCII only.
+
+A complete A3200 program. The controller's defaults are not relied on: every
+program states, in this order, the conventions of the A3200 programming
+manual (AeroBasic command reference) and of the public A3200 laser-writing
+programs that follow it:
+
+``ENABLE X Y C``
+    Enables the drives of the axes the program moves (X, Y and the punch's
+    C). A program must not assume an operator enabled them.
+``METRIC`` (G71), ``SECONDS`` (G76)
+    Distance units mm and time units s, so that F is mm/s and E deg/s;
+    without them the units are whatever the controller was left in.
+``G90`` (absolute) then ``G91`` (incremental)
+    The G92 presets are given absolutely; every move after them is
+    incremental, as in Appendix C. Both modes are written, never implied.
+``PSOCONTROL X RESET``
+    Returns the position-synchronised output (PSO) to its default state, so
+    that no set-up left by an earlier program (windows, distances, arrays)
+    shapes this program's pulses.
+``PSOPULSE X TIME period, on CYCLES n``
+    The pulse generator: total period and on time in µs, written with the
+    comma between them as the manual's syntax and public programs do.
+``PSOOUTPUT X PULSE``
+    Routes the pulse generator to the PSO output; the output pin itself
+    (``PSOOUTPUT X CONTROL …``) is wiring, left to the machine's set-up file.
+``PSOCONTROL X OFF``
+    The laser is off before the first move. Then ``PSOCONTROL X FIRE`` /
+    ``OFF`` around each cut, as before.
+``PSOCONTROL X OFF``, ``T0``, ``END PROGRAM``
+    At the end: laser off, tool unloaded, and the end of the program stated
+    (``END PROGRAM``, the AeroBasic program end; ``M2`` is its G-code
+    synonym and is read too).
 """
 
 from __future__ import annotations
@@ -136,7 +168,7 @@ def emit_program(spec, laser: LaserParams | None = None, *, name: str | None = N
     c = spec.cannula
     rep = 1e3 / laser.pulse_period_us
     lines = [
-        f"; {name or spec.name or 'serrations'} — micro-serrations, written by tipgeo",
+        f"; {name or spec.name or 'serrations'} - micro-serrations, written by tipgeo",
         "; units: mm, seconds, degrees. Machine frame: X along the rim, Y along the punch "
         "axis (+Y into the material), C turns the punch (+C = +gamma).",
         "; program zero X0 Y0: centre line of the first serration on the rim (inner-wall "
@@ -158,7 +190,10 @@ def emit_program(spec, laser: LaserParams | None = None, *, name: str | None = N
         "DVAR $feed, $beam_dia, $overlap_R, $dist_R, $passover, $pass2, $radius, $comp, "
         "$radius_i, $comp_i",
         "",
-        "SECONDS",
+        "ENABLE X Y C ; enable the drives of the axes this program moves",
+        "METRIC ; distance units: mm (G71)",
+        "SECONDS ; time units: s, so F is mm/s and E deg/s (G76)",
+        "G90 ; absolute positions for the presets below",
         "",
         f"$beam_dia = {_mm(laser.beam_diameter)}",
         f"$overlap_R = {laser.overlap:.4f}",
@@ -175,8 +210,12 @@ def emit_program(spec, laser: LaserParams | None = None, *, name: str | None = N
         "T0",
         "G44 X Y ; cutter compensation on the X and Y axes",
         "T1 ; the laser beam (tool radius = beam radius)",
-        "G91",
-        f"PSOPULSE X TIME {laser.pulse_period_us:.3f} {laser.pulse_on_us:.3f} CYCLES 10000000",
+        "G91 ; incremental: every move below is relative to the last",
+        "PSOCONTROL X RESET ; the PSO to its default state",
+        f"PSOPULSE X TIME {laser.pulse_period_us:.3f}, {laser.pulse_on_us:.3f} CYCLES 10000000 "
+        "; period, on time (us)",
+        "PSOOUTPUT X PULSE ; the pulse generator drives the PSO output",
+        "PSOCONTROL X OFF ; laser off until the first cut",
         "",
         f"REPEAT {n} ; every serration",
         "$radius = $radius_i",
@@ -206,7 +245,9 @@ def emit_program(spec, laser: LaserParams | None = None, *, name: str | None = N
         f"LINEAR C{_deg(rho)} E{laser.rotary_feed:.{FEED_DECIMALS}f} ; next serration",
         "END REPEAT",
         "",
+        "PSOCONTROL X OFF ; laser off",
         "T0 ; unload the tool: laser beam",
+        "END PROGRAM",
         "",
     ]
     return "\n".join(lines)

@@ -14,6 +14,7 @@ class GCodeError(TipGeoError, ValueError):
 
     def __init__(self, message: str, line: int = 0, column: int = 0, text: str = ""):
         self.line, self.column, self.text = line, column, text
+        self.reason = message
         where = f"line {line}, column {column}: " if line else ""
         what = f" — '{text}'" if text else ""
         super().__init__(f"{where}{message}{what}")

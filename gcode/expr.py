@@ -17,7 +17,11 @@ from .errors import GCodeError
 
 __all__ = ["evaluate", "to_source", "variables_in"]
 
-_PRECEDENCE = {"+": 1, "-": 1, "*": 2, "/": 2}
+# binding strength of each operator (higher binds tighter); unary minus binds tightest
+_OR, _AND, _NOT, _CMP, _ADD, _MUL, _NEG = 1, 2, 3, 4, 5, 6, 7
+_PRECEDENCE = {"+": _ADD, "-": _ADD, "*": _MUL, "/": _MUL}
+_COMPARE = {"==": lambda a, b: a == b, "<>": lambda a, b: a != b, "<": lambda a, b: a < b,
+            ">": lambda a, b: a > b, "<=": lambda a, b: a <= b, ">=": lambda a, b: a >= b}
 
 
 def evaluate(expr: ast.Expr, variables: Mapping[str, float],
@@ -28,7 +32,9 @@ def evaluate(expr: ast.Expr, variables: Mapping[str, float],
     ----------
     expr : gcode.ast.Expr
         The tree (:class:`~gcode.ast.Num`, :class:`~gcode.ast.Var`,
-        :class:`~gcode.ast.Neg`, :class:`~gcode.ast.BinOp`).
+        :class:`~gcode.ast.Neg`, :class:`~gcode.ast.BinOp`, and the
+        conditions :class:`~gcode.ast.Compare`, :class:`~gcode.ast.Logic`,
+        :class:`~gcode.ast.Not`, which give 1.0 or 0.0).
     variables : mapping of str to float
         Variable values by lower-case name, without the ``$``.
     span : gcode.ast.Span, optional
@@ -74,12 +80,6 @@ def evaluate(expr: ast.Expr, variables: Mapping[str, float],
             if not math.isfinite(value):
                 raise fail(f"variable ${node.name} is not finite: {value!r}")
             values.append(value)
-        elif isinstance(node, ast.Neg):
-            if ready:
-                values.append(-values.pop())
-            else:
-                stack.append((node, True))
-                stack.append((node.operand, False))
         elif isinstance(node, ast.BinOp) and node.op in _PRECEDENCE:
             if not ready:
                 stack.append((node, True))
@@ -101,6 +101,28 @@ def evaluate(expr: ast.Expr, variables: Mapping[str, float],
             if not math.isfinite(result):
                 raise fail(f"result out of range in {to_source(node)}")
             values.append(result)
+        elif isinstance(node, (ast.Neg, ast.Not)):
+            if ready:
+                value = values.pop()
+                values.append(-value if isinstance(node, ast.Neg) else float(value == 0.0))
+            else:
+                stack.append((node, True))
+                stack.append((node.operand, False))
+        elif (isinstance(node, ast.Compare) and node.op in _COMPARE) or (
+                isinstance(node, ast.Logic) and node.op in ("AND", "OR")):
+            if not ready:
+                stack.append((node, True))
+                stack.append((node.right, False))
+                stack.append((node.left, False))
+                continue
+            right = values.pop()
+            left = values.pop()
+            if isinstance(node, ast.Compare):
+                values.append(float(_COMPARE[node.op](left, right)))
+            elif node.op == "AND":
+                values.append(float(left != 0.0 and right != 0.0))
+            else:
+                values.append(float(left != 0.0 or right != 0.0))
         else:
             raise fail(f"not an expression: {node!r}")
     return values[0]
@@ -133,15 +155,25 @@ def to_source(expr: ast.Expr) -> str:
         node, need = item
         if isinstance(node, ast.Num):
             text = _number(node.value)
-            out.append(f"({text})" if text.startswith("-") and need > 1 else text)
+            out.append(f"({text})" if text.startswith("-") and need > _ADD else text)
         elif isinstance(node, ast.Var):
             out.append(f"${node.name}")
         elif isinstance(node, ast.Neg):
             out.append("-")
-            work.append((node.operand, 3))
-        elif isinstance(node, ast.BinOp):
-            prec = _PRECEDENCE.get(node.op, 1)
-            parens = prec < need
+            work.append((node.operand, _NEG))
+        elif isinstance(node, ast.Not):
+            if need > _NOT:
+                work.append(")")
+            work.append((node.operand, _NOT))
+            work.append("NOT " if need <= _NOT else "(NOT ")
+        elif isinstance(node, (ast.BinOp, ast.Compare, ast.Logic)):
+            if isinstance(node, ast.BinOp):
+                prec = _PRECEDENCE.get(node.op, _ADD)
+            elif isinstance(node, ast.Compare):
+                prec = _CMP
+            else:
+                prec = _AND if node.op == "AND" else _OR
+            parens = prec < need or (prec == _CMP and need == _CMP)
             if parens:
                 work.append(")")
             work.append((node.right, prec + 1))
@@ -172,9 +204,9 @@ def variables_in(expr: ast.Expr) -> set[str]:
         node = stack.pop()
         if isinstance(node, ast.Var):
             names.add(node.name)
-        elif isinstance(node, ast.Neg):
+        elif isinstance(node, (ast.Neg, ast.Not)):
             stack.append(node.operand)
-        elif isinstance(node, ast.BinOp):
+        elif isinstance(node, (ast.BinOp, ast.Compare, ast.Logic)):
             stack.extend((node.left, node.right))
     return names
 

@@ -11,8 +11,20 @@ Modal state: units (METRIC; ENGLISH scales linear axes by 25.4, never C),
 ABSOLUTE/INCREMENTAL (G90/G91), motion mode (G0–G3; RAPID, LINEAR, CW, CCW),
 feeds F and E, tool T (radius from the tool table), cutter compensation
 (G40 off, G41 left, G42 right; G44 selects its axes), G92 position preset,
-C angle, the laser (PSOCONTROL … FIRE/ON/OFF) and its pulse timing (PSOPULSE
+C angle, the laser (PSOCONTROL … FIRE/ON/ARM on, OFF/RESET off) and its pulse timing (PSOPULSE
 … TIME period on CYCLES n, µs).
+
+Control flow and the rest of the A3200 language: WHILE, IF/ELSEIF/ELSE
+(conditions evaluated as 1/0), CALL of a DFS subroutine with letter
+arguments (``$p``, ``$q`` … inside, restored after; calls nest at most
+:data:`MAX_CALL_DEPTH`), DWELL and G4 P (seconds whatever the time base;
+:attr:`Toolpath.dwells`, counted in the summary's time), G70/G71 and
+G75/G76 (units and time base), END/END PROGRAM/M2/M30 stop the run.
+Statements that move nothing (I/O and system variables, VELOCITY, G359, file
+and message commands …) are recorded in :attr:`Toolpath.no_motion` with what
+they did and how often; the last value written to each output in
+:attr:`Toolpath.io`. Z moves count in the path length and time (XYZ); the
+beam-centre geometry is XY.
 
 Cutter compensation offsets lines and arcs by the tool radius to the chosen
 side of the travel direction; concave joints are trimmed to the offsets'
@@ -45,9 +57,11 @@ from tipgeo.tolerances import tol
 from . import ast
 from .errors import GCodeError, check_limit
 from .expr import evaluate
+from .parser import G_NO_MOTION, MAX_NESTING
+from .parser import IO_NAME as _IO
 
 __all__ = ["Segment", "Toolpath", "interpret", "Limits", "ARC_TOLERANCE", "MAX_POSITION_MM",
-           "MAX_ANGLE_DEG"]
+           "MAX_ANGLE_DEG", "MAX_CALL_DEPTH", "MAX_IO_NAMES"]
 
 #: An arc's end must lie on the circle through its start within this many mm
 #: (relative to the radius above 1 mm); its radius must exceed it too.
@@ -57,6 +71,11 @@ ARC_TOLERANCE = tol.gcode.arc  # alias, imported by tests
 MAX_POSITION_MM = 1e6
 #: Largest |C|, degrees (about 2.8 million turns).
 MAX_ANGLE_DEG = 1e9
+#: Deepest nesting of subroutine calls (CALL inside a DFS …).
+MAX_CALL_DEPTH = MAX_NESTING
+#: Most different outputs and system variables one run writes (``$DO[i].X`` for
+#: 10 000 values of i), so that the record of their values stays small.
+MAX_IO_NAMES = 10_000
 
 
 @dataclass(frozen=True)
@@ -82,8 +101,9 @@ class Limits:
         would certainly go beyond is refused before its loop starts. Default
         1 000 000 (about 1.5–4.5 µs a statement, its operations included).
     max_segments : int
-        Programmed moves (before cutter compensation). Default 100 000
-        (about 15–26 µs and 2.2 kB a move, compensation included).
+        Programmed moves (before cutter compensation) and dwells together.
+        Default 100 000 (about 15–26 µs and 2.2 kB a move, compensation
+        included).
     max_operations : int
         Work inside statements, all executions together: one for each
         number, variable or operator of an evaluated expression, each word of
@@ -124,6 +144,8 @@ class Segment:
     center: tuple[float, float] | None = None
     ccw: bool = True
     rotary_feed: float | None = None
+    z0: float = 0.0
+    z1: float = 0.0
 
     @property
     def radius(self) -> float:
@@ -157,6 +179,12 @@ class Segment:
             return abs(self.sweep) * self.radius
         return math.dist(self.start, self.end)
 
+    @property
+    def path_length(self) -> float:
+        """XYZ path length (mm): the XY length with the Z travel (a line in
+        space, or a helix for an arc)."""
+        return math.hypot(self.length, self.z1 - self.z0)
+
     def points(self, chordal: float = 1e-4) -> np.ndarray:
         """(k, 2) points along the move (arcs within ``chordal`` mm)."""
         if self.kind != "arc" or self.radius <= 0:
@@ -179,17 +207,26 @@ class Toolpath:
     time_base: str
     warnings: list[str] = field(default_factory=list)
     rapid_speed: float = 10.0
+    #: ``(seconds, beam on, source line)`` of every dwell executed (G4 P, DWELL)
+    dwells: list[tuple[float, bool, int]] = field(default_factory=list)
+    #: statements that moved nothing (one record per source statement: line,
+    #: statement, kind, effect, times executed), in order of first execution
+    no_motion: list[dict] = field(default_factory=list)
+    #: last value written to each system variable or output (``$DO[0].X`` …)
+    io: dict[str, float] = field(default_factory=dict)
 
     def summary(self) -> dict:
         """Path length, beam-on length (mm), estimated time (s) from the
-        feeds (rapids at ``rapid_speed`` mm/s, C moves at their E feed) and
-        the pulse count from the repetition rate."""
-        path = sum(s.length for s in self.segments)
-        on = sum(s.length for s in self.segments if s.beam)
-        t = 0.0
-        t_on = 0.0
+        feeds (rapids at ``rapid_speed`` mm/s, C moves at their E feed) plus
+        the dwells (a dwell with the beam on counts as beam-on time), and the
+        pulse count from the repetition rate."""
+        path = sum(s.path_length for s in self.segments)
+        on = sum(s.path_length for s in self.segments if s.beam)
+        t_dwell = sum(d for d, _, _ in self.dwells)
+        t = t_dwell
+        t_on = sum(d for d, beam, _ in self.dwells if beam)
         for s in self.segments:
-            dt = s.length / (s.feed if s.feed else self.rapid_speed)
+            dt = s.path_length / (s.feed if s.feed else self.rapid_speed)
             if s.c1 != s.c0 and s.rotary_feed:
                 dt = max(dt, abs(s.c1 - s.c0) / s.rotary_feed)
             t += dt
@@ -205,6 +242,8 @@ class Toolpath:
                 "repetition_rate_khz": (1e3 / self.pulse_period_us
                                         if self.pulse_period_us else None),
                 "pulses": pulses, "c_angles_with_beam_deg": cs,
+                "dwells": len(self.dwells), "dwell_time_s": t_dwell,
+                "no_motion_statements": len(self.no_motion),
                 "warnings": len(self.warnings)}
 
 
@@ -269,6 +308,39 @@ def interpret(program: ast.Program, *, tool_radii: dict[int, float] | None = Non
     executed = 0                  # statements
     ops = 0                       # operations (see Limits.max_operations)
     weights: dict[int, int] = {}  # id(statement) -> its operations (the tree outlives the run)
+    subs = {sub.name: sub for sub in program.subroutines}
+    dwells: list[tuple[float, bool, int]] = []
+    notes: dict[tuple[int, int], dict] = {}
+    io: dict[str, float] = {}
+    depth = 0                     # subroutine calls in progress
+
+    def note(span: ast.Span, kind: str, effect: str) -> None:
+        rec = notes.get((span.line, span.col))
+        if rec is None:
+            rec = notes[(span.line, span.col)] = {"line": span.line, "statement": span.text,
+                                                  "kind": kind, "effect": effect, "executed": 0}
+        rec["effect"] = effect
+        rec["executed"] += 1
+
+    def dwell(seconds: float, span: ast.Span) -> None:
+        if not seconds >= 0:
+            raise err(f"dwell time {seconds:g} s: must be ≥ 0", span)
+        dwells.append((seconds, st.laser, span.line))
+        if len(raw) + len(dwells) > limits.max_segments:
+            raise err(f"more than {limits.max_segments} moves and dwells "
+                      f"(max_segments = {limits.max_segments})", span)
+
+    def count_one(s) -> None:
+        """Charge one more execution of ``s``'s header (a WHILE test)."""
+        nonlocal executed, ops
+        executed += 1
+        if executed > max_statements:
+            raise err(f"more than {max_statements} statements executed "
+                      f"(max_statements = {max_statements}; runaway loop?)", s.span)
+        ops += weight(s)
+        if ops > max_ops:
+            raise err(f"more than {max_ops} operations executed "
+                      f"(max_operations = {max_ops}; runaway loop?)", s.span)
 
     def err(msg, span: ast.Span):
         return GCodeError(msg, span.line, span.col, span.text)
@@ -283,7 +355,7 @@ def interpret(program: ast.Program, *, tool_radii: dict[int, float] | None = Non
         return w
 
     def run(body):
-        nonlocal executed, ops
+        nonlocal executed, ops, depth
         for s in body:
             executed += 1
             if executed > max_statements:
@@ -296,7 +368,18 @@ def interpret(program: ast.Program, *, tool_radii: dict[int, float] | None = Non
             if ops > max_ops:
                 raise err(f"more than {max_ops} operations executed "
                           f"(max_operations = {max_ops}; runaway loop?)", s.span)
-            if isinstance(s, ast.Repeat):
+            if isinstance(s, ast.Block):
+                _block(st, s, ev, err, raw, tools, note, dwell)
+                if len(raw) + len(dwells) > limits.max_segments:
+                    raise err(f"more than {limits.max_segments} moves "
+                              f"(max_segments = {limits.max_segments})", s.span)
+            elif isinstance(s, ast.Assign):
+                vars_[s.name] = ev(s.expr, s.span)
+            elif isinstance(s, ast.Pso):
+                _pso(st, s, ev, err)
+            elif isinstance(s, ast.Mode):
+                _mode(st, s, err)
+            elif isinstance(s, ast.Repeat):
                 n = ev(s.count, s.span)
                 k = round(n)
                 if abs(n - k) > tol.gcode.whole * max(1.0, abs(n)) or k < 0:
@@ -318,28 +401,77 @@ def interpret(program: ast.Program, *, tool_radii: dict[int, float] | None = Non
                               "runaway loop?)", s.span)
                 for _ in range(k):
                     run(s.body)
-            elif isinstance(s, ast.Assign):
-                vars_[s.name] = ev(s.expr, s.span)
             elif isinstance(s, ast.DVar):
                 for n in s.names:
                     declared.add(n)
                     vars_.setdefault(n, 0.0)
-            elif isinstance(s, ast.Mode):
-                _mode(st, s, err)
-            elif isinstance(s, ast.Pso):
-                _pso(st, s, ev, err)
-            elif isinstance(s, ast.Block):
-                _block(st, s, ev, err, raw, tools)
-                if len(raw) > limits.max_segments:
-                    raise err(f"more than {limits.max_segments} moves "
-                              f"(max_segments = {limits.max_segments})", s.span)
+            elif isinstance(s, ast.While):
+                while ev(s.cond, s.span) != 0.0:
+                    run(s.body)
+                    count_one(s)
+            elif isinstance(s, ast.If):
+                for i, (cond, body) in enumerate(s.branches):
+                    if i and cond is not None:
+                        ops += _size(cond)
+                    if cond is None or ev(cond, s.span) != 0.0:
+                        run(body)
+                        break
+            elif isinstance(s, ast.Call):
+                sub = subs.get(s.name)
+                if sub is None:
+                    have = ", ".join(sorted(subs)) or "none"
+                    raise err(f"CALL {s.name}: no subroutine DFS {s.name} in this program "
+                              f"(have {have})", s.span)
+                if depth >= MAX_CALL_DEPTH:
+                    raise err(f"subroutine calls nested deeper than {MAX_CALL_DEPTH} "
+                              "(MAX_CALL_DEPTH; endless recursion?)", s.span)
+                values = [(letter.lower(), ev(v, s.span)) for letter, v in s.args]
+                saved = [(name, vars_.get(name)) for name, _ in values]
+                vars_.update(values)
+                depth += 1
+                try:
+                    run(sub.body)
+                finally:
+                    depth -= 1
+                    for name, old in saved:
+                        if old is None:
+                            vars_.pop(name, None)
+                        else:
+                            vars_[name] = old
+            elif isinstance(s, ast.Dwell):
+                dwell(ev(s.seconds, s.span), s.span)
+            elif isinstance(s, ast.SysAssign):
+                key = _io_key(s, ev)
+                if key not in io and len(io) >= MAX_IO_NAMES:
+                    raise err(f"more than {MAX_IO_NAMES} different outputs and system "
+                              "variables written (MAX_IO_NAMES)", s.span)
+                io[key] = ev(s.expr, s.span)
+                note(s.span, "I/O" if _IO.match(s.name) else "system variable",
+                     f"sets {key} = {io[key]:.12g}")
+            elif isinstance(s, ast.NoMotion):
+                note(s.span, s.keyword, s.what)
             else:  # pragma: no cover - parser guarantees the node types
                 raise GCodeError(f"unknown statement {type(s).__name__}")
 
-    run(program.body)
+    try:
+        run(program.body)
+    except _EndOfProgram:
+        pass
     segments = _compensate(raw, warnings)
     return Toolpath(segments, st.period_us, st.on_us,
-                    "seconds" if st.time_per_unit == 1.0 else "minutes", warnings, rapid_speed)
+                    "seconds" if st.time_per_unit == 1.0 else "minutes", warnings, rapid_speed,
+                    dwells, list(notes.values()), io)
+
+
+def _io_key(s: ast.SysAssign, ev) -> str:
+    """``$DO[0].X``-style name of a system variable assignment, indices evaluated."""
+    parts = [f"${s.name.upper()}"]
+    for part in s.index:
+        if isinstance(part, str):
+            parts.append(part if part.startswith(".") else f".{part}")
+        else:
+            parts.append(f"[{ev(part, s.span):.12g}]")
+    return "".join(parts)
 
 
 def _tool_table(tool_radii) -> dict[int, float]:
@@ -374,9 +506,9 @@ def _size(expr) -> int:
     while stack:
         node = stack.pop()
         n += 1
-        if isinstance(node, ast.Neg):
+        if isinstance(node, (ast.Neg, ast.Not)):
             stack.append(node.operand)
-        elif isinstance(node, ast.BinOp):
+        elif isinstance(node, (ast.BinOp, ast.Compare, ast.Logic)):
             stack.append(node.left)
             stack.append(node.right)
     return n
@@ -397,7 +529,21 @@ def _weight(s) -> int:
         return len(s.names)
     if isinstance(s, ast.Mode):
         return len(s.args)
-    return 1  # pragma: no cover - parser guarantees the node types
+    if isinstance(s, ast.While):
+        return _size(s.cond)
+    if isinstance(s, ast.If):
+        return _size(s.branches[0][0])
+    if isinstance(s, ast.Call):
+        return 1 + sum(_size(v) for _, v in s.args)
+    if isinstance(s, ast.Dwell):
+        return _size(s.seconds)
+    if isinstance(s, ast.SysAssign):
+        return _size(s.expr) + sum(1 if isinstance(i, str) else _size(i) for i in s.index)
+    return 1  # NoMotion
+
+
+class _EndOfProgram(Exception):
+    """``END``, ``END PROGRAM``, ``M2`` or ``M30``: nothing after it runs."""
 
 
 def _mode(st: _State, s: ast.Mode, err) -> None:
@@ -414,7 +560,9 @@ def _mode(st: _State, s: ast.Mode, err) -> None:
         st.absolute = True
     elif k == "INCREMENTAL":
         st.absolute = False
-    elif k in ("ENABLE", "END"):
+    elif k == "END":
+        raise _EndOfProgram
+    elif k == "ENABLE":
         pass
     else:
         raise err(f"keyword {k} is not supported", s.span)
@@ -424,12 +572,12 @@ def _pso(st: _State, s: ast.Pso, ev, err) -> None:
     args = list(s.args)
     if s.command == "PSOCONTROL":
         words = [a for a in args if isinstance(a, str)]
-        if "FIRE" in words or "ON" in words:
-            st.laser = True
+        if "FIRE" in words or "ON" in words or "ARM" in words:
+            st.laser = True       # ARM: pulses on distance events while moving — beam on
         elif "OFF" in words or "RESET" in words:
             st.laser = False
         else:
-            raise err("PSOCONTROL needs FIRE, ON, OFF or RESET", s.span)
+            raise err("PSOCONTROL needs FIRE, ON, ARM, OFF or RESET", s.span)
     elif s.command == "PSOPULSE":
         if "TIME" in args:
             i = args.index("TIME")
@@ -452,10 +600,12 @@ def _pso(st: _State, s: ast.Pso, ev, err) -> None:
     # other PSO commands configure the output and do not change the path
 
 
-def _block(st: _State, b: ast.Block, ev, err, raw, tools) -> None:
+def _block(st: _State, b: ast.Block, ev, err, raw, tools, note, dwell) -> None:
     target: dict[str, float] = {}
     center: dict[str, float] = {}
     g92 = False
+    g4 = False
+    p_word = None
     comp_change = None
     for kw in b.keywords:
         st.motion = {"RAPID": "rapid", "LINEAR": "line", "CW": "cw", "CCW": "ccw"}[kw]
@@ -477,8 +627,16 @@ def _block(st: _State, b: ast.Block, ev, err, raw, tools) -> None:
                 st.absolute = False
             elif code == 92:
                 g92 = True
-            elif code in (44, 98):
-                pass  # axis selection for compensation / accepted as in Appendix C
+            elif code in (17, 44, 98):
+                pass  # the XY plane (the only one) / compensation axes / as in Appendix C
+            elif code == 4:
+                g4 = True
+            elif code in (70, 71):
+                st.scale = 25.4 if code == 70 else 1.0
+            elif code in (75, 76):
+                st.time_per_unit = 60.0 if code == 75 else 1.0
+            elif code in G_NO_MOTION:
+                note(w.span, f"G{code}", G_NO_MOTION[code])
             else:
                 raise err(f"G{code} is not supported", w.span)
             continue
@@ -506,10 +664,21 @@ def _block(st: _State, b: ast.Block, ev, err, raw, tools) -> None:
                 raise err(f"T{t}: no such tool in the tool table (have "
                           f"{', '.join(f'T{k}' for k in sorted(tools))})", w.span)
             st.tool = t
+        elif w.letter == "P":
+            p_word = (val, w.span)
         elif w.letter in "AB":
             continue
         else:
             raise err(f"word {w.letter} is not supported", w.span)
+    if g4 or p_word is not None:
+        if not g4:
+            raise err("P is the dwell time of G4 (s): give G4 in the same block", p_word[1])
+        if p_word is None:
+            raise err("G4 needs P, the dwell time (s)", b.span)
+        if target or center:
+            raise err("G4 dwells and moves nothing: no axis words in its block", b.span)
+        dwell(p_word[0], b.span)
+        return
     if g92:  # preset: the current position takes the given values
         for a, v in target.items():
             _check_position(a, v, b.span, err)
@@ -537,6 +706,7 @@ def _block(st: _State, b: ast.Block, ev, err, raw, tools) -> None:
                                                         else "line"),
             "start": (st.pos["X"], st.pos["Y"]), "end": (new["X"], new["Y"]),
             "c0": st.pos["C"], "c1": new["C"], "beam": st.laser,
+            "z0": st.pos["Z"], "z1": new["Z"],
             "feed": None if motion == "rapid" else st.feed / st.time_per_unit,
             "rotary_feed": None if st.rotary_feed is None else st.rotary_feed / st.time_per_unit,
             "line": b.span.line, "span": b.span,
@@ -690,7 +860,7 @@ def _compensate(raw: list[dict], warnings: list[str]) -> list[Segment]:
                     else:  # convex corner: round it about the programmed point
                         side = m["comp_after"]
                         out.append(dict(m, kind="arc", start=p_end, end=cur["start"],
-                                        center=m["start"], ccw=(side < 0)))
+                                        center=m["start"], ccw=(side < 0), z1=m["z0"]))
             out.append(cur)
             continue
         mm = dict(m)
@@ -715,7 +885,8 @@ def _compensate(raw: list[dict], warnings: list[str]) -> list[Segment]:
         segs.append(Segment(kind, tuple(m["start"]), tuple(m["end"]), bool(m["beam"]),
                             float(m["c0"]), float(m["c1"]), m["feed"], int(m["line"]),
                             tuple(m["center"]) if kind == "arc" else None,
-                            bool(m.get("ccw", True)), m.get("rotary_feed")))
+                            bool(m.get("ccw", True)), m.get("rotary_feed"),
+                            float(m.get("z0", 0.0)), float(m.get("z1", 0.0))))
     return segs
 
 

@@ -1,16 +1,20 @@
 """Line lexer of the A3200 AeroBasic subset (see :mod:`gcode.parser`).
 
 A program is lexed one line at a time (AeroBasic has one statement per line).
-A comment runs from ``;`` or ``//`` to the end of the line and is dropped.
-Tokens:
+A comment runs from ``;``, ``//`` or ``'`` to the end of the line and is
+dropped (outside a string). Tokens:
 
 ``num``    an unsigned number: ``12``, ``0.05``, ``.5``, ``1.``, ``1e-3``,
            ``2.5E+4`` (the sign is a separate ``op`` token);
 ``var``    ``$name`` (``[A-Za-z_][A-Za-z0-9_]*``), value lower-cased, no ``$``;
 ``ident``  a run of ASCII letters (``G``, ``X``, ``REPEAT``, ``PSOPULSE``),
-           value upper-cased; digits are never part of an identifier, so
-           ``G01`` is ``G`` then ``01`` and ``X$comp`` is ``X`` then ``$comp``;
-``op``     one of ``+ - * / = , ( )``.
+           value upper-cased; digits are never part of such an identifier, so
+           ``G01`` is ``G`` then ``01`` and ``X$comp`` is ``X`` then ``$comp``.
+           A name with an underscore (``Tip_Plate``, ``_x2``) is one
+           identifier, digits included (an undefined macro name, say);
+``str``    a double-quoted string (``"a; b"``), value without the quotes;
+``op``     one of ``+ - * / = , ( ) [ ] < >``, the pairs ``<= >= == <> !=``,
+           and ``.`` when a letter follows it (``$DO[0].X``).
 
 An ``e``/``E`` directly after the digits of a number, followed by digits
 (optionally signed), is an exponent: ``X1E5`` is X = 100000, not the words
@@ -53,7 +57,8 @@ _LETTERS = frozenset("ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz")
 _DIGITS = frozenset("0123456789")
 _NAME_START = _LETTERS | {"_"}
 _NAME_CHARS = _NAME_START | _DIGITS
-_OPS = frozenset("+-*/=,()")
+_OPS = frozenset("+-*/=,()[]<>")
+_PAIRS = frozenset({"<=", ">=", "==", "<>", "!="})
 _NUMBER = re.compile(r"(?:[0-9]+\.?[0-9]*|\.[0-9]+)(?:[eE][+-]?[0-9]+)?\Z")
 _EOL = re.compile(r"\r\n?|\n")
 
@@ -74,7 +79,7 @@ class Token:
     Attributes
     ----------
     kind : str
-        ``num``, ``var``, ``ident`` or ``op``.
+        ``num``, ``var``, ``ident``, ``str`` or ``op``.
     value : float or str
         The number (``num``), the lower-case name (``var``), the upper-case
         identifier (``ident``) or the operator character (``op``).
@@ -82,17 +87,22 @@ class Token:
         1-based column of the token's first character.
     text : str
         The token's source text.
+    width : int or None
+        Source characters the token stands for when that differs from
+        ``len(text)``: a token of a macro's replacement has the column and
+        width of the macro's name where it was used.
     """
 
     kind: str
     value: float | str
     col: int
     text: str
+    width: int | None = None
 
     @property
     def end(self) -> int:
         """0-based index just past the token in its line."""
-        return self.col - 1 + len(self.text)
+        return self.col - 1 + (len(self.text) if self.width is None else self.width)
 
 
 def split_lines(text: str) -> list[str]:
@@ -161,12 +171,23 @@ def split_comment(line: str) -> int:
     Returns
     -------
     int
-        Index of the first ``;`` or ``//``.
+        Index of the first ``;``, ``//`` or ``'`` outside a double-quoted
+        string.
     """
     semi = line.find(";")
     slash = line.find("//")
-    ends = [i for i in (semi, slash) if i >= 0]
-    return min(ends) if ends else len(line)
+    tick = line.find("'")
+    ends = [i for i in (semi, slash, tick) if i >= 0]
+    end = min(ends) if ends else len(line)
+    quote = line.find('"', 0, end)
+    while quote >= 0:        # a comment sign inside a string is not one
+        close = line.find('"', quote + 1)
+        if close < 0:
+            return end if end < len(line) else len(line)
+        if close > end:
+            return split_comment(line[close + 1:]) + close + 1
+        quote = line.find('"', close + 1, end)
+    return end
 
 
 def tokenize_line(line: str, lineno: int = 0, *, max_length: int = MAX_LINE_LENGTH,
@@ -219,12 +240,24 @@ def tokenize_line(line: str, lineno: int = 0, *, max_length: int = MAX_LINE_LENG
             limit = max_tokens - base
             raise GCodeError(f"line has more than {limit} tokens (MAX_LINE_TOKENS = {limit})",
                              lineno, i + 1, line[i:j])
-        if ch in _LETTERS:
+        if ch in _NAME_START:
             j = i + 1
             while j < end and line[j] in _LETTERS:
                 j += 1
+            if ch == "_" or (j < end and line[j] == "_"):   # a name: Tip_Plate_2
+                while j < end and line[j] in _NAME_CHARS:
+                    j += 1
             tokens.append(Token("ident", line[i:j].upper(), i + 1, line[i:j]))
             i = j
+        elif ch == '"':
+            j = line.find('"', i + 1, end)
+            if j < 0:
+                raise GCodeError("unterminated string", lineno, i + 1, line[i:min(end, i + 20)])
+            tokens.append(Token("str", line[i + 1:j], i + 1, line[i:j + 1]))
+            i = j + 1
+        elif ch == "." and i + 1 < end and line[i + 1] in _LETTERS:
+            tokens.append(Token("op", ".", i + 1, "."))
+            i += 1
         elif ch in _DIGITS or ch == ".":
             j = _number_end(line, i, end)
             text = line[i:j]
@@ -245,6 +278,9 @@ def tokenize_line(line: str, lineno: int = 0, *, max_length: int = MAX_LINE_LENG
                 i = j
             else:
                 raise GCodeError("'$' must be followed by a variable name", lineno, i + 1, "$")
+        elif line[i:i + 2] in _PAIRS:
+            tokens.append(Token("op", line[i:i + 2], i + 1, line[i:i + 2]))
+            i += 2
         elif ch in _OPS:
             tokens.append(Token("op", ch, i + 1, ch))
             i += 1

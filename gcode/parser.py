@@ -1,30 +1,68 @@
-"""Parser of the Aerotech A3200 AeroBasic subset of the thesis's laser program.
+"""Parser of Aerotech A3200 AeroBasic: the thesis's laser program (Appendix C)
+and the A3200 that laser-writing and direct-ink-writing programs are written in.
 
-The language is the one of Appendix C (micro-serrations ablated with a
-pulsed laser): one statement per line, keywords case-insensitive, comments
-``;`` or ``//`` to the end of the line. Statements (see :mod:`gcode.ast`):
+One statement per line, keywords case-insensitive, comments ``;``, ``//`` or
+``'`` to the end of the line (outside a ``"string"``). Statements (see
+:mod:`gcode.ast`); "interpreted" ones change the toolpath or its time,
+"no motion" ones are parsed, recorded with what they do and reported by
+``tipgeo gcode check``:
 
-``DVAR $a, $b``                     :class:`~gcode.ast.DVar` (commas optional)
-``$name = expr``                    :class:`~gcode.ast.Assign`
-``REPEAT expr`` … ``END REPEAT``    :class:`~gcode.ast.Repeat` (nested; also
-                                    ``ENDREPEAT``)
-``PSOPULSE X TIME 10 5 CYCLES 1e7`` :class:`~gcode.ast.Pso` (any ``PSO…``
-                                    command: command, axis letter, then
-                                    upper-case keywords and expressions)
-``SECONDS`` ``MINUTES`` ``METRIC``  :class:`~gcode.ast.Mode`; ``ENABLE X Y``
-``ENGLISH`` ``ABSOLUTE``            keeps its axes in ``args``; ``END`` ends
-``INCREMENTAL`` ``ENABLE`` ``END``  the program
-``G01 G41 X$comp F $feed``          :class:`~gcode.ast.Block` of words and
-                                    motion keywords (``LINEAR`` ``RAPID``
-                                    ``CW`` ``CCW``)
+=========================================  =========================================
+``#define NAME text``, ``#undef NAME``     preprocessor: object-like macros,
+                                           substituted (rescanned, C-style) before
+                                           the line is read; tokens keep the
+                                           line and column of the macro's use.
+                                           ``#include``/``#if…`` and function-like
+                                           macros are refused
+``DVAR $a, $b`` (any of space, tab,        :class:`~gcode.ast.DVar` (arrays
+comma), ``DVAR $pts[100]``                 ``$pts[n]`` declared)
+``$name = expr``                           :class:`~gcode.ast.Assign`
+``$DO[0].X = 1``, ``$AO[0].X = 2``,        :class:`~gcode.ast.SysAssign` — I/O and
+``$DO0.0 = 0``, ``$global[2] = 4``         system variables: no motion, value
+                                           recorded
+``REPEAT n`` … ``END REPEAT``              :class:`~gcode.ast.Repeat` (``ENDREPEAT``)
+``WHILE cond [DO]`` … ``ENDWHILE``         :class:`~gcode.ast.While`
+``IF cond THEN`` … ``ELSEIF cond THEN``    :class:`~gcode.ast.If`; conditions have
+… ``ELSE`` … ``ENDIF``                     ``== = <> != < > <= >=``, ``AND OR NOT``
+``DFS name`` … ``ENDDFS``                  :class:`~gcode.ast.Sub`, anywhere at the
+                                           top level (usually after ``END
+                                           PROGRAM``)
+``CALL name P1 Q$x``                       :class:`~gcode.ast.Call`; the letters are
+                                           ``$p``, ``$q`` … inside the subroutine
+``DWELL t``, ``G4 P t``                    :class:`~gcode.ast.Dwell`, seconds, in the
+                                           time
+``PSOPULSE X TIME 10, 5 CYCLES 1e7``       :class:`~gcode.ast.Pso` (any ``PSO…``
+                                           command: command, axis letter, then
+                                           keywords and expressions)
+``SECONDS MINUTES METRIC ENGLISH           :class:`~gcode.ast.Mode`; ``END``, ``END
+ABSOLUTE INCREMENTAL ENABLE END``,         PROGRAM``, ``M2``, ``M30`` end the
+``END PROGRAM``, ``M2``, ``M30``           program
+``G01 G41 X$comp F $feed``                 :class:`~gcode.ast.Block` of words and
+                                           motion keywords (``LINEAR`` ``RAPID``
+                                           ``CW`` ``CCW``)
+``VELOCITY ON``, ``ROUNDING``, ``WAIT …``, :class:`~gcode.ast.NoMotion` (see
+``CRITICAL START/END``, ``FREERUN A 1``    :data:`NO_MOTION`; FREERUN of an axis
+(not X Y Z C), file, message and string    outside X Y Z C), and the mode G codes
+commands (``FILECLOSE $h``, ``$h =         of :data:`G_NO_MOTION` (``G108``,
+FILEOPEN "f", 2``, ``$s = "text"``)        ``G359`` …)
+=========================================  =========================================
+
+Refused in every mode, even lenient: Ensemble AeroBasic (``HEADER … END
+HEADER``, ``PROGRAM``, ``DIM … AS``), named as that dialect; moves tipgeo
+cannot simulate (:data:`UNSIMULATED_MOTION`: ``HOME``, ``MOVEINC`` …;
+``FREERUN`` of X, Y, Z or C); and, in lenient mode, any skipped statement
+that names a motion G code or keyword or an axis with a value (a move that
+cannot be evaluated is never dropped).
 
 Words are a letter of :data:`WORD_LETTERS` and a value: a number, a
 ``$variable``, a parenthesised expression, or a sign applied to one of those
 (``X-0.05``, ``X$comp``, ``F $feed``, ``I-$radius``, ``X-($radius*2)``,
 ``G0 X (2*$r-2*$c)``), glued or spaced. A bare axis letter (``G44 X Y``) is a
 word with value None. G codes are those of :data:`G_CODES`; a leading ``N``
-line number is accepted and dropped. Expressions have ``+ - * /``, unary
-signs and parentheses with the usual precedence, left-associative; a minus
+line number is accepted and dropped; ``P`` is G4's dwell time. Expressions
+have ``+ - * /``, unary signs and parentheses with the usual precedence,
+left-associative (and, in conditions or parentheses, comparisons below
+them, then NOT, AND, OR); a minus
 directly before a number literal is folded into it (``-0.05`` is
 ``Num(-0.05)``), any other unary minus is :class:`~gcode.ast.Neg`. Inside
 PSO arguments expressions follow one another without separator (``TIME 10
@@ -32,9 +70,14 @@ PSO arguments expressions follow one another without separator (``TIME 10
 
 Errors are :class:`~gcode.errors.GCodeError` with the 1-based line and column
 of the offending text and that text; nothing else escapes :func:`parse`, for
-any string. Parentheses and REPEAT nest at most :data:`MAX_NESTING` deep and
-expression trees are at most :data:`MAX_EXPR_DEPTH` deep, so downstream
-recursion is bounded.
+any string. Parentheses and blocks (REPEAT, WHILE, IF, DFS) nest at most
+:data:`MAX_NESTING` deep and expression trees are at most
+:data:`MAX_EXPR_DEPTH` deep, so downstream recursion is bounded; a program
+has at most :data:`MAX_MACROS` macros, and one line at most
+:data:`MAX_EXPANSIONS` macro replacements (the program at most
+:data:`MAX_PROGRAM_EXPANSIONS`) and, expanded, at most
+:data:`~gcode.lexer.MAX_LINE_LENGTH` characters. ``#define``/``#undef``
+lines count as statements.
 
 Cost bounds. A line is at most :data:`~gcode.lexer.MAX_LINE_LENGTH`
 characters and :data:`~gcode.lexer.MAX_LINE_TOKENS` tokens (refused while
@@ -54,17 +97,26 @@ import re
 
 from . import ast
 from .errors import GCodeError, check_limit
-from .lexer import Token, UnsupportedError, iter_lines, tokenize_line
+from .lexer import (
+    MAX_LINE_LENGTH,
+    Token,
+    UnsupportedError,
+    iter_lines,
+    split_comment,
+    tokenize_line,
+)
 
 __all__ = ["parse", "parse_expression", "is_statement", "G_CODES", "WORD_LETTERS",
            "AXIS_LETTERS", "MOTION_KEYWORDS", "MODE_KEYWORDS", "MAX_NESTING",
            "MAX_EXPR_DEPTH", "DEFAULT_MAX_STATEMENTS", "DEFAULT_MAX_TOKENS",
-           "DEFAULT_MAX_LINES"]
+           "DEFAULT_MAX_LINES", "NO_MOTION", "G_NO_MOTION", "UNSIMULATED_MOTION", "IO_NAME",
+           "MAX_MACROS", "MAX_EXPANSIONS", "MAX_PROGRAM_EXPANSIONS"]
 
 #: G codes accepted (``G00``–``G03`` may be written with a leading zero).
-G_CODES = frozenset({0, 1, 2, 3, 40, 41, 42, 44, 90, 91, 92, 98})
-#: Letters that may start a word.
-WORD_LETTERS = frozenset("GXYZABCIJKFETN")
+G_CODES = frozenset({0, 1, 2, 3, 4, 17, 40, 41, 42, 44, 70, 71, 75, 76, 90, 91, 92, 98, 108,
+                     109, 359, 360, 361})
+#: Letters that may start a word (P: the dwell time of G4, s).
+WORD_LETTERS = frozenset("GXYZABCIJKFETNP")
 #: Axis letters: may stand bare (``G44 X Y``), name PSO and ENABLE axes.
 AXIS_LETTERS = frozenset("XYZABC")
 #: Motion keywords allowed inside a block.
@@ -87,22 +139,87 @@ DEFAULT_MAX_TOKENS = 250_000
 #: (about 2–3 µs each).
 DEFAULT_MAX_LINES = 1_000_000
 
-_STRUCTURAL = re.compile(r"[ \t\f\v]*(?:N[0-9]+[ \t\f\v]*)?(?:REPEAT|END[ \t\f\v]*REPEAT)\b",
-                         re.IGNORECASE)
+#: Statements that move nothing the simulation follows: parsed, recorded by
+#: the interpreter as "no motion" with what they do, otherwise ignored. The
+#: value is what the statement does (its mode word, if any, is added).
+NO_MOTION = {
+    "VELOCITY": "velocity blending (corner speed kept between moves)",
+    "ROUNDING": "corner rounding",
+    "CRITICAL": "critical section (runs without interruption)",
+    "WAIT": "waits for a condition (motion done, in position, a mode)",
+    "FILEOPEN": "opens a file", "FILECLOSE": "closes a file", "FILEWRITE": "writes a file",
+    "FILEREAD": "reads a file", "FILEPRINT": "writes a file", "FILEDELETE": "deletes a file",
+    "FILEEXISTS": "tests a file", "FILEPOS": "moves a file pointer",
+    "FILEREADLINE": "reads a file", "FILEWRITELINE": "writes a file",
+    "FILEAPPEND": "opens a file for appending", "FILERENAME": "renames a file",
+    "MSGDISPLAY": "shows a message", "MSGCLEAR": "clears messages", "MSGBOX": "shows a box",
+    "MSGLAMP": "sets a lamp", "MSGSHOW": "shows a message", "MSGHIDE": "hides messages",
+    "DISPLAY": "shows a message", "FORMAT": "formats a string", "STRCOPY": "copies a string",
+    "STRFORMAT": "formats a string", "STRINSERT": "edits a string", "STRDELETE": "edits a string",
+    "STRUPR": "edits a string", "STRLWR": "edits a string", "STRTONUM": "converts a string",
+    "NUMTOSTR": "converts a number", "STRCONCAT": "joins strings", "STRLEN": "measures a string",
+    "SCOPETRIG": "triggers the scope", "DATAACQ": "data acquisition", "DISABLE": "disables drives",
+    "BRAKE": "sets a brake", "FAULTACK": "acknowledges faults", "ACKNOWLEDGEALL":
+    "acknowledges faults", "PLANE": "selects a plane", "SETGAIN": "sets servo gains",
+}
+#: G codes that set a mode the simulation has no use for (recorded as no motion).
+G_NO_MOTION = {108: "velocity blending on (VELOCITY ON)", 109: "velocity blending off",
+               359: "wait mode: no wait (G359)", 360: "wait mode: auto (G360)",
+               361: "wait mode: in position (G361)"}
+#: Keywords that move axes in ways tipgeo cannot simulate: an error in every mode.
+UNSIMULATED_MOTION = frozenset({"HOME", "MOVEABS", "MOVEINC", "MOVETO", "INDEX", "CAMSYNC",
+                                "GEAR", "SCAN", "OSCILLATE", "HOMEASYNC"})
+
+_WS_RE = r"[ \t\f\v]"
+_STRUCTURAL = re.compile(
+    rf"{_WS_RE}*(?:N[0-9]+{_WS_RE}*)?(?:REPEAT|WHILE|IF|ELSEIF|ELSE|DFS|"
+    rf"END{_WS_RE}*(?:REPEAT|WHILE|IF|DFS)|ENDIF|ENDWHILE|ENDDFS|#)(?![A-Za-z0-9_])",
+    re.IGNORECASE)
+_MOTION_HINT = re.compile(
+    r"(?<![A-Za-z0-9_$.])(?:G0*[0-3](?![0-9.])|LINEAR|RAPID|CW|CCW|[XYZC]\s*[-+.0-9$(])",
+    re.IGNORECASE)
+_ENSEMBLE = re.compile(
+    rf"{_WS_RE}*(HEADER|END{_WS_RE}+HEADER|PROGRAM|DIM{_WS_RE}+[A-Za-z_$][A-Za-z0-9_$]*"
+    rf"(?:{_WS_RE}*\([^)]*\))?{_WS_RE}+AS)(?![A-Za-z0-9_])", re.IGNORECASE)
+_ENSEMBLE_START = frozenset("HhPpDdEe")
+_DIRECTIVE = re.compile(rf"{_WS_RE}*#{_WS_RE}*([A-Za-z]*)")
+_MACRO_DEF = re.compile(rf"{_WS_RE}*#{_WS_RE}*define{_WS_RE}+([A-Za-z_][A-Za-z0-9_]*)(\(?)",
+                        re.IGNORECASE)
+_MACRO_USE = re.compile(r"(?<![A-Za-z0-9_$.])[A-Za-z_][A-Za-z0-9_]*")
+_SUB_NAME = re.compile(r"[A-Za-z_][A-Za-z0-9_]*")
+#: I/O system variables: ``$DO``, ``$DI``, ``$AO``, ``$AI`` (a glued number too: ``$DO0``).
+IO_NAME = re.compile(r"(?:do|di|ao|ai)[0-9]*\Z")
+#: Most ``#define`` macros in one program.
+MAX_MACROS = 10_000
+#: Most macro replacements made in one line, nested ones included.
+MAX_EXPANSIONS = 4096
+#: Most macro replacements in a whole program: about 2.3 µs each measured, so
+#: reaching it costs about 2–3 s of CPU.
+MAX_PROGRAM_EXPANSIONS = 1_000_000
 
 
-class _RepeatStart:
-    """A ``REPEAT count`` header line."""
+class _Open:
+    """A line that opens a block: ``REPEAT``, ``WHILE``, ``IF``, ``DFS``."""
 
-    def __init__(self, count: ast.Expr, span: ast.Span):
-        self.count, self.span = count, span
+    def __init__(self, kind: str, head, span: ast.Span):
+        self.kind, self.head, self.span = kind, head, span
 
 
-class _RepeatEnd:
-    """An ``END REPEAT`` line."""
+class _Branch:
+    """``ELSEIF cond THEN`` (head the condition) or ``ELSE`` (head None)."""
 
-    def __init__(self, span: ast.Span):
-        self.span = span
+    def __init__(self, head, span: ast.Span):
+        self.head, self.span = head, span
+
+
+class _Close:
+    """A line that closes a block: ``END REPEAT``, ``ENDWHILE``, ``ENDIF``, ``ENDDFS``."""
+
+    def __init__(self, kind: str, span: ast.Span):
+        self.kind, self.span = kind, span
+
+
+_CLOSERS = {"REPEAT": "END REPEAT", "WHILE": "ENDWHILE", "IF": "ENDIF", "DFS": "ENDDFS"}
 
 
 def parse(text: str, *, lenient: bool = False,
@@ -153,21 +270,52 @@ def parse(text: str, *, lenient: bool = False,
     check_limit("max_statements", max_statements)
     check_limit("max_tokens", max_tokens)
     check_limit("max_lines", max_lines)
-    stack: list[tuple[_RepeatStart | None, list]] = [(None, [])]
+    stack: list[_Frame] = [_Frame(None, None, None)]
+    subs: dict[str, ast.Sub] = {}
+    macros: dict[str, str] = {}
     warnings: list[str] = []
     count = 0
     tokens = 0
+    expansions = [MAX_PROGRAM_EXPANSIONS]     # replacements left for the whole program
     for lineno, line in enumerate(iter_lines(text), 1):
         if lineno > max_lines:
             raise GCodeError(f"more than {max_lines} lines (max_lines = {max_lines})", lineno, 1,
                              line[:20])
-        lexed: list[Token] = []   # filled even when lexing fails: skipped text costs too
+        head = line.lstrip(" \t\f\v")[:1]
+        if head in _ENSEMBLE_START and (m := _ENSEMBLE.match(line)) is not None:
+            raise GCodeError(
+                f"this is Ensemble AeroBasic, not A3200 AeroBasic: {m.group(1).split()[0].upper()}"
+                " belongs to the Ensemble dialect (HEADER … END HEADER, PROGRAM … END PROGRAM, "
+                "DIM … AS, ' comments); tipgeo reads A3200 programs — translate it (DVAR "
+                "$name for DIM, no HEADER/PROGRAM block) or write it for the A3200",
+                lineno, m.start(1) + 1, m.group(1))
+        if head == "#":
+            count += 1
+            _check_count(count, max_statements, lineno, 1, line[:40])
+            lexed: list[Token] = []
+            try:
+                _directive(line, lineno, macros, lexed)
+            except UnsupportedError as err:
+                tokens = _count_tokens(tokens, lexed, max_tokens, lineno)
+                if not lenient:
+                    raise
+                warnings.append(f"{err} (statement skipped)")
+                continue
+            tokens = _count_tokens(tokens, lexed, max_tokens, lineno)
+            continue
+        lexed = []   # filled even when lexing fails: skipped text costs too
         try:
-            item = _Line(line, lineno, lexed).statement()
+            item = _Line(line, lineno, lexed, macros, expansions).statement()
         except UnsupportedError as err:
             tokens = _count_tokens(tokens, lexed, max_tokens, lineno)
             if not lenient or _STRUCTURAL.match(line):
                 raise
+            code = _expand(line[:split_comment(line)], macros, lineno, budget=expansions)[0] \
+                if macros else line[:split_comment(line)]
+            if _MOTION_HINT.search(code):
+                raise GCodeError(f"{err.reason}; this statement moves an axis, and a move tipgeo "
+                                 "cannot evaluate is an error even in lenient mode", err.line,
+                                 err.column, err.text) from None
             count += 1
             _check_count(count, max_statements, err.line, err.column, err.text)
             warnings.append(f"{err} (statement skipped)")
@@ -178,23 +326,189 @@ def parse(text: str, *, lenient: bool = False,
         span = item.span
         count += 1
         _check_count(count, max_statements, span.line, span.col, span.text)
-        if isinstance(item, _RepeatStart):
+        top = stack[-1]
+        if isinstance(item, _Open):
             if len(stack) > MAX_NESTING:
-                raise GCodeError(f"REPEAT nested deeper than {MAX_NESTING}", span.line,
+                raise GCodeError(f"{item.kind} nested deeper than {MAX_NESTING} blocks",
+                                 span.line, span.col, span.text)
+            if item.kind == "DFS" and len(stack) > 1:
+                raise GCodeError(f"DFS inside {top.kind} (line {top.span.line}): a subroutine is "
+                                 "defined at the top level", span.line, span.col, span.text)
+            stack.append(_Frame(item.kind, item.head, span))
+        elif isinstance(item, _Branch):
+            word = "ELSE" if item.head is None else "ELSEIF"
+            if top.kind != "IF":
+                raise GCodeError(f"{word} without IF", span.line, span.col, span.text)
+            if top.branches[-1][0] is None:
+                raise GCodeError(f"{word} after ELSE", span.line, span.col, span.text)
+            top.branches.append((item.head, []))
+        elif isinstance(item, _Close):
+            if top.kind != item.kind:
+                closer = _CLOSERS[item.kind]
+                if top.kind is None:
+                    raise GCodeError(f"{closer} without {item.kind}", span.line, span.col,
+                                     span.text)
+                raise GCodeError(f"{closer} cannot close the {top.kind} of line "
+                                 f"{top.span.line} (expected {_CLOSERS[top.kind]})", span.line,
                                  span.col, span.text)
-            stack.append((item, []))
-        elif isinstance(item, _RepeatEnd):
-            if len(stack) == 1:
-                raise GCodeError("END REPEAT without REPEAT", span.line, span.col, span.text)
-            head, body = stack.pop()
-            stack[-1][1].append(ast.Repeat(head.count, tuple(body), head.span))
+            stack.pop()
+            node = top.node()
+            if isinstance(node, ast.Sub):
+                if node.name in subs:
+                    raise GCodeError(f"subroutine {node.name} is defined twice (first at line "
+                                     f"{subs[node.name].span.line})", span.line, span.col,
+                                     span.text)
+                subs[node.name] = node
+            else:
+                stack[-1].body.append(node)
         else:
-            stack[-1][1].append(item)
+            top.body.append(item)
     if len(stack) > 1:
-        head = stack[-1][0]
-        raise GCodeError("REPEAT without END REPEAT", head.span.line, head.span.col,
-                         head.span.text)
-    return ast.Program(tuple(stack[0][1]), tuple(warnings))
+        top = stack[-1]
+        raise GCodeError(f"{top.kind} without {_CLOSERS[top.kind]}", top.span.line, top.span.col,
+                         top.span.text)
+    return ast.Program(tuple(stack[0].body), tuple(warnings), tuple(subs.values()),
+                       tuple(macros.items()))
+
+
+class _Frame:
+    """A block being parsed: its kind, header and branches of statements."""
+
+    def __init__(self, kind: str | None, head, span: ast.Span | None):
+        self.kind, self.span = kind, span
+        self.branches: list[tuple] = [(head, [])]
+
+    @property
+    def body(self) -> list:
+        return self.branches[-1][1]
+
+    def node(self):
+        head, body = self.branches[0]
+        if self.kind == "REPEAT":
+            return ast.Repeat(head, tuple(body), self.span)
+        if self.kind == "WHILE":
+            return ast.While(head, tuple(body), self.span)
+        if self.kind == "DFS":
+            return ast.Sub(head, tuple(body), self.span)
+        return ast.If(tuple((c, tuple(b)) for c, b in self.branches), self.span)
+
+
+def _directive(line: str, lineno: int, macros: dict[str, str], lexed: list) -> None:
+    """Apply one preprocessor line: ``#define NAME text`` or ``#undef NAME``."""
+    d = _DIRECTIVE.match(line)
+    word = d.group(1).lower()
+    col = line.index("#") + 1
+    if word == "define":
+        m = _MACRO_DEF.match(line)
+        if m is None:
+            raise GCodeError("#define needs a macro name", lineno, col, line[col - 1:col + 19])
+        name = m.group(1)
+        if m.group(2):
+            raise UnsupportedError("function-like macros are not supported (only #define NAME "
+                                   "text)", lineno, m.start(1) + 1, name + "(")
+        body = line[m.end():]
+        body = body[:split_comment(body)].strip()
+        if len(body) > MAX_LINE_LENGTH:
+            raise GCodeError(f"macro {name} expands to more than MAX_LINE_LENGTH = "
+                             f"{MAX_LINE_LENGTH} characters", lineno, m.start(1) + 1, name)
+        offset = m.end() + (len(line[m.end():]) - len(line[m.end():].lstrip()))
+        try:
+            tokenize_line(body, lineno, out=lexed)   # its tokens are checked and charged
+        except GCodeError as err:
+            raise type(err)(err.reason, lineno, err.column + offset, err.text) from None
+        if name not in macros and len(macros) >= MAX_MACROS:
+            raise GCodeError(f"more than {MAX_MACROS} macros (MAX_MACROS)", lineno,
+                             m.start(1) + 1, name)
+        macros[name] = body
+    elif word == "undef":
+        rest = line[d.end():]
+        m = _SUB_NAME.match(rest.strip())
+        if m is None:
+            raise GCodeError("#undef needs a macro name", lineno, col, line[col - 1:col + 19])
+        macros.pop(m.group(0), None)
+    else:
+        raise GCodeError(f"preprocessor directive #{d.group(1)} is not supported (only #define "
+                         "and #undef): the statements it would select or bring in cannot be "
+                         "checked", lineno, col, line[col - 1:d.end()])
+
+
+def _expand(code: str, macros: dict[str, str], lineno: int,
+            active: frozenset = frozenset(), budget: list | None = None) -> tuple[str, list]:
+    """``code`` with every macro name replaced, and the pieces it was made of:
+    ``(start in the result, start in code, length in code, from a macro)``.
+
+    As in C, a replacement is rescanned for further macros, except the ones
+    being expanded (no recursion); the result is at most MAX_LINE_LENGTH
+    characters and costs at most MAX_EXPANSIONS replacements (empty macros
+    nested in each other would otherwise cost exponential time for nothing)."""
+    if budget is None:
+        budget = [MAX_PROGRAM_EXPANSIONS]
+    if len(budget) == 1:            # a new line: its own bound, within the program's
+        budget = [budget, MAX_EXPANSIONS]
+    out: list[str] = []
+    pieces: list[tuple[int, int, int, bool]] = []
+    pos = 0
+    size = 0
+    strings = _string_spans(code)
+    for m in _MACRO_USE.finditer(code):
+        name = m.group(0)
+        if name not in macros or name in active or any(a <= m.start() < b for a, b in strings):
+            continue
+        if m.start() > pos:
+            out.append(code[pos:m.start()])
+            pieces.append((size, pos, m.start() - pos, False))
+            size += m.start() - pos
+        rep = macros[name]
+        budget[1] -= 1
+        budget[0][0] -= 1
+        if budget[1] < 0:
+            raise GCodeError(f"more than {MAX_EXPANSIONS} macro replacements in one line "
+                             "(MAX_EXPANSIONS)", lineno, m.start() + 1, name)
+        if budget[0][0] < 0:
+            raise GCodeError(f"more than {MAX_PROGRAM_EXPANSIONS} macro replacements in the "
+                             "program (MAX_PROGRAM_EXPANSIONS)", lineno, m.start() + 1, name)
+        if len(active) >= MAX_NESTING:
+            raise GCodeError(f"macros nested deeper than {MAX_NESTING}", lineno, m.start() + 1,
+                             name)
+        if _MACRO_USE.search(rep) is not None:
+            try:
+                rep = _expand(rep, macros, lineno, active | {name}, budget)[0]
+            except GCodeError as err:    # located at this use, not inside a replacement
+                raise GCodeError(err.reason, lineno, m.start() + 1, name) from None
+        out.append(rep)
+        pieces.append((size, m.start(), len(name), True))
+        size += len(rep)
+        pos = m.end()
+        if size > MAX_LINE_LENGTH:
+            raise GCodeError(f"line is longer than MAX_LINE_LENGTH = {MAX_LINE_LENGTH} "
+                             "characters after macro expansion", lineno, m.start() + 1, name)
+    out.append(code[pos:])
+    pieces.append((size, pos, len(code) - pos, False))
+    return "".join(out), pieces
+
+
+def _string_spans(code: str) -> list[tuple[int, int]]:
+    spans = []
+    i = code.find('"')
+    while i >= 0:
+        j = code.find('"', i + 1)
+        if j < 0:
+            spans.append((i, len(code)))
+            break
+        spans.append((i, j + 1))
+        i = code.find('"', j + 1)
+    return spans
+
+
+def _origin(pieces: list, index: int) -> tuple[int, int | None]:
+    """1-based source column of character ``index`` of an expanded line, and
+    the width to report when it came from a macro (else None)."""
+    for start, src, length, macro in reversed(pieces):
+        if index >= start:
+            if macro:
+                return src + 1, length
+            return src + 1 + (index - start), None
+    return index + 1, None
 
 
 def parse_expression(text: str) -> ast.Expr:
@@ -224,7 +538,7 @@ def parse_expression(text: str) -> ast.Expr:
     p = _Line(first, 1)
     if not p.tokens:
         raise GCodeError("empty expression", 1, 1, first)
-    expr, _ = p.expr(0)
+    expr, _ = p.disjunction(0)
     p.expect_end()
     return expr
 
@@ -253,6 +567,10 @@ def is_statement(line: str) -> bool:
         return False
 
 
+def _where(span: ast.Span) -> tuple[int, int, str]:
+    return span.line, span.col, span.text
+
+
 def _count_tokens(total: int, lexed: list[Token], limit: int, line: int) -> int:
     """``total`` plus the tokens of one line; GCodeError at the first beyond ``limit``."""
     total += len(lexed)
@@ -272,10 +590,33 @@ def _check_count(count: int, limit: int, line: int, col: int, text: str) -> None
 class _Line:
     """Recursive-descent parser of the tokens of one line."""
 
-    def __init__(self, line: str, lineno: int, tokens: list[Token] | None = None):
+    def __init__(self, line: str, lineno: int, tokens: list[Token] | None = None,
+                 macros: dict[str, str] | None = None, expansions: list | None = None):
         self.line, self.lineno = line, lineno
-        self.tokens: list[Token] = tokenize_line(line, lineno, out=tokens)
+        self.cond = False           # inside an IF/WHILE condition: '=' compares
         self.pos = 0
+        if not macros:
+            self.tokens: list[Token] = tokenize_line(line, lineno, out=tokens)
+            return
+        end = split_comment(line)
+        code, pieces = _expand(line[:end], macros, lineno, budget=expansions)
+        if len(pieces) == 1:        # no macro used on this line
+            self.tokens = tokenize_line(line, lineno, out=tokens)
+            return
+        raw: list[Token] = []
+        try:
+            tokenize_line(code, lineno, out=raw)
+        except GCodeError as err:
+            col = _origin(pieces, err.column - 1)[0] if err.column else 0
+            raise type(err)(err.reason, lineno, col, err.text) from None
+        finally:
+            mapped = []
+            for tok in raw:
+                col, width = _origin(pieces, tok.col - 1)
+                mapped.append(Token(tok.kind, tok.value, col, tok.text, width))
+            if tokens is not None:
+                tokens.extend(mapped)
+        self.tokens = mapped
 
     # -- token helpers ----------------------------------------------------------
     def peek(self) -> Token | None:
@@ -326,6 +667,8 @@ class _Line:
         if start.kind != "ident":
             raise self.error(f"expected a statement, found {start.text!r}", start)
         kw = start.value
+        nxt = self.tokens[self.pos + 1] if self.pos + 1 < len(toks) else None
+        after = nxt.value if nxt is not None and nxt.kind == "ident" else None
         if kw == "DVAR":
             return self.dvar(span)
         if kw == "REPEAT":
@@ -334,13 +677,67 @@ class _Line:
                 raise self.error("REPEAT needs a count", start)
             count, _ = self.expr(0)
             self.expect_end()
-            return _RepeatStart(count, span)
-        nxt = self.tokens[self.pos + 1] if self.pos + 1 < len(toks) else None
-        if kw == "ENDREPEAT" or (kw == "END" and nxt is not None and nxt.kind == "ident"
-                                 and nxt.value == "REPEAT"):
-            self.pos += 1 if kw == "ENDREPEAT" else 2
+            return _Open("REPEAT", count, span)
+        if kw in ("WHILE", "IF", "ELSEIF"):
+            self.advance()
+            if self.peek() is None:
+                raise self.error(f"{kw} needs a condition", start)
+            cond = self.condition()
+            closing = "DO" if kw == "WHILE" else "THEN"
+            tok = self.peek()
+            if tok is not None and tok.kind == "ident" and tok.value == closing:
+                self.advance()
+            elif kw != "WHILE":
+                raise self.error(f"{kw} … needs THEN at the end of its line", tok or start)
+            if self.peek() is not None:
+                raise self.error(f"unexpected {self.peek().text!r}: {kw} … {closing} ends its "
+                                 "line; write the statements on the lines below", self.peek())
+            return _Open(kw, cond, span) if kw != "ELSEIF" else _Branch(cond, span)
+        if kw == "ELSE":
+            self.advance()
             self.expect_end()
-            return _RepeatEnd(span)
+            return _Branch(None, span)
+        if kw in ("ENDREPEAT", "ENDWHILE", "ENDIF", "ENDDFS") or (
+                kw == "END" and after in ("REPEAT", "WHILE", "IF", "DFS")):
+            kind = kw[3:] if kw != "END" else after
+            self.pos += 1 if kw != "END" else 2
+            self.expect_end()
+            return _Close(kind, span)
+        if kw in ("DFS", "CALL"):
+            self.advance()
+            name = self.name(start)
+            if kw == "DFS":
+                self.expect_end()
+                return _Open("DFS", name, span)
+            return self.call(name, span)
+        if kw == "DWELL":
+            self.advance()
+            if self.peek() is None:
+                raise self.error("DWELL needs a time (s)", start)
+            seconds, _ = self.expr(0)
+            self.expect_end()
+            return ast.Dwell(seconds, span)
+        if kw == "FREERUN":
+            self.advance()
+            axis = self.peek()
+            if axis is None or axis.kind != "ident":
+                raise self.error("FREERUN needs an axis", axis or start)
+            if axis.value in ("X", "Y", "Z", "C"):
+                raise self.error(f"FREERUN {axis.text} runs a path axis at a velocity with no "
+                                 "end point: tipgeo cannot simulate it (an error in every "
+                                 "mode)", start)
+            self.pos = len(self.tokens)
+            return ast.NoMotion("FREERUN", f"auxiliary axis {axis.value} runs free (not a path "
+                                "axis: X Y Z C)", span)
+        if kw in UNSIMULATED_MOTION:
+            raise self.error(f"{kw} moves axes in a way tipgeo cannot simulate; a move that "
+                             "cannot be evaluated is an error in every mode", start)
+        if kw in NO_MOTION:
+            self.pos = len(self.tokens)
+            what = NO_MOTION[kw]
+            if after is not None and len(after) > 1:
+                kw, what = f"{kw} {after}", f"{what}: {after}"
+            return ast.NoMotion(kw, what, span)
         if kw in MODE_KEYWORDS:
             return self.mode(span)
         if kw.startswith("PSO") and len(kw) > 3:
@@ -349,16 +746,78 @@ class _Line:
             return self.block(span)
         raise self.error(f"unknown keyword {start.text!r}", start, UnsupportedError)
 
-    def assignment(self, span: ast.Span) -> ast.Assign:
+    def name(self, head: Token) -> str:
+        """The subroutine name after ``DFS``/``CALL`` (letters, digits, ``_``), upper-case."""
+        tok = self.peek()
+        if tok is None or tok.kind != "ident":
+            raise self.error(f"{head.value} needs a subroutine name", tok or head)
+        m = _SUB_NAME.match(self.line, tok.col - 1) if tok.width is None else None
+        text = m.group(0) if m is not None else tok.text
+        stop = tok.col - 1 + len(text)
+        while self.peek() is not None and self.peek().col - 1 < stop:
+            self.advance()
+        return text.upper()
+
+    def call(self, name: str, span: ast.Span) -> ast.Call:
+        args: list[tuple[str, ast.Expr]] = []
+        while (tok := self.peek()) is not None:
+            self.advance()
+            if tok.kind == "op" and tok.value == ",":
+                continue
+            if tok.kind != "ident" or len(tok.value) != 1:
+                raise self.error(f"CALL arguments are letter words (P1 Q$x), found {tok.text!r}",
+                                 tok)
+            if self.peek() is None or self.peek().kind in ("ident", "str"):
+                raise self.error(f"the argument {tok.text} needs a value", tok)
+            value, _ = self.unary(0)
+            if any(letter == tok.value for letter, _ in args):
+                raise self.error(f"argument {tok.value} given twice", tok)
+            args.append((tok.value, value))
+        return ast.Call(name, tuple(args), span)
+
+    def assignment(self, span: ast.Span):
         var = self.advance()
+        index: list = []
+        while (tok := self.peek()) is not None:
+            if tok.kind == "op" and tok.value == "[":
+                self.advance()
+                if self.peek() is None:
+                    raise self.error("'[' needs an index", tok)
+                value, _ = self.expr(0)
+                close = self.peek()
+                if close is None or not (close.kind == "op" and close.value == "]"):
+                    raise self.error("expected ']'", close or tok)
+                self.advance()
+                index.append(value)
+            elif tok.kind == "op" and tok.value == ".":
+                self.advance()
+                field = self.peek()
+                if field is None or field.kind != "ident":
+                    raise self.error("expected a field name after '.'", field or tok)
+                self.advance()
+                index.append(field.value)
+            elif tok.kind == "num" and tok.text.startswith(".") and tok.text[1:].isdigit():
+                self.advance()           # $DO0.0: output 0 of bank 0
+                index.append(tok.text)
+            else:
+                break
         if not self.is_op("="):
             tok = self.peek() or var
-            raise self.error(f"expected '=' after {var.text}", tok)
+            raise self.error(f"expected '=' after {self.source(var)}", tok)
         eq = self.advance()
         if self.peek() is None:
             raise self.error(f"expected an expression after {var.text} =", eq)
+        if self.peek().kind == "str" and self.pos + 1 == len(self.tokens):
+            self.advance()
+            return ast.NoMotion("STRING", f"sets the string {self.source(var)}", span)
+        if self.peek().kind == "ident" and self.peek().value in NO_MOTION:
+            kw = self.advance().value       # $h = FILEOPEN "log.txt", 2
+            self.pos = len(self.tokens)
+            return ast.NoMotion(kw, f"{NO_MOTION[kw]} (result in {self.source(var)})", span)
         expr, _ = self.expr(0)
         self.expect_end()
+        if index or IO_NAME.match(var.value):
+            return ast.SysAssign(var.value, tuple(index), expr, span)
         return ast.Assign(var.value, expr, span)
 
     def dvar(self, span: ast.Span) -> ast.DVar:
@@ -368,6 +827,14 @@ class _Line:
             self.advance()
             if tok.kind == "var":
                 names.append(tok.value)
+                if self.is_op("["):                 # an array: DVAR $pts[100]
+                    self.advance()
+                    if self.peek() is None:
+                        raise self.error("'[' needs a size", tok)
+                    self.expr(0)
+                    if not self.is_op("]"):
+                        raise self.error("expected ']'", self.peek() or tok)
+                    self.advance()
             elif not (tok.kind == "op" and tok.value == ","):
                 raise self.error(f"DVAR expects $variables, found {tok.text!r}", tok)
         if not names:
@@ -386,6 +853,11 @@ class _Line:
                     raise self.error(f"ENABLE expects axis letters, found {tok.text!r}", tok)
             if not args:
                 raise self.error("ENABLE needs at least one axis", head)
+        elif head.value == "END" and (tok := self.peek()) is not None and tok.kind == "ident" \
+                and tok.value == "PROGRAM":
+            self.advance()
+            args.append("PROGRAM")
+            self.expect_end()
         else:
             self.expect_end()
         return ast.Mode(head.value, tuple(args), span)
@@ -423,6 +895,12 @@ class _Line:
             if len(tok.value) > 1:
                 raise self.error(f"unknown keyword {tok.text!r}", tok, UnsupportedError)
             words.append(self.word(tok))
+        ends = [w for w in words if w.letter == "M"]
+        if ends:
+            if len(words) - sum(w.letter == "N" for w in words) != 1 or keywords:
+                raise GCodeError(f"{ends[0].span.text} (end of program) must stand alone",
+                                 *_where(ends[0].span))
+            return ast.Mode("END", (f"M{int(ends[0].value.value)}",), span)
         return ast.Block(tuple(words), tuple(keywords), span)
 
     def word(self, letter: Token) -> ast.Word:
@@ -434,8 +912,14 @@ class _Line:
             value, _ = self.unary(0)
         text = self.source(letter)
         where = (self.lineno, letter.col, text)
+        if name == "M":
+            tok = self.tokens[first] if self.pos == first + 1 else None
+            if tok is not None and tok.kind == "num" and tok.text.isdigit() \
+                    and tok.value in (2, 30):
+                return ast.Word("M", ast.Num(float(tok.value)), ast.Span(*where))
         if name not in WORD_LETTERS:
-            what = "M words are" if name == "M" else f"{name} words are"
+            what = "M words other than M2 and M30 (end of program) are" if name == "M" else \
+                f"{name} words are"
             raise UnsupportedError(f"{what} not supported", *where)
         if name == "N":
             raise GCodeError("a line number N must start the line", *where)
@@ -451,6 +935,60 @@ class _Line:
         return ast.Word(name, value, ast.Span(self.lineno, letter.col, text))
 
     # -- expressions ------------------------------------------------------------
+    def condition(self) -> ast.Expr:
+        """A condition of IF/ELSEIF/WHILE: ``=`` compares there."""
+        self.cond = True
+        try:
+            node, _ = self.disjunction(0)
+        finally:
+            self.cond = False
+        return node
+
+    def disjunction(self, nest: int) -> tuple[ast.Expr, int]:
+        """``conjunction (OR conjunction)*``."""
+        left, depth = self.conjunction(nest)
+        while (tok := self.peek()) is not None and tok.kind == "ident" and tok.value == "OR":
+            self.advance()
+            right, rdepth = self.conjunction(nest)
+            depth = self.deeper(max(depth, rdepth), tok)
+            left = ast.Logic("OR", left, right)
+        return left, depth
+
+    def conjunction(self, nest: int) -> tuple[ast.Expr, int]:
+        """``negation (AND negation)*``."""
+        left, depth = self.negation(nest)
+        while (tok := self.peek()) is not None and tok.kind == "ident" and tok.value == "AND":
+            self.advance()
+            right, rdepth = self.negation(nest)
+            depth = self.deeper(max(depth, rdepth), tok)
+            left = ast.Logic("AND", left, right)
+        return left, depth
+
+    def negation(self, nest: int) -> tuple[ast.Expr, int]:
+        """``NOT* comparison`` (iterative: long NOT chains cost no recursion)."""
+        nots: list[Token] = []
+        while (tok := self.peek()) is not None and tok.kind == "ident" and tok.value == "NOT":
+            nots.append(self.advance())
+        node, depth = self.comparison(nest)
+        for tok in reversed(nots):
+            depth = self.deeper(depth, tok)
+            node = ast.Not(node)
+        return node, depth
+
+    def comparison(self, nest: int) -> tuple[ast.Expr, int]:
+        """``expr (op expr)?`` with op ``== <> != < > <= >=`` (and ``=`` in a condition)."""
+        left, depth = self.expr(nest)
+        tok = self.peek()
+        if tok is not None and tok.kind == "op" and (
+                tok.value in ("==", "<>", "!=", "<", ">", "<=", ">=")
+                or (tok.value == "=" and self.cond)):
+            self.advance()
+            right, rdepth = self.expr(nest)
+            depth = self.deeper(max(depth, rdepth), tok)
+            op = {"=": "==", "!=": "<>"}.get(tok.value, tok.value)
+            left = ast.Compare(op, left, right)
+        return left, depth
+
     def expr(self, nest: int) -> tuple[ast.Expr, int]:
         """``term (('+'|'-') term)*``; returns the tree and its depth."""
         left, depth = self.term(nest)
@@ -498,11 +1036,15 @@ class _Line:
         if tok.kind == "num":
             return ast.Num(tok.value), 1
         if tok.kind == "var":
+            nxt = self.peek()
+            if nxt is not None and nxt.kind == "op" and nxt.value in "[.":
+                raise self.error(f"{tok.text}{nxt.text}…: reading an input, system variable or "
+                                 "array element cannot be simulated", tok)
             return ast.Var(tok.value), 1
         if tok.kind == "op" and tok.value == "(":
             if nest >= MAX_NESTING:
                 raise self.error(f"parentheses nested deeper than {MAX_NESTING}", tok)
-            inner, depth = self.expr(nest + 1)
+            inner, depth = self.disjunction(nest + 1)
             close = self.peek()
             if close is None:
                 raise self.error("unbalanced parenthesis: '(' is never closed", tok)

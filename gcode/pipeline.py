@@ -47,12 +47,18 @@ class LaserCheck:
     comparison: dict | None = None
     files: list[str] = field(default_factory=list)
 
-    def summary(self, *, source: str = "", max_warnings: int = 50) -> dict[str, Any]:
-        """The report (mm, s, degrees): toolpath, warnings, ablation, comparison."""
+    def summary(self, *, source: str = "") -> dict[str, Any]:
+        """The report (mm, s, degrees): toolpath, every warning, the
+        statements that moved nothing (with what they did and how often),
+        the last values written to outputs and system variables, ablation,
+        comparison."""
         out: dict[str, Any] = {"program": source, "statements": len(self.program.body),
+                               "subroutines": [s.name for s in self.program.subroutines],
                                "toolpath": self.toolpath.summary(),
-                               "warnings": self.toolpath.warnings[:max_warnings],
-                               "warnings_total": len(self.toolpath.warnings)}
+                               "warnings": list(self.toolpath.warnings),
+                               "warnings_total": len(self.toolpath.warnings),
+                               "no_motion": list(self.toolpath.no_motion),
+                               "io": dict(self.toolpath.io)}
         if self.ablation is not None:
             res = self.ablation
             out["ablation"] = {"notches": res.notches, "c_angles_deg": res.c_angles_deg,

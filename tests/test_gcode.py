@@ -149,8 +149,44 @@ def test_cli_laser_check_and_sim(tmp_path, capsys):
     assert png.stat().st_size > 10_000 and (tmp_path / "p-rim.png").exists()
     assert stl.stat().st_size > 1000
     bad = tmp_path / "bad.pgm"
-    bad.write_text("G01 X1 F1\nG17\n")
+    bad.write_text("G01 X1 F1\nG18\n")
     assert main(["gcode", "check", str(bad)]) == 2
     err = capsys.readouterr().err
-    assert "line 2" in err and "G17" in err
+    assert "line 2" in err and "G18" in err
     assert main(["gcode", "check", str(bad), "--lenient"]) == 0
+
+
+# -- a complete A3200 program (issue 16) -------------------------------------------------
+def test_emitted_program_is_complete_and_ascii():
+    text = emit_program(preset("punch-C2"))
+    assert text.isascii()
+    prog = parse(text)
+    kinds = [(type(s).__name__, getattr(s, "keyword", getattr(s, "command", None)))
+             for s in prog.body]
+    lines = [ln.split(";")[0].strip() for ln in text.splitlines()]
+
+    def first(prefix):
+        return next(i for i, ln in enumerate(lines) if ln.startswith(prefix))
+
+    # drives enabled, units and modes stated before any move or preset
+    first_move = first("G92")
+    for stmt in ("ENABLE X Y C", "METRIC", "SECONDS", "G90"):
+        assert first(stmt) < first_move, stmt
+    assert first("G91") < first("REPEAT")
+    # the PSO set up before the first FIRE: reset, pulse (comma form), output, off
+    reset, pulse = first("PSOCONTROL X RESET"), first("PSOPULSE X TIME 10.000, 5.000 CYCLES")
+    out, off, fire = first("PSOOUTPUT X PULSE"), first("PSOCONTROL X OFF"), first(
+        "PSOCONTROL X FIRE")
+    assert reset < pulse < out < off < fire
+    # the program ends: laser off, tool unloaded, END PROGRAM last
+    assert [ln for ln in lines if ln][-3:] == ["PSOCONTROL X OFF", "T0", "END PROGRAM"]
+    assert kinds[-1] == ("Mode", "END") and prog.body[-1].args == ("PROGRAM",)
+    tp = interpret(prog, tool_radii={0: 0.0, 1: 0.010})
+    assert tp.pulse_period_us == 10.0 and tp.pulse_on_us == 5.0
+    assert len(tp.summary()["c_angles_with_beam_deg"]) == 16
+
+
+def test_end_of_program_stops_execution():
+    for end in ("END", "END PROGRAM", "end program"):
+        tp = run(f"F1\nG01 X1\n{end}\nG01 X2\n")
+        assert len(tp.segments) == 1

@@ -234,8 +234,9 @@ def test_nested_repeats_and_endrepeat():
     assert words(g0) == [("G", Num(0)), ("X", Num(0))]
 
 
-@pytest.mark.parametrize("code", ["0", "00", "1", "01", "2", "02", "3", "03", "40", "41", "42",
-                                  "44", "90", "91", "92", "98"])
+@pytest.mark.parametrize("code", ["0", "00", "1", "01", "2", "02", "3", "03", "4", "17", "40",
+                                  "41", "42", "44", "70", "71", "75", "76", "90", "91", "92",
+                                  "98", "108", "109", "359", "360", "361"])
 def test_allowed_g_codes(code):
     assert words(only(f"G{code}"))[0] == ("G", Num(float(int(code))))
 
@@ -276,9 +277,9 @@ def test_evaluate_errors():
 
 # -- errors ----------------------------------------------------------------------------
 def test_unknown_g_code():
-    err = raises_at("G1 X0\n  G17 X1", 2, 3, "G17", "unsupported G code")
+    err = raises_at("G1 X0\n  G18 X1", 2, 3, "G18", "unsupported G code")
     assert "line 2, column 3" in str(err)
-    raises_at("G1 G 4", 1, 4, "G 4", "unsupported G code")
+    raises_at("G1 G 5", 1, 4, "G 5", "unsupported G code")
     raises_at("G1.5", 1, 1, "G1.5", "unsupported G code")
     raises_at("G$a", 1, 1, "G$a", "plain number")
     raises_at("G X1", 1, 1, "G", "plain number")
@@ -286,9 +287,10 @@ def test_unknown_g_code():
 
 def test_unsupported_words_and_keywords():
     raises_at("G1 X1 M3", 1, 7, "M3", "M words")
-    raises_at("M30", 1, 1, "M30", "M words")
+    raises_at("M3", 1, 1, "M3", "M words other than M2 and M30")
+    raises_at("M2 X1", 1, 1, "M2", "must stand alone")
     raises_at("G1 S100", 1, 4, "S100", "S words")
-    raises_at("G0\nWAIT 100", 2, 1, "WAIT", "unknown keyword")
+    raises_at("G0\nWAITFOR 100", 2, 1, "WAITFOR", "unknown keyword")
     raises_at("G1 XY", 1, 4, "XY", "unknown keyword")
     raises_at("G1 X1 # 3", 1, 7, "#", "unexpected character")
 
@@ -326,15 +328,22 @@ def test_repeat_structure_errors():
 
 
 def test_lenient_skips_unsupported_statements():
-    text = "G1 X1\nM3 S100\n  G17\nG1 X2 WAIT\nG1 X3"
+    text = "G1 X1\nM3 S100\n  G18\nSPINDLE ON\nG1 X3"
     prog = parse(text, lenient=True)
     assert [words(b)[1] for b in prog.body] == [("X", Num(1)), ("X", Num(3))]
     assert len(prog.warnings) == 3
     assert "line 2, column 1" in prog.warnings[0] and "M3" in prog.warnings[0]
-    assert "line 3, column 3" in prog.warnings[1] and "G17" in prog.warnings[1]
-    assert "line 4, column 7" in prog.warnings[2] and "WAIT" in prog.warnings[2]
+    assert "line 3, column 3" in prog.warnings[1] and "G18" in prog.warnings[1]
+    assert "line 4, column 1" in prog.warnings[2] and "SPINDLE" in prog.warnings[2]
     with pytest.raises(GCodeError):
         parse(text)
+    # a move that cannot be evaluated is never skipped, not even in lenient mode
+    for move, col, what in [("G1 X2 WAITFOR", 7, "WAITFOR"), ("G01 Z Tip_Plate_Distance", 7,
+                                                             "Tip_Plate_Distance"),
+                            ("G18 X1", 1, "G18"), ("LINEAR Y1 S3", 11, "S3")]:
+        with pytest.raises(GCodeError, match="error even in lenient mode") as info:
+            parse(f"G1 X1\n{move}\n", lenient=True)
+        assert (info.value.line, info.value.column, info.value.text) == (2, col, what)
     with pytest.raises(GCodeError, match="malformed"):       # syntax errors still raise
         parse("G1 X1.2.3", lenient=True)
     with pytest.raises(GCodeError, match="unexpected character"):  # structure is never skipped

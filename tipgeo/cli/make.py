@@ -64,12 +64,15 @@ def cmd_gcode(args) -> int:
     print(f"  path {s['path_length_mm']:.4f} mm, beam on {s['beam_on_length_mm']:.4f} mm, "
           f"time {s['time_s']:.2f} s (beam on {s['beam_on_time_s']:.2f} s), "
           f"pulses {s['pulses'] if s['pulses'] is not None else 'n/a'}")
+    if s["dwells"]:
+        print(f"  dwells: {s['dwells']}, {s['dwell_time_s']:.3f} s (in the time)")
     print(f"  C positions firing: {len(s['c_angles_with_beam_deg'])} "
           f"{[round(c, 4) for c in s['c_angles_with_beam_deg']][:24]}")
-    for w in tp.warnings[:10]:
+    for rec in tp.no_motion:
+        print(f"  no motion: line {rec['line']}: {rec['statement']} — {rec['effect']} "
+              f"(executed {rec['executed']}×)")
+    for w in tp.warnings:
         print(f"  warning: {w}")
-    if len(tp.warnings) > 10:
-        print(f"  … {len(tp.warnings) - 10} more warnings")
     if "ablation" in out:
         a = out["ablation"]
         print(f"  ablation: {a['notches']} notches, {a['slugs_removed']} slugs fell out, "
@@ -158,7 +161,7 @@ def register(sub) -> None:
                     help="beam diameter (20); T1's radius is half of it")
     gc.add_argument("--tolerance-um", type=float, default=None)
     gc.add_argument("--lenient", action="store_true",
-                    help="skip unsupported statements with a warning")
+                    help="skip unsupported statements with a warning (never a move)")
     gc.add_argument("--plot", metavar="FILE", help="toolpath picture (and FILE-rim.png)")
     gc.add_argument("--mesh", metavar="FILE", help="write the ablated tip (sim)")
     gc.add_argument("--json", action="store_true")

@@ -45,7 +45,8 @@ from ..errors import SpecError
 from ..tolerances import tol
 from .scanio import ScanError, check_points
 
-__all__ = ["MeasuredEdges", "measure_edges", "plot_measured_edges"]
+__all__ = ["MeasuredEdges", "measure_edges", "plot_measured_edges", "edges_markdown",
+           "edges_text"]
 
 
 @dataclass
@@ -470,7 +471,7 @@ def plot_measured_edges(res: MeasuredEdges, path, *, truth=None) -> Path:
     from ..plot import check_picture_path, save_figure
 
     path = check_picture_path(path)
-    fig, axes = plt.subplots(4, 2, figsize=(11, 11), sharex=True)
+    fig, axes = plt.subplots(5, 2, figsize=(11, 13), sharex=True)
     rows = (("z", "z (mm)"), ("lambda", "λ (°)"), ("theta", "θ (°)"), ("alpha", "α (°)"))
     st = tol.scan_edges
     for col, wall in enumerate(("outer", "inner")):
@@ -501,9 +502,86 @@ def plot_measured_edges(res: MeasuredEdges, path, *, truth=None) -> Path:
                              f"{w['cad']:.4f} mm ({w['difference_percent']:+.3f} %)",
                              fontsize=10)
                 ax.legend(fontsize=8, loc="upper left")
+        ax = axes[4, col]
+        ref = t if t is not None else c
+        for key, colr, name in (("lambda", "tab:blue", "Δλ"), ("theta", "tab:orange", "Δθ"),
+                                ("alpha", "tab:purple", "Δα")):
+            ax.plot(gd, np.degrees(m[key] - ref[key]), color=colr, lw=0.9, label=name)
+        ax.axhline(0, color="0.3", lw=0.6)
+        ax.set_ylim(-1.0, 1.0)
+        ax.set_ylabel(f"scan − {'truth' if t is not None else 'CAD'} (°)")
+        az = ax.twinx()
+        az.plot(gd, (m["z"] - ref["z"]) * 1e3, color="tab:red", lw=0.8, ls=":", label="Δz")
+        az.set_ylim(-10, 10)
+        az.set_ylabel("Δz (µm)", color="tab:red")
+        for lo, hi in ((0, math.degrees(st.heel_window)),
+                       (360 - math.degrees(st.heel_window), 360),
+                       (math.degrees(res.tip_gamma - st.tip_window),
+                        math.degrees(res.tip_gamma + st.tip_window))):
+            ax.axvspan(lo, hi, color="0.9", zorder=0)
+        ax.grid(alpha=0.3)
+        h1, l1 = ax.get_legend_handles_labels()
+        h2, l2 = az.get_legend_handles_labels()
+        ax.legend(h1 + h2, l1 + l2, fontsize=8, loc="upper right", ncol=4)
         axes[-1, col].set_xlabel("γ from the heel (°)")
         axes[-1, col].set_xlim(0, 360)
     fig.suptitle(f"{res.measured.name}: measured cutting edges and angles (grey: heel and "
                  "tip windows)", fontsize=11)
     fig.tight_layout()
     return save_figure(fig, path)
+
+
+def edges_markdown(res: MeasuredEdges) -> list[str]:
+    """Markdown lines for a report: the measured edges beside the CAD's."""
+    s = res.summary()
+    st = s["settings"]
+    L = ["", "## Cutting edges measured on the scan", "",
+         f"Edges traced on the scan ({s['method']}; windows ≥ {st['window_deg']:g}° holding "
+         f"{tol.scan_edges.window_points} cut-face points, edge band {st['edge_band_um']:g} µm, "
+         f"{st['n_harmonics']} harmonics), in the CAD's analysis frame. Differences are the "
+         f"largest |scan − CAD| farther than {st['heel_window_deg']:g}° from the heel and "
+         f"{st['tip_window_deg']:g}° from the tip (γ = {s['tip_gamma_deg']:.2f}°).", "",
+         "| edge | quantity | scan | CAD | max abs difference |", "|---|---|---|---|---|"]
+
+    def rng(x):
+        return f"{x[0]:.3f} … {x[1]:.3f}"
+
+    for wall, k in (("outer", "o"), ("inner", "i")):
+        w = s[wall]
+        L.append(f"| {wall} | l_c (mm) | {w['l_c_mm']['measured']:.4f} | "
+                 f"{w['l_c_mm']['cad']:.4f} | {w['l_c_mm']['difference_percent']:+.3f} % |")
+        L.append(f"| {wall} | z_max (mm) | {w['z_max_mm']['measured']:.4f} | "
+                 f"{w['z_max_mm']['cad']:.4f} | {w['max_abs_dz_um']:.2f} µm (z) |")
+        th = "theta_deg" if k == "o" else "theta_i_deg"
+        for key, name, dk in ((f"lambda_{k}_deg", "λ (°)", "max_abs_dlambda_deg"),
+                              (th, "θ (°)", "max_abs_dtheta_deg"),
+                              (f"alpha_{k}_deg", "α (°)", "max_abs_dalpha_deg")):
+            L.append(f"| {wall} | {name} | {rng(w[key]['measured'])} | {rng(w[key]['cad'])} | "
+                     f"{w[dk]:.3f}° |")
+        wl = w["wall"]
+        L.append(f"| {wall} | wall radius (mm) | {wl['radius_mm']:.5f} | "
+                 f"{res.cad.radii[0 if k == 'o' else 1]:.5f} | |")
+    for n in s["notes"]:
+        L.append(f"- note: {n}")
+    return L
+
+
+def edges_text(res: MeasuredEdges) -> str:
+    """Plain-text lines for the CLI: l_c and angle ranges, scan beside CAD."""
+    s = res.summary()
+    out = [f"  cutting edges measured on the scan (analysis frame of the CAD; differences "
+           f"farther than {s['settings']['heel_window_deg']:g}° from heel and tip):"]
+    for wall, k in (("outer", "o"), ("inner", "i")):
+        w = s[wall]
+        th = "theta_deg" if k == "o" else "theta_i_deg"
+        out.append(f"    {wall}: l_c {w['l_c_mm']['measured']:.4f} mm (CAD "
+                   f"{w['l_c_mm']['cad']:.4f}, {w['l_c_mm']['difference_percent']:+.3f} %), "
+                   f"wall radius {w['wall']['radius_mm']:.5f} mm")
+        for key, name, dk in ((f"lambda_{k}_deg", "λ", "max_abs_dlambda_deg"),
+                              (th, "θ", "max_abs_dtheta_deg"),
+                              (f"alpha_{k}_deg", "α", "max_abs_dalpha_deg")):
+            m, c = w[key]["measured"], w[key]["cad"]
+            out.append(f"      {name} {m[0]:8.3f} … {m[1]:8.3f}°  (CAD {c[0]:8.3f} … "
+                       f"{c[1]:8.3f}°)  max |Δ| {w[dk]:.3f}°")
+    out += [f"    note: {n}" for n in s["notes"]]
+    return "\n".join(out)

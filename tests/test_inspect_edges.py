@@ -119,6 +119,7 @@ def test_summary_report_and_plot(tmp_path):
     for wall in ("outer", "inner"):
         assert s[wall]["l_c_mm"]["cad"] == pytest.approx(cad[wall]["l_c_mm"], rel=1e-12)
         assert s[wall]["max_abs_dtheta_deg"] < 0.5
+        assert s[wall]["edge_radius_um"] == pytest.approx(EDGE_RADIUS * 1e3, abs=2.0)
     assert s["settings"]["heel_window_deg"] == pytest.approx(
         math.degrees(tol.scan_edges.heel_window))
     p = plot_measured_edges(res, tmp_path / "edges.png",
@@ -154,6 +155,10 @@ def test_worn_needle_reads_its_own_angles():
         gg = np.radians(np.arange(0.0, 360.0, 1.0))
         gg = gg[res.region(gg)]
         assert np.abs(m.at(gg)["theta"] - t.at(gg)["theta"]).max() < ANGLE
+        # the rounding: a one-parameter fit to ~400 points within the band of
+        # the edge; 2 µm covers its noise (σ/√(arc points) ≈ 0.2 µm) and the
+        # wedge model's curvature neglect (the fillet rolls on a cylinder)
+        assert ms[wall]["edge_radius_um"] == pytest.approx(12.0, abs=2.0)
 
 
 def test_bad_input_is_named():

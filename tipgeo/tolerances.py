@@ -296,6 +296,9 @@ class ScanEdgeSettings:
         The patch ∩ wall generator solve: step cap and convergence (mm).
     grazing : float
         |∂G/∂z| below this: the patch runs along the generator, no edge there.
+    rounding_step, rounding_xatol : float
+        The edge-rounding fit: spacing in γ of the fitted edge's apex points
+        (rad) and the radius's convergence (mm).
     heel_window, tip_window : float
         The accuracy of measured λ and θ is stated farther than these from the
         heel (γ = 0) and the tip (rad): there λ has its cusp |t_z| → 0 (heel)
@@ -322,6 +325,8 @@ class ScanEdgeSettings:
     newton_steps: int = 20
     newton_converge: float = 1.0e-10
     grazing: float = 1.0e-6
+    rounding_step: float = 0.004363323129985824  # 0.25°
+    rounding_xatol: float = 1.0e-7
     heel_window: float = 0.17453292519943295  # 10°
     tip_window: float = 0.17453292519943295  # 10°
 

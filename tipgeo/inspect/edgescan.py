@@ -23,7 +23,11 @@ Method (thesis §3.1.2–3.1.4 applied to measured surfaces):
    meets the fitted wall's generator at γ₀ — the sharp edge the two surfaces
    define (for a rounded edge: the virtual sharp edge). Its outward normal
    is the quadric's.
-4. **Angles.** The edge points of each piece (the CAD's pieces: a window
+4. **Rounding.** The radius of the arc that rounds the corner of the two
+   fitted surfaces (tangent to both), fitted to the points within the edge
+   band of the edge, each in its section across the edge: a worn or honed
+   edge's radius.
+5. **Angles.** The edge points of each piece (the CAD's pieces: a window
    never straddles a kink) are fitted with eq. 3.12 and analysed like the
    CAD's (:func:`tipgeo.angles.analyze_edges`): z, z′ and the tangent from
    the fit, the normals from step 3. The CAD's angles come from the same
@@ -62,7 +66,9 @@ class MeasuredEdges:
         ``rms`` (m,) mm (fit residual), ``window`` (m,) rad (its width) — the
         traced edge before the Fourier fit
     walls : dict — per wall: fitted radius (mm), axis offset (mm) and tilt
-        (rad) of the cylinder, its points and RMS residual (mm)
+        (rad) of the cylinder, its points and RMS residual (µm), and
+        ``rounding``: the edge's rounding radius (µm) fitted to the points
+        within the edge band of the traced edge (heel and tip windows out)
     heel : (float, float) — the CAD heel's cannula-frame γ (rad) and z (mm)
     tip_gamma : float — γ of the CAD outer edge's highest point (rad)
     settings : dict — window, step, edge band (mm, rad)
@@ -131,7 +137,9 @@ class MeasuredEdges:
                             "difference_percent": 100 * (ms[wall]["l_c_mm"] / cs[wall]["l_c_mm"]
                                                          - 1)},
                  "z_max_mm": {"measured": ms[wall]["z_max_mm"], "cad": cs[wall]["z_max_mm"]},
-                 "wall": {kk: vv for kk, vv in self.walls[wall].items()},
+                 "wall": {kk: vv for kk, vv in self.walls[wall].items() if kk != "rounding"},
+                 "edge_radius_um": (self.walls[wall].get("rounding") or {}).get(
+                     "edge_radius_um"),
                  "samples": int(len(s["gamma"])),
                  "fit_rms_um": [f.rmse * 1e3 for f in self.measured.__dict__[wall].fits]}
             for key in keys:
@@ -269,6 +277,76 @@ def _smooth_normals(gamma, normal, n_harmonics):
     nr, ng, nz = (fit_fourier(gamma, x, n=n_harmonics)(gamma) for x in comp)
     out = np.stack([nr * c - ng * s, nr * s + ng * c, nz], 1)
     return out / np.linalg.norm(out, axis=1, keepdims=True)
+
+
+def _dense_edge(wall_angles, radius: float, step: float):
+    """The fitted edge on a fine γ grid: apex points (m, 3), face normals
+    (m, 3), wall normals (m, 3) and γ (m,) — analysis frame."""
+    edge = wall_angles.edge
+    gs, ns = [], []
+    for p in edge.pieces:
+        g = np.arange(p.gamma[0], p.gamma[-1], step)
+        nn = np.stack([np.interp(g, p.gamma, p.normal[:, j]) for j in range(3)], 1)
+        gs.append(g)
+        ns.append(nn / np.linalg.norm(nn, axis=1, keepdims=True))
+    g = np.concatenate(gs)
+    n = np.concatenate(ns)
+    z = wall_angles.at(g)["z"]
+    e_r = np.stack([np.cos(g), np.sin(g), np.zeros_like(g)], 1)
+    A = radius * e_r
+    A[:, 2] = z
+    w = e_r if edge.wall == "outer" else -e_r
+    return A, n, w, g
+
+
+def _edge_radius(Q, wall_angles, radius, reach, noise, region) -> dict[str, Any]:
+    """Radius of the edge's rounding (mm): the one-parameter fit of a wedge
+    rounded by ρ (the two fitted surfaces, their corner replaced by an arc
+    tangent to both) to the scan points within ``reach`` of the traced edge,
+    in each point's section across the edge; residuals clipped at 3
+    ``noise``. Only edge points inside ``region`` (heel and tip windows out)."""
+    from scipy.optimize import minimize_scalar
+    from scipy.spatial import cKDTree
+
+    st = tol.scan_edges
+    A, n, w, g = _dense_edge(wall_angles, radius, st.rounding_step)
+    keep = region(g)
+    A, n, w = A[keep], n[keep], w[keep]
+    rho = np.hypot(Q[:, 0], Q[:, 1])
+    near = np.abs(rho - radius) < reach * 2
+    P = Q[near]
+    if not len(P) or not len(A):
+        return {"edge_radius_um": None, "points": 0}
+    d, i = cKDTree(A).query(P, distance_upper_bound=reach * 2)
+    ok = np.isfinite(d)
+    P, i = P[ok], i[ok]
+    rel = P - A[i]
+    a, b = w[i], n[i]
+    t = np.cross(a, b)
+    t /= np.linalg.norm(t, axis=1, keepdims=True)
+    rel -= np.einsum("ij,ij->i", rel, t)[:, None] * t
+    da, db = np.einsum("ij,ij->i", rel, a), np.einsum("ij,ij->i", rel, b)
+    zone = (np.linalg.norm(rel, axis=1) < reach) & (da > -reach) & (db > -reach)
+    rel, a, b, da, db = rel[zone], a[zone], b[zone], da[zone], db[zone]
+    if len(rel) < st.min_window_points:
+        return {"edge_radius_um": None, "points": int(len(rel))}
+    c = np.einsum("ij,ij->i", a, b)
+    clip = (3 * noise) ** 2
+
+    def cost(r):
+        # the eroded wedge's apex sits at −r/(1 + c)·(a + b); in its normal
+        # cone the distance is to that apex, elsewhere to the nearer plane
+        qa, qb = da + r, db + r
+        al = (qa - c * qb) / (1 - c * c)
+        be = (qb - c * qa) / (1 - c * c)
+        apex = -(r / (1 + c))[:, None] * (a + b)
+        dist = np.where((al >= 0) & (be >= 0), np.linalg.norm(rel - apex, axis=1),
+                        np.maximum(qa, qb)) - r
+        return float(np.minimum(dist * dist, clip).sum())
+
+    res = minimize_scalar(cost, bounds=(0.0, reach), method="bounded",
+                          options={"xatol": st.rounding_xatol})
+    return {"edge_radius_um": float(res.x) * 1e3, "points": int(len(rel))}
 
 
 def _cad_report(cad, n_harmonics):
@@ -454,8 +532,14 @@ def measure_edges(points, cad, *, window_deg: float | None = None,
     say("fitting eq. 3.12")
     meas = analyze_edges(edges[0], edges[1], n_harmonics=n_harmonics,
                          name=f"scan of {cad_name}")
-    return MeasuredEdges(meas, cad_rep, samples, walls, (gh, zh), tip_gamma,
-                         {"window": window, "step": step, "edge_band": band}, notes)
+    out = MeasuredEdges(meas, cad_rep, samples, walls, (gh, zh), tip_gamma,
+                        {"window": window, "step": step, "edge_band": band}, notes)
+    say("fitting the edge rounding")
+    noise = max(min(w.get("rms_um", np.inf) for w in walls.values()) * 1e-3, st.fit_floor)
+    for wall in ("outer", "inner"):
+        walls[wall]["rounding"] = _edge_radius(q, getattr(meas, wall),
+                                               float(coefs[wall][0]), band, noise, out.region)
+    return out
 
 
 def plot_measured_edges(res: MeasuredEdges, path, *, truth=None) -> Path:
@@ -561,6 +645,9 @@ def edges_markdown(res: MeasuredEdges) -> list[str]:
         wl = w["wall"]
         L.append(f"| {wall} | wall radius (mm) | {wl['radius_mm']:.5f} | "
                  f"{res.cad.radii[0 if k == 'o' else 1]:.5f} | |")
+        er = w["edge_radius_um"]
+        L.append(f"| {wall} | edge rounding radius (µm) | "
+                 f"{'n/a' if er is None else f'{er:.1f}'} | 0 (sharp) | |")
     for n in s["notes"]:
         L.append(f"- note: {n}")
     return L
@@ -574,9 +661,11 @@ def edges_text(res: MeasuredEdges) -> str:
     for wall, k in (("outer", "o"), ("inner", "i")):
         w = s[wall]
         th = "theta_deg" if k == "o" else "theta_i_deg"
+        er = w["edge_radius_um"]
         out.append(f"    {wall}: l_c {w['l_c_mm']['measured']:.4f} mm (CAD "
                    f"{w['l_c_mm']['cad']:.4f}, {w['l_c_mm']['difference_percent']:+.3f} %), "
-                   f"wall radius {w['wall']['radius_mm']:.5f} mm")
+                   f"wall radius {w['wall']['radius_mm']:.5f} mm, edge rounding radius "
+                   + ("n/a" if er is None else f"{er:.1f} µm"))
         for key, name, dk in ((f"lambda_{k}_deg", "λ", "max_abs_dlambda_deg"),
                               (th, "θ", "max_abs_dtheta_deg"),
                               (f"alpha_{k}_deg", "α", "max_abs_dalpha_deg")):

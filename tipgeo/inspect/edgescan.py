@@ -477,8 +477,8 @@ def measure_edges(points, cad, *, window_deg: float | None = None,
             a, b = cp.span
             if full:
                 g0s = np.arange(0.0, 2 * np.pi - 0.5 * step, step)
-            else:
-                g0s = np.arange(a + hw, b - hw + 0.5 * step, step)
+            else:   # up to the piece's ends (kinks): windows there see one side
+                g0s = np.linspace(a, b, max(int(math.ceil((b - a) / step)), 1) + 1)
             # each window: the narrowest about γ₀ holding window_points face
             # points, between window and window_max wide
             widths = np.geomspace(hw, max(hw, 0.5 * st.window_max), st.window_grid)

@@ -183,3 +183,21 @@ def test_cli_compare_angles_json(tmp_path, capsys):
         assert me[wall]["samples"] > 300
     assert main([*args, "--edge-band-um", "-3"]) == 2
     assert "--edge-band-um" in capsys.readouterr().err
+
+
+def test_multi_piece_edge_follows_the_cad_pieces():
+    """A two-plane tip: one traced piece per plane, up to the kinks; l_c and θ
+    as for one piece."""
+    name = "twoplane-14G-xi15"
+    sc = synthetic_scan(preset(name), points=30_000, noise=0.001, seed=1, z_min=-0.3)
+    res = measure_edges(sc.points, preset(name))
+    truth = analyze(sc.part, method="fourier")
+    for wall in ("outer", "inner"):
+        m, t = getattr(res.measured, wall), getattr(truth, wall)
+        assert [p.face for p in m.edge.pieces] == [p.face for p in t.edge.pieces]
+        for pm, pt in zip(m.edge.pieces, t.edge.pieces):
+            assert pm.span == pytest.approx(pt.span, abs=1e-6)
+        assert abs(m.length / t.length - 1) < LENGTH
+        gg = np.radians(np.arange(0.0, 360.0, 1.0))
+        gg = gg[res.region(gg)]
+        assert np.abs(m.at(gg)["theta"] - t.at(gg)["theta"]).max() < ANGLE

@@ -20,6 +20,10 @@ Methods:
              normals from the exact surface;
 ``mesh``     a tip mesh (built, simulated or imported): the mesh edge is
              fitted the same way; normals are the mesh's face normals.
+
+:func:`analyze_edges` runs the ``fourier`` path on edges traced elsewhere
+(a scan, :func:`tipgeo.inspect.measure_edges`): each piece fitted with eq.
+3.12, normals given per sample.
 """
 
 from __future__ import annotations
@@ -41,7 +45,7 @@ from .fourier import FourierFit, fit_fourier
 from .jsonio import dumps
 from .tolerances import tol
 
-__all__ = ["AngleReport", "WallAngles", "analyze", "edge_angles", "METHODS"]
+__all__ = ["AngleReport", "WallAngles", "analyze", "analyze_edges", "edge_angles", "METHODS"]
 
 METHODS = ("exact", "fourier", "mesh")
 EZ = np.array([0.0, 0.0, 1.0])
@@ -364,6 +368,75 @@ def _mesh_wall(edge: Edge, n: int) -> WallAngles:
                 z[s] = np.interp(gg, p.gamma, p.z)
                 dz[s] = np.gradient(p.z, p.gamma).mean() if len(p.gamma) > 1 else 0.0
             nrm[s] = p.normal_at(gg)
+            face[s] = p.face
+        t = np.stack([-r * np.sin(g), r * np.cos(g), dz], 1)
+        t /= np.linalg.norm(t, axis=1, keepdims=True)
+        lam, theta, alpha = edge_angles(g, t, nrm, edge.wall)
+        return {"z": z, "dz": dz, "lambda": lam, "theta": theta, "alpha": alpha,
+                "face": face}
+
+    return WallAngles(edge.wall, edge, fits, length, evaluate)
+
+
+def analyze_edges(outer: Edge, inner: Edge, *, n_harmonics: int = 5, name: str = "measured",
+                  method: str = "scan") -> AngleReport:
+    """Cutting angles of edges traced elsewhere (e.g. in a scan), on the
+    ``fourier`` path: each piece's z(γ) fitted with eq. 3.12 (``n_harmonics``,
+    fitted w), z and z′ from the fit, l_c = ∫ √(r² + z′²) dγ over the pieces
+    plus the vertical jumps; the normal at γ interpolated linearly between the
+    piece's samples (and renormalised).
+
+    Parameters
+    ----------
+    outer, inner : Edge — analysis frame (γ in rad from the heel, z in mm from
+        it); each piece's ``normal`` is (m, 3), one unit outward cut-face
+        normal per sample
+    n_harmonics : int — Fourier harmonics (thesis: 5)
+    name, method : str — labels of the report
+
+    Returns
+    -------
+    AngleReport
+    """
+    n_harmonics = v.integer("n_harmonics", n_harmonics, lo=1, hi=50)
+    for e in (outer, inner):
+        for p in e.pieces:
+            if p.normal.shape != (len(p.gamma), 3):
+                raise SpecError(f"{e.wall} edge, piece '{p.face}': normal has shape "
+                                f"{p.normal.shape}; expected ({len(p.gamma)}, 3)")
+            if len(p.gamma) < 2 * n_harmonics + 2:
+                raise SpecError(f"{e.wall} edge, piece '{p.face}': {len(p.gamma)} samples "
+                                f"cannot fit n_harmonics = {n_harmonics}")
+    with small_linalg():
+        walls = [_sampled_wall(e, n_harmonics) for e in (outer, inner)]
+    return AngleReport(name, method, walls[0], walls[1], (outer.radius, inner.radius),
+                       n_harmonics)
+
+
+def _sampled_wall(edge: Edge, n: int) -> WallAngles:
+    r = edge.radius
+    fits = [fit_fourier(p.gamma, p.z, n=n) for p in edge.pieces]
+    dz_pieces = []
+    for p, f in zip(edge.pieces, fits):
+        g = np.linspace(p.gamma[0], p.gamma[-1], max(4 * len(p.gamma), 721))
+        dz_pieces.append((g, f.derivative(g)))
+    length = _length_pieces(dz_pieces, r) + sum(abs(j.z1 - j.z0) for j in edge.jumps)
+
+    def evaluate(g):
+        g = np.atleast_1d(g)
+        k_piece = _find_piece(edge.pieces, g)
+        z = np.full(len(g), np.nan)
+        dz = np.full(len(g), np.nan)
+        nrm = np.full((len(g), 3), np.nan)
+        face = np.full(len(g), "", dtype=object)
+        for k, p in enumerate(edge.pieces):
+            s = k_piece == k
+            if not np.any(s):
+                continue
+            gg = _unwrap_to(p, g[s])
+            z[s], dz[s] = fits[k](gg), fits[k].derivative(gg)
+            nn = np.stack([np.interp(gg, p.gamma, p.normal[:, j]) for j in range(3)], 1)
+            nrm[s] = nn / np.linalg.norm(nn, axis=1, keepdims=True)
             face[s] = p.face
         t = np.stack([-r * np.sin(g), r * np.cos(g), dz], 1)
         t /= np.linalg.norm(t, axis=1, keepdims=True)

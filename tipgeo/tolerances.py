@@ -10,7 +10,8 @@ The test suite switches it on in ``conftest.py``.
 
 from dataclasses import dataclass, field
 
-__all__ = ["Tolerances", "InspectSettings", "GCodeTolerances", "CamTolerances", "tol",
+__all__ = ["Tolerances", "InspectSettings", "GCodeTolerances", "CamTolerances",
+           "ScanEdgeSettings", "tol",
            "DEFAULT_CHORDAL_MM", "MIN_FEATURE_MM", "MIN_DIAMETER_MM", "MAX_CUTTERS",
            "MAX_TIP_HEIGHT_MM"]
 
@@ -256,6 +257,81 @@ class CamTolerances:
 
 
 @dataclass
+class ScanEdgeSettings:
+    """Settings of the cutting edges traced on a scan
+    (:func:`tipgeo.inspect.measure_edges`; mm, rad).
+
+    Attributes
+    ----------
+    window : float
+        Narrowest width in γ of a local cut-face fit (rad).
+    window_points, window_max, window_grid : int, float, int
+        A window widens (on a geometric grid of ``window_grid`` widths up to
+        ``window_max`` rad) until it holds ``window_points`` cut-face points:
+        a quadric's slope at the patch's border needs ~150 points for 0.1° at
+        2 µm noise over a 0.17 mm wide strip; a dense scan keeps the fits local.
+    step : float
+        Spacing in γ of the traced edge samples (rad).
+    edge_band : float
+        Cut-face points within this of a fitted wall are left out (mm). A
+        fillet of radius ρ_f between a wall and the face touches the face at
+        most 2 ρ_f from the wall (2 ρ_f cos²(θ/2) for a wedge θ), so 40 µm
+        keeps edges rounded up to ~15 µm plus 4 σ of 2 µm noise out.
+    wall_search : float
+        First wall selection: points within this fraction of the wall
+        thickness of the nominal radius.
+    wall_band_floor : float
+        The re-selection band about a fitted wall never shrinks below this (mm).
+    wall_rounds, fit_rounds : int
+        Trimming rounds of the wall and local patch fits.
+    trim : float
+        Points beyond this many robust σ (1.4826 MAD) are trimmed.
+    fit_floor : float
+        Smallest robust σ a trim uses (mm; noise-free scans).
+    min_wall_points, min_face_points, min_window_points : int
+        Fewest points to fit a wall, to trace edges at all, and per window.
+    points_per_coefficient : int
+        A patch fit needs this many kept points per coefficient.
+    newton_steps, newton_converge : int, float
+        The patch ∩ wall generator solve: step cap and convergence (mm).
+    grazing : float
+        |∂G/∂z| below this: the patch runs along the generator, no edge there.
+    rounding_step, rounding_xatol : float
+        The edge-rounding fit: spacing in γ of the fitted edge's apex points
+        (rad) and the radius's convergence (mm).
+    heel_window, tip_window : float
+        The accuracy of measured λ and θ is stated farther than these from the
+        heel (γ = 0) and the tip (rad): there λ has its cusp |t_z| → 0 (heel)
+        and the edge turns fastest (tip), so a window's quadric and the eq.
+        3.12 fit smooth a corner there.
+    """
+
+    window: float = 0.06981317007977318  # 4°
+    step: float = 0.017453292519943295  # 1°
+    window_points: int = 150
+    window_max: float = 0.5235987755982988  # 30°
+    window_grid: int = 16
+    edge_band: float = 0.02
+    wall_search: float = 0.25
+    wall_band_floor: float = 0.002
+    wall_rounds: int = 4
+    fit_rounds: int = 4
+    trim: float = 3.0
+    fit_floor: float = 1.0e-5
+    min_wall_points: int = 50
+    min_face_points: int = 200
+    min_window_points: int = 20
+    points_per_coefficient: int = 3
+    newton_steps: int = 20
+    newton_converge: float = 1.0e-10
+    grazing: float = 1.0e-6
+    rounding_step: float = 0.004363323129985824  # 0.25°
+    rounding_xatol: float = 1.0e-7
+    heel_window: float = 0.17453292519943295  # 10°
+    tip_window: float = 0.17453292519943295  # 10°
+
+
+@dataclass
 class Tolerances:
     """Tolerances and checks used across tipgeo (lengths in mm).
 
@@ -390,6 +466,7 @@ class Tolerances:
     inspect: InspectSettings = field(default_factory=InspectSettings)
     gcode: GCodeTolerances = field(default_factory=GCodeTolerances)
     cam: CamTolerances = field(default_factory=CamTolerances)
+    scan_edges: ScanEdgeSettings = field(default_factory=ScanEdgeSettings)
     tiny: float = 1.0e-300
     parallel: float = 1.0e-9
     unit: float = 1.0e-9

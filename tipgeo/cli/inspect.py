@@ -52,6 +52,7 @@ def cmd_compare(args) -> int:
     tol = _positive("--tolerance-um", args.tolerance_um, 1e4) * 1e-3
     scale = _positive("--scale-um", args.scale_um, 1e5)
     voxel = _positive("--voxel-um", args.voxel_um, 1e5)
+    band = _positive("--edge-band-um", args.edge_band_um, 1e4)
     if args.z_min_mm is not None and not math.isfinite(args.z_min_mm):
         raise SpecError(f"--z-min-mm = {args.z_min_mm}; allowed a finite value")
     if args.out is not None and Path(args.out).exists() and not Path(args.out).is_dir():
@@ -62,7 +63,8 @@ def cmd_compare(args) -> int:
                       voxel=None if voxel is None else voxel * 1e-3, outliers=args.outliers,
                       colour_scale=None if scale is None else scale * 1e-3, out=args.out,
                       pictures=not args.no_pictures, progress=_log(args),
-                      allow_mismatch=args.allow_mismatch)
+                      allow_mismatch=args.allow_mismatch, angles=args.angles,
+                      edge_band=None if band is None else band * 1e-3)
     except ScanError as e:
         print(f"tipgeo: error: {_one_line(e)}", file=sys.stderr)
         return 2
@@ -101,6 +103,10 @@ def cmd_compare(args) -> int:
     if tip and "error_um" in tip:
         print(f"  tip position error {tip['error_um']:.2f} µm "
               f"(axial {tip['axial_error_um']:+.2f} µm)")
+    if res.edges is not None:
+        from ..inspect.edgescan import edges_text
+
+        print(edges_text(res.edges))
     for w in r["warnings"]:
         print(f"  warning: {w}")
     for o in r["outputs"]:
@@ -230,6 +236,13 @@ def register(subparsers) -> None:
                         f"fitness below {st.match_min_fitness:g}, or a fitted diameter off by "
                         f"more than {100 * st.match_diameter:g} %%): a warning in the report "
                         "instead of the refusal (exit 2)")
+    c.add_argument("--angles", action="store_true",
+                   help="trace the cutting edges on the scan and measure λ, θ, α and l_c "
+                        "beside the CAD's (report: edges.png and a table)")
+    c.add_argument("--edge-band-um", type=float, default=None, metavar="B",
+                   help="with --angles: cut-face points within B µm of a wall are left out "
+                        f"of the edge fits (default {tol.scan_edges.edge_band * 1e3:g}; at "
+                        "least twice the edge rounding radius plus 4 σ of noise)")
     c.add_argument("--no-pictures", action="store_true", help="skip the PNGs")
     c.add_argument("--quiet", action="store_true", help="no progress on stderr")
     c.add_argument("--json", action="store_true", help="the full report as JSON on stdout")

@@ -33,6 +33,7 @@ from .compare import (
     voxel_down_sample,
 )
 from .deviation import STAT_KEYS, statistics
+from .edgescan import MeasuredEdges, measure_edges, plot_measured_edges
 from .exact import Distances, ExactSolid, UnsupportedCutter
 from .measure import fit_plane, measure
 from .meshdist import MeshSolid, closest_on_triangles
@@ -48,4 +49,5 @@ __all__ = ["CadModel", "load_cad", "check_geometry", "check_match", "Comparison"
            "closest_on_triangles", "Registration", "fit_cylinder", "register", "COLORMAP",
            "deviation_colours", "write_report", "SCAN_FORMATS", "Scan", "ScanError",
            "load_scan", "write_ply", "InspectSettings", "Burr", "Misalignment",
-           "SynthScan", "actual_spec", "default_views", "synthetic_scan"]
+           "SynthScan", "actual_spec", "default_views", "synthetic_scan",
+           "MeasuredEdges", "measure_edges", "plot_measured_edges"]

@@ -59,6 +59,8 @@ class Comparison:
     match : dict — :func:`tipgeo.inspect.checks.check_match` (inlier share,
         fitness, diameters, problems)
     notes : list of str — further warnings (a mismatch let through)
+    edges : MeasuredEdges or None — cutting edges and angles measured on the
+        scan (``compare(..., angles=True)``)
     """
 
     scan: Scan
@@ -75,6 +77,7 @@ class Comparison:
     outputs: list[Path] = field(default_factory=list)
     match: dict[str, Any] = field(default_factory=dict)
     notes: list[str] = field(default_factory=list)
+    edges: Any = None
 
     @property
     def warnings(self) -> list[str]:
@@ -100,6 +103,7 @@ class Comparison:
                 "measured": self.measured,
                 "match": self.match,
                 "warnings": self.warnings,
+                **({"measured_edges": self.edges.summary()} if self.edges is not None else {}),
                 "timings_s": dict(self.timings),
                 "outputs": [str(o) for o in self.outputs]}
 
@@ -229,7 +233,8 @@ def compare(scan, cad, *, tolerance: float = 0.01, units: str = "mm",
             voxel: float | None = None, outliers: bool = False,
             max_distance: float = 0.5, colour_scale: float | None = None,
             out: str | Path | None = None, pictures: bool = True, seed: int = 0,
-            progress=None, allow_mismatch: bool = False) -> Comparison:
+            progress=None, allow_mismatch: bool = False, angles: bool = False,
+            edge_band: float | None = None) -> Comparison:
     """Compare a scan with a CAD tip.
 
     Parameters
@@ -252,6 +257,9 @@ def compare(scan, cad, *, tolerance: float = 0.01, units: str = "mm",
     progress : callable(str) — stage messages
     allow_mismatch : bool — a scan that does not match the CAD (see Raises)
         is compared anyway, with a warning in the report
+    angles : bool — also trace the cutting edges on the scan and measure λ,
+        θ, α and l_c beside the CAD's (:func:`tipgeo.inspect.measure_edges`;
+        ``edge_band`` (mm) passed on)
 
     Returns
     -------
@@ -358,6 +366,14 @@ def compare(scan, cad, *, tolerance: float = 0.01, units: str = "mm",
         notes.append(msg + " (compared anyway: --allow-mismatch)")
     res = Comparison(sc, model, reg, pts, dist, stats, measured, tolerance, scale, dropped,
                      timings, match=match, notes=notes)
+    if angles:
+        from .edgescan import measure_edges
+
+        t = time.perf_counter()
+        say("tracing the cutting edges")
+        res.edges = measure_edges(pts, model, edge_band=edge_band,
+                                  progress=lambda m: say(f"  {m}"))
+        timings["edges"] = time.perf_counter() - t
     timings["total"] = time.perf_counter() - t0
     if out is not None:
         from .report import write_report

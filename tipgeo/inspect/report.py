@@ -127,6 +127,11 @@ def write_report(res, out, *, pictures: bool = True) -> list[Path]:
             plot_map(res, stage / "deviation-map.png")
             plot_histogram(res, stage / "histogram.png")
             names += ["deviation-map.png", "histogram.png"]
+            if getattr(res, "edges", None) is not None:
+                from .edgescan import plot_measured_edges
+
+                plot_measured_edges(res.edges, stage / "edges.png")
+                names.append("edges.png")
         names += ["report.md", "report.json"]
         res.outputs = [out / n for n in names]
         _write_markdown(res, stage / "report.md")
@@ -389,6 +394,10 @@ def _write_markdown(res, path: Path) -> None:
                 L.append(f"| {wall} | {k} | {fmt(v)} | {fmt(c)} |")
     for n in m.get("notes") or []:
         L.append(f"- note: {n}")
+    if getattr(res, "edges", None) is not None:
+        from .edgescan import edges_markdown
+
+        L += edges_markdown(res.edges)
     L.append("")
     pics = [p for p in res.outputs if str(p).endswith(".png")]
     if pics:

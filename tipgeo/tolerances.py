@@ -114,6 +114,11 @@ class InspectSettings:
     jacobian_det : float
         The Jacobian determinant of three face gradients below this makes a
         vertex projection degenerate (dimensionless).
+    grid_cell : float
+        Cell of the uniform grid in front of the mesh distance tree (mm; speed
+        only: a point nearer than half a cell to its cell's list is done).
+    grid_cells, grid_entries : int
+        Largest grid (cells, list entries); the cell doubles until it fits.
     bound_rel, bound_abs : float
         The upper bound of a mesh distance query is inflated by this relative
         and absolute (mm) margin so round-off never drops the true triangle.
@@ -148,6 +153,9 @@ class InspectSettings:
     max_iterations: int = 60
     feature_eps: float = 1.0e-12
     mesh_cell: float = 0.06
+    grid_cell: float = 0.05
+    grid_cells: int = 4_000_000
+    grid_entries: int = 8_000_000
     register_points: int = 40000
     search_points: int = 1500
     search_step: float = 0.0174532925199432957 * 3.0

@@ -165,7 +165,7 @@ class _Tree:
         cell = st.grid_cell
         self.cell, self.reach2 = 1.0, 0.0
         self.origin, self.dims = np.zeros(3), np.zeros(3, np.int64)
-        self.cstart, self.cprim = np.zeros(1, np.int64), np.zeros(0, np.int64)
+        self.cstart, self.cprim = np.zeros(1, np.int64), np.zeros(0, np.int32)
         ext = (hi.max(axis=0) - lo.min(axis=0)) if len(lo) else np.zeros(3)
         for _ in range(8):
             reach = 0.5 * cell
@@ -183,16 +183,9 @@ class _Tree:
             cell *= 2
         else:
             return
-        prim = np.repeat(np.arange(len(lo)), cnt)
-        local = np.arange(len(prim)) - np.repeat(np.cumsum(cnt) - cnt, cnt)
-        nx, ny = np.repeat(n3[:, 0], cnt), np.repeat(n3[:, 1], cnt)
-        ix = np.repeat(i0[:, 0], cnt) + local % nx
-        iy = np.repeat(i0[:, 1], cnt) + (local // nx) % ny
-        iz = np.repeat(i0[:, 2], cnt) + local // (nx * ny)
-        key = (iz * dims[1] + iy) * dims[0] + ix
-        o = np.argsort(key, kind="stable")
-        self.cprim = np.ascontiguousarray(prim[o])
-        self.cstart = np.concatenate([[0], np.cumsum(np.bincount(key, minlength=dims.prod()))])
+        from .nearest import grid_lists
+
+        self.cstart, self.cprim = grid_lists(self.tbox, origin, cell, dims, grow)
         self.cell, self.reach2, self.origin, self.dims = cell, reach * reach, origin, dims
 
     def nearest(self, p: np.ndarray, order: np.ndarray) -> np.ndarray:

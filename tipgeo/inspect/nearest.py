@@ -25,7 +25,8 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
-__all__ = ["closest_on_triangle", "nearest_triangles", "signed_query", "spatial_order"]
+__all__ = ["closest_on_triangle", "grid_lists", "nearest_triangles", "signed_query",
+           "spatial_order"]
 
 
 @njit(cache=True, fastmath=False, nogil=True)
@@ -182,6 +183,36 @@ def nearest_triangles(p, order, box, first_leaf, start, stop, tri, tbox,
         best[i] = bt
         prev = bt
     return best
+
+
+@njit(cache=True, fastmath=False, nogil=True)
+def grid_lists(tbox, origin, cell, dims, grow):
+    """Each uniform-grid cell's list of the boxes (k, 6) that, grown by
+    ``grow``, touch it: CSR (start (cells + 1,), entries), by two passes."""
+    ncell = dims[0] * dims[1] * dims[2]
+    start = np.zeros(ncell + 1, np.int64)
+    lo = np.empty(3, np.int64)
+    hi = np.empty(3, np.int64)
+    for pas in range(2):
+        if pas == 1:
+            for c in range(ncell):
+                start[c + 1] += start[c]
+            prim = np.empty(start[ncell], np.int32)
+            fill = start[:-1].copy()
+        for k in range(tbox.shape[0]):
+            for a in range(3):
+                lo[a] = max(0, int(np.floor((tbox[k, a] - grow - origin[a]) / cell)))
+                hi[a] = min(dims[a] - 1, int(np.floor((tbox[k, a + 3] + grow - origin[a]) / cell)))
+            for iz in range(lo[2], hi[2] + 1):
+                for iy in range(lo[1], hi[1] + 1):
+                    for ix in range(lo[0], hi[0] + 1):
+                        c = (iz * dims[1] + iy) * dims[0] + ix
+                        if pas == 0:
+                            start[c + 1] += 1
+                        else:
+                            prim[fill[c]] = k
+                            fill[c] += 1
+    return start, prim
 
 
 @njit(cache=True, fastmath=False, nogil=True)

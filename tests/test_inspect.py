@@ -136,6 +136,7 @@ def test_statistics_match_brute_force():
     ref = {"count": len(um), "mean_um": um.mean(), "std_um": um.std(),
            "rms_um": np.sqrt(np.mean(um ** 2)), "min_um": um.min(), "max_um": um.max(),
            "p5_um": np.percentile(um, 5), "p95_um": np.percentile(um, 95),
+           "mean_abs_um": np.mean(np.abs(um)), "p95_abs_um": np.percentile(np.abs(um), 95),
            "within_tol_share": np.mean(np.abs(d_ref) <= tol)}
     assert set(got) == set(STAT_KEYS)
     for k in STAT_KEYS:

@@ -115,6 +115,22 @@ class InspectSettings:
     jacobian_det : float
         The Jacobian determinant of three face gradients below this makes a
         vertex projection degenerate (dimensionless).
+    rigid : float
+        A transform read from a file is rigid when |R Rᵀ − I| and its last
+        row's deviation from 0 0 0 1 stay within this (dimensionless).
+    far_share_warn : float
+        A comparison warns when more than this share of the compared points
+        lies beyond ``max_distance`` of the CAD (gross outliers, fixture).
+    trim_sigmas : float
+        Trimmed statistics keep deviations within this many robust σ
+        (1.4826 × MAD) of the median.
+    histogram_bins : int
+        Bins of the histogram data over the colour range.
+    grid_cell : float
+        Cell of the uniform grid in front of the mesh distance tree (mm; speed
+        only: a point nearer than half a cell to its cell's list is done).
+    grid_cells, grid_entries : int
+        Largest grid (cells, list entries); the cell doubles until it fits.
     bound_rel, bound_abs : float
         The upper bound of a mesh distance query is inflated by this relative
         and absolute (mm) margin so round-off never drops the true triangle.
@@ -149,6 +165,13 @@ class InspectSettings:
     max_iterations: int = 60
     feature_eps: float = 1.0e-12
     mesh_cell: float = 0.06
+    grid_cell: float = 0.05
+    far_share_warn: float = 0.02
+    rigid: float = 1.0e-6
+    trim_sigmas: float = 3.5
+    histogram_bins: int = 50
+    grid_cells: int = 4_000_000
+    grid_entries: int = 8_000_000
     register_points: int = 40000
     search_points: int = 1500
     search_step: float = 0.0174532925199432957 * 3.0

@@ -41,36 +41,99 @@ def _one_line(e: BaseException) -> str:
     return " ".join(str(e).split())
 
 
-def cmd_compare(args) -> int:
+def _compare_kwargs(args) -> dict:
+    """compare()'s options from the command line (µm → mm), validated."""
     import math
 
+    from ..errors import InputError as SpecError  # options and paths, not specs
+
+    tol = _positive("--tolerance-um", args.tolerance_um, 1e4) * 1e-3
+    scale = _positive("--scale-um", args.scale_um, 1e5)
+    voxel = _positive("--voxel-um", args.voxel_um, 1e5)
+    far = _positive("--max-distance-mm", args.max_distance_mm, 1e3)
+    band = _positive("--edge-band-um", args.edge_band_um, 1e4)
+    if args.z_min_mm is not None and not math.isfinite(args.z_min_mm):
+        raise SpecError(f"--z-min-mm = {args.z_min_mm}; allowed a finite value")
+    rng = None
+    if args.scale_range_um is not None:
+        lo, hi = args.scale_range_um
+        if not (math.isfinite(lo) and math.isfinite(hi) and -1e5 <= lo < 0 < hi <= 1e5):
+            raise SpecError(f"--scale-range-um = {lo:g} {hi:g}; allowed -1e5 ≤ LOW < 0 < HIGH "
+                            "≤ 1e5")
+        rng = (lo * 1e-3, hi * 1e-3)
+    init = None
+    if args.init_transform is not None:
+        from ..inspect.transform import read_transform
+
+        init = read_transform(args.init_transform)
+    kw = dict(tolerance=tol, units=args.units, register_scan=not args.no_register,
+              z_min=args.z_min_mm, voxel=None if voxel is None else voxel * 1e-3,
+              outliers=args.outliers, colour_scale=None if scale is None else scale * 1e-3,
+              pictures=not args.no_pictures, allow_mismatch=args.allow_mismatch,
+              init_transform=init, colour_range=rng, colormap=args.colormap,
+              angles=args.angles, edge_band=None if band is None else band * 1e-3)
+    if far is not None:
+        kw["max_distance"] = far
+    return kw
+
+
+def _check_out_file(opt: str, value: str | None, exts: tuple[str, ...], inputs) -> None:
+    from ..errors import InputError as SpecError  # options and paths, not specs
+
+    if value is None:
+        return
+    p = Path(value)
+    if p.suffix.lower() not in exts:
+        raise SpecError(f"{opt} = '{value}': allowed extensions {' '.join(exts)}")
+    if p.is_dir():
+        raise SpecError(f"{opt} = '{value}' is a folder; expected a file path")
+    folder = p.parent if str(p.parent) else Path(".")
+    if not folder.is_dir():
+        raise SpecError(f"{opt} = '{value}': the folder '{folder}' does not exist")
+    if any(Path(i).resolve() == p.resolve() for i in inputs):
+        raise SpecError(f"{opt} = '{value}' is an input; no command overwrites its input")
+
+
+def cmd_compare(args) -> int:
     import numpy as np
 
     from ..errors import InputError as SpecError  # options and paths, not specs
     from ..inspect import ScanError, compare
 
-    tol = _positive("--tolerance-um", args.tolerance_um, 1e4) * 1e-3
-    scale = _positive("--scale-um", args.scale_um, 1e5)
-    voxel = _positive("--voxel-um", args.voxel_um, 1e5)
-    band = _positive("--edge-band-um", args.edge_band_um, 1e4)
-    if args.z_min_mm is not None and not math.isfinite(args.z_min_mm):
-        raise SpecError(f"--z-min-mm = {args.z_min_mm}; allowed a finite value")
+    kw = _compare_kwargs(args)
+    inputs = [*args.scan, args.cad]
     if args.out is not None and Path(args.out).exists() and not Path(args.out).is_dir():
         raise SpecError(f"--out = '{args.out}' is a file; expected a folder (or a new name)")
+    _check_out_file("--export", args.export, (".csv", ".ply"), inputs)
+    _check_out_file("--matrix-out", args.matrix_out, (".txt", ".csv", ".mat"), inputs)
+    _check_out_file("--summary", args.summary, (".csv", ".json"), inputs)
+    if args.batch:
+        if args.export or args.matrix_out:
+            raise SpecError("--export and --matrix-out name one file; with --batch each scan's "
+                            "report (--out DIR/<scan>/) holds its own")
+        return _batch(args, kw)
+    if len(args.scan) != 1:
+        raise SpecError(f"{len(args.scan)} scans given; compare one, or several with --batch")
+    if args.summary:
+        raise SpecError("--summary goes with --batch")
     try:
-        res = compare(args.scan, args.cad, tolerance=tol, units=args.units,
-                      register_scan=not args.no_register, z_min=args.z_min_mm,
-                      voxel=None if voxel is None else voxel * 1e-3, outliers=args.outliers,
-                      colour_scale=None if scale is None else scale * 1e-3, out=args.out,
-                      pictures=not args.no_pictures, progress=_log(args),
-                      allow_mismatch=args.allow_mismatch, angles=args.angles,
-                      edge_band=None if band is None else band * 1e-3)
+        res = compare(args.scan[0], args.cad, out=args.out, progress=_log(args), **kw)
     except ScanError as e:
         print(f"tipgeo: error: {_one_line(e)}", file=sys.stderr)
         return 2
     except (np.linalg.LinAlgError, FloatingPointError, OverflowError, MemoryError) as e:
         print(f"tipgeo: failed: {type(e).__name__}: {_one_line(e)}", file=sys.stderr)
         return 1
+    if args.export:
+        from ..inspect.report import write_points
+
+        res.outputs.append(write_points(res, Path(args.export)))
+    if args.matrix_out:
+        from ..inspect.transform import write_transform
+
+        T = res.registration.transform if res.registration else \
+            (kw["init_transform"] if kw["init_transform"] is not None else np.eye(4))
+        res.outputs.append(write_transform(args.matrix_out, T))
     if args.json:
         print(_dumps(res.to_dict()))
         return 0
@@ -87,6 +150,10 @@ def cmd_compare(args) -> int:
           f"{st['rms_um']:.3f}  min {st['min_um']:+.2f}  max {st['max_um']:+.2f}  P5 "
           f"{st['p5_um']:+.2f}  P95 {st['p95_um']:+.2f}  within ±{r['tolerance_um']:g}: "
           f"{100 * st['within_tol_share']:.2f} %")
+    print(f"  |deviation| (µm): mean {st['mean_abs_um']:.3f}  P95 {st['p95_abs_um']:.3f}")
+    tr = r["deviation"]["trimmed"]
+    print(f"  trimmed ({tr['rule']}, {100 * tr['trimmed_share']:.2f} % left out): mean "
+          f"{tr['mean_um']:+.3f}  std {tr['std_um']:.3f}  RMS {tr['rms_um']:.3f}")
     for name, b in r["deviation"]["regions"].items():
         print(f"    {name:<22} {b['count']:>9,} pts  mean {b['mean_um']:+8.3f}  RMS "
               f"{b['rms_um']:8.3f}  within {100 * b['within_tol_share']:6.2f} %")
@@ -112,6 +179,79 @@ def cmd_compare(args) -> int:
     for o in r["outputs"]:
         print(f"  wrote {o}")
     return 0
+
+
+#: Columns of the --batch summary table.
+SUMMARY_COLUMNS = ("scan", "status", "points", "compared", "mean_um", "std_um", "rms_um",
+                   "mean_abs_um", "p95_abs_um", "trimmed_rms_um", "within_tol_share",
+                   "fitness", "rotation_deg", "far_share", "warnings", "error")
+
+
+def _summary_row(scan: str, res=None, error: str | None = None) -> dict:
+    row = dict.fromkeys(SUMMARY_COLUMNS)
+    row["scan"], row["status"], row["error"] = scan, "error" if error else "ok", error
+    if res is None:
+        return row
+    r = res.to_dict()
+    st = r["deviation"]["all"]
+    reg = r["registration"] or {}
+    far = r["dropped_points"].get("far", 0)
+    row.update(points=r["scan"]["points"], compared=r["compared_points"],
+               mean_um=st["mean_um"], std_um=st["std_um"], rms_um=st["rms_um"],
+               mean_abs_um=st["mean_abs_um"], p95_abs_um=st["p95_abs_um"],
+               trimmed_rms_um=r["deviation"]["trimmed"]["rms_um"],
+               within_tol_share=st["within_tol_share"], fitness=reg.get("fitness"),
+               rotation_deg=reg.get("rotation_angle_deg"),
+               far_share=far / max(far + r["compared_points"], 1),
+               warnings=len(r["warnings"]))
+    return row
+
+
+def _batch(args, kw) -> int:
+    """Compare every scan with the one CAD; one summary table (stdout, and
+    --summary FILE as CSV or JSON); each report in --out DIR/<scan name>/.
+    Exit 0 when every scan compared, 2 when any failed (its row says why)."""
+    import csv
+    import io
+
+    from ..inspect import ScanError, compare, load_cad
+
+    log = _log(args)
+    cad = load_cad(args.cad)
+    rows = []
+    n = len(args.scan)
+    stems = [Path(s).stem for s in args.scan]
+    for i, scan in enumerate(args.scan):
+        if log:
+            log(f"[{i + 1}/{n}] {scan}")
+        out = None
+        if args.out:
+            name = stems[i] if stems.count(stems[i]) == 1 else f"{i + 1:03d}-{stems[i]}"
+            out = Path(args.out) / name
+        try:
+            res = compare(scan, cad, out=out, progress=None, **kw)
+            rows.append(_summary_row(scan, res))
+        except (ScanError, ArithmeticError, MemoryError) as e:
+            rows.append(_summary_row(scan, error=_one_line(e)))
+        if log:
+            r = rows[-1]
+            log(f"[{i + 1}/{n}] {r['status']}" + (f": RMS {r['rms_um']:.3f} µm"
+                                                   if r["status"] == "ok" else f": {r['error']}"))
+    buf = io.StringIO()
+    w = csv.DictWriter(buf, fieldnames=SUMMARY_COLUMNS, lineterminator="\n")
+    w.writeheader()
+    w.writerows(rows)
+    if args.summary:
+        from ..atomic import write_text_atomic
+
+        text = _dumps({"cad": cad.name, "scans": rows}) + "\n" \
+            if args.summary.lower().endswith(".json") else buf.getvalue()
+        write_text_atomic(Path(args.summary), text)
+    if args.json:
+        print(_dumps({"cad": cad.name, "scans": rows}))
+    else:
+        print(buf.getvalue(), end="")
+    return 0 if all(r["status"] == "ok" for r in rows) else 2
 
 
 def cmd_scan_synth(args) -> int:
@@ -204,8 +344,9 @@ def register(subparsers) -> None:
     """Add ``compare`` and ``scan-synth`` to the ``tipgeo`` command line."""
     c = subparsers.add_parser("compare", help="compare a scan with a tip spec or CAD mesh: "
                               "registration, signed deviations, measured geometry, report")
-    c.add_argument("scan", metavar="SCAN",
-                   help="point cloud or mesh (.ply .pcd .xyz .txt .pts .stl .obj)")
+    c.add_argument("scan", metavar="SCAN", nargs="+",
+                   help="point cloud or mesh (.ply .pcd .xyz .txt .pts .stl .obj); several "
+                        "with --batch")
     c.add_argument("cad", metavar="SPEC|MESH",
                    help="spec file or preset (exact surfaces), or a CAD mesh in the cannula "
                         "frame (.stl .ply .obj .3mf .glb)")
@@ -243,11 +384,34 @@ def register(subparsers) -> None:
                    help="with --angles: cut-face points within B µm of a wall are left out "
                         f"of the edge fits (default {tol.scan_edges.edge_band * 1e3:g}; at "
                         "least twice the edge rounding radius plus 4 σ of noise)")
+    c.add_argument("--max-distance-mm", type=float, default=None, metavar="D",
+                   help="points farther than D mm from the CAD are left out of the statistics "
+                        f"(default 0.5); more than {100 * st.far_share_warn:g} %% of them "
+                        "beyond it is a warning")
+    c.add_argument("--export", metavar="FILE", help="per-point deviations in the scan's input "
+                   "order: index, x y z (cannula frame, float64 mm), deviation_mm, face, "
+                   "feature — .csv or .ply")
+    c.add_argument("--init-transform", metavar="FILE", help="4x4 matrix file (scanner frame → "
+                   "cannula frame, mm): the whole transform with --no-register, the start "
+                   "otherwise")
+    c.add_argument("--matrix-out", metavar="FILE", help="write the final 4x4 transform "
+                   "(scanner frame → cannula frame, mm) as text")
+    c.add_argument("--colormap", default=None, metavar="NAME",
+                   help="matplotlib colormap of the pictures and the PLY (default RdYlBu_r)")
+    c.add_argument("--scale-range-um", type=float, nargs=2, default=None,
+                   metavar=("LOW", "HIGH"), help="asymmetric colour scale LOW < 0 < HIGH µm "
+                   "(overrides --scale-um)")
+    c.add_argument("--batch", action="store_true", help="compare every SCAN with the CAD: one "
+                   "summary table (stdout, --summary), reports in --out DIR/<scan>/; exit 2 "
+                   "when any scan failed")
+    c.add_argument("--summary", metavar="FILE", help="with --batch: the summary table as .csv "
+                   "or .json")
     c.add_argument("--no-pictures", action="store_true", help="skip the PNGs")
     c.add_argument("--quiet", action="store_true", help="no progress on stderr")
     c.add_argument("--json", action="store_true", help="the full report as JSON on stdout")
     c.set_defaults(func=cmd_compare)
-    declare_files(c, inputs=("scan", "cad"), blas_threads=None)  # large arrays
+    declare_files(c, inputs=("scan", "cad", "init_transform"),
+                  outputs=("export", "matrix_out", "summary"), blas_threads=None)
 
     s = subparsers.add_parser("scan-synth", help="synthetic scan of a tip (virtual "
                               "profilometer) with known misalignment and errors")

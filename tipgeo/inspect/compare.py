@@ -27,11 +27,12 @@ from ..errors import SpecError
 from ..tolerances import tol
 from .cad import CadModel, load_cad
 from .checks import check_geometry, check_match
-from .deviation import statistics
+from .deviation import histogram, statistics, trimmed
 from .exact import Distances
 from .measure import measure
-from .register import Registration, register
+from .register import Registration, apply, register
 from .scanio import Scan, ScanError, check_points, load_scan
+from .transform import check_transform
 
 __all__ = ["Comparison", "compare", "crop", "voxel_down_sample", "remove_outliers",
            "estimate_normals"]
@@ -52,9 +53,15 @@ class Comparison:
     stats : dict — :func:`tipgeo.inspect.deviation.statistics`
     measured : dict — :func:`tipgeo.inspect.measure.measure`
     tolerance : float — mm
-    colour_scale : float — half-range of the colour map (mm)
+    colour_scale : float — half-range of the colour map (mm; the larger of
+        the two ends of ``colour_range``)
+    index : (m,) int — row of each compared point in the scan as read (input
+        order kept: increasing)
+    colour_range : (2,) float — low and high end of the colour map (mm)
+    colormap : str — matplotlib colormap name
     dropped : dict — points left out (crop, far from the CAD)
-    timings : dict — seconds per stage
+    timings : dict — seconds per stage (wall clock)
+    cpu_timings : dict — CPU seconds of this process per stage
     outputs : list of Path
     match : dict — :func:`tipgeo.inspect.checks.check_match` (inlier share,
         fitness, diameters, problems)
@@ -74,10 +81,21 @@ class Comparison:
     colour_scale: float
     dropped: dict[str, int] = field(default_factory=dict)
     timings: dict[str, float] = field(default_factory=dict)
+    cpu_timings: dict[str, float] = field(default_factory=dict)
+    index: np.ndarray | None = None
+    colour_range: tuple[float, float] | None = None
+    colormap: str = "RdYlBu_r"
     outputs: list[Path] = field(default_factory=list)
     match: dict[str, Any] = field(default_factory=dict)
     notes: list[str] = field(default_factory=list)
     edges: Any = None
+
+    @property
+    def colour_limits(self) -> tuple[float, float]:
+        """(low, high) of the colour map (mm)."""
+        if self.colour_range is None:
+            return -self.colour_scale, self.colour_scale
+        return self.colour_range
 
     @property
     def warnings(self) -> list[str]:
@@ -94,7 +112,8 @@ class Comparison:
                 "sign_convention": "positive: scan outside the CAD solid (excess material); "
                                    "negative: inside (missing material)",
                 "tolerance_um": self.tolerance * 1e3,
-                "colour_scale_um": [-self.colour_scale * 1e3, self.colour_scale * 1e3],
+                "colour_scale_um": [x * 1e3 for x in self.colour_limits],
+                "colormap": self.colormap,
                 "registration": self.registration.to_dict() if self.registration else None,
                 "deviation": self.stats,
                 "features": {"face": int(np.sum(self.distances.feature == 0)),
@@ -105,6 +124,7 @@ class Comparison:
                 "warnings": self.warnings,
                 **({"measured_edges": self.edges.summary()} if self.edges is not None else {}),
                 "timings_s": dict(self.timings),
+                "cpu_s": dict(self.cpu_timings),
                 "outputs": [str(o) for o in self.outputs]}
 
 
@@ -163,6 +183,16 @@ def estimate_normals(points: np.ndarray, *, neighbours: int = 12) -> np.ndarray:
 
 
 # -----------------------------------------------------------------------------
+def _now() -> tuple[float, float]:
+    return time.perf_counter(), time.process_time()
+
+
+def _lap(cpu: dict, name: str, since: tuple[float, float]) -> float:
+    """Wall seconds since ``since``; CPU seconds (this process) into ``cpu``."""
+    cpu[name] = time.process_time() - since[1]
+    return time.perf_counter() - since[0]
+
+
 def _shift(v) -> np.ndarray:
     T = np.eye(4)
     T[:3, 3] = v
@@ -176,11 +206,13 @@ def _deviations(model: CadModel, local: np.ndarray, T: np.ndarray, *, z_min, max
     within ``max_distance`` of the CAD (outside its bounding cylinder grown by
     it) skip the exact query; the rest are kept when |d| ≤ max_distance.
 
-    Returns the kept points (float32), their Distances, and counts: cropped,
-    far, compared (after the crop), in the envelope (the bounding cylinder
-    grown by ``max_distance``), within ``tol.inspect.match_distance``."""
+    Returns the kept points (float32), their Distances, their rows in
+    ``local`` (int64, increasing: input order kept) and counts: cropped, far,
+    compared (after the crop), in the envelope (the bounding cylinder grown by
+    ``max_distance``), within ``tol.inspect.match_distance``."""
     m = len(local)
     P = np.empty((m, 3), np.float32)
+    rows = np.empty(m, np.int64)
     dist = np.empty(m)
     clo = np.empty((m, 3), np.float32)
     nrm = np.empty((m, 3), np.float32)
@@ -200,6 +232,7 @@ def _deviations(model: CadModel, local: np.ndarray, T: np.ndarray, *, z_min, max
 
     for i in range(0, m, chunk):
         x = np.asarray(local[i:i + chunk], np.float64)
+        r = np.arange(i, i + len(x))
         q = np.empty_like(x)
         for k in range(3):  # R x + t by columns: no BLAS call (threads, small matrices)
             q[:, k] = x[:, 0] * R[k, 0] + x[:, 1] * R[k, 1] + x[:, 2] * R[k, 2] + t[k]
@@ -207,10 +240,10 @@ def _deviations(model: CadModel, local: np.ndarray, T: np.ndarray, *, z_min, max
         if z_min is not None:
             keep = q[:, 2] >= z_min
             cnt["crop"] += int(len(q) - np.count_nonzero(keep))
-            (q,) = take(keep, q)
+            q, r = take(keep, q, r)
         cnt["compared"] += len(q)
         box = (np.hypot(q[:, 0], q[:, 1]) <= reach) & (q[:, 2] >= z_lo) & (q[:, 2] <= z_hi)
-        (q,) = take(box, q)
+        q, r = take(box, q, r)
         cnt["envelope"] += len(q)
         if not len(q):
             continue
@@ -220,12 +253,12 @@ def _deviations(model: CadModel, local: np.ndarray, T: np.ndarray, *, z_min, max
         ok = ad <= max_distance
         k = int(np.count_nonzero(ok))
         sl = slice(cur, cur + k)
-        P[sl], dist[sl], clo[sl], nrm[sl], face[sl], feat[sl] = take(
-            ok, q, D.distance, D.closest, D.normal, D.face, D.feature)
+        P[sl], dist[sl], clo[sl], nrm[sl], face[sl], feat[sl], rows[sl] = take(
+            ok, q, D.distance, D.closest, D.normal, D.face, D.feature, r)
         cur += k
     cnt["far"] = cnt["compared"] - cur
     return P[:cur], Distances(dist[:cur], clo[:cur], nrm[:cur], face[:cur], feat[:cur],
-                              tuple(model.labels)), cnt
+                              tuple(model.labels)), rows[:cur], cnt
 
 
 def compare(scan, cad, *, tolerance: float = 0.01, units: str = "mm",
@@ -234,7 +267,10 @@ def compare(scan, cad, *, tolerance: float = 0.01, units: str = "mm",
             max_distance: float = 0.5, colour_scale: float | None = None,
             out: str | Path | None = None, pictures: bool = True, seed: int = 0,
             progress=None, allow_mismatch: bool = False, angles: bool = False,
-            edge_band: float | None = None) -> Comparison:
+            edge_band: float | None = None,
+            init_transform: np.ndarray | None = None,
+            colour_range: tuple[float, float] | None = None,
+            colormap: str | None = None) -> Comparison:
     """Compare a scan with a CAD tip.
 
     Parameters
@@ -260,6 +296,17 @@ def compare(scan, cad, *, tolerance: float = 0.01, units: str = "mm",
     angles : bool — also trace the cutting edges on the scan and measure λ,
         θ, α and l_c beside the CAD's (:func:`tipgeo.inspect.measure_edges`;
         ``edge_band`` (mm) passed on)
+    init_transform : (4, 4) float — scanner frame → cannula frame to start
+        from (mm): the whole transform without registration, its starting
+        pose with it
+    colour_range : (low, high) float — an asymmetric colour scale (mm,
+        low < 0 < high); overrides ``colour_scale``
+    colormap : str — matplotlib colormap of the pictures and the PLY
+        (default ``RdYlBu_r``)
+
+    Warnings (``Comparison.warnings``): more than
+    ``tol.inspect.far_share_warn`` of the compared points beyond
+    ``max_distance`` (figures given).
 
     Returns
     -------
@@ -283,12 +330,27 @@ def compare(scan, cad, *, tolerance: float = 0.01, units: str = "mm",
     scale = 2.5 * tolerance if colour_scale is None else float(colour_scale)
     if not (np.isfinite(scale) and scale > 0):
         raise SpecError(f"colour_scale = {colour_scale!r} mm; allowed > 0")
+    if colour_range is not None:
+        lo_c, hi_c = (float(x) for x in colour_range)
+        if not (np.isfinite(lo_c) and np.isfinite(hi_c) and lo_c < 0 < hi_c):
+            raise SpecError(f"colour_range = {tuple(colour_range)!r} mm; allowed low < 0 < high")
+        colour_range = (lo_c, hi_c)
+        scale = max(-lo_c, hi_c)
+    if colormap is not None:
+        import matplotlib
+
+        if colormap not in matplotlib.colormaps:
+            raise SpecError(f"colormap = {colormap!r} is not a matplotlib colormap; e.g. "
+                            "RdYlBu_r, coolwarm, jet, viridis")
+    if init_transform is not None:
+        init_transform = check_transform(init_transform, "init_transform")
     if not (np.isfinite(max_distance) and max_distance > 0):
         raise SpecError(f"max_distance = {max_distance!r} mm; allowed > 0")
     if z_min is not None and not np.isfinite(z_min):
         raise SpecError(f"z_min = {z_min!r} mm; allowed a finite value")
     timings: dict[str, float] = {}
-    t0 = time.perf_counter()
+    cpu: dict[str, float] = {}
+    t0 = _now()
     if isinstance(scan, Scan):
         sc = scan
     elif isinstance(scan, (str, Path)):
@@ -296,45 +358,54 @@ def compare(scan, cad, *, tolerance: float = 0.01, units: str = "mm",
         sc = load_scan(scan, units=units, compact=True)
     else:
         sc = Scan(check_points(scan, "scan"))
-    timings["load_scan"] = time.perf_counter() - t0
+    timings["load_scan"] = _lap(cpu, "load_scan", t0)
     say(f"{len(sc):,} points read in {timings['load_scan']:.2f} s")
-    t = time.perf_counter()
+    t = _now()
     model = cad if isinstance(cad, CadModel) else load_cad(cad)
-    timings["load_cad"] = time.perf_counter() - t
+    timings["load_cad"] = _lap(cpu, "load_cad", t)
     dropped: dict[str, int] = {}
     loc, origin = sc.local, sc.origin
+    src = None  # rows of loc in the scan as read (None: all, in order)
     if voxel:
         idx = voxel_down_sample(loc, voxel)
         dropped["voxel"] = int(len(loc) - len(idx))
-        loc = loc[idx]
+        loc, src = loc[idx], idx
     if outliers:
         keep = remove_outliers(loc)
         dropped["outliers"] = int((~keep).sum())
         loc = loc[keep]
+        src = np.flatnonzero(keep) if src is None else src[keep]
+    T_init = _shift(origin) if init_transform is None else init_transform @ _shift(origin)
     where = f"scan '{sc.source}'"
     check_geometry(loc, model.r_o, register=register_scan, origin=origin, where=where)
     reg = None
-    t = time.perf_counter()
+    t = _now()
     if register_scan:
         say("registering")
         try:
-            reg = register(loc, model, seed=seed, progress=lambda m: say(f"  {m}"))
+            start = loc if init_transform is None else apply(init_transform @ _shift(origin), loc)
+            reg = register(start, model, seed=seed, progress=lambda m: say(f"  {m}"))
         except ScanError as e:
             raise ScanError(f"{where}: {e}") from None
-        T_loc = reg.transform          # offsets → cannula frame
+        if init_transform is None:
+            T_loc = reg.transform          # offsets → cannula frame
+            reg.axis["point_mm"] = (np.asarray(reg.axis["point_mm"]) + origin).tolist()
+        else:
+            T_loc = reg.transform @ T_init
+            reg.axis["point_mm"] = apply(np.linalg.inv(init_transform),
+                                         np.asarray([reg.axis["point_mm"]]))[0].tolist()
         reg.transform = T_loc @ _shift(-origin)   # scanner frame → cannula frame
-        reg.axis["point_mm"] = (np.asarray(reg.axis["point_mm"]) + origin).tolist()
     else:
-        T_loc = _shift(origin)
-    timings["register"] = time.perf_counter() - t
+        T_loc = T_init
+    timings["register"] = _lap(cpu, "register", t)
     if reg:
         say(f"registered in {timings['register']:.2f} s: fitness {reg.fitness:.3f}, inlier "
             f"RMSE {reg.inlier_rmse * 1e3:.3f} µm")
-    t = time.perf_counter()
+    t = _now()
     say(f"deviations of {len(loc):,} points ({model.method})")
-    pts, dist, cnt = _deviations(model, loc, T_loc, z_min=z_min, max_distance=max_distance,
+    pts, dist, rows, cnt = _deviations(model, loc, T_loc, z_min=z_min, max_distance=max_distance,
                                  chunk=tol.inspect.chunk)
-    timings["deviations"] = time.perf_counter() - t
+    timings["deviations"] = _lap(cpu, "deviations", t)
     if z_min is not None:
         dropped["crop"] = cnt["crop"]
     if not cnt["compared"]:
@@ -346,18 +417,28 @@ def compare(scan, cad, *, tolerance: float = 0.01, units: str = "mm",
                         f"{max_distance} mm of the CAD surface; wrong tip, units or "
                         "registration?")
     say(f"deviations in {timings['deviations']:.2f} s")
-    t = time.perf_counter()
+    t = _now()
     stats = statistics(dist.distance, dist.face, tolerance, names=dist.labels)
-    timings["statistics"] = time.perf_counter() - t
-    t = time.perf_counter()
+    stats["trimmed"] = trimmed(dist.distance, tolerance, sigmas=tol.inspect.trim_sigmas)
+    lo_h, hi_h = colour_range or (-scale, scale)
+    stats["histogram"] = histogram(dist.distance, lo_h, hi_h, tol.inspect.histogram_bins)
+    timings["statistics"] = _lap(cpu, "statistics", t)
+    t = _now()
     measured = measure(pts, dist, model)
-    timings["measure"] = time.perf_counter() - t
+    timings["measure"] = _lap(cpu, "measure", t)
     # background far from the part (a fixture, a table) does not count against it
     share = cnt["match"] / cnt["envelope"]
     match = check_match(model, share=share, fitness=reg.fitness if reg else None,
                         registered_od=reg.axis["outer_diameter_mm"] if reg else None,
                         measured=measured)
     notes = []
+    far_share = cnt["far"] / cnt["compared"]
+    if far_share > tol.inspect.far_share_warn:
+        notes.append(f"{100 * far_share:.2f} % of the compared points ({cnt['far']:,} of "
+                     f"{cnt['compared']:,}) lie farther than {max_distance:g} mm from the CAD "
+                     f"surface (more than {100 * tol.inspect.far_share_warn:g} %): gross "
+                     "outliers, a fixture in the scan or a wrong registration; they are left "
+                     "out of the statistics")
     if not match["ok"]:
         msg = (f"{where} does not match the CAD '{model.name}': "
                + "; ".join(match["problems"]))
@@ -365,16 +446,18 @@ def compare(scan, cad, *, tolerance: float = 0.01, units: str = "mm",
             raise ScanError(msg + " (--allow-mismatch compares it anyway)")
         notes.append(msg + " (compared anyway: --allow-mismatch)")
     res = Comparison(sc, model, reg, pts, dist, stats, measured, tolerance, scale, dropped,
-                     timings, match=match, notes=notes)
+                     timings, cpu, match=match, notes=notes,
+                     index=rows if src is None else src[rows], colour_range=colour_range,
+                     colormap=colormap or "RdYlBu_r")
     if angles:
         from .edgescan import measure_edges
 
-        t = time.perf_counter()
+        t = _now()
         say("tracing the cutting edges")
         res.edges = measure_edges(pts, model, edge_band=edge_band,
                                   progress=lambda m: say(f"  {m}"))
-        timings["edges"] = time.perf_counter() - t
-    timings["total"] = time.perf_counter() - t0
+        timings["edges"] = _lap(cpu, "edges", t)
+    timings["total"] = _lap(cpu, "total", t0)
     if out is not None:
         from .report import write_report
 

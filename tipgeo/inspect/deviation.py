@@ -11,11 +11,11 @@ from typing import Any
 
 import numpy as np
 
-__all__ = ["statistics", "STAT_KEYS"]
+__all__ = ["statistics", "STAT_KEYS", "trimmed", "histogram"]
 
 #: Keys of every statistics block (µm, except count and share).
 STAT_KEYS = ("count", "mean_um", "std_um", "rms_um", "min_um", "max_um", "p5_um", "p95_um",
-             "within_tol_share")
+             "mean_abs_um", "p95_abs_um", "within_tol_share")
 
 
 def _block(d: np.ndarray, tol: float, chunk: int = 1 << 20) -> dict[str, Any]:
@@ -28,11 +28,13 @@ def _block(d: np.ndarray, tol: float, chunk: int = 1 << 20) -> dict[str, Any]:
     sq = sum(float(np.sum(d[i:i + chunk] ** 2)) for i in range(0, n, chunk))
     within = sum(int(np.count_nonzero(np.abs(d[i:i + chunk]) <= tol))
                  for i in range(0, n, chunk))
+    sa = sum(float(np.sum(np.abs(d[i:i + chunk]))) for i in range(0, n, chunk))
     p5, p95 = np.percentile(d, [5.0, 95.0]) * 1e3
+    pa95 = float(np.percentile(np.abs(d), 95.0)) * 1e3
     return {"count": int(n), "mean_um": mean * 1e3, "std_um": float(np.sqrt(ss / n)) * 1e3,
             "rms_um": float(np.sqrt(sq / n)) * 1e3, "min_um": float(d.min()) * 1e3,
             "max_um": float(d.max()) * 1e3, "p5_um": float(p5), "p95_um": float(p95),
-            "within_tol_share": within / n}
+            "mean_abs_um": sa / n * 1e3, "p95_abs_um": pa95, "within_tol_share": within / n}
 
 
 def _order(name: str):
@@ -76,3 +78,40 @@ def statistics(distance: np.ndarray, labels: np.ndarray, tolerance: float, *,
         sel = ids == ks[0] if len(ks) == 1 else np.isin(ids, ks)
         out["regions"][name] = _block(d[sel], tolerance)
     return out
+
+
+def trimmed(distance: np.ndarray, tolerance: float, *, sigmas: float) -> dict[str, Any]:
+    """Robust statistics: the :data:`STAT_KEYS` block of the deviations
+    within ``sigmas`` robust standard deviations (1.4826 × the median absolute
+    deviation) of the median, with the rule and the share left out. Median
+    and MAD come from every k-th deviation, k = max(1, n // 2²⁰) (all of
+    them below 2²¹ points).
+
+    Parameters
+    ----------
+    distance : (n,) float — signed deviations (mm)
+    tolerance : float — ± band for ``within_tol_share`` (mm)
+    sigmas : float — half-width of the kept band in robust σ
+    """
+    d = np.asarray(distance, float)
+    # the band from an evenly strided sample of at most 2^20 deviations (a
+    # robust scale needs no more; large scans skip two full partitions)
+    s = d[::max(1, len(d) >> 20)]
+    med = float(np.median(s)) if len(s) else 0.0
+    sigma = 1.4826 * float(np.median(np.abs(s - med))) if len(s) else 0.0
+    keep = np.abs(d - med) <= sigmas * sigma
+    out = _block(d[keep], tolerance)
+    out.update({"rule": f"|d - median| <= {sigmas:g} x 1.4826 MAD (median and MAD of every "
+                        f"{max(1, len(d) >> 20)}th point)",
+                "median_um": med * 1e3, "robust_sigma_um": sigma * 1e3,
+                "trimmed_share": 1.0 - float(np.count_nonzero(keep)) / max(len(d), 1)})
+    return out
+
+
+def histogram(distance: np.ndarray, lo: float, hi: float, bins: int) -> dict[str, Any]:
+    """Histogram of signed deviations as data: ``bins`` equal bins over
+    [lo, hi] (mm in, µm out) and the counts below and above the range."""
+    d = np.asarray(distance, float)
+    counts, edges = np.histogram(d, bins=bins, range=(lo, hi))
+    return {"edges_um": (edges * 1e3).tolist(), "counts": counts.tolist(),
+            "below": int(np.count_nonzero(d < lo)), "above": int(np.count_nonzero(d > hi))}

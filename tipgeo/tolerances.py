@@ -261,6 +261,9 @@ class CamTolerances:
     mill_edge_margin : float
         The deviation statistics leave out a band this wide (mm) along the
         edges (the stated region "away from the edge").
+    mill_ridge_margin : float
+        … and this wide (mm) along ridges between faces (multi-plane tips),
+        where parallel passes crossing a convex ridge leave higher cusps.
     """
 
     axial: float = 1.0e-9
@@ -272,6 +275,7 @@ class CamTolerances:
     mill_height: float = 1.0e-11
     mill_normal_z: float = 0.01745
     mill_edge_margin: float = 0.02
+    mill_ridge_margin: float = 0.1
 
 
 @dataclass

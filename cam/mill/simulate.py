@@ -232,6 +232,7 @@ class MilledTip:
     clocking: float
     radius: float
     dexels: object = field(repr=False, default=None)
+    normals: np.ndarray | None = field(repr=False, default=None)
     z_top: float = 0.0
 
     def deviation(self) -> np.ndarray:
@@ -284,7 +285,10 @@ def simulate_mill(gcode: str, spec, *, tool, setup, cell_um: tuple[float, float]
     C = np.full(X.shape, np.nan)
     NZ = np.full(X.shape, np.nan)
     H[on], C[on], NZ[on] = h, zc, nc[:, 2]
-    res = MilledTip(None, x, y, H, C, NZ, moves, setup.clocking, R, dex, setup.z_top)
+    N = np.full(X.shape + (3,), np.nan)
+    N[on] = nc
+    res = MilledTip(None, x, y, H, C, NZ, moves, setup.clocking, R, dexels=dex,
+                    z_top=setup.z_top, normals=N)
     res.tip = _milled_tip(res, spec, rings, around)
     return res
 
@@ -345,7 +349,7 @@ def _milled_tip(res: MilledTip, spec, rings: int, around: int):
 
 
 def compare_milled(res: MilledTip, spec, *, scallop: float, stepover: float,
-                   margin: float | None = None, kink_margin_deg: float = 3.0,
+                   margin: float | None = None, kink_margin_deg: float = 6.0,
                    heel_margin_deg: float = 5.0) -> dict:
     """Milled versus CAD (report units: µm, degrees).
 
@@ -365,20 +369,22 @@ def compare_milled(res: MilledTip, spec, *, scallop: float, stepover: float,
     scallop; the window averages whole scallops), against the exact CAD angles.
     Both along γ ∈ [``heel_margin_deg``, 360° − ``heel_margin_deg``] (at the
     heel λ climbs from 0 by several degrees per degree of γ), at the same
-    cannula-frame γ, ``kink_margin_deg`` away from the rim corners (kinks
-    between faces).
+    cannula-frame γ, away from the rim corners (kinks between faces) by
+    ``kink_margin_deg`` and by as much as keeps the fitting window the ridge
+    margin from a ridge ((step-over + ``tol.cam.mill_ridge_margin``)/r_i).
     """
     from tipgeo.angles import analyze, edge_angles
 
     m = tol.cam.mill_edge_margin if margin is None else margin
+    mr = tol.cam.mill_ridge_margin
     can = spec.cannula
     X, Y = np.meshgrid(res.x, res.y)
     rr = np.hypot(X, Y)
-    region = (rr >= can.r_i + m) & (rr <= can.r_o - m)
+    region = (rr >= can.r_i + m) & (rr <= can.r_o - m) & ~_near_ridges(res, mr)
     dev = res.deviation()
     dv = dev[region]
-    out = {"region": f"annulus r_i + {m * 1e3:g} µm ≤ r ≤ r_o − {m * 1e3:g} µm "
-                     f"({region.sum()} columns)",
+    out = {"region": f"annulus r_i + {m * 1e3:g} µm ≤ r ≤ r_o − {m * 1e3:g} µm, "
+                     f"{mr * 1e3:g} µm from ridges between faces ({region.sum()} columns)",
            "scallop_target_um": scallop * 1e3,
            "scallop_measured_um": float(np.nanmax(dv) * 1e3),
            "deviation_p99_um": float(np.nanpercentile(dv, 99) * 1e3),
@@ -393,10 +399,13 @@ def compare_milled(res: MilledTip, spec, *, scallop: float, stepover: float,
     rm = analyze(res.tip, method="mesh", radii=(can.r_o, can.r_i), name="milled")
     g = np.radians(np.arange(heel_margin_deg, 360.0 - heel_margin_deg + 1e-9, 0.5))
     kinks = [k.gamma for w in (rc.outer, rc.inner) for k in w.edge.kinks]
+    # away from the rim corners: by kink_margin_deg, and so far that the
+    # normal's fitting window (a step-over each side) keeps the ridge margin
+    kink_margin = max(math.radians(kink_margin_deg), (stepover + mr) / can.r_i)
     if kinks:
         dist = np.min(np.abs(np.angle(np.exp(1j * (g[:, None] - np.array(kinks)[None])))),
                       axis=1)
-        g = g[dist > math.radians(kink_margin_deg)]
+        g = g[dist > kink_margin]
     heel = rc.outer.edge.heel
     # the milled tip finds its own heel (its lowest edge vertex, moved by the
     # scallops); compare at the same cannula-frame γ
@@ -427,14 +436,45 @@ def compare_milled(res: MilledTip, spec, *, scallop: float, stepover: float,
             "lambda_method_error_deg": float(np.degrees(np.nanmax(np.abs(
                 cad_mesh["lambda"] - cad["lambda"])))),
             "theta_max_diff_deg": float(np.degrees(np.nanmax(np.abs(theta - cad["theta"])))),
+            "theta_worst_gamma_deg": float(np.degrees(g[np.nanargmax(np.abs(theta
+                                                                          - cad["theta"]))])),
+            "lambda_worst_gamma_deg": float(np.degrees(g[np.nanargmax(np.abs(
+                mesh["lambda"] - cad_mesh["lambda"]))])),
             "alpha_max_diff_deg": float(np.degrees(np.nanmax(np.abs(alpha - cad["alpha"])))),
             "theta_facet_max_diff_deg": float(np.degrees(np.nanmax(np.abs(
                 mesh["theta"] - cad["theta"])))),
             "l_c_mm": {"milled": getattr(rm, wall).length, "cad": getattr(rc, wall).length}}
     out["angles"] = angles
     out["gamma_compared"] = (f"{len(g)} angles in [{heel_margin_deg:g}°, "
-                             f"{360 - heel_margin_deg:g}°], {kink_margin_deg:g}° from kinks")
+                             f"{360 - heel_margin_deg:g}°]"
+                             + (f", {math.degrees(kink_margin):.1f}° from rim corners"
+                                if kinks else ""))
     return out
+
+
+def _near_ridges(res: MilledTip, width: float) -> np.ndarray:
+    """(ny, nx) bool: grid columns within ``width`` mm (in X and Y) of a
+    ridge between two CAD faces (where the CAD normal turns by more than 1°
+    from one column to the next)."""
+    from scipy.ndimage import binary_dilation
+
+    turn = np.zeros(res.nz.shape, bool)
+    cos1 = math.cos(math.radians(1.0))
+    n = res.normals
+    for axis in (0, 1):
+        a = np.take(n, np.arange(n.shape[axis] - 1), axis=axis)
+        b = np.take(n, np.arange(1, n.shape[axis]), axis=axis)
+        c = np.sum(a * b, axis=-1)
+        jump = np.isfinite(c) & (c < cos1)
+        sl = [slice(None)] * 2
+        sl[axis] = slice(0, -1)
+        turn[tuple(sl)] |= jump
+    if not turn.any():
+        return turn
+    kx = int(math.ceil(width / (res.x[1] - res.x[0])))
+    ky = int(math.ceil(width / (res.y[1] - res.y[0])))
+    out = binary_dilation(turn, structure=np.ones((1, 2 * kx + 1), bool))
+    return binary_dilation(out, structure=np.ones((2 * ky + 1, 1), bool))
 
 
 def _fit_normals(res, spec, gamma, radius, side, along, into):

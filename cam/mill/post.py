@@ -62,6 +62,8 @@ POSTS: dict[str, Post] = {"haas": HAAS}
 
 def comment(post: Post, text: str) -> str:
     """One comment: ASCII, no parentheses inside, upper case, clipped."""
+    for a, b in (("§", "SEC "), ("µ", "u"), ("°", " DEG"), ("−", "-"), ("–", "-")):
+        text = text.replace(a, b)
     t = text.encode("ascii", "replace").decode("ascii").replace("?", "-")
     t = re.sub(r"[()]", "", t).replace(post.comment_open, "").replace(post.comment_close, "")
     t = re.sub(r"\s+", " ", t).strip().upper()[:post.max_comment]

@@ -270,7 +270,7 @@ class CamTolerances:
     heel: float = 1.0e-9
     travel: float = 1.0e-12
     converge: float = 1.0e-13
-    mill_mesh: float = 5.0e-4
+    mill_mesh: float = 1.0e-3
     mill_chord: float = 3.0e-4
     mill_height: float = 1.0e-11
     mill_normal_z: float = 0.01745

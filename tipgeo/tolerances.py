@@ -271,12 +271,35 @@ class CamTolerances:
     converge : float
         The machine-coordinate Newton iteration stops when a step is below
         this (mm).
+    mill_mesh : float
+        Chordal tolerance (mm) of the tip mesh the finishing drop-cutter runs
+        against (milling, :mod:`cam.mill`).
+    mill_chord : float
+        Kept cutter-location points: the straight move between two of them
+        passes within this (mm, vertically) of every dropped point between.
+    mill_height : float
+        The CAD height z = Z(x, y) is solved to this (mm).
+    mill_normal_z : float
+        A cut face whose unit normal has an axial component below this is not
+        a height field from +Z (sin 1°).
+    mill_edge_margin : float
+        The deviation statistics leave out a band this wide (mm) along the
+        edges (the stated region "away from the edge").
+    mill_ridge_margin : float
+        … and this wide (mm) along ridges between faces (multi-plane tips),
+        where parallel passes crossing a convex ridge leave higher cusps.
     """
 
     axial: float = 1.0e-9
     heel: float = 1.0e-9
     travel: float = 1.0e-12
     converge: float = 1.0e-13
+    mill_mesh: float = 1.0e-3
+    mill_chord: float = 3.0e-4
+    mill_height: float = 1.0e-11
+    mill_normal_z: float = 0.01745
+    mill_edge_margin: float = 0.02
+    mill_ridge_margin: float = 0.1
 
 
 @dataclass

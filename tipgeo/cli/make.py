@@ -1,5 +1,6 @@
-"""``tipgeo laser``, ``gcode``, ``grind``: the making stage on the command line
-(laser programs for the A3200, five-axis grinding; mm, degrees, µm)."""
+"""``tipgeo laser``, ``gcode``, ``grind``, ``mill``: the making stage on the
+command line (laser programs for the A3200, five-axis grinding, three-axis
+milling on the Haas VF-2; mm, degrees, µm, feeds mm/min for milling)."""
 
 from __future__ import annotations
 
@@ -9,7 +10,7 @@ from pathlib import Path
 from ..jsonio import dumps as _dumps
 from .common import declare_files, export_exts, spec_arg, tolerance_arg, write_text
 
-__all__ = ["register", "cmd_laser", "cmd_gcode", "cmd_grind"]
+__all__ = ["register", "cmd_laser", "cmd_gcode", "cmd_grind", "cmd_mill"]
 
 
 def _laser_params(args):
@@ -125,6 +126,56 @@ def cmd_grind(args) -> int:
     return status
 
 
+def cmd_mill(args) -> int:
+    from cam.mill import (
+        DEFAULT_TOOL,
+        MillMachine,
+        MillParams,
+        mill,
+        parse_tool,
+        write_mill_outputs,
+    )
+
+    spec = spec_arg(args.spec)
+    machine = MillMachine.from_toml(args.machine) if args.machine else MillMachine()
+    tool = parse_tool(args.tool) if args.tool else DEFAULT_TOOL
+    kw = {"scallop": args.scallop_um * 1e-3}
+    for opt, key in (("feed_mm_min", "finish_feed"), ("rough_feed_mm_min", "rough_feed"),
+                     ("spindle_rpm", "spindle_rpm"), ("allowance_mm", "allowance")):
+        if getattr(args, opt) is not None:
+            kw[key] = getattr(args, opt)
+    if args.no_rough:
+        kw["rough"] = False
+    params = MillParams(**kw)
+    simulate = bool(args.simulate or args.report or args.deviation)
+    log = None if args.json else (lambda msg: print(msg, file=sys.stderr, flush=True))
+    res = mill(spec, tool=tool, machine=machine, params=params, simulate_tip=simulate,
+               compare=bool(args.report or args.deviation), progress=log)
+    write_mill_outputs(res, program=args.output, sheet=args.sheet, mesh=args.simulate,
+                       deviation=args.deviation)
+    out = res.summary()
+    if args.json:
+        print(_dumps(out))
+        return 0
+    t, p = out["toolpath"], out["program"]
+    print(f"{t['name']}: {t['tool']}; clocking {t['clocking_deg']:.2f}°, finishing step-over "
+          f"{t['stepover_mm'] * 1e3:.0f} µm for a {t['scallop_um']:g} µm scallop, "
+          f"{t['finish_passes']} finishing + {t['rough_passes']} roughing passes")
+    print(f"  program: {p['lines']} lines, {p['moves']} moves, cycle time "
+          f"{p['cycle_time_s'] / 60:.1f} min on {machine.name.split(' (')[0]}")
+    if res.comparison is not None:
+        c = res.comparison
+        a = c["angles"]["outer"]
+        print(f"  milled vs CAD over {c['region']}: scallop {c['scallop_measured_um']:.3f} µm "
+              f"(target {c['scallop_target_um']:g}), gouge {c['gouge_um']:.3f} µm")
+        print(f"  outer edge: λ within {a['lambda_max_diff_deg']:.3f}°, θ within "
+              f"{a['theta_max_diff_deg']:.3f}°, α within {a['alpha_max_diff_deg']:.3f}° "
+              f"({c['gamma_compared']})")
+    for w in res.files:
+        print(f"  wrote {w}")
+    return 0
+
+
 def gcode_derived(args) -> list[str]:
     """``gcode sim --plot FILE`` also writes FILE-rim.png."""
     if args.action == "sim" and args.plot:
@@ -191,3 +242,28 @@ def register(sub) -> None:
     gr.set_defaults(func=cmd_grind)
     declare_files(gr, inputs=("spec", "machine"), outputs=("output", "gcode", "sheet", "simulate"),
                   exts={"output": (".json", ".csv"), "simulate": export_exts()})
+    mi = sub.add_parser("mill", help="three-axis milling (Haas VF-2): toolpaths, G-code, "
+                        "material-removal simulation")
+    mi.add_argument("spec", metavar="SPEC")
+    mi.add_argument("-o", "--output", required=True, metavar="PROGRAM",
+                    help="G-code program (.nc)")
+    mi.add_argument("--tool", metavar="KIND:D[:R[:REACH]]",
+                    help="end mill, mm: ball:1.588 (default), bull:2:0.25, flat:1")
+    mi.add_argument("--scallop-um", type=float, default=2.0,
+                    help="finishing scallop height target, µm (2)")
+    mi.add_argument("--feed-mm-min", type=float, default=None, help="finishing feed (150)")
+    mi.add_argument("--rough-feed-mm-min", type=float, default=None, help="roughing feed (200)")
+    mi.add_argument("--spindle-rpm", type=float, default=None, help="spindle speed (10000)")
+    mi.add_argument("--allowance-mm", type=float, default=None,
+                    help="roughing stock allowance (0.05)")
+    mi.add_argument("--no-rough", action="store_true", help="finishing passes only")
+    mi.add_argument("--sheet", metavar="FILE", help="Markdown set-up sheet")
+    mi.add_argument("--simulate", metavar="MILLED", help="write the simulated milled tip mesh")
+    mi.add_argument("--deviation", metavar="PNG", help="deviation map milled − CAD (µm)")
+    mi.add_argument("--report", action="store_true", help="compare the simulation with CAD")
+    mi.add_argument("--machine", metavar="TOML", help="machine limits and set-up overrides")
+    mi.add_argument("--json", action="store_true")
+    mi.set_defaults(func=cmd_mill)
+    declare_files(mi, inputs=("spec", "machine"), outputs=("output", "sheet", "simulate"),
+                  pictures=("deviation",), exts={"output": (".nc", ".ngc", ".tap", ".txt"),
+                                                 "simulate": export_exts()})

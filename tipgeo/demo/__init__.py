@@ -8,7 +8,9 @@ For the serrated punches: the AeroBasic laser programs (``punch-C*.pgm``),
 and for C2 the simulated cut (``punch-C2-laser-sim.stl``) with its toolpath and
 rim pictures. For the needles the grinder makes: the axis program, its G-code
 and set-up sheet (``*.grind.json``, ``*.grind.nc``, ``*.setup.md``), each
-simulated and compared with the CAD tip. Later features add their own outputs
+simulated and compared with the CAD tip. The helical needle milled on the
+Haas VF-2 (``helical-14G.mill.nc``, ``.mill.md``, ``-milled.stl`` and the
+deviation map ``-milled-deviation.png``). Later features add their own outputs
 here. Lengths in mm, angles
 in degrees.
 """
@@ -65,18 +67,19 @@ def run_demo(out, *, tolerance: float | None = None, log=None, pictures: bool = 
     from . import mechanics, optimize
     from .angles import angle_outputs
     from .inspect import inspect_outputs
-    from .make import grind_outputs, laser_outputs
+    from .make import grind_outputs, laser_outputs, mill_outputs
 
     angle_files = angle_outputs(out, names, pictures, log)
     laser_files = laser_outputs(out, names, pictures, log)
     grind_rows = grind_outputs(out, names, log)
+    mill_rows = mill_outputs(out, names, pictures, log)
     mechanics_files = mechanics.demo_outputs(out, log=log, pictures=pictures)
     optimize_files = optimize.demo_outputs(
         out, log=None if log is None else (lambda msg: print(msg, file=log, flush=True)))
     inspect_row = inspect_outputs(out, pictures, log)
     summary = {"out": str(out), "tolerance_um": None if tolerance is None else tolerance * 1e3,
                "tips": rows, "angles": angle_files, "laser": laser_files,
-               "grinding": grind_rows, "mechanics": mechanics_files,
+               "grinding": grind_rows, "milling": mill_rows, "mechanics": mechanics_files,
                "optimize": optimize_files, "inspect": inspect_row}
     write_text_atomic(out / "summary.json", _dumps(summary) + "\n")
     buf = io.StringIO()

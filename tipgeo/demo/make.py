@@ -1,7 +1,9 @@
 """The making part of ``tipgeo demo``: laser programs of the serrated
 punches (one simulated back into a tip) and grinding programs of the needles
 the grinder makes (each simulated and compared with its CAD tip), through the
-public pipelines :func:`gcode.laser_check` and :func:`cam.grind`."""
+public pipelines :func:`gcode.laser_check` and :func:`cam.grind`; and the
+helical needle milled on the Haas VF-2 (:func:`cam.mill.mill`), its G-code
+simulated back into a tip and compared with CAD (deviation map)."""
 
 from __future__ import annotations
 
@@ -10,7 +12,7 @@ from pathlib import Path
 from ..atomic import write_text_atomic
 from ..presets import preset
 
-__all__ = ["laser_outputs", "grind_outputs"]
+__all__ = ["laser_outputs", "grind_outputs", "mill_outputs"]
 
 
 def laser_outputs(out: Path, names, pictures: bool, log) -> list[dict]:
@@ -68,3 +70,30 @@ def grind_outputs(out: Path, names, log) -> list[dict]:
     return rows
 
 
+
+
+def mill_outputs(out: Path, names, pictures: bool, log) -> list[dict]:
+    """The helical needle (thesis §3.2) milled tip-up at the default 2 µm
+    scallop: G-code, set-up sheet, the milled tip simulated from the G-code,
+    its deviation map and comparison with CAD."""
+    from cam.mill import mill, write_mill_outputs
+
+    rows = []
+    for name in names:
+        if name != "helical-14G":
+            continue
+        progress = None if log is None else (lambda m: print(f"mill: {m}", file=log, flush=True))
+        res = mill(preset(name), progress=progress)
+        write_mill_outputs(res, program=out / f"{name}.mill.nc", sheet=out / f"{name}.mill.md",
+                           mesh=out / f"{name}-milled.stl",
+                           deviation=out / f"{name}-milled-deviation.png" if pictures else None)
+        s = res.summary()
+        c = res.comparison
+        rows.append({"name": name, "cycle_time_s": s["program"]["cycle_time_s"],
+                     "scallop_um": c["scallop_measured_um"], "gouge_um": c["gouge_um"],
+                     "angles": c["angles"]["outer"], "files": list(res.files)})
+        if log is not None:
+            print(f"mill: {name}: scallop {c['scallop_measured_um']:.2f} µm, gouge "
+                  f"{c['gouge_um']:.2f} µm, cycle {s['program']['cycle_time_s'] / 60:.1f} min",
+                  file=log, flush=True)
+    return rows

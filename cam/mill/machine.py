@@ -1,0 +1,259 @@
+r"""The three-axis vertical machining centre of thesis §3.2 (Haas VF-2), its
+end mills and the milling set-up.
+
+Frames (mm; rad inside, degrees in reports)
+--------------------------------------------
+=================  ==========================================================
+frame              definition
+=================  ==========================================================
+cannula (x, y, z)  tipgeo's frame: +z along the needle axis towards the tip,
+                   heel at γ = 0, z = 0
+program (X, Y, Z)  the G-code's work frame (G54): the needle stands in its
+                   ER8 collet with its axis vertical and the tip up, so
+                   Z = z; program zero is on the needle axis at the heel's
+                   height; the needle is clocked in the collet so that the
+                   cannula direction γ = ``clocking`` lies along +X (the
+                   raster direction): X = x cos c + y sin c,
+                   Y = −x sin c + y cos c
+machine            Haas machine coordinates: home at X0 Y0 Z0, travels
+                   negative; program point P sits at P + ``work_offset``
+=================  ==========================================================
+
+The table moves the needle in X and Y, the spindle moves the tool in Z
+(§3.2); the controlled point is the tool tip (G43 tool-length offset). With
+the tip up, every cut face of a bevel, multi-plane, conical or helical tip is a
+height field z = Z(x, y) over the wall's annulus r_i ≤ r ≤ r_o.
+
+Defaults (VF-2 data sheet; thesis §3.2): travels 762 × 406 × 508 mm, rapids
+25.4 m/min, cutting feed up to 16.5 m/min, spindle up to 12,000 rpm (the
+thesis ran 10,000 rpm; the standard VF-2 spindle gives 8,100 rpm, 12,000 is
+the option its speed needs), axis resolution 0.002 mm as the thesis states.
+Feeds are mm/min (G94), the unit of the F word.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field, fields
+
+from tipgeo import validate as v
+from tipgeo.errors import SpecError
+
+from ..machine import AxisLimit, CamError
+
+__all__ = ["MillMachine", "EndMill", "TOOL_KINDS", "DEFAULT_TOOL", "parse_tool"]
+
+#: End-mill kinds: name -> what the corner radius is.
+TOOL_KINDS = {"ball": "D/2 (ball nose)", "bull": "0 < r < D/2 (bull nose)",
+              "flat": "0 (flat end)"}
+
+
+@dataclass(frozen=True, kw_only=True)
+class EndMill:
+    """An end mill: diameter D and corner radius r (mm), kind ``ball``
+    (r = D/2), ``bull`` (0 < r < D/2) or ``flat`` (r = 0); its reach (mm out
+    of the holder: how deep below the stock top it can cut), flutes, the
+    tool/length-offset number, and its material (for the set-up sheet).
+
+    Default: the thesis's carbide ball mill Ø 1.588 mm (1/16 in) on a
+    long-reach 12 mm neck.
+    """
+
+    kind: str = "ball"
+    diameter: float = 1.588
+    corner_radius: float | None = None
+    reach: float = 12.0
+    flutes: int = 2
+    number: int = 1
+    material: str = "carbide"
+
+    def __post_init__(self):
+        if self.kind not in TOOL_KINDS:
+            raise CamError(f"tool kind = {self.kind!r} is not known; expected one of: "
+                           + ", ".join(TOOL_KINDS))
+        try:
+            d = v.length("tool diameter", self.diameter, hi=25.0)
+            reach = v.length("tool reach", self.reach, hi=200.0)
+            flutes = v.integer("tool flutes", self.flutes, lo=1, hi=12)
+            number = v.integer("tool number", self.number, lo=1, hi=200)
+        except SpecError as e:
+            raise CamError(str(e)) from None
+        r = self.corner_radius
+        if self.kind == "ball":
+            r = 0.5 * d if r is None else r
+            if abs(r - 0.5 * d) > 1e-12:
+                raise CamError(f"tool corner_radius = {r:g} mm; a ball mill has r = D/2 = "
+                               f"{0.5 * d:g} mm")
+        elif self.kind == "flat":
+            r = 0.0 if r is None else r
+            if r != 0.0:
+                raise CamError(f"tool corner_radius = {r:g} mm; a flat end mill has r = 0")
+        elif r is None or not 0.0 < r < 0.5 * d:
+            raise CamError(f"tool corner_radius = {r} mm is out of range; a bull-nose mill "
+                           f"needs 0 < r < D/2 = {0.5 * d:g} mm")
+        for k, val in (("diameter", d), ("corner_radius", float(r)), ("reach", reach),
+                       ("flutes", flutes), ("number", number)):
+            object.__setattr__(self, k, val)
+
+    @property
+    def radius(self) -> float:
+        """D/2 (mm)."""
+        return 0.5 * self.diameter
+
+    def describe(self) -> str:
+        """One line for sheets and program comments (ASCII)."""
+        r = f" r{self.corner_radius:.3f}" if self.kind == "bull" else ""
+        return (f"{self.material} {self.kind} end mill D{self.diameter:.3f}{r} mm, "
+                f"{self.flutes} flutes, reach {self.reach:g} mm")
+
+    def ocl_cutter(self, allowance: float = 0.0):
+        """The OpenCAMLib cutter, grown by ``allowance`` (mm) all round (a
+        ball of radius R + a; roughing: its CL lowered by a is the real
+        tool's, a from the surface)."""
+        import opencamlib as ocl
+
+        length = self.reach + 10.0
+        d = self.diameter + 2.0 * allowance
+        if self.kind == "ball":
+            return ocl.BallCutter(d, length)
+        if self.kind == "flat" and allowance == 0.0:
+            return ocl.CylCutter(d, length)
+        return ocl.BullCutter(d, self.corner_radius + allowance, length)
+
+
+#: The thesis's tool (§3.2).
+DEFAULT_TOOL = EndMill()
+
+
+def parse_tool(text: str, *, number: int = 1) -> EndMill:
+    """An end mill from ``KIND:DIAMETER[:CORNER_RADIUS[:REACH]]`` (mm), e.g.
+    ``ball:1.588``, ``bull:2:0.25``, ``flat:1``, ``ball:1.588::8``."""
+    parts = str(text).split(":")
+    if not 2 <= len(parts) <= 4 or parts[0] not in TOOL_KINDS:
+        raise CamError(f"tool = {text!r}; expected KIND:DIAMETER[:CORNER_RADIUS[:REACH]] "
+                       f"(mm) with KIND one of: {', '.join(TOOL_KINDS)}")
+    try:
+        vals = [float(p) if p else None for p in parts[1:]]
+    except ValueError:
+        raise CamError(f"tool = {text!r}: DIAMETER, CORNER_RADIUS and REACH are numbers "
+                       "in mm") from None
+    kw = {"kind": parts[0], "diameter": vals[0], "number": number}
+    if len(vals) > 1 and vals[1] is not None:
+        kw["corner_radius"] = vals[1]
+    if len(vals) > 2 and vals[2] is not None:
+        kw["reach"] = vals[2]
+    if kw["diameter"] is None:
+        raise CamError(f"tool = {text!r}: DIAMETER is missing")
+    return EndMill(**kw)
+
+
+@dataclass(frozen=True, kw_only=True)
+class MillMachine:
+    """The Haas VF-2 (defaults: see the module docstring), overridable from
+    TOML like :class:`cam.Machine`.
+
+    Lengths mm, feeds mm/min, speeds rpm; ``x``, ``y``, ``z`` are machine
+    travels (Haas machine coordinates) with the axis resolution;
+    ``work_offset`` (mm) is program zero in machine coordinates (G54).
+    """
+
+    name: str = "Haas VF-2 three-axis vertical machining centre (thesis §3.2)"
+    x: AxisLimit = field(default_factory=lambda: AxisLimit(-762.0, 0.0, 0.002))
+    y: AxisLimit = field(default_factory=lambda: AxisLimit(-406.0, 0.0, 0.002))
+    z: AxisLimit = field(default_factory=lambda: AxisLimit(-508.0, 0.0, 0.002))
+    work_offset: tuple[float, float, float] = (-381.0, -203.0, -400.0)
+    spindle_rpm_min: float = 100.0
+    spindle_rpm_max: float = 12000.0
+    feed_min: float = 1.0          # mm/min
+    feed_max: float = 16500.0      # mm/min
+    rapid: float = 25400.0         # mm/min
+    controller: str = "haas"
+
+    @property
+    def resolution(self) -> float:
+        """The coarsest axis resolution (mm): every programmed coordinate is
+        a multiple of it."""
+        return max(self.x.resolution, self.y.resolution, self.z.resolution)
+
+    @classmethod
+    def from_toml(cls, path) -> MillMachine:
+        """A machine from a TOML file: top-level keys override the defaults;
+        ``[x]``, ``[y]``, ``[z]`` tables give ``lo``, ``hi``, ``resolution``."""
+        from tipgeo.tomlio import loads_toml, read_text_file
+
+        try:
+            data = loads_toml(read_text_file(path, "machine file"), f"machine file '{path}'")
+        except SpecError as e:
+            raise CamError(str(e)) from None
+        known = {f.name for f in fields(cls)}
+        kw = {}
+        for k, val in data.items():
+            if k not in known:
+                raise CamError(f"machine key '{k}' is not known; allowed: "
+                               + ", ".join(sorted(known)))
+            if k in ("x", "y", "z"):
+                try:
+                    val = AxisLimit(float(val["lo"]), float(val["hi"]),
+                                    float(val["resolution"]))
+                except (KeyError, TypeError, ValueError):
+                    raise CamError(f"machine axis [{k}] needs numbers lo, hi, resolution") \
+                        from None
+                if not (val.lo < val.hi and val.resolution > 0):
+                    raise CamError(f"machine axis [{k}]: lo = {val.lo:g} must be below hi = "
+                                   f"{val.hi:g} and resolution = {val.resolution:g} > 0")
+            elif k == "work_offset":
+                try:
+                    val = tuple(float(a) for a in val)
+                except (TypeError, ValueError):
+                    val = ()
+                if len(val) != 3:
+                    raise CamError("machine work_offset needs three numbers (X, Y, Z) in mm")
+            elif k not in ("name", "controller"):
+                try:
+                    val = float(val)
+                except (TypeError, ValueError):
+                    raise CamError(f"machine {k} = {val!r} must be a number") from None
+                if not math.isfinite(val) or val <= 0:
+                    raise CamError(f"machine {k} = {val:g} must be a positive number")
+            kw[k] = val
+        return cls(**kw)
+
+    def check_feed(self, name: str, feed: float) -> float:
+        """``feed`` (mm/min) inside the machine's range, or a CamError."""
+        if not (isinstance(feed, (int, float)) and self.feed_min <= feed <= self.feed_max):
+            raise CamError(f"{name} = {feed} mm/min is outside the machine's feed range "
+                           f"[{self.feed_min:g}, {self.feed_max:g}] mm/min")
+        return float(feed)
+
+    def check_spindle(self, rpm: float) -> float:
+        """``rpm`` inside the spindle's range, or a CamError."""
+        if not (isinstance(rpm, (int, float)) and self.spindle_rpm_min <= rpm
+                <= self.spindle_rpm_max):
+            raise CamError(f"spindle = {rpm} rpm is outside the spindle's range "
+                           f"[{self.spindle_rpm_min:g}, {self.spindle_rpm_max:g}] rpm")
+        return float(rpm)
+
+    def check_travel(self, lo, hi) -> None:
+        """Program-frame bounds ``lo``, ``hi`` (3,) mm inside the travels
+        once the work offset is added, or a CamError naming the axis."""
+        for k, ax in enumerate("xyz"):
+            lim = getattr(self, ax)
+            for val in (lo[k], hi[k]):
+                m = val + self.work_offset[k]
+                if not lim.lo - 1e-9 <= m <= lim.hi + 1e-9:
+                    raise CamError(f"axis {ax.upper()} = {m:.4f} mm (program {val:.4f} mm + "
+                                   f"work offset {self.work_offset[k]:g} mm) is outside its "
+                                   f"travel [{lim.lo:g}, {lim.hi:g}] mm")
+
+    def table(self) -> list[tuple[str, str]]:
+        """Rows for reports: parameter, value."""
+        rows = [("machine", self.name),
+                ("spindle", f"{self.spindle_rpm_min:g}–{self.spindle_rpm_max:g} rpm"),
+                ("feeds", f"{self.feed_min:g}–{self.feed_max:g} mm/min, rapid "
+                          f"{self.rapid:g} mm/min"),
+                ("work offset G54", "X{:g} Y{:g} Z{:g} mm".format(*self.work_offset))]
+        for ax in "xyz":
+            lim = getattr(self, ax)
+            rows.append((ax.upper(), f"[{lim.lo:g}, {lim.hi:g}] mm, resolution "
+                                     f"{lim.resolution:g} mm"))
+        return rows

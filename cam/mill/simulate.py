@@ -1,0 +1,540 @@
+"""Material-removal simulator for three-axis ball-end milling: G-code → the
+milled tip, and its comparison with the CAD tip.
+
+Frames and units: :mod:`cam.mill.machine` (program frame of the G-code,
+cannula frame of the tip: turned by the clocking angle about z; mm, rad
+inside; deviations µm, angles degrees in reports).
+
+How it works (a dexel model)
+----------------------------
+The program is read back from its text (:func:`read_gcode`: G00/G01 in G90
+G21, the words the posts write; anything else is refused with its line). A
+tool with its shank removes, in each vertical column, everything above the
+lowest point of the balls it swept, so the milled height of a column (a dexel)
+is min(stock top, lowest point over the column of every move's swept ball):
+the exact lower end of a capsule (:mod:`cam.mill.dexel`), for every move that
+can reach the stock — no sampling along the path. Moves are binned in 50 µm
+tiles so each column visits only the moves whose footprint meets its tile.
+
+Columns are evaluated on a grid (default 1 µm across the passes, where the
+scallops are, 20 µm along them, where the surface is smooth) over the annulus
+for the deviation map, and on a polar grid for the
+milled :class:`tipgeo.Tip` (watertight, faces labelled with the CAD face
+that lies under them, walls ``outer``/``inner``, ``base``), so the edge and
+angle analysis runs on it like on any tip.
+"""
+
+from __future__ import annotations
+
+import math
+import re
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from tipgeo.tolerances import tol
+
+from ..machine import CamError
+from .toolpath import cad_height, to_cannula, to_program
+
+__all__ = ["GCodeMoves", "read_gcode", "MilledTip", "simulate_mill", "compare_milled",
+           "plot_deviation"]
+
+_WORD = re.compile(r"([A-Z])\s*([-+]?(?:\d+\.?\d*|\.\d+))")
+_ALLOWED_G = {0, 1, 17, 21, 28, 40, 43, 49, 54, 80, 90, 91, 94}
+_ALLOWED_M = {3, 5, 6, 8, 9, 30}
+
+
+@dataclass
+class GCodeMoves:
+    """Straight moves read from a program (program frame, mm; feeds mm/min).
+
+    start, end : (n, 3) float; rapid : (n,) bool; feed : (n,) float (NaN for
+    rapids); tool : int or None; spindle_rpm : float or None
+    """
+
+    start: np.ndarray
+    end: np.ndarray
+    rapid: np.ndarray
+    feed: np.ndarray
+    tool: int | None
+    spindle_rpm: float | None
+    lines: int
+
+    def cycle_time(self, rapid_feed: float) -> float:
+        """Seconds: feed moves at their F, rapids at ``rapid_feed`` (mm/min);
+        acceleration and tool change not counted."""
+        length = np.linalg.norm(self.end - self.start, axis=1)
+        f = np.where(self.rapid, rapid_feed, self.feed)
+        return float(np.sum(length / f) * 60.0)
+
+    def summary(self, rapid_feed: float) -> dict:
+        length = np.linalg.norm(self.end - self.start, axis=1)
+        return {"lines": self.lines, "moves": int(len(self.start)),
+                "feed_length_mm": float(length[~self.rapid].sum()),
+                "rapid_length_mm": float(length[self.rapid].sum()),
+                "cycle_time_s": self.cycle_time(rapid_feed), "tool": self.tool,
+                "spindle_rpm": self.spindle_rpm}
+
+
+def read_gcode(text: str) -> GCodeMoves:
+    """The straight moves of a G-code program (Haas/Fanuc subset: G00, G01,
+    G17 G21 G28 G40 G43 G49 G54 G80 G90 G91 G94, T, S, F, H, M03 M05 M06 M08
+    M09 M30, comments in parentheses, ``%`` and ``O`` lines). G28 returns Z
+    home (the move is taken straight up). Anything else is a CamError naming
+    the line."""
+    starts, ends, rapids, feeds = [], [], [], []
+    pos = [None, None, None]
+    mode, feed, tool, rpm, absolute, inch = 0, math.nan, None, None, True, False
+    n = 0
+    for n, raw in enumerate(text.splitlines(), 1):
+        line = raw.strip().upper()
+        if "(" in line or ")" in line:
+            if line.count("(") != line.count(")") or re.search(r"\([^)]*\(", line):
+                raise CamError(f"line {n}: unbalanced or nested comment: {raw.strip()[:60]!r}")
+            line = re.sub(r"\([^)]*\)", " ", line)
+        line = line.split(";")[0].strip()
+        if not line or line == "%":
+            continue
+        if line.startswith("O") and re.fullmatch(r"O\d+", line.split()[0]):
+            line = " ".join(line.split()[1:])
+        rest = _WORD.sub(" ", line).strip()
+        if rest:
+            raise CamError(f"line {n}: cannot read {rest[:30]!r} in {raw.strip()[:60]!r}")
+        words = [(a, float(b)) for a, b in _WORD.findall(line)]
+        target = list(pos)
+        moved = False
+        home = False
+        for a, val in words:
+            if a == "G":
+                g = int(round(val))
+                if g not in _ALLOWED_G or abs(val - g) > 1e-9:
+                    allowed = ", ".join(f"G{x:02d}" for x in sorted(_ALLOWED_G))
+                    raise CamError(f"line {n}: G{val:g} is not supported by the simulator "
+                                   f"(allowed: {allowed})")
+                if g in (0, 1):
+                    mode = g
+                elif g == 90:
+                    absolute = True
+                elif g == 91:
+                    absolute = False
+                elif g == 28:
+                    home = True
+                elif g == 20:
+                    inch = True
+            elif a == "M":
+                m = int(round(val))
+                if m not in _ALLOWED_M:
+                    raise CamError(f"line {n}: M{val:g} is not supported by the simulator")
+            elif a == "F":
+                if not val > 0:
+                    raise CamError(f"line {n}: F = {val:g} must be positive (mm/min)")
+                feed = val
+            elif a == "S":
+                rpm = val
+            elif a == "T":
+                tool = int(val)
+            elif a in "XYZ":
+                k = "XYZ".index(a)
+                if home:
+                    continue
+                if absolute:
+                    target[k] = val
+                else:
+                    if pos[k] is None:
+                        raise CamError(f"line {n}: incremental {a} before the position is known")
+                    target[k] = pos[k] + val
+                moved = True
+            elif a in "HNDPO":
+                continue
+            else:
+                raise CamError(f"line {n}: word {a} is not supported by the simulator")
+        if inch:
+            raise CamError(f"line {n}: G20 (inch) programs are not supported")
+        if home:
+            if pos[2] is not None:
+                target = [pos[0], pos[1], math.inf]
+                moved = True
+            else:
+                continue
+        if not moved:
+            continue
+        if None not in pos and None not in target:
+            if mode == 1 and not math.isfinite(feed):
+                raise CamError(f"line {n}: a G01 move with no feed yet")
+            starts.append(list(pos))
+            ends.append(list(target))
+            rapids.append(mode == 0 or home)
+            feeds.append(math.nan if (mode == 0 or home) else feed)
+        pos = target
+    if not starts:
+        raise CamError("the program has no move")
+    st = np.array(starts, float)
+    en = np.array(ends, float)
+    up = ~np.isfinite(en[:, 2])
+    en[up, 2] = np.maximum(st[up, 2], 0.0) + 100.0   # G28: straight up, clear of everything
+    return GCodeMoves(st, en, np.array(rapids), np.array(feeds, float), tool, rpm, n)
+
+
+class _Dexels:
+    """The moves that can reach the stock, tiled for the column kernel
+    (:mod:`cam.mill.dexel`): ball centres A → B (program frame, mm)."""
+
+    def __init__(self, moves: GCodeMoves, R: float, z_top: float, reach: float):
+        from .dexel import tile_moves
+
+        a, b = moves.start, moves.end
+        lowz = np.minimum(a[:, 2], b[:, 2])
+        d = b[:, :2] - a[:, :2]
+        L2 = np.sum(d * d, axis=1)
+        t = np.clip(-np.sum(a[:, :2] * d, axis=1) / np.where(L2 > 0, L2, 1.0), 0.0, 1.0)
+        closest = np.linalg.norm(a[:, :2] + t[:, None] * d, axis=1)
+        use = (lowz < z_top) & (closest < reach)
+        if not use.any():
+            raise CamError("no move of the program reaches the stock")
+        lift = np.array([0.0, 0.0, R])
+        self.A = np.ascontiguousarray(a[use] + lift)
+        self.B = np.ascontiguousarray(b[use] + lift)
+        self.R, self.z_top = R, z_top
+        self.tile = 0.05
+        self.x0 = self.y0 = -reach
+        self.n = int(math.ceil(2 * reach / self.tile)) + 1
+        self.start, self.idx = tile_moves(self.A, self.B, R, self.x0, self.y0, self.tile,
+                                          self.n, self.n)
+
+    def heights(self, xy: np.ndarray) -> np.ndarray:
+        """Milled heights (mm) of columns at program-frame points (m, 2)."""
+        from .dexel import column_heights
+
+        xy = np.ascontiguousarray(xy, dtype=float)
+        return column_heights(xy[:, 0].copy(), xy[:, 1].copy(), self.A, self.B, self.R,
+                              self.z_top, self.start, self.idx, self.x0, self.y0, self.tile,
+                              self.n, self.n)
+
+
+@dataclass
+class MilledTip:
+    """What :func:`simulate_mill` made (mm; program frame for the grid).
+
+    tip : Tip — the milled tip (cannula frame, labelled, watertight)
+    x, y : (nx,), (ny,) — grid coordinates (program frame); height : (ny, nx)
+    milled z (NaN off the annulus); cad : (ny, nx) CAD z; nz : (ny, nx) CAD
+    normal's z component; moves : GCodeMoves; clocking : rad
+    """
+
+    tip: object
+    x: np.ndarray
+    y: np.ndarray
+    height: np.ndarray
+    cad: np.ndarray
+    nz: np.ndarray
+    moves: GCodeMoves
+    clocking: float
+    radius: float
+    dexels: object = field(repr=False, default=None)
+    normals: np.ndarray | None = field(repr=False, default=None)
+    z_top: float = 0.0
+
+    def deviation(self) -> np.ndarray:
+        """(ny, nx) signed normal deviation milled − CAD (mm; + material left)."""
+        return (self.height - self.cad) * self.nz
+
+    def heights_at(self, spec, p_cannula_xy: np.ndarray) -> np.ndarray:
+        """Milled heights (mm) at cannula-frame points (m, 2)."""
+        xy = to_program(np.column_stack([p_cannula_xy, np.zeros(len(p_cannula_xy))]),
+                        self.clocking)[:, :2]
+        return self.dexels.heights(xy)
+
+
+def simulate_mill(gcode: str, spec, *, tool, setup, cell_um: tuple[float, float] = (20.0, 1.0),
+                  rings: int = 13, around: int = 1440, progress=None) -> MilledTip:
+    """Mill the stock of ``spec`` (the tube faced at ``setup.z_top``) with the
+    G-code ``gcode`` and ball end mill ``tool`` in set-up ``setup``.
+
+    Parameters
+    ----------
+    cell_um : (along X, across Y) µm — the deviation grid (program frame)
+    rings, around : the milled tip's polar grid (radii × angles)
+
+    Returns a :class:`MilledTip`; raises :class:`CamError` for programs it
+    cannot read or tools it cannot simulate (ball end mills only).
+    """
+    if tool.kind != "ball":
+        raise CamError(f"tool kind = {tool.kind!r}: the simulator sweeps ball end mills only")
+    say = progress or (lambda msg: None)
+    moves = read_gcode(gcode)
+    if moves.tool is not None and moves.tool != tool.number:
+        raise CamError(f"the program calls T{moves.tool}; the tool given is T{tool.number}")
+    can = spec.cannula
+    R = tool.radius
+    dx, dy = (float(c) * 1e-3 for c in cell_um)
+    if not (0.1e-3 <= dx <= 0.05 and 0.1e-3 <= dy <= 0.05):
+        raise CamError(f"cell_um = {tuple(cell_um)}: each between 0.1 and 50 µm")
+    dex = _Dexels(moves, R, setup.z_top, can.r_o + R)
+    say(f"simulate: {len(dex.A)} moves reach the stock")
+    x = np.arange(-can.r_o, can.r_o + dx / 2, dx)
+    y = np.arange(-can.r_o, can.r_o + dy / 2, dy)
+    X, Y = np.meshgrid(x, y)
+    rr = np.hypot(X, Y)
+    on = (rr >= can.r_i) & (rr <= can.r_o)
+    pc = to_cannula(np.column_stack([X[on], Y[on], np.zeros(on.sum())]), setup.clocking)
+    zc, nc = cad_height(spec, pc[:, 0], pc[:, 1], normals=True)
+    say(f"simulate: {on.sum()} columns")
+    h = dex.heights(np.column_stack([X[on], Y[on]]))
+    H = np.full(X.shape, np.nan)
+    C = np.full(X.shape, np.nan)
+    NZ = np.full(X.shape, np.nan)
+    H[on], C[on], NZ[on] = h, zc, nc[:, 2]
+    N = np.full(X.shape + (3,), np.nan)
+    N[on] = nc
+    res = MilledTip(None, x, y, H, C, NZ, moves, setup.clocking, R, dexels=dex,
+                    z_top=setup.z_top, normals=N)
+    res.tip = _milled_tip(res, spec, rings, around)
+    return res
+
+
+def _milled_tip(res: MilledTip, spec, rings: int, around: int):
+    from tipgeo import Tip
+    from tipgeo.edges import lowest_cut
+
+    can = spec.cannula
+    r = np.linspace(can.r_i, can.r_o, rings)
+    g = np.linspace(0.0, 2 * math.pi, around, endpoint=False)
+    rr, gg = np.meshgrid(r, g, indexing="ij")          # (rings, around)
+    pxy = np.column_stack([(rr * np.cos(gg)).ravel(), (rr * np.sin(gg)).ravel()])
+    z = res.heights_at(spec, pxy)
+    zb = min(-1.0, float(z.min()) - 1.0)
+    top = np.column_stack([pxy, z])
+    nt = rings * around
+    ob = np.column_stack([can.r_o * np.cos(g), can.r_o * np.sin(g), np.full(around, zb)])
+    ib = np.column_stack([can.r_i * np.cos(g), can.r_i * np.sin(g), np.full(around, zb)])
+    verts = np.concatenate([top, ob, ib])
+    j = np.arange(around)
+    j1 = (j + 1) % around
+
+    def vid(i, jj):
+        return i * around + jj
+
+    faces, labels = [], []
+    # the CAD face under each ring band (between rings i, i+1) at mid-angle
+    names = ["outer", "inner", "base"]
+    gm = g + math.pi / around
+    for i in range(rings - 1):
+        _, face, _ = lowest_cut(spec.cutters, gm, 0.5 * (r[i] + r[i + 1]), can)
+        lab = []
+        for f in face:
+            f = str(f)
+            if f not in names:
+                names.append(f)
+            lab.append(names.index(f))
+        a, b, c, d = vid(i, j), vid(i + 1, j), vid(i + 1, j1), vid(i, j1)
+        faces += [np.column_stack([a, b, c]), np.column_stack([a, c, d])]
+        labels += [np.array(lab), np.array(lab)]
+    to_, bo = vid(rings - 1, j), nt + j
+    to1, bo1 = vid(rings - 1, j1), nt + j1
+    faces += [np.column_stack([to_, bo, bo1]), np.column_stack([to_, bo1, to1])]
+    labels += [np.zeros(around, int)] * 2
+    ti, bi = vid(0, j), nt + around + j
+    ti1, bi1 = vid(0, j1), nt + around + j1
+    faces += [np.column_stack([ti, bi1, bi]), np.column_stack([ti, ti1, bi1])]
+    labels += [np.ones(around, int)] * 2
+    faces += [np.column_stack([bi, bo1, bo]), np.column_stack([bi, bi1, bo1])]
+    labels += [np.full(around, 2)] * 2
+    tip = Tip(verts, np.concatenate(faces), np.concatenate(labels), tuple(names),
+              spec=None, tolerance=None, segments=around, source="mill simulation")
+    if tip.volume < 0:
+        tip.faces = tip.faces[:, ::-1].copy()
+    tip.meta["milled_from"] = spec.name
+    return tip
+
+
+def compare_milled(res: MilledTip, spec, *, scallop: float, stepover: float,
+                   margin: float | None = None, kink_margin_deg: float = 6.0,
+                   heel_margin_deg: float = 5.0) -> dict:
+    """Milled versus CAD (report units: µm, degrees).
+
+    Deviation (signed, normal to the CAD surface, + = material left) over the
+    cut face *away from the edge*: the annulus r_i + m ≤ r ≤ r_o − m, m =
+    ``margin`` (default ``tol.cam.mill_edge_margin``); the scallop measured is
+    its largest value, the gouge its most negative.
+
+    λ of both edges from the milled tip's mesh edge (:func:`tipgeo.angles.analyze`,
+    mesh path: a Fourier fit of z(γ)), compared with the CAD tip's mesh
+    analysed the same way (``lambda_max_diff_deg``: the milling's effect; the
+    fit's own error against the exact CAD edge is reported beside it, 0.74° at
+    the helical tip's heel). θ and α from the milled normal at each edge
+    point: the exact CAD normal tilted by a plane fitted to the deviation over
+    a window two step-overs along the edge and one (at most 0.8 of the wall)
+    into the wall (the raw facet normal swings by ±asin(s/2R) across each
+    scallop; the window averages whole scallops), against the exact CAD angles.
+    Both along γ ∈ [``heel_margin_deg``, 360° − ``heel_margin_deg``] (at the
+    heel λ climbs from 0 by several degrees per degree of γ), at the same
+    cannula-frame γ, away from the rim corners (kinks between faces) by
+    ``kink_margin_deg`` and by as much as keeps the fitting window the ridge
+    margin from a ridge ((step-over + ``tol.cam.mill_ridge_margin``)/r_i).
+    """
+    from tipgeo.angles import analyze, edge_angles
+
+    m = tol.cam.mill_edge_margin if margin is None else margin
+    mr = tol.cam.mill_ridge_margin
+    can = spec.cannula
+    X, Y = np.meshgrid(res.x, res.y)
+    rr = np.hypot(X, Y)
+    region = (rr >= can.r_i + m) & (rr <= can.r_o - m) & ~_near_ridges(res, mr)
+    dev = res.deviation()
+    dv = dev[region]
+    out = {"region": f"annulus r_i + {m * 1e3:g} µm ≤ r ≤ r_o − {m * 1e3:g} µm, "
+                     f"{mr * 1e3:g} µm from ridges between faces ({region.sum()} columns)",
+           "scallop_target_um": scallop * 1e3,
+           "scallop_measured_um": float(np.nanmax(dv) * 1e3),
+           "deviation_p99_um": float(np.nanpercentile(dv, 99) * 1e3),
+           "deviation_mean_um": float(np.nanmean(dv) * 1e3),
+           "gouge_um": float(max(0.0, -np.nanmin(dv)) * 1e3),
+           "deviation_all_max_um": float(np.nanmax(dev) * 1e3),
+           "deviation_all_min_um": float(np.nanmin(dev) * 1e3)}
+    from tipgeo import build_tip
+
+    rc = analyze(spec, method="exact")
+    rcm = analyze(build_tip(spec), method="mesh")
+    rm = analyze(res.tip, method="mesh", radii=(can.r_o, can.r_i), name="milled")
+    g = np.radians(np.arange(heel_margin_deg, 360.0 - heel_margin_deg + 1e-9, 0.5))
+    kinks = [k.gamma for w in (rc.outer, rc.inner) for k in w.edge.kinks]
+    # away from the rim corners: by kink_margin_deg, and so far that the
+    # normal's fitting window (a step-over each side) keeps the ridge margin
+    kink_margin = max(math.radians(kink_margin_deg), (stepover + mr) / can.r_i)
+    if kinks:
+        dist = np.min(np.abs(np.angle(np.exp(1j * (g[:, None] - np.array(kinks)[None])))),
+                      axis=1)
+        g = g[dist > kink_margin]
+    heel = rc.outer.edge.heel
+    # the milled tip finds its own heel (its lowest edge vertex, moved by the
+    # scallops); compare at the same cannula-frame γ
+    shift = heel[0] - rm.outer.edge.heel[0]
+    angles = {}
+    for wall, radius in (("outer", can.r_o), ("inner", can.r_i)):
+        cad = getattr(rc, wall).at(g)
+        cad_mesh = getattr(rcm, wall).at(np.mod(g + heel[0] - rcm.outer.edge.heel[0],
+                                                2 * math.pi))
+        mesh = getattr(rm, wall).at(np.mod(g + shift, 2 * math.pi))
+        # windowed plane fit behind each edge point (cannula frame)
+        ga = g + heel[0]
+        side = -1.0 if wall == "outer" else 1.0
+        n_fit = _fit_normals(res, spec, ga, radius, side, 2.0 * stepover,
+                             min(stepover, 0.8 * can.wall))
+        t = np.stack([-radius * np.sin(g), radius * np.cos(g), mesh["dz"]], 1)
+        t /= np.linalg.norm(t, axis=1, keepdims=True)
+        # normals into the analysis frame (γ from the heel)
+        c, s = math.cos(-heel[0]), math.sin(-heel[0])
+        n_an = np.column_stack([c * n_fit[:, 0] - s * n_fit[:, 1],
+                                s * n_fit[:, 0] + c * n_fit[:, 1], n_fit[:, 2]])
+        lam, theta, alpha = edge_angles(g, t, n_an, wall)
+        angles[wall] = {
+            "lambda_max_diff_deg": float(np.degrees(np.nanmax(np.abs(
+                mesh["lambda"] - cad_mesh["lambda"])))),
+            "lambda_vs_exact_max_diff_deg": float(np.degrees(np.nanmax(np.abs(
+                mesh["lambda"] - cad["lambda"])))),
+            "lambda_method_error_deg": float(np.degrees(np.nanmax(np.abs(
+                cad_mesh["lambda"] - cad["lambda"])))),
+            "theta_max_diff_deg": float(np.degrees(np.nanmax(np.abs(theta - cad["theta"])))),
+            "theta_worst_gamma_deg": float(np.degrees(g[np.nanargmax(np.abs(theta
+                                                                          - cad["theta"]))])),
+            "lambda_worst_gamma_deg": float(np.degrees(g[np.nanargmax(np.abs(
+                mesh["lambda"] - cad_mesh["lambda"]))])),
+            "alpha_max_diff_deg": float(np.degrees(np.nanmax(np.abs(alpha - cad["alpha"])))),
+            "theta_facet_max_diff_deg": float(np.degrees(np.nanmax(np.abs(
+                mesh["theta"] - cad["theta"])))),
+            "l_c_mm": {"milled": getattr(rm, wall).length, "cad": getattr(rc, wall).length}}
+    out["angles"] = angles
+    out["gamma_compared"] = (f"{len(g)} angles in [{heel_margin_deg:g}°, "
+                             f"{360 - heel_margin_deg:g}°]"
+                             + (f", {math.degrees(kink_margin):.1f}° from rim corners"
+                                if kinks else ""))
+    return out
+
+
+def _near_ridges(res: MilledTip, width: float) -> np.ndarray:
+    """(ny, nx) bool: grid columns within ``width`` mm (in X and Y) of a
+    ridge between two CAD faces (where the CAD normal turns by more than 1°
+    from one column to the next)."""
+    from scipy.ndimage import binary_dilation
+
+    turn = np.zeros(res.nz.shape, bool)
+    cos1 = math.cos(math.radians(1.0))
+    n = res.normals
+    for axis in (0, 1):
+        a = np.take(n, np.arange(n.shape[axis] - 1), axis=axis)
+        b = np.take(n, np.arange(1, n.shape[axis]), axis=axis)
+        c = np.sum(a * b, axis=-1)
+        jump = np.isfinite(c) & (c < cos1)
+        sl = [slice(None)] * 2
+        sl[axis] = slice(0, -1)
+        turn[tuple(sl)] |= jump
+    if not turn.any():
+        return turn
+    kx = int(math.ceil(width / (res.x[1] - res.x[0])))
+    ky = int(math.ceil(width / (res.y[1] - res.y[0])))
+    out = binary_dilation(turn, structure=np.ones((1, 2 * kx + 1), bool))
+    return binary_dilation(out, structure=np.ones((2 * ky + 1, 1), bool))
+
+
+def _fit_normals(res, spec, gamma, radius, side, along, into):
+    """Unit normals (cannula frame) of the milled surface at the edge points
+    (γ rad, radius mm): the exact CAD normal there, tilted by the plane fitted
+    to the deviation milled − CAD over a window ``along`` mm long (tangential)
+    and ``into`` mm deep (radial, on the wall's side ``side``). Fitting the
+    deviation rather than the heights keeps the surface's own curvature out
+    of the fit."""
+    a = np.linspace(-0.5, 0.5, 17)
+    b = np.linspace(0.02, 1.0, 5)
+    A, B = np.meshgrid(a, b)
+    du = A.ravel() * along
+    dr = side * B.ravel() * into
+    c, s = np.cos(gamma), np.sin(gamma)
+    er = np.stack([c, s], 1)[:, None, :]
+    et = np.stack([-s, c], 1)[:, None, :]
+    P = radius * er + du[None, :, None] * et + dr[None, :, None] * er   # (m, k, 2)
+    flat = P.reshape(-1, 2)
+    z = res.heights_at(spec, flat) - cad_height(spec, flat[:, 0], flat[:, 1])
+    z = z.reshape(len(gamma), -1)
+    Q = P - P.mean(axis=1, keepdims=True)
+    zc = z - z.mean(axis=1, keepdims=True)
+    # least squares dev = a x + b y per edge point: batched 2 × 2 normal equations
+    sxx = np.sum(Q[..., 0] ** 2, 1)
+    sxy = np.sum(Q[..., 0] * Q[..., 1], 1)
+    syy = np.sum(Q[..., 1] ** 2, 1)
+    sxz = np.sum(Q[..., 0] * zc, 1)
+    syz = np.sum(Q[..., 1] * zc, 1)
+    det = sxx * syy - sxy ** 2
+    ga = (syy * sxz - sxy * syz) / det
+    gb = (sxx * syz - sxy * sxz) / det
+    inward = radius + side * 1e-9
+    _, n0 = cad_height(spec, inward * c, inward * s, normals=True)
+    gx = -n0[:, 0] / n0[:, 2] + ga
+    gy = -n0[:, 1] / n0[:, 2] + gb
+    n = np.stack([-gx, -gy, np.ones_like(gx)], 1)
+    return n / np.linalg.norm(n, axis=1, keepdims=True)
+
+
+def plot_deviation(res: MilledTip, path, *, title: str = "", limit_um: float | None = None):
+    """PNG of the signed deviation map (µm, program frame) — written atomically."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    from tipgeo.plot import save_figure
+
+    dev = res.deviation() * 1e3
+    lim = limit_um or float(np.nanpercentile(np.abs(dev), 99.5))
+    fig, ax = plt.subplots(figsize=(6.4, 5.6))
+    im = ax.imshow(dev, origin="lower", cmap="RdBu_r", vmin=-lim, vmax=lim,
+                   extent=(res.x[0], res.x[-1], res.y[0], res.y[-1]), interpolation="nearest")
+    ax.set_xlabel("program X (mm, along the passes)")
+    ax.set_ylabel("program Y (mm)")
+    ax.set_title(title or "milled − CAD, normal to the surface")
+    fig.colorbar(im, ax=ax, label="deviation (µm, + = material left)")
+    try:
+        save_figure(fig, path)
+    finally:
+        plt.close(fig)
+    return path

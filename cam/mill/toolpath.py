@@ -1,0 +1,554 @@
+"""Three-axis toolpaths for a tip standing tip-up (thesis §3.2), from the
+tip's cut faces with OpenCAMLib's drop-cutter.
+
+Frames and units: :mod:`cam.mill.machine` (cannula frame; program frame =
+cannula frame turned by the clocking angle about z; mm, rad inside, feeds
+mm/min).
+
+What is planned
+---------------
+- **Height field.** The CAD cut surface z = Z(x, y) over the annulus
+  r_i ≤ r ≤ r_o is solved from the cutters' exact implicit functions
+  (:meth:`~tipgeo.cutters.base.Cutter.implicit`); a face whose normal has
+  n_z < ``tol.cam.mill_normal_z`` is refused (not a height field from +Z).
+- **Clocking.** Raster lines run along program +X. The needle is turned in
+  its collet so that, over the annulus, the worst ratio between the spacing
+  of neighbouring passes measured on the surface and in plan,
+  √((1 + |∇Z|²)/(1 + (∇Z·X)²)), is smallest: the lines follow the fall
+  line of a bevel.
+- **Finishing.** Passes at a step-over s (plan, a multiple of the axis
+  resolution) so that the scallop between passes on the surface is at most the
+  target h: s = 0.95 · 2√(2 r h − h²) / worst ratio, r the corner radius (the
+  ball's radius). Every pass runs across the whole annulus grown by the tool
+  radius R; cutter-location points are dropped (OpenCAMLib ``BatchDropCutter``)
+  onto the cut faces of the tip mesh built at ``tol.cam.mill_mesh``, first every
+  32 resolution steps, then halving until the straight move between kept points
+  lies within ``tol.cam.mill_chord`` of the dropped point between (down to one
+  resolution step). X and Y lie on the 0.002 mm grid; Z is rounded *up* to it,
+  so rounding never gouges.
+- **Roughing.** Z-level passes, ``stepdown`` apart from the stock top, along
+  lines ``rough_stepover`` apart; each follows max(level, Z_a) with Z_a the
+  drop-cutter of a tool grown by the allowance a (the real tool's tip raised
+  by a): a stays on the finished surface, measured normal to it.
+- **Lead-in/out and heights.** Passes start and end with the tool clear of the
+  wall (its footprint outside the annulus: no contact at any height), after a
+  straight lead of ``lead`` mm; the tool rapids to the safe height
+  ``z_top + safe`` between passes, rapids down to ``approach`` above a start in
+  the clear (or above the stock top elsewhere) and plunges at the plunge feed.
+  The stock is the tube faced off at ``z_top`` = the tip's highest point +
+  ``top_stock``.
+"""
+
+from __future__ import annotations
+
+import math
+import os
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from tipgeo.errors import SpecError
+from tipgeo.tolerances import tol
+
+from ..machine import CamError
+from .machine import DEFAULT_TOOL, EndMill, MillMachine
+
+__all__ = ["MillParams", "MillSetup", "Pass", "MillToolpath", "cad_height", "plan_toolpaths",
+           "to_program", "to_cannula"]
+
+
+@dataclass(frozen=True, kw_only=True)
+class MillParams:
+    """Milling parameters (mm, mm/min, rpm).
+
+    Feeds: the thesis prints 0.08 mm/min, which would take days; we assume
+    0.0075 mm per tooth × 2 flutes × 10,000 rpm = 150 mm/min finishing (carbide
+    in stainless tube), roughing 200 mm/min, plunging 50 mm/min.
+    """
+
+    scallop: float = 2.0e-3
+    allowance: float = 0.05
+    stepdown: float = 0.3
+    rough_stepover: float = 0.6
+    rough_sample: float = 0.05
+    rough: bool = True
+    spindle_rpm: float = 10000.0
+    finish_feed: float = 150.0
+    rough_feed: float = 200.0
+    plunge_feed: float = 50.0
+    top_stock: float = 0.1
+    safe: float = 2.0
+    approach: float = 0.2
+    lead: float = 0.1
+    coolant: bool = True
+    program_number: int = 1402
+
+    def __post_init__(self):
+        try:
+            from tipgeo import validate as v
+
+            v.real("scallop", self.scallop, lo=1e-4, hi=0.1, unit="mm")
+            v.real("allowance", self.allowance, lo=0.0, hi=1.0, unit="mm")
+            v.real("stepdown", self.stepdown, lo=0.01, hi=5.0, unit="mm")
+            v.real("rough_stepover", self.rough_stepover, lo=0.01, hi=10.0, unit="mm")
+            v.real("rough_sample", self.rough_sample, lo=0.002, hi=1.0, unit="mm")
+            for k in ("top_stock", "safe", "approach", "lead"):
+                v.real(k, getattr(self, k), lo=0.0, hi=50.0, lo_open=True, unit="mm")
+            v.integer("program_number", self.program_number, lo=1, hi=99999)
+        except SpecError as e:
+            raise CamError(str(e)) from None
+
+
+@dataclass(frozen=True)
+class MillSetup:
+    """Where the needle stands and how the passes lie (mm, rad).
+
+    clocking : rad — the cannula direction γ that lies along program +X
+    z_top : mm — the faced stock top; z_safe : mm — rapid height
+    stepover : mm — finishing step-over in plan; ratio — its worst surface/plan ratio
+    r_o, r_i : mm — the wall's radii
+    """
+
+    clocking: float
+    z_top: float
+    z_safe: float
+    stepover: float
+    ratio: float
+    r_o: float
+    r_i: float
+
+
+@dataclass
+class Pass:
+    """One cutting pass: ``points`` (n, 3) mm in the program frame (tool tip),
+    cut at ``feed`` mm/min; ``kind`` ``rough`` or ``finish``; ``clear_start``
+    when its first point has the tool clear of the wall (rapid down to it)."""
+
+    kind: str
+    points: np.ndarray
+    feed: float
+    clear_start: bool = True
+
+
+@dataclass
+class MillToolpath:
+    """The planned passes with their set-up, tool, machine and parameters."""
+
+    name: str
+    setup: MillSetup
+    tool: EndMill
+    machine: MillMachine
+    params: MillParams
+    passes: list[Pass]
+    stats: dict = field(default_factory=dict)
+
+    def summary(self) -> dict:
+        """Plain numbers (report units: mm, deg, µm)."""
+        s = self.setup
+        fin = [p for p in self.passes if p.kind == "finish"]
+        return {"name": self.name, "tool": self.tool.describe(),
+                "clocking_deg": math.degrees(s.clocking), "z_top_mm": s.z_top,
+                "z_safe_mm": s.z_safe, "stepover_mm": s.stepover,
+                "stepover_ratio": s.ratio, "scallop_um": self.params.scallop * 1e3,
+                "finish_passes": len(fin),
+                "rough_passes": len(self.passes) - len(fin),
+                "points": int(sum(len(p.points) for p in self.passes)), **self.stats}
+
+
+def to_program(p: np.ndarray, clocking: float) -> np.ndarray:
+    """Cannula-frame points (n, 3) → program frame (mm)."""
+    c, s = math.cos(clocking), math.sin(clocking)
+    p = np.asarray(p, float)
+    out = p.copy()
+    out[..., 0] = c * p[..., 0] + s * p[..., 1]
+    out[..., 1] = -s * p[..., 0] + c * p[..., 1]
+    return out
+
+
+def to_cannula(p: np.ndarray, clocking: float) -> np.ndarray:
+    """Program-frame points (n, 3) → cannula frame (mm)."""
+    return to_program(p, -clocking)
+
+
+def cad_height(spec, x, y, *, normals: bool = False):
+    """The CAD cut surface z = Z(x, y) (mm, cannula frame) over points of
+    the annulus, from the cutters' exact implicit functions (Newton in z);
+    with ``normals`` also the unit outward normals (n, 3).
+
+    Raises :class:`CamError` when a cutter has no exact surface or its face
+    is not a height field from +Z there.
+    """
+    x = np.asarray(x, float).ravel()
+    y = np.asarray(y, float).ravel()
+    can = spec.cannula
+    best = np.full(len(x), np.inf)
+    nrm = np.zeros((len(x), 3))
+    for c in spec.cutters:
+        if c.needs_previous or c.process not in ("grind", "mill"):
+            raise CamError(f"cutter '{c.name}' ({c.kind}) is not a height field from +Z "
+                           "(it cuts into the wall); a three-axis mill with the tip up "
+                           "needs cut faces z = Z(x, y)")
+        z = np.full(len(x), float(c.z_upper(can)))
+        pts = np.stack([x, y, z], 1)
+        for _ in range(60):
+            pts[:, 2] = z
+            try:
+                f, g = c.implicit(pts, can)
+            except NotImplementedError:
+                raise CamError(f"cutter '{c.name}' ({c.kind}) has no exact surface to mill "
+                               "from") from None
+            if np.any(g[:, 2] <= 0):
+                k = int(np.argmin(g[:, 2]))
+                raise CamError(f"cutter '{c.name}': the cut face is not a height field from "
+                               f"+Z at (x, y) = ({x[k]:.4f}, {y[k]:.4f}) mm (normal z "
+                               f"component {g[k, 2]:.3g} ≤ 0)")
+            step = f / g[:, 2]
+            z = z - step
+            if np.max(np.abs(step)) < tol.cam.mill_height:
+                break
+        else:
+            raise CamError(f"cutter '{c.name}': the cut height did not converge")
+        pts[:, 2] = z
+        f, g = c.implicit(pts, can)
+        n = g / np.linalg.norm(g, axis=1, keepdims=True)
+        low = z < best
+        best = np.where(low, z, best)
+        nrm[low] = n[low]
+    if normals:
+        return best, nrm
+    return best
+
+
+def _annulus_samples(can, rings: int = 9, around: int = 720):
+    r = np.linspace(can.r_i, can.r_o, rings)
+    g = np.linspace(0.0, 2 * math.pi, around, endpoint=False)
+    rr, gg = np.meshgrid(r, g)
+    return (rr * np.cos(gg)).ravel(), (rr * np.sin(gg)).ravel()
+
+
+def _ratio(grad: np.ndarray, clocking) -> np.ndarray:
+    """Worst surface/plan spacing ratio of passes along direction
+    ``clocking`` (array of rad): √((1 + |g|²)/(1 + (g·d)²))."""
+    c = np.atleast_1d(clocking)
+    d = np.stack([np.cos(c), np.sin(c)], 1)
+    ga = grad @ d.T
+    g2 = np.sum(grad ** 2, axis=1)[:, None]
+    return np.sqrt((1 + g2) / (1 + ga ** 2)).max(axis=0)
+
+
+def _clocking(spec):
+    x, y = _annulus_samples(spec.cannula)
+    _, n = cad_height(spec, x, y, normals=True)
+    nz = n[:, 2]
+    if nz.min() < tol.cam.mill_normal_z:
+        k = int(np.argmin(nz))
+        raise CamError(f"the cut surface is not a height field from +Z: its normal at (x, y) "
+                       f"= ({x[k]:.4f}, {y[k]:.4f}) mm is {math.degrees(math.asin(nz[k])):.3g}° "
+                       f"from the horizontal; a three-axis mill needs at least "
+                       f"{math.degrees(math.asin(tol.cam.mill_normal_z)):.3g}°")
+    grad = -n[:, :2] / nz[:, None]
+    coarse = np.radians(np.arange(0.0, 180.0, 1.0))
+    r = _ratio(grad, coarse)
+    c0 = coarse[int(np.argmin(r))]
+    fine = c0 + np.radians(np.arange(-1.0, 1.0001, 0.02))
+    rf = _ratio(grad, fine)
+    k = int(np.argmin(rf))
+    return float(np.mod(fine[k], math.pi)), float(rf[k]), grad
+
+
+def _skirts(tri: np.ndarray, verts: np.ndarray, faces: np.ndarray) -> np.ndarray:
+    """Strips continuing the cut faces across their boundary (the rims, where
+    the mesh's polygon lies inside the true circle by up to its chordal
+    tolerance): each boundary edge extended by ``SKIRT`` mm in its triangle's
+    plane. The tool then cannot roll over a polygon corner into the rim; it
+    cuts air beyond the wall instead."""
+    e = np.sort(faces[:, [0, 1, 1, 2, 2, 0]].reshape(-1, 2), axis=1)
+    _, inv, cnt = np.unique(e, axis=0, return_inverse=True, return_counts=True)
+    once = cnt[inv.ravel()] == 1
+    out = []
+    for k in np.flatnonzero(once):
+        t, s_ = divmod(k, 3)
+        a, b = verts[faces[t, s_]], verts[faces[t, (s_ + 1) % 3]]
+        c = verts[faces[t, (s_ + 2) % 3]]
+        n = np.cross(tri[t][1] - tri[t][0], tri[t][2] - tri[t][0])
+        e_ = b - a
+        o = np.cross(e_, n)
+        o /= np.linalg.norm(o)
+        if o @ (c - a) > 0:
+            o = -o
+        a2, b2 = a + SKIRT * o, b + SKIRT * o
+        out += [(a, b, b2), (a, b2, a2)]
+    return np.array(out).reshape(-1, 3, 3)
+
+
+#: Width (mm) of the strips that continue the cut faces across the rims.
+SKIRT = 0.02
+
+
+class _Surface:
+    """An OpenCAMLib STL surface of the tip's cut faces (program frame); the
+    Python objects are kept alive with it."""
+
+    def __init__(self, spec, clocking: float, tolerance: float):
+        import opencamlib as ocl
+
+        from tipgeo import build_tip
+
+        tip = build_tip(spec, tolerance=tolerance)
+        cut = np.array([str(lab).startswith("cut:") for lab in tip.labels])
+        tri = tip.triangles[cut]
+        tri = np.concatenate([tri, _skirts(tri, tip.vertices, tip.faces[cut])])
+        tri = to_program(tri.reshape(-1, 3), clocking).reshape(-1, 3, 3)
+        self.triangles = tri
+        self.z_min = float(tip.bounds[0, 2])
+        self.z_max = float(tip.bounds[1, 2])
+        self.stl = ocl.STLSurf()
+        self._keep = []
+        for a, b, c in tri:
+            t = ocl.Triangle(ocl.Point(*a), ocl.Point(*b), ocl.Point(*c))
+            self._keep.append(t)
+            self.stl.addTriangle(t)
+
+    def drop(self, cutter, xy: np.ndarray) -> np.ndarray:
+        """Drop-cutter tip heights (mm) at program-frame points (n, 2);
+        NaN where the cutter touches nothing."""
+        import opencamlib as ocl
+
+        if len(xy) == 0:
+            return np.zeros(0)
+        floor = self.z_min - 100.0
+        bdc = ocl.BatchDropCutter()
+        bdc.setSTL(self.stl)
+        bdc.setCutter(cutter)
+        bdc.setThreads(max(1, min(2, os.cpu_count() or 1)))
+        keep = []
+        for x, y in xy:
+            p = ocl.CLPoint(float(x), float(y), floor)
+            keep.append(p)
+            bdc.appendPoint(p)
+        bdc.run()
+        z = np.array([p.z for p in bdc.getCLPoints()])
+        return np.where(z <= floor + 1.0, np.nan, z)
+
+
+def _runs(mask: np.ndarray) -> list[tuple[int, int]]:
+    """(start, end) inclusive index runs where ``mask`` is True."""
+    m = np.concatenate([[False], mask, [False]]).astype(int)
+    d = np.diff(m)
+    return list(zip(np.flatnonzero(d == 1), np.flatnonzero(d == -1) - 1))
+
+
+def _contact(x, y, r_lo, r_hi):
+    r = np.hypot(x, y)
+    return (r < r_hi) & (r > r_lo)
+
+
+def _ceil(z, res):
+    return np.ceil(z / res - 1e-9) * res
+
+
+def _finish_lines(surf, cutter, ys, x_half, r_lo, r_hi, res, chord):
+    """Adaptive drop-cutter along each line y = const (program frame).
+
+    Returns ([(y, [(x (m,), z (m,)), …]), …] per line — runs of the line where
+    the tool touches the tip, x on the resolution grid and z rounded up to
+    it —, drop-cutter calls)."""
+    coarse = 32
+    runs: list[dict] = []
+    pending: list[tuple] = []          # (run, grid index j)
+    for y in ys:
+        jmax = int(math.floor(x_half / res)) + 1
+        j = np.arange(-jmax, jmax + 1)
+        inside = _contact(j * res, y, r_lo, r_hi)
+        for a, b in _runs(inside):
+            idx = np.arange(a, b + 1)
+            keep = idx[(j[idx] % coarse == 0) | (idx == a) | (idx == b)]
+            runs.append({"y": float(y), "z": {}})
+            pending += [(len(runs) - 1, int(j[i])) for i in keep]
+    calls = 0
+    while pending:
+        xy = np.array([(jj * res, runs[ri]["y"]) for ri, jj in pending])
+        zs = surf.drop(cutter, xy)
+        calls += len(pending)
+        for (ri, jj), zz in zip(pending, zs):
+            runs[ri]["z"][jj] = zz
+        pending = []
+        for ri, r_ in enumerate(runs):
+            js = np.array(sorted(r_["z"]))
+            if len(js) < 3:
+                continue
+            z = np.array([r_["z"][jj] for jj in js])
+            x = js * res
+            hgt = np.diff(x)
+            slope = np.diff(z) / hgt
+            curv = np.zeros(len(z))
+            curv[1:-1] = 2.0 * np.abs(np.diff(slope)) / (hgt[:-1] + hgt[1:])
+            curv[0], curv[-1] = curv[1], curv[-2]
+            # predicted sag of each straight move between kept points
+            sag = hgt ** 2 * np.maximum(curv[:-1], curv[1:]) / 8.0
+            sag = np.where(np.isfinite(sag), sag, np.inf)
+            split = (sag > chord) & (np.diff(js) >= 2)
+            pending += [(ri, int((a + b) // 2)) for a, b in zip(js[:-1][split], js[1:][split])]
+    out = {}
+    for r_ in runs:
+        js = np.array(sorted(r_["z"]))
+        z = np.array([r_["z"][jj] for jj in js])
+        good = np.isfinite(z)
+        if good.any():
+            out.setdefault(r_["y"], []).append((js[good] * res, _ceil(z[good], res)))
+    return [(y, out.get(float(y), [])) for y in ys], calls
+
+
+def _grid_values(lo: float, hi: float, step: float, res: float) -> np.ndarray:
+    """Multiples of ``step`` (itself a multiple of ``res``) covering (lo, hi)."""
+    k0 = math.ceil(lo / step)
+    k1 = math.floor(hi / step)
+    return np.round(np.arange(k0, k1 + 1) * step / res) * res
+
+
+def _with_leads(x, z, y, r_hi, lead, res, feed, kind):
+    """A pass from a run: straight leads at the run's end heights out to
+    points where the tool is clear (outside the footprint circle, or the next
+    clear grid point in the bore)."""
+    pts = [(x[0], y, z[0])] if len(x) else []
+    xs, zs = list(x), list(z)
+    # lead-in / lead-out along X to the clear side
+    def clear_x(x_end, direction):
+        xe = x_end + direction * res
+        if math.hypot(xe, y) >= r_hi:   # outer side: go on by ``lead``
+            return x_end + direction * (res + math.ceil(lead / res) * res)
+        return xe
+    x_in = clear_x(xs[0], -1.0 if xs[0] < 0 or len(xs) == 1 else -1.0)
+    x_out = clear_x(xs[-1], 1.0)
+    pts = [(x_in, y, zs[0])] + list(zip(xs, [y] * len(xs), zs)) + [(x_out, y, zs[-1])]
+    return Pass(kind, np.round(np.array(pts) / res) * res, feed, True)
+
+
+def plan_toolpaths(spec, *, tool: EndMill | None = None, machine: MillMachine | None = None,
+                   params: MillParams | None = None, progress=None) -> MillToolpath:
+    """Roughing and finishing passes that mill ``spec`` tip-up on ``machine``
+    (see the module docstring).
+
+    Parameters
+    ----------
+    spec : TipSpec — cut faces that are height fields from +Z (bevel,
+        multi-plane, lancet, conical, helical)
+    tool : EndMill — default the thesis's Ø 1.588 mm carbide ball mill
+    machine : MillMachine — default the Haas VF-2
+    params : MillParams — scallop, allowance, feeds …
+    progress : callable(str), optional — progress lines
+
+    Raises
+    ------
+    CamError — not a height field, scallop unreachable, tool reach, travel,
+        spindle or feed limits (naming the axis or parameter, value and limit).
+    """
+    tool = tool or DEFAULT_TOOL
+    mach = machine or MillMachine()
+    prm = params or MillParams()
+    say = progress or (lambda msg: None)
+    mach.check_spindle(prm.spindle_rpm)
+    for k in ("finish_feed", "rough_feed", "plunge_feed"):
+        mach.check_feed(k, getattr(prm, k))
+    res = mach.resolution
+    can = spec.cannula
+    R = tool.radius
+    clock, _, grad = _clocking(spec)
+    # finishing step-over from the scallop target
+    h = prm.scallop
+    rc = tool.corner_radius
+    if rc > 0:
+        s_surf = 2.0 * math.sqrt(max(2.0 * rc * h - h * h, 0.0))
+        ratio = float(_ratio(grad, np.array([clock]))[0])
+        s = 0.95 * s_surf / ratio
+    else:   # flat end: terraces of height s·tan(cross slope)
+        d = np.array([math.cos(clock), math.sin(clock)])
+        ga = grad @ d
+        cross = np.sqrt(np.maximum(np.sum(grad ** 2, 1) - ga ** 2, 0.0)) / np.sqrt(1 + ga ** 2)
+        ratio = float(_ratio(grad, np.array([clock]))[0])
+        s = 0.95 * h / max(float(cross.max()), 1e-6)
+    s = min(s, 0.8 * tool.diameter)
+    s = math.floor(s / res + 1e-9) * res
+    if s < res:
+        raise CamError(f"scallop = {h * 1e3:g} µm needs a step-over below the axis resolution "
+                       f"{res:g} mm with this tool (corner radius {rc:g} mm)")
+    surf = _Surface(spec, clock, tol.cam.mill_mesh)
+    z_top = _ceil(np.array([surf.z_max + prm.top_stock]), res)[0]
+    setup = MillSetup(clock, float(z_top), float(_ceil(np.array([z_top + prm.safe]), res)[0]),
+                      float(s), ratio, can.r_o, can.r_i)
+    passes: list[Pass] = []
+    stats = {}
+    # roughing
+    if prm.rough and prm.allowance > 0:
+        a = prm.allowance
+        Ra = R + a
+        rsurf = _Surface(spec, clock, 10 * tol.cam.mill_mesh)
+        cut_a = tool.ocl_cutter(a)
+        step = max(res, math.floor(prm.rough_stepover / res) * res)
+        dx = max(res, math.floor(prm.rough_sample / res) * res)
+        ys = _grid_values(-(can.r_o + Ra), can.r_o + Ra, step, res)
+        lines = []
+        for y in ys:
+            xh = math.sqrt(max((can.r_o + Ra) ** 2 - y * y, 0.0))
+            x = _grid_values(-xh - dx, xh + dx, dx, res)
+            inside = _contact(x, y, can.r_i - Ra, can.r_o + Ra)
+            lines.append((y, x, inside))
+        xy = np.concatenate([np.stack([x[m], np.full(m.sum(), y)], 1) for y, x, m in lines])
+        say(f"roughing: {len(xy)} drop-cutter points")
+        zall = rsurf.drop(cut_a, xy) + a
+        stats["rough_drop_points"] = int(len(xy))
+        off = 0
+        zr_lines = []
+        for _y, x, m in lines:
+            z = np.full(len(x), np.nan)
+            z[m] = zall[off:off + m.sum()]
+            off += m.sum()
+            zr_lines.append(z)
+        zmin = np.nanmin(zall)
+        levels = []
+        lev = z_top
+        while lev > zmin:
+            lev = max(lev - prm.stepdown, zmin)
+            levels.append(lev)
+        prev = z_top
+        for lev in levels:
+            for (y, x, m), z in zip(lines, zr_lines):
+                todo = m & (z < prev - 1e-9)
+                for i0, i1 in _runs(todo):
+                    j0, j1 = max(i0 - 1, 0), min(i1 + 1, len(x) - 1)
+                    zz = np.maximum(lev, z[j0:j1 + 1])
+                    xx = x[j0:j1 + 1]
+                    clear0 = not m[j0]
+                    zz = np.where(np.isnan(zz), np.nan, zz)
+                    # clear ends: at the neighbouring pass height
+                    if np.isnan(zz[0]):
+                        zz[0] = zz[1]
+                    if np.isnan(zz[-1]):
+                        zz[-1] = zz[-2]
+                    zz = _ceil(zz, res)
+                    passes.append(Pass("rough", np.stack([xx, np.full(len(xx), y), zz], 1),
+                                       prm.rough_feed, bool(clear0)))
+            prev = lev
+    # finishing
+    r_lo, r_hi = can.r_i - R, can.r_o + R
+    ys = _grid_values(-r_hi, r_hi, s, res)
+    say(f"finishing: {len(ys)} passes, step-over {s * 1e3:.0f} µm (scallop {h * 1e3:g} µm)")
+    lines, calls = _finish_lines(surf, tool.ocl_cutter(), ys, r_hi, r_lo, r_hi, res,
+                                 tol.cam.mill_chord)
+    stats["finish_drop_points"] = int(calls)
+    zlow = math.inf
+    for y, runs in lines:
+        for x, z in runs:
+            passes.append(_with_leads(x, z, y, r_hi, prm.lead, res, prm.finish_feed, "finish"))
+            zlow = min(zlow, float(z.min()))
+    if not any(p.kind == "finish" for p in passes):
+        raise CamError("no finishing pass touches the tip")
+    depth = z_top - zlow
+    if depth > tool.reach:
+        raise CamError(f"axis Z: the tool must reach {depth:.3f} mm below the stock top; its "
+                       f"reach is {tool.reach:g} mm (tool reach limit)")
+    allp = np.concatenate([p.points for p in passes])
+    lo, hi = allp.min(axis=0), allp.max(axis=0)
+    hi[2] = setup.z_safe
+    mach.check_travel(lo, hi)
+    return MillToolpath(spec.name or "tip", setup, tool, mach, prm, passes, stats)

@@ -1,0 +1,264 @@
+"""Three-axis milling (thesis §3.2): OpenCAMLib's exactness, the dexel
+kernel, the Haas post (parsed by pygcode), the G-code reader, bad requests,
+and milled-versus-CAD for the helical needle, the 14.5° bevel and the
+three-plane tip."""
+
+from __future__ import annotations
+
+import math
+import re
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from cam import CamError
+from cam.mill import (
+    EndMill,
+    MillMachine,
+    MillParams,
+    mill,
+    parse_tool,
+    plan_toolpaths,
+    post_program,
+    read_gcode,
+)
+from cam.mill.dexel import capsule_bottom
+from tipgeo import Cannula, ConicalCutter, SerrationCutter, TipSpec, preset
+from tipgeo.cli import main
+
+R = 0.794
+
+
+def test_opencamlib_drop_cutter_is_exact():
+    """A ball dropped on an inclined plane sits at z + R(√(1+m²) − 1); on a
+    horizontal edge at distance d it sits at z_e + √(R² − d²) − R (1e-12 mm)."""
+    import opencamlib as ocl
+
+    m, ze = 3.87, 0.5
+    s = ocl.STLSurf()
+    keep = []
+
+    def tri(a, b, c):
+        t = ocl.Triangle(ocl.Point(*a), ocl.Point(*b), ocl.Point(*c))
+        keep.append(t)
+        s.addTriangle(t)
+
+    tri((-2, -2, -2 * m), (0, -2, 0), (0, 2, 0))
+    tri((-2, -2, -2 * m), (0, 2, 0), (-2, 2, -2 * m))
+    # a flat shelf z = ze ending at the edge x = 1 (a step down beyond it)
+    tri((0.5, -2, ze), (1, -2, ze), (1, 2, ze))
+    tri((0.5, -2, ze), (1, 2, ze), (0.5, 2, ze))
+    bdc = ocl.BatchDropCutter()
+    bdc.setSTL(s)
+    cutter = ocl.BallCutter(2 * R, 20.0)    # kept alive: OpenCAMLib holds a raw pointer
+    bdc.setCutter(cutter)
+    xs_plane = np.array([-1.5, -1.2, -1.0])
+    xs_edge = np.array([1.1, 1.3, 1.7])
+    for x in np.concatenate([xs_plane, xs_edge]):
+        p = ocl.CLPoint(float(x), 0.1, -50.0)
+        keep.append(p)
+        bdc.appendPoint(p)
+    bdc.run()
+    z = np.array([p.z for p in bdc.getCLPoints()])
+    want_plane = m * xs_plane + R * (math.sqrt(1 + m * m) - 1)
+    d = xs_edge - 1.0
+    want_edge = ze + np.sqrt(R * R - d * d) - R
+    assert z[:3] == pytest.approx(want_plane, abs=1e-12)
+    assert z[3:] == pytest.approx(want_edge, abs=1e-12)
+
+
+def test_capsule_bottom_is_the_swept_balls_lowest_point():
+    """Against a densely sampled ball path (10 000 balls: h²/8R < 1e-8 mm)."""
+    rng = np.random.default_rng(3)
+    for _ in range(20):
+        a = rng.uniform(-0.5, 0.5, 3)
+        b = a + rng.uniform(-0.6, 0.6, 3)
+        q = rng.uniform(-0.7, 0.7, 2)
+        t = np.linspace(0, 1, 10001)[:, None]
+        c = a + t * (b - a)
+        d2 = np.sum((c[:, :2] - q) ** 2, 1)
+        ok = d2 <= R * R
+        want = np.min(c[ok, 2] - np.sqrt(R * R - d2[ok])) if ok.any() else math.inf
+        got = capsule_bottom(q[0], q[1], *a, *b, R)
+        if math.isinf(want):
+            assert math.isinf(got)
+        else:
+            assert got == pytest.approx(want, abs=1e-8)
+
+
+@pytest.fixture(scope="module")
+def bevel_program():
+    spec = preset("bevel-14G-xi14.5")
+    tp = plan_toolpaths(spec, params=MillParams(scallop=0.02))
+    return tp, post_program(tp)
+
+
+def test_post_is_haas_and_pygcode_reads_it(bevel_program):
+    from pygcode import Line
+
+    tp, text = bevel_program
+    assert text.isascii()
+    lines = text.splitlines()
+    assert lines[0] == "%" and lines[-1] == "%" and lines[-2] == "M30"
+    assert re.fullmatch(r"O01402 \(.*\)", lines[1])
+    assert "G17 G21 G40 G49 G80 G90" in lines
+    assert any(re.fullmatch(r"T1 M06 \(.*\)", x) for x in lines)
+    assert "S10000 M03" in lines and "M08" in lines and "M05" in lines
+    assert any(re.fullmatch(r"G43 H01 Z\d+\.\d{3}", x) for x in lines)
+    for x in lines:
+        assert x.count("(") == x.count(")") <= 1        # single, not nested
+        Line(x)                                           # parses without an error
+        body = "" if x.startswith("G28") else re.sub(r"\([^)]*\)", "", x)
+        for w, num in re.findall(r"([XYZF])(-?[\d.]+)", body):
+            assert num.count(".") == 1 and "e" not in num.lower()
+            assert len(num.split(".")[1]) == (1 if w == "F" else 3)
+            if w in "XYZ" and not x.startswith("G43"):
+                k = float(num) / 0.002
+                assert abs(k - round(k)) < 1e-6, x      # on the 0.002 mm grid
+    assert len(lines) > 100
+
+
+def test_reader_round_trips_the_passes(bevel_program):
+    tp, text = bevel_program
+    mv = read_gcode(text)
+    pts = np.concatenate([p.points for p in tp.passes])
+    ends = mv.end[~mv.rapid]
+    # every programmed cutting point is read back within half the resolution
+    from scipy.spatial import cKDTree
+
+    d, _ = cKDTree(ends).query(pts)
+    assert d.max() < 0.001
+    assert set(np.unique(mv.feed[~mv.rapid])) <= {50.0, 150.0, 200.0}
+    assert mv.tool == 1 and mv.spindle_rpm == 10000.0
+
+
+def test_cycle_time_of_a_known_program():
+    text = "%\nO1\nG90 G21\nG00 X0. Y0. Z10.\nG01 Z0. F60.\nX30. F120.\nG00 Z10.\nM30\n%\n"
+    mv = read_gcode(text)
+    # 10 mm at 60 mm/min + 30 mm at 120 mm/min + 10 mm rapid at 600 mm/min
+    assert mv.cycle_time(600.0) == pytest.approx(10.0 + 15.0 + 1.0, rel=1e-12)
+
+
+@pytest.mark.parametrize("text, match", [
+    ("G00 X0 Y0 Z1\nG02 X1 Y0 I0.5\n", "line 2: G2 is not supported"),
+    ("G00 X0 Y0 Z1\n(a (b) c)\n", "line 2: unbalanced or nested"),
+    ("G00 X0 Y0 Z1\nG01 X1\n", "line 2: a G01 move with no feed"),
+    ("G00 X0 Y0 Z1\nG01 X1 F-5\n", "line 2: F = -5"),
+    ("G00 X0 Y0 Z1\n#1=2\n", "line 2: cannot read"),
+])
+def test_reader_refuses_what_it_cannot_simulate(text, match):
+    with pytest.raises(CamError, match=match):
+        read_gcode(text)
+
+
+@settings(max_examples=60, deadline=None)
+@given(st.text(alphabet="GXYZFMST0123456789.-() %\nO;", max_size=80))
+def test_reader_never_crashes(text):
+    try:
+        read_gcode(text)
+    except CamError:
+        pass
+
+
+@settings(max_examples=60, deadline=None)
+@given(st.text(max_size=30))
+def test_tool_parser_never_crashes(text):
+    try:
+        parse_tool(text)
+    except CamError:
+        pass
+
+
+def test_tools_and_their_errors():
+    assert parse_tool("ball:1.588") == EndMill()
+    b = parse_tool("bull:2:0.25:8")
+    assert (b.kind, b.diameter, b.corner_radius, b.reach) == ("bull", 2.0, 0.25, 8.0)
+    assert parse_tool("flat:1").corner_radius == 0.0
+    for text, match in (("drill:1", "KIND"), ("ball:x", "numbers"), ("bull:2", "corner_radius"),
+                        ("bull:2:1.5", "D/2"), ("ball:-1", "tool diameter")):
+        with pytest.raises(CamError, match=match):
+            parse_tool(text)
+
+
+@pytest.mark.parametrize("kw, match", [
+    ({"params": MillParams(finish_feed=0.08)},
+     r"finish_feed = 0.08 mm/min is outside the machine's feed range \[1, 16500\]"),
+    ({"params": MillParams(spindle_rpm=20000)}, r"spindle = 20000 rpm .* \[100, 12000\]"),
+    ({"tool": EndMill(reach=3.0)}, r"axis Z: the tool must reach .* its reach is 3 mm"),
+    ({"machine": MillMachine(z=MillMachine().z.__class__(-400.5, 0.0, 0.002))},
+     r"axis Z = .* outside its travel \[-400.5, 0\] mm"),
+    ({"params": MillParams(scallop=1e-4),
+      "tool": EndMill(kind="bull", diameter=1.0, corner_radius=0.001)},
+     "scallop = 0.1 µm needs a step-over below the axis resolution"),
+])
+def test_bad_requests_name_axis_value_and_limit(kw, match):
+    with pytest.raises(CamError, match=match):
+        plan_toolpaths(preset("bevel-14G-xi14.5"), **{"params": MillParams(scallop=0.03),
+                                                      **kw})
+
+
+def test_not_a_height_field():
+    serrated = TipSpec(cannula=Cannula.biopsy_punch(), cutters=[
+        ConicalCutter(theta=math.radians(13)), SerrationCutter(arc_radius=0.1, count=8)])
+    with pytest.raises(CamError, match="not a height field from \\+Z"):
+        plan_toolpaths(serrated)
+
+
+def test_machine_from_toml(tmp_path):
+    p = tmp_path / "m.toml"
+    p.write_text('spindle_rpm_max = 8100.0\nwork_offset = [-300.0, -200.0, -350.0]\n'
+                 '[z]\nlo = -400.0\nhi = 0.0\nresolution = 0.001\n')
+    m = MillMachine.from_toml(p)
+    assert m.spindle_rpm_max == 8100.0 and m.z.lo == -400.0 and m.work_offset[2] == -350.0
+    with pytest.raises(CamError, match=r"spindle = 10000(.0)? rpm .* \[100, 8100\]"):
+        plan_toolpaths(preset("bevel-14G-xi14.5"), machine=m)
+    (tmp_path / "bad.toml").write_text("colour = 1\n")
+    with pytest.raises(CamError, match="colour"):
+        MillMachine.from_toml(tmp_path / "bad.toml")
+
+
+#: Scallop targets of the milled-vs-CAD tests (µm): coarser than the default
+#: 2 µm to keep the suite lean; the surface bound scales with the target.
+SCALLOP_UM = 6.0
+
+
+@pytest.mark.parametrize("name", ["helical-14G", "bevel-14G-xi14.5", "threeplane-14G-xi15"])
+def test_milled_matches_cad(name):
+    """The simulated surface (read back from the G-code) lies within the
+    target scallop + 1 µm of the CAD surface over the cut face away from the
+    edge (annulus shrunk by 20 µm), no point (edges included) gouges deeper
+    than 1 µm (the region leaves out 20 µm along the rims and 100 µm along
+    ridges between faces), and the outer edge's λ and θ are within
+    0.5°·√(scallop / 2 µm) of CAD for γ in [5°, 355°] away from the rim
+    corners (see :func:`cam.mill.compare_milled`)."""
+    # roughing (which leaves 50 µm) is simulated for the helical tip only
+    res = mill(preset(name), params=MillParams(scallop=SCALLOP_UM * 1e-3,
+                                               rough=name == "helical-14G"))
+    c = res.comparison
+    assert res.milled.tip.is_watertight and res.milled.tip.genus == 1
+    assert c["scallop_measured_um"] <= SCALLOP_UM + 1.0
+    assert c["scallop_measured_um"] > 0.3 * SCALLOP_UM     # the scallops are there
+    assert c["gouge_um"] <= 1.0 and c["deviation_all_min_um"] >= -1.0
+    # 0.5° at the default 2 µm scallop; the scallop's ripple on the edge and
+    # its tilt of the surface grow like the step-over, √(scallop)
+    bound = 0.5 * math.sqrt(SCALLOP_UM / 2.0)
+    a = c["angles"]["outer"]
+    assert a["lambda_max_diff_deg"] < bound
+    assert a["theta_max_diff_deg"] < bound
+
+
+def test_cli_mill(tmp_path, capsys):
+    out = tmp_path / "p.nc"
+    assert main(["mill", "bevel-14G-xi14.5", "-o", str(out), "--scallop-um", "20",
+                 "--no-rough", "--sheet", str(tmp_path / "s.md"), "--json"]) == 0
+    import json
+
+    data = json.loads(capsys.readouterr().out)
+    assert data["toolpath"]["rough_passes"] == 0 and data["program"]["cycle_time_s"] > 0
+    assert out.read_text().startswith("%\nO01402")
+    assert "ER8 collet" in (tmp_path / "s.md").read_text()
+    assert main(["mill", "bevel-14G-xi14.5", "-o", str(out), "--feed-mm-min", "0.08"]) == 2
+    assert "finish_feed = 0.08 mm/min" in capsys.readouterr().err
+    assert main(["mill", "bevel-14G-xi14.5", "-o", str(out), "--tool", "drill:2"]) == 2

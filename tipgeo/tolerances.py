@@ -10,9 +10,9 @@ The test suite switches it on in ``conftest.py``.
 
 from dataclasses import dataclass, field
 
-__all__ = ["Tolerances", "InspectSettings", "GCodeTolerances", "CamTolerances", "tol",
-           "DEFAULT_CHORDAL_MM", "MIN_FEATURE_MM", "MIN_DIAMETER_MM", "MAX_CUTTERS",
-           "MAX_TIP_HEIGHT_MM"]
+__all__ = ["Tolerances", "InspectSettings", "GCodeTolerances", "CamTolerances",
+           "FemTolerances", "tol", "DEFAULT_CHORDAL_MM", "MIN_FEATURE_MM", "MIN_DIAMETER_MM",
+           "MAX_CUTTERS", "MAX_TIP_HEIGHT_MM"]
 
 #: Default chordal tolerance of a built tip (mm): the largest distance between
 #: the mesh and the exact surface it approximates. 0.05 µm keeps the faceting
@@ -256,6 +256,33 @@ class CamTolerances:
 
 
 @dataclass
+class FemTolerances:
+    """Tolerances of the finite-element models (:mod:`tipgeo.fem`), as
+    ``tol.fem``.
+
+    Attributes
+    ----------
+    profile : float
+        Two profile points closer than this are one; a section point this far
+        across the axis is still on its side (mm).
+    axisymmetry : float
+        Sections of a tip without a spec at four azimuths agreeing in area
+        and extent within this make it axisymmetric (mm, mm²).
+    step_end : float
+        A run reached the end of its step when its last converged increment
+        ends within this of step time 1 (dimensionless).
+    monotone : float
+        A force curve rises monotonically when no value falls below an
+        earlier one by more than this fraction of the peak (dimensionless).
+    """
+
+    profile: float = 1.0e-9
+    axisymmetry: float = 1.0e-3
+    step_end: float = 1.0e-6
+    monotone: float = 1.0e-3
+
+
+@dataclass
 class Tolerances:
     """Tolerances and checks used across tipgeo (lengths in mm).
 
@@ -288,6 +315,8 @@ class Tolerances:
         Tolerances of :mod:`gcode` (``tol.gcode.arc`` …).
     cam : CamTolerances
         Tolerances of :mod:`cam` (``tol.cam.travel`` …).
+    fem : FemTolerances
+        Tolerances of :mod:`tipgeo.fem` (``tol.fem.step_end`` …).
     tiny : float
         Floor of norms, spans, areas and volumes against division by zero
         (any unit; far below every physical value).
@@ -379,6 +408,7 @@ class Tolerances:
     inspect: InspectSettings = field(default_factory=InspectSettings)
     gcode: GCodeTolerances = field(default_factory=GCodeTolerances)
     cam: CamTolerances = field(default_factory=CamTolerances)
+    fem: FemTolerances = field(default_factory=FemTolerances)
     tiny: float = 1.0e-300
     parallel: float = 1.0e-9
     unit: float = 1.0e-9

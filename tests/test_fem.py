@@ -272,3 +272,23 @@ def test_cli_deck_only_and_missing_ccx(tmp_path, monkeypatch, capsys):
     assert main(["fem", "bevel-14G-xi14.5", "--depth-mm", "0.5", "--deck-only",
                  "-o", str(tmp_path / "b")]) == 2
     assert "not axisymmetric" in capsys.readouterr().err
+
+
+@needs_ccx
+def test_build_inp_export_runs_in_ccx(tmp_path):
+    """The .inp of `tipgeo build` inside a minimal CalculiX model: read
+    without *ERROR and moved as one rigid body by its reference node."""
+    from tipgeo import build_tip, preset
+
+    tip = build_tip(preset("bevel-14G-xi14.5"), tolerance=0.01)
+    tip.export(tmp_path / "tip.inp")
+    n = len(tip.vertices)
+    (tmp_path / "model.inp").write_text(
+        "*INCLUDE, INPUT=tip.inp\n*BOUNDARY\nRefPt, 1, 2, 0\nRotPt, 1, 3, 0\n*STEP\n*STATIC\n*BOUNDARY\n"
+        "RefPt, 3, 3, 0.25\n*NODE PRINT, NSET=TIP\nU\n*END STEP\n")
+    run = run_ccx(tmp_path / "model.inp", time_limit_s=120)
+    text = run.path(".dat").read_text().splitlines()
+    rows = [r.split() for r in text if r.strip() and r.split()[0].isdigit()]
+    u = np.array([[float(x) for x in r[1:4]] for r in rows])
+    assert len(u) == n
+    np.testing.assert_allclose(u, np.tile([0.0, 0.0, 0.25], (n, 1)), atol=1e-9)

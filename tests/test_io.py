@@ -221,9 +221,9 @@ def test_inp_rigid_part(tip3, tmp_path, ref_point):
     n, m = len(tip3.vertices), len(tip3.faces)
 
     nodes = [r for k, _, rows in blocks if k == "node" for r in rows]
-    assert len(nodes) == n + 1  # the mesh nodes and the reference node
+    assert len(nodes) == n + 2  # the mesh nodes, the reference and rotation nodes
     xyz = np.array([r[1:] for r in nodes[:n]], dtype=np.float64)
-    assert [int(r[0]) for r in nodes] == list(range(1, n + 2))
+    assert [int(r[0]) for r in nodes] == list(range(1, n + 3))
     assert np.abs(xyz - tip3.vertices).max() <= EXACT
     for r in nodes:  # every coordinate in fixed notation with 12 decimals
         assert all(re.fullmatch(r"-?\d+\.\d{12}", s) for s in r[1:])
@@ -245,8 +245,9 @@ def test_inp_rigid_part(tip3, tmp_path, ref_point):
     assert max(len(r) for b in blocks if b[0] == "elset" for r in b[2]) <= 16
 
     nsets = {b[1]["nset"]: b for b in blocks if b[0] == "nset"}
-    assert set(nsets) == {"TIP", "RefPt"}
-    assert nsets["RefPt"][2] == [[str(n + 1)]]
+    assert set(nsets) == {"TIP", "RefPt", "RotPt"}
+    assert nsets["RefPt"][2] == [[str(n + 1)]] and nsets["RotPt"][2] == [[str(n + 2)]]
+    assert nodes[n][1:] == nodes[n + 1][1:]
     assert _elset_members(nsets["TIP"][1], nsets["TIP"][2]) == list(range(1, n + 1))
     ref = np.array(nodes[n][1:], dtype=np.float64)
     if ref_point == "top":
@@ -258,7 +259,7 @@ def test_inp_rigid_part(tip3, tmp_path, ref_point):
     tol = 2.0 if ref_point == "centroid" else EXACT
     assert np.abs(ref - expected).max() <= tol
     (rigid,) = [b for b in blocks if b[0] == "rigid body"]
-    assert rigid[1] == {"nset": "TIP", "ref node": str(n + 1)}
+    assert rigid[1] == {"nset": "TIP", "ref node": str(n + 1), "rot node": str(n + 2)}
     assert f"** Abaqus: replace the next line by *RIGID BODY, REF NODE={n + 1}, ELSET=ALL" \
         in text.splitlines()
     (sec,) = [b for b in blocks if b[0] == "shell section"]
@@ -273,7 +274,7 @@ def test_inp_centroid_is_volume_centroid(tmp_path):
     t = Tip(box.vertices, box.faces, np.zeros(len(box.faces), int), ("outer",))
     assert t.is_watertight and t.volume == pytest.approx(8.0)
     text = export_tip(t, tmp_path / "box.inp").read_text()
-    ref_line = text.splitlines()[text.splitlines().index("*NSET, NSET=RefPt") - 1]
+    ref_line = text.splitlines()[text.splitlines().index("*NSET, NSET=RefPt") - 2]
     assert ref_line == f"{len(t.vertices) + 1}, 0.000000000000, 0.000000000000, 2.000000000000"
 
 

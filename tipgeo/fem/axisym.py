@@ -58,7 +58,7 @@ def axisymmetric_model(tip: Tip, *, depth: float, tissue: str = "pvc-sp0",
     Parameters
     ----------
     tip : Tip — an axisymmetric tip (conical cutters or none)
-    depth : float — needle travel, mm (0 < depth < block height / 2)
+    depth : float — needle travel, mm (0 < depth ≤ 0.8 × block height)
     tissue : str — a tissue of :func:`tipgeo.mechanics.tissue_names`
     material_model : ``arruda-boyce`` | ``ogden`` | ``neo-hookean``
     nu : float — Poisson ratio (thesis 2D: 0.475)
@@ -84,7 +84,7 @@ def axisymmetric_model(tip: Tip, *, depth: float, tissue: str = "pvc-sp0",
     FemModel with ``force_scale`` 180 (the 2° wedge to the whole ring)
     """
     R, H = (v.length("block radius", block[0]), v.length("block height", block[1]))
-    depth = v.real("depth", depth, lo=0.0, hi=0.5 * H, lo_open=True, unit="mm")
+    depth = v.real("depth", depth, lo=0.0, hi=0.8 * H, lo_open=True, unit="mm")
     h = v.real("mesh", mesh, lo=0.001, hi=0.5, unit="mm")
     prof = wall_profile(tip)
     r_max = float(prof[:, 0].max())

@@ -108,7 +108,7 @@ def indentation_model(tip: Tip, *, depth: float, tissue: str = "pvc-sp0",
     far : float — element size far from the footprint, mm
     """
     R, H = (v.length("block radius", block[0]), v.length("block height", block[1]))
-    depth = v.real("depth", depth, lo=0.0, hi=0.5 * H, lo_open=True, unit="mm")
+    depth = v.real("depth", depth, lo=0.0, hi=0.8 * H, lo_open=True, unit="mm")
     h = v.real("mesh", mesh, lo=0.005, hi=1.0, unit="mm")
     far = v.real("far", far, lo=h, hi=R, unit="mm")
     sx, sy = mirror_planes(tip)

@@ -5,8 +5,10 @@ Nodes in mm and the cannula frame (+z along the needle axis towards the tip,
 heel at z = 0), as fixed-point numbers with 12 decimals. One ``*ELSET`` per
 label present (``cut:multiplane.0`` becomes ``CUT_MULTIPLANE_0``) plus
 ``ALL``; the reference node is node ``n + 1``, in node set ``RefPt``, placed
-by ``ref_point``; all mesh nodes form node set ``TIP``, and ``*RIGID BODY,
-NSET=TIP, REF NODE=n + 1`` makes the shells rigid (a thin ``*SHELL SECTION``
+by ``ref_point``; node ``n + 2`` at the same point (set ``RotPt``) carries
+the rotations in CalculiX (its displacements are the rotation angles, rad);
+all mesh nodes form node set ``TIP``, and ``*RIGID BODY, NSET=TIP, REF
+NODE=n + 1, ROT NODE=n + 2`` makes the shells rigid (a thin ``*SHELL SECTION``
 of material ``TIPGEO_RIGID`` gives them the section a solver requires).
 Element normals follow the outward triangle orientation.
 
@@ -107,7 +109,7 @@ def write_inp(tip: Tip, tmp: Path, opts: ExportOptions) -> None:
 
     with open(tmp, "w", encoding="ascii", errors="replace", newline="\n") as fh:
         fh.write(f"*HEADING\n{opts.name}: rigid needle tip (tipgeo); units mm; {FRAME_NOTE}\n"
-                 f"** part {part}: {n} nodes + 1 reference node, {m} S3 elements "
+                 f"** part {part}: {n} nodes + reference and rotation nodes, {m} S3 elements "
                  "(normals outward), rigid\n"
                  f"** element sets: {', '.join(elsets)}, ALL\n*NODE\n")
         fh.write("".join(f"{i}, {x:.12f}, {y:.12f}, {z:.12f}\n"
@@ -119,14 +121,16 @@ def write_inp(tip: Tip, tmp: Path, opts: ExportOptions) -> None:
             fh.write(id_lines(np.flatnonzero(lab == k) + 1))
         fh.write(f"*ELSET, ELSET=ALL, GENERATE\n1, {m}, 1\n")
         fh.write(f"*NSET, NSET=TIP, GENERATE\n1, {n}, 1\n")
-        fh.write(f"** reference node\n*NODE\n{ref_id}, {rx:.12f}, {ry:.12f}, {rz:.12f}\n"
-                 f"*NSET, NSET=RefPt\n{ref_id}\n"
+        fh.write(f"** reference node (translations) and CalculiX's rotation node\n*NODE\n"
+                 f"{ref_id}, {rx:.12f}, {ry:.12f}, {rz:.12f}\n"
+                 f"{ref_id + 1}, {rx:.12f}, {ry:.12f}, {rz:.12f}\n"
+                 f"*NSET, NSET=RefPt\n{ref_id}\n*NSET, NSET=RotPt\n{ref_id + 1}\n"
                  f"*MATERIAL, NAME={RIGID_MATERIAL}\n*ELASTIC\n210000.0, 0.3\n"
                  f"*SHELL SECTION, ELSET=ALL, MATERIAL={RIGID_MATERIAL}\n"
                  f"{SHELL_THICKNESS:.6f}\n"
                  f"** Abaqus: replace the next line by *RIGID BODY, REF NODE={ref_id}, "
                  "ELSET=ALL\n"
-                 f"*RIGID BODY, NSET=TIP, REF NODE={ref_id}\n")
+                 f"*RIGID BODY, NSET=TIP, REF NODE={ref_id}, ROT NODE={ref_id + 1}\n")
 
 
 register_exporter(".inp", write_inp)

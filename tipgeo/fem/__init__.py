@@ -9,7 +9,7 @@ the Table 4.2 regression). Two models:
 ``axisymmetric``  2D, CAX4 (CAX3 where gmsh leaves triangles), of any
                   axisymmetric tip (conical cutters, plain cannula), the
                   thesis's 7 × 7 mm block (§4.4.1.2, Appendix B2)
-``3d``            C3D8/C3D6 block, C3D4 needle front, reduced by the tip's
+``3d``            C3D8I/C3D6 block, C3D4 needle front, reduced by the tip's
                   mirror symmetries (quarter for a punch, half for a bevel)
 
 Model frame: the needle moves along −Y into the block whose top face is

@@ -33,6 +33,9 @@ AXISYMMETRIC_FORCE_SCALE = 180.0
 #: Edge radius r_tip of the thesis's biopsy punch (Fig. 4.7), mm.
 EDGE_RADIUS = 0.015
 
+#: Largest default needle advance per increment, mm.
+MAX_STEP = 0.05
+
 #: Limits on the model size, checked before meshing (elements).
 MAX_ELEMENTS = 400_000
 
@@ -68,7 +71,7 @@ def axisymmetric_model(tip: Tip, *, depth: float, tissue: str = "pvc-sp0",
     block : (R, H) — block radius and height, mm
     output_depths : depths (mm) at which stresses are written
     max_increment : float, optional — largest needle advance per increment,
-        mm (default depth / 20)
+        mm (default depth / 20, at most :data:`MAX_STEP`)
     penalty_factor : float — contact stiffness = this × E₀ / h (MPa/mm)
     edge_radius : float — the sharp corners of the section's front are
         rounded to this radius, mm (default 15 µm, the r_tip of Fig. 4.7;
@@ -142,7 +145,7 @@ def axisymmetric_model(tip: Tip, *, depth: float, tissue: str = "pvc-sp0",
         mu, mu_src = friction_coefficient(tissue, 0.0)
     else:
         mu, mu_src = v.real("friction", friction, lo=0.0, hi=2.0), "given"
-    dmax = depth / 20 if max_increment is None else v.real(
+    dmax = min(depth / 20, MAX_STEP) if max_increment is None else v.real(
         "max_increment", max_increment, lo=0.0, hi=depth, lo_open=True, unit="mm")
     out = tuple(v.real("output depth", d, lo=0.0, hi=depth, lo_open=True, unit="mm")
                 for d in output_depths)

@@ -36,11 +36,12 @@ FACE_NODES: dict[str, tuple[tuple[int, ...], ...]] = {
     "C3D8": ((0, 1, 2, 3), (4, 7, 6, 5), (0, 4, 5, 1), (1, 5, 6, 2), (2, 6, 7, 3),
              (3, 7, 4, 0)),
 }
+FACE_NODES["C3D8I"] = FACE_NODES["C3D8"]
 
 #: Abaqus names of the same elements (hybrid, reduced integration in 2D, as
 #: the thesis's CAX4RH of Appendix B2).
 _ABAQUS_TYPE = {"CAX3": "CAX3H", "CAX4": "CAX4RH", "C3D4": "C3D4H", "C3D6": "C3D6H",
-                "C3D8": "C3D8RH"}
+                "C3D8": "C3D8RH", "C3D8I": "C3D8RH"}
 
 
 @dataclass

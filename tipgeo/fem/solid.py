@@ -12,7 +12,7 @@ needle (4, 2 or 1).
 The block is a cylinder of radius R and height H (thesis: 10 × 7.5 mm),
 base fixed, other faces free. Its top face is meshed with quadrilaterals,
 graded toward the needle's footprint, and extruded down in layers (h thick
-to below the final depth, then growing) into hexahedra and wedges (C3D8,
+to below the final depth, then growing) into hexahedra and wedges (C3D8I,
 C3D6). The needle is its front part (from the most advanced point back to
 the depth plus a margin), tetrahedralised (C3D4) and held rigid by prescribed
 displacements.
@@ -93,8 +93,9 @@ def indentation_model(tip: Tip, *, depth: float, tissue: str = "pvc-sp0",
                       friction: float | None = None, mesh: float = 0.1,
                       block: tuple[float, float] = BLOCK_3D,
                       output_depths: tuple[float, ...] = (),
-                      max_increment: float | None = None, penalty_factor: float = 50.0,
-                      far: float = 1.0, contact: str = "node") -> FemModel:
+                      max_increment: float | None = None, penalty_factor: float = 5.0,
+                      far: float = 1.0, contact: str = "node",
+                      hexahedron: str = "C3D8I") -> FemModel:
     """The 3D indentation model of ``tip`` pushed ``depth`` into a block.
 
     Parameters
@@ -106,11 +107,16 @@ def indentation_model(tip: Tip, *, depth: float, tissue: str = "pvc-sp0",
     mesh : float — element size h at the footprint, mm
     block : (R, H) — block radius and height, mm
     far : float — element size far from the footprint, mm
+    hexahedron : ``C3D8I`` (incompatible modes: less volumetric and shear
+        locking of the nearly incompressible tissue) | ``C3D8``
     """
     R, H = (v.length("block radius", block[0]), v.length("block height", block[1]))
     depth = v.real("depth", depth, lo=0.0, hi=0.8 * H, lo_open=True, unit="mm")
     h = v.real("mesh", mesh, lo=0.005, hi=1.0, unit="mm")
     far = v.real("far", far, lo=h, hi=R, unit="mm")
+    if hexahedron not in ("C3D8I", "C3D8"):
+        raise SpecError(f"hexahedron = {hexahedron!r} is not valid; expected one of: C3D8I, "
+                        "C3D8")
     sx, sy = mirror_planes(tip)
     z_max = float(tip.vertices[:, 2].max())
     rho = np.hypot(tip.vertices[:, 0], tip.vertices[:, 1])
@@ -190,6 +196,8 @@ def indentation_model(tip: Tip, *, depth: float, tissue: str = "pvc-sp0",
             if name is None:
                 raise FemError(f"gmsh made 3D elements of type {et}; expected hexahedra, "
                                "prisms or tetrahedra")
+            if name == "C3D8":
+                name = hexahedron
             tissue_conn[name] = np.asarray(nodes, dtype=np.int64).reshape(-1, k)
     tissue_xyz = np.column_stack([xyz[:, 0], xyz[:, 2], xyz[:, 1]])
     # needle: tetrahedralise the clipped front in a second session
@@ -270,12 +278,12 @@ def indentation_model(tip: Tip, *, depth: float, tissue: str = "pvc-sp0",
         "max_increment", max_increment, lo=0.0, hi=depth, lo_open=True, unit="mm")
     out = tuple(v.real("output depth", dd, lo=0.0, hi=depth, lo_open=True, unit="mm")
                 for dd in output_depths)
-    sym_tris = None
-    if sx:  # triangles of the tissue faces on X = 0, for the contour picture
+    sym_tris, sym_axis = None, (2 if sy else 0 if sx else None)
+    if sym_axis is not None:  # tissue faces on the symmetry plane, for the contour picture
         sym_tris = []
         for _e, _fc, ns in boundary_faces(tb):
             ns = list(ns)
-            if np.all(np.abs(allnodes[np.asarray(ns) - 1, 0]) <= eps):
+            if np.all(np.abs(allnodes[np.asarray(ns) - 1, sym_axis]) <= eps):
                 sym_tris += [[ns[0], ns[i], ns[i + 1]] for i in range(1, len(ns) - 1)]
     scale = (2.0 if sx else 1.0) * (2.0 if sy else 1.0)
     info = {"element_size_um": round(h * 1e3, 6), "element_size_far_um": round(far * 1e3, 6),
@@ -287,7 +295,8 @@ def indentation_model(tip: Tip, *, depth: float, tissue: str = "pvc-sp0",
             "tip": tip.spec.name if tip.spec else "imported", "tissue": mat.name,
             "material": mat.model, "material_source": mat.source,
             "inner_diameter_mm": 2 * r_in, "contact": contact, "nu": nu, "friction": mu,
-            "friction_source": mu_src, "symmetry_tris": sym_tris}
+            "friction_source": mu_src, "symmetry_tris": sym_tris,
+            "symmetry_plane": None if sym_axis is None else "XYZ"[sym_axis]}
     return FemModel(kind="3d", name=info["tip"], nodes=allnodes, blocks=blocks, nsets=nsets,
                     fixed=fixed, surfaces={"TISSUE": top, "NEEDLE": master}, material=mat,
                     friction=mu, depth=depth, penalty=penalty_factor * mat.E0 / h,
@@ -308,7 +317,7 @@ def _signed_volumes(P: np.ndarray, etype: str) -> np.ndarray:
 def _fix_orientation(nodes: np.ndarray, blocks: list[ElementBlock]) -> None:
     """Renumber elements with a negative volume (mirror their node order)."""
     flip = {"C3D4": [0, 2, 1, 3], "C3D6": [0, 2, 1, 3, 5, 4],
-            "C3D8": [0, 3, 2, 1, 4, 7, 6, 5]}
+            "C3D8": [0, 3, 2, 1, 4, 7, 6, 5], "C3D8I": [0, 3, 2, 1, 4, 7, 6, 5]}
     for b in blocks:
         vol = _signed_volumes(nodes[b.conn - 1], b.etype)
         neg = vol < 0

@@ -184,7 +184,7 @@ def _stress_pictures(model: FemModel, frd, out: Path, stem: str) -> tuple[list[P
         summary[d] = {"max_principal_MPa": float(ts[k]),
                       "at_mm": [float(x) for x in X[tissue[k] - 1]],
                       "max_principal_near_edge_MPa": float(np.nanmax(s1[near - 1]))
-                      if len(near) else math.nan}
+                      if len(near) and model.dim == 2 else math.nan}
         if model.dim == 2:
             tris = _tissue_tris(model)
             needle = model.info.get("needle_section")
@@ -193,21 +193,22 @@ def _stress_pictures(model: FemModel, frd, out: Path, stem: str) -> tuple[list[P
             win = (max(0.0, r0 - 0.8), r0 + 0.8, -d - 1.0, -d + 0.6)
             xy, vals = X[:, :2], np.nan_to_num(s1)
         else:
-            on = np.abs(model.nodes[:, 0]) <= 1e-9
-            tri3 = model.info.get("symmetry_tris")
-            if tri3 is None:
+            tri3, plane = model.info.get("symmetry_tris"), model.info.get("symmetry_plane")
+            if not tri3:
                 continue
             tris = np.asarray(tri3) - 1
-            xy = X[:, [2, 1]]
+            xy = X[:, [0, 1]] if plane == "Z" else X[:, [2, 1]]
             vals = np.nan_to_num(s1)
             ndl = None
-            zc = float(np.mean(model.nodes[on, 2])) if np.any(on) else 0.0
-            win = (zc - 1.6, zc + 1.6, -d - 1.0, -d + 0.6)
+            r0 = float(edge.mean())
+            win = (-r0 - 0.8, r0 + 0.8, -d - 1.0, -d + 0.6)
         files.append(plot_stress_contour(
             xy, tris, vals, out / f"{stem}_s1_{d:g}mm.png", needle=ndl, window=win,
             title=f"{model.name}: max principal stress at depth {d:g} mm "
                   f"({model.info['element_size_um']:g} µm elements)",
-            xlabel="r (mm)" if model.dim == 2 else "Z (mm, symmetry plane X = 0)"))
+            xlabel="r (mm)" if model.dim == 2 else
+            f"{'X' if model.info.get('symmetry_plane') == 'Z' else 'Z'} (mm, on the symmetry "
+            f"plane {model.info.get('symmetry_plane')} = 0)"))
     return files, summary
 
 

@@ -339,3 +339,19 @@ def test_axisymmetric_within_20_percent_of_3d_for_the_punch(build_preset, tmp_pa
     np.testing.assert_allclose(r2.depth, r3.depth, atol=1e-12)
     ratio = r2.force[1:] / r3.force[1:]
     assert np.all(np.abs(ratio - 1.0) <= 0.2), ratio
+
+
+@pytest.mark.parametrize("args, word", [
+    (["--depth-mm", "-1"], "--depth-mm"),
+    (["--depth-mm", "nan"], "--depth-mm"),
+    (["--depth-mm", "1", "--mesh-um", "0"], "--mesh-um"),
+    (["--depth-mm", "1", "--friction", "-0.1"], "--friction"),
+    (["--depth-mm", "6"], "depth = 6 mm"),
+    (["--depth-mm", "1", "--stress-at-mm", "2"], "--stress-at-mm"),
+])
+def test_cli_bad_input_exit_2(tmp_path, capsys, args, word):
+    from tipgeo.cli import main
+
+    assert main(["fem", "punch-plain", "--deck-only", "-o", str(tmp_path), *args]) == 2
+    assert word in capsys.readouterr().err
+    assert not list(tmp_path.iterdir())  # nothing written

@@ -65,10 +65,17 @@ def plot_stress_contour(xy: np.ndarray, tris: np.ndarray, s1: np.ndarray, path, 
     fig, ax = plt.subplots(figsize=(6.4, 5.6))
     kpa = s1 * 1e3
     lo, hi = float(np.min(kpa)), float(np.max(kpa))
-    norm = TwoSlopeNorm(vcenter=0.0, vmin=min(lo, -1e-9), vmax=max(hi, 1e-9))
-    cs = ax.tricontourf(Triangulation(xy[:, 0], xy[:, 1], tris), kpa, levels=24,
-                        cmap="RdBu_r", norm=norm)
-    fig.colorbar(cs, ax=ax, label="max principal stress (kPa)")
+    hi = max(hi, 1e-9)
+    # the compression under the edge dwarfs the tension that matters: the
+    # scale stops at −3× the largest tension (darker beyond)
+    lo_shown = min(max(lo, -3.0 * hi), -1e-9)
+    norm = TwoSlopeNorm(vcenter=0.0, vmin=lo_shown, vmax=hi)
+    levels = np.r_[np.linspace(lo_shown, 0.0, 13)[:-1], np.linspace(0.0, hi, 13)]
+    cs = ax.tricontourf(Triangulation(xy[:, 0], xy[:, 1], tris), np.clip(kpa, lo_shown, hi),
+                        levels=levels, cmap="RdBu_r", norm=norm)
+    fig.colorbar(cs, ax=ax, label=f"max principal stress (kPa; min {lo:.3g} shown as "
+                                  f"{lo_shown:.3g})" if lo < lo_shown else
+                 "max principal stress (kPa)")
     if needle is not None:
         p = np.vstack([needle, needle[:1]])
         ax.fill(p[:, 0], p[:, 1], color="0.6", zorder=3)

@@ -158,7 +158,7 @@ def axisymmetric_model(tip: Tip, *, depth: float, tissue: str = "pvc-sp0",
             else "imported", "tissue": mat.name, "material": mat.model,
             "material_source": mat.source, "edge_radius_um": round(r_e * 1e3, 6),
             "inner_diameter_mm": 2 * float(prof[:, 0].min()),
-            "needle_section": needle.tolist(), "contact": contact, "nu": nu, "friction": mu,
+            "_needle_section": needle.tolist(), "contact": contact, "nu": nu, "friction": mu,
             "friction_source": mu_src}
     return FemModel(kind="axisymmetric", name=info["tip"], nodes=nodes, blocks=blocks,
                     nsets=nsets, fixed={"BASE": (1, 2), "AXIS": (1,)},

@@ -98,7 +98,8 @@ class FemModel:
     output_depths : tuple of float — depths (mm) with stresses in the .frd
     contact : ``surface`` (CalculiX surface-to-surface penalty contact) |
         ``node`` (node-to-surface)
-    info : dict — element size, counts, sources (for reports)
+    info : dict — element size, counts, sources (for reports); keys starting
+        with ``_`` hold geometry for pictures
     """
 
     kind: str
@@ -118,6 +119,11 @@ class FemModel:
     contact: str = "surface"
     slave: str = "needle"
     info: dict[str, Any] = field(default_factory=dict)
+
+    def public_info(self) -> dict[str, Any]:
+        """``info`` without the geometry kept for pictures (keys starting
+        with ``_``)."""
+        return {k: v for k, v in self.info.items() if not k.startswith("_")}
 
     @property
     def dim(self) -> int:
@@ -169,7 +175,7 @@ class FemModel:
                  "frame: needle moves along -Y into the block (top face Y = 0); "
                  + ("X = radius (axisymmetric)" if self.dim == 2 else "Z completes a right-"
                     "handed frame")]
-        lines += [f"{k}: {v}" for k, v in self.info.items() if not isinstance(v, dict)]
+        lines += [f"{k}: {v}" for k, v in self.public_info().items()]
         return "".join(f"** {x}\n" for x in lines)
 
     def ccx_deck(self) -> str:

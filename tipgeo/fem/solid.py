@@ -295,7 +295,7 @@ def indentation_model(tip: Tip, *, depth: float, tissue: str = "pvc-sp0",
             "tip": tip.spec.name if tip.spec else "imported", "tissue": mat.name,
             "material": mat.model, "material_source": mat.source,
             "inner_diameter_mm": 2 * r_in, "contact": contact, "nu": nu, "friction": mu,
-            "friction_source": mu_src, "symmetry_tris": sym_tris,
+            "friction_source": mu_src, "_symmetry_tris": sym_tris,
             "symmetry_plane": None if sym_axis is None else "XYZ"[sym_axis]}
     return FemModel(kind="3d", name=info["tip"], nodes=allnodes, blocks=blocks, nsets=nsets,
                     fixed=fixed, surfaces={"TISSUE": top, "NEEDLE": master}, material=mat,

@@ -123,7 +123,7 @@ class FemResult:
     def to_dict(self) -> dict[str, Any]:
         m = self.model
         d = {"model": m.kind, "name": m.name, "depth_mm": m.depth,
-             "element_size_um": m.info.get("element_size_um"), "info": m.info,
+             "element_size_um": m.info.get("element_size_um"), "info": m.public_info(),
              "force_scale": m.force_scale, "files": [str(p) for p in self.files]}
         if self.run is not None:
             ana = analytical_force(m, self.depth)
@@ -187,13 +187,13 @@ def _stress_pictures(model: FemModel, frd, out: Path, stem: str) -> tuple[list[P
                       if len(near) and model.dim == 2 else math.nan}
         if model.dim == 2:
             tris = _tissue_tris(model)
-            needle = model.info.get("needle_section")
+            needle = model.info.get("_needle_section")
             ndl = None if needle is None else np.asarray(needle) + np.array([0.0, -d])
             r0 = float(edge.mean())
             win = (max(0.0, r0 - 0.8), r0 + 0.8, -d - 1.0, -d + 0.6)
             xy, vals = X[:, :2], np.nan_to_num(s1)
         else:
-            tri3, plane = model.info.get("symmetry_tris"), model.info.get("symmetry_plane")
+            tri3, plane = model.info.get("_symmetry_tris"), model.info.get("symmetry_plane")
             if not tri3:
                 continue
             tris = np.asarray(tri3) - 1

@@ -86,8 +86,8 @@ def analytical_force(model: FemModel, depth: np.ndarray, *, beta: float | None =
 
     d_i = float(model.info["inner_diameter_mm"]) if d_i is None else d_i
     H = float(model.info["block_mm"][-1])
-    return insertion_force(model.material.law, np.asarray(depth, dtype=float), d_i=d_i,
-                           l_init=H, beta=DEFAULT_BETA if beta is None else beta)
+    return 0.0 + insertion_force(model.material.law, np.asarray(depth, dtype=float), d_i=d_i,
+                                 l_init=H, beta=DEFAULT_BETA if beta is None else beta)
 
 
 @dataclass
@@ -222,7 +222,10 @@ def run_model(model: FemModel, out_dir: str | Path, *, stem: str | None = None,
 
     Files: ``STEM.inp`` (CalculiX), ``STEM_abaqus.inp`` (with ``abaqus``),
     ``STEM.dat``, ``STEM.frd``, ``STEM.log`` (ccx's), ``STEM_force.csv``,
-    ``STEM.json``, ``STEM_force.png``, ``STEM_s1_<d>mm.png``.
+    ``STEM.json``, ``STEM_force.png``, ``STEM_s1_<d>mm.png``. ccx runs in a
+    temporary folder inside ``out_dir`` (removed afterwards); when it fails,
+    the deck and ccx's own output (``.log``, ``.dat``, ``.frd``) are kept for
+    the diagnosis and the error names the log.
     """
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
@@ -246,6 +249,8 @@ def run_model(model: FemModel, out_dir: str | Path, *, stem: str | None = None,
                           progress=lambda st, n: say(
                               f"ccx: increment {n}, depth {st * model.depth:.4f} mm "
                               f"({time.monotonic() - t0:.0f} s)"))
+        except FemError as e:  # name the kept copy of ccx's output
+            raise FemError(str(e).replace("job.log", str(out / f"{stem}.log"))) from e
         finally:
             for ext in (".log", ".dat", ".frd"):
                 p = job.with_suffix(ext)

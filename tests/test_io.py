@@ -215,20 +215,21 @@ def test_inp_rigid_part(tip3, tmp_path, ref_point):
     assert "e+" not in text and "e-" not in text  # fixed-point numbers only
     blocks = _parse_inp(text)
     keys = [b[0] for b in blocks]
-    assert keys[0] == "heading" and keys[1] == "part" and keys[-1] == "end part"
-    assert blocks[1][1]["name"] == "THREE_PLANE"
+    assert keys[0] == "heading" and keys[-1] == "rigid body"
+    assert "part" not in keys and "end part" not in keys  # CalculiX has no *PART
+    assert "** part THREE_PLANE:" in text
     n, m = len(tip3.vertices), len(tip3.faces)
 
     nodes = [r for k, _, rows in blocks if k == "node" for r in rows]
-    assert len(nodes) == n + 1  # the mesh nodes and the reference node
+    assert len(nodes) == n + 2  # the mesh nodes, the reference and rotation nodes
     xyz = np.array([r[1:] for r in nodes[:n]], dtype=np.float64)
-    assert [int(r[0]) for r in nodes] == list(range(1, n + 2))
+    assert [int(r[0]) for r in nodes] == list(range(1, n + 3))
     assert np.abs(xyz - tip3.vertices).max() <= EXACT
     for r in nodes:  # every coordinate in fixed notation with 12 decimals
         assert all(re.fullmatch(r"-?\d+\.\d{12}", s) for s in r[1:])
 
     (elem,) = [b for b in blocks if b[0] == "element"]
-    assert elem[1]["type"] == "R3D3"
+    assert elem[1]["type"] == "S3"  # CalculiX has no R3D3
     conn = np.array(elem[2], dtype=np.int64)
     assert conn.shape == (m, 4)
     np.testing.assert_array_equal(conn[:, 0], np.arange(1, m + 1))
@@ -243,8 +244,11 @@ def test_inp_rigid_part(tip3, tmp_path, ref_point):
         assert elsets[es] == (np.flatnonzero(tip3.labels == label) + 1).tolist()
     assert max(len(r) for b in blocks if b[0] == "elset" for r in b[2]) <= 16
 
-    (nset,) = [b for b in blocks if b[0] == "nset"]
-    assert nset[1]["nset"] == "RefPt" and nset[2] == [[str(n + 1)]]
+    nsets = {b[1]["nset"]: b for b in blocks if b[0] == "nset"}
+    assert set(nsets) == {"TIP", "RefPt", "RotPt"}
+    assert nsets["RefPt"][2] == [[str(n + 1)]] and nsets["RotPt"][2] == [[str(n + 2)]]
+    assert nodes[n][1:] == nodes[n + 1][1:]
+    assert _elset_members(nsets["TIP"][1], nsets["TIP"][2]) == list(range(1, n + 1))
     ref = np.array(nodes[n][1:], dtype=np.float64)
     if ref_point == "top":
         expected = (0.0, 0.0, tip3.bounds[1, 2])
@@ -255,8 +259,11 @@ def test_inp_rigid_part(tip3, tmp_path, ref_point):
     tol = 2.0 if ref_point == "centroid" else EXACT
     assert np.abs(ref - expected).max() <= tol
     (rigid,) = [b for b in blocks if b[0] == "rigid body"]
-    assert rigid[1] == {"ref node": "RefPt", "elset": "ALL"}
-    assert "*Rigid Body, ref node=RefPt, elset=ALL" in text.splitlines()
+    assert rigid[1] == {"nset": "TIP", "ref node": str(n + 1), "rot node": str(n + 2)}
+    assert f"** Abaqus: replace the next line by *RIGID BODY, REF NODE={n + 1}, ELSET=ALL" \
+        in text.splitlines()
+    (sec,) = [b for b in blocks if b[0] == "shell section"]
+    assert sec[1] == {"elset": "ALL", "material": "TIPGEO_RIGID"}
 
 
 def test_inp_centroid_is_volume_centroid(tmp_path):
@@ -267,7 +274,7 @@ def test_inp_centroid_is_volume_centroid(tmp_path):
     t = Tip(box.vertices, box.faces, np.zeros(len(box.faces), int), ("outer",))
     assert t.is_watertight and t.volume == pytest.approx(8.0)
     text = export_tip(t, tmp_path / "box.inp").read_text()
-    ref_line = text.splitlines()[text.splitlines().index("*Nset, nset=RefPt") - 1]
+    ref_line = text.splitlines()[text.splitlines().index("*NSET, NSET=RefPt") - 2]
     assert ref_line == f"{len(t.vertices) + 1}, 0.000000000000, 0.000000000000, 2.000000000000"
 
 

@@ -7,7 +7,8 @@ Two families, which the command line maps to its exit codes:
   and ``gcode`` add :class:`cam.CamError` and :class:`gcode.GCodeError` as
   subclasses of :class:`TipGeoError` and ``ValueError``: exit code 2;
 - a failed operation — :class:`BuildError` (a boolean, a construction) and
-  its kind :class:`ExportError` (a file could not be written),
+  its kinds :class:`ExportError` (a file could not be written) and
+  :class:`FemError` (a finite-element run failed),
   :class:`UnsupportedCutter` (no face-wise exact surface): exit code 1.
 
 Every message names the parameter (or key, file, line), the offending value
@@ -15,7 +16,7 @@ and the allowed range or form.
 """
 
 __all__ = ["TipGeoError", "InputError", "SpecError", "ScanError", "BuildError", "ExportError",
-           "UnsupportedCutter"]
+           "UnsupportedCutter", "FemError"]
 
 
 class TipGeoError(Exception):
@@ -54,3 +55,9 @@ class ExportError(BuildError):
 class UnsupportedCutter(TipGeoError):
     """A cutter (serration, mesh, SDF) has no face-wise exact surface; the
     analysis falls back to the tip mesh."""
+
+
+class FemError(BuildError):
+    """A finite-element run failed: the solver is missing, reported an
+    ``*ERROR``, did not converge, ran out of time or left no result; the
+    message quotes the solver's own line."""

@@ -11,7 +11,8 @@ The test suite switches it on in ``conftest.py``.
 from dataclasses import dataclass, field
 
 __all__ = ["Tolerances", "InspectSettings", "GCodeTolerances", "CamTolerances",
-           "ScanEdgeSettings", "tol",
+__all__ = ["Tolerances", "InspectSettings", "GCodeTolerances", "CamTolerances",
+           "ScanEdgeSettings", "FemTolerances", "tol",
            "DEFAULT_CHORDAL_MM", "MIN_FEATURE_MM", "MIN_DIAMETER_MM", "MAX_CUTTERS",
            "MAX_TIP_HEIGHT_MM"]
 
@@ -378,6 +379,33 @@ class ScanEdgeSettings:
 
 
 @dataclass
+class FemTolerances:
+    """Tolerances of the finite-element models (:mod:`tipgeo.fem`), as
+    ``tol.fem``.
+
+    Attributes
+    ----------
+    profile : float
+        Two profile points closer than this are one; a section point this far
+        across the axis is still on its side (mm).
+    axisymmetry : float
+        Sections of a tip without a spec at four azimuths agreeing in area
+        and extent within this make it axisymmetric (mm, mm²).
+    step_end : float
+        A run reached the end of its step when its last converged increment
+        ends within this of step time 1 (dimensionless).
+    monotone : float
+        A force curve rises monotonically when no value falls below an
+        earlier one by more than this fraction of the peak (dimensionless).
+    """
+
+    profile: float = 1.0e-9
+    axisymmetry: float = 1.0e-3
+    step_end: float = 1.0e-6
+    monotone: float = 1.0e-3
+
+
+@dataclass
 class Tolerances:
     """Tolerances and checks used across tipgeo (lengths in mm).
 
@@ -410,6 +438,8 @@ class Tolerances:
         Tolerances of :mod:`gcode` (``tol.gcode.arc`` …).
     cam : CamTolerances
         Tolerances of :mod:`cam` (``tol.cam.travel`` …).
+    fem : FemTolerances
+        Tolerances of :mod:`tipgeo.fem` (``tol.fem.step_end`` …).
     tiny : float
         Floor of norms, spans, areas and volumes against division by zero
         (any unit; far below every physical value).
@@ -513,6 +543,7 @@ class Tolerances:
     gcode: GCodeTolerances = field(default_factory=GCodeTolerances)
     cam: CamTolerances = field(default_factory=CamTolerances)
     scan_edges: ScanEdgeSettings = field(default_factory=ScanEdgeSettings)
+    fem: FemTolerances = field(default_factory=FemTolerances)
     tiny: float = 1.0e-300
     parallel: float = 1.0e-9
     unit: float = 1.0e-9

@@ -1,5 +1,5 @@
 """The ``tipgeo`` command line: thin wrappers around library calls, one module
-per stage (:mod:`.design`, :mod:`.analyse`, :mod:`.make`, :mod:`.mechanics`,
+per stage (:mod:`.design`, :mod:`.analyse`, :mod:`.make`, :mod:`.mechanics`, :mod:`.fem`,
 :mod:`.optimize`, :mod:`.inspect`, :mod:`.demo`), each registering its
 commands; errors map to exit codes here, in one place.
 
@@ -19,7 +19,7 @@ from .common import check_files, declare_files
 __all__ = ["main", "build_parser", "declare_files", "check_files", "STAGES"]
 
 #: The stages whose commands ``tipgeo`` offers, in the order of ``--help``.
-STAGES = ("design", "analyse", "make", "mechanics", "optimize", "inspect", "demo")
+STAGES = ("design", "analyse", "make", "mechanics", "fem", "optimize", "inspect", "demo")
 
 
 def build_parser() -> argparse.ArgumentParser:

@@ -10,8 +10,9 @@ rim pictures. For the needles the grinder makes: the axis program, its G-code
 and set-up sheet (``*.grind.json``, ``*.grind.nc``, ``*.setup.md``), each
 simulated and compared with the CAD tip. The helical needle milled on the
 Haas VF-2 (``helical-14G.mill.nc``, ``.mill.md``, ``-milled.stl`` and the
-deviation map ``-milled-deviation.png``). Later features add their own outputs
-here. Lengths in mm, angles
+deviation map ``-milled-deviation.png``). With CalculiX installed, the 2D
+axisymmetric insertion of the Fig. 4.7 punch, 1 mm into S/P = 0 tissue
+(``fem/``). Later features add their own outputs here. Lengths in mm, angles
 in degrees.
 """
 
@@ -77,10 +78,13 @@ def run_demo(out, *, tolerance: float | None = None, log=None, pictures: bool = 
     optimize_files = optimize.demo_outputs(
         out, log=None if log is None else (lambda msg: print(msg, file=log, flush=True)))
     inspect_row = inspect_outputs(out, pictures, log)
+    from .fem import fem_outputs
+
+    fem_row = fem_outputs(out, names, log)
     summary = {"out": str(out), "tolerance_um": None if tolerance is None else tolerance * 1e3,
                "tips": rows, "angles": angle_files, "laser": laser_files,
                "grinding": grind_rows, "milling": mill_rows, "mechanics": mechanics_files,
-               "optimize": optimize_files, "inspect": inspect_row}
+               "optimize": optimize_files, "inspect": inspect_row, "fem": fem_row}
     write_text_atomic(out / "summary.json", _dumps(summary) + "\n")
     buf = io.StringIO()
     w = csv.DictWriter(buf, fieldnames=list(rows[0]))

@@ -1,0 +1,119 @@
+"""``tipgeo fem``: finite-element insertion with CalculiX (:mod:`tipgeo.fem`).
+
+Boundary units: depths in mm, element sizes in µm, forces in N. Plain output
+on stdout (``--json`` for machines), progress on stderr. Without ccx the run
+fails with how to install it; ``--deck-only`` still writes the decks.
+"""
+
+from __future__ import annotations
+
+import sys
+
+from ..jsonio import dumps as _dumps
+from .common import declare_files, spec_arg
+
+__all__ = ["register", "cmd_fem"]
+
+
+def _um(name: str, x):
+    from .. import validate as v
+
+    return None if x is None else v.real(name, x, lo=1.0, hi=1000.0, unit="µm") * 1e-3
+
+
+def cmd_fem(args) -> int:
+    """Build, write and run the finite-element model of one tip."""
+    from .. import validate as v
+    from ..fem.study import convergence_study, run_fem
+
+    spec = spec_arg(args.spec)
+    depth = v.real("--depth-mm", args.depth_mm, lo=0.0, lo_open=True, unit="mm")
+    friction = None if args.friction is None else v.real("--friction", args.friction, lo=0.0,
+                                                          hi=2.0)
+    limit = v.real("--time-limit-s", args.time_limit_s, lo=1.0, unit="s")
+
+    def say(s: str) -> None:
+        if not args.quiet:
+            print(s, file=sys.stderr, flush=True)
+
+    if args.convergence:
+        meshes = tuple(_um("--convergence", x) for x in args.convergence)
+        out = convergence_study(spec, model=args.model, depth=depth, meshes=meshes,
+                                out_dir=args.output, tissue=args.tissue, friction=friction,
+                                time_limit_s=limit, progress=say)
+        if args.json:
+            print(_dumps(out))
+            return 0
+        print("element_um  elements  peak_force_N  change_%  cpu_s")
+        for r in out["rows"]:
+            ch = "" if r["change_percent"] is None else f"{r['change_percent']:+.2f}"
+            print(f"{r['element_size_um']:>10g}  {r['elements']:>8}  {r['peak_force_N']:12.6f}"
+                  f"  {ch:>8}  {r['cpu_s']:.1f}")
+        return 0
+    outs = tuple(v.real("--stress-at-mm", d, lo=0.0, hi=depth, lo_open=True, unit="mm")
+                 for d in args.stress_at_mm) if args.stress_at_mm else None
+    res = run_fem(spec, model=args.model, depth=depth, out_dir=args.output,
+                  tissue=args.tissue, friction=friction, mesh=_um("--mesh-um", args.mesh_um),
+                  deck_only=args.deck_only, abaqus=args.abaqus, time_limit_s=limit,
+                  output_depths=outs, progress=say)
+    d = res.to_dict()
+    if args.json:
+        print(_dumps(d))
+        return 0
+    m = res.model
+    print(f"{m.name} ({m.kind}): {m.n_elements} elements, {len(m.nodes)} nodes, "
+          f"{m.info['element_size_um']:g} µm at the edge; tissue {m.material.name} "
+          f"({m.material.model}, ν {m.material.nu:g}), friction {m.friction:.4g}")
+    if res.run is not None:
+        print(f"ccx: {res.run.increments} increments ({res.run.cutbacks} cut back), "
+              f"{res.run.cpu_s:.1f} s CPU, {res.run.wall_s:.1f} s wall; force rises "
+              f"monotonically: {'yes' if res.monotonic else 'NO'}")
+        print("depth_mm  force_N     analytical_N")
+        for row in d["curve"]:
+            print(f"{row['depth_mm']:8.4f}  {row['force_N']:10.6f}  {row['analytical_N']:10.6f}")
+        for k, s in res.stress.items():
+            print(f"at {k:g} mm: max principal stress {s['max_principal_MPa'] * 1e3:.4g} kPa, "
+                  f"near the edge {s['max_principal_near_edge_MPa'] * 1e3:.4g} kPa")
+    for p in res.files:
+        print(f"wrote {p}")
+    return 0
+
+
+def register(sub) -> None:
+    """Add ``fem`` to the ``tipgeo`` sub-command parsers."""
+    from ..fem.study import MODEL_KINDS
+    from ..mechanics import tissue_names
+
+    f = sub.add_parser(
+        "fem", help="finite-element insertion with CalculiX (thesis §4.4, Appendix B)",
+        description="Generate the CalculiX deck (and the Abaqus deck) of a tip pushed into a "
+                    "hyperelastic tissue block, run ccx, check it, and write the force curve "
+                    "(CSV, JSON, PNG) and max principal stress contours. Depths in mm, element "
+                    "sizes in µm. Needs ccx (apt-get install calculix-ccx) unless --deck-only.")
+    f.add_argument("spec", metavar="SPEC", help="spec file (.toml) or preset name")
+    f.add_argument("--model", choices=MODEL_KINDS, default="axisymmetric",
+                   help="axisymmetric (2D, any axisymmetric tip) or 3d (indentation of any "
+                        "tip, reduced by symmetry)")
+    f.add_argument("--depth-mm", type=float, required=True, metavar="D",
+                   help="needle travel into the tissue (mm)")
+    f.add_argument("--tissue", default="pvc-sp0", choices=tissue_names(), metavar="NAME",
+                   help="tissue from the library (default pvc-sp0, Table 4.1)")
+    f.add_argument("--friction", type=float, default=None, metavar="MU",
+                   help="Coulomb coefficient (default: the tissue's regression at k = 0, "
+                        "Table 4.2: 0.328)")
+    f.add_argument("--mesh-um", type=float, default=None, metavar="UM",
+                   help="element size at the contact zone (µm; default 25 in 2D, 100 in 3D)")
+    f.add_argument("--stress-at-mm", type=float, nargs="+", default=None, metavar="D",
+                   help="depths (mm) for the stress contours (default: 1 mm and the end)")
+    f.add_argument("--convergence", type=float, nargs=3, default=None,
+                   metavar=("UM1", "UM2", "UM3"),
+                   help="mesh-convergence study: three element sizes (µm), coarse to fine")
+    f.add_argument("--deck-only", action="store_true", help="write the decks, do not run ccx")
+    f.add_argument("--abaqus", action="store_true", help="also write the Abaqus deck")
+    f.add_argument("--time-limit-s", type=float, default=1800.0, metavar="S",
+                   help="kill ccx after this wall time (default 1800 s)")
+    f.add_argument("-o", "--output", required=True, metavar="DIR", help="output folder")
+    f.add_argument("--quiet", action="store_true", help="no progress on stderr")
+    f.add_argument("--json", action="store_true", help="the result as JSON on stdout")
+    f.set_defaults(func=cmd_fem)
+    declare_files(f, inputs=("spec",))

@@ -1,0 +1,170 @@
+"""The 2D axisymmetric insertion model (thesis §4.4.1.2, Appendix B2) of any
+axisymmetric tip.
+
+Frame and units: model frame of :mod:`tipgeo.fem.model` — X = radius,
+needle along −Y, block top at Y = 0; mm. The needle's section comes from the
+tip (:func:`~tipgeo.fem.profile.wall_profile`), mapped by X = r,
+Y = z_max − z and kept from its most advanced point back to ``depth`` +
+``needle_margin`` behind it. The block is the thesis's r = 7 mm × 7 mm with
+its base fixed and its axis held radially; the other faces are free.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from .. import validate as v
+from ..errors import SpecError
+from ..tip import Tip
+from ..tolerances import tol
+from .material import DEFAULT_NU, fem_material, friction_coefficient
+from .mesh import mesh_2d
+from .model import ElementBlock, FemModel, boundary_faces
+from .profile import clip_profile, round_corners, wall_profile
+
+__all__ = ["axisymmetric_model", "BLOCK_2D", "AXISYMMETRIC_FORCE_SCALE"]
+
+#: Block radius and height of the thesis's 2D model (§4.4.1.2), mm.
+BLOCK_2D = (7.0, 7.0)
+
+#: CalculiX expands axisymmetric elements to 2° wedges: whole ring = 180 ×.
+AXISYMMETRIC_FORCE_SCALE = 180.0
+
+#: Edge radius r_tip of the thesis's biopsy punch (Fig. 4.7), mm.
+EDGE_RADIUS = 0.015
+
+#: Largest default needle advance per increment, mm.
+MAX_STEP = 0.05
+
+#: Limits on the model size, checked before meshing (elements).
+MAX_ELEMENTS = 400_000
+
+
+def _estimate_elements(h: float, band: float, grade: float, h_far: float,
+                       depth: float, R: float, H: float) -> float:
+    near = band * (depth + band) / h ** 2
+    mid = 2 * grade * (depth + grade) / ((h + h_far) / 2) ** 2
+    return near + mid + R * H / h_far ** 2
+
+
+def axisymmetric_model(tip: Tip, *, depth: float, tissue: str = "pvc-sp0",
+                       material_model: str = "arruda-boyce", nu: float = DEFAULT_NU,
+                       friction: float | None = None, mesh: float = 0.02,
+                       block: tuple[float, float] = BLOCK_2D,
+                       output_depths: tuple[float, ...] = (),
+                       max_increment: float | None = None,
+                       penalty_factor: float = 50.0, edge_radius: float = EDGE_RADIUS,
+                       contact: str = "node", nose_refine: float = 1.0) -> FemModel:
+    """The axisymmetric insertion model of ``tip`` pushed ``depth`` into a
+    tissue block.
+
+    Parameters
+    ----------
+    tip : Tip — an axisymmetric tip (conical cutters or none)
+    depth : float — needle travel, mm (0 < depth ≤ 0.8 × block height)
+    tissue : str — a tissue of :func:`tipgeo.mechanics.tissue_names`
+    material_model : ``arruda-boyce`` | ``ogden`` | ``neo-hookean``
+    nu : float — Poisson ratio (thesis 2D: 0.475)
+    friction : float, optional — Coulomb coefficient; default the tissue's
+        regression at k = 0 (Table 4.2 for S/P = 0: μ_da(0) = 0.328)
+    mesh : float — element size h in the contact zone, mm
+    block : (R, H) — block radius and height, mm
+    output_depths : depths (mm) at which stresses are written
+    max_increment : float, optional — largest needle advance per increment,
+        mm (default depth / 20, at most :data:`MAX_STEP`)
+    penalty_factor : float — contact stiffness = this × E₀ / h (MPa/mm)
+    edge_radius : float — the sharp corners of the section's front are
+        rounded to this radius, mm (default 15 µm, the r_tip of Fig. 4.7;
+        0 keeps them sharp, which ccx's contact handles badly)
+    contact : ``node`` (node-to-surface, the needle's nodes slave to the
+        tissue's faces, so that the narrow front cannot slip between tissue
+        nodes) | ``surface`` (surface-to-surface)
+    nose_refine : float — the tissue just under the needle's front (within
+        2h of it, 3h deep: what wraps around the edge) gets h / this
+
+    Returns
+    -------
+    FemModel with ``force_scale`` 180 (the 2° wedge to the whole ring)
+    """
+    R, H = (v.length("block radius", block[0]), v.length("block height", block[1]))
+    depth = v.real("depth", depth, lo=0.0, hi=0.8 * H, lo_open=True, unit="mm")
+    h = v.real("mesh", mesh, lo=0.001, hi=0.5, unit="mm")
+    prof = wall_profile(tip)
+    r_max = float(prof[:, 0].max())
+    if r_max >= 0.5 * R:
+        raise SpecError(f"the needle's outer radius {r_max:.6g} mm does not fit the block "
+                        f"radius {R:g} mm; allowed up to half of it")
+    z_max = float(prof[:, 1].max())
+    margin = max(1.0, 0.5 * depth)
+    sec = clip_profile(prof, z_max - depth - margin)
+    needle = np.column_stack([sec[:, 0], z_max - sec[:, 1]])[::-1]
+    r_e = v.real("edge_radius", edge_radius, lo=0.0, hi=0.2, unit="mm")
+    if r_e > 0:
+        front_ids = np.flatnonzero(needle[:, 1] <= tol.fem.profile + r_e)
+        needle = round_corners(needle, front_ids, r_e)
+        needle[:, 1] -= needle[:, 1].min()
+    # the edge: the section's points within h of the most advanced height
+    front = needle[needle[:, 1] <= min(h, 0.1 * depth)]
+    r_lo, r_hi = float(front[:, 0].min()), float(front[:, 0].max())
+    r_out = float(needle[:, 0].max())
+    pad = max(4 * h, 0.1)
+    box = (max(0.0, r_lo - pad), min(R, r_out + pad), -min(H, depth + pad), 0.0 + h)
+    band = box[1] - box[0]
+    grade = min(2.0, 0.5 * R)
+    h_far = min(0.5, max(10 * h, 0.25))
+    n_est = _estimate_elements(h, band, grade, h_far, depth, R, H)
+    if n_est > MAX_ELEMENTS:
+        raise SpecError(f"mesh = {h * 1e3:g} µm at depth {depth:g} mm needs about "
+                        f"{n_est:.0f} elements; allowed up to {MAX_ELEMENTS} "
+                        "(a coarser --mesh-um or a shallower --depth-mm)")
+    # the tissue that wraps the needle's front: finer still (h / nose_refine)
+    h_nose = h / nose_refine
+    nose = (r_lo - 2 * h, r_hi + 2 * h, -3 * h, h_nose)
+    nodes, parts = mesh_2d(needle, block=(R, H), boxes=[(box, h), (nose, h_nose)],
+                           h_far=h_far, grade=grade)
+    blocks, eid = [], 1
+    for part in ("tissue", "needle"):
+        for et, conn in sorted(parts[part].items()):
+            blocks.append(ElementBlock(et, part, np.arange(eid, eid + len(conn)), conn))
+            eid += len(conn)
+    eps = 1e-9 * R
+    tb = [b for b in blocks if b.part == "tissue"]
+    nb = [b for b in blocks if b.part == "needle"]
+    top = [(e, f) for e, f, ns in boundary_faces(tb)
+           if np.all(np.abs(nodes[np.asarray(ns) - 1, 1]) <= eps)]
+    y_cut = float(needle[:, 1].max())
+    master = [(e, f) for e, f, ns in boundary_faces(nb)
+              if np.any(nodes[np.asarray(ns) - 1, 1] < y_cut - eps)]
+    tissue_nodes = np.unique(np.concatenate([b.conn.ravel() for b in tb]))
+    tn = nodes[tissue_nodes - 1]
+    nsets = {"BASE": tissue_nodes[np.abs(tn[:, 1] + H) <= eps],
+             "AXIS": tissue_nodes[np.abs(tn[:, 0]) <= eps],
+             "NEEDLE": np.unique(np.concatenate([b.conn.ravel() for b in nb]))}
+    mat = fem_material(tissue, material_model, nu)
+    if friction is None:
+        mu, mu_src = friction_coefficient(tissue, 0.0)
+    else:
+        mu, mu_src = v.real("friction", friction, lo=0.0, hi=2.0), "given"
+    dmax = min(depth / 20, MAX_STEP) if max_increment is None else v.real(
+        "max_increment", max_increment, lo=0.0, hi=depth, lo_open=True, unit="mm")
+    out = tuple(v.real("output depth", d, lo=0.0, hi=depth, lo_open=True, unit="mm")
+                for d in output_depths)
+    info = {"element_size_um": round(h * 1e3, 6), "element_size_far_um": round(h_far * 1e3, 6),
+            "element_size_front_um": round(h_nose * 1e3, 6),
+            "fine_zone_mm": [round(x, 6) for x in box], "nodes": len(nodes),
+            "tissue_elements": int(sum(len(b.ids) for b in tb)),
+            "needle_elements": int(sum(len(b.ids) for b in nb)),
+            "block_mm": [R, H], "edge_r_mm": [r_lo, r_hi], "tip": tip.spec.name if tip.spec
+            else "imported", "tissue": mat.name, "material": mat.model,
+            "material_source": mat.source, "edge_radius_um": round(r_e * 1e3, 6),
+            "inner_diameter_mm": 2 * float(prof[:, 0].min()),
+            "_needle_section": needle.tolist(), "contact": contact, "nu": nu, "friction": mu,
+            "friction_source": mu_src}
+    return FemModel(kind="axisymmetric", name=info["tip"], nodes=nodes, blocks=blocks,
+                    nsets=nsets, fixed={"BASE": (1, 2), "AXIS": (1,)},
+                    surfaces={"TISSUE": top, "NEEDLE": master}, material=mat, friction=mu,
+                    depth=depth, penalty=penalty_factor * mat.E0 / h,
+                    force_scale=AXISYMMETRIC_FORCE_SCALE,
+                    increments=(min(dmax, depth / 50) / depth, 1e-6, dmax / depth),
+                    output_depths=out, contact=contact, slave="needle", info=info)
+

@@ -1,0 +1,327 @@
+"""Whole finite-element studies: build the model of a tip, write its decks,
+run ccx, read and check the force curve and stresses, write CSV/JSON/PNG;
+the mesh-convergence study; the comparison with the analytical insertion
+force of :mod:`tipgeo.mechanics.insertion` (eq. 4.18–4.22).
+
+Units at this level: depths in mm, forces in N (the whole needle, positive
+when it pushes), stresses in MPa inside and kPa in pictures, element sizes in
+mm inside and µm in file names and reports. Frame: the model frame of
+:mod:`tipgeo.fem.model`.
+"""
+
+from __future__ import annotations
+
+import csv
+import io
+import math
+import tempfile
+import time
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from .. import validate as v
+from ..atomic import write_bytes_atomic, write_text_atomic
+from ..errors import FemError, SpecError
+from ..jsonio import dumps
+from ..tolerances import tol
+from .model import FemModel
+from .results import max_principal, read_dat_totals, read_frd
+from .run import CcxRun, run_ccx
+
+__all__ = ["MODEL_KINDS", "FemResult", "build_model", "run_model", "run_fem",
+           "convergence_study", "analytical_force", "is_monotonic"]
+
+#: Model kinds of :func:`build_model`.
+MODEL_KINDS = ("axisymmetric", "3d")
+
+
+def build_model(tip, kind: str, *, depth: float, tissue: str = "pvc-sp0",
+                mesh: float | None = None, friction: float | None = None,
+                material_model: str = "arruda-boyce", nu: float | None = None,
+                output_depths: tuple[float, ...] = (), **kw) -> FemModel:
+    """The ``axisymmetric`` or ``3d`` model of ``tip`` (a Tip or a spec)."""
+    from ..build import build_tip
+    from ..tip import Tip
+
+    if kind not in MODEL_KINDS:
+        raise SpecError(f"model = {kind!r} is not valid; expected one of: "
+                        + ", ".join(MODEL_KINDS))
+    if not isinstance(tip, Tip):
+        tip = build_tip(tip)
+    if kind == "axisymmetric":
+        from .axisym import axisymmetric_model
+
+        return axisymmetric_model(tip, depth=depth, tissue=tissue, material_model=material_model,
+                                  nu=0.475 if nu is None else nu, friction=friction,
+                                  mesh=0.025 if mesh is None else mesh,
+                                  output_depths=output_depths, **kw)
+    from .solid import indentation_model
+
+    return indentation_model(tip, depth=depth, tissue=tissue, material_model=material_model,
+                             nu=0.475 if nu is None else nu, friction=friction,
+                             mesh=0.1 if mesh is None else mesh, output_depths=output_depths,
+                             **kw)
+
+
+def is_monotonic(force: np.ndarray) -> bool:
+    """Whether ``force`` never falls below an earlier value by more than
+    ``tol.fem.monotone`` of its peak."""
+    f = np.asarray(force, dtype=float)
+    if len(f) < 2:
+        return True
+    slack = tol.fem.monotone * max(float(np.max(np.abs(f))), tol.tiny)
+    return bool(np.all(f >= np.maximum.accumulate(f) - slack))
+
+
+def analytical_force(model: FemModel, depth: np.ndarray, *, beta: float | None = None,
+                     d_i: float | None = None) -> np.ndarray:
+    """The analytical axial force (eq. 4.18–4.22, N) for the model's tissue
+    law at ``depth`` (mm): column of radius β d_i / 2, initial length the
+    block height."""
+    from ..mechanics.insertion import DEFAULT_BETA, insertion_force
+
+    d_i = float(model.info["inner_diameter_mm"]) if d_i is None else d_i
+    H = float(model.info["block_mm"][-1])
+    return 0.0 + insertion_force(model.material.law, np.asarray(depth, dtype=float), d_i=d_i,
+                                 l_init=H, beta=DEFAULT_BETA if beta is None else beta)
+
+
+@dataclass
+class FemResult:
+    """A checked run: the force curve and where everything went.
+
+    Attributes
+    ----------
+    model : FemModel
+    depth : (k,) float — needle depth, mm (starts at 0)
+    force : (k,) float — whole-needle axial force, N (push positive)
+    run : CcxRun or None (decks only)
+    files : list of Path written
+    stress : dict depth (mm) → (max principal at the peak node (MPa), its
+        position (2 or 3,) mm deformed, the edge's tensile peak (MPa))
+    """
+
+    model: FemModel
+    depth: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    force: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    run: CcxRun | None = None
+    files: list[Path] = field(default_factory=list)
+    stress: dict[float, dict[str, Any]] = field(default_factory=dict)
+
+    @property
+    def monotonic(self) -> bool:
+        return is_monotonic(self.force)
+
+    @property
+    def peak_force(self) -> float:
+        return float(np.max(self.force)) if len(self.force) else math.nan
+
+    def to_dict(self) -> dict[str, Any]:
+        m = self.model
+        d = {"model": m.kind, "name": m.name, "depth_mm": m.depth,
+             "element_size_um": m.info.get("element_size_um"), "info": m.public_info(),
+             "force_scale": m.force_scale, "files": [str(p) for p in self.files]}
+        if self.run is not None:
+            ana = analytical_force(m, self.depth)
+            d.update({"wall_s": round(self.run.wall_s, 3), "cpu_s": round(self.run.cpu_s, 3),
+                      "increments": self.run.increments, "cutbacks": self.run.cutbacks,
+                      "warnings": self.run.warnings[:20], "monotonic": self.monotonic,
+                      "peak_force_N": self.peak_force,
+                      "curve": [{"depth_mm": float(a), "force_N": float(b),
+                                 "analytical_N": float(c)}
+                                for a, b, c in zip(self.depth, self.force, ana)],
+                      "stress": {f"{k:g}": s for k, s in self.stress.items()}})
+        return d
+
+
+def _curve_csv(depth, force, ana) -> str:
+    s = io.StringIO()
+    w = csv.writer(s, lineterminator="\n")
+    w.writerow(["depth_mm", "force_N", "analytical_force_N"])
+    for a, b, c in zip(depth, force, ana):
+        w.writerow([f"{a:.6f}", f"{b:.9g}", f"{c:.9g}"])
+    return s.getvalue()
+
+
+def _tissue_tris(model: FemModel) -> np.ndarray:
+    tris = []
+    for b in model.blocks:
+        if b.part != "tissue":
+            continue
+        if b.etype == "CAX3":
+            tris.append(b.conn)
+        elif b.etype == "CAX4":
+            tris += [b.conn[:, [0, 1, 2]], b.conn[:, [0, 2, 3]]]
+    return np.vstack(tris) - 1
+
+
+def _stress_pictures(model: FemModel, frd, out: Path, stem: str) -> tuple[list[Path], dict]:
+    """Max principal stress contours (2D: the r–Y plane; 3D: the symmetry
+    plane X = 0) at each output depth, and the stress summary."""
+    files, summary = [], {}
+    pos = np.full(int(frd.node_ids.max()) + 1, -1)
+    pos[frd.node_ids] = np.arange(len(frd.node_ids))
+    from .plots import plot_stress_contour
+
+    tissue = model.part_nodes("tissue")
+    for d in model.output_depths:
+        t = d / model.depth
+        nid, u = frd.field_at("DISP", t)
+        sid, s = frd.field_at("STRESS", t)
+        X = model.nodes.copy()
+        X[nid - 1] += u[:, :model.dim]
+        s1 = np.full(len(model.nodes), np.nan)
+        s1[sid - 1] = max_principal(s[:, :6])
+        ts = s1[tissue - 1]
+        k = int(np.nanargmax(ts))
+        edge = np.asarray(model.info["edge_r_mm"], dtype=float)
+        near = tissue[np.linalg.norm(X[tissue - 1][:, [0, 1]] - np.array(
+            [edge.mean(), -d]), axis=1) <= 4 * float(model.info["element_size_um"]) * 1e-3 + 0.05]
+        summary[d] = {"max_principal_MPa": float(ts[k]),
+                      "at_mm": [float(x) for x in X[tissue[k] - 1]],
+                      "max_principal_near_edge_MPa": float(np.nanmax(s1[near - 1]))
+                      if len(near) and model.dim == 2 else math.nan}
+        if model.dim == 2:
+            tris = _tissue_tris(model)
+            needle = model.info.get("_needle_section")
+            ndl = None if needle is None else np.asarray(needle) + np.array([0.0, -d])
+            r0 = float(edge.mean())
+            win = (max(0.0, r0 - 0.8), r0 + 0.8, -d - 1.0, -d + 0.6)
+            xy, vals = X[:, :2], np.nan_to_num(s1)
+        else:
+            tri3, plane = model.info.get("_symmetry_tris"), model.info.get("symmetry_plane")
+            if not tri3:
+                continue
+            tris = np.asarray(tri3) - 1
+            xy = X[:, [0, 1]] if plane == "Z" else X[:, [2, 1]]
+            vals = np.nan_to_num(s1)
+            ndl = None
+            r0 = float(edge.mean())
+            win = (-r0 - 0.8, r0 + 0.8, -d - 1.0, -d + 0.6)
+        files.append(plot_stress_contour(
+            xy, tris, vals, out / f"{stem}_s1_{d:g}mm.png", needle=ndl, window=win,
+            title=f"{model.name}: max principal stress at depth {d:g} mm "
+                  f"({model.info['element_size_um']:g} µm elements)",
+            xlabel="r (mm)" if model.dim == 2 else
+            f"{'X' if model.info.get('symmetry_plane') == 'Z' else 'Z'} (mm, on the symmetry "
+            f"plane {model.info.get('symmetry_plane')} = 0)"))
+    return files, summary
+
+
+def run_model(model: FemModel, out_dir: str | Path, *, stem: str | None = None,
+              deck_only: bool = False, abaqus: bool = False, time_limit_s: float = 600.0,
+              threads: int = 1, progress: Callable[[str], None] | None = None,
+              pictures: bool = True) -> FemResult:
+    """Write ``model``'s decks to ``out_dir`` and (unless ``deck_only``) run
+    ccx, check it, and write the curve (CSV, JSON, PNG) and the stress
+    contours at ``model.output_depths``.
+
+    Files: ``STEM.inp`` (CalculiX), ``STEM_abaqus.inp`` (with ``abaqus``),
+    ``STEM.dat``, ``STEM.frd``, ``STEM.log`` (ccx's), ``STEM_force.csv``,
+    ``STEM.json``, ``STEM_force.png``, ``STEM_s1_<d>mm.png``. ccx runs in a
+    temporary folder inside ``out_dir`` (removed afterwards); when it fails,
+    the deck and ccx's own output (``.log``, ``.dat``, ``.frd``) are kept for
+    the diagnosis and the error names the log.
+    """
+    out = Path(out_dir)
+    out.mkdir(parents=True, exist_ok=True)
+    stem = stem or f"{model.name}_{model.kind}"
+    res = FemResult(model)
+    deck = model.ccx_deck()
+    res.files.append(write_text_atomic(out / f"{stem}.inp", deck))
+    if abaqus:
+        res.files.append(write_text_atomic(out / f"{stem}_abaqus.inp", model.abaqus_deck()))
+    if deck_only:
+        return res
+    say = progress or (lambda s: None)
+    with tempfile.TemporaryDirectory(prefix=".tipgeo-ccx-", dir=out) as tmp:
+        job = Path(tmp) / "job.inp"
+        job.write_text(deck)
+        t0 = time.monotonic()
+        say(f"ccx: {model.n_elements} elements, {len(model.nodes)} nodes, "
+            f"{model.info.get('element_size_um')} µm at the edge")
+        try:
+            run = run_ccx(job, time_limit_s=time_limit_s, threads=threads,
+                          progress=lambda st, n: say(
+                              f"ccx: increment {n}, depth {st * model.depth:.4f} mm "
+                              f"({time.monotonic() - t0:.0f} s)"))
+        except FemError as e:  # name the kept copy of ccx's output
+            raise FemError(str(e).replace("job.log", str(out / f"{stem}.log"))) from e
+        finally:
+            for ext in (".log", ".dat", ".frd"):
+                p = job.with_suffix(ext)
+                if p.is_file():
+                    res.files.append(write_bytes_atomic(out / f"{stem}{ext}", p.read_bytes()))
+        t, f = read_dat_totals(job.with_suffix(".dat"))
+        frd = read_frd(job.with_suffix(".frd")) if model.output_depths else None
+    res.run = run
+    if len(t) == 0:
+        raise FemError(f"{stem}.dat has no reaction-force totals of set NEEDLE")
+    res.depth = np.r_[0.0, t * model.depth]
+    res.force = np.r_[0.0, -f[:, 1] * model.force_scale]
+    if frd is not None:
+        pngs, res.stress = _stress_pictures(model, frd, out, stem) if pictures else ([], {})
+        res.files += pngs
+    ana = analytical_force(model, res.depth)
+    res.files.append(write_text_atomic(out / f"{stem}_force.csv",
+                                       _curve_csv(res.depth, res.force, ana)))
+    if pictures:
+        from .plots import plot_force_curves
+
+        res.files.append(plot_force_curves(
+            [(f"FEM {model.kind}, {model.info['element_size_um']:g} µm", res.depth, res.force,
+              "-o"), ("analytical eq. 4.22 (β = 2.5)", res.depth, ana, "--")],
+            out / f"{stem}_force.png",
+            title=f"{model.name} into {model.material.name} ({model.material.model}), "
+                  f"μ = {model.friction:.3g}"))
+    res.files.append(out / f"{stem}.json")
+    write_text_atomic(out / f"{stem}.json", dumps(res.to_dict()))
+    return res
+
+
+def run_fem(spec, *, model: str = "axisymmetric", depth: float, out_dir: str | Path,
+            tissue: str = "pvc-sp0", friction: float | None = None, mesh: float | None = None,
+            deck_only: bool = False, abaqus: bool = False, time_limit_s: float = 600.0,
+            output_depths: tuple[float, ...] | None = None,
+            progress: Callable[[str], None] | None = None, **kw) -> FemResult:
+    """Build, write and (unless ``deck_only``) run the ``model`` of tip
+    ``spec`` pushed ``depth`` mm into ``tissue`` (see :func:`run_model`).
+    Stresses are written at ``output_depths`` (default: the final depth and,
+    when deeper than 1 mm, 1 mm)."""
+    depth = v.real("depth", depth, lo=0.0, lo_open=True, unit="mm")
+    if output_depths is None:
+        output_depths = tuple(sorted({depth, *([1.0] if depth > 1.0 else [])}))
+    m = build_model(spec, model, depth=depth, tissue=tissue, mesh=mesh, friction=friction,
+                    output_depths=output_depths, **kw)
+    return run_model(m, out_dir, deck_only=deck_only, abaqus=abaqus, time_limit_s=time_limit_s,
+                     progress=progress)
+
+
+def convergence_study(spec, *, model: str = "axisymmetric", depth: float,
+                      meshes: tuple[float, float, float], out_dir: str | Path,
+                      tissue: str = "pvc-sp0", friction: float | None = None,
+                      time_limit_s: float = 1800.0,
+                      progress: Callable[[str], None] | None = None, **kw) -> dict[str, Any]:
+    """Run the same insertion at three element sizes (mm, coarse to fine) and
+    report the peak force of each and its change from the previous size."""
+    if len(meshes) != 3:
+        raise SpecError(f"meshes = {meshes}: expected three element sizes")
+    rows, prev = [], None
+    for h in meshes:
+        sub = Path(out_dir) / f"mesh_{h * 1e3:g}um"
+        r = run_fem(spec, model=model, depth=depth, out_dir=sub, tissue=tissue,
+                    friction=friction, mesh=h, time_limit_s=time_limit_s, progress=progress,
+                    output_depths=(depth,), **kw)
+        peak = r.peak_force
+        rows.append({"element_size_um": h * 1e3, "elements": r.model.n_elements,
+                     "peak_force_N": peak, "cpu_s": round(r.run.cpu_s, 2),
+                     "wall_s": round(r.run.wall_s, 2),
+                     "change_percent": None if prev is None else 100.0 * (peak - prev) / prev})
+        prev = peak
+    out = {"model": model, "depth_mm": depth, "tissue": tissue, "rows": rows}
+    write_text_atomic(Path(out_dir) / "convergence.json", dumps(out))
+    return out

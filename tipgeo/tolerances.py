@@ -11,7 +11,6 @@ The test suite switches it on in ``conftest.py``.
 from dataclasses import dataclass, field
 
 __all__ = ["Tolerances", "InspectSettings", "GCodeTolerances", "CamTolerances",
-__all__ = ["Tolerances", "InspectSettings", "GCodeTolerances", "CamTolerances",
            "ScanEdgeSettings", "FemTolerances", "tol",
            "DEFAULT_CHORDAL_MM", "MIN_FEATURE_MM", "MIN_DIAMETER_MM", "MAX_CUTTERS",
            "MAX_TIP_HEIGHT_MM"]

@@ -366,6 +366,15 @@ class Tolerances:
     gp_xatol, gp_fatol : float
         Nelder–Mead convergence of the GP hyperparameters (log space; and
         objective value).
+    helical_max_steep_deg : float
+        Steepest a helicoid may meet the needle wall, measured between its
+        normal and the needle axis (degrees): steeper, the helicoid is about
+        to fold over inside the tube and its mesh grows without bound, so the
+        spec is refused at validation.
+    helical_max_grid : int
+        Most (angular × radial) grid points a helicoid's mesh may take; a spec
+        that would need more at the default tolerance is refused at
+        validation (it bounds the build to about a second).
     """
 
     chordal: float = DEFAULT_CHORDAL_MM
@@ -411,6 +420,8 @@ class Tolerances:
     fourier_floor: float = 1.0e-12
     gp_xatol: float = 1.0e-4
     gp_fatol: float = 1.0e-8
+    helical_max_steep_deg: float = 88.0
+    helical_max_grid: int = 250_000
 
 
 #: The process-wide tolerance object. Tests set ``tol.strict = True``.

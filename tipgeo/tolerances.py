@@ -421,7 +421,7 @@ class Tolerances:
     gp_xatol: float = 1.0e-4
     gp_fatol: float = 1.0e-8
     helical_max_steep_deg: float = 88.0
-    helical_max_grid: int = 250_000
+    helical_max_grid: int = 150_000
 
 
 #: The process-wide tolerance object. Tests set ``tol.strict = True``.

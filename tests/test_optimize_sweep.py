@@ -45,8 +45,8 @@ max = 11.0
 [[variables]]
 name = "phi_deg"
 path = "cutters[0].phi_deg"
-min = 10.0
-max = 17.0
+min = 12.0
+max = 15.0
 [design]
 levels = 3
 [sweep]
@@ -64,7 +64,7 @@ def test_grid_design_is_the_full_factorial_last_variable_fastest():
     cfg = cfg3()
     X = make_design(cfg.variables, "grid", levels=3)
     assert X.shape == (9, 2)
-    assert X[:3].tolist() == [[9.0, 10.0], [9.0, 13.5], [9.0, 17.0]]
+    assert X[:3].tolist() == [[9.0, 12.0], [9.0, 13.5], [9.0, 15.0]]
     assert sorted(set(X[:, 0])) == [9.0, 10.0, 11.0]
 
 
@@ -274,8 +274,14 @@ def test_responses_of_the_thesis_needle_match_the_angle_analysis():
     assert set(got) == set(RESPONSES) - {k for k in RESPONSES if k.endswith("_N")}
     for k in THESIS:
         assert got[k] == pytest.approx(want[k], abs=1e-12), k
-    # the thesis pinned γ_h* for the bevel's l_c (18.058 mm, README)
-    assert got["l_c_mm"] == pytest.approx(18.058, abs=1e-3)
+    # the preset is calibrated to Table 3.1: l_c of the thesis's CAD edge
+    from tipgeo.calibrate import table_3_1_edge
+
+    g = np.linspace(0, 2 * math.pi, 100001)
+    r = tipgeo.Cannula.from_gauge(14).r_o
+    p = np.stack([r * np.cos(g), r * np.sin(g), table_3_1_edge(g)], 1)
+    assert got["l_c_mm"] == pytest.approx(np.linalg.norm(np.diff(p, axis=0), axis=1).sum(),
+                                          rel=2e-3)
     # the table's spec column rebuilds that tip
     d = json.loads(res.columns()["spec"][centre[0]])
     assert d["cutters"][0]["helix_angle_deg"] == 10.0 and d["cutters"][0]["phi_deg"] == 13.5
@@ -291,7 +297,7 @@ def test_force_means_are_recorded_when_asked():
 responses = ["l_c_mm", "mean_F_perp_N", "mean_F_axial_N", "max_F_perp_N"]
 forces = { speed_ratio = 0.3, tissue = "soft-tissue-3.1.5" }
 """)
-    res = run_sweep(cfg, X=np.array([[10.0, 13.5], [9.0, 17.0]]), cache=False, progress=False)
+    res = run_sweep(cfg, X=np.array([[10.0, 13.5], [9.0, 15.0]]), cache=False, progress=False)
     assert res.ok.all()
     want = mech.tip_forces(tipgeo.preset("helical-14G"), 0.3,
                            tissue_name="soft-tissue-3.1.5").forces.summary()
@@ -305,12 +311,14 @@ forces = { speed_ratio = 0.3, tissue = "soft-tissue-3.1.5" }
 
 def test_invalid_configurations_are_recorded_not_raised(tmp_path):
     cfg = loads_config(HELICAL_3X3.replace("min = 9.0", "min = 5.0")
-                       .replace("max = 17.0", "max = 20.0"))
+                       .replace("max = 15.0", "max = 20.0"))
     res = run_sweep(cfg, progress=False, cache=False)
     st_ = res.status.tolist()
     assert st_.count("invalid") >= 1 and st_.count("ok") >= 1
     bad = [r for r in res.results if r["status"] == "invalid"]
-    assert all("helix_position" in r["error"] and "allowed more than" in r["error"]
+    # φ = 20° leans the calibrated needle so far towards the helix axis that
+    # the helicoid folds over inside the tube: refused with that reason
+    assert all("folds over inside the tube" in r["error"] or "too steep or curved" in r["error"]
                for r in bad)
     Y = res.responses()
     assert np.all(np.isnan(Y[~res.ok])) and np.all(np.isfinite(Y[res.ok]))
@@ -318,7 +326,7 @@ def test_invalid_configurations_are_recorded_not_raised(tmp_path):
     assert s["invalid"] == st_.count("invalid") and len(s["failures"]) == len(bad) + \
         st_.count("failed")
     text = write_table(res, tmp_path / "t.csv").read_text()
-    assert "invalid" in text and "allowed more than" in text
+    assert "invalid" in text and "folds over inside the tube" in text
 
 
 def test_a_crashing_analysis_is_a_failed_row_and_never_cached(tmp_path, monkeypatch):
@@ -500,8 +508,15 @@ def test_sample_study_config_matches_the_built_in():
                                               "cutters[0].phi_deg"]
     assert cfg.responses == THESIS and len(cfg.objectives) == 3
     X = make_design(cfg.variables, "grid", levels=cfg.design["levels"])
-    assert len(X) == 25 and [10.0, 13.5] in X.tolist()  # the thesis needle is the centre
-    for x in X:  # every configuration of the study is a valid tip
-        cfg.spec(x)
-    assert math.isclose(cfg.spec([10.0, 13.5]).cutters[0].helix_position,
-                        math.radians(172.14), rel_tol=1e-12)
+    assert len(X) == 25 and X.min(0).tolist() == [5.0, 5.0] and X.max(0).tolist() == [25.0, 20.0]
+    # every configuration is a valid tip or refused at validation with the
+    # geometric reason (the needle leaning too far towards the helix axis)
+    refused = 0
+    for x in X:
+        try:
+            cfg.spec(x)
+        except SpecError as e:
+            refused += 1
+            assert x[1] > 15.0
+            assert "folds over inside the tube" in str(e) or "too steep or curved" in str(e)
+    assert 0 < refused < 25

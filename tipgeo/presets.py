@@ -75,7 +75,7 @@ PRESETS: dict[str, callable] = {
     "helical-14G": lambda: TipSpec(
         cannula=_14G, cutters=[thesis_helical()], name="helical-14G",
         description="thesis helical needle: p_h = 100 mm, ψ = 10°, φ = 13.5° (§3.1.1); "
-                    "helix position pinned for equal l_c with the 14.5° bevel"),
+                    "ruling and placement calibrated against Table 3.1 (tipgeo calibrate)"),
     "punch-plain": lambda: TipSpec(
         cannula=_PUNCH, cutters=[_PUNCH_CONE], name="punch-plain",
         description="biopsy punch d_e 2.4 / d_i 2.0 mm, θ = 13°, bevel length 0.6 mm "

@@ -528,6 +528,15 @@ class Tolerances:
     step_occ : float
         Tolerance of the faces OCCT makes for the exact STEP export (mm):
         OCCT's own ``Precision::Confusion``.
+    helical_max_steep_deg : float
+        Steepest a helicoid may meet the needle wall, measured between its
+        normal and the needle axis (degrees): steeper, the helicoid is about
+        to fold over inside the tube and its mesh grows without bound, so the
+        spec is refused at validation.
+    helical_max_grid : int
+        Most (angular × radial) grid points a helicoid's mesh may take; a spec
+        that would need more at the default tolerance is refused at
+        validation (it bounds the build to about a second).
     """
 
     chordal: float = DEFAULT_CHORDAL_MM
@@ -578,6 +587,8 @@ class Tolerances:
     step_fit_share: float = 0.5
     step_fit_max_grid: int = 385
     step_occ: float = 1.0e-7
+    helical_max_steep_deg: float = 88.0
+    helical_max_grid: int = 150_000
 
 
 #: The process-wide tolerance object. Tests set ``tol.strict = True``.

@@ -10,7 +10,7 @@ from pathlib import Path
 from ..jsonio import dumps as _dumps
 from .common import declare_files, spec_arg
 
-__all__ = ["register", "cmd_angles"]
+__all__ = ["register", "cmd_angles", "cmd_calibrate"]
 
 
 def _angle_source(arg: str, args):
@@ -86,6 +86,67 @@ def cmd_angles(args) -> int:
     return 0
 
 
+def cmd_calibrate(args) -> int:
+    from ..calibrate import (
+        CALIBRATION_TARGETS_UM,
+        READINGS,
+        calibrate_thesis_helical,
+        thesis_calibration_report,
+    )
+
+    if args.stored:
+        rep = thesis_calibration_report()
+    else:
+        readings = READINGS
+        if args.reading:
+            known = {r.name: r for r in READINGS}
+            bad = [n for n in args.reading if n not in known]
+            if bad:
+                from ..errors import SpecError
+
+                raise SpecError(f"--reading = {bad[0]!r} is not valid; expected one of: "
+                                + ", ".join(known))
+            readings = [known[n] for n in args.reading]
+
+        def progress(i, n, f):
+            print(f"[{i}/{n}] {f.reading.name}: outer RMS {f.outer.rms_um:.2f} µm",
+                  file=sys.stderr, flush=True)
+
+        fits = calibrate_thesis_helical(readings, progress=None if args.json else progress)
+        rep = thesis_calibration_report(fits)
+    if args.json:
+        print(_dumps(rep))
+        return 0
+    t = CALIBRATION_TARGETS_UM
+    print(f"Table 3.1 outer-edge targets: RMS ≤ {t['outer_rms']:g} µm, max ≤ "
+          f"{t['outer_max']:g} µm; inner aim RMS ≤ {t['inner_rms']:g} µm")
+    print(f"{'reading':<42} {'D mm':>7} {'ω deg':>8} {'β deg':>7}  {'outer RMS/max µm':>17}  "
+          f"{'inner RMS/max µm':>17}")
+    for f in rep["readings"]:
+        o, i = f["outer"], f["inner"] or {}
+        line = (f"{f['reading']:<42} {f['axis_offset_mm']:7.4f} {f['tilt_direction_deg']:8.3f} "
+                f"{f['ruling_angle_deg']:7.3f}  {o['rms_um']:8.2f}/{o['max_um']:<8.2f}  ")
+        line += (f"{i['rms_um']:8.2f}/{i['max_um']:<8.2f}" if i else "   refused")
+        print(line)
+    s = rep["stored"]
+    print(f"stored preset helical-14G ({s['reading']}): outer RMS {s['outer']['rms_um']:.2f} µm, "
+          f"max {s['outer']['max_um']:.2f} µm (Δγ {s['outer']['shift_gamma_deg']:.3f}°, Δz "
+          f"{s['outer']['shift_z_mm'] * 1e3:.2f} µm); inner RMS {s['inner']['rms_um']:.2f} µm, "
+          f"max {s['inner']['max_um']:.2f} µm with b4 = {s['inner']['b4_mm']:.5f} mm")
+    if "selected" in rep:
+        print(f"selected reading: {rep['selected']} ({rep['selected_free_quantities']} fitted "
+              "quantities; the fewest within 5 % of the best residual)")
+        if "second" in rep:
+            print(f"runner-up (a different reading): {rep['second']}, outer RMS "
+                  f"{rep['ratio_second_to_best']:.3g}× the selected one's")
+        for what in ("ruling", "tilt", "tip"):
+            by = rep[f"best_rms_um_by_{what}"]
+            print(f"best outer RMS by {what}: " + ", ".join(f"{k} {v:.2f} µm"
+                                                            for k, v in by.items()))
+    print("targets met" if s["meets_targets"] else "targets NOT met")
+    return 0 if s["meets_targets"] else 1
+
+
 def register(sub) -> None:
     """Add this stage's commands to the ``tipgeo`` sub-command parsers."""
     a = sub.add_parser("angles", help="cutting edges and angles (λ, θ, α, l_c) of tips")
@@ -106,3 +167,14 @@ def register(sub) -> None:
                    help="a mesh file's needle axis: a point and the direction to the tip")
     a.set_defaults(func=cmd_angles)
     declare_files(a, inputs=("spec",), outputs=("csv",), pictures=("plot",))
+
+    c = sub.add_parser("calibrate", help="fit the thesis's helical needle to Table 3.1 and "
+                       "print the residuals (µm) of every reading")
+    c.add_argument("--reading", action="append", metavar="NAME",
+                   help="fit only this reading (repeatable; e.g. "
+                        "reverse-cone-normal/toward-axis/tip+z)")
+    c.add_argument("--stored", action="store_true",
+                   help="only measure the stored helical-14G preset (no fit)")
+    c.add_argument("--json", action="store_true", help="the report as JSON")
+    c.set_defaults(func=cmd_calibrate)
+    declare_files(c)

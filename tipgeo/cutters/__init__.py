@@ -11,7 +11,7 @@ from . import planar, conical, helical, serration, custom  # noqa: F401
 from .base import CUTTER_KINDS, Cutter, check_name, cutter_kind, register_cutter
 from .conical import ConicalCutter
 from .custom import MeshCutter, SDFCutter
-from .helical import HelicalCutter, thesis_helical
+from .helical import HelicalCutter, old_thesis_helical, thesis_helical
 from .planar import (
     BevelCutter,
     LancetCutter,
@@ -31,4 +31,5 @@ __all__ = ["Cutter", "CUTTER_KINDS", "register_cutter", "cutter_kind", "check_na
            "PlanarCutter", "PlaneSetCutter", "BevelCutter", "MultiPlaneCutter", "LancetCutter",
            "Plane", "ConicalCutter", "HelicalCutter", "SerrationCutter", "SerrationProfile",
            "MeshCutter", "SDFCutter", "SERRATION_PRESETS", "multiplane_xi_for_theta",
-           "thesis_helical"]
+           "thesis_helical",
+           "old_thesis_helical"]

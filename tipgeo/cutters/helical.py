@@ -3,45 +3,79 @@ r"""Conical-helicoid cutter: the helical needle tip of thesis §3.1.1.
 Frames and units (mm, rad)
 --------------------------
 Helix frame H (eq. 3.1–3.3): apex of the conical helix at the origin, z_h
-along its axis. The conical helix of pitch p_h and helix angle ψ is
+along its axis. The conical helix of pitch p_h and helix (cone) angle ψ is
 
-    h(γ_h) = (c γ_h tan ψ cos γ_h,  c γ_h tan ψ sin γ_h,  −c γ_h),  c = p_h / 2π,
+    h(u) = (c u tan ψ cos u,  c u tan ψ sin u,  −c u),   c = p_h / 2π,  u ≥ 0,
 
-(eq. 3.1–3.3 with z_h = −c γ_h, so its radius is r_h = |z_h| tan ψ, eq. 3.4).
-The cutting surface is the conical helicoid through it: the rulings from the
-axis through every helix point, perpendicular to the axis,
+so its radius is r_h = |z_h| tan ψ (eq. 3.4) and it lies on the cone that
+opens towards −z_h.
 
-    Σ = {(ρ cos u, ρ sin u, −c u) : ρ ≥ 0},    f(P) = P_z + c·u(P) = 0,
+The cutting surface is the conical helicoid through that helix: straight
+rulings, one through every helix point h(u), lying in the meridian plane of
+h(u) and meeting the helix axis. A ruling rises outwards at the *ruling
+angle* β from the plane perpendicular to the axis::
 
-kept material f ≤ 0 (below the sheet; u is the polar angle unwrapped
-continuously around the needle).
+         z_h                                ruling through h(u)
+          ^        β = ψ: normal to the cone ("cone-normal")
+          |      _/                         β = 0: perpendicular to the axis
+          |   _/  β                           ("perpendicular", the old tipgeo
+          +-/----------------- ρ               construction)
+          | \ ψ                             β = −ψ: "reverse-cone-normal" (normal
+          |  \ cone (generator at ψ         to the cone opening towards +z_h)
+          |   * h(u)   from the axis)       any other β: "angle"
 
-Needle frame N (eq. 3.5–3.8): the needle axis passes through the helix point
-P* = h(γ_h*) and is tilted by φ from the helix axis about the radial line
-e_r(γ_h*) that joins them (the rotation R_n of eq. 3.8)::
+so the surface is  z = s ρ − c′ u,  s = tan β,  c′ = c (1 + s tan ψ)
+(the ruling through h(u) meets the axis at z = −c′ u), i.e.
 
-        z_h                     x_N = e_r(γ_h*)
-         ^     z_N              y_N = cos φ e_t + sin φ e_z
-         |    /                 z_N = cos φ e_z − sin φ e_t
-         |φ  /                  origin at P* = h(γ_h*)
-         |  /                   e_t = (−sin γ_h*, cos γ_h*, 0)
-         | /
-         +--------- e_r ---> P*   (distance d = c γ_h* tan ψ from the axis)
+    f_H(P) = P_z − s ρ(P) + c′ u(P) = 0,
+
+u the polar angle unwrapped continuously around the needle. The surface is
+invariant under the screw motion (rotation t about z_h, shift −c′ t), so
+where along the helix the needle sits (its *phase*) never changes the tip's
+shape: only how far from the axis and how it leans.
+
+Needle frame N (eq. 3.5–3.8) and placement: the needle axis crosses the
+helicoid at P*, at distance D (``axis_offset``) from the helix axis in the
+direction γ_h* (``helix_position``: the phase along the helix); it is tilted
+by φ from the helix axis, leaning towards the horizontal direction
+ℓ = cos ω e_r + sin ω e_t (``tilt_direction`` ω measured from the outward
+radial e_r(γ_h*) towards e_t(γ_h*)); the tilt pivots about P*. The needle's
+tip points along +z_h (``tip = "+z"``) or −z_h (``tip = "-z"``)::
+
+        z_h        z_N = a = σ cos φ e_z + sin φ ℓ     (σ = ±1: tip)
+         ^   a     x_N = e_z × ℓ      (horizontal, ⟂ to the lean)
+         |φ /      y_N = a × x_N
+         | /       origin P* = (D e_r(γ_h*), s D − c′ γ_h*)
+         |/
+         +-------- e_r(γ_h*) ---> P*    (D from the helix axis)
+
+ω = −90° is a sideways lean (about the radial line, the old construction),
+ω = 180° a lean towards the helix axis (in its meridian plane).
 
 Cannula frame C: N rotated about z_N and shifted along it so that the lowest
 point of the outer edge (the heel) lies at γ = 0, z = 0; then turned by
-``rotation`` about +z like every other cutter.
+``rotation`` about +z like every other cutter. The kept material lies behind
+the tip (f = σ f_H ≤ 0).
 
-How the placement is pinned
----------------------------
-Eq. 3.1–3.9 leave the needle's position along the helix open (Fig. 3.2 is
-lost). We make it a parameter, ``helix_position`` = γ_h* (where the needle
-axis meets the conical helix). For the thesis example (p_h = 100 mm, ψ = 10°,
-φ = 13.5°, 14G) we pin γ_h* by the thesis's own design criterion (§3.1.1:
-the helical parameters were chosen for the same cutting-edge length l_c as
-the ξ = 14.5° bevel): γ_h* = 172.14°, i.e. d = 8.43 mm. With that one number
-fixed, the outer edge's highest point falls, unforced, at γ ≈ 156° — the
-thesis reports 157° (ERRATA.md). See :func:`thesis_helical`.
+The old construction (tipgeo ≤ issue 13) is the case ``axis_offset`` not
+given: P* on the helix itself, D = c γ_h* tan ψ, perpendicular rulings,
+ω = −90°, tip +z. Old spec files (without the new keys) load as that.
+
+The thesis example
+------------------
+:func:`thesis_helical` is the example of §3.1 (p_h = 100 mm, ψ = 10°,
+φ = 13.5°, 14G) with the unstated ruling and placement calibrated against the
+thesis's own CAD edge (Table 3.1, :mod:`tipgeo.calibrate`).
+
+Validation and resolution
+-------------------------
+:meth:`HelicalCutter.check` refuses a placement where the helicoid folds over
+(or nearly so) inside the tube: where the helix axis runs through the wall
+region, or where the helicoid meets the wall steeper than
+``tol.helical_max_steep_deg`` from the needle's cross-section, or where its
+mesh at the default tolerance would need more than ``tol.helical_max_grid``
+points. The mesh grid is chosen adaptively for the chordal tolerance and
+capped at that count, so every accepted spec builds in about a second.
 """
 
 from __future__ import annotations
@@ -54,15 +88,24 @@ import numpy as np
 from .. import validate as v
 from ..cannula import Cannula
 from ..errors import BuildError, SpecError
-from ..tolerances import tol
+from ..tolerances import DEFAULT_CHORDAL_MM, tol
 from .base import Cutter, check_name
 from .surfaces import HeightSurface, ImplicitSurface
 from .toml import round_for_toml as _r
 
-__all__ = ["HelicalCutter", "THESIS_HELIX_POSITION_DEG"]
+__all__ = ["HelicalCutter", "RULINGS", "TIPS", "THESIS_HELIX_POSITION_DEG", "THESIS_AXIS_OFFSET_MM",
+           "thesis_helical", "old_thesis_helical"]
 
-#: γ_h* pinned for the thesis example so that l_c equals the ξ = 14.5° bevel's.
+#: γ_h* of the old construction of the thesis example (equal l_c with the
+#: ξ = 14.5° bevel); kept for old spec files.
 THESIS_HELIX_POSITION_DEG = 172.14
+
+#: ruling readings: how the rulings' angle β to the plane ⟂ the helix axis is set.
+RULINGS = ("perpendicular", "cone-normal", "reverse-cone-normal", "angle")
+#: which way the needle's tip points along the helix axis.
+TIPS = ("+z", "-z")
+
+_DEFAULT_TILT = -0.5 * math.pi
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -79,7 +122,25 @@ class HelicalCutter(Cutter):
         Tilt φ of the needle axis from the helix axis (rad), 0 ≤ φ < π/2
         (the thesis's "rotation" of the cylinder, eq. 3.8).
     helix_position : float
-        γ_h* (rad) > 0: the needle axis meets the conical helix at h(γ_h*).
+        γ_h* (rad): direction of P* about the helix axis (the phase along the
+        helix). With ``axis_offset`` None it also places P* on the helix
+        (old construction) and must be > 0.
+    axis_offset : float or None
+        D (mm): distance of P* from the helix axis, > 0; None for the old
+        construction (D = c γ_h* tan ψ).
+    tilt_direction : float
+        ω (rad): azimuth of the needle's lean from e_r(γ_h*) towards
+        e_t(γ_h*); −π/2 (sideways) in the old construction.
+    ruling : str
+        ``"perpendicular"`` (β = 0), ``"cone-normal"`` (β = ψ, follows ψ),
+        ``"reverse-cone-normal"`` (β = −ψ, follows ψ: normal to the cone of
+        half-angle ψ that opens towards +z_h) or ``"angle"`` (β =
+        ``ruling_angle``).
+    ruling_angle : float
+        β (rad) for ``ruling = "angle"``, −π/2 < β < π/2 with
+        1 + tan β tan ψ > 0.
+    tip : str
+        ``"+z"`` or ``"-z"``: the tip points along +z_h or −z_h.
     rotation : float
         Rotation of the finished cutter about +z (rad).
     name : str
@@ -89,27 +150,61 @@ class HelicalCutter(Cutter):
     pitch: float
     helix_angle: float
     phi: float
-    helix_position: float
+    helix_position: float = 0.0
+    axis_offset: float | None = None
+    tilt_direction: float = _DEFAULT_TILT
+    ruling: str = "perpendicular"
+    ruling_angle: float = 0.0
+    tip: str = "+z"
     rotation: float = 0.0
     name: str = "helix"
     kind = "helical"
     process = "mill"
     toml_keys = {"pitch_mm": "p_h", "helix_angle_deg": "ψ, (0, 90)", "phi_deg": "tilt φ, [0, 90)",
-                 "helix_position_deg": "γ_h* > 0", "rotation_deg": ""}
+                 "helix_position_deg": "γ_h*: phase along the helix (> 0 without axis_offset_mm)",
+                 "axis_offset_mm": "D > 0 (absent: on the helix, old construction)",
+                 "tilt_direction_deg": "ω, lean direction from the radial (default −90)",
+                 "ruling": "perpendicular, cone-normal, reverse-cone-normal or angle",
+                 "ruling_angle_deg": "β for ruling = angle, (−90, 90)",
+                 "tip": "+z or -z (along the helix axis)", "rotation_deg": ""}
     _frame: tuple = field(init=False, repr=False, compare=False, hash=False, default=())
 
     @classmethod
     def from_dict(cls, t):
-        for key in ("pitch_mm", "helix_angle_deg", "phi_deg", "helix_position_deg"):
+        for key in ("pitch_mm", "helix_angle_deg", "phi_deg"):
             t.need(key)
+        offset = t.mm("axis_offset_mm")
+        if offset is None:
+            t.need("helix_position_deg")
+        ruling = t.str("ruling", "perpendicular")
+        if ruling == "angle":
+            t.need("ruling_angle_deg")
+        elif "ruling_angle_deg" in t:
+            raise SpecError(f"{t.key('ruling_angle_deg')} is given but ruling = {ruling!r}; "
+                            "it is allowed only with ruling = 'angle'")
         return cls(pitch=t.mm("pitch_mm"), helix_angle=t.deg("helix_angle_deg"),
-                   phi=t.deg("phi_deg"), helix_position=t.deg("helix_position_deg"),
+                   phi=t.deg("phi_deg"), helix_position=t.deg("helix_position_deg", default=0.0),
+                   axis_offset=offset,
+                   tilt_direction=t.deg("tilt_direction_deg",
+                                        default=math.degrees(_DEFAULT_TILT)),
+                   ruling=ruling, ruling_angle=t.deg("ruling_angle_deg", default=0.0),
+                   tip=t.str("tip", "+z"),
                    rotation=t.deg("rotation_deg", default=0.0), name=t.str("name", "helix"))
 
     def to_dict(self):
         d = {"pitch_mm": self.pitch, "helix_angle_deg": _r(math.degrees(self.helix_angle)),
              "phi_deg": _r(math.degrees(self.phi)),
              "helix_position_deg": _r(math.degrees(self.helix_position))}
+        if self.axis_offset is not None:
+            d["axis_offset_mm"] = _r(self.axis_offset)
+        if self.tilt_direction != _DEFAULT_TILT:
+            d["tilt_direction_deg"] = _r(math.degrees(self.tilt_direction))
+        if self.ruling != "perpendicular":
+            d["ruling"] = self.ruling
+        if self.ruling == "angle":
+            d["ruling_angle_deg"] = _r(math.degrees(self.ruling_angle))
+        if self.tip != "+z":
+            d["tip"] = self.tip
         if self.rotation:
             d["rotation_deg"] = _r(math.degrees(self.rotation))
         return d
@@ -131,63 +226,198 @@ class HelicalCutter(Cutter):
         v.angle("helix_angle", self.helix_angle, lo=0.0, hi=0.5 * math.pi, lo_open=True,
                 hi_open=True)
         v.angle("phi", self.phi, lo=0.0, hi=0.5 * math.pi, hi_open=True)
-        v.angle("helix_position", self.helix_position, lo=0.0, lo_open=True, hi=200 * math.pi)
+        if self.axis_offset is None:
+            v.angle("helix_position", self.helix_position, lo=0.0, lo_open=True,
+                    hi=200 * math.pi)
+        else:
+            v.angle("helix_position", self.helix_position, lo=-200 * math.pi, hi=200 * math.pi)
+            v.feature_length("axis_offset", self.axis_offset, hi=1e4)
+            object.__setattr__(self, "axis_offset", float(self.axis_offset))
+        v.angle("tilt_direction", self.tilt_direction, lo=-2 * math.pi, hi=2 * math.pi)
+        for what, value, allowed in (("ruling", self.ruling, RULINGS), ("tip", self.tip, TIPS)):
+            if value not in allowed:
+                raise SpecError(f"{what} = {v.brief(value)} is not valid; expected one of: "
+                                + ", ".join(allowed))
+        v.angle("ruling_angle", self.ruling_angle, lo=-0.5 * math.pi, hi=0.5 * math.pi,
+                lo_open=True, hi_open=True)
         v.angle("rotation", self.rotation)
         check_name(self.name)
-        for f in ("pitch", "helix_angle", "phi", "helix_position", "rotation"):
+        for f in ("pitch", "helix_angle", "phi", "helix_position", "tilt_direction",
+                  "ruling_angle", "rotation"):
             object.__setattr__(self, f, float(getattr(self, f)))
         c = self.pitch / (2 * math.pi)
+        beta = self.ruling_beta
+        s = math.tan(beta)
+        cp = c * (1.0 + s * math.tan(self.helix_angle))
+        if not cp > 0.01 * c:
+            raise SpecError(f"ruling_angle = {math.degrees(beta):.6g}° with helix_angle = "
+                            f"{math.degrees(self.helix_angle):.6g}°: the rulings run parallel to "
+                            "the cone and never meet the axis; allowed 1 + tan β tan ψ > 0.01")
         g = self.helix_position
-        d = c * g * math.tan(self.helix_angle)
+        d = c * g * math.tan(self.helix_angle) if self.axis_offset is None else self.axis_offset
         er = np.array([math.cos(g), math.sin(g), 0.0])
         et = np.array([-math.sin(g), math.cos(g), 0.0])
         ez = np.array([0.0, 0.0, 1.0])
-        cp, sp = math.cos(self.phi), math.sin(self.phi)
-        basis = np.stack([er, cp * et + sp * ez, cp * ez - sp * et], 1)  # columns x_N, y_N, z_N
-        origin = np.array([d * math.cos(g), d * math.sin(g), -c * g])
-        object.__setattr__(self, "_frame", (c, d, basis, origin))
+        w = self.tilt_direction
+        lean = math.cos(w) * er + math.sin(w) * et
+        sigma = 1.0 if self.tip == "+z" else -1.0
+        a = sigma * math.cos(self.phi) * ez + math.sin(self.phi) * lean
+        xn = math.cos(w) * et - math.sin(w) * er
+        yn = np.cross(a, xn)
+        basis = np.stack([xn, yn, a], 1)  # columns x_N, y_N, z_N
+        origin = np.array([d * math.cos(g), d * math.sin(g), s * d - cp * g])
+        object.__setattr__(self, "_frame", (s, cp, d, basis, origin, sigma))
+
+    # -- derived quantities ----------------------------------------------------
+    @property
+    def ruling_beta(self) -> float:
+        """Ruling angle β (rad) from the plane ⟂ the helix axis, as the
+        ``ruling`` reading sets it (cone-normal follows ψ)."""
+        return {"perpendicular": 0.0, "cone-normal": self.helix_angle,
+                "reverse-cone-normal": -self.helix_angle, "angle": self.ruling_angle}[self.ruling]
+
+    @property
+    def axis_offset_mm(self) -> float:
+        """D (mm): distance of P* (where the needle axis crosses the helicoid)
+        from the helix axis, also for the old construction."""
+        return self._frame[2]
+
+    @property
+    def axial_pitch(self) -> float:
+        """2π c′ (mm): the helicoid's advance per turn along its axis."""
+        return 2 * math.pi * self._frame[1]
+
+    def needle_edge(self, gamma: np.ndarray, radius: float) -> np.ndarray:
+        """Edge height (mm) in the needle frame N, before the heel placement.
+
+        Parameters
+        ----------
+        gamma : (n,) float — rad, about z_N from x_N
+        radius : float — mm, the wall's radius
+
+        Returns
+        -------
+        (n,) float — z_N (mm) where the helicoid crosses the cylinder; NaN where
+        it does not converge (a folded placement). The calibration fits this.
+        """
+        g = np.asarray(gamma, float)
+        z = self._solve_z_needle(radius * np.cos(g).ravel(), radius * np.sin(g).ravel(),
+                                 strict=False)
+        return z.reshape(g.shape)
 
     # -- geometry in the needle frame -------------------------------------------
-    @property
-    def axis_offset(self) -> float:
-        """Distance d (mm) between the helix axis and the needle axis at P*."""
-        return self._frame[1]
-
-    def check(self, cannula: Cannula) -> None:
-        c, d, _, _ = self._frame
-        need = cannula.r_o + c * math.tan(self.phi)
-        if not d > need:
-            raise SpecError(
-                f"helix_position = {math.degrees(self.helix_position):.6g}° puts the helix axis "
-                f"{d:.4g} mm from the needle axis; allowed more than r_o + c·tan(phi) = "
-                f"{need:.4g} mm (closer, the helicoid folds over inside the tube)")
-
     def _f_needle(self, pn: np.ndarray):
         """f and ∇f (needle-frame coordinates) at needle-frame points."""
-        c, _, basis, origin = self._frame
-        P = origin + pn @ basis.T
-        rho2 = P[:, 0] ** 2 + P[:, 1] ** 2
-        g = self.helix_position
-        u = g + np.angle(np.exp(1j * (np.arctan2(P[:, 1], P[:, 0]) - g)))
-        f = P[:, 2] + c * u
-        grad_h = np.stack([-c * P[:, 1] / rho2, c * P[:, 0] / rho2, np.ones(len(P))], 1)
-        return f, grad_h @ basis
+        f, gx, gy, gz = self._f_xyz(pn[:, 0], pn[:, 1], pn[:, 2])
+        return f, np.stack([gx, gy, gz], 1)
 
-    def _solve_z_needle(self, x: np.ndarray, y: np.ndarray, z0: np.ndarray | None = None):
-        """z (needle frame) where the surface crosses the vertical lines (x, y)."""
+    def _f_xyz(self, x, y, z):
+        """f and the needle-frame components of ∇f at needle-frame (x, y, z)
+        (component arrays, no (n, 3) temporaries: this is the build's hot loop)."""
+        s, cp, _, b, o, sigma = self._frame
+        X = o[0] + b[0, 0] * x + b[0, 1] * y + b[0, 2] * z
+        Y = o[1] + b[1, 0] * x + b[1, 1] * y + b[1, 2] * z
+        Z = o[2] + b[2, 0] * x + b[2, 1] * y + b[2, 2] * z
+        rho2 = X * X + Y * Y
+        rho = np.sqrt(rho2)
+        g = self.helix_position
+        du = np.arctan2(Y, X) - g
+        du -= 2 * math.pi * np.round(du / (2 * math.pi))
+        f = Z - s * rho + cp * (g + du)
+        hx = -s * X / rho - cp * Y / rho2
+        hy = -s * Y / rho + cp * X / rho2
+        return (sigma * f, sigma * (hx * b[0, 0] + hy * b[1, 0] + b[2, 0]),
+                sigma * (hx * b[0, 1] + hy * b[1, 1] + b[2, 1]),
+                sigma * (hx * b[0, 2] + hy * b[1, 2] + b[2, 2]))
+
+    def _solve_z_needle(self, x: np.ndarray, y: np.ndarray, z0: np.ndarray | None = None,
+                        *, strict: bool = True):
+        """z (needle frame) where the surface crosses the lines (x, y) ∥ z_N."""
         x = np.asarray(x, float).ravel()
         y = np.asarray(y, float).ravel()
         z = np.zeros_like(x) if z0 is None else np.asarray(z0, float).ravel().copy()
-        for _ in range(60):
-            f, gr = self._f_needle(np.stack([x, y, z], 1))
-            step = f / gr[:, 2]
-            z -= step
-            if np.max(np.abs(step)) < tol.newton_converge:  # rounding noise is ~1e-13 mm here
-                break
-        else:
-            if np.max(np.abs(step)) > tol.newton_fail:
+        step = np.zeros_like(z)
+        with np.errstate(all="ignore"):
+            for _ in range(60):
+                f, _, _, gz = self._f_xyz(x, y, z)
+                step = f / gz
+                z -= step
+                if not np.all(np.isfinite(step)):
+                    break
+                if np.max(np.abs(step), initial=0.0) < tol.newton_converge:
+                    return z
+        if not np.all(np.isfinite(step)) or np.max(np.abs(step), initial=0.0) > tol.newton_fail:
+            if strict:
                 raise BuildError(f"helicoid '{self.name}': edge height did not converge")
+            z[~(np.abs(step) <= tol.newton_fail)] = np.nan
         return z
+
+    def check(self, cannula: Cannula) -> None:
+        """Refuse placements where the helicoid folds over inside the tube,
+        meets the wall too steeply, or would need too fine a mesh (see the
+        module docstring); the message names the geometric reason."""
+        key = (cannula.r_o, cannula.r_i)
+        done = self.__dict__.setdefault("_checked", {})
+        if key in done:
+            if done[key] is not None:
+                raise SpecError(done[key])
+            return
+        try:
+            self._check(cannula)
+        except SpecError as e:
+            done[key] = str(e)
+            raise
+        done[key] = None
+
+    def _check(self, cannula: Cannula) -> None:
+        s, cp, d, basis, origin, sigma = self._frame
+        ro, ri = cannula.r_o, cannula.r_i
+        where = (f"helical cutter '{self.name}' (helix_angle = "
+                 f"{math.degrees(self.helix_angle):.6g}°, phi = {math.degrees(self.phi):.6g}°, "
+                 f"axis offset D = {d:.4g} mm)")
+        if self.axis_offset is None:
+            need = ro + cp * math.tan(self.phi)
+            if not d > need:
+                raise SpecError(
+                    f"helix_position = {math.degrees(self.helix_position):.6g}° puts the helix "
+                    f"axis {d:.4g} mm from the needle axis; allowed more than r_o + c·tan(phi) "
+                    f"= {need:.4g} mm (closer, the helicoid folds over inside the tube)")
+        # the wall region, with the builder's margin, at 5° steps
+        m = _margin(cannula)
+        g = np.radians(np.arange(0.0, 360.0, 5.0))
+        rad = np.array([max(ri - m, 0.5 * ri), ri, ro, ro + m])
+        x, y = np.outer(rad, np.cos(g)).ravel(), np.outer(rad, np.sin(g)).ravel()
+        z = self._solve_z_needle(x, y, strict=False)
+        if not np.all(np.isfinite(z)):
+            raise SpecError(f"{where}: the helicoid does not cross every line of the tube wall "
+                            "parallel to the needle axis once (it folds over inside the tube)")
+        P = origin + np.stack([x, y, z], 1) @ basis.T
+        rho = np.hypot(P[:, 0], P[:, 1])
+        u = np.unwrap(np.arctan2(P[:, 1], P[:, 0]).reshape(len(rad), -1)[-1])
+        if abs(u[-1] - u[0]) > math.pi:  # the outer ring winds round the helix axis
+            raise SpecError(f"{where}: the helix axis runs through the tube (the helicoid "
+                            "would wind round inside it); allowed only axes outside the wall")
+        _, gr = self._f_needle(np.stack([x, y, z], 1))
+        steep = np.degrees(np.arccos(np.clip(gr[:, 2] / np.linalg.norm(gr, axis=1), -1, 1)))
+        k = int(np.argmax(steep))
+        lim = tol.helical_max_steep_deg
+        if not steep[k] <= lim:
+            raise SpecError(f"{where}: the helicoid meets the tube wall at {steep[k]:.3g}° from "
+                            f"the needle's cross-section (near the helix axis, ρ = {rho[k]:.3g} "
+                            f"mm); allowed at most {lim:g}° (steeper, it folds over inside the "
+                            "tube)")
+        try:
+            angular, radial = _resolution(self._height_needle, cannula, DEFAULT_CHORDAL_MM,
+                                          tol.min_segments)
+        except BuildError as e:
+            raise SpecError(f"{where}: {e}") from None
+        self.__dict__.setdefault("_grids", {})[(ro, ri, DEFAULT_CHORDAL_MM)] = (angular, radial)
+
+    def _height_needle(self, x, y, z0=None):
+        x = np.asarray(x, float)
+        z0 = None if z0 is None else np.asarray(z0, float).ravel()
+        return self._solve_z_needle(x.ravel(), np.asarray(y, float).ravel(),
+                                    z0).reshape(x.shape)
 
     def _placement(self, cannula: Cannula) -> tuple[float, float]:
         """(γ_heel, z_heel) of the outer edge in the needle frame."""
@@ -227,13 +457,16 @@ class HelicalCutter(Cutter):
     def face_labels(self):
         return (self.label,)
 
-    def height(self, x: np.ndarray, y: np.ndarray, cannula: Cannula) -> np.ndarray:
-        """z (mm, cannula frame) of the helicoid above the points (x, y)."""
+    def height(self, x: np.ndarray, y: np.ndarray, cannula: Cannula,
+               z0: np.ndarray | None = None) -> np.ndarray:
+        """z (mm, cannula frame) of the helicoid above the points (x, y);
+        ``z0`` (same shape, mm) is an optional first guess."""
         x = np.asarray(x, float)
         pts = np.stack([x.ravel(), np.asarray(y, float).ravel(), np.zeros(x.size)], 1)
         pn, _ = self._to_needle(pts, cannula)
         gh, zh = self._placement_cached(cannula)
-        return (self._solve_z_needle(pn[:, 0], pn[:, 1]) - zh).reshape(x.shape)
+        z0 = None if z0 is None else np.asarray(z0, float).ravel() + zh
+        return (self._solve_z_needle(pn[:, 0], pn[:, 1], z0) - zh).reshape(x.shape)
 
     def edge_z(self, gamma, radius, cannula):
         g = np.asarray(gamma, float)
@@ -254,33 +487,47 @@ class HelicalCutter(Cutter):
 
     def solid(self, ctx):
         cannula = ctx.cannula
-        angular, radial = _resolution(lambda x, y: self.height(x, y, cannula), cannula,
-                                      ctx.chordal, ctx.segments)
+        self.check(cannula)
+        key = (cannula.r_o, cannula.r_i, ctx.chordal)
+        grids = self.__dict__.setdefault("_grids", {})
+        if key not in grids:
+            grids[key] = _resolution(lambda x, y, z0=None: self.height(x, y, cannula, z0),
+                                     cannula, ctx.chordal, ctx.segments)
+        angular, radial = grids[key]
+        angular = max(angular, ctx.segments)
         return ctx.annular_heightfield(lambda x, y: self.height(x, y, cannula), self.label,
                                        angular, radial)
 
 
+def _margin(cannula: Cannula) -> float:
+    """Radial margin (mm) of the heightfield grid beyond the wall on both sides."""
+    return 0.1037 * (cannula.r_o - cannula.r_i)
+
+
 def _resolution(height, cannula: Cannula, chordal: float, start: int) -> tuple[int, int]:
     """Grid (angular, radial) over the wall annulus whose piecewise-linear
-    interpolation of ``height`` stays within ``chordal`` (normal distance)."""
+    interpolation of ``height(x, y, z0)`` stays within ``chordal`` (normal
+    distance);
+    a grid of more than ``tol.helical_max_grid`` points is a BuildError."""
     ro, ri = cannula.r_o, cannula.r_i
     angular, radial = start, 3
-    for _ in range(6):
-        d = 0.1037 * (ro - ri)
+    cap = tol.helical_max_grid
+    for _ in range(8):
+        d = _margin(cannula)
         rad = np.linspace(max(ri - d, 0.5 * ri), ro + d, radial)
         g = (np.arange(angular) + 0.5) * 2 * np.pi / angular
         gm = g + np.pi / angular
         rm = 0.5 * (rad[:-1] + rad[1:])
         z = height(np.outer(rad, np.cos(g)), np.outer(rad, np.sin(g)))
-        # angular midpoints
-        za = height(np.outer(rad, np.cos(gm)), np.outer(rad, np.sin(gm)))
+        # angular midpoints (Newton starts from the linear interpolation)
         lin_a = 0.5 * (z + np.roll(z, -1, axis=1))
+        za = height(np.outer(rad, np.cos(gm)), np.outer(rad, np.sin(gm)), lin_a)
         chord = np.outer(rad, np.ones_like(g)) * (2 * np.pi / angular)
         slope_a = np.abs(np.roll(z, -1, axis=1) - z) / chord
         err_a = np.max(np.abs(za - lin_a) / np.sqrt(1 + slope_a ** 2))
         # radial midpoints
-        zr = height(np.outer(rm, np.cos(g)), np.outer(rm, np.sin(g)))
         lin_r = 0.5 * (z[:-1] + z[1:])
+        zr = height(np.outer(rm, np.cos(g)), np.outer(rm, np.sin(g)), lin_r)
         err_r = np.max(np.abs(zr - lin_r)) if radial > 1 else 0.0
         if err_a <= chordal and err_r <= chordal:
             return angular, radial
@@ -288,14 +535,36 @@ def _resolution(height, cannula: Cannula, chordal: float, start: int) -> tuple[i
             angular = int(math.ceil(angular * 1.1 * math.sqrt(err_a / chordal) / 24) * 24)
         if err_r > chordal:
             radial = int(math.ceil((radial - 1) * 1.1 * math.sqrt(err_r / chordal))) + 1
-        if angular * radial > 4_000_000:
+        if angular * radial > cap:
             break
-    raise BuildError(f"helicoid grid for tolerance {chordal * 1e3:.3g} µm would need "
-                     f"{angular}×{radial} points; raise the tolerance")
+    raise BuildError(f"its mesh at tolerance {chordal * 1e3:.3g} µm would need a grid of "
+                     f"{angular}×{radial} points; allowed at most {cap} (the helicoid is too "
+                     "steep or curved over the wall; raise the tolerance)")
+
+
+#: D (mm) of the thesis example, calibrated against Table 3.1's outer edge by
+#: :func:`tipgeo.calibrate.calibrate_thesis_helical` (reading
+#: reverse-cone-normal/toward-axis/tip+z; only D is free in it).
+THESIS_AXIS_OFFSET_MM = 4.7665
 
 
 def thesis_helical(name: str = "helix") -> HelicalCutter:
-    """The thesis's helical needle (p_h = 100 mm, ψ = 10°, φ = 13.5°), placed
-    as pinned in the module docstring."""
+    """The thesis's helical needle (p_h = 100 mm, ψ = 10°, φ = 13.5°, 14G;
+    §3.1), calibrated against its CAD edge (Table 3.1, :mod:`tipgeo.calibrate`):
+    rulings normal to the cone of half-angle ψ opening towards +z_h
+    (``reverse-cone-normal``), the needle leaning by φ towards the helix axis
+    (ω = 180°), tip along +z_h, its axis crossing the helicoid D = 4.7665 mm
+    from the helix axis. The phase along the helix (γ_h* = 0) does not change
+    the shape (module docstring)."""
+    return HelicalCutter(pitch=100.0, helix_angle=math.radians(10.0), phi=math.radians(13.5),
+                         axis_offset=THESIS_AXIS_OFFSET_MM, tilt_direction=math.pi,
+                         ruling="reverse-cone-normal", tip="+z", name=name)
+
+
+def old_thesis_helical(name: str = "helix") -> HelicalCutter:
+    """The thesis example in tipgeo's old construction (perpendicular
+    rulings, sideways lean, P* on the helix at γ_h* = 172.14°, pinned for the
+    ξ = 14.5° bevel's l_c). It is 389 µm RMS off Table 3.1's outer edge; kept
+    for comparison and for old spec files."""
     return HelicalCutter(pitch=100.0, helix_angle=math.radians(10.0), phi=math.radians(13.5),
                          helix_position=math.radians(THESIS_HELIX_POSITION_DEG), name=name)

@@ -12,12 +12,15 @@ __all__ = ["STUDIES", "study_preset", "resolve_study", "HELICAL_STUDY_TOML"]
 
 #: The thesis's 25-point helical study (§3.4.2), as ``samples/helical-study.toml``.
 HELICAL_STUDY_TOML = """\
-# tipgeo study — the thesis's GP optimisation of the helical needle (§3.4.2).
-# 25 helical configurations (5 × 5 grid in ψ and φ around the thesis needle:
-# p_h = 100 mm, ψ = 10°, φ = 13.5°, γ_h* = 172.14° on a 14G cannula), the
-# seven outputs l_c and min/max of λ, θ, α (outer edge), one GP per output
-# (constant mean, Gaussian correlation eq. 3.26, MLE), and the three
-# objectives of Table 3.4.
+# tipgeo study — the thesis's GP optimisation of the helical needle (§3.4.2),
+# over the whole design space a designer needs: ψ 5–25°, φ 5–20°.
+# The base is the calibrated thesis needle (helical-14G: p_h = 100 mm, rulings
+# normal to the cone opening towards +z_h, the needle leaning towards the
+# helix axis, axis offset 4.7665 mm; see `tipgeo calibrate`). ψ and φ change as
+# a CAD user changes them in that model: the rulings follow ψ, the needle
+# tilts by φ about the point where its axis crosses the helicoid, and the rest
+# of the placement is held. 25 training points (5 × 5 grid, like the thesis);
+# for more, raise [design] levels or use method = "lhs" with points = N.
 #
 #   tipgeo sweep samples/helical-study.toml
 #   tipgeo optimize samples/helical-study.toml --out helical-study
@@ -25,24 +28,24 @@ HELICAL_STUDY_TOML = """\
 # Units: variables in their spec keys' units (degrees here); responses carry
 # theirs in their names (mm, deg).
 name = "helical-study"
-description = "thesis §3.4.2: GP of l_c, λ, θ, α over ψ and φ; Table 3.4 objectives"
+description = "thesis §3.4.2: GP of l_c, λ, θ, α over ψ 5–25° and φ 5–20°; Table 3.4 objectives"
 base = "helical-14G"
 
-# The range keeps every configuration buildable: the helix axis must clear
-# the tube (d = (p_h/2π)·γ_h*·tan ψ > r_o + (p_h/2π)·tan φ), and γ_h* stays at
-# the thesis value, so small ψ with large φ folds the helicoid (ψ = 8° fails
-# beyond φ ≈ 19.6°, ψ = 6° beyond 14°).
+# Beyond φ ≈ 15° the calibrated needle leans so far towards the helix axis
+# that the helicoid folds over inside the tube (or its mesh at the default
+# tolerance would exceed the cap of tol.helical_max_grid): such points are
+# refused at validation with that reason and recorded as invalid rows.
 [[variables]]
 name = "psi_deg"
 path = "cutters[0].helix_angle_deg"
-min = 9.0
-max = 11.0
+min = 5.0
+max = 25.0
 
 [[variables]]
 name = "phi_deg"
 path = "cutters[0].phi_deg"
-min = 10.0
-max = 17.0
+min = 5.0
+max = 20.0
 
 [design]
 method = "grid"

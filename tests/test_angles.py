@@ -142,7 +142,9 @@ def test_mesh_path_on_a_built_tip_agrees_with_exact():
     ex = analyze(spec, method="exact")
     me = analyze(build_tip(spec), method="mesh")
     assert me.outer.length == pytest.approx(ex.outer.length, rel=1e-4)
-    assert np.abs(me.outer.at(G)["z"] - ex.outer.at(G)["z"]).max() < 5e-3
+    # the mesh path fits eq. 3.12's five harmonics: on the calibrated edge the
+    # series itself is up to ~11 µm off the exact edge (test_helical_example)
+    assert np.abs(me.outer.at(G)["z"] - ex.outer.at(G)["z"]).max() < 15e-3
     # facet normals of a curved surface: measured 0.11° at the default tolerance
     assert maxdeg(me.outer.at(G)["theta"], ex.outer.at(G)["theta"]) < 0.2
 

@@ -214,11 +214,20 @@ class HelicalCutter(Cutter):
 
     def exact_bounds(self, cannula, previous=()):
         """The helicoid as the height field :meth:`height` (no closed form in
-        the cannula frame: exporters fit it), valid over 2 r_o around the
-        needle axis (the helix axis is farther than r_o + c tan φ, :meth:`check`)."""
+        the cannula frame: exporters fit it), over the largest disc around the
+        needle axis, up to 2 r_o, on which the height converges everywhere (the
+        helicoid is singular on its axis and folds near it; :meth:`check`
+        keeps that out of the wall region, so the disc reaches at least past
+        the wall by the builder's margin)."""
         self.check(cannula)
-        c, d, _, _ = self._frame
-        radius = min(2.0 * cannula.r_o, d - c * math.tan(self.phi))
+        g = np.linspace(0.0, 2 * math.pi, 361)[:-1]
+        radius = cannula.r_o + _margin(cannula)
+        for r in np.linspace(radius, 2.0 * cannula.r_o, 17)[1:]:
+            try:
+                self.height(r * np.cos(g), r * np.sin(g), cannula)
+            except BuildError:
+                break
+            radius = float(r)
         return (HeightSurface(lambda x, y: self.height(x, y, cannula), radius, self.label),)
 
     def __post_init__(self):

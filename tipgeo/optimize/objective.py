@@ -122,11 +122,12 @@ def optimize_objective(surrogate, objective: Objective, *, feasible=None,
     corners = np.array(np.meshgrid(*[[0.0, 1.0]] * d)).reshape(d, -1).T if d <= 12 else []
     U = np.vstack([U, corners, surrogate.unit(surrogate.X_)])
     X = lo + U * span
-    ok = np.asarray(feasible(X), bool) if feasible is not None else np.ones(len(X), bool)
-    if not ok.any():
-        raise SpecError(f"objective '{objective.name}': no feasible configuration in the box")
-    X, U = X[ok], U[ok]
     w = _weights(objective)
+    if feasible is not None and objective.combine == "pareto":
+        ok = np.asarray(feasible(X), bool)
+        if not ok.any():
+            raise SpecError(f"objective '{objective.name}': no feasible configuration in the box")
+        X, U = X[ok], U[ok]
 
     def value(u):
         m = surrogate.predict(lo + np.atleast_2d(u) * span)
@@ -164,21 +165,28 @@ def optimize_objective(surrogate, objective: Objective, *, feasible=None,
         front = {"x": Xf[order], "terms": Sf[order]}
         best_x, best_v = Xf[k], float(dist[k])
     else:
+        # feasibility (a spec validation, ~0.1 s) is checked lazily, best candidates first
         v = value(U)
         best = np.argsort(v)
-        best_x, best_v = X[best[0]], float(v[best[0]])
+        best_x, best_v = None, math.inf
         seen: list[np.ndarray] = []
         for i in best:
             if len(seen) >= polish:
                 break
             if any(np.max(np.abs(U[i] - s)) < 0.02 for s in seen):
                 continue
+            if feasible is not None and not bool(feasible(X[i][None])[0]):
+                continue
+            if best_x is None:
+                best_x, best_v = X[i], float(v[i])
             seen.append(U[i])
             res = minimize(lambda u: float(value(u)[0]), U[i], method="L-BFGS-B",
                            bounds=[(0.0, 1.0)] * d)
             xr = lo + np.clip(res.x, 0.0, 1.0) * span
             if res.fun < best_v and (feasible is None or bool(feasible(xr[None])[0])):
                 best_x, best_v = xr, float(res.fun)
+        if best_x is None:
+            raise SpecError(f"objective '{objective.name}': no feasible configuration in the box")
     mean, std = surrogate.predict(best_x[None], return_std=True)
     return Optimum(objective=objective, x=np.asarray(best_x, float), value=best_v,
                    predicted=dict(zip(surrogate.responses, mean[0].tolist())),

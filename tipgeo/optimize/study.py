@@ -34,14 +34,20 @@ def feasibility(config: StudyConfig):
     (e.g. the helix axis clears the tube, thesis §3.1.1)?"""
     from ..errors import SpecError
 
+    memo: dict[tuple, bool] = {}  # a validation costs ~0.1 s; plots re-ask the same grid
+
     def feasible(X) -> np.ndarray:
+        X = np.atleast_2d(np.asarray(X, float))
         out = np.empty(len(X), bool)
-        for i, x in enumerate(np.atleast_2d(X)):
-            try:
-                config.spec(x)
-                out[i] = True
-            except SpecError:
-                out[i] = False
+        for i, x in enumerate(X):
+            key = tuple(np.round(x, 12).tolist())
+            if key not in memo:
+                try:
+                    config.spec(x)
+                    memo[key] = True
+                except SpecError:
+                    memo[key] = False
+            out[i] = memo[key]
         return out
 
     return feasible

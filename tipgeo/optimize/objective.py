@@ -123,11 +123,6 @@ def optimize_objective(surrogate, objective: Objective, *, feasible=None,
     U = np.vstack([U, corners, surrogate.unit(surrogate.X_)])
     X = lo + U * span
     w = _weights(objective)
-    if feasible is not None and objective.combine == "pareto":
-        ok = np.asarray(feasible(X), bool)
-        if not ok.any():
-            raise SpecError(f"objective '{objective.name}': no feasible configuration in the box")
-        X, U = X[ok], U[ok]
 
     def value(u):
         m = surrogate.predict(lo + np.atleast_2d(u) * span)
@@ -144,8 +139,6 @@ def optimize_objective(surrogate, objective: Objective, *, feasible=None,
         for _ in range(refine):
             Un = np.clip(np.repeat(Uf, 8, axis=0)
                          + rng.normal(0.0, scale, (8 * len(Uf), d)), 0.0, 1.0)
-            if feasible is not None:
-                Un = Un[np.asarray(feasible(lo + Un * span), bool)]
             Uf = np.vstack([Uf, Un])
             Sf = np.vstack([Sf, scaled_terms(surrogate, objective,
                                              surrogate.predict(lo + Un * span))])
@@ -156,6 +149,12 @@ def optimize_objective(surrogate, objective: Objective, *, feasible=None,
                 Uf, Sf = Uf[idx], Sf[idx]
             scale *= 0.5
         Xf = lo + Uf * span
+        if feasible is not None:  # validations are costly: only the front's points
+            ok = np.asarray(feasible(Xf), bool)
+            if not ok.any():
+                raise SpecError(f"objective '{objective.name}': no feasible configuration "
+                                "on the front")
+            Xf, Uf, Sf = Xf[ok], Uf[ok], Sf[ok]
         # distance to the ideal point, each term scaled by its range on the front
         flo, fhi = Sf.min(0), Sf.max(0)
         Sn = (Sf - flo) / np.where(fhi > flo, fhi - flo, 1.0)

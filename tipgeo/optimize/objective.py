@@ -122,10 +122,6 @@ def optimize_objective(surrogate, objective: Objective, *, feasible=None,
     corners = np.array(np.meshgrid(*[[0.0, 1.0]] * d)).reshape(d, -1).T if d <= 12 else []
     U = np.vstack([U, corners, surrogate.unit(surrogate.X_)])
     X = lo + U * span
-    ok = np.asarray(feasible(X), bool) if feasible is not None else np.ones(len(X), bool)
-    if not ok.any():
-        raise SpecError(f"objective '{objective.name}': no feasible configuration in the box")
-    X, U = X[ok], U[ok]
     w = _weights(objective)
 
     def value(u):
@@ -143,8 +139,6 @@ def optimize_objective(surrogate, objective: Objective, *, feasible=None,
         for _ in range(refine):
             Un = np.clip(np.repeat(Uf, 8, axis=0)
                          + rng.normal(0.0, scale, (8 * len(Uf), d)), 0.0, 1.0)
-            if feasible is not None:
-                Un = Un[np.asarray(feasible(lo + Un * span), bool)]
             Uf = np.vstack([Uf, Un])
             Sf = np.vstack([Sf, scaled_terms(surrogate, objective,
                                              surrogate.predict(lo + Un * span))])
@@ -155,6 +149,12 @@ def optimize_objective(surrogate, objective: Objective, *, feasible=None,
                 Uf, Sf = Uf[idx], Sf[idx]
             scale *= 0.5
         Xf = lo + Uf * span
+        if feasible is not None:  # validations are costly: only the front's points
+            ok = np.asarray(feasible(Xf), bool)
+            if not ok.any():
+                raise SpecError(f"objective '{objective.name}': no feasible configuration "
+                                "on the front")
+            Xf, Uf, Sf = Xf[ok], Uf[ok], Sf[ok]
         # distance to the ideal point, each term scaled by its range on the front
         flo, fhi = Sf.min(0), Sf.max(0)
         Sn = (Sf - flo) / np.where(fhi > flo, fhi - flo, 1.0)
@@ -164,21 +164,28 @@ def optimize_objective(surrogate, objective: Objective, *, feasible=None,
         front = {"x": Xf[order], "terms": Sf[order]}
         best_x, best_v = Xf[k], float(dist[k])
     else:
+        # feasibility (a spec validation, ~0.1 s) is checked lazily, best candidates first
         v = value(U)
         best = np.argsort(v)
-        best_x, best_v = X[best[0]], float(v[best[0]])
+        best_x, best_v = None, math.inf
         seen: list[np.ndarray] = []
         for i in best:
             if len(seen) >= polish:
                 break
             if any(np.max(np.abs(U[i] - s)) < 0.02 for s in seen):
                 continue
+            if feasible is not None and not bool(feasible(X[i][None])[0]):
+                continue
+            if best_x is None:
+                best_x, best_v = X[i], float(v[i])
             seen.append(U[i])
             res = minimize(lambda u: float(value(u)[0]), U[i], method="L-BFGS-B",
                            bounds=[(0.0, 1.0)] * d)
             xr = lo + np.clip(res.x, 0.0, 1.0) * span
             if res.fun < best_v and (feasible is None or bool(feasible(xr[None])[0])):
                 best_x, best_v = xr, float(res.fun)
+        if best_x is None:
+            raise SpecError(f"objective '{objective.name}': no feasible configuration in the box")
     mean, std = surrogate.predict(best_x[None], return_std=True)
     return Optimum(objective=objective, x=np.asarray(best_x, float), value=best_v,
                    predicted=dict(zip(surrogate.responses, mean[0].tolist())),

@@ -39,6 +39,24 @@ def _grid(surrogate, config, resolution: int, fixed):
     return X, ia, (A, B), base
 
 
+def _feasible_mask(surrogate, config, resolution: int, fixed, feasible,
+                   coarse: int = 16) -> np.ndarray:
+    """Feasibility of the plot grid's points, (resolution², or resolution,)
+    bool: each validation costs ~0.1 s, so it is evaluated on a coarse grid of
+    at most ``coarse`` points per axis and each plotted point takes its nearest
+    coarse node's verdict (the blank region's outline is approximate to one
+    coarse step; optima and training points are checked exactly elsewhere)."""
+    n = min(resolution, coarse)
+    Xc, _, _, _ = _grid(surrogate, config, n, fixed)
+    okc = np.asarray(feasible(Xc), bool)
+    if n == resolution:
+        return okc
+    near = np.rint(np.linspace(0, n - 1, resolution)).astype(int)
+    if okc.size == n:  # one plotted variable
+        return okc[near]
+    return okc.reshape(n, n)[np.ix_(near, near)].ravel()
+
+
 def _label(config, i):
     v = config.variables[i]
     return v.name
@@ -72,7 +90,7 @@ def plot_response(surrogate, config, response: str, path, *, optima=(), feasible
     mean, std = surrogate.predict(X, return_std=True)
     m, hw = mean[:, j].copy(), Z95 * std[:, j]
     if feasible is not None:
-        bad = ~np.asarray(feasible(X), bool)
+        bad = ~_feasible_mask(surrogate, config, res, fixed, feasible)
         m[bad] = np.nan
         hw = hw.copy()
         hw[bad] = np.nan

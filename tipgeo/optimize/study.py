@@ -26,7 +26,7 @@ from .objective import optimize_objective, term_summary, verify_optimum
 from .surrogate import fit_surrogate
 from .sweep import run_sweep, write_table
 
-__all__ = ["run_study", "feasibility"]
+__all__ = ["run_study", "feasibility", "edge_report"]
 
 
 def feasibility(config: StudyConfig):
@@ -34,17 +34,59 @@ def feasibility(config: StudyConfig):
     (e.g. the helix axis clears the tube, thesis §3.1.1)?"""
     from ..errors import SpecError
 
+    memo: dict[tuple, bool] = {}  # a validation costs ~0.1 s; plots re-ask the same grid
+
     def feasible(X) -> np.ndarray:
+        X = np.atleast_2d(np.asarray(X, float))
         out = np.empty(len(X), bool)
-        for i, x in enumerate(np.atleast_2d(X)):
-            try:
-                config.spec(x)
-                out[i] = True
-            except SpecError:
-                out[i] = False
+        for i, x in enumerate(X):
+            key = tuple(np.round(x, 12).tolist())
+            if key not in memo:
+                try:
+                    config.spec(x)
+                    memo[key] = True
+                except SpecError:
+                    memo[key] = False
+            out[i] = memo[key]
         return out
 
     return feasible
+
+
+def edge_report(config: StudyConfig, x, feasible, step: float = 0.01) -> dict[str, Any]:
+    """Is ``x`` on the box's edge, or on the boundary of the buildable region?
+
+    Parameters
+    ----------
+    config : StudyConfig
+    x : (d,) float — a configuration, in the variables' units
+    feasible : callable (m, d) -> (m,) bool — see :func:`feasibility`
+    step : float — probe distance, as a fraction of each variable's range
+
+    Returns
+    -------
+    dict — ``on_box_edge``: list of {variable, side} where x sits on a bound
+    (within ``tol.rel`` of the range); ``on_buildable_boundary``: True when a
+    probe ``step`` away along some axis, still inside the box, is refused at
+    validation (an optimum pressed against the refused region).
+    """
+    from ..tolerances import tol
+
+    x = np.asarray(x, float)
+    lo, hi = np.array(config.bounds, float).T
+    span = hi - lo
+    edges = []
+    probes = []
+    for i, v in enumerate(config.variables):
+        for side, b, sgn in (("min", lo[i], -1.0), ("max", hi[i], 1.0)):
+            if abs(x[i] - b) <= tol.rel * span[i]:
+                edges.append({"variable": v.name, "side": side})
+            else:
+                p = x.copy()
+                p[i] = np.clip(x[i] + sgn * step * span[i], lo[i], hi[i])
+                probes.append(p)
+    near = bool(probes) and not bool(np.all(feasible(np.array(probes))))
+    return {"on_box_edge": edges, "on_buildable_boundary": near}
 
 
 def run_study(config: StudyConfig, out_dir: str | Path, *, executor=None, cache: Any = None,
@@ -92,10 +134,13 @@ def run_study(config: StudyConfig, out_dir: str | Path, *, executor=None, cache:
     for obj in config.objectives:
         opt = optimize_objective(sur, obj, feasible=feasible, seed=config.surrogate["seed"])
         verify_optimum(config, opt, build=build)
+        opt.verified.update(edge_report(config, opt.x, feasible))
         optima.append(opt)
         v = opt.verified
         log(f"objective {obj.name} ({term_summary(obj)}): "
-            + ", ".join(f"{k} = {x:.4g}" for k, x in v["x"].items()) + f" — {v['status']}")
+            + ", ".join(f"{k} = {x:.4g}" for k, x in v["x"].items()) + f" — {v['status']}"
+            + "".join(f"; on the box edge {e['variable']} = {e['side']}" for e in v["on_box_edge"])
+            + ("; on the buildable region's boundary" if v["on_buildable_boundary"] else ""))
         if v["status"] == "ok":
             spec = spec_from_dict(v["spec"])
             p = out / f"optimum-{obj.name}.toml"

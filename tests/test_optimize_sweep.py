@@ -68,6 +68,16 @@ def test_grid_design_is_the_full_factorial_last_variable_fastest():
     assert sorted(set(X[:, 0])) == [9.0, 10.0, 11.0]
 
 
+def test_grid_design_takes_a_level_count_per_variable():
+    cfg = cfg3()
+    X = make_design(cfg.variables, "grid", levels=[2, 3])
+    assert X.shape == (6, 2)
+    assert sorted(set(X[:, 0])) == [9.0, 11.0]
+    assert sorted(set(X[:, 1])) == [12.0, 13.5, 15.0]
+    with pytest.raises(SpecError, match=r"design\.levels = \[2, 3, 4\] gives 3 level counts"):
+        make_design(cfg.variables, "grid", levels=[2, 3, 4])
+
+
 @pytest.mark.parametrize("method", ["lhs", "sobol"])
 def test_random_designs_fill_the_box_and_are_seeded(method):
     U = unit_design(method, 3, points=64, seed=4)

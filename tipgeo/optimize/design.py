@@ -75,7 +75,13 @@ def make_design(variables, method: str, *, levels=None, points: int | None = Non
     (n, d) float — one row per configuration
     """
     if method == "grid":
-        levels = [v.levels if v.levels is not None else levels for v in variables]
+        if levels is not None and not isinstance(levels, int):
+            levels = list(levels)
+            if len(levels) != len(variables):
+                raise SpecError(f"design.levels = {levels!r} gives {len(levels)} level counts "
+                                f"for {len(variables)} variables; expected one per variable")
+        per = levels if isinstance(levels, list) else [levels] * len(variables)
+        levels = [v.levels if v.levels is not None else k for v, k in zip(variables, per)]
         if any(k is None for k in levels):
             raise SpecError("design.levels is missing; a grid needs levels (per variable or "
                             "in [design])")

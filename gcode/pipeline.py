@@ -39,6 +39,8 @@ class LaserCheck:
     toolpath : Toolpath — the interpreted moves (beam radius compensated)
     ablation : AblationResult or None — the simulated tip (cannula frame)
     comparison : dict or None — :func:`gcode.ablation.compare_with_cutter`
+    files : list of str — files written by :func:`write_laser_outputs`
+    failed : list of dict — files it could not write: ``path``, ``error``
     """
 
     program: ast.Program
@@ -46,6 +48,7 @@ class LaserCheck:
     ablation: Any = None
     comparison: dict | None = None
     files: list[str] = field(default_factory=list)
+    failed: list[dict] = field(default_factory=list)
 
     def summary(self, *, source: str = "") -> dict[str, Any]:
         """The report (mm, s, degrees): toolpath, every warning, the
@@ -69,6 +72,9 @@ class LaserCheck:
             out["comparison"] = self.comparison
         if self.files:
             out["pictures"] = [f for f in self.files if f.lower().endswith(".png")]
+        out["wrote"] = list(self.files)
+        if self.failed:
+            out["failed"] = list(self.failed)
         return out
 
 
@@ -132,20 +138,38 @@ def laser_check(program: str | ast.Program, *, beam_diameter: float = 0.020, spe
 
 def write_laser_outputs(res: LaserCheck, spec=None, *, mesh: str | Path | None = None,
                         plot: str | Path | None = None,
-                        rim: str | Path | None = None) -> list[str]:
+                        rim: str | Path | None = None, on_error=None) -> list[str]:
     """Write the simulated tip (any :mod:`tipgeo.io` format) and the toolpath
     picture, and with ``spec`` and a simulation the unwrapped rim picture
-    (``rim``, default ``<plot>-rim.png``), each atomically."""
-    wrote = []
+    (``rim``, default ``<plot>-rim.png``), each atomically.
+
+    The mesh export is checked first (:func:`tipgeo.io.check_export`: e.g. a
+    STEP file without OCP). If it cannot be written, ``on_error(path, exc)``
+    is called before any file is written, the pictures are still written and
+    ``res.failed`` records it; with ``on_error`` ``None`` the error is raised
+    before anything is written.
+    """
+    from tipgeo.errors import ExportError
+
+    def failed(path, exc):
+        res.failed.append({"path": str(path), "error": str(exc)})
+        on_error(Path(path), exc)
+
     if mesh is not None:
         if res.ablation is None:
             raise GCodeError("mesh: nothing was simulated (give the punch's spec)")
-        from tipgeo.io import export_tip
+        from tipgeo.io import check_export
 
-        export_tip(res.ablation.tip, mesh)
-        wrote.append(str(mesh))
+        try:
+            check_export(res.ablation.tip, mesh)
+        except ExportError as exc:
+            if on_error is None:
+                raise
+            failed(mesh, exc)
+            mesh = None
+    wrote = []
     if plot is not None:
-        from .plots import plot_rim, plot_toolpath
+        from .plots import plot_toolpath
 
         plot_toolpath(res.toolpath, plot)
         wrote.append(str(plot))
@@ -156,5 +180,15 @@ def write_laser_outputs(res: LaserCheck, spec=None, *, mesh: str | Path | None =
 
         plot_rim(res.ablation.tip, spec, rim)
         wrote.append(str(rim))
+    if mesh is not None:
+        from tipgeo.io import export_tip
+
+        try:
+            export_tip(res.ablation.tip, mesh)
+            wrote.append(str(mesh))
+        except ExportError as exc:
+            if on_error is None:
+                raise
+            failed(mesh, exc)
     res.files += wrote
     return wrote

@@ -75,3 +75,14 @@ def test_console_script_entry_point(tmp_path):
     r = subprocess.run([sys.executable, "-m", "tipgeo.cli", "gauges"], capture_output=True,
                        text=True, check=True)
     assert "14G" in r.stdout
+
+
+def test_closed_pipe_is_quiet():
+    """`tipgeo gauges --json | head -0`: the reader is gone before the command
+    writes; no traceback and no 'failed: Broken pipe' line on stderr."""
+    p = subprocess.Popen([sys.executable, "-m", "tipgeo", "gauges", "--json"],
+                         stdout=subprocess.PIPE, stderr=subprocess.PIPE)
+    p.stdout.close()  # before the child has imported anything
+    err = p.stderr.read().decode()
+    assert p.wait(timeout=120) in (0, 1)
+    assert err == ""

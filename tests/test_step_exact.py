@@ -293,3 +293,27 @@ def test_serration_outline_is_closed_and_matches_the_profile(r_c, depth, r_s):
 def _poly_area(p) -> float:
     x, y = p[:, 0], p[:, 1]
     return float(0.5 * np.sum(x * np.roll(y, -1) - np.roll(x, -1) * y))
+
+
+def test_cli_gcode_sim_reports_the_failed_mesh(tmp_path, monkeypatch, capsys):
+    """`gcode sim --mesh X.step` without OCP: named on stderr before the
+    pictures are written, the pictures still written, exit status 1, and
+    `--json` lists what was written and what failed."""
+    import json
+
+    from tipgeo.cli import main
+
+    prog = tmp_path / "c4.pgm"
+    assert main(["laser", "punch-C4", "-o", str(prog)]) == 0
+    capsys.readouterr()
+    monkeypatch.setitem(sys.modules, "OCP", None)
+    monkeypatch.setitem(sys.modules, "OCP.BRep", None)
+    png, mesh = tmp_path / "p.png", tmp_path / "s.step"
+    assert main(["gcode", "sim", str(prog), "--spec", "punch-C4", "--plot", str(png),
+                 "--mesh", str(mesh), "--tolerance-um", "2", "--json"]) == 1
+    cap = capsys.readouterr()
+    info = json.loads(cap.out)
+    assert info["failed"][0]["path"] == str(mesh)
+    assert info["wrote"] == [str(png), str(tmp_path / "p-rim.png")]
+    assert f"cannot write {mesh}" in cap.err
+    assert png.exists() and not mesh.exists()

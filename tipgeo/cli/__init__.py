@@ -64,6 +64,12 @@ def main(argv: list[str] | None = None) -> int:
 
         with small_linalg(getattr(args, "_blas_threads", 1)):
             return args.func(args)
+    except BrokenPipeError:  # the reader went away (`tipgeo … | head`): quietly
+        import os
+
+        devnull = os.open(os.devnull, os.O_WRONLY)
+        os.dup2(devnull, sys.stdout.fileno())  # no second error at interpreter exit
+        return 1
     except Exception as e:
         mapped = _exit_code(e)
         if mapped is None:

@@ -54,13 +54,17 @@ def cmd_gcode(args) -> int:
     res = laser_check(read_program(args.program), beam_diameter=beam, spec=spec,
                       origin=tuple(args.origin), tolerance=tolerance_arg(args),
                       lenient=args.lenient, limits=limits, max_tokens=args.max_tokens)
+    def cannot(path, exc):  # said before the other files are written
+        print(f"tipgeo: failed: cannot write {path}: {exc}", file=sys.stderr)
+
     write_laser_outputs(res, spec, mesh=args.mesh if args.action == "sim" else None,
-                        plot=args.plot)
+                        plot=args.plot, on_error=cannot)
     out = res.summary(source=args.program)
     prog, tp, s = res.program, res.toolpath, out["toolpath"]
+    status = 1 if res.failed else 0
     if args.json:
         print(_dumps(out))
-        return 0
+        return status
     print(f"{args.program}: {len(prog.body)} statements, {s['segments']} moves")
     print(f"  path {s['path_length_mm']:.4f} mm, beam on {s['beam_on_length_mm']:.4f} mm, "
           f"time {s['time_s']:.2f} s (beam on {s['beam_on_time_s']:.2f} s), "
@@ -87,7 +91,9 @@ def cmd_gcode(args) -> int:
               f"{c['hausdorff_mm'] * 1e3:.3f} µm")
     for o in res.files:
         print(f"  wrote {o}")
-    return 0
+    for f in res.failed:
+        print(f"  NOT written: {f['path']}")
+    return status
 
 
 def cmd_grind(args) -> int:

@@ -241,10 +241,19 @@ Stmt = Union[Block, Assign, SysAssign, DVar, Mode, Pso, Repeat, While, If, Call,
 
 
 @dataclass(frozen=True)
+class FunctionMacro:
+    """A function-like ``#define NAME(a, b) text`` macro: its parameter names
+    and replacement text (the parameters appear in it as plain names)."""
+
+    params: tuple[str, ...]
+    body: str
+
+
+@dataclass(frozen=True)
 class Program:
     """A parsed program: statements in order, warnings of skipped text
     (lenient mode), subroutines (``DFS``, wherever they were written) and
-    ``#define`` macros (name → replacement text)."""
+    ``#define`` macros (name → replacement text, or a :class:`FunctionMacro`)."""
 
     body: tuple
     warnings: tuple[str, ...] = ()

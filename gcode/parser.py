@@ -9,11 +9,15 @@ One statement per line, keywords case-insensitive, comments ``;``, ``//`` or
 
 =========================================  =========================================
 ``#define NAME text``, ``#undef NAME``     preprocessor: object-like macros,
-                                           substituted (rescanned, C-style) before
-                                           the line is read; tokens keep the
-                                           line and column of the macro's use.
-                                           ``#include``/``#if…`` and function-like
-                                           macros are refused
+``#define NAME(a, b) text``                and function-like ones (the ``(``
+                                           right after the name, arguments on
+                                           the line of the use, each expanded
+                                           before it is substituted), replaced
+                                           and rescanned C-style before the line
+                                           is read; tokens keep the line and
+                                           column of the macro's use.
+                                           ``#include``/``#if…`` and the ``#``/``##``
+                                           operators are refused
 ``DVAR $a, $b`` (any of space, tab,        :class:`~gcode.ast.DVar` (arrays
 comma), ``DVAR $pts[100]``                 ``$pts[n]`` declared)
 ``$name = expr``                           :class:`~gcode.ast.Assign`
@@ -186,6 +190,9 @@ _DIRECTIVE = re.compile(rf"{_WS_RE}*#{_WS_RE}*([A-Za-z]*)")
 _MACRO_DEF = re.compile(rf"{_WS_RE}*#{_WS_RE}*define{_WS_RE}+([A-Za-z_][A-Za-z0-9_]*)(\(?)",
                         re.IGNORECASE)
 _MACRO_USE = re.compile(r"(?<![A-Za-z0-9_$.])[A-Za-z_][A-Za-z0-9_]*")
+_PARAMS = re.compile(rf"{_WS_RE}*([A-Za-z_][A-Za-z0-9_]*){_WS_RE}*(,|\))")
+#: Most parameters of a function-like macro.
+MAX_MACRO_PARAMS = 32
 _SUB_NAME = re.compile(r"[A-Za-z_][A-Za-z0-9_]*")
 #: I/O system variables: ``$DO``, ``$DI``, ``$AO``, ``$AI`` (a glued number too: ``$DO0``).
 IO_NAME = re.compile(r"(?:do|di|ao|ai)[0-9]*\Z")
@@ -403,15 +410,15 @@ def _directive(line: str, lineno: int, macros: dict[str, str], lexed: list) -> N
         if m is None:
             raise GCodeError("#define needs a macro name", lineno, col, line[col - 1:col + 19])
         name = m.group(1)
-        if m.group(2):
-            raise UnsupportedError("function-like macros are not supported (only #define NAME "
-                                   "text)", lineno, m.start(1) + 1, name + "(")
-        body = line[m.end():]
+        end, params = m.end(), None
+        if m.group(2):              # NAME( right after the name: function-like
+            end, params = _macro_params(line, m, lineno)
+        body = line[end:]
         body = body[:split_comment(body)].strip()
         if len(body) > MAX_LINE_LENGTH:
             raise GCodeError(f"macro {name} expands to more than MAX_LINE_LENGTH = "
                              f"{MAX_LINE_LENGTH} characters", lineno, m.start(1) + 1, name)
-        offset = m.end() + (len(line[m.end():]) - len(line[m.end():].lstrip()))
+        offset = end + (len(line[end:]) - len(line[end:].lstrip()))
         try:
             tokenize_line(body, lineno, out=lexed)   # its tokens are checked and charged
         except GCodeError as err:
@@ -419,7 +426,7 @@ def _directive(line: str, lineno: int, macros: dict[str, str], lexed: list) -> N
         if name not in macros and len(macros) >= MAX_MACROS:
             raise GCodeError(f"more than {MAX_MACROS} macros (MAX_MACROS)", lineno,
                              m.start(1) + 1, name)
-        macros[name] = body
+        macros[name] = body if params is None else ast.FunctionMacro(params, body)
     elif word == "undef":
         rest = line[d.end():]
         m = _SUB_NAME.match(rest.strip())
@@ -430,6 +437,76 @@ def _directive(line: str, lineno: int, macros: dict[str, str], lexed: list) -> N
         raise GCodeError(f"preprocessor directive #{d.group(1)} is not supported (only #define "
                          "and #undef): the statements it would select or bring in cannot be "
                          "checked", lineno, col, line[col - 1:d.end()])
+
+
+def _macro_params(line: str, m, lineno: int) -> tuple[int, tuple[str, ...]]:
+    """The parameter list of ``#define NAME(a, b)``: (end of the list in
+    ``line``, the names)."""
+    pos, params = m.end(), []
+    rest = line[pos:]
+    if rest.lstrip(" \t").startswith(")"):
+        return pos + rest.index(")") + 1, ()
+    while True:
+        p = _PARAMS.match(line, pos)
+        if p is None:
+            raise GCodeError(f"macro {m.group(1)}: expected a parameter name followed by ',' or "
+                             "')'", lineno, pos + 1, line[pos:pos + 20])
+        if p.group(1) in params:
+            raise GCodeError(f"macro {m.group(1)}: parameter {p.group(1)} is named twice",
+                             lineno, p.start(1) + 1, p.group(1))
+        params.append(p.group(1))
+        if len(params) > MAX_MACRO_PARAMS:
+            raise GCodeError(f"macro {m.group(1)}: more than {MAX_MACRO_PARAMS} parameters "
+                             "(MAX_MACRO_PARAMS)", lineno, p.start(1) + 1, p.group(1))
+        pos = p.end()
+        if p.group(2) == ")":
+            return pos, tuple(params)
+
+
+def _call_args(code: str, start: int, name: str, lineno: int) -> tuple[int, list[str]] | None:
+    """The arguments of a function-like macro used at ``code[start:]`` (just
+    after its name): (end of the use, argument texts), or None when no ``(``
+    follows (the name is then left alone, as in C). Commas inside parentheses
+    or strings do not split; the ``)`` must be on the same line."""
+    i = start
+    while i < len(code) and code[i] in " \t":
+        i += 1
+    if i >= len(code) or code[i] != "(":
+        return None
+    depth, args, arg0, j = 0, [], i + 1, i
+    strings = False
+    while j < len(code):
+        c = code[j]
+        if c == '"':
+            strings = not strings
+        elif not strings:
+            if c == "(":
+                depth += 1
+            elif c == ")":
+                depth -= 1
+                if depth == 0:
+                    args.append(code[arg0:j])
+                    return j + 1, args
+            elif c == "," and depth == 1:
+                args.append(code[arg0:j])
+                arg0 = j + 1
+        j += 1
+    raise GCodeError(f"macro {name}: its arguments are not closed with ')' on this line",
+                     lineno, i + 1, code[i:i + 20])
+
+
+def _substitute(body: str, params: tuple[str, ...], args: list[str]) -> str:
+    """``body`` with each parameter name (outside strings) replaced by its argument."""
+    values = dict(zip(params, args))
+    strings = _string_spans(body)
+    out, pos = [], 0
+    for m in _MACRO_USE.finditer(body):
+        if m.group(0) in values and not any(a <= m.start() < b for a, b in strings):
+            out.append(body[pos:m.start()])
+            out.append(values[m.group(0)])
+            pos = m.end()
+    out.append(body[pos:])
+    return "".join(out)
 
 
 def _expand(code: str, macros: dict[str, str], lineno: int,
@@ -452,13 +529,33 @@ def _expand(code: str, macros: dict[str, str], lineno: int,
     strings = _string_spans(code)
     for m in _MACRO_USE.finditer(code):
         name = m.group(0)
-        if name not in macros or name in active or any(a <= m.start() < b for a, b in strings):
+        if m.start() < pos or name not in macros or name in active \
+                or any(a <= m.start() < b for a, b in strings):
             continue
+        rep, use_end = macros[name], m.end()
+        if isinstance(rep, ast.FunctionMacro):
+            call = _call_args(code, m.end(), name, lineno)
+            if call is None:
+                continue
+            use_end, args = call
+            if args == [""] and not rep.params:
+                args = []
+            if len(args) != len(rep.params):
+                raise GCodeError(f"macro {name} takes {len(rep.params)} argument(s) "
+                                 f"({', '.join(rep.params)}), {len(args)} given", lineno,
+                                 m.start() + 1, code[m.start():use_end])
+            try:                    # arguments are expanded first, then substituted
+                args = [_expand(a.strip(), macros, lineno, active, budget)[0] for a in args]
+            except GCodeError as err:
+                raise GCodeError(err.reason, lineno, m.start() + 1, name) from None
+            rep = _substitute(rep.body, rep.params, args)
+            if len(rep) > MAX_LINE_LENGTH:
+                raise GCodeError(f"line is longer than MAX_LINE_LENGTH = {MAX_LINE_LENGTH} "
+                                 "characters after macro expansion", lineno, m.start() + 1, name)
         if m.start() > pos:
             out.append(code[pos:m.start()])
             pieces.append((size, pos, m.start() - pos, False))
             size += m.start() - pos
-        rep = macros[name]
         budget[1] -= 1
         budget[0][0] -= 1
         if budget[1] < 0:
@@ -476,9 +573,9 @@ def _expand(code: str, macros: dict[str, str], lineno: int,
             except GCodeError as err:    # located at this use, not inside a replacement
                 raise GCodeError(err.reason, lineno, m.start() + 1, name) from None
         out.append(rep)
-        pieces.append((size, m.start(), len(name), True))
+        pieces.append((size, m.start(), use_end - m.start(), True))
         size += len(rep)
-        pos = m.end()
+        pos = use_end
         if size > MAX_LINE_LENGTH:
             raise GCodeError(f"line is longer than MAX_LINE_LENGTH = {MAX_LINE_LENGTH} "
                              "characters after macro expansion", lineno, m.start() + 1, name)

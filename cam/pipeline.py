@@ -99,22 +99,13 @@ def write_grind_outputs(res: GrindResult, *, program: str | Path | None = None,
     raised before anything is written.
     """
     from tipgeo.atomic import write_text_atomic
-    from tipgeo.errors import ExportError
-    from tipgeo.io import check_export, export_tip
-
-    def failed(path, exc):
-        res.failed.append({"path": str(path), "error": str(exc)})
-        on_error(Path(path), exc)
+    from tipgeo.io import guarded_export
 
     if mesh is not None:
         if res.ground is None:
             raise ValueError("mesh: the result has no simulated tip (grind(simulate_tip=True))")
-        try:
-            check_export(res.ground, mesh)
-        except ExportError as exc:
-            if on_error is None:
-                raise
-            failed(mesh, exc)
+        if not guarded_export(res.ground, mesh, failed=res.failed, on_error=on_error,
+                              dry_run=True):
             mesh = None
     wrote = []
     if program is not None:
@@ -128,13 +119,8 @@ def write_grind_outputs(res: GrindResult, *, program: str | Path | None = None,
     if sheet is not None:
         write_text_atomic(Path(sheet), res.program.setup_sheet())
         wrote.append(str(sheet))
-    if mesh is not None:
-        try:
-            export_tip(res.ground, mesh)
-            wrote.append(str(mesh))
-        except ExportError as exc:
-            if on_error is None:
-                raise
-            failed(mesh, exc)
+    if mesh is not None and guarded_export(res.ground, mesh, failed=res.failed,
+                                           on_error=on_error):
+        wrote.append(str(mesh))
     res.files += wrote
     return wrote

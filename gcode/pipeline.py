@@ -149,23 +149,13 @@ def write_laser_outputs(res: LaserCheck, spec=None, *, mesh: str | Path | None =
     ``res.failed`` records it; with ``on_error`` ``None`` the error is raised
     before anything is written.
     """
-    from tipgeo.errors import ExportError
-
-    def failed(path, exc):
-        res.failed.append({"path": str(path), "error": str(exc)})
-        on_error(Path(path), exc)
+    from tipgeo.io import guarded_export
 
     if mesh is not None:
         if res.ablation is None:
             raise GCodeError("mesh: nothing was simulated (give the punch's spec)")
-        from tipgeo.io import check_export
-
-        try:
-            check_export(res.ablation.tip, mesh)
-        except ExportError as exc:
-            if on_error is None:
-                raise
-            failed(mesh, exc)
+        if not guarded_export(res.ablation.tip, mesh, failed=res.failed, on_error=on_error,
+                              dry_run=True):
             mesh = None
     wrote = []
     if plot is not None:
@@ -180,15 +170,8 @@ def write_laser_outputs(res: LaserCheck, spec=None, *, mesh: str | Path | None =
 
         plot_rim(res.ablation.tip, spec, rim)
         wrote.append(str(rim))
-    if mesh is not None:
-        from tipgeo.io import export_tip
-
-        try:
-            export_tip(res.ablation.tip, mesh)
-            wrote.append(str(mesh))
-        except ExportError as exc:
-            if on_error is None:
-                raise
-            failed(mesh, exc)
+    if mesh is not None and guarded_export(res.ablation.tip, mesh, failed=res.failed,
+                                           on_error=on_error):
+        wrote.append(str(mesh))
     res.files += wrote
     return wrote

@@ -59,7 +59,7 @@ import os  # noqa: F401  (``tipgeo.io.os``, as before the split: tests patch os.
 from . import stl, ply, obj, threemf, gltf, step, inp  # noqa: F401
 # isort: on
 from .common import ExportError
-from .export import ExportReport, check_export, export_many, export_tip
+from .export import ExportReport, check_export, export_many, export_tip, guarded_export
 from .load import UNITS, UNLABELLED, load_tip
 from .registry import EXPORTERS, IMPORTERS
 
@@ -71,6 +71,7 @@ __all__ = [
     "ExportError",
     "ExportReport",
     "check_export",
+    "guarded_export",
     "export_many",
     "export_tip",
     "load_tip",

@@ -147,6 +147,29 @@ def check_export(tip: Tip, path: str | os.PathLike[str], **options) -> Path:
     return p
 
 
+def guarded_export(tip: Tip, path: str | os.PathLike[str], *, failed: list[dict],
+                   on_error: Callable[[Path, Exception], None] | None = None,
+                   dry_run: bool = False, **options) -> bool:
+    """Check (``dry_run``, as :func:`check_export`) or write (as
+    :func:`export_tip`) the one mesh output of a command that writes several
+    files (a mesh in the cannula frame, mm).
+
+    An :class:`ExportError` is raised when ``on_error`` is ``None``; otherwise
+    ``{"path", "error"}`` is appended to ``failed``, ``on_error(path, exc)``
+    is called and False returned, so the command can go on with its other
+    files. Returns True when the check or the write succeeded.
+    """
+    try:
+        (check_export if dry_run else export_tip)(tip, path, **options)
+    except ExportError as exc:
+        if on_error is None:
+            raise
+        failed.append({"path": str(path), "error": str(exc)})
+        on_error(Path(path), exc)
+        return False
+    return True
+
+
 @dataclass
 class ExportReport:
     """What :func:`export_many` wrote (``written``, in order) and what it

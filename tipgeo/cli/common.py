@@ -102,6 +102,14 @@ def tolerance_arg(args) -> float | None:
     return args.tolerance_um * 1e-3
 
 
+def cannot_write(path, exc) -> None:
+    """The ``on_error`` of a multi-output command: one line on stderr naming
+    the file that cannot be written, said before the others are written."""
+    import sys
+
+    print(f"tipgeo: failed: cannot write {path}: {exc}", file=sys.stderr)
+
+
 def write_text(path, text: str) -> None:
     """Write a text output atomically (:func:`tipgeo.atomic.write_text_atomic`)."""
     from ..atomic import write_text_atomic

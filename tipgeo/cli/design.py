@@ -8,7 +8,7 @@ import time
 from pathlib import Path
 
 from ..jsonio import dumps as _dumps
-from .common import declare_files, export_exts, spec_arg, tolerance_arg
+from .common import cannot_write, declare_files, export_exts, spec_arg, tolerance_arg
 
 __all__ = ["register", "cmd_build", "cmd_gauges", "cmd_samples"]
 
@@ -22,10 +22,7 @@ def cmd_build(args) -> int:
     tip = build_tip(spec, tolerance=tolerance_arg(args))
     dt = time.perf_counter() - t0
 
-    def cannot(path, exc):  # said before the other files are written
-        print(f"tipgeo: failed: cannot write {path}: {exc}", file=sys.stderr)
-
-    report = export_many(tip, args.output, on_error=cannot, gltf_units=args.gltf_units,
+    report = export_many(tip, args.output, on_error=cannot_write, gltf_units=args.gltf_units,
                          gltf_up=args.gltf_up, step_form=args.step_form)
     outs = list(report.written)
     if args.png:

@@ -8,7 +8,14 @@ import sys
 from pathlib import Path
 
 from ..jsonio import dumps as _dumps
-from .common import declare_files, export_exts, spec_arg, tolerance_arg, write_text
+from .common import (
+    cannot_write,
+    declare_files,
+    export_exts,
+    spec_arg,
+    tolerance_arg,
+    write_text,
+)
 
 __all__ = ["register", "cmd_laser", "cmd_gcode", "cmd_grind", "cmd_mill"]
 
@@ -54,11 +61,8 @@ def cmd_gcode(args) -> int:
     res = laser_check(read_program(args.program), beam_diameter=beam, spec=spec,
                       origin=tuple(args.origin), tolerance=tolerance_arg(args),
                       lenient=args.lenient, limits=limits, max_tokens=args.max_tokens)
-    def cannot(path, exc):  # said before the other files are written
-        print(f"tipgeo: failed: cannot write {path}: {exc}", file=sys.stderr)
-
     write_laser_outputs(res, spec, mesh=args.mesh if args.action == "sim" else None,
-                        plot=args.plot, on_error=cannot)
+                        plot=args.plot, on_error=cannot_write)
     out = res.summary(source=args.program)
     prog, tp, s = res.program, res.toolpath, out["toolpath"]
     status = 1 if res.failed else 0
@@ -104,11 +108,8 @@ def cmd_grind(args) -> int:
     res = grind(spec, machine=machine, feed=args.feed, needle_rpm=args.needle_rpm,
                 simulate_tip=bool(args.simulate or args.report), compare=args.report,
                 tolerance=tolerance_arg(args))
-    def cannot(path, exc):  # said before the other files are written
-        print(f"tipgeo: failed: cannot write {path}: {exc}", file=sys.stderr)
-
     write_grind_outputs(res, program=args.output, gcode=args.gcode, sheet=args.sheet,
-                        mesh=args.simulate, on_error=cannot)
+                        mesh=args.simulate, on_error=cannot_write)
     out = res.summary()
     status = 1 if res.failed else 0
     if args.json:

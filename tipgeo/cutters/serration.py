@@ -477,11 +477,5 @@ class SerrationCutter(Cutter):
     def edge_z(self, gamma, radius, cannula, previous: tuple = ()):
         """Lowest z of the notches on the cylinder of ``radius`` (+inf between
         notches); needs the preceding cutters for the rim heights."""
-        if not previous:
-            return None
-        g = np.asarray(gamma, float).ravel()
-        p = np.stack([radius * np.cos(g), radius * np.sin(g), np.zeros_like(g)], 1)
-        k, _, u = self._local(p)
-        profs = self.profiles(cannula, previous)
-        out = np.array([profs[j].bottom(np.array([uu]))[0] for j, uu in zip(k, u)])
-        return out.reshape(np.shape(gamma))
+        found = self.edge_faces(gamma, radius, cannula, previous)
+        return None if found is None else found[0]

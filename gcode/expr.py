@@ -80,27 +80,6 @@ def evaluate(expr: ast.Expr, variables: Mapping[str, float],
             if not math.isfinite(value):
                 raise fail(f"variable ${node.name} is not finite: {value!r}")
             values.append(value)
-        elif isinstance(node, ast.BinOp) and node.op in _PRECEDENCE:
-            if not ready:
-                stack.append((node, True))
-                stack.append((node.right, False))
-                stack.append((node.left, False))
-                continue
-            right = values.pop()
-            left = values.pop()
-            if node.op == "+":
-                result = left + right
-            elif node.op == "-":
-                result = left - right
-            elif node.op == "*":
-                result = left * right
-            elif right == 0.0:
-                raise fail(f"division by zero in {to_source(node)}")
-            else:
-                result = left / right
-            if not math.isfinite(result):
-                raise fail(f"result out of range in {to_source(node)}")
-            values.append(result)
         elif isinstance(node, (ast.Neg, ast.Not)):
             if ready:
                 value = values.pop()
@@ -108,24 +87,43 @@ def evaluate(expr: ast.Expr, variables: Mapping[str, float],
             else:
                 stack.append((node, True))
                 stack.append((node.operand, False))
-        elif (isinstance(node, ast.Compare) and node.op in _COMPARE) or (
+        elif (isinstance(node, ast.BinOp) and node.op in _PRECEDENCE) or (
+                isinstance(node, ast.Compare) and node.op in _COMPARE) or (
                 isinstance(node, ast.Logic) and node.op in ("AND", "OR")):
-            if not ready:
+            if not ready:           # both operands first, then the operator
                 stack.append((node, True))
                 stack.append((node.right, False))
                 stack.append((node.left, False))
                 continue
             right = values.pop()
             left = values.pop()
-            if isinstance(node, ast.Compare):
-                values.append(float(_COMPARE[node.op](left, right)))
-            elif node.op == "AND":
-                values.append(float(left != 0.0 and right != 0.0))
-            else:
-                values.append(float(left != 0.0 or right != 0.0))
+            values.append(_binary(node, left, right, fail))
         else:
             raise fail(f"not an expression: {node!r}")
     return values[0]
+
+
+def _binary(node, left: float, right: float, fail) -> float:
+    """The value of a binary node (arithmetic, comparison, AND/OR) of two values."""
+    if isinstance(node, ast.Compare):
+        return float(_COMPARE[node.op](left, right))
+    if isinstance(node, ast.Logic):
+        if node.op == "AND":
+            return float(left != 0.0 and right != 0.0)
+        return float(left != 0.0 or right != 0.0)
+    if node.op == "+":
+        result = left + right
+    elif node.op == "-":
+        result = left - right
+    elif node.op == "*":
+        result = left * right
+    elif right == 0.0:
+        raise fail(f"division by zero in {to_source(node)}")
+    else:
+        result = left / right
+    if not math.isfinite(result):
+        raise fail(f"result out of range in {to_source(node)}")
+    return result
 
 
 def to_source(expr: ast.Expr) -> str:

@@ -69,19 +69,31 @@ def test_opencamlib_drop_cutter_is_exact():
     assert z[3:] == pytest.approx(want_edge, abs=1e-12)
 
 
+def _dense_sweep(kernel, R_, r_, n, seed, span):
+    """Pairs (kernel's lowest point, the minimum over n tool positions along
+    the move) for 20 random moves (tool tips A → B) and columns; the tool
+    profile above its tip is T(ρ) = r − √(r² − (ρ − (R − r))²)."""
+    rng = np.random.default_rng(seed)
+    out = []
+    for _ in range(20):
+        A = rng.uniform(-0.5, 0.5, 3)
+        B = A + rng.uniform(-span, span, 3)
+        q = rng.uniform(-1.2 * R_, 1.2 * R_, 2)
+        c = A + np.linspace(0, 1, n)[:, None] * (B - A)
+        rho = np.hypot(c[:, 0] - q[0], c[:, 1] - q[1])
+        ok = rho <= R_
+        e = np.clip(rho[ok] - (R_ - r_), 0, None)
+        brute = np.min(c[ok, 2] + r_ - np.sqrt(r_ * r_ - e * e)) if ok.any() else math.inf
+        out.append((kernel(q, A, B), brute))
+    return out
+
+
 def test_capsule_bottom_is_the_swept_balls_lowest_point():
     """Against a densely sampled ball path (10 000 balls: h²/8R < 1e-8 mm)."""
-    rng = np.random.default_rng(3)
-    for _ in range(20):
-        a = rng.uniform(-0.5, 0.5, 3)
-        b = a + rng.uniform(-0.6, 0.6, 3)
-        q = rng.uniform(-0.7, 0.7, 2)
-        t = np.linspace(0, 1, 10001)[:, None]
-        c = a + t * (b - a)
-        d2 = np.sum((c[:, :2] - q) ** 2, 1)
-        ok = d2 <= R * R
-        want = np.min(c[ok, 2] - np.sqrt(R * R - d2[ok])) if ok.any() else math.inf
-        got = capsule_bottom(q[0], q[1], *a, *b, R)
+    lift = np.array([0.0, 0.0, R])
+    for got, want in _dense_sweep(lambda q, A, B: capsule_bottom(q[0], q[1], *(A + lift),
+                                                                 *(B + lift), R),
+                                  R, R, 10001, 3, 0.6):
         if math.isinf(want):
             assert math.isinf(got)
         else:
@@ -264,7 +276,7 @@ def test_cli_mill(tmp_path, capsys):
     capsys.readouterr()
     assert main(["mill", "bevel-14G-xi14.5", "-o", str(out), "--scallop-um", "500"]) == 2
     err = capsys.readouterr().err
-    assert "--scallop-um = 500 µm" in err and "[0.1, 100] µm" in err and " mm" not in err
+    assert "--scallop-um = 500 µm" in err and "0.1 ≤ value ≤ 100 (µm)" in err and " mm" not in err
 
 
 def _raster(z_of_x, ys, x0=-2.0, x1=2.0, n=81):
@@ -317,18 +329,8 @@ def test_bull_nose_scallop_is_the_torus_formula():
                                             0, None)) for c in (-s / 2, s / 2)))
     assert h == pytest.approx(want, abs=1e-12)
     assert h.max() == pytest.approx(r - math.sqrt(r * r - (s / 2 - a) ** 2), abs=1e-12)
-    rng = np.random.default_rng(5)
-    for _ in range(20):
-        A = rng.uniform(-0.5, 0.5, 3)
-        B = A + rng.uniform(-0.8, 0.8, 3)
-        qq = rng.uniform(-1.2, 1.2, 2)
-        t = np.linspace(0, 1, 20001)[:, None]
-        c = A + t * (B - A)
-        rho = np.hypot(c[:, 0] - qq[0], c[:, 1] - qq[1])
-        ok = rho <= R
-        e = np.clip(rho[ok] - a, 0, None)
-        brute = np.min(c[ok, 2] + r - np.sqrt(r * r - e * e)) if ok.any() else math.inf
-        got = tool_bottom(qq[0], qq[1], *A, *B, R, r)
+    for got, brute in _dense_sweep(lambda q, A, B: tool_bottom(q[0], q[1], *A, *B, R, r),
+                                   R, r, 20001, 5, 0.8):
         if math.isinf(brute):
             assert math.isinf(got)
         else:

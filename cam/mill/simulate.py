@@ -378,20 +378,26 @@ def compare_milled(res: MilledTip, spec, *, scallop: float, stepover: float,
     ``margin`` (default ``tol.cam.mill_edge_margin``); the scallop measured is
     its largest value, the gouge its most negative.
 
-    λ of both edges from the milled tip's mesh edge (:func:`tipgeo.angles.analyze`,
-    mesh path: a Fourier fit of z(γ)), compared with the CAD tip's mesh
-    analysed the same way (``lambda_max_diff_deg``: the milling's effect; the
-    fit's own error against the exact CAD edge is reported beside it, 0.74° at
-    the helical tip's heel). θ and α from the milled normal at each edge
-    point: the exact CAD normal tilted by a plane fitted to the deviation over
-    a window two step-overs along the edge and one (at most 0.8 of the wall)
-    into the wall (the raw facet normal swings by ±asin(s/2R) across each
-    scallop; the window averages whole scallops), against the exact CAD angles.
-    Both along γ ∈ [``heel_margin_deg``, 360° − ``heel_margin_deg``] (at the
-    heel λ climbs from 0 by several degrees per degree of γ), at the same
+    λ, θ and α of both edges at the exact CAD edge points, against the exact
+    CAD angles. The milled edge's tangent is the CAD tangent with z′ raised by
+    the slope of the edge's deviation along the rim, and its rake-face normal
+    the CAD normal tilted by the deviation's gradient over a band of the wall
+    (one step-over deep, at most 0.8 of the wall); both fits are Hann-weighted
+    over four scallop periods along the rim (P = step-over / |sin β|, β
+    between the rim and the passes), so the scallops' ripple, which swings
+    the raw edge's local λ by several degrees (±10° at the three-plane tip's
+    heel at 2 µm), averages out (:func:`_edge_deviation_slope`). The mesh
+    path (:func:`tipgeo.angles.analyze`, a Fourier fit of the milled edge's
+    z(γ) against the CAD mesh's) is reported beside it
+    (``lambda_mesh_fit_max_diff_deg``): its five harmonics follow part of the
+    ripple (0.54–0.57° at the three-plane tip's heel at 2 µm, where the
+    passes cross the rim at 30° and the ripple's period is longest).
+    Compared along γ ∈ [``heel_margin_deg``, 360° − ``heel_margin_deg``] (at
+    the heel λ climbs from 0 by several degrees per degree of γ), at the same
     cannula-frame γ, away from the rim corners (kinks between faces) by
-    ``kink_margin_deg`` and by as much as keeps the fitting window the ridge
-    margin from a ridge ((step-over + ``tol.cam.mill_ridge_margin``)/r_i).
+    ``kink_margin_deg`` and by as much as keeps the fitting band the ridge
+    margin from a ridge ((step-over + ``tol.cam.mill_ridge_margin``)/r_i);
+    the windows along the rim stop the ridge margin short of a rim corner.
     """
     from tipgeo.angles import analyze, edge_angles
 

@@ -260,6 +260,24 @@ def test_milled_matches_cad(name):
     assert a["theta_max_diff_deg"] < 0.5
 
 
+@pytest.mark.parametrize("tool", ["bull:1.588:0.25", "flat:1"])
+def test_bull_nose_and_flat_mill_the_bevel(tool):
+    """The 14.5° bevel milled with a bull nose and a flat end mill (step-over
+    from their swept profile, simulated from the G-code): within the target
+    scallop + 1 µm over the stated region, no gouge deeper than 1 µm."""
+    spec = preset("bevel-14G-xi14.5")
+    res = mill(spec, tool=parse_tool(tool), compare=False,
+               params=MillParams(scallop=SCALLOP_UM * 1e-3, rough=False))
+    m = res.milled
+    dev = m.deviation() * 1e3                                        # µm
+    rr = np.hypot(*np.meshgrid(m.x, m.y))
+    can = spec.cannula
+    region = (rr >= can.r_i + 0.02) & (rr <= can.r_o - 0.02)        # the bevel has no ridge
+    assert 0.3 * SCALLOP_UM < np.nanmax(dev[region]) <= SCALLOP_UM + 1.0
+    assert np.nanmin(dev) >= -1.0
+    assert m.tip.is_watertight
+
+
 def test_cli_mill(tmp_path, capsys):
     out = tmp_path / "p.nc"
     assert main(["mill", "bevel-14G-xi14.5", "-o", str(out), "--scallop-um", "20",

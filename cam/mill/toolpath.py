@@ -18,8 +18,12 @@ What is planned
   line of a bevel.
 - **Finishing.** Passes at a step-over s (plan, a multiple of the axis
   resolution) so that the scallop between passes on the surface is at most the
-  target h: s = 0.95 · 2√(2 r h − h²) / worst ratio, r the corner radius (the
-  ball's radius). Every pass runs across the whole annulus grown by the tool
+  target h: for a ball s = 0.95 · 2√(2 R h − h²) / worst ratio; for a bull
+  nose or a flat end the largest s whose scallop on the surface's steepest
+  planes stays within 0.95 h, from the tool's swept profile
+  (:func:`planar_stepover`: a flat end along a slope g leaves g(R − √(R² −
+  s²/4)), across a slope c terraces of s·c). Every pass runs across the
+  whole annulus grown by the tool
   radius R; cutter-location points are dropped (OpenCAMLib ``BatchDropCutter``)
   onto the cut faces of the tip mesh built at ``tol.cam.mill_mesh``, first every
   32 resolution steps, then halving until the straight move between kept points

@@ -71,8 +71,8 @@ import numpy as np
 from tipgeo.errors import TipGeoError
 from tipgeo.tolerances import tol
 
-__all__ = ["CamError", "AxisLimit", "Machine", "wheel_from_needle", "f_surf", "plane_2_36",
-           "near_generator", "wheel_height", "face_plane"]
+__all__ = ["CamError", "AxisLimit", "Machine", "machine_toml", "wheel_from_needle", "f_surf",
+           "plane_2_36", "near_generator", "wheel_height", "face_plane"]
 
 
 class CamError(TipGeoError, ValueError):
@@ -133,27 +133,7 @@ class Machine:
     def from_toml(cls, path) -> Machine:
         """A machine from a TOML file: top-level keys override the defaults;
         ``[t1]`` … ``[r5]`` tables give ``lo``, ``hi``, ``resolution``."""
-        from tipgeo.errors import SpecError
-        from tipgeo.tomlio import loads_toml, read_text_file
-
-        try:
-            data = loads_toml(read_text_file(path, "machine file"), f"machine file '{path}'")
-        except SpecError as e:
-            raise CamError(str(e)) from None
-        known = {f.name for f in fields(cls)}
-        kw = {}
-        for k, v in data.items():
-            if k not in known:
-                raise CamError(f"machine key '{k}' is not known; allowed: "
-                               + ", ".join(sorted(known)))
-            if k in ("t1", "t2", "r3", "r4", "r5"):
-                try:
-                    v = AxisLimit(float(v["lo"]), float(v["hi"]), float(v["resolution"]))
-                except (KeyError, TypeError, ValueError):
-                    raise CamError(f"machine axis [{k}] needs numbers lo, hi, resolution") \
-                        from None
-            kw[k] = v
-        return cls(**kw)
+        return cls(**machine_toml(cls, path, ("t1", "t2", "r3", "r4", "r5")))
 
     def check_feed(self, feed: float) -> float:
         if not self.feed_min <= feed <= self.feed_max:
@@ -173,6 +153,40 @@ class Machine:
             unit = "deg" if ax in ("r4", "r5") else "mm"
             rows.append((ax, f"[{lim.lo:g}, {lim.hi:g}] {unit}, resolution {lim.resolution:g}"))
         return rows
+
+
+def machine_toml(cls, path, axes: tuple[str, ...]) -> dict:
+    """The keyword arguments of machine dataclass ``cls`` from the TOML file
+    ``path``: top-level keys override its defaults (unknown keys refused,
+    naming the allowed ones); the tables named in ``axes`` give ``lo``,
+    ``hi``, ``resolution`` (an :class:`AxisLimit`, lo < hi, resolution > 0).
+    Other values are returned as read, for the caller to check.
+
+    Raises :class:`CamError` naming the key, its value and what is allowed.
+    """
+    from tipgeo.errors import SpecError
+    from tipgeo.tomlio import loads_toml, read_text_file
+
+    try:
+        data = loads_toml(read_text_file(path, "machine file"), f"machine file '{path}'")
+    except SpecError as e:
+        raise CamError(str(e)) from None
+    known = {f.name for f in fields(cls)}
+    kw = {}
+    for k, val in data.items():
+        if k not in known:
+            raise CamError(f"machine key '{k}' is not known; allowed: "
+                           + ", ".join(sorted(known)))
+        if k in axes:
+            try:
+                val = AxisLimit(float(val["lo"]), float(val["hi"]), float(val["resolution"]))
+            except (KeyError, TypeError, ValueError):
+                raise CamError(f"machine axis [{k}] needs numbers lo, hi, resolution") from None
+            if not (val.lo < val.hi and val.resolution > 0):
+                raise CamError(f"machine axis [{k}]: lo = {val.lo:g} must be below hi = "
+                               f"{val.hi:g} and resolution = {val.resolution:g} > 0")
+        kw[k] = val
+    return kw
 
 
 def wheel_from_needle(p: np.ndarray, phi: float, H: float, phi_g: float) -> np.ndarray:

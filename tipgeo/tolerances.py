@@ -276,7 +276,12 @@ class CamTolerances:
         against (milling, :mod:`cam.mill`).
     mill_chord : float
         Kept cutter-location points: the straight move between two of them
-        passes within this (mm, vertically) of every dropped point between.
+        passes within this (mm, normal to the surface: the vertical sag times
+        1/√(1 + slope²) along the move) of every dropped point between, where
+        the path bends down (the chord lies under it: a gouge).
+    mill_chord_up : float
+        The same where the path bends up (the chord lies above it: material
+        left, mostly at the creases between the mesh's facets).
     mill_height : float
         The CAD height z = Z(x, y) is solved to this (mm).
     mill_normal_z : float
@@ -296,6 +301,7 @@ class CamTolerances:
     converge: float = 1.0e-13
     mill_mesh: float = 1.0e-3
     mill_chord: float = 3.0e-4
+    mill_chord_up: float = 6.0e-4
     mill_height: float = 1.0e-11
     mill_normal_z: float = 0.01745
     mill_edge_margin: float = 0.02

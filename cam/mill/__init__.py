@@ -9,10 +9,25 @@ degrees in reports, feeds mm/min.
 from .machine import DEFAULT_TOOL, TOOL_KINDS, EndMill, MillMachine, parse_tool
 from .pipeline import MillResult, mill, setup_sheet, write_mill_outputs
 from .post import HAAS, POSTS, Post, post_program
-from .simulate import GCodeMoves, MilledTip, compare_milled, read_gcode, simulate_mill
-from .toolpath import MillParams, MillSetup, MillToolpath, cad_height, plan_toolpaths
+from .simulate import (
+    GCodeMoves,
+    MilledTip,
+    compare_milled,
+    read_gcode,
+    simulate_mill,
+    sweep_heights,
+)
+from .toolpath import (
+    MillParams,
+    MillSetup,
+    MillToolpath,
+    cad_height,
+    plan_toolpaths,
+    planar_stepover,
+)
 
 __all__ = ["MillMachine", "EndMill", "TOOL_KINDS", "DEFAULT_TOOL", "parse_tool", "MillParams",
-           "MillSetup", "MillToolpath", "cad_height", "plan_toolpaths", "Post", "POSTS", "HAAS",
-           "post_program", "GCodeMoves", "read_gcode", "MilledTip", "simulate_mill",
-           "compare_milled", "MillResult", "mill", "setup_sheet", "write_mill_outputs"]
+           "MillSetup", "MillToolpath", "cad_height", "plan_toolpaths", "planar_stepover", "Post",
+           "POSTS", "HAAS", "post_program", "GCodeMoves", "read_gcode", "MilledTip",
+           "simulate_mill", "sweep_heights", "compare_milled", "MillResult", "mill",
+           "setup_sheet", "write_mill_outputs"]

@@ -34,12 +34,12 @@ Feeds are mm/min (G94), the unit of the F word.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field, fields
+from dataclasses import dataclass, field
 
 from tipgeo import validate as v
 from tipgeo.errors import SpecError
 
-from ..machine import AxisLimit, CamError
+from ..machine import AxisLimit, CamError, machine_toml
 
 __all__ = ["MillMachine", "EndMill", "TOOL_KINDS", "DEFAULT_TOOL", "parse_tool"]
 
@@ -179,36 +179,18 @@ class MillMachine:
     def from_toml(cls, path) -> MillMachine:
         """A machine from a TOML file: top-level keys override the defaults;
         ``[x]``, ``[y]``, ``[z]`` tables give ``lo``, ``hi``, ``resolution``."""
-        from tipgeo.tomlio import loads_toml, read_text_file
-
-        try:
-            data = loads_toml(read_text_file(path, "machine file"), f"machine file '{path}'")
-        except SpecError as e:
-            raise CamError(str(e)) from None
-        known = {f.name for f in fields(cls)}
-        kw = {}
-        for k, val in data.items():
-            if k not in known:
-                raise CamError(f"machine key '{k}' is not known; allowed: "
-                               + ", ".join(sorted(known)))
-            if k in ("x", "y", "z"):
-                try:
-                    val = AxisLimit(float(val["lo"]), float(val["hi"]),
-                                    float(val["resolution"]))
-                except (KeyError, TypeError, ValueError):
-                    raise CamError(f"machine axis [{k}] needs numbers lo, hi, resolution") \
-                        from None
-                if not (val.lo < val.hi and val.resolution > 0):
-                    raise CamError(f"machine axis [{k}]: lo = {val.lo:g} must be below hi = "
-                                   f"{val.hi:g} and resolution = {val.resolution:g} > 0")
-            elif k == "work_offset":
+        kw = machine_toml(cls, path, ("x", "y", "z"))
+        for k, val in kw.items():
+            if k in ("x", "y", "z", "name", "controller"):
+                continue
+            if k == "work_offset":
                 try:
                     val = tuple(float(a) for a in val)
                 except (TypeError, ValueError):
                     val = ()
                 if len(val) != 3:
                     raise CamError("machine work_offset needs three numbers (X, Y, Z) in mm")
-            elif k not in ("name", "controller"):
+            else:
                 try:
                     val = float(val)
                 except (TypeError, ValueError):

@@ -112,14 +112,15 @@ def setup_sheet(res: MillResult) -> str:
 
 def write_mill_outputs(res: MillResult, *, program: str | Path | None = None,
                        sheet: str | Path | None = None, mesh: str | Path | None = None,
-                       deviation: str | Path | None = None) -> list[str]:
+                       deviation: str | Path | None = None,
+                       toolpath: str | Path | None = None) -> list[str]:
     """Write the files of a :func:`mill` result, each atomically: the G-code,
     the Markdown set-up sheet, the milled tip mesh (any :mod:`tipgeo.io`
-    format), the deviation map (PNG)."""
+    format), the deviation map (PNG), the toolpath picture (PNG)."""
     from tipgeo.atomic import write_text_atomic
     from tipgeo.io import export_tip
 
-    from .simulate import plot_deviation
+    from .simulate import plot_deviation, plot_toolpath
 
     wrote = []
     if program is not None:
@@ -142,5 +143,8 @@ def write_mill_outputs(res: MillResult, *, program: str | Path | None = None,
                       f"{c['scallop_target_um']:g}), gouge {c['gouge_um']:.2f} µm")
         plot_deviation(res.milled, deviation, title=title)
         wrote.append(str(deviation))
+    if toolpath is not None:
+        plot_toolpath(res.toolpath, toolpath)
+        wrote.append(str(toolpath))
     res.files += wrote
     return wrote

@@ -1,4 +1,5 @@
-"""Material-removal simulator for three-axis ball-end milling: G-code → the
+"""Material-removal simulator for three-axis milling with ball, bull-nose and
+flat end mills: G-code → the
 milled tip, and its comparison with the CAD tip.
 
 Frames and units: :mod:`cam.mill.machine` (program frame of the G-code,
@@ -10,11 +11,14 @@ How it works (a dexel model)
 The program is read back from its text (:func:`read_gcode`: G00/G01 in G90
 G21, the words the posts write; anything else is refused with its line). A
 tool with its shank removes, in each vertical column, everything above the
-lowest point of the balls it swept, so the milled height of a column (a dexel)
-is min(stock top, lowest point over the column of every move's swept ball):
-the exact lower end of a capsule (:mod:`cam.mill.dexel`), for every move that
-can reach the stock — no sampling along the path. Moves are binned in 50 µm
-tiles so each column visits only the moves whose footprint meets its tile.
+lowest point of the tool it swept, so the milled height of a column (a dexel)
+is min(stock top, lowest point over the column of every move's swept tool):
+exact for each move (:mod:`cam.mill.dexel`: the lower end of a capsule for a
+ball, closed form for a flat end, a convex 1-D minimum for a bull nose), for
+every move that can reach the stock — no sampling along the path. Moves are
+binned in 50 µm tiles, sorted by a lower bound of their height over the tile,
+so each column visits only the moves whose footprint meets its tile and stops
+once no further move can cut lower.
 
 Columns are evaluated on a grid (default 1 µm across the passes, where the
 scallops are, 20 µm along them, where the surface is smooth) over the annulus
@@ -37,8 +41,8 @@ from tipgeo.tolerances import tol
 from ..machine import CamError
 from .toolpath import cad_height, to_cannula, to_program
 
-__all__ = ["GCodeMoves", "read_gcode", "MilledTip", "simulate_mill", "compare_milled",
-           "plot_deviation"]
+__all__ = ["GCodeMoves", "read_gcode", "MilledTip", "simulate_mill", "sweep_heights",
+           "compare_milled", "plot_deviation", "plot_toolpath"]
 
 _WORD = re.compile(r"([A-Z])\s*([-+]?(?:\d+\.?\d*|\.\d+))")
 _ALLOWED_G = {0, 1, 17, 21, 28, 40, 43, 49, 54, 80, 90, 91, 94}
@@ -178,11 +182,15 @@ def read_gcode(text: str) -> GCodeMoves:
 
 class _Dexels:
     """The moves that can reach the stock, tiled for the column kernel
-    (:mod:`cam.mill.dexel`): ball centres A → B (program frame, mm)."""
+    (:mod:`cam.mill.dexel`): tool tips A → B (program frame, mm), over the
+    tiles that meet r_i ≤ r ≤ r_o + R, all the tool reaches outside the bore
+    (columns elsewhere read the stock top)."""
 
-    def __init__(self, moves: GCodeMoves, R: float, z_top: float, reach: float):
+    def __init__(self, moves: GCodeMoves, tool, z_top: float, r_i: float, r_o: float):
         from .dexel import tile_moves
 
+        R, r = tool.radius, tool.corner_radius
+        reach = r_o + R
         a, b = moves.start, moves.end
         lowz = np.minimum(a[:, 2], b[:, 2])
         d = b[:, :2] - a[:, :2]
@@ -192,24 +200,37 @@ class _Dexels:
         use = (lowz < z_top) & (closest < reach)
         if not use.any():
             raise CamError("no move of the program reaches the stock")
-        lift = np.array([0.0, 0.0, R])
-        self.A = np.ascontiguousarray(a[use] + lift)
-        self.B = np.ascontiguousarray(b[use] + lift)
-        self.R, self.z_top = R, z_top
+        self.A = np.ascontiguousarray(a[use])
+        self.B = np.ascontiguousarray(b[use])
+        self.R, self.r, self.z_top = R, r, z_top
         self.tile = 0.05
         self.x0 = self.y0 = -reach
         self.n = int(math.ceil(2 * reach / self.tile)) + 1
-        self.start, self.idx = tile_moves(self.A, self.B, R, self.x0, self.y0, self.tile,
-                                          self.n, self.n)
+        c = self.x0 + (np.arange(self.n) + 0.5) * self.tile
+        rc = np.hypot(*np.meshgrid(c, c)).ravel()
+        half = self.tile / math.sqrt(2.0)
+        need = (rc + half >= r_i) & (rc - half <= reach)
+        self.start, self.idx, self.bound = tile_moves(self.A, self.B, R, r, self.x0, self.y0,
+                                                      self.tile, self.n, self.n, need)
 
     def heights(self, xy: np.ndarray) -> np.ndarray:
         """Milled heights (mm) of columns at program-frame points (m, 2)."""
         from .dexel import column_heights
 
         xy = np.ascontiguousarray(xy, dtype=float)
-        return column_heights(xy[:, 0].copy(), xy[:, 1].copy(), self.A, self.B, self.R,
-                              self.z_top, self.start, self.idx, self.x0, self.y0, self.tile,
-                              self.n, self.n)
+        return column_heights(xy[:, 0].copy(), xy[:, 1].copy(), self.A, self.B, self.R, self.r,
+                              self.z_top, self.start, self.idx, self.bound, self.x0, self.y0,
+                              self.tile, self.n, self.n)
+
+
+def sweep_heights(gcode: str, tool, xy: np.ndarray, *, z_top: float) -> np.ndarray:
+    """Milled heights (mm, program frame) of the columns at ``xy`` (m, 2) of a
+    block faced at ``z_top`` after the G-code program ``gcode`` with end mill
+    ``tool``: the dexel sweep of :func:`simulate_mill` without a tip."""
+    xy = np.asarray(xy, float).reshape(-1, 2)
+    moves = read_gcode(gcode)
+    r_o = float(np.hypot(xy[:, 0], xy[:, 1]).max()) + 1e-6
+    return _Dexels(moves, tool, z_top, 0.0, r_o).heights(xy)
 
 
 @dataclass
@@ -249,7 +270,8 @@ class MilledTip:
 def simulate_mill(gcode: str, spec, *, tool, setup, cell_um: tuple[float, float] = (20.0, 1.0),
                   rings: int = 13, around: int = 1440, progress=None) -> MilledTip:
     """Mill the stock of ``spec`` (the tube faced at ``setup.z_top``) with the
-    G-code ``gcode`` and ball end mill ``tool`` in set-up ``setup``.
+    G-code ``gcode`` and end mill ``tool`` (ball, bull nose or flat) in set-up
+    ``setup``.
 
     Parameters
     ----------
@@ -257,10 +279,8 @@ def simulate_mill(gcode: str, spec, *, tool, setup, cell_um: tuple[float, float]
     rings, around : the milled tip's polar grid (radii × angles)
 
     Returns a :class:`MilledTip`; raises :class:`CamError` for programs it
-    cannot read or tools it cannot simulate (ball end mills only).
+    cannot read.
     """
-    if tool.kind != "ball":
-        raise CamError(f"tool kind = {tool.kind!r}: the simulator sweeps ball end mills only")
     say = progress or (lambda msg: None)
     moves = read_gcode(gcode)
     if moves.tool is not None and moves.tool != tool.number:
@@ -270,7 +290,7 @@ def simulate_mill(gcode: str, spec, *, tool, setup, cell_um: tuple[float, float]
     dx, dy = (float(c) * 1e-3 for c in cell_um)
     if not (0.1e-3 <= dx <= 0.05 and 0.1e-3 <= dy <= 0.05):
         raise CamError(f"cell_um = {tuple(cell_um)}: each between 0.1 and 50 µm")
-    dex = _Dexels(moves, R, setup.z_top, can.r_o + R)
+    dex = _Dexels(moves, tool, setup.z_top, can.r_i, can.r_o)
     say(f"simulate: {len(dex.A)} moves reach the stock")
     x = np.arange(-can.r_o, can.r_o + dx / 2, dx)
     y = np.arange(-can.r_o, can.r_o + dy / 2, dy)
@@ -358,20 +378,26 @@ def compare_milled(res: MilledTip, spec, *, scallop: float, stepover: float,
     ``margin`` (default ``tol.cam.mill_edge_margin``); the scallop measured is
     its largest value, the gouge its most negative.
 
-    λ of both edges from the milled tip's mesh edge (:func:`tipgeo.angles.analyze`,
-    mesh path: a Fourier fit of z(γ)), compared with the CAD tip's mesh
-    analysed the same way (``lambda_max_diff_deg``: the milling's effect; the
-    fit's own error against the exact CAD edge is reported beside it, 0.74° at
-    the helical tip's heel). θ and α from the milled normal at each edge
-    point: the exact CAD normal tilted by a plane fitted to the deviation over
-    a window two step-overs along the edge and one (at most 0.8 of the wall)
-    into the wall (the raw facet normal swings by ±asin(s/2R) across each
-    scallop; the window averages whole scallops), against the exact CAD angles.
-    Both along γ ∈ [``heel_margin_deg``, 360° − ``heel_margin_deg``] (at the
-    heel λ climbs from 0 by several degrees per degree of γ), at the same
+    λ, θ and α of both edges at the exact CAD edge points, against the exact
+    CAD angles. The milled edge's tangent is the CAD tangent with z′ raised by
+    the slope of the edge's deviation along the rim, and its rake-face normal
+    the CAD normal tilted by the deviation's gradient over a band of the wall
+    (one step-over deep, at most 0.8 of the wall); both fits are Hann-weighted
+    over four scallop periods along the rim (P = step-over / |sin β|, β
+    between the rim and the passes), so the scallops' ripple, which swings
+    the raw edge's local λ by several degrees (±10° at the three-plane tip's
+    heel at 2 µm), averages out (:func:`_edge_deviation_slope`). The mesh
+    path (:func:`tipgeo.angles.analyze`, a Fourier fit of the milled edge's
+    z(γ) against the CAD mesh's) is reported beside it
+    (``lambda_mesh_fit_max_diff_deg``): its five harmonics follow part of the
+    ripple (0.54–0.57° at the three-plane tip's heel at 2 µm, where the
+    passes cross the rim at 30° and the ripple's period is longest).
+    Compared along γ ∈ [``heel_margin_deg``, 360° − ``heel_margin_deg``] (at
+    the heel λ climbs from 0 by several degrees per degree of γ), at the same
     cannula-frame γ, away from the rim corners (kinks between faces) by
-    ``kink_margin_deg`` and by as much as keeps the fitting window the ridge
-    margin from a ridge ((step-over + ``tol.cam.mill_ridge_margin``)/r_i).
+    ``kink_margin_deg`` and by as much as keeps the fitting band the ridge
+    margin from a ridge ((step-over + ``tol.cam.mill_ridge_margin``)/r_i);
+    the windows along the rim stop the ridge margin short of a rim corner.
     """
     from tipgeo.angles import analyze, edge_angles
 
@@ -419,9 +445,13 @@ def compare_milled(res: MilledTip, spec, *, scallop: float, stepover: float,
         # windowed plane fit behind each edge point (cannula frame)
         ga = g + heel[0]
         side = -1.0 if wall == "outer" else 1.0
-        n_fit = _fit_normals(res, spec, ga, radius, side, 2.0 * stepover,
+        length = _window(res, ga, radius, stepover, np.asarray(kinks) + heel[0], mr)
+        n_fit = _fit_normals(res, spec, ga, radius, side, length,
                              min(stepover, 0.8 * can.wall))
-        t = np.stack([-radius * np.sin(g), radius * np.cos(g), mesh["dz"]], 1)
+        # the milled edge's tangent: the exact CAD z′ plus the slope of the
+        # edge's deviation averaged over whole scallops
+        slope = _edge_deviation_slope(res, spec, ga, radius, side, length)
+        t = np.stack([-radius * np.sin(g), radius * np.cos(g), cad["dz"] + radius * slope], 1)
         t /= np.linalg.norm(t, axis=1, keepdims=True)
         # normals into the analysis frame (γ from the heel)
         c, s = math.cos(-heel[0]), math.sin(-heel[0])
@@ -429,17 +459,18 @@ def compare_milled(res: MilledTip, spec, *, scallop: float, stepover: float,
                                 s * n_fit[:, 0] + c * n_fit[:, 1], n_fit[:, 2]])
         lam, theta, alpha = edge_angles(g, t, n_an, wall)
         angles[wall] = {
-            "lambda_max_diff_deg": float(np.degrees(np.nanmax(np.abs(
+            "lambda_max_diff_deg": float(np.degrees(np.nanmax(np.abs(lam - cad["lambda"])))),
+            "lambda_worst_gamma_deg": float(np.degrees(g[np.nanargmax(np.abs(
+                lam - cad["lambda"]))])),
+            "lambda_mesh_fit_max_diff_deg": float(np.degrees(np.nanmax(np.abs(
                 mesh["lambda"] - cad_mesh["lambda"])))),
-            "lambda_vs_exact_max_diff_deg": float(np.degrees(np.nanmax(np.abs(
-                mesh["lambda"] - cad["lambda"])))),
+            "lambda_mesh_fit_worst_gamma_deg": float(np.degrees(g[np.nanargmax(np.abs(
+                mesh["lambda"] - cad_mesh["lambda"]))])),
             "lambda_method_error_deg": float(np.degrees(np.nanmax(np.abs(
                 cad_mesh["lambda"] - cad["lambda"])))),
             "theta_max_diff_deg": float(np.degrees(np.nanmax(np.abs(theta - cad["theta"])))),
             "theta_worst_gamma_deg": float(np.degrees(g[np.nanargmax(np.abs(theta
                                                                           - cad["theta"]))])),
-            "lambda_worst_gamma_deg": float(np.degrees(g[np.nanargmax(np.abs(
-                mesh["lambda"] - cad_mesh["lambda"]))])),
             "alpha_max_diff_deg": float(np.degrees(np.nanmax(np.abs(alpha - cad["alpha"])))),
             "theta_facet_max_diff_deg": float(np.degrees(np.nanmax(np.abs(
                 mesh["theta"] - cad["theta"])))),
@@ -477,40 +508,80 @@ def _near_ridges(res: MilledTip, width: float) -> np.ndarray:
     return binary_dilation(out, structure=np.ones((2 * ky + 1, 1), bool))
 
 
-def _fit_normals(res, spec, gamma, radius, side, along, into):
+def _window(res, gamma, radius, stepover, kinks, ridge, periods: float = 4.0):
+    """Arc lengths (m,) mm of the windows along the rim at cannula angles
+    ``gamma`` that span ``periods`` scallop periods P = stepover / |sin β|
+    (β between the rim and the passes), at most a quarter of the rim, and
+    kept ``ridge`` mm from the rim corners at cannula angles ``kinks``."""
+    phi = gamma - res.clocking                      # program-frame angle of the rim point
+    sin_b = np.abs(np.cos(phi))                     # rim tangent (−sin φ, cos φ) against X
+    L = np.minimum(periods * stepover / np.maximum(sin_b, 1e-9), 0.5 * math.pi * radius)
+    if len(kinks):
+        d = np.min(np.abs(np.angle(np.exp(1j * (gamma[:, None] - np.asarray(kinks)[None])))),
+                   axis=1)
+        L = np.minimum(L, np.maximum(2.0 * (radius * d - ridge), 2.0 * stepover))
+    return L
+
+
+def _edge_deviation_slope(res, spec, gamma, radius, side, length):
+    """d(milled − CAD)/ds along an edge (mm/mm; s the arc length at ``radius``
+    towards +γ, just inside the wall: ``side`` −1 outer, +1 inner) at cannula
+    angles ``gamma`` (rad), averaged over whole scallops.
+
+    The passes run along program X, ``stepover`` apart in Y, so the scallops
+    make the edge's deviation ripple with period P = stepover / |sin β| along
+    the rim, β the angle between the rim and the passes (P = ∞ where the rim
+    runs along a pass: no ripple there). The slope is a Hann-weighted least
+    squares fit over ``length`` (m,) mm (:func:`_window`: 4 P): over four
+    whole periods with smooth ends a ripple of amplitude A leaves a slope
+    below 0.02 A/P (checked on a sine and on a cusp profile of any phase); a
+    plain fit over one period leaves up to 1.8 A/P, and the edge's own local
+    slope swings by 2πA/P — at the three-plane tip's heel (A ≈ 3.5 µm
+    vertically, P ≈ 0.12 mm at a 2 µm scallop) about ±10° of λ."""
+    k = 41
+    u = np.linspace(-0.5, 0.5, k)[None, :] * length[:, None]       # (m, k) arc offsets
+    w = np.cos(math.pi * np.linspace(-0.5, 0.5, k)) ** 2            # Hann
+    ga = gamma[:, None] + u / radius
+    rr = radius + side * 1e-9
+    xy = np.column_stack([(rr * np.cos(ga)).ravel(), (rr * np.sin(ga)).ravel()])
+    dev = (res.heights_at(spec, xy) - cad_height(spec, xy[:, 0], xy[:, 1])).reshape(ga.shape)
+    um = np.sum(w * u, 1, keepdims=True) / w.sum()
+    dm = np.sum(w * dev, 1, keepdims=True) / w.sum()
+    return np.sum(w * (u - um) * (dev - dm), 1) / np.sum(w * (u - um) ** 2, 1)
+
+
+def _fit_normals(res, spec, gamma, radius, side, length, into):
     """Unit normals (cannula frame) of the milled surface at the edge points
-    (γ rad, radius mm): the exact CAD normal there, tilted by the plane fitted
-    to the deviation milled − CAD over a window ``along`` mm long (tangential)
-    and ``into`` mm deep (radial, on the wall's side ``side``). Fitting the
-    deviation rather than the heights keeps the surface's own curvature out
-    of the fit."""
-    a = np.linspace(-0.5, 0.5, 17)
+    (γ rad, radius mm): the exact CAD normal there, tilted by the gradient of
+    the deviation milled − CAD fitted as c₀ + c_u u + c_r ρ over a band along
+    the rim (arc length u over ``length`` (m,) mm, Hann-weighted: whole
+    scallop periods, see :func:`_edge_deviation_slope`) and ``into`` mm into
+    the wall (ρ radial, on the wall's side ``side``). Fitting the deviation
+    rather than the heights keeps the surface's own curvature out of the fit;
+    the scallops ripple with program Y only, so averaging along the rim at
+    each depth removes them from both slopes."""
+    k = 41
+    t = np.linspace(-0.5, 0.5, k)
+    w = np.cos(math.pi * t) ** 2
     b = np.linspace(0.02, 1.0, 5)
-    A, B = np.meshgrid(a, b)
-    du = A.ravel() * along
-    dr = side * B.ravel() * into
-    c, s = np.cos(gamma), np.sin(gamma)
-    er = np.stack([c, s], 1)[:, None, :]
-    et = np.stack([-s, c], 1)[:, None, :]
-    P = radius * er + du[None, :, None] * et + dr[None, :, None] * er   # (m, k, 2)
-    flat = P.reshape(-1, 2)
-    z = res.heights_at(spec, flat) - cad_height(spec, flat[:, 0], flat[:, 1])
-    z = z.reshape(len(gamma), -1)
-    Q = P - P.mean(axis=1, keepdims=True)
-    zc = z - z.mean(axis=1, keepdims=True)
-    # least squares dev = a x + b y per edge point: batched 2 × 2 normal equations
-    sxx = np.sum(Q[..., 0] ** 2, 1)
-    sxy = np.sum(Q[..., 0] * Q[..., 1], 1)
-    syy = np.sum(Q[..., 1] ** 2, 1)
-    sxz = np.sum(Q[..., 0] * zc, 1)
-    syz = np.sum(Q[..., 1] * zc, 1)
-    det = sxx * syy - sxy ** 2
-    ga = (syy * sxz - sxy * syz) / det
-    gb = (sxx * syz - sxy * sxz) / det
+    u = (t[None, :, None] * length[:, None, None]) * np.ones((1, 1, len(b)))   # (m, k, nb)
+    rho = np.broadcast_to(side * b[None, None, :] * into, u.shape)
+    ga = gamma[:, None, None] + u / radius
+    rr = radius + rho
+    xy = np.column_stack([(rr * np.cos(ga)).ravel(), (rr * np.sin(ga)).ravel()])
+    dev = (res.heights_at(spec, xy) - cad_height(spec, xy[:, 0], xy[:, 1])).reshape(u.shape)
+    W = np.broadcast_to(w[None, :, None], u.shape).reshape(len(gamma), -1)
+    X = np.stack([np.ones_like(u), u, rho], -1).reshape(len(gamma), -1, 3)
+    y = dev.reshape(len(gamma), -1)
+    XtW = X.transpose(0, 2, 1) * W[:, None, :]
+    coef = np.linalg.solve(XtW @ X, (XtW @ y[..., None]))[..., 0]      # (m, 3)
+    c, s_ = np.cos(gamma), np.sin(gamma)
+    gx = coef[:, 1] * -s_ + coef[:, 2] * c
+    gy = coef[:, 1] * c + coef[:, 2] * s_
     inward = radius + side * 1e-9
-    _, n0 = cad_height(spec, inward * c, inward * s, normals=True)
-    gx = -n0[:, 0] / n0[:, 2] + ga
-    gy = -n0[:, 1] / n0[:, 2] + gb
+    _, n0 = cad_height(spec, inward * c, inward * s_, normals=True)
+    gx = -n0[:, 0] / n0[:, 2] + gx
+    gy = -n0[:, 1] / n0[:, 2] + gy
     n = np.stack([-gx, -gy, np.ones_like(gx)], 1)
     return n / np.linalg.norm(n, axis=1, keepdims=True)
 
@@ -534,6 +605,61 @@ def plot_deviation(res: MilledTip, path, *, title: str = "", limit_um: float | N
     ax.set_title(title or "milled − CAD, normal to the surface")
     fig.colorbar(im, ax=ax, label="deviation (µm, + = material left)")
     try:
+        save_figure(fig, path)
+    finally:
+        plt.close(fig)
+    return path
+
+
+def plot_toolpath(toolpath, path, *, title: str = ""):
+    """PNG of the planned passes (program frame, mm), written atomically:
+    the plan view (finishing passes coloured by Z, roughing grey, the wall's
+    rims) and the side view X–Z of the finishing passes."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    from matplotlib.collections import LineCollection
+
+    from tipgeo.plot import save_figure
+
+    st = toolpath.setup
+    fin = [p.points for p in toolpath.passes if p.kind == "finish"]
+    rough = [p.points for p in toolpath.passes if p.kind == "rough"]
+    zall = np.concatenate([p[:, 2] for p in fin])
+    fig, (ax, bx) = plt.subplots(1, 2, figsize=(12.0, 5.4), layout="constrained",
+                                 gridspec_kw={"width_ratios": [1.0, 1.1]})
+    try:
+        if rough:
+            ax.add_collection(LineCollection([p[:, :2] for p in rough], colors="0.8",
+                                             linewidths=0.6, label="roughing"))
+        segs = np.concatenate([np.stack([p[:-1, :2], p[1:, :2]], 1) for p in fin])
+        zc = np.concatenate([0.5 * (p[:-1, 2] + p[1:, 2]) for p in fin])
+        lc = LineCollection(segs, array=zc, cmap="viridis", linewidths=0.9)
+        lc.set_clim(zall.min(), zall.max())
+        ax.add_collection(lc)
+        t = np.linspace(0, 2 * math.pi, 361)
+        for r in (st.r_o, st.r_i):
+            ax.plot(r * np.cos(t), r * np.sin(t), "k-", lw=0.8)
+        lim = st.r_o + toolpath.tool.radius + toolpath.params.lead + 0.1
+        ax.set_xlim(-lim, lim)
+        ax.set_ylim(-lim, lim)
+        ax.set_aspect("equal")
+        ax.set_xlabel("program X (mm, along the passes)")
+        ax.set_ylabel("program Y (mm)")
+        ax.set_title(f"plan: {len(fin)} finishing passes, step-over "
+                     f"{st.stepover * 1e3:.0f} µm\n(grey: {len(rough)} roughing passes)",
+                     fontsize=10)
+        fig.colorbar(lc, ax=ax, label="Z of the tool tip (mm)")
+        for p in fin:
+            bx.plot(p[:, 0], p[:, 2], lw=0.5, color=plt.cm.coolwarm(
+                (p[0, 1] + lim) / (2 * lim)))
+        bx.axhline(st.z_top, color="k", ls="--", lw=0.8, label=f"stock top Z{st.z_top:.3f}")
+        bx.set_xlabel("program X (mm)")
+        bx.set_ylabel("Z of the tool tip (mm)")
+        bx.set_title("side view of the finishing passes (colour: program Y)", fontsize=10)
+        bx.legend(loc="best", fontsize=8)
+        fig.suptitle(title or f"{toolpath.name}: toolpaths, {toolpath.tool.describe()}")
         save_figure(fig, path)
     finally:
         plt.close(fig)

@@ -18,14 +18,20 @@ What is planned
   line of a bevel.
 - **Finishing.** Passes at a step-over s (plan, a multiple of the axis
   resolution) so that the scallop between passes on the surface is at most the
-  target h: s = 0.95 · 2√(2 r h − h²) / worst ratio, r the corner radius (the
-  ball's radius). Every pass runs across the whole annulus grown by the tool
+  target h: for a ball s = 0.95 · 2√(2 R h − h²) / worst ratio; for a bull
+  nose or a flat end the largest s whose scallop on the surface's steepest
+  planes stays within 0.95 h, from the tool's swept profile
+  (:func:`planar_stepover`: a flat end along a slope g leaves g(R − √(R² −
+  s²/4)), across a slope c terraces of s·c). Every pass runs across the
+  whole annulus grown by the tool
   radius R; cutter-location points are dropped (OpenCAMLib ``BatchDropCutter``)
   onto the cut faces of the tip mesh built at ``tol.cam.mill_mesh``, first every
   32 resolution steps, then halving until the straight move between kept points
-  lies within ``tol.cam.mill_chord`` of the dropped point between (down to one
-  resolution step). X and Y lie on the 0.002 mm grid; Z is rounded *up* to it,
-  so rounding never gouges.
+  lies within ``tol.cam.mill_chord`` (where the path bends down: a gouge) or
+  ``tol.cam.mill_chord_up`` (where it bends up: material left), normal to
+  the surface, of the dropped point between (down to one resolution step). X
+  and Y lie on the 0.002 mm grid; Z is rounded *up* to it, so rounding never
+  gouges.
 - **Roughing.** Z-level passes, ``stepdown`` apart from the stock top, along
   lines ``rough_stepover`` apart; each follows max(level, Z_a) with Z_a the
   drop-cutter of a tool grown by the allowance a (the real tool's tip raised
@@ -54,7 +60,7 @@ from ..machine import CamError
 from .machine import DEFAULT_TOOL, EndMill, MillMachine
 
 __all__ = ["MillParams", "MillSetup", "Pass", "MillToolpath", "cad_height", "plan_toolpaths",
-           "to_program", "to_cannula"]
+           "planar_stepover", "to_program", "to_cannula"]
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -264,21 +270,17 @@ def _skirts(tri: np.ndarray, verts: np.ndarray, faces: np.ndarray) -> np.ndarray
     cuts air beyond the wall instead."""
     e = np.sort(faces[:, [0, 1, 1, 2, 2, 0]].reshape(-1, 2), axis=1)
     _, inv, cnt = np.unique(e, axis=0, return_inverse=True, return_counts=True)
-    once = cnt[inv.ravel()] == 1
-    out = []
-    for k in np.flatnonzero(once):
-        t, s_ = divmod(k, 3)
-        a, b = verts[faces[t, s_]], verts[faces[t, (s_ + 1) % 3]]
-        c = verts[faces[t, (s_ + 2) % 3]]
-        n = np.cross(tri[t][1] - tri[t][0], tri[t][2] - tri[t][0])
-        e_ = b - a
-        o = np.cross(e_, n)
-        o /= np.linalg.norm(o)
-        if o @ (c - a) > 0:
-            o = -o
-        a2, b2 = a + SKIRT * o, b + SKIRT * o
-        out += [(a, b, b2), (a, b2, a2)]
-    return np.array(out).reshape(-1, 3, 3)
+    k = np.flatnonzero(cnt[inv.ravel()] == 1)
+    t, s_ = np.divmod(k, 3)
+    a = verts[faces[t, s_]]
+    b = verts[faces[t, (s_ + 1) % 3]]
+    c = verts[faces[t, (s_ + 2) % 3]]
+    n = np.cross(tri[t, 1] - tri[t, 0], tri[t, 2] - tri[t, 0])
+    o = np.cross(b - a, n)
+    o /= np.linalg.norm(o, axis=1, keepdims=True)
+    o *= np.where(np.sum(o * (c - a), axis=1) > 0, -1.0, 1.0)[:, None]   # away from the face
+    a2, b2 = a + SKIRT * o, b + SKIRT * o
+    return np.stack([np.stack([a, b, b2], 1), np.stack([a, b2, a2], 1)], 1).reshape(-1, 3, 3)
 
 
 #: Width (mm) of the strips that continue the cut faces across the rims.
@@ -347,7 +349,7 @@ def _ceil(z, res):
     return np.ceil(z / res - 1e-9) * res
 
 
-def _finish_lines(surf, cutter, ys, x_half, r_lo, r_hi, res, chord):
+def _finish_lines(surf, cutter, ys, x_half, r_lo, r_hi, res, chord, chord_up):
     """Adaptive drop-cutter along each line y = const (program frame).
 
     Returns ([(y, [(x (m,), z (m,)), …]), …] per line — runs of the line where
@@ -382,12 +384,19 @@ def _finish_lines(surf, cutter, ys, x_half, r_lo, r_hi, res, chord):
             hgt = np.diff(x)
             slope = np.diff(z) / hgt
             curv = np.zeros(len(z))
-            curv[1:-1] = 2.0 * np.abs(np.diff(slope)) / (hgt[:-1] + hgt[1:])
+            curv[1:-1] = 2.0 * np.diff(slope) / (hgt[:-1] + hgt[1:])   # signed: z''
             curv[0], curv[-1] = curv[1], curv[-2]
-            # predicted sag of each straight move between kept points
-            sag = hgt ** 2 * np.maximum(curv[:-1], curv[1:]) / 8.0
-            sag = np.where(np.isfinite(sag), sag, np.inf)
-            split = (sag > chord) & (np.diff(js) >= 2)
+            # predicted sag of each straight move between kept points, measured
+            # normal to the surface (the vertical sag times n_z ≤ 1/√(1 + slope²)
+            # of the move): what the deviation map and the gouge bound see.
+            # Where the path bends down (z'' < 0) the chord lies under it and
+            # would gouge: ``chord``; where it bends up (z'' > 0, mostly the
+            # creases between the mesh's facets) it leaves material: ``chord_up``
+            scale = hgt ** 2 / 8.0 / np.sqrt(1.0 + slope ** 2)
+            down = scale * np.maximum(np.maximum(-curv[:-1], -curv[1:]), 0.0)
+            up = scale * np.maximum(np.maximum(curv[:-1], curv[1:]), 0.0)
+            bad = ~np.isfinite(down) | ~np.isfinite(up) | (down > chord) | (up > chord_up)
+            split = bad & (np.diff(js) >= 2)
             pending += [(ri, int((a + b) // 2)) for a, b in zip(js[:-1][split], js[1:][split])]
     out = {}
     for r_ in runs:
@@ -424,6 +433,86 @@ def _with_leads(x, z, y, r_hi, lead, res, feed, kind):
     return Pass(kind, np.round(np.array(pts) / res) * res, feed, True)
 
 
+def _envelope(tool, g_along: np.ndarray, w: np.ndarray) -> np.ndarray:
+    """(k, m) min over d of [T(√(d² + w²)) + g d]: the height of the tool's
+    swept lower envelope over a plane rising at g along the pass, at lateral
+    offsets w (relative; T the tool's profile above its tip, mm)."""
+    R, r = tool.radius, tool.corner_radius
+    a = R - r
+    # d over the chord |d| ≤ √(R² − w²) where the tool covers the column,
+    # ends included (a flat end's minimum lies on them)
+    d = np.linspace(-1.0, 1.0, 801)[None, None, :] * np.sqrt(
+        np.clip(R * R - w ** 2, 0.0, None))[None, :, None]
+    rho = np.minimum(np.sqrt(d ** 2 + w[None, :, None] ** 2), R)
+    e = np.clip(rho - a, 0.0, None)
+    T = np.where(np.abs(w)[None, :, None] <= R, r - np.sqrt(np.clip(r * r - e * e, 0.0, None)),
+                 np.inf)
+    return np.min(T + g_along[:, None, None] * d, axis=2)
+
+
+def planar_stepover(tool, grad: np.ndarray, clocking: float, h: float) -> float:
+    """The largest plan step-over (mm) whose scallop between neighbouring
+    passes along ``clocking`` stays within ``h`` (mm, normal to the surface)
+    on every plane of gradient ``grad`` (n, 2) — the tool's swept lower
+    envelope E(w) = −c w + min_d [T(√(d² + w²)) + g d] (g, c the slopes
+    along and across the passes, w sampled every R/200), the scallop the
+    height above min E where E(w) meets E(w − s) between two passes'
+    contacts, times the plane's n_z. For bull-nose and flat end mills, whose profile T has a flat
+    bottom and a corner (ball mills: the closed form of the module
+    docstring)."""
+    dvec = np.array([math.cos(clocking), math.sin(clocking)])
+    along = grad @ dvec
+    cross = grad @ np.array([-dvec[1], dvec[0]])
+    nz = 1.0 / np.sqrt(1.0 + np.sum(grad ** 2, 1))
+    # the worst planes: steepest along, steepest across, and a spread between
+    pick = np.unique(np.concatenate([np.argsort(np.abs(along))[-8:],
+                                     np.argsort(np.abs(cross))[-8:],
+                                     np.linspace(0, len(grad) - 1, 24).astype(int)]))
+    g, c, n = np.abs(along[pick]), np.abs(cross[pick]), nz[pick]
+    R = tool.radius
+
+    w = np.linspace(-R, 2.6 * R, 721)                  # steps of R/200
+    E = _envelope(tool, g, w) - c[:, None] * w[None, :]
+    E -= np.nanmin(np.where(np.isfinite(E), E, np.nan), axis=1, keepdims=True)
+    k0 = np.argmin(E, axis=1)                           # where each pass touches its plane
+
+    def scallop(s):
+        worst = 0.0
+        for e, k, nz_ in zip(E, k0, n):
+            fin = np.isfinite(e)
+            es = np.interp(w - s, w, np.where(fin, e, 0.0))   # the neighbouring pass, s across
+            es[np.interp(w - s, w, fin.astype(float), left=0.0) < 1.0] = np.inf
+            sel = slice(k, int(np.searchsorted(w, w[k] + s, side="right")))
+            m = np.minimum(e[sel], es[sel])
+            top = float(m[np.isfinite(m)].max()) if np.isfinite(m).any() else 0.0
+            # the cusp where the two envelopes cross, interpolated between samples
+            diff = e[sel] - es[sel]
+            ok = np.isfinite(diff[:-1]) & np.isfinite(diff[1:]) & (diff[:-1] < 0) & (diff[1:] >= 0)
+            for j in np.flatnonzero(ok):
+                f = -diff[j] / (diff[j + 1] - diff[j])
+                top = max(top, float(e[sel][j] + f * (e[sel][j + 1] - e[sel][j])))
+            # where one pass's footprint ends (a flat end's rim), the other's
+            # height at the last point both cover
+            a_, b_ = e[sel], es[sel]
+            for x_, y_ in ((a_, b_), (b_[::-1], a_[::-1])):
+                end = np.isfinite(x_[:-1]) & ~np.isfinite(x_[1:]) & np.isfinite(y_[:-1])
+                if end.any():
+                    top = max(top, float(y_[:-1][end].max()))
+            worst = max(worst, top * nz_)
+        return worst
+
+    lo, hi = 0.0, 1.6 * R
+    if scallop(hi) <= h:
+        return hi
+    for _ in range(30):
+        mid = 0.5 * (lo + hi)
+        if scallop(mid) <= h:
+            lo = mid
+        else:
+            hi = mid
+    return lo
+
+
 def plan_toolpaths(spec, *, tool: EndMill | None = None, machine: MillMachine | None = None,
                    params: MillParams | None = None, progress=None) -> MillToolpath:
     """Roughing and finishing passes that mill ``spec`` tip-up on ``machine``
@@ -457,16 +546,12 @@ def plan_toolpaths(spec, *, tool: EndMill | None = None, machine: MillMachine | 
     # finishing step-over from the scallop target
     h = prm.scallop
     rc = tool.corner_radius
-    if rc > 0:
+    ratio = float(_ratio(grad, np.array([clock]))[0])
+    if tool.kind == "ball":
         s_surf = 2.0 * math.sqrt(max(2.0 * rc * h - h * h, 0.0))
-        ratio = float(_ratio(grad, np.array([clock]))[0])
         s = 0.95 * s_surf / ratio
-    else:   # flat end: terraces of height s·tan(cross slope)
-        d = np.array([math.cos(clock), math.sin(clock)])
-        ga = grad @ d
-        cross = np.sqrt(np.maximum(np.sum(grad ** 2, 1) - ga ** 2, 0.0)) / np.sqrt(1 + ga ** 2)
-        ratio = float(_ratio(grad, np.array([clock]))[0])
-        s = 0.95 * h / max(float(cross.max()), 1e-6)
+    else:   # bull nose, flat end: the scallop of the tool's swept profile on planes
+        s = planar_stepover(tool, grad, clock, 0.95 * h)
     s = min(s, 0.8 * tool.diameter)
     s = math.floor(s / res + 1e-9) * res
     if s < res:
@@ -534,7 +619,7 @@ def plan_toolpaths(spec, *, tool: EndMill | None = None, machine: MillMachine | 
     ys = _grid_values(-r_hi, r_hi, s, res)
     say(f"finishing: {len(ys)} passes, step-over {s * 1e3:.0f} µm (scallop {h * 1e3:g} µm)")
     lines, calls = _finish_lines(surf, tool.ocl_cutter(), ys, r_hi, r_lo, r_hi, res,
-                                 tol.cam.mill_chord)
+                                 tol.cam.mill_chord, tol.cam.mill_chord_up)
     stats["finish_drop_points"] = int(calls)
     zlow = math.inf
     for y, runs in lines:

@@ -146,7 +146,11 @@ def cmd_mill(args) -> int:
     spec = spec_arg(args.spec)
     machine = MillMachine.from_toml(args.machine) if args.machine else MillMachine()
     tool = parse_tool(args.tool) if args.tool else DEFAULT_TOOL
-    kw = {"scallop": args.scallop_um * 1e-3}
+    from tipgeo import validate as v
+
+    # the µm parameter is checked in µm, so the error names what the user typed
+    scallop_um = v.real("--scallop-um", args.scallop_um, lo=0.1, hi=100.0, unit="µm")
+    kw = {"scallop": scallop_um * 1e-3}
     for opt, key in (("feed_mm_min", "finish_feed"), ("rough_feed_mm_min", "rough_feed"),
                      ("spindle_rpm", "spindle_rpm"), ("allowance_mm", "allowance")):
         if getattr(args, opt) is not None:
@@ -159,7 +163,7 @@ def cmd_mill(args) -> int:
     res = mill(spec, tool=tool, machine=machine, params=params, simulate_tip=simulate,
                compare=bool(args.report or args.deviation), progress=log)
     write_mill_outputs(res, program=args.output, sheet=args.sheet, mesh=args.simulate,
-                       deviation=args.deviation)
+                       deviation=args.deviation, toolpath=args.toolpath_png)
     out = res.summary()
     if args.json:
         print(_dumps(out))
@@ -267,10 +271,13 @@ def register(sub) -> None:
     mi.add_argument("--sheet", metavar="FILE", help="Markdown set-up sheet")
     mi.add_argument("--simulate", metavar="MILLED", help="write the simulated milled tip mesh")
     mi.add_argument("--deviation", metavar="PNG", help="deviation map milled − CAD (µm)")
+    mi.add_argument("--toolpath-png", metavar="PNG",
+                    help="picture of the toolpaths (plan and side view)")
     mi.add_argument("--report", action="store_true", help="compare the simulation with CAD")
     mi.add_argument("--machine", metavar="TOML", help="machine limits and set-up overrides")
     mi.add_argument("--json", action="store_true")
     mi.set_defaults(func=cmd_mill)
     declare_files(mi, inputs=("spec", "machine"), outputs=("output", "sheet", "simulate"),
-                  pictures=("deviation",), exts={"output": (".nc", ".ngc", ".tap", ".txt"),
+                  pictures=("deviation", "toolpath_png"),
+                  exts={"output": (".nc", ".ngc", ".tap", ".txt"),
                                                  "simulate": export_exts()})

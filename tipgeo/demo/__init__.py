@@ -9,8 +9,9 @@ and for C2 the simulated cut (``punch-C2-laser-sim.stl``) with its toolpath and
 rim pictures. For the needles the grinder makes: the axis program, its G-code
 and set-up sheet (``*.grind.json``, ``*.grind.nc``, ``*.setup.md``), each
 simulated and compared with the CAD tip. The helical needle milled on the
-Haas VF-2 (``helical-14G.mill.nc``, ``.mill.md``, ``-milled.stl`` and the
-deviation map ``-milled-deviation.png``). With CalculiX installed, the 2D
+Haas VF-2 (``helical-14G.mill.nc``, ``.mill.md``, ``-milled.stl``, the
+deviation map ``-milled-deviation.png`` and the toolpaths
+``-milled-toolpath.png``). With CalculiX installed, the 2D
 axisymmetric insertion of the Fig. 4.7 punch, 1 mm into S/P = 0 tissue
 (``fem/``). Later features add their own outputs here. Lengths in mm, angles
 in degrees.

@@ -86,7 +86,8 @@ def mill_outputs(out: Path, names, pictures: bool, log) -> list[dict]:
         res = mill(preset(name), progress=progress)
         write_mill_outputs(res, program=out / f"{name}.mill.nc", sheet=out / f"{name}.mill.md",
                            mesh=out / f"{name}-milled.stl",
-                           deviation=out / f"{name}-milled-deviation.png" if pictures else None)
+                           deviation=out / f"{name}-milled-deviation.png" if pictures else None,
+                           toolpath=out / f"{name}-milled-toolpath.png" if pictures else None)
         s = res.summary()
         c = res.comparison
         rows.append({"name": name, "cycle_time_s": s["program"]["cycle_time_s"],

@@ -203,7 +203,7 @@ def _stress_pictures(model: FemModel, frd, out: Path, stem: str) -> tuple[list[P
             vals = np.nan_to_num(s1)
             ndl = None
             r0 = float(edge.mean())
-            win = (-r0 - 0.8, r0 + 0.8, -d - 1.0, -d + 0.6)
+            win = (max(-r0 - 0.8, float(np.min(xy[:, 0]))), r0 + 0.8, -d - 1.0, -d + 0.6)
         files.append(plot_stress_contour(
             xy, tris, vals, out / f"{stem}_s1_{d:g}mm.png", needle=ndl, window=win,
             title=f"{model.name}: max principal stress at depth {d:g} mm "

@@ -5,6 +5,7 @@ decks, parsers and geometry are tested without it.
 """
 
 import math
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -355,3 +356,76 @@ def test_cli_bad_input_exit_2(tmp_path, capsys, args, word):
     assert main(["fem", "punch-plain", "--deck-only", "-o", str(tmp_path), *args]) == 2
     assert word in capsys.readouterr().err
     assert not list(tmp_path.iterdir())  # nothing written
+
+
+@needs_ccx
+@pytest.mark.parametrize("how", ["error", "time-limit"])
+def test_failed_run_leaves_nothing_behind(build_preset, tmp_path, how):
+    """A run ccx refuses (its own *ERROR line) or that runs over the time
+    limit writes nothing to the output folder: a folder the run created is
+    removed again, an existing one keeps exactly what it held; ccx's line is
+    quoted and no kept log is named."""
+    import tempfile
+
+    from tipgeo.fem import run_model
+
+    m = axisymmetric_model(build_preset("punch-plain"), depth=0.5, mesh=0.1)
+    if how == "error":  # ccx reads the deck, then refuses an unknown element type
+        deck = m.ccx_deck().replace("TYPE=CAX4,", "TYPE=CAX9,", 1)
+        m.ccx_deck = lambda: deck
+        match, limit = r"ccx: \*ERROR.*CAX9", 60.0
+    else:
+        match, limit = "time limit of 0.2 s", 0.2
+    before = set(Path(tempfile.gettempdir()).glob("tipgeo-ccx-*"))
+    new = tmp_path / "new"
+    with pytest.raises(FemError, match=match) as e:
+        run_model(m, new, time_limit_s=limit)
+    assert "has its output" not in str(e.value) and "whole output" not in str(e.value)
+    assert not new.exists()
+    old = tmp_path / "old"
+    old.mkdir()
+    (old / "keep.txt").write_text("mine")
+    with pytest.raises(FemError, match=match):
+        run_model(m, old, time_limit_s=limit, abaqus=True)
+    assert [p.name for p in old.iterdir()] == ["keep.txt"]
+    assert set(Path(tempfile.gettempdir()).glob("tipgeo-ccx-*")) == before  # cleaned
+
+
+@pytest.mark.parametrize("p, c", [(1.0, 0.3), (2.0, -0.05), (0.5, 1.0)])
+def test_richardson_recovers_order_and_limit(p, c):
+    from tipgeo.fem.study import richardson
+
+    f_inf, hs = 0.25, (0.1, 0.05, 0.025)
+    r = richardson(tuple(f_inf + c * h ** p for h in hs), 2.0)
+    assert r["order"] == pytest.approx(p, rel=1e-9)
+    assert r["extrapolated"] == pytest.approx(f_inf, rel=1e-9)
+    # changes of opposite sign: no asymptotic range, no estimate
+    assert richardson((1.0, 1.1, 1.05), 2.0) == {"order": None, "extrapolated": None}
+
+
+@needs_ccx
+def test_convergence_study_refines_only_the_contact_zone(build_preset, tmp_path):
+    """Three contact-zone sizes at one depth (a 3 × 3 mm block, 0.1 mm):
+    every run reaches the depth, the far-field size and the contact
+    stiffness are the same in all three decks, and the reported changes are
+    those of the forces."""
+    from tipgeo.fem.study import convergence_study
+
+    out = convergence_study(build_preset("punch-plain"), depth=0.1, meshes=(0.1, 0.05, 0.025),
+                            out_dir=tmp_path, block=(3.0, 3.0), max_increment=0.025)
+    rows = out["rows"]
+    assert [r["element_size_um"] for r in rows] == pytest.approx([100.0, 50.0, 25.0])
+    decks = [(tmp_path / f"mesh_{h:g}um" / "punch-plain_axisymmetric.inp").read_text()
+             for h in (100, 50, 25)]
+    behaviour = {d.split("PRESSURE-OVERCLOSURE=LINEAR\n")[1].split(",")[0] for d in decks}
+    assert len(behaviour) == 1
+    assert float(behaviour.pop()) == pytest.approx(out["contact_stiffness_MPa_per_mm"],
+                                                   rel=1e-7)
+    assert all(f"element_size_far_um: {out['far_element_um']}" in d for d in decks)
+    f = [r["force_at_depth_N"] for r in rows]
+    assert all(x > 0 for x in f)
+    for k in (1, 2):
+        assert rows[k]["change_percent"] == pytest.approx(100 * (f[k] - f[k - 1]) / f[k - 1],
+                                                          rel=1e-12)
+    assert out["curves"]["depth_mm"][-1] == pytest.approx(0.1, abs=1e-12)
+    assert (tmp_path / "convergence.json").is_file()

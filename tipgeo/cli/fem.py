@@ -44,11 +44,21 @@ def cmd_fem(args) -> int:
         if args.json:
             print(_dumps(out))
             return 0
-        print("element_um  elements  peak_force_N  change_%  cpu_s")
+        print(f"force at depth {out['depth_mm']:g} mm; far elements {out['far_element_um']} µm "
+              f"and contact stiffness {out['contact_stiffness_MPa_per_mm']:.6g} MPa/mm "
+              "held fixed")
+        print("element_um  elements  force_N       change_%  increments  cpu_s")
         for r in out["rows"]:
             ch = "" if r["change_percent"] is None else f"{r['change_percent']:+.2f}"
-            print(f"{r['element_size_um']:>10g}  {r['elements']:>8}  {r['peak_force_N']:12.6f}"
-                  f"  {ch:>8}  {r['cpu_s']:.1f}")
+            print(f"{r['element_size_um']:>10g}  {r['elements']:>8}  "
+                  f"{r['force_at_depth_N']:12.6f}  {ch:>8}  {r['increments']:>10}  "
+                  f"{r['cpu_s']:.1f}")
+        ri = out["richardson"]
+        if ri["extrapolated"] is not None:
+            print(f"Richardson: observed order {ri['order']:.3g}, extrapolated force "
+                  f"{ri['extrapolated']:.6f} N")
+        else:
+            print("Richardson: no estimate (the changes are not in the asymptotic range)")
         return 0
     outs = tuple(v.real("--stress-at-mm", d, lo=0.0, hi=depth, lo_open=True, unit="mm")
                  for d in args.stress_at_mm) if args.stress_at_mm else None

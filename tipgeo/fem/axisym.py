@@ -54,7 +54,9 @@ def axisymmetric_model(tip: Tip, *, depth: float, tissue: str = "pvc-sp0",
                        output_depths: tuple[float, ...] = (),
                        max_increment: float | None = None,
                        penalty_factor: float = 50.0, edge_radius: float = EDGE_RADIUS,
-                       contact: str = "node", nose_refine: float = 1.0) -> FemModel:
+                       contact: str = "node", nose_refine: float = 1.0,
+                       far: float | None = None,
+                       contact_stiffness: float | None = None) -> FemModel:
     """The axisymmetric insertion model of ``tip`` pushed ``depth`` into a
     tissue block.
 
@@ -81,6 +83,12 @@ def axisymmetric_model(tip: Tip, *, depth: float, tissue: str = "pvc-sp0",
         nodes) | ``surface`` (surface-to-surface)
     nose_refine : float — the tissue just under the needle's front (within
         2h of it, 3h deep: what wraps around the edge) gets h / this
+
+    far : float, optional — element size far from the contact zone, mm
+        (default min(0.5, max(10 h, 0.25)))
+    contact_stiffness : float, optional — the penalty stiffness itself,
+        MPa/mm (overrides ``penalty_factor``; a convergence study holds it
+        fixed so that only the mesh changes)
 
     Returns
     -------
@@ -111,7 +119,8 @@ def axisymmetric_model(tip: Tip, *, depth: float, tissue: str = "pvc-sp0",
     box = (max(0.0, r_lo - pad), min(R, r_out + pad), -min(H, depth + pad), 0.0 + h)
     band = box[1] - box[0]
     grade = min(2.0, 0.5 * R)
-    h_far = min(0.5, max(10 * h, 0.25))
+    h_far = min(0.5, max(10 * h, 0.25)) if far is None else v.real("far", far, lo=h, hi=R,
+                                                                   unit="mm")
     n_est = _estimate_elements(h, band, grade, h_far, depth, R, H)
     if n_est > MAX_ELEMENTS:
         raise SpecError(f"mesh = {h * 1e3:g} µm at depth {depth:g} mm needs about "
@@ -163,7 +172,9 @@ def axisymmetric_model(tip: Tip, *, depth: float, tissue: str = "pvc-sp0",
     return FemModel(kind="axisymmetric", name=info["tip"], nodes=nodes, blocks=blocks,
                     nsets=nsets, fixed={"BASE": (1, 2), "AXIS": (1,)},
                     surfaces={"TISSUE": top, "NEEDLE": master}, material=mat, friction=mu,
-                    depth=depth, penalty=penalty_factor * mat.E0 / h,
+                    depth=depth, penalty=penalty_factor * mat.E0 / h if contact_stiffness is None
+                    else v.real("contact_stiffness", contact_stiffness, lo=0.0, lo_open=True,
+                                unit="MPa/mm"),
                     force_scale=AXISYMMETRIC_FORCE_SCALE,
                     increments=(min(dmax, depth / 50) / depth, 1e-6, dmax / depth),
                     output_depths=out, contact=contact, slave="needle", info=info)

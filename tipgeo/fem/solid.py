@@ -95,6 +95,7 @@ def indentation_model(tip: Tip, *, depth: float, tissue: str = "pvc-sp0",
                       output_depths: tuple[float, ...] = (),
                       max_increment: float | None = None, penalty_factor: float = 5.0,
                       far: float = 1.0, contact: str = "node",
+                      contact_stiffness: float | None = None,
                       hexahedron: str = "C3D8I") -> FemModel:
     """The 3D indentation model of ``tip`` pushed ``depth`` into a block.
 
@@ -102,7 +103,8 @@ def indentation_model(tip: Tip, *, depth: float, tissue: str = "pvc-sp0",
     ----------
     tip : Tip — any tip
     depth : float — needle travel, mm
-    tissue, material_model, nu, friction, penalty_factor, contact : as
+    tissue, material_model, nu, friction, penalty_factor, contact,
+    contact_stiffness : as
         :func:`tipgeo.fem.axisym.axisymmetric_model`
     mesh : float — element size h at the footprint, mm
     block : (R, H) — block radius and height, mm
@@ -299,7 +301,10 @@ def indentation_model(tip: Tip, *, depth: float, tissue: str = "pvc-sp0",
             "symmetry_plane": None if sym_axis is None else "XYZ"[sym_axis]}
     return FemModel(kind="3d", name=info["tip"], nodes=allnodes, blocks=blocks, nsets=nsets,
                     fixed=fixed, surfaces={"TISSUE": top, "NEEDLE": master}, material=mat,
-                    friction=mu, depth=depth, penalty=penalty_factor * mat.E0 / h,
+                    friction=mu, depth=depth,
+                    penalty=penalty_factor * mat.E0 / h if contact_stiffness is None else
+                    v.real("contact_stiffness", contact_stiffness, lo=0.0, lo_open=True,
+                           unit="MPa/mm"),
                     force_scale=scale, increments=(dmax / depth / 2, 1e-6, dmax / depth),
                     output_depths=out, contact=contact, slave="needle", info=info)
 

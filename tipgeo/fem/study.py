@@ -11,9 +11,11 @@ mm inside and µm in file names and reports. Frame: the model frame of
 
 from __future__ import annotations
 
+import contextlib
 import csv
 import io
 import math
+import re
 import tempfile
 import time
 from collections.abc import Callable
@@ -33,7 +35,7 @@ from .results import max_principal, read_dat_totals, read_frd
 from .run import CcxRun, run_ccx
 
 __all__ = ["MODEL_KINDS", "FemResult", "build_model", "run_model", "run_fem",
-           "convergence_study", "analytical_force", "is_monotonic"]
+           "convergence_study", "richardson", "analytical_force", "is_monotonic"]
 
 #: Model kinds of :func:`build_model`.
 MODEL_KINDS = ("axisymmetric", "3d")
@@ -201,7 +203,7 @@ def _stress_pictures(model: FemModel, frd, out: Path, stem: str) -> tuple[list[P
             vals = np.nan_to_num(s1)
             ndl = None
             r0 = float(edge.mean())
-            win = (-r0 - 0.8, r0 + 0.8, -d - 1.0, -d + 0.6)
+            win = (max(-r0 - 0.8, float(np.min(xy[:, 0]))), r0 + 0.8, -d - 1.0, -d + 0.6)
         files.append(plot_stress_contour(
             xy, tris, vals, out / f"{stem}_s1_{d:g}mm.png", needle=ndl, window=win,
             title=f"{model.name}: max principal stress at depth {d:g} mm "
@@ -223,22 +225,25 @@ def run_model(model: FemModel, out_dir: str | Path, *, stem: str | None = None,
     Files: ``STEM.inp`` (CalculiX), ``STEM_abaqus.inp`` (with ``abaqus``),
     ``STEM.dat``, ``STEM.frd``, ``STEM.log`` (ccx's), ``STEM_force.csv``,
     ``STEM.json``, ``STEM_force.png``, ``STEM_s1_<d>mm.png``. ccx runs in a
-    temporary folder inside ``out_dir`` (removed afterwards); when it fails,
-    the deck and ccx's own output (``.log``, ``.dat``, ``.frd``) are kept for
-    the diagnosis and the error names the log.
+    temporary folder outside ``out_dir`` (the system's, removed afterwards,
+    whatever happens); the decks and results reach ``out_dir`` only once the
+    run has been checked, each written atomically. A failed run leaves
+    nothing in ``out_dir`` (a folder this call created is removed again) and
+    raises :class:`~tipgeo.errors.FemError` quoting ccx's own line.
     """
     out = Path(out_dir)
-    out.mkdir(parents=True, exist_ok=True)
     stem = stem or f"{model.name}_{model.kind}"
     res = FemResult(model)
     deck = model.ccx_deck()
-    res.files.append(write_text_atomic(out / f"{stem}.inp", deck))
+    decks = [(f"{stem}.inp", deck)]
     if abaqus:
-        res.files.append(write_text_atomic(out / f"{stem}_abaqus.inp", model.abaqus_deck()))
+        decks.append((f"{stem}_abaqus.inp", model.abaqus_deck()))
     if deck_only:
+        out.mkdir(parents=True, exist_ok=True)
+        res.files += [write_text_atomic(out / n, t) for n, t in decks]
         return res
     say = progress or (lambda s: None)
-    with tempfile.TemporaryDirectory(prefix=".tipgeo-ccx-", dir=out) as tmp:
+    with tempfile.TemporaryDirectory(prefix="tipgeo-ccx-") as tmp:
         job = Path(tmp) / "job.inp"
         job.write_text(deck)
         t0 = time.monotonic()
@@ -249,18 +254,36 @@ def run_model(model: FemModel, out_dir: str | Path, *, stem: str | None = None,
                           progress=lambda st, n: say(
                               f"ccx: increment {n}, depth {st * model.depth:.4f} mm "
                               f"({time.monotonic() - t0:.0f} s)"))
-        except FemError as e:  # name the kept copy of ccx's output
-            raise FemError(str(e).replace("job.log", str(out / f"{stem}.log"))) from e
-        finally:
-            for ext in (".log", ".dat", ".frd"):
-                p = job.with_suffix(ext)
-                if p.is_file():
-                    res.files.append(write_bytes_atomic(out / f"{stem}{ext}", p.read_bytes()))
+        except FemError as e:  # ccx's output goes with its temporary folder
+            msg = re.sub(r";? ?job\.log has (its|the whole) output", "", str(e))
+            raise FemError(msg.replace("job.", f"{stem}.")) from e
         t, f = read_dat_totals(job.with_suffix(".dat"))
+        if len(t) == 0:
+            raise FemError(f"ccx wrote no reaction-force totals of set NEEDLE to {stem}.dat")
         frd = read_frd(job.with_suffix(".frd")) if model.output_depths else None
+        created = not out.exists()
+        out.mkdir(parents=True, exist_ok=True)
+        try:
+            res.files += [write_text_atomic(out / n, t_) for n, t_ in decks]
+            for ext in (".log", ".dat", ".frd"):
+                res.files.append(write_bytes_atomic(out / f"{stem}{ext}",
+                                                    job.with_suffix(ext).read_bytes()))
+        except BaseException:
+            _remove(res.files, out if created else None)
+            raise
     res.run = run
-    if len(t) == 0:
-        raise FemError(f"{stem}.dat has no reaction-force totals of set NEEDLE")
+    try:
+        _finish(res, frd, t, f, out, stem, pictures)
+    except BaseException:
+        _remove(res.files, out if created else None)
+        raise
+    return res
+
+
+def _finish(res: FemResult, frd, t: np.ndarray, f: np.ndarray, out: Path, stem: str,
+            pictures: bool) -> None:
+    """The force curve, stresses, pictures and JSON of a checked run."""
+    model = res.model
     res.depth = np.r_[0.0, t * model.depth]
     res.force = np.r_[0.0, -f[:, 1] * model.force_scale]
     if frd is not None:
@@ -278,9 +301,17 @@ def run_model(model: FemModel, out_dir: str | Path, *, stem: str | None = None,
             out / f"{stem}_force.png",
             title=f"{model.name} into {model.material.name} ({model.material.model}), "
                   f"μ = {model.friction:.3g}"))
-    res.files.append(out / f"{stem}.json")
-    write_text_atomic(out / f"{stem}.json", dumps(res.to_dict()))
-    return res
+    res.files.append(write_text_atomic(out / f"{stem}.json", dumps(res.to_dict())))
+
+
+def _remove(files: list[Path], folder: Path | None) -> None:
+    """Remove ``files`` and, when given, ``folder`` if that leaves it empty."""
+    for p in files:
+        Path(p).unlink(missing_ok=True)
+    files.clear()
+    if folder is not None:
+        with contextlib.suppress(OSError):
+            folder.rmdir()
 
 
 def run_fem(spec, *, model: str = "axisymmetric", depth: float, out_dir: str | Path,
@@ -301,27 +332,71 @@ def run_fem(spec, *, model: str = "axisymmetric", depth: float, out_dir: str | P
                      progress=progress)
 
 
+def richardson(values: tuple[float, float, float], ratio: float) -> dict[str, float | None]:
+    """Observed order and extrapolated limit of three results on meshes
+    refined by a constant ``ratio`` (coarse to fine): p = ln(e₁/e₂)/ln r
+    with e₁ = f₂ − f₁, e₂ = f₃ − f₂, and f∞ = f₃ + e₂/(rᵖ − 1). Both None when
+    the changes differ in sign or vanish (no asymptotic convergence)."""
+    f1, f2, f3 = (float(x) for x in values)
+    e1, e2 = f2 - f1, f3 - f2
+    if e1 == 0.0 or e2 == 0.0 or (e1 > 0) != (e2 > 0) or ratio <= 1.0:
+        return {"order": None, "extrapolated": None}
+    p = math.log(e1 / e2) / math.log(ratio)
+    if p <= 0.0:
+        return {"order": p, "extrapolated": None}
+    return {"order": p, "extrapolated": f3 + e2 / (ratio ** p - 1.0)}
+
+
 def convergence_study(spec, *, model: str = "axisymmetric", depth: float,
                       meshes: tuple[float, float, float], out_dir: str | Path,
                       tissue: str = "pvc-sp0", friction: float | None = None,
                       time_limit_s: float = 1800.0,
                       progress: Callable[[str], None] | None = None, **kw) -> dict[str, Any]:
-    """Run the same insertion at three element sizes (mm, coarse to fine) and
-    report the peak force of each and its change from the previous size."""
+    """Run the same insertion, to the same ``depth``, at three element sizes
+    of the contact zone (mm, coarse to fine) and report the force of each at
+    that depth (its peak: the curves rise), the relative change from the
+    previous size, the forces at ten common depths, and the Richardson
+    estimate (observed order, extrapolated force) when the sizes halve.
+
+    Only the contact zone is refined: the far-field element size and the
+    contact penalty stiffness are those of the coarsest mesh for all three (a
+    penalty that scales with 1/h would change the model with the mesh; the
+    coarsest's, the softest, is the one all three meshes converge with).
+    Every run must reach ``depth`` (an incomplete run is an error)."""
     if len(meshes) != 3:
         raise SpecError(f"meshes = {meshes}: expected three element sizes")
-    rows, prev = [], None
+    meshes = tuple(v.real("mesh", h, lo=0.001, hi=0.5, unit="mm") for h in meshes)
+    if not meshes[0] > meshes[1] > meshes[2]:
+        raise SpecError(f"meshes = {[h * 1e3 for h in meshes]} µm: expected coarse to fine")
+    probe = build_model(spec, model, depth=depth, tissue=tissue, mesh=meshes[0],
+                        friction=friction, **kw)
+    fixed = {"contact_stiffness": probe.penalty}
+    if model == "axisymmetric":
+        fixed["far"] = float(probe.info["element_size_far_um"]) * 1e-3
+    grid = np.linspace(0.1, 1.0, 10) * depth
+    rows, curves = [], []
     for h in meshes:
         sub = Path(out_dir) / f"mesh_{h * 1e3:g}um"
         r = run_fem(spec, model=model, depth=depth, out_dir=sub, tissue=tissue,
                     friction=friction, mesh=h, time_limit_s=time_limit_s, progress=progress,
-                    output_depths=(depth,), **kw)
-        peak = r.peak_force
+                    output_depths=(depth,), **fixed, **kw)
+        f_end = float(np.interp(depth, r.depth, r.force))
+        curves.append(np.interp(grid, r.depth, r.force))
+        prev = rows[-1]["force_at_depth_N"] if rows else None
         rows.append({"element_size_um": h * 1e3, "elements": r.model.n_elements,
-                     "peak_force_N": peak, "cpu_s": round(r.run.cpu_s, 2),
-                     "wall_s": round(r.run.wall_s, 2),
-                     "change_percent": None if prev is None else 100.0 * (peak - prev) / prev})
-        prev = peak
-    out = {"model": model, "depth_mm": depth, "tissue": tissue, "rows": rows}
+                     "nodes": len(r.model.nodes), "force_at_depth_N": f_end,
+                     "peak_force_N": r.peak_force, "increments": r.run.increments,
+                     "cpu_s": round(r.run.cpu_s, 2), "wall_s": round(r.run.wall_s, 2),
+                     "change_percent": None if prev is None else 100.0 * (f_end - prev) / prev})
+    ratios = meshes[0] / meshes[1], meshes[1] / meshes[2]
+    rich = richardson(tuple(r["force_at_depth_N"] for r in rows), ratios[0]) \
+        if abs(ratios[0] - ratios[1]) <= 1e-9 * ratios[0] else {"order": None,
+                                                                 "extrapolated": None}
+    out = {"model": model, "depth_mm": depth, "tissue": tissue,
+           "far_element_um": probe.info.get("element_size_far_um"),
+           "contact_stiffness_MPa_per_mm": fixed["contact_stiffness"], "rows": rows,
+           "richardson": rich,
+           "curves": {"depth_mm": grid.tolist(),
+                      **{f"{h * 1e3:g}um": c.tolist() for h, c in zip(meshes, curves)}}}
     write_text_atomic(Path(out_dir) / "convergence.json", dumps(out))
     return out

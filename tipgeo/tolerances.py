@@ -355,6 +355,7 @@ class ScanEdgeSettings:
     window: float = 0.06981317007977318  # 4°
     step: float = 0.017453292519943295  # 1°
     window_points: int = 150
+    ref_window_points: int = 150
     window_max: float = 0.5235987755982988  # 30°
     window_grid: int = 16
     edge_band: float = 0.02

@@ -71,7 +71,9 @@ class MeasuredEdges:
         within the edge band of the traced edge (heel and tip windows out)
     heel : (float, float) — the CAD heel's cannula-frame γ (rad) and z (mm)
     tip_gamma : float — γ of the CAD outer edge's highest point (rad)
-    settings : dict — window, step, edge band (mm, rad)
+    settings : dict — window, step, edge band (mm, rad); ``referenced``:
+        whether the local fits were of the deviation from the CAD's exact cut
+        surface (True) or free quadrics (False)
     notes : list of str
     """
 
@@ -81,7 +83,7 @@ class MeasuredEdges:
     walls: dict[str, dict[str, Any]]
     heel: tuple[float, float]
     tip_gamma: float
-    settings: dict[str, float]
+    settings: dict[str, Any]
     notes: list[str] = field(default_factory=list)
 
     def region(self, gamma, *, heel: float | None = None, tip: float | None = None) -> np.ndarray:
@@ -118,12 +120,17 @@ class MeasuredEdges:
         reg = d["in_region"]
         out: dict[str, Any] = {
             "frame": "CAD analysis frame: gamma from the CAD heel about +z, z from the heel",
-            "method": "cut face fitted locally (quadric) in windows along the edge, "
-                      "intersected with the fitted wall; eq. 3.12 fit as for the CAD",
+            "method": ("cut face fitted locally (deviation from the CAD's exact cut surface) "
+                       if self.settings.get("referenced") else
+                       "cut face fitted locally (quadric) ")
+                      + "in windows along the edge, intersected with the fitted wall; eq. 3.12 "
+                        "fit as for the CAD",
             "settings": {"window_deg": math.degrees(self.settings["window"]),
                          "step_deg": math.degrees(self.settings["step"]),
                          "edge_band_um": self.settings["edge_band"] * 1e3,
                          "n_harmonics": self.measured.n_harmonics,
+                         "reference": "cad" if self.settings.get("referenced") else "none",
+                         "window_points": self.settings.get("window_points"),
                          "heel_window_deg": math.degrees(tol.scan_edges.heel_window),
                          "tip_window_deg": math.degrees(tol.scan_edges.tip_window)},
             "heel_deg_mm": [math.degrees(self.heel[0]), self.heel[1]],
@@ -265,6 +272,91 @@ def _meet_wall(fit, wall_coef, g0: float, quadric: bool):
     return X, n / np.linalg.norm(n)
 
 
+class _Reference:
+    """The CAD's exact cut surface as a height field over the annulus, in the
+    analysis frame: z_ref(ρ, γ) (mm) and its outward normals — what the
+    CAD-referenced local fits measure the scan's deviation from."""
+
+    def __init__(self, spec, heel: tuple[float, float]):
+        self.cutters = tuple(spec.cutters)
+        self.cannula = spec.cannula
+        self.gh, self.zh = heel
+
+    def z(self, rho, gamma) -> np.ndarray:
+        """z (mm, from the heel) of the lowest cut at radius ρ (mm) and γ (rad)."""
+        from ..edges import lowest_cut
+
+        rho = np.broadcast_to(np.asarray(rho, float), np.shape(gamma))
+        return lowest_cut(self.cutters, np.asarray(gamma, float) + self.gh, rho,
+                          self.cannula)[0] - self.zh
+
+    def normals(self, rho, gamma, lo: float, hi: float) -> tuple[np.ndarray, np.ndarray]:
+        """z (m,) and unit outward normals (m, 3) of the cut surface at (ρ, γ),
+        analysis frame; γ nudged into [lo, hi] (the piece's span) so that at a
+        kink the piece's own face answers."""
+        from ..edges import lowest_cut
+
+        g = np.clip(np.asarray(gamma, float), lo + tol.angle_nudge, hi - tol.angle_nudge)
+        rho = np.broadcast_to(np.asarray(rho, float), g.shape)
+        z, _, owner = lowest_cut(self.cutters, g + self.gh, rho, self.cannula)
+        pts = np.stack([rho * np.cos(g + self.gh), rho * np.sin(g + self.gh), z], 1)
+        n = np.empty_like(pts)
+        for k in np.unique(owner):
+            s = owner == k
+            n[s] = self.cutters[k].normals(pts[s], self.cannula, self.cutters[:k])
+        return z - self.zh, rotate_z(n, -self.gh)
+
+
+def _deviation_fit(ds, dr, e):
+    """Trimmed least squares of the deviation e (mm) from the reference over
+    a window: e = c₀ + c₁ Δs + c₂ Δρ + c₃ Δs² + c₄ Δs Δρ (Δs = R Δγ along
+    the edge, Δρ from the wall, mm). (coefficients,
+    residual RMS, points kept) or None if too few."""
+    st = tol.scan_edges
+    A = np.stack([np.ones_like(ds), ds, dr, ds * ds, ds * dr], 1)
+    keep = np.ones(len(e), bool)
+    for _ in range(st.fit_rounds):
+        if keep.sum() < max(5 * st.points_per_coefficient, 6):
+            return None
+        coef, *_ = np.linalg.lstsq(A[keep], e[keep], rcond=None)
+        res = e - A @ coef
+        sig = max(_robust_sigma(res[keep]), st.fit_floor)
+        new = np.abs(res) < st.trim * sig
+        if np.array_equal(new, keep):
+            break
+        keep = new
+    rms = float(np.sqrt(np.mean(res[keep] ** 2)))
+    return coef, rms, int(keep.sum())
+
+
+def _referenced_edges(ref: _Reference, coefs: np.ndarray, g0: np.ndarray, R0: np.ndarray,
+                      wall_coef, lo: float, hi: float):
+    """Edge points and normals of the referenced fits at γ₀ (m,): where the
+    reference plus the fitted deviation meets the fitted wall's generator.
+    z (m,) mm and unit normals (m, 3), analysis frame."""
+    z = ref.z(R0, g0)
+    for _ in range(tol.scan_edges.newton_steps):
+        R = _wall_radius(wall_coef, g0, z)
+        zr = ref.z(R, g0)
+        z_new = zr + coefs[:, 0] + coefs[:, 2] * (R - R0)
+        done = np.abs(z_new - z).max() < tol.scan_edges.newton_converge
+        z = z_new
+        if done:
+            break
+    R = _wall_radius(wall_coef, g0, z)
+    _, n = ref.normals(R, g0, lo, hi)
+    c, s = np.cos(g0), np.sin(g0)
+    n_r = n[:, 0] * c + n[:, 1] * s
+    n_g = -n[:, 0] * s + n[:, 1] * c
+    # the reference is a graph z = f(ρ, γ): its normal ∝ (−f_ρ, −f_γ/ρ, 1);
+    # the deviation's slopes add to f's
+    f_r = -n_r / n[:, 2] + coefs[:, 2]
+    f_s = -n_g / n[:, 2] + coefs[:, 1] * R0 / R
+    m = np.stack([-f_r * c + f_s * s, -f_r * s - f_s * c, np.ones_like(g0)], 1)
+    m *= np.sign(n[:, 2])[:, None]
+    return z, m / np.linalg.norm(m, axis=1, keepdims=True)
+
+
 def _smooth_normals(gamma, normal, n_harmonics):
     """The traced normals of a piece, each cylindrical component (n_r, n_γ,
     n_z) fitted over γ with eq. 3.12 like z(γ), re-normalised: the local fits'
@@ -350,8 +442,8 @@ def _edge_radius(Q, wall_angles, radius, reach, noise, region) -> dict[str, Any]
 
 
 def _cad_report(cad, n_harmonics):
-    """(AngleReport, r_o, r_i, name) of the CAD: spec → ``fourier``, mesh →
-    ``mesh``."""
+    """(AngleReport, r_o, r_i, name, spec or None) of the CAD: spec →
+    ``fourier``, mesh → ``mesh``."""
     from ..angles import analyze
     from ..spec import TipSpec
     from ..tip import Tip
@@ -368,19 +460,20 @@ def _cad_report(cad, n_harmonics):
         spec, tip = model.spec, model.tip
     if spec is not None:
         return (analyze(spec, method="fourier", n_harmonics=n_harmonics),
-                spec.cannula.r_o, spec.cannula.r_i, spec.name or "CAD")
+                spec.cannula.r_o, spec.cannula.r_i, spec.name or "CAD", spec)
     from .cad import CadModel as _CM
 
     model = cad if isinstance(cad, _CM) else None
     if model is None:
         raise SpecError("cad: a mesh without a spec needs a CadModel (its fitted radii)")
     return (analyze(tip, method="mesh", n_harmonics=n_harmonics, radii=(model.r_o, model.r_i)),
-            model.r_o, model.r_i, model.name)
+            model.r_o, model.r_i, model.name, None)
 
 
 def measure_edges(points, cad, *, window_deg: float | None = None,
                   step_deg: float | None = None, edge_band: float | None = None,
-                  n_harmonics: int = 5, quadric: bool = True, progress=None) -> MeasuredEdges:
+                  n_harmonics: int = 5, quadric: bool = True, reference: str = "auto",
+                  progress=None) -> MeasuredEdges:
     """Trace the cutting edges of a registered scan and measure λ, θ, α and
     l_c beside the CAD's (method in the module docstring).
 
@@ -424,7 +517,7 @@ def measure_edges(points, cad, *, window_deg: float | None = None,
     n_harmonics = integer("n_harmonics", n_harmonics, lo=1, hi=50)
     P = check_points(points, "points").astype(float)
     say("analysing the CAD's edges")
-    cad_rep, r_o, r_i, cad_name = _cad_report(cad, n_harmonics)
+    cad_rep, r_o, r_i, cad_name, spec = _cad_report(cad, n_harmonics)
     wall_t = r_o - r_i
     band = st.edge_band if edge_band is None else real("edge_band", edge_band, lo=0.0,
                                                        lo_open=True)
@@ -459,6 +552,27 @@ def measure_edges(points, cad, *, window_deg: float | None = None,
                         f"it); at least {st.min_face_points} are needed to trace the edges")
     order = np.argsort(Fg)
     F, Fg = F[order], Fg[order]
+    ref, e3, rho3 = None, None, None
+    if reference not in ("auto", "cad", "none"):
+        raise SpecError(f"reference = {reference!r} is not valid; expected one of: auto, cad, "
+                        "none")
+    if reference != "none" and spec is not None:
+        try:
+            ref = _Reference(spec, (gh, zh))
+            e = F[:, 2] - ref.z(np.hypot(F[:, 0], F[:, 1]), Fg)
+        except SpecError:
+            if reference == "cad":
+                raise
+            ref = None
+            notes.append("the CAD has no exact cut surface: free local quadrics are fitted")
+        else:
+            e3 = np.concatenate([e, e, e])
+    elif reference == "cad":
+        raise SpecError("reference = 'cad' needs a CAD with a spec (its exact cut surface); "
+                        "this CAD is a bare mesh (use reference='auto' or 'none')")
+    if ref is not None:
+        rho3 = np.tile(np.hypot(F[:, 0], F[:, 1]), 3)
+    need = st.window_points if ref is None else st.ref_window_points
     # a wrapped copy so windows about γ = 0 and 2π see both sides
     Fg3 = np.concatenate([Fg - 2 * np.pi, Fg, Fg + 2 * np.pi])
     F3 = np.concatenate([F, F, F])
@@ -484,28 +598,43 @@ def measure_edges(points, cad, *, window_deg: float | None = None,
             widths = np.geomspace(hw, max(hw, 0.5 * st.window_max), st.window_grid)
             cnt = np.array([np.searchsorted(Fg3, g0s + w_) - np.searchsorted(Fg3, g0s - w_)
                             for w_ in widths])
-            pick = np.argmax(cnt >= st.window_points, axis=0)
-            pick = np.where((cnt >= st.window_points).any(axis=0), pick, len(widths) - 1)
+            pick = np.argmax(cnt >= need, axis=0)
+            pick = np.where((cnt >= need).any(axis=0), pick, len(widths) - 1)
             rows = []
+            fits = []
             for g0, half in zip(g0s, widths[pick]):
                 lo, hi = np.searchsorted(Fg3, [g0 - half, g0 + half])
-                X = F3[lo:hi]
-                if not full:
-                    gx = Fg3[lo:hi]
-                    X = X[(gx >= a) & (gx <= b)]
-                if len(X) < st.min_window_points:
+                sel = slice(lo, hi)
+                inside = np.ones(hi - lo, bool) if full else \
+                    (Fg3[sel] >= a) & (Fg3[sel] <= b)
+                if inside.sum() < st.min_window_points:
                     continue
-                fit = _local_surface(X, quadric)
+                if ref is not None:
+                    R0 = float(_wall_radius(coefs[wall], np.array([g0]),
+                                            np.array([ref.z(cad_edge.radius, np.array([g0]))[0]
+                                                      ]))[0])
+                    dg = Fg3[sel][inside] - g0
+                    fit = _deviation_fit(R0 * dg, rho3[sel][inside] - R0, e3[sel][inside])
+                    if fit is not None:
+                        fits.append((float(g0), R0, fit, 2 * float(half)))
+                    continue
+                fit = _local_surface(F3[sel][inside], quadric)
                 if fit is None:
                     continue
                 hit = _meet_wall(fit, coefs[wall], float(g0), quadric)
                 if hit is None:
                     continue
                 Xe, n = hit
-                ref = cp.normal[min(np.searchsorted(cp.gamma, g0), len(cp.gamma) - 1)]
-                if n @ ref < 0:        # outward, as the CAD's
+                nref = cp.normal[min(np.searchsorted(cp.gamma, g0), len(cp.gamma) - 1)]
+                if n @ nref < 0:        # outward, as the CAD's
                     n = -n
                 rows.append((float(g0), float(Xe[2]), n, fit[4], fit[3], 2 * float(half)))
+            if fits:
+                g0f = np.array([f[0] for f in fits])
+                zf, nf = _referenced_edges(ref, np.array([f[2][0] for f in fits]), g0f,
+                                           np.array([f[1] for f in fits]), coefs[wall], a, b)
+                rows = [(f[0], float(zk), nk, f[2][2], f[2][1], f[3])
+                        for f, zk, nk in zip(fits, zf, nf)]
             if full and rows and rows[0][0] == 0.0:
                 first = rows[0]
                 rows.append((2 * np.pi, *first[1:]))
@@ -533,7 +662,8 @@ def measure_edges(points, cad, *, window_deg: float | None = None,
     meas = analyze_edges(edges[0], edges[1], n_harmonics=n_harmonics,
                          name=f"scan of {cad_name}")
     out = MeasuredEdges(meas, cad_rep, samples, walls, (gh, zh), tip_gamma,
-                        {"window": window, "step": step, "edge_band": band}, notes)
+                        {"window": window, "step": step, "edge_band": band,
+                         "referenced": ref is not None, "window_points": need}, notes)
     say("fitting the edge rounding")
     noise = max(min(w.get("rms_um", np.inf) for w in walls.values()) * 1e-3, st.fit_floor)
     for wall in ("outer", "inner"):
@@ -621,7 +751,7 @@ def edges_markdown(res: MeasuredEdges) -> list[str]:
     st = s["settings"]
     L = ["", "## Cutting edges measured on the scan", "",
          f"Edges traced on the scan ({s['method']}; windows ≥ {st['window_deg']:g}° holding "
-         f"{tol.scan_edges.window_points} cut-face points, edge band {st['edge_band_um']:g} µm, "
+         f"{st['window_points']} cut-face points, edge band {st['edge_band_um']:g} µm, "
          f"{st['n_harmonics']} harmonics), in the CAD's analysis frame. Differences are the "
          f"largest |scan − CAD| farther than {st['heel_window_deg']:g}° from the heel and "
          f"{st['tip_window_deg']:g}° from the tip (γ = {s['tip_gamma_deg']:.2f}°).", "",

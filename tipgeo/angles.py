@@ -336,7 +336,6 @@ def _exact_wall(edge: Edge, spec, *, fourier: bool, n: int) -> WallAngles:
 def _mesh_wall(edge: Edge, n: int) -> WallAngles:
     r = edge.radius
     fits = []
-    dz_pieces = []
     chord = 0.0
     for p in edge.pieces:
         m = len(p.gamma)
@@ -345,37 +344,9 @@ def _mesh_wall(edge: Edge, n: int) -> WallAngles:
         fits.append(f)
         pts = np.stack([r * np.cos(p.gamma), r * np.sin(p.gamma), p.z], 1)
         chord += float(np.linalg.norm(np.diff(pts, axis=0), axis=1).sum())
-        if f is not None:
-            dz_pieces.append((p.gamma, f.derivative(p.gamma)))
     length = chord + sum(abs(j.z1 - j.z0) for j in edge.jumps)
-
-    def evaluate(g):
-        g = np.atleast_1d(g)
-        k_piece = _find_piece(edge.pieces, g)
-        z = np.full(len(g), np.nan)
-        dz = np.full(len(g), np.nan)
-        nrm = np.full((len(g), 3), np.nan)
-        face = np.full(len(g), "", dtype=object)
-        for k, p in enumerate(edge.pieces):
-            s = k_piece == k
-            if not np.any(s):
-                continue
-            gg = _unwrap_to(p, g[s])
-            f = fits[k]
-            if f is not None:
-                z[s], dz[s] = f(gg), f.derivative(gg)
-            else:
-                z[s] = np.interp(gg, p.gamma, p.z)
-                dz[s] = np.gradient(p.z, p.gamma).mean() if len(p.gamma) > 1 else 0.0
-            nrm[s] = p.normal_at(gg)
-            face[s] = p.face
-        t = np.stack([-r * np.sin(g), r * np.cos(g), dz], 1)
-        t /= np.linalg.norm(t, axis=1, keepdims=True)
-        lam, theta, alpha = edge_angles(g, t, nrm, edge.wall)
-        return {"z": z, "dz": dz, "lambda": lam, "theta": theta, "alpha": alpha,
-                "face": face}
-
-    return WallAngles(edge.wall, edge, fits, length, evaluate)
+    return WallAngles(edge.wall, edge, fits, length,
+                      _fitted_evaluator(edge, fits, lambda p, gg: p.normal_at(gg)))
 
 
 def analyze_edges(outer: Edge, inner: Edge, *, n_harmonics: int = 5, name: str = "measured",
@@ -421,6 +392,23 @@ def _sampled_wall(edge: Edge, n: int) -> WallAngles:
         g = np.linspace(p.gamma[0], p.gamma[-1], max(4 * len(p.gamma), 721))
         dz_pieces.append((g, f.derivative(g)))
     length = _length_pieces(dz_pieces, r) + sum(abs(j.z1 - j.z0) for j in edge.jumps)
+    return WallAngles(edge.wall, edge, fits, length,
+                      _fitted_evaluator(edge, fits, _interpolated_normal))
+
+
+def _interpolated_normal(p: EdgePiece, g: np.ndarray) -> np.ndarray:
+    """The piece's per-sample normals interpolated linearly at γ, renormalised."""
+    nn = np.stack([np.interp(g, p.gamma, p.normal[:, j]) for j in range(3)], 1)
+    return nn / np.linalg.norm(nn, axis=1, keepdims=True)
+
+
+def _fitted_evaluator(edge: Edge, fits: list[FourierFit | None], normal_at):
+    """``evaluate(γ)`` of an edge whose pieces' z(γ) are fitted with eq. 3.12
+    (the ``mesh`` path and :func:`analyze_edges`): z and z′ from the piece's
+    fit (linear in the samples where a piece has too few for one), the
+    tangent from z′, the normal ``normal_at(piece, γ)`` (m, 3); λ, θ, α from
+    these (analysis frame, rad, mm)."""
+    r = edge.radius
 
     def evaluate(g):
         g = np.atleast_1d(g)
@@ -434,9 +422,13 @@ def _sampled_wall(edge: Edge, n: int) -> WallAngles:
             if not np.any(s):
                 continue
             gg = _unwrap_to(p, g[s])
-            z[s], dz[s] = fits[k](gg), fits[k].derivative(gg)
-            nn = np.stack([np.interp(gg, p.gamma, p.normal[:, j]) for j in range(3)], 1)
-            nrm[s] = nn / np.linalg.norm(nn, axis=1, keepdims=True)
+            f = fits[k]
+            if f is not None:
+                z[s], dz[s] = f(gg), f.derivative(gg)
+            else:
+                z[s] = np.interp(gg, p.gamma, p.z)
+                dz[s] = np.gradient(p.z, p.gamma).mean() if len(p.gamma) > 1 else 0.0
+            nrm[s] = normal_at(p, gg)
             face[s] = p.face
         t = np.stack([-r * np.sin(g), r * np.cos(g), dz], 1)
         t /= np.linalg.norm(t, axis=1, keepdims=True)
@@ -444,4 +436,4 @@ def _sampled_wall(edge: Edge, n: int) -> WallAngles:
         return {"z": z, "dz": dz, "lambda": lam, "theta": theta, "alpha": alpha,
                 "face": face}
 
-    return WallAngles(edge.wall, edge, fits, length, evaluate)
+    return evaluate

@@ -191,6 +191,14 @@ def _fit_wall(rho, g, z, r0: float, band: float) -> tuple[np.ndarray, dict[str, 
     return coef, info
 
 
+def _retrim(res: np.ndarray, keep: np.ndarray) -> tuple[np.ndarray, bool]:
+    """The points within ``tol.scan_edges.trim`` robust σ of a fit (its
+    residuals ``res``, σ from the kept ones), and whether that is ``keep``."""
+    st = tol.scan_edges
+    new = np.abs(res) < st.trim * max(_robust_sigma(res[keep]), st.fit_floor)
+    return new, bool(np.array_equal(new, keep))
+
+
 def _wall_radius(coef, g, z):
     c, s = np.cos(g), np.sin(g)
     return coef[0] + coef[1] * c + coef[2] * s + z * (coef[3] * c + coef[4] * s)
@@ -221,11 +229,9 @@ def _local_surface(X: np.ndarray, quadric: bool):
         A = _design(Q[:, 0], Q[:, 1], quadric)
         coef, *_ = np.linalg.lstsq(A[keep], Q[keep, 2], rcond=None)
         res = Q[:, 2] - A @ coef
-        sig = max(_robust_sigma(res[keep]), st.fit_floor)
-        new = np.abs(res) < st.trim * sig
-        if np.array_equal(new, keep):
+        keep, settled = _retrim(res, keep)
+        if settled:
             break
-        keep = new
     rms = float(np.sqrt(np.mean(res[keep] ** 2)))
     return c, E, coef, rms, int(keep.sum())
 
@@ -320,11 +326,9 @@ def _deviation_fit(ds, dr, e):
             return None
         coef, *_ = np.linalg.lstsq(A[keep], e[keep], rcond=None)
         res = e - A @ coef
-        sig = max(_robust_sigma(res[keep]), st.fit_floor)
-        new = np.abs(res) < st.trim * sig
-        if np.array_equal(new, keep):
+        keep, settled = _retrim(res, keep)
+        if settled:
             break
-        keep = new
     rms = float(np.sqrt(np.mean(res[keep] ** 2)))
     return coef, rms, int(keep.sum())
 

@@ -316,6 +316,11 @@ class ScanEdgeSettings:
         ``window_max`` rad) until it holds ``window_points`` cut-face points:
         a quadric's slope at the patch's border needs ~150 points for 0.1° at
         2 µm noise over a 0.17 mm wide strip; a dense scan keeps the fits local.
+    ref_window_points : int
+        The same for the fits of the deviation from the CAD's cut surface
+        (the default path): their bias does not grow with the window, so the
+        count sets only the noise; 150 (or 250, or tricube weights in γ)
+        read λ, θ alike on the 14G helical tip at σ = 2 µm (within 0.05°).
     step : float
         Spacing in γ of the traced edge samples (rad).
     edge_band : float
@@ -347,9 +352,12 @@ class ScanEdgeSettings:
         (rad) and the radius's convergence (mm).
     heel_window, tip_window : float
         The accuracy of measured λ and θ is stated farther than these from the
-        heel (γ = 0) and the tip (rad): there λ has its cusp |t_z| → 0 (heel)
-        and the edge turns fastest (tip), so a window's quadric and the eq.
-        3.12 fit smooth a corner there.
+        heel (γ = 0) and the tip (γ of the CAD outer edge's highest point)
+        (rad): there λ has its cusp |t_z| → 0 (heel) and the edge turns
+        fastest (tip), and the eq. 3.12 fit's slope noise reads λ up to 0.7°
+        (5–10° from the heel) and 1.1° (within 2°) off at σ = 2 µm on the
+        14G helical tip; farther than 10°, ≤ 0.37°. θ holds within 0.25°
+        everywhere.
     """
 
     window: float = 0.06981317007977318  # 4°

@@ -352,8 +352,8 @@ class ScanEdgeSettings:
         (rad) and the radius's convergence (mm).
     heel_window, tip_window : float
         The accuracy of measured λ and θ is stated farther than these from the
-        heel (γ = 0) and the tip (γ of the CAD outer edge's highest point)
-        (rad): there λ has its cusp |t_z| → 0 (heel) and the edge turns
+        heel (γ = 0) and both edges' tips (γ of the CAD outer and inner
+        edges' highest points) (rad): there λ has its cusp |t_z| → 0 (heel) and the edge turns
         fastest (tip), and the eq. 3.12 fit's slope noise reads λ up to 0.7°
         (5–10° from the heel) and 1.1° (within 2°) off at σ = 2 µm on the
         14G helical tip; farther than 10°, ≤ 0.37°. θ holds within 0.25°

@@ -48,12 +48,13 @@ Method (thesis §3.1.2–3.1.4 applied to measured surfaces):
 
 Where the accuracy is stated (:meth:`MeasuredEdges.region`): farther than
 ``tol.scan_edges.heel_window`` = 10° in γ from the heel (γ = 0) and
-``tol.scan_edges.tip_window`` = 10° from the tip (γ of the CAD outer edge's
-highest point). Nearer, λ has its cusp (|t_z| → 0 at the heel) and turns
-fastest (the tip), and the eq. 3.12 fit's slope noise reads λ up to ~1° off
-at σ = 2 µm; θ and the edge position hold everywhere (synthetic scans of the
-bevel and helical 14G tips, σ = 1–2 µm, 5 µm edge rounding: position ≤ 3.3 µm,
-λ ≤ 0.37° and θ ≤ 0.24° in the region, θ ≤ 0.25° everywhere, l_c ≤ 0.04 %).
+``tol.scan_edges.tip_window`` = 10° from both edges' tips (γ of the CAD outer
+and inner edges' highest points), one region for both edges. Nearer, λ has its
+cusp (|t_z| → 0 at the heel) and turns fastest (the tip), and the eq. 3.12
+fit's slope noise reads λ up to ~1° off at σ = 2 µm; θ and the edge position
+hold everywhere (synthetic scans of the bevel and helical 14G tips, σ = 1–2
+µm, 5 µm edge rounding: position ≤ 3.3 µm, λ ≤ 0.37° and θ ≤ 0.24° in the
+region, θ ≤ 0.25° everywhere, l_c ≤ 0.04 %).
 """
 
 from __future__ import annotations
@@ -91,7 +92,8 @@ class MeasuredEdges:
         ``rounding``: the edge's rounding radius (µm) fitted to the points
         within the edge band of the traced edge (heel and tip windows out)
     heel : (float, float) — the CAD heel's cannula-frame γ (rad) and z (mm)
-    tip_gamma : float — γ of the CAD outer edge's highest point (rad)
+    tip_gamma, tip_gamma_inner : float — γ of the CAD outer and inner edges'
+        highest points (rad; the helical 14G: 156.8° and 161.0°)
     settings : dict — window, step, edge band (mm, rad); ``referenced``:
         whether the local fits were of the deviation from the CAD's exact cut
         surface (True) or free quadrics (False)
@@ -104,19 +106,22 @@ class MeasuredEdges:
     walls: dict[str, dict[str, Any]]
     heel: tuple[float, float]
     tip_gamma: float
+    tip_gamma_inner: float
     settings: dict[str, Any]
     notes: list[str] = field(default_factory=list)
 
     def region(self, gamma, *, heel: float | None = None, tip: float | None = None) -> np.ndarray:
         """(m,) bool: γ (rad) farther than ``heel`` from the heel (γ = 0) and
-        ``tip`` from the tip (rad; defaults ``tol.scan_edges.heel_window``,
-        ``tol.scan_edges.tip_window``) — where the accuracy is stated."""
+        ``tip`` from the tips of both edges (rad; defaults
+        ``tol.scan_edges.heel_window``, ``tol.scan_edges.tip_window``) —
+        where the accuracy is stated, one region for both edges."""
         st = tol.scan_edges
         h = st.heel_window if heel is None else heel
         t = st.tip_window if tip is None else tip
         g = np.mod(np.asarray(gamma, float), 2 * np.pi)
         d_heel = np.minimum(g, 2 * np.pi - g)
-        d_tip = np.abs(np.angle(np.exp(1j * (g - self.tip_gamma))))
+        d_tip = np.minimum(*(np.abs(np.angle(np.exp(1j * (g - t))))
+                             for t in (self.tip_gamma, self.tip_gamma_inner)))
         return (d_heel > h) & (d_tip > t)
 
     def differences(self, step_deg: float = 1.0) -> dict[str, np.ndarray]:
@@ -156,6 +161,7 @@ class MeasuredEdges:
                          "tip_window_deg": math.degrees(tol.scan_edges.tip_window)},
             "heel_deg_mm": [math.degrees(self.heel[0]), self.heel[1]],
             "tip_gamma_deg": math.degrees(self.tip_gamma),
+            "tip_gamma_inner_deg": math.degrees(self.tip_gamma_inner),
             "notes": list(self.notes)}
         for wall, k in (("outer", "o"), ("inner", "i")):
             th = "theta_deg" if k == "o" else "theta_i_deg"
@@ -606,8 +612,10 @@ def measure_edges(points, cad, *, window_deg: float | None = None,
     # a wrapped copy so windows about γ = 0 and 2π see both sides
     Fg3 = np.concatenate([Fg - 2 * np.pi, Fg, Fg + 2 * np.pi])
     F3 = np.concatenate([F, F, F])
-    tip_gamma = float(cad_rep.dense("outer", 7200)["gamma"][
-        int(np.nanargmax(cad_rep.dense("outer", 7200)["z"]))])
+    tips = []
+    for wall in ("outer", "inner"):
+        dense = cad_rep.dense(wall, 7200)
+        tips.append(float(dense["gamma"][int(np.nanargmax(dense["z"]))]))
     samples: dict[str, dict[str, np.ndarray]] = {}
     edges = []
     hw = 0.5 * window
@@ -691,7 +699,7 @@ def measure_edges(points, cad, *, window_deg: float | None = None,
     say("fitting eq. 3.12")
     meas = analyze_edges(edges[0], edges[1], n_harmonics=n_harmonics,
                          name=f"scan of {cad_name}")
-    out = MeasuredEdges(meas, cad_rep, samples, walls, (gh, zh), tip_gamma,
+    out = MeasuredEdges(meas, cad_rep, samples, walls, (gh, zh), *tips,
                         {"window": window, "step": step, "edge_band": band,
                          "referenced": ref is not None, "window_points": need}, notes)
     say("fitting the edge rounding")
@@ -700,6 +708,13 @@ def measure_edges(points, cad, *, window_deg: float | None = None,
         walls[wall]["rounding"] = _edge_radius(q, getattr(meas, wall),
                                                float(coefs[wall][0]), band, noise, out.region)
     return out
+
+
+def _shade_windows(ax, res: MeasuredEdges) -> None:
+    """Grey the γ (degrees) outside the stated region on a plot's axis."""
+    g = np.linspace(0.0, 360.0, 3601)
+    ax.fill_between(g, 0, 1, where=~res.region(np.radians(g)), color="0.9", zorder=0,
+                    transform=ax.get_xaxis_transform(), lw=0)
 
 
 def plot_measured_edges(res: MeasuredEdges, path, *, truth=None) -> Path:
@@ -717,7 +732,6 @@ def plot_measured_edges(res: MeasuredEdges, path, *, truth=None) -> Path:
     path = check_picture_path(path)
     fig, axes = plt.subplots(5, 2, figsize=(11, 13), sharex=True)
     rows = (("z", "z (mm)"), ("lambda", "λ (°)"), ("theta", "θ (°)"), ("alpha", "α (°)"))
-    st = tol.scan_edges
     for col, wall in enumerate(("outer", "inner")):
         m, c = res.measured.dense(wall, 1441), res.cad.dense(wall, 1441)
         t = truth.dense(wall, 1441) if truth is not None else None
@@ -733,11 +747,7 @@ def plot_measured_edges(res: MeasuredEdges, path, *, truth=None) -> Path:
                 s = res.samples[wall]
                 ax.plot(np.degrees(s["gamma"]), s["z"], ".", ms=2, color="tab:blue",
                         label="traced edge")
-            for lo, hi in ((0, math.degrees(st.heel_window)),
-                           (360 - math.degrees(st.heel_window), 360),
-                           (math.degrees(res.tip_gamma - st.tip_window),
-                            math.degrees(res.tip_gamma + st.tip_window))):
-                ax.axvspan(lo, hi, color="0.9", zorder=0)
+            _shade_windows(ax, res)
             ax.set_ylabel(label)
             ax.grid(alpha=0.3)
             if row == 0:
@@ -758,11 +768,7 @@ def plot_measured_edges(res: MeasuredEdges, path, *, truth=None) -> Path:
         az.plot(gd, (m["z"] - ref["z"]) * 1e3, color="tab:red", lw=0.8, ls=":", label="Δz")
         az.set_ylim(-10, 10)
         az.set_ylabel("Δz (µm)", color="tab:red")
-        for lo, hi in ((0, math.degrees(st.heel_window)),
-                       (360 - math.degrees(st.heel_window), 360),
-                       (math.degrees(res.tip_gamma - st.tip_window),
-                        math.degrees(res.tip_gamma + st.tip_window))):
-            ax.axvspan(lo, hi, color="0.9", zorder=0)
+        _shade_windows(ax, res)
         ax.grid(alpha=0.3)
         h1, l1 = ax.get_legend_handles_labels()
         h2, l2 = az.get_legend_handles_labels()
@@ -784,7 +790,8 @@ def edges_markdown(res: MeasuredEdges) -> list[str]:
          f"{st['window_points']} cut-face points, edge band {st['edge_band_um']:g} µm, "
          f"{st['n_harmonics']} harmonics), in the CAD's analysis frame. Differences are the "
          f"largest |scan − CAD| farther than {st['heel_window_deg']:g}° from the heel and "
-         f"{st['tip_window_deg']:g}° from the tip (γ = {s['tip_gamma_deg']:.2f}°).", "",
+         f"{st['tip_window_deg']:g}° from the tips (γ = {s['tip_gamma_deg']:.2f}° outer, "
+         f"{s['tip_gamma_inner_deg']:.2f}° inner).", "",
          "| edge | quantity | scan | CAD | max abs difference |", "|---|---|---|---|---|"]
 
     def rng(x):

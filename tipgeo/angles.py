@@ -350,7 +350,7 @@ def _mesh_wall(edge: Edge, n: int) -> WallAngles:
 
 
 def analyze_edges(outer: Edge, inner: Edge, *, n_harmonics: int = 5, name: str = "measured",
-                  method: str = "scan") -> AngleReport:
+                  method: str = "scan", basis: AngleReport | None = None) -> AngleReport:
     """Cutting angles of edges traced elsewhere (e.g. in a scan), on the
     ``fourier`` path: each piece's z(γ) fitted with eq. 3.12 (``n_harmonics``,
     fitted w), z and z′ from the fit, l_c = ∫ √(r² + z′²) dγ over the pieces
@@ -364,6 +364,11 @@ def analyze_edges(outer: Edge, inner: Edge, *, n_harmonics: int = 5, name: str =
         normal per sample
     n_harmonics : int — Fourier harmonics (thesis: 5)
     name, method : str — labels of the report
+    basis : AngleReport, optional — fit each piece in the series of the
+        basis's piece on the same wall (its fitted w, the scale of γ in eq.
+        3.12; ``n_harmonics`` must match) when the pieces run over the same
+        faces: differences from the basis are then the data's, not the
+        series'. Otherwise each piece's w is fitted.
 
     Returns
     -------
@@ -378,15 +383,31 @@ def analyze_edges(outer: Edge, inner: Edge, *, n_harmonics: int = 5, name: str =
             if len(p.gamma) < 2 * n_harmonics + 2:
                 raise SpecError(f"{e.wall} edge, piece '{p.face}': {len(p.gamma)} samples "
                                 f"cannot fit n_harmonics = {n_harmonics}")
+    if basis is not None and basis.n_harmonics != n_harmonics:
+        raise SpecError(f"n_harmonics = {n_harmonics} differs from the basis's "
+                        f"({basis.n_harmonics})")
     with small_linalg():
-        walls = [_sampled_wall(e, n_harmonics) for e in (outer, inner)]
+        walls = [_sampled_wall(e, n_harmonics, _basis_w(basis, e)) for e in (outer, inner)]
     return AngleReport(name, method, walls[0], walls[1], (outer.radius, inner.radius),
                        n_harmonics)
 
 
-def _sampled_wall(edge: Edge, n: int) -> WallAngles:
+def _basis_w(basis: AngleReport | None, edge: Edge) -> list[float | None]:
+    """Per piece of ``edge``: w of the basis's piece on the same wall when
+    both walls' pieces run over the same faces in the same order (None: no
+    basis, pieces that differ, or a basis piece without a fit)."""
+    none: list[float | None] = [None] * len(edge.pieces)
+    if basis is None:
+        return none
+    ref = basis.outer if edge.wall == "outer" else basis.inner
+    if [p.face for p in ref.edge.pieces] != [p.face for p in edge.pieces]:
+        return none
+    return [None if f is None else f.w for f in ref.fits]
+
+
+def _sampled_wall(edge: Edge, n: int, ws: list[float | None]) -> WallAngles:
     r = edge.radius
-    fits = [fit_fourier(p.gamma, p.z, n=n) for p in edge.pieces]
+    fits = [fit_fourier(p.gamma, p.z, n=n, w=w) for p, w in zip(edge.pieces, ws)]
     dz_pieces = []
     for p, f in zip(edge.pieces, fits):
         g = np.linspace(p.gamma[0], p.gamma[-1], max(4 * len(p.gamma), 721))

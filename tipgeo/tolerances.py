@@ -382,8 +382,8 @@ class ScanEdgeSettings:
     grazing: float = 1.0e-6
     rounding_step: float = 0.004363323129985824  # 0.25°
     rounding_xatol: float = 1.0e-7
-    heel_window: float = 0.17453292519943295  # 10°
-    tip_window: float = 0.17453292519943295  # 10°
+    heel_window: float = 0.08726646259971647  # 5°
+    tip_window: float = 0.08726646259971647  # 5°
 
 
 @dataclass

@@ -42,9 +42,12 @@ Method (thesis §3.1.2–3.1.4 applied to measured surfaces):
 5. **Angles.** The edge points of each piece (the CAD's pieces: a window
    never straddles a kink) are fitted with eq. 3.12 and analysed like the
    CAD's (:func:`tipgeo.angles.analyze_edges`): z, z′ and the tangent from
-   the fit, the normals from step 3. The CAD's angles come from the same
-   ``fourier`` path (exact edge samples, exact normals) or, for a mesh CAD,
-   the ``mesh`` path.
+   the fit, the normals from step 3. The fit is in the CAD's series (its
+   fitted w; ``cad_basis``): a noisy edge fixes w poorly (0.9972–0.99998 on
+   scans of the helical inner edge, exactly 0.998), and on a full turn a
+   different w moves the series' seam at the heel, which read λ up to 1.1°
+   off there. The CAD's angles come from the same ``fourier`` path (exact
+   edge samples, exact normals) or, for a mesh CAD, the ``mesh`` path.
 
 Where the accuracy is stated (:meth:`MeasuredEdges.region`): farther than
 ``tol.scan_edges.heel_window`` = 10° in γ from the heel (γ = 0) and
@@ -504,7 +507,7 @@ def _cad_report(cad, n_harmonics):
 def measure_edges(points, cad, *, window_deg: float | None = None,
                   step_deg: float | None = None, edge_band: float | None = None,
                   n_harmonics: int = 5, quadric: bool = True, reference: str = "auto",
-                  progress=None) -> MeasuredEdges:
+                  cad_basis: bool = True, progress=None) -> MeasuredEdges:
     """Trace the cutting edges of a registered scan and measure λ, θ, α and
     l_c beside the CAD's (method in the module docstring).
 
@@ -528,6 +531,8 @@ def measure_edges(points, cad, *, window_deg: float | None = None,
         the CAD's exact cut surface (``cad``; ``auto`` when the CAD has a spec
         with exact cutters) or free quadrics (``none``; ``auto`` for a bare
         mesh)
+    cad_basis : bool — fit the traced edge with eq. 3.12 in the CAD's series
+        (its w per piece; True) or with a fitted w (False)
     progress : callable(str) — stage messages
 
     Returns
@@ -698,7 +703,7 @@ def measure_edges(points, cad, *, window_deg: float | None = None,
         notes.append("vertical stretches (jumps) of the edge are taken from the CAD")
     say("fitting eq. 3.12")
     meas = analyze_edges(edges[0], edges[1], n_harmonics=n_harmonics,
-                         name=f"scan of {cad_name}")
+                         name=f"scan of {cad_name}", basis=cad_rep if cad_basis else None)
     out = MeasuredEdges(meas, cad_rep, samples, walls, (gh, zh), *tips,
                         {"window": window, "step": step, "edge_band": band,
                          "referenced": ref is not None, "window_points": need}, notes)

@@ -50,14 +50,14 @@ Method (thesis §3.1.2–3.1.4 applied to measured surfaces):
    edge samples, exact normals) or, for a mesh CAD, the ``mesh`` path.
 
 Where the accuracy is stated (:meth:`MeasuredEdges.region`): farther than
-``tol.scan_edges.heel_window`` = 10° in γ from the heel (γ = 0) and
-``tol.scan_edges.tip_window`` = 10° from both edges' tips (γ of the CAD outer
-and inner edges' highest points), one region for both edges. Nearer, λ has its
-cusp (|t_z| → 0 at the heel) and turns fastest (the tip), and the eq. 3.12
-fit's slope noise reads λ up to ~1° off at σ = 2 µm; θ and the edge position
-hold everywhere (synthetic scans of the bevel and helical 14G tips, σ = 1–2
-µm, 5 µm edge rounding: position ≤ 3.3 µm, λ ≤ 0.37° and θ ≤ 0.24° in the
-region, θ ≤ 0.25° everywhere, l_c ≤ 0.04 %).
+``tol.scan_edges.heel_window`` = 5° in γ from the heel (γ = 0) and
+``tol.scan_edges.tip_window`` = 5° from both edges' tips (γ of the CAD outer
+and inner edges' highest points), one region for both edges. Nearer the tip λ
+turns fastest and the eq. 3.12 fit reads it up to 0.62° off at σ = 2 µm; edge
+position and θ hold everywhere, λ at the heel too (synthetic scans of the
+bevel and helical 14G tips, σ = 1–2 µm, 5 µm edge rounding, 4 seeds: position
+≤ 3.3 µm, λ ≤ 0.37° and θ ≤ 0.23° in the region, θ ≤ 0.25° everywhere, l_c ≤
+0.04 %).
 """
 
 from __future__ import annotations

@@ -158,6 +158,8 @@ def test_summary_report_and_plot(tmp_path):
         assert s[wall]["edge_radius_um"] == pytest.approx(EDGE_RADIUS * 1e3, abs=2.0)
     assert s["settings"]["heel_window_deg"] == pytest.approx(
         math.degrees(tol.scan_edges.heel_window))
+    assert s["settings"]["reference"] == "cad" and s["settings"]["cad_basis"]
+    assert "CAD's series" in s["method"]
     p = plot_measured_edges(res, tmp_path / "edges.png",
                             truth=_truth(BEVEL))
     assert p.stat().st_size > 10_000

@@ -99,7 +99,8 @@ class MeasuredEdges:
         highest points (rad; the helical 14G: 156.8° and 161.0°)
     settings : dict — window, step, edge band (mm, rad); ``referenced``:
         whether the local fits were of the deviation from the CAD's exact cut
-        surface (True) or free quadrics (False)
+        surface (True) or free quadrics (False); ``window_points``;
+        ``cad_basis``: whether eq. 3.12 was fitted in the CAD's series
     notes : list of str
     """
 
@@ -153,13 +154,15 @@ class MeasuredEdges:
                        if self.settings.get("referenced") else
                        "cut face fitted locally (quadric) ")
                       + "in windows along the edge, intersected with the fitted wall; eq. 3.12 "
-                        "fit as for the CAD",
+                      + ("fit in the CAD's series (its w)" if self.settings.get("cad_basis")
+                         else "fit with its own w"),
             "settings": {"window_deg": math.degrees(self.settings["window"]),
                          "step_deg": math.degrees(self.settings["step"]),
                          "edge_band_um": self.settings["edge_band"] * 1e3,
                          "n_harmonics": self.measured.n_harmonics,
                          "reference": "cad" if self.settings.get("referenced") else "none",
                          "window_points": self.settings.get("window_points"),
+                         "cad_basis": bool(self.settings.get("cad_basis")),
                          "heel_window_deg": math.degrees(tol.scan_edges.heel_window),
                          "tip_window_deg": math.degrees(tol.scan_edges.tip_window)},
             "heel_deg_mm": [math.degrees(self.heel[0]), self.heel[1]],
@@ -706,7 +709,8 @@ def measure_edges(points, cad, *, window_deg: float | None = None,
                          name=f"scan of {cad_name}", basis=cad_rep if cad_basis else None)
     out = MeasuredEdges(meas, cad_rep, samples, walls, (gh, zh), *tips,
                         {"window": window, "step": step, "edge_band": band,
-                         "referenced": ref is not None, "window_points": need}, notes)
+                         "referenced": ref is not None, "window_points": need,
+                         "cad_basis": cad_basis}, notes)
     say("fitting the edge rounding")
     noise = max(min(w.get("rms_um", np.inf) for w in walls.values()) * 1e-3, st.fit_floor)
     for wall in ("outer", "inner"):
@@ -829,7 +833,8 @@ def edges_text(res: MeasuredEdges) -> str:
     """Plain-text lines for the CLI: l_c and angle ranges, scan beside CAD."""
     s = res.summary()
     out = [f"  cutting edges measured on the scan (analysis frame of the CAD; differences "
-           f"farther than {s['settings']['heel_window_deg']:g}° from heel and tip):"]
+           f"farther than {s['settings']['heel_window_deg']:g}° from heel and "
+           f"{s['settings']['tip_window_deg']:g}° from the tips):"]
     for wall, k in (("outer", "o"), ("inner", "i")):
         w = s[wall]
         th = "theta_deg" if k == "o" else "theta_i_deg"

@@ -32,7 +32,7 @@ from tipgeo.angles import analyze
 from tipgeo.cli import main
 from tipgeo.edges import lowest_cut
 from tipgeo.errors import SpecError
-from tipgeo.inspect import ScanError, measure_edges, plot_measured_edges, synthetic_scan
+from tipgeo.inspect import ScanError, load_cad, measure_edges, plot_measured_edges, synthetic_scan
 from tipgeo.tolerances import tol
 
 BEVEL, HELICAL = "bevel-14G-xi14.5", "helical-14G"
@@ -237,6 +237,25 @@ def test_cli_compare_angles_json(tmp_path, capsys):
         assert me[wall]["samples"] > 300
     assert main([*args, "--edge-band-um", "-3"]) == 2
     assert "--edge-band-um" in capsys.readouterr().err
+
+
+def test_a_bare_mesh_cad_gets_free_quadrics(tmp_path, capsys):
+    """A CAD given as an STL (no spec, no exact surfaces): the local fits fall
+    back to free quadrics, the CAD's angles come from the mesh path, and the
+    traced edge still meets the targets against the part."""
+    assert main(["build", BEVEL, "-o", str(tmp_path / "cad.stl")]) == 0
+    capsys.readouterr()
+    sc, _ = _measured(BEVEL, 1.0)
+    res = measure_edges(_noisy(sc, 1.0), load_cad(tmp_path / "cad.stl"))
+    assert not res.settings["referenced"] and res.cad.method == "mesh"
+    truth = _truth(BEVEL)
+    for wall in ("outer", "inner"):
+        _, d = _position_errors(sc, res, wall)
+        assert d.max() < POSITION
+        t = getattr(truth, wall)
+        assert abs(getattr(res.measured, wall).length / t.length - 1) < LENGTH
+    with pytest.raises(SpecError, match="reference"):
+        measure_edges(_noisy(sc, 1.0), load_cad(tmp_path / "cad.stl"), reference="cad")
 
 
 def test_multi_piece_edge_follows_the_cad_pieces():

@@ -671,7 +671,8 @@ def measure_edges(points, cad, *, window_deg: float | None = None,
                 if hit is None:
                     continue
                 Xe, n = hit
-                nref = cp.normal[min(np.searchsorted(cp.gamma, g0), len(cp.gamma) - 1)]
+                # the CAD piece's normal near γ₀ (a mesh piece has one per segment)
+                nref = cp.normal[min(np.searchsorted(cp.gamma, g0), len(cp.normal) - 1)]
                 if n @ nref < 0:        # outward, as the CAD's
                     n = -n
                 rows.append((float(g0), float(Xe[2]), n, fit[4], fit[3], 2 * float(half)))

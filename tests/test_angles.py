@@ -216,6 +216,15 @@ def test_fourier_recovers_known_coefficients_and_errata_derivative():
     assert np.abs(f.derivative(g[1:-1]) - fd).max() < 1e-7
     with pytest.raises(SpecError, match="harmonics"):
         fit_fourier(g[:6], z[:6], n=5)
+    # a given w stays as given (the free fit would move it back to 0.8), and
+    # the coefficients are the least-squares ones in that series
+    f9 = fit_fourier(g, z, n=3, w=0.81)
+    assert f9.w == 0.81
+    assert f9.rmse > 1e-4
+    A = np.column_stack([np.ones_like(g), np.cos(np.outer(g, k * 0.81)),
+                         np.sin(np.outer(g, k * 0.81))])
+    c = np.linalg.lstsq(A, z, rcond=None)[0]
+    assert np.concatenate([[f9.a0], f9.a, f9.b]) == pytest.approx(c, abs=1e-9)
 
 
 def test_analysis_errors_are_clear():

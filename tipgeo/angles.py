@@ -336,7 +336,6 @@ def _exact_wall(edge: Edge, spec, *, fourier: bool, n: int) -> WallAngles:
 def _mesh_wall(edge: Edge, n: int) -> WallAngles:
     r = edge.radius
     fits = []
-    dz_pieces = []
     chord = 0.0
     for p in edge.pieces:
         m = len(p.gamma)
@@ -345,9 +344,92 @@ def _mesh_wall(edge: Edge, n: int) -> WallAngles:
         fits.append(f)
         pts = np.stack([r * np.cos(p.gamma), r * np.sin(p.gamma), p.z], 1)
         chord += float(np.linalg.norm(np.diff(pts, axis=0), axis=1).sum())
-        if f is not None:
-            dz_pieces.append((p.gamma, f.derivative(p.gamma)))
     length = chord + sum(abs(j.z1 - j.z0) for j in edge.jumps)
+    return WallAngles(edge.wall, edge, fits, length,
+                      _fitted_evaluator(edge, fits, lambda p, gg: p.normal_at(gg)))
+
+
+def analyze_edges(outer: Edge, inner: Edge, *, n_harmonics: int = 5, name: str = "measured",
+                  method: str = "scan", basis: AngleReport | None = None) -> AngleReport:
+    """Cutting angles of edges traced elsewhere (e.g. in a scan), on the
+    ``fourier`` path: each piece's z(γ) fitted with eq. 3.12 (``n_harmonics``,
+    fitted w), z and z′ from the fit, l_c = ∫ √(r² + z′²) dγ over the pieces
+    plus the vertical jumps; the normal at γ interpolated linearly between the
+    piece's samples (and renormalised).
+
+    Parameters
+    ----------
+    outer, inner : Edge — analysis frame (γ in rad from the heel, z in mm from
+        it); each piece's ``normal`` is (m, 3), one unit outward cut-face
+        normal per sample
+    n_harmonics : int — Fourier harmonics (thesis: 5)
+    name, method : str — labels of the report
+    basis : AngleReport, optional — fit each piece in the series of the
+        basis's piece on the same wall (its fitted w, the scale of γ in eq.
+        3.12; ``n_harmonics`` must match) when the pieces run over the same
+        faces: differences from the basis are then the data's, not the
+        series'. Otherwise each piece's w is fitted.
+
+    Returns
+    -------
+    AngleReport
+    """
+    n_harmonics = v.integer("n_harmonics", n_harmonics, lo=1, hi=50)
+    for e in (outer, inner):
+        for p in e.pieces:
+            if p.normal.shape != (len(p.gamma), 3):
+                raise SpecError(f"{e.wall} edge, piece '{p.face}': normal has shape "
+                                f"{p.normal.shape}; expected ({len(p.gamma)}, 3)")
+            if len(p.gamma) < 2 * n_harmonics + 2:
+                raise SpecError(f"{e.wall} edge, piece '{p.face}': {len(p.gamma)} samples "
+                                f"cannot fit n_harmonics = {n_harmonics}")
+    if basis is not None and basis.n_harmonics != n_harmonics:
+        raise SpecError(f"n_harmonics = {n_harmonics} differs from the basis's "
+                        f"({basis.n_harmonics})")
+    with small_linalg():
+        walls = [_sampled_wall(e, n_harmonics, _basis_w(basis, e)) for e in (outer, inner)]
+    return AngleReport(name, method, walls[0], walls[1], (outer.radius, inner.radius),
+                       n_harmonics)
+
+
+def _basis_w(basis: AngleReport | None, edge: Edge) -> list[float | None]:
+    """Per piece of ``edge``: w of the basis's piece on the same wall when
+    both walls' pieces run over the same faces in the same order (None: no
+    basis, pieces that differ, or a basis piece without a fit)."""
+    none: list[float | None] = [None] * len(edge.pieces)
+    if basis is None:
+        return none
+    ref = basis.outer if edge.wall == "outer" else basis.inner
+    if [p.face for p in ref.edge.pieces] != [p.face for p in edge.pieces]:
+        return none
+    return [None if f is None else f.w for f in ref.fits]
+
+
+def _sampled_wall(edge: Edge, n: int, ws: list[float | None]) -> WallAngles:
+    r = edge.radius
+    fits = [fit_fourier(p.gamma, p.z, n=n, w=w) for p, w in zip(edge.pieces, ws)]
+    dz_pieces = []
+    for p, f in zip(edge.pieces, fits):
+        g = np.linspace(p.gamma[0], p.gamma[-1], max(4 * len(p.gamma), 721))
+        dz_pieces.append((g, f.derivative(g)))
+    length = _length_pieces(dz_pieces, r) + sum(abs(j.z1 - j.z0) for j in edge.jumps)
+    return WallAngles(edge.wall, edge, fits, length,
+                      _fitted_evaluator(edge, fits, _interpolated_normal))
+
+
+def _interpolated_normal(p: EdgePiece, g: np.ndarray) -> np.ndarray:
+    """The piece's per-sample normals interpolated linearly at γ, renormalised."""
+    nn = np.stack([np.interp(g, p.gamma, p.normal[:, j]) for j in range(3)], 1)
+    return nn / np.linalg.norm(nn, axis=1, keepdims=True)
+
+
+def _fitted_evaluator(edge: Edge, fits: list[FourierFit | None], normal_at):
+    """``evaluate(γ)`` of an edge whose pieces' z(γ) are fitted with eq. 3.12
+    (the ``mesh`` path and :func:`analyze_edges`): z and z′ from the piece's
+    fit (linear in the samples where a piece has too few for one), the
+    tangent from z′, the normal ``normal_at(piece, γ)`` (m, 3); λ, θ, α from
+    these (analysis frame, rad, mm)."""
+    r = edge.radius
 
     def evaluate(g):
         g = np.atleast_1d(g)
@@ -367,7 +449,7 @@ def _mesh_wall(edge: Edge, n: int) -> WallAngles:
             else:
                 z[s] = np.interp(gg, p.gamma, p.z)
                 dz[s] = np.gradient(p.z, p.gamma).mean() if len(p.gamma) > 1 else 0.0
-            nrm[s] = p.normal_at(gg)
+            nrm[s] = normal_at(p, gg)
             face[s] = p.face
         t = np.stack([-r * np.sin(g), r * np.cos(g), dz], 1)
         t /= np.linalg.norm(t, axis=1, keepdims=True)
@@ -375,73 +457,4 @@ def _mesh_wall(edge: Edge, n: int) -> WallAngles:
         return {"z": z, "dz": dz, "lambda": lam, "theta": theta, "alpha": alpha,
                 "face": face}
 
-    return WallAngles(edge.wall, edge, fits, length, evaluate)
-
-
-def analyze_edges(outer: Edge, inner: Edge, *, n_harmonics: int = 5, name: str = "measured",
-                  method: str = "scan") -> AngleReport:
-    """Cutting angles of edges traced elsewhere (e.g. in a scan), on the
-    ``fourier`` path: each piece's z(γ) fitted with eq. 3.12 (``n_harmonics``,
-    fitted w), z and z′ from the fit, l_c = ∫ √(r² + z′²) dγ over the pieces
-    plus the vertical jumps; the normal at γ interpolated linearly between the
-    piece's samples (and renormalised).
-
-    Parameters
-    ----------
-    outer, inner : Edge — analysis frame (γ in rad from the heel, z in mm from
-        it); each piece's ``normal`` is (m, 3), one unit outward cut-face
-        normal per sample
-    n_harmonics : int — Fourier harmonics (thesis: 5)
-    name, method : str — labels of the report
-
-    Returns
-    -------
-    AngleReport
-    """
-    n_harmonics = v.integer("n_harmonics", n_harmonics, lo=1, hi=50)
-    for e in (outer, inner):
-        for p in e.pieces:
-            if p.normal.shape != (len(p.gamma), 3):
-                raise SpecError(f"{e.wall} edge, piece '{p.face}': normal has shape "
-                                f"{p.normal.shape}; expected ({len(p.gamma)}, 3)")
-            if len(p.gamma) < 2 * n_harmonics + 2:
-                raise SpecError(f"{e.wall} edge, piece '{p.face}': {len(p.gamma)} samples "
-                                f"cannot fit n_harmonics = {n_harmonics}")
-    with small_linalg():
-        walls = [_sampled_wall(e, n_harmonics) for e in (outer, inner)]
-    return AngleReport(name, method, walls[0], walls[1], (outer.radius, inner.radius),
-                       n_harmonics)
-
-
-def _sampled_wall(edge: Edge, n: int) -> WallAngles:
-    r = edge.radius
-    fits = [fit_fourier(p.gamma, p.z, n=n) for p in edge.pieces]
-    dz_pieces = []
-    for p, f in zip(edge.pieces, fits):
-        g = np.linspace(p.gamma[0], p.gamma[-1], max(4 * len(p.gamma), 721))
-        dz_pieces.append((g, f.derivative(g)))
-    length = _length_pieces(dz_pieces, r) + sum(abs(j.z1 - j.z0) for j in edge.jumps)
-
-    def evaluate(g):
-        g = np.atleast_1d(g)
-        k_piece = _find_piece(edge.pieces, g)
-        z = np.full(len(g), np.nan)
-        dz = np.full(len(g), np.nan)
-        nrm = np.full((len(g), 3), np.nan)
-        face = np.full(len(g), "", dtype=object)
-        for k, p in enumerate(edge.pieces):
-            s = k_piece == k
-            if not np.any(s):
-                continue
-            gg = _unwrap_to(p, g[s])
-            z[s], dz[s] = fits[k](gg), fits[k].derivative(gg)
-            nn = np.stack([np.interp(gg, p.gamma, p.normal[:, j]) for j in range(3)], 1)
-            nrm[s] = nn / np.linalg.norm(nn, axis=1, keepdims=True)
-            face[s] = p.face
-        t = np.stack([-r * np.sin(g), r * np.cos(g), dz], 1)
-        t /= np.linalg.norm(t, axis=1, keepdims=True)
-        lam, theta, alpha = edge_angles(g, t, nrm, edge.wall)
-        return {"z": z, "dz": dz, "lambda": lam, "theta": theta, "alpha": alpha,
-                "face": face}
-
-    return WallAngles(edge.wall, edge, fits, length, evaluate)
+    return evaluate

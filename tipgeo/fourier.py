@@ -108,7 +108,8 @@ def fit_fourier(gamma, z, *, n: int = 5, w: float | None = None) -> FourierFit:
     span = float(g.max() - g.min())
     if span <= 0:
         raise SpecError("gamma spans no interval")
-    if w is None:
+    refine = w is None      # a given w stays fixed
+    if refine:
         w0 = 2 * np.pi / span
         grid = w0 * np.geomspace(0.2, 1.5, 40)
         rss = np.array([_solve(g, zz, n, wi)[1] for wi in grid])
@@ -138,7 +139,7 @@ def fit_fourier(gamma, z, *, n: int = 5, w: float | None = None) -> FourierFit:
     coef, rss = _solve(g, zz, n, w)
     # Gauss–Newton on (coefficients, w) jointly: the scalar search stops at
     # √ε in w because the residual is flat there; two or three steps reach ε
-    for _ in range(6):
+    for _ in range(6 if refine else 0):
         k = np.arange(1, n + 1)
         kwg = np.multiply.outer(g, k * w)
         dzdw = (np.sin(kwg) * (-g[:, None] * k)) @ coef[1:n + 1] + \

@@ -17,12 +17,24 @@ Method (thesis §3.1.2–3.1.4 applied to measured surfaces):
    ``edge_band`` from both fitted walls) are cut-face points: the band keeps
    the edge rounding (a fillet of radius ρ_f reaches at most 2 ρ_f from the
    wall, whatever the wedge angle) and the wall's own noise out. In a window
-   of ``window`` (rad) about each sample γ₀ a quadric is fitted to them in
-   its principal frame (height over the best plane), trimmed like the walls.
+   about each sample γ₀ (the narrowest holding ``tol.scan_edges.
+   ref_window_points`` face points) the scan's deviation from the CAD's exact
+   cut surface, e = z − z_CAD(ρ, γ), is fitted with
+   e = c₀ + c₁ Δs + c₂ Δρ + c₃ Δs² + c₄ Δs Δρ (Δs = R Δγ along the edge, Δρ
+   from the wall), trimmed like the walls. The CAD carries the face's
+   curvature, so the fit has no model bias however sharply the face turns
+   (the helical tip: θ ≈ 7.6° at the point, the face twisting ~1° per degree
+   of γ); what the part does differently — another grinding angle, wear, an
+   offset — is the fitted deviation, measured. A CAD without exact surfaces
+   (a bare mesh), or ``reference='none'``, gets free quadrics instead: height
+   1, u, v, u², uv over the patch's best plane (u along its longest spread);
+   on the helical tip those read θ up to 0.7° and the edge 2.5 µm off
+   noise-free, from the curvature a quadric over a wide window leaves out.
 3. **Edges.** Each wall's edge point at γ₀ is where the local cut surface
    meets the fitted wall's generator at γ₀ — the sharp edge the two surfaces
    define (for a rounded edge: the virtual sharp edge). Its outward normal
-   is the quadric's.
+   is the local surface's: the CAD's normal tilted by the deviation's slopes
+   (c₁ along the edge, c₂ across), or the quadric's.
 4. **Rounding.** The radius of the arc that rounds the corner of the two
    fitted surfaces (tangent to both), fitted to the points within the edge
    band of the edge, each in its section across the edge: a worn or honed
@@ -30,9 +42,22 @@ Method (thesis §3.1.2–3.1.4 applied to measured surfaces):
 5. **Angles.** The edge points of each piece (the CAD's pieces: a window
    never straddles a kink) are fitted with eq. 3.12 and analysed like the
    CAD's (:func:`tipgeo.angles.analyze_edges`): z, z′ and the tangent from
-   the fit, the normals from step 3. The CAD's angles come from the same
-   ``fourier`` path (exact edge samples, exact normals) or, for a mesh CAD,
-   the ``mesh`` path.
+   the fit, the normals from step 3. The fit is in the CAD's series (its
+   fitted w; ``cad_basis``): a noisy edge fixes w poorly (0.9972–0.99998 on
+   scans of the helical inner edge, exactly 0.998), and on a full turn a
+   different w moves the series' seam at the heel, which read λ up to 1.1°
+   off there. The CAD's angles come from the same ``fourier`` path (exact
+   edge samples, exact normals) or, for a mesh CAD, the ``mesh`` path.
+
+Where the accuracy is stated (:meth:`MeasuredEdges.region`): farther than
+``tol.scan_edges.heel_window`` = 5° in γ from the heel (γ = 0) and
+``tol.scan_edges.tip_window`` = 5° from both edges' tips (γ of the CAD outer
+and inner edges' highest points), one region for both edges. Nearer the tip λ
+turns fastest and the eq. 3.12 fit reads it up to 0.62° off at σ = 2 µm; edge
+position and θ hold everywhere, λ at the heel too (synthetic scans of the
+bevel and helical 14G tips, σ = 1–2 µm, 5 µm edge rounding, 4 seeds: position
+≤ 3.3 µm, λ ≤ 0.37° and θ ≤ 0.23° in the region, θ ≤ 0.25° everywhere, l_c ≤
+0.04 %).
 """
 
 from __future__ import annotations
@@ -70,8 +95,12 @@ class MeasuredEdges:
         ``rounding``: the edge's rounding radius (µm) fitted to the points
         within the edge band of the traced edge (heel and tip windows out)
     heel : (float, float) — the CAD heel's cannula-frame γ (rad) and z (mm)
-    tip_gamma : float — γ of the CAD outer edge's highest point (rad)
-    settings : dict — window, step, edge band (mm, rad)
+    tip_gamma, tip_gamma_inner : float — γ of the CAD outer and inner edges'
+        highest points (rad; the helical 14G: 156.8° and 161.0°)
+    settings : dict — window, step, edge band (mm, rad); ``referenced``:
+        whether the local fits were of the deviation from the CAD's exact cut
+        surface (True) or free quadrics (False); ``window_points``;
+        ``cad_basis``: whether eq. 3.12 was fitted in the CAD's series
     notes : list of str
     """
 
@@ -81,19 +110,22 @@ class MeasuredEdges:
     walls: dict[str, dict[str, Any]]
     heel: tuple[float, float]
     tip_gamma: float
-    settings: dict[str, float]
+    tip_gamma_inner: float
+    settings: dict[str, Any]
     notes: list[str] = field(default_factory=list)
 
     def region(self, gamma, *, heel: float | None = None, tip: float | None = None) -> np.ndarray:
         """(m,) bool: γ (rad) farther than ``heel`` from the heel (γ = 0) and
-        ``tip`` from the tip (rad; defaults ``tol.scan_edges.heel_window``,
-        ``tol.scan_edges.tip_window``) — where the accuracy is stated."""
+        ``tip`` from the tips of both edges (rad; defaults
+        ``tol.scan_edges.heel_window``, ``tol.scan_edges.tip_window``) —
+        where the accuracy is stated, one region for both edges."""
         st = tol.scan_edges
         h = st.heel_window if heel is None else heel
         t = st.tip_window if tip is None else tip
         g = np.mod(np.asarray(gamma, float), 2 * np.pi)
         d_heel = np.minimum(g, 2 * np.pi - g)
-        d_tip = np.abs(np.angle(np.exp(1j * (g - self.tip_gamma))))
+        d_tip = np.minimum(*(np.abs(np.angle(np.exp(1j * (g - t))))
+                             for t in (self.tip_gamma, self.tip_gamma_inner)))
         return (d_heel > h) & (d_tip > t)
 
     def differences(self, step_deg: float = 1.0) -> dict[str, np.ndarray]:
@@ -118,16 +150,24 @@ class MeasuredEdges:
         reg = d["in_region"]
         out: dict[str, Any] = {
             "frame": "CAD analysis frame: gamma from the CAD heel about +z, z from the heel",
-            "method": "cut face fitted locally (quadric) in windows along the edge, "
-                      "intersected with the fitted wall; eq. 3.12 fit as for the CAD",
+            "method": ("cut face fitted locally (deviation from the CAD's exact cut surface) "
+                       if self.settings.get("referenced") else
+                       "cut face fitted locally (quadric) ")
+                      + "in windows along the edge, intersected with the fitted wall; eq. 3.12 "
+                      + ("fit in the CAD's series (its w)" if self.settings.get("cad_basis")
+                         else "fit with its own w"),
             "settings": {"window_deg": math.degrees(self.settings["window"]),
                          "step_deg": math.degrees(self.settings["step"]),
                          "edge_band_um": self.settings["edge_band"] * 1e3,
                          "n_harmonics": self.measured.n_harmonics,
+                         "reference": "cad" if self.settings.get("referenced") else "none",
+                         "window_points": self.settings.get("window_points"),
+                         "cad_basis": bool(self.settings.get("cad_basis")),
                          "heel_window_deg": math.degrees(tol.scan_edges.heel_window),
                          "tip_window_deg": math.degrees(tol.scan_edges.tip_window)},
             "heel_deg_mm": [math.degrees(self.heel[0]), self.heel[1]],
             "tip_gamma_deg": math.degrees(self.tip_gamma),
+            "tip_gamma_inner_deg": math.degrees(self.tip_gamma_inner),
             "notes": list(self.notes)}
         for wall, k in (("outer", "o"), ("inner", "i")):
             th = "theta_deg" if k == "o" else "theta_i_deg"
@@ -184,6 +224,14 @@ def _fit_wall(rho, g, z, r0: float, band: float) -> tuple[np.ndarray, dict[str, 
     return coef, info
 
 
+def _retrim(res: np.ndarray, keep: np.ndarray) -> tuple[np.ndarray, bool]:
+    """The points within ``tol.scan_edges.trim`` robust σ of a fit (its
+    residuals ``res``, σ from the kept ones), and whether that is ``keep``."""
+    st = tol.scan_edges
+    new = np.abs(res) < st.trim * max(_robust_sigma(res[keep]), st.fit_floor)
+    return new, bool(np.array_equal(new, keep))
+
+
 def _wall_radius(coef, g, z):
     c, s = np.cos(g), np.sin(g)
     return coef[0] + coef[1] * c + coef[2] * s + z * (coef[3] * c + coef[4] * s)
@@ -214,11 +262,9 @@ def _local_surface(X: np.ndarray, quadric: bool):
         A = _design(Q[:, 0], Q[:, 1], quadric)
         coef, *_ = np.linalg.lstsq(A[keep], Q[keep, 2], rcond=None)
         res = Q[:, 2] - A @ coef
-        sig = max(_robust_sigma(res[keep]), st.fit_floor)
-        new = np.abs(res) < st.trim * sig
-        if np.array_equal(new, keep):
+        keep, settled = _retrim(res, keep)
+        if settled:
             break
-        keep = new
     rms = float(np.sqrt(np.mean(res[keep] ** 2)))
     return c, E, coef, rms, int(keep.sum())
 
@@ -263,6 +309,89 @@ def _meet_wall(fit, wall_coef, g0: float, quadric: bool):
     _, hu, hv = _surface_terms(coef, q[0], q[1], quadric)
     n = E[2] - hu * E[0] - hv * E[1]
     return X, n / np.linalg.norm(n)
+
+
+class _Reference:
+    """The CAD's exact cut surface as a height field over the annulus, in the
+    analysis frame: z_ref(ρ, γ) (mm) and its outward normals — what the
+    CAD-referenced local fits measure the scan's deviation from."""
+
+    def __init__(self, spec, heel: tuple[float, float]):
+        self.cutters = tuple(spec.cutters)
+        self.cannula = spec.cannula
+        self.gh, self.zh = heel
+
+    def z(self, rho, gamma) -> np.ndarray:
+        """z (mm, from the heel) of the lowest cut at radius ρ (mm) and γ (rad)."""
+        from ..edges import lowest_cut
+
+        rho = np.broadcast_to(np.asarray(rho, float), np.shape(gamma))
+        return lowest_cut(self.cutters, np.asarray(gamma, float) + self.gh, rho,
+                          self.cannula)[0] - self.zh
+
+    def normals(self, rho, gamma, lo: float, hi: float) -> tuple[np.ndarray, np.ndarray]:
+        """z (m,) and unit outward normals (m, 3) of the cut surface at (ρ, γ),
+        analysis frame; γ nudged into [lo, hi] (the piece's span) so that at a
+        kink the piece's own face answers."""
+        from ..edges import lowest_cut
+
+        g = np.clip(np.asarray(gamma, float), lo + tol.angle_nudge, hi - tol.angle_nudge)
+        rho = np.broadcast_to(np.asarray(rho, float), g.shape)
+        z, _, owner = lowest_cut(self.cutters, g + self.gh, rho, self.cannula)
+        pts = np.stack([rho * np.cos(g + self.gh), rho * np.sin(g + self.gh), z], 1)
+        n = np.empty_like(pts)
+        for k in np.unique(owner):
+            s = owner == k
+            n[s] = self.cutters[k].normals(pts[s], self.cannula, self.cutters[:k])
+        return z - self.zh, rotate_z(n, -self.gh)
+
+
+def _deviation_fit(ds, dr, e):
+    """Trimmed least squares of the deviation e (mm) from the reference over
+    a window: e = c₀ + c₁ Δs + c₂ Δρ + c₃ Δs² + c₄ Δs Δρ (Δs = R Δγ along
+    the edge, Δρ from the wall, mm). (coefficients,
+    residual RMS, points kept) or None if too few."""
+    st = tol.scan_edges
+    A = np.stack([np.ones_like(ds), ds, dr, ds * ds, ds * dr], 1)
+    keep = np.ones(len(e), bool)
+    for _ in range(st.fit_rounds):
+        if keep.sum() < max(5 * st.points_per_coefficient, 6):
+            return None
+        coef, *_ = np.linalg.lstsq(A[keep], e[keep], rcond=None)
+        res = e - A @ coef
+        keep, settled = _retrim(res, keep)
+        if settled:
+            break
+    rms = float(np.sqrt(np.mean(res[keep] ** 2)))
+    return coef, rms, int(keep.sum())
+
+
+def _referenced_edges(ref: _Reference, coefs: np.ndarray, g0: np.ndarray, R0: np.ndarray,
+                      wall_coef, lo: float, hi: float):
+    """Edge points and normals of the referenced fits at γ₀ (m,): where the
+    reference plus the fitted deviation meets the fitted wall's generator.
+    z (m,) mm and unit normals (m, 3), analysis frame."""
+    z = ref.z(R0, g0)
+    for _ in range(tol.scan_edges.newton_steps):
+        R = _wall_radius(wall_coef, g0, z)
+        zr = ref.z(R, g0)
+        z_new = zr + coefs[:, 0] + coefs[:, 2] * (R - R0)
+        done = np.abs(z_new - z).max() < tol.scan_edges.newton_converge
+        z = z_new
+        if done:
+            break
+    R = _wall_radius(wall_coef, g0, z)
+    _, n = ref.normals(R, g0, lo, hi)
+    c, s = np.cos(g0), np.sin(g0)
+    n_r = n[:, 0] * c + n[:, 1] * s
+    n_g = -n[:, 0] * s + n[:, 1] * c
+    # the reference is a graph z = f(ρ, γ): its normal ∝ (−f_ρ, −f_γ/ρ, 1);
+    # the deviation's slopes add to f's
+    f_r = -n_r / n[:, 2] + coefs[:, 2]
+    f_s = -n_g / n[:, 2] + coefs[:, 1] * R0 / R
+    m = np.stack([-f_r * c + f_s * s, -f_r * s - f_s * c, np.ones_like(g0)], 1)
+    m *= np.sign(n[:, 2])[:, None]
+    return z, m / np.linalg.norm(m, axis=1, keepdims=True)
 
 
 def _smooth_normals(gamma, normal, n_harmonics):
@@ -350,8 +479,8 @@ def _edge_radius(Q, wall_angles, radius, reach, noise, region) -> dict[str, Any]
 
 
 def _cad_report(cad, n_harmonics):
-    """(AngleReport, r_o, r_i, name) of the CAD: spec → ``fourier``, mesh →
-    ``mesh``."""
+    """(AngleReport, r_o, r_i, name, spec or None) of the CAD: spec →
+    ``fourier``, mesh → ``mesh``."""
     from ..angles import analyze
     from ..spec import TipSpec
     from ..tip import Tip
@@ -368,19 +497,20 @@ def _cad_report(cad, n_harmonics):
         spec, tip = model.spec, model.tip
     if spec is not None:
         return (analyze(spec, method="fourier", n_harmonics=n_harmonics),
-                spec.cannula.r_o, spec.cannula.r_i, spec.name or "CAD")
+                spec.cannula.r_o, spec.cannula.r_i, spec.name or "CAD", spec)
     from .cad import CadModel as _CM
 
     model = cad if isinstance(cad, _CM) else None
     if model is None:
         raise SpecError("cad: a mesh without a spec needs a CadModel (its fitted radii)")
     return (analyze(tip, method="mesh", n_harmonics=n_harmonics, radii=(model.r_o, model.r_i)),
-            model.r_o, model.r_i, model.name)
+            model.r_o, model.r_i, model.name, None)
 
 
 def measure_edges(points, cad, *, window_deg: float | None = None,
                   step_deg: float | None = None, edge_band: float | None = None,
-                  n_harmonics: int = 5, quadric: bool = True, progress=None) -> MeasuredEdges:
+                  n_harmonics: int = 5, quadric: bool = True, reference: str = "auto",
+                  cad_basis: bool = True, progress=None) -> MeasuredEdges:
     """Trace the cutting edges of a registered scan and measure λ, θ, α and
     l_c beside the CAD's (method in the module docstring).
 
@@ -398,7 +528,14 @@ def measure_edges(points, cad, *, window_deg: float | None = None,
         exceed twice the edge rounding radius plus a few σ of noise, and stay
         below a third of the wall)
     n_harmonics : int — harmonics of the eq. 3.12 fit (thesis: 5)
-    quadric : bool — fit quadrics (True) or planes to the local patches
+    quadric : bool — free local fits (``reference='none'``): quadrics (True)
+        or planes
+    reference : ``auto`` | ``cad`` | ``none`` — fit the scan's deviation from
+        the CAD's exact cut surface (``cad``; ``auto`` when the CAD has a spec
+        with exact cutters) or free quadrics (``none``; ``auto`` for a bare
+        mesh)
+    cad_basis : bool — fit the traced edge with eq. 3.12 in the CAD's series
+        (its w per piece; True) or with a fitted w (False)
     progress : callable(str) — stage messages
 
     Returns
@@ -424,7 +561,7 @@ def measure_edges(points, cad, *, window_deg: float | None = None,
     n_harmonics = integer("n_harmonics", n_harmonics, lo=1, hi=50)
     P = check_points(points, "points").astype(float)
     say("analysing the CAD's edges")
-    cad_rep, r_o, r_i, cad_name = _cad_report(cad, n_harmonics)
+    cad_rep, r_o, r_i, cad_name, spec = _cad_report(cad, n_harmonics)
     wall_t = r_o - r_i
     band = st.edge_band if edge_band is None else real("edge_band", edge_band, lo=0.0,
                                                        lo_open=True)
@@ -459,11 +596,34 @@ def measure_edges(points, cad, *, window_deg: float | None = None,
                         f"it); at least {st.min_face_points} are needed to trace the edges")
     order = np.argsort(Fg)
     F, Fg = F[order], Fg[order]
+    ref, e3, rho3 = None, None, None
+    if reference not in ("auto", "cad", "none"):
+        raise SpecError(f"reference = {reference!r} is not valid; expected one of: auto, cad, "
+                        "none")
+    if reference != "none" and spec is not None:
+        try:
+            ref = _Reference(spec, (gh, zh))
+            e = F[:, 2] - ref.z(np.hypot(F[:, 0], F[:, 1]), Fg)
+        except SpecError:
+            if reference == "cad":
+                raise
+            ref = None
+            notes.append("the CAD has no exact cut surface: free local quadrics are fitted")
+        else:
+            e3 = np.concatenate([e, e, e])
+    elif reference == "cad":
+        raise SpecError("reference = 'cad' needs a CAD with a spec (its exact cut surface); "
+                        "this CAD is a bare mesh (use reference='auto' or 'none')")
+    if ref is not None:
+        rho3 = np.tile(np.hypot(F[:, 0], F[:, 1]), 3)
+    need = st.window_points if ref is None else st.ref_window_points
     # a wrapped copy so windows about γ = 0 and 2π see both sides
     Fg3 = np.concatenate([Fg - 2 * np.pi, Fg, Fg + 2 * np.pi])
     F3 = np.concatenate([F, F, F])
-    tip_gamma = float(cad_rep.dense("outer", 7200)["gamma"][
-        int(np.nanargmax(cad_rep.dense("outer", 7200)["z"]))])
+    tips = []
+    for wall in ("outer", "inner"):
+        dense = cad_rep.dense(wall, 7200)
+        tips.append(float(dense["gamma"][int(np.nanargmax(dense["z"]))]))
     samples: dict[str, dict[str, np.ndarray]] = {}
     edges = []
     hw = 0.5 * window
@@ -484,28 +644,44 @@ def measure_edges(points, cad, *, window_deg: float | None = None,
             widths = np.geomspace(hw, max(hw, 0.5 * st.window_max), st.window_grid)
             cnt = np.array([np.searchsorted(Fg3, g0s + w_) - np.searchsorted(Fg3, g0s - w_)
                             for w_ in widths])
-            pick = np.argmax(cnt >= st.window_points, axis=0)
-            pick = np.where((cnt >= st.window_points).any(axis=0), pick, len(widths) - 1)
+            pick = np.argmax(cnt >= need, axis=0)
+            pick = np.where((cnt >= need).any(axis=0), pick, len(widths) - 1)
             rows = []
+            fits = []
             for g0, half in zip(g0s, widths[pick]):
                 lo, hi = np.searchsorted(Fg3, [g0 - half, g0 + half])
-                X = F3[lo:hi]
-                if not full:
-                    gx = Fg3[lo:hi]
-                    X = X[(gx >= a) & (gx <= b)]
-                if len(X) < st.min_window_points:
+                sel = slice(lo, hi)
+                inside = np.ones(hi - lo, bool) if full else \
+                    (Fg3[sel] >= a) & (Fg3[sel] <= b)
+                if inside.sum() < st.min_window_points:
                     continue
-                fit = _local_surface(X, quadric)
+                if ref is not None:
+                    R0 = float(_wall_radius(coefs[wall], np.array([g0]),
+                                            np.array([ref.z(cad_edge.radius, np.array([g0]))[0]
+                                                      ]))[0])
+                    dg = Fg3[sel][inside] - g0
+                    fit = _deviation_fit(R0 * dg, rho3[sel][inside] - R0, e3[sel][inside])
+                    if fit is not None:
+                        fits.append((float(g0), R0, fit, 2 * float(half)))
+                    continue
+                fit = _local_surface(F3[sel][inside], quadric)
                 if fit is None:
                     continue
                 hit = _meet_wall(fit, coefs[wall], float(g0), quadric)
                 if hit is None:
                     continue
                 Xe, n = hit
-                ref = cp.normal[min(np.searchsorted(cp.gamma, g0), len(cp.gamma) - 1)]
-                if n @ ref < 0:        # outward, as the CAD's
+                # the CAD piece's normal near γ₀ (a mesh piece has one per segment)
+                nref = cp.normal[min(np.searchsorted(cp.gamma, g0), len(cp.normal) - 1)]
+                if n @ nref < 0:        # outward, as the CAD's
                     n = -n
                 rows.append((float(g0), float(Xe[2]), n, fit[4], fit[3], 2 * float(half)))
+            if fits:
+                g0f = np.array([f[0] for f in fits])
+                zf, nf = _referenced_edges(ref, np.array([f[2][0] for f in fits]), g0f,
+                                           np.array([f[1] for f in fits]), coefs[wall], a, b)
+                rows = [(f[0], float(zk), nk, f[2][2], f[2][1], f[3])
+                        for f, zk, nk in zip(fits, zf, nf)]
             if full and rows and rows[0][0] == 0.0:
                 first = rows[0]
                 rows.append((2 * np.pi, *first[1:]))
@@ -531,15 +707,24 @@ def measure_edges(points, cad, *, window_deg: float | None = None,
         notes.append("vertical stretches (jumps) of the edge are taken from the CAD")
     say("fitting eq. 3.12")
     meas = analyze_edges(edges[0], edges[1], n_harmonics=n_harmonics,
-                         name=f"scan of {cad_name}")
-    out = MeasuredEdges(meas, cad_rep, samples, walls, (gh, zh), tip_gamma,
-                        {"window": window, "step": step, "edge_band": band}, notes)
+                         name=f"scan of {cad_name}", basis=cad_rep if cad_basis else None)
+    out = MeasuredEdges(meas, cad_rep, samples, walls, (gh, zh), *tips,
+                        {"window": window, "step": step, "edge_band": band,
+                         "referenced": ref is not None, "window_points": need,
+                         "cad_basis": cad_basis}, notes)
     say("fitting the edge rounding")
     noise = max(min(w.get("rms_um", np.inf) for w in walls.values()) * 1e-3, st.fit_floor)
     for wall in ("outer", "inner"):
         walls[wall]["rounding"] = _edge_radius(q, getattr(meas, wall),
                                                float(coefs[wall][0]), band, noise, out.region)
     return out
+
+
+def _shade_windows(ax, res: MeasuredEdges) -> None:
+    """Grey the γ (degrees) outside the stated region on a plot's axis."""
+    g = np.linspace(0.0, 360.0, 3601)
+    ax.fill_between(g, 0, 1, where=~res.region(np.radians(g)), color="0.9", zorder=0,
+                    transform=ax.get_xaxis_transform(), lw=0)
 
 
 def plot_measured_edges(res: MeasuredEdges, path, *, truth=None) -> Path:
@@ -557,7 +742,6 @@ def plot_measured_edges(res: MeasuredEdges, path, *, truth=None) -> Path:
     path = check_picture_path(path)
     fig, axes = plt.subplots(5, 2, figsize=(11, 13), sharex=True)
     rows = (("z", "z (mm)"), ("lambda", "λ (°)"), ("theta", "θ (°)"), ("alpha", "α (°)"))
-    st = tol.scan_edges
     for col, wall in enumerate(("outer", "inner")):
         m, c = res.measured.dense(wall, 1441), res.cad.dense(wall, 1441)
         t = truth.dense(wall, 1441) if truth is not None else None
@@ -573,11 +757,7 @@ def plot_measured_edges(res: MeasuredEdges, path, *, truth=None) -> Path:
                 s = res.samples[wall]
                 ax.plot(np.degrees(s["gamma"]), s["z"], ".", ms=2, color="tab:blue",
                         label="traced edge")
-            for lo, hi in ((0, math.degrees(st.heel_window)),
-                           (360 - math.degrees(st.heel_window), 360),
-                           (math.degrees(res.tip_gamma - st.tip_window),
-                            math.degrees(res.tip_gamma + st.tip_window))):
-                ax.axvspan(lo, hi, color="0.9", zorder=0)
+            _shade_windows(ax, res)
             ax.set_ylabel(label)
             ax.grid(alpha=0.3)
             if row == 0:
@@ -598,11 +778,7 @@ def plot_measured_edges(res: MeasuredEdges, path, *, truth=None) -> Path:
         az.plot(gd, (m["z"] - ref["z"]) * 1e3, color="tab:red", lw=0.8, ls=":", label="Δz")
         az.set_ylim(-10, 10)
         az.set_ylabel("Δz (µm)", color="tab:red")
-        for lo, hi in ((0, math.degrees(st.heel_window)),
-                       (360 - math.degrees(st.heel_window), 360),
-                       (math.degrees(res.tip_gamma - st.tip_window),
-                        math.degrees(res.tip_gamma + st.tip_window))):
-            ax.axvspan(lo, hi, color="0.9", zorder=0)
+        _shade_windows(ax, res)
         ax.grid(alpha=0.3)
         h1, l1 = ax.get_legend_handles_labels()
         h2, l2 = az.get_legend_handles_labels()
@@ -621,10 +797,11 @@ def edges_markdown(res: MeasuredEdges) -> list[str]:
     st = s["settings"]
     L = ["", "## Cutting edges measured on the scan", "",
          f"Edges traced on the scan ({s['method']}; windows ≥ {st['window_deg']:g}° holding "
-         f"{tol.scan_edges.window_points} cut-face points, edge band {st['edge_band_um']:g} µm, "
+         f"{st['window_points']} cut-face points, edge band {st['edge_band_um']:g} µm, "
          f"{st['n_harmonics']} harmonics), in the CAD's analysis frame. Differences are the "
          f"largest |scan − CAD| farther than {st['heel_window_deg']:g}° from the heel and "
-         f"{st['tip_window_deg']:g}° from the tip (γ = {s['tip_gamma_deg']:.2f}°).", "",
+         f"{st['tip_window_deg']:g}° from the tips (γ = {s['tip_gamma_deg']:.2f}° outer, "
+         f"{s['tip_gamma_inner_deg']:.2f}° inner).", "",
          "| edge | quantity | scan | CAD | max abs difference |", "|---|---|---|---|---|"]
 
     def rng(x):
@@ -657,7 +834,8 @@ def edges_text(res: MeasuredEdges) -> str:
     """Plain-text lines for the CLI: l_c and angle ranges, scan beside CAD."""
     s = res.summary()
     out = [f"  cutting edges measured on the scan (analysis frame of the CAD; differences "
-           f"farther than {s['settings']['heel_window_deg']:g}° from heel and tip):"]
+           f"farther than {s['settings']['heel_window_deg']:g}° from heel and "
+           f"{s['settings']['tip_window_deg']:g}° from the tips):"]
     for wall, k in (("outer", "o"), ("inner", "i")):
         w = s[wall]
         th = "theta_deg" if k == "o" else "theta_i_deg"

@@ -395,6 +395,7 @@ def _icp(p, cad, T, iterations, *, fix_rz=False, loose=False):
         (tol.inspect.icp_converge_rot, tol.inspect.icp_converge_trans)
     info = {"iterations": 0, "fixed": []}
     sigma = None
+    prev = (0.0, 0.0)
     clip = tol.inspect.search_clip
     for it in range(iterations):
         q = apply(T, p)
@@ -430,8 +431,16 @@ def _icp(p, cad, T, iterations, *, fix_rz=False, loose=False):
         step[:3, 3] = ctr - R @ ctr + t_
         T = step @ T
         info["iterations"] = it + 1
-        if np.linalg.norm(w_) < conv_r and np.linalg.norm(t_) < conv_t:
+        # ICP converges linearly: a step shrinking by ρ per iteration leaves
+        # about ρ/(1 − ρ) of itself to go, which a weakly held direction (a
+        # turn fixed by an outline alone) makes many steps
+        sw, st_ = np.linalg.norm(w_), np.linalg.norm(t_)
+        rho = min(max(sw / prev[0] if prev[0] > 0 else 0.0,
+                      st_ / prev[1] if prev[1] > 0 else 0.0), 0.99)
+        left = max(1.0, rho / (1.0 - rho))
+        if sw * left < conv_r and st_ * left < conv_t:
             break
+        prev = (sw, st_)
     return T, sigma, info
 
 
@@ -477,10 +486,14 @@ def register(points: np.ndarray, cad, *, inlier_distance: float = 0.01,
     warnings: list[str] = []
     if len(p) < 200:
         warnings.append(f"only {len(p)} points: registration may be unreliable")
-    p = _remove_outliers(p)
+    # isolated points out of the axis fit and the search (a stray point can
+    # pass for the tip's top); not out of ICP, whose Tukey weights take care
+    # of them, since the statistical filter also takes the sparse points
+    # along a scan's edges, which hold an outline-only pose
+    clean = _remove_outliers(p)
     # the axis needs far fewer points than the final refinement
-    p_ax = p if len(p) <= tol.inspect.axis_points else \
-        p[rng.choice(len(p), tol.inspect.axis_points, replace=False)]
+    p_ax = clean if len(clean) <= tol.inspect.axis_points else \
+        clean[rng.choice(len(clean), tol.inspect.axis_points, replace=False)]
     say(f"axis fit on {len(p_ax)} points")
     point, a, radius, rms = _axis_stage(p_ax, cad.r_o)
     axis = {"point_mm": point.tolist(), "direction": a.tolist(), "outer_radius_mm": radius,
@@ -496,7 +509,7 @@ def register(points: np.ndarray, cad, *, inlier_distance: float = 0.01,
     z_feature = _feature_z(cad)
     for sign in (1.0, -1.0):
         Ta = _frame(point, a, sign)
-        q = apply(Ta, p)
+        q = apply(Ta, clean)
         if sym == 0:
             ang, sc, dz = np.array([0.0]), None, cad.z_top - np.quantile(q[:, 2], 0.9995)
             cands.append((0.0, sign, 0.0, _pose(Ta, 0.0, dz)))

@@ -1,12 +1,18 @@
 """Issue 17: registration of partial scans — the tip alone, one side of the
 tube, the bevel face with a rim of wall — with no false warning (the outer
-cylinder is fitted to the arc of wall that is there), the pose checked
-against the virtual profilometer's truth.
+cylinder is fitted to the arc of wall that is there, large flat faces left
+out of that fit), the pose checked against the virtual profilometer's truth;
+a multi-plane tip's face and rim give the pose up to the tip's own symmetry,
+which is reported; gross outliers in a scan that is registered are warned
+about with the figures, and the trimmed statistics stay at the noise.
 
 Each case: a 20,000-point synthetic scan of the 14G bevel (σ = 1 µm),
-misaligned 20° about the axis, tilted 1°, shifted 0.1 mm."""
+misaligned 20° about the axis, tilted 1°, shifted 0.1 mm (60,000 before a
+bevel slab is cut out of it)."""
 
 from __future__ import annotations
+
+import math
 
 import numpy as np
 import pytest
@@ -31,12 +37,13 @@ def _errors(res, s):
     return ang, np.linalg.norm(T[:3, 3] - Tt[:3, 3])
 
 
-def _bevel_slab(s, half_width):
-    """The scan's points within ``half_width`` mm of the bevel plane: the
-    face and a rim of the walls around it."""
-    D = ExactSolid(preset(SPEC)).distances(s.points_cad)
-    face = np.char.startswith(np.asarray(D.label_of()).astype(str), "cut")
-    n, off, _, _ = fit_plane(s.points_cad[face])
+def _bevel_slab(s, half_width, spec=SPEC, face="cut"):
+    """The scan's points within ``half_width`` mm of the plane of the face
+    labelled ``face``: the face and a rim of the walls around it."""
+    D = ExactSolid(preset(spec)).distances(s.points_cad)
+    on = np.asarray(D.label_of()).astype(str) == face if face != "cut" else \
+        np.char.startswith(np.asarray(D.label_of()).astype(str), "cut")
+    n, off, _, _ = fit_plane(s.points_cad[on])
     return np.abs(s.points_cad @ n - off) < half_width
 
 
@@ -45,10 +52,13 @@ CASES = {
     "tip only (z ≥ 6 mm of 8.15)": (dict(z_min=6.0), None, 0.01, 0.001),
     "bevel side only": (dict(views=_ring([160.0, 180.0, 200.0], 60.0)), None, 0.01, 0.001),
     "bevel face + 0.2 mm rim": (dict(z_min=0.0), 0.2, 0.01, 0.001),
+    "bevel face + 0.1 mm rim": (dict(z_min=0.0), 0.1, 0.01, 0.001),
     # the back of the tube, no bevel face: the turn about the axis comes from
-    # the outline alone (0.022° here)
-    "back half, no bevel face": (dict(views=_ring([-30.0, 0.0, 30.0], 30.0)), None, 0.05,
-                                 0.005),
+    # the outline alone, where noise along the line of sight pushes points
+    # past the edge on one side only (0.0134°, 2.3 µm here; the issue's 0.01°
+    # is not reached)
+    "back half, no bevel face": (dict(views=_ring([-30.0, 0.0, 30.0], 30.0)), None, 0.02,
+                                 0.003),
 }
 
 
@@ -63,3 +73,60 @@ def test_partial_scan_registers_without_false_warnings(case):
     assert res.match["ok"]
     ang, off = _errors(res, s)
     assert ang <= max_deg and off <= max_mm
+
+
+def test_a_multiplane_face_and_rim_give_the_pose_up_to_the_symmetry():
+    """One of the three planes of a 3-fold tip with a 0.1 mm rim: the three
+    planes are alike, so the pose is found up to a turn of 120° about the
+    axis — within 0.01° of the truth modulo that turn — and the report says
+    so (no warning: it changes no deviation)."""
+    spec = "threeplane-14G-xi15"
+    s = synthetic_scan(preset(spec), points=60_000, noise=0.001, misalignment=MIS, seed=3,
+                       z_min=0.0)
+    res = compare(s.points[_bevel_slab(s, 0.1, spec, "cut:multiplane.0")], preset(spec),
+                  pictures=False)
+    assert res.warnings == [] and res.match["ok"]
+    sym = res.registration.to_dict()["symmetry"]
+    assert sym["order"] == 3 and sym["turn_deg"] == pytest.approx(120.0, abs=1e-12)
+    assert "up to a turn of 120°" in sym["note"]
+    T, Tt = res.registration.transform, s.scan_to_cad
+    errs = []
+    for k in range(3):
+        c, si = math.cos(2 * math.pi * k / 3), math.sin(2 * math.pi * k / 3)
+        Rz = np.array([[c, -si, 0.0], [si, c, 0.0], [0.0, 0.0, 1.0]])
+        dR = Rz @ T[:3, :3] @ Tt[:3, :3].T
+        errs.append(math.degrees(math.acos(min(1.0, (np.trace(dR) - 1) / 2))))
+    assert min(errs) <= 0.01
+    assert sorted(errs)[1] > 100.0  # the other two are the symmetric poses
+
+
+def test_gross_outliers_in_a_registered_scan_warn_and_trim():
+    """5 % of the points 1–2 mm off the tube (radially): the pose is still
+    within 0.01° and 1 µm, the comparison warns with the figures (share,
+    count, cut-off), and with the cut-off widened to take them in, the full
+    RMS blows up while the trimmed one stays at the noise (σ = 1 µm along the
+    line of sight: the RMS of the comparison that left them out)."""
+    s = synthetic_scan(preset(SPEC), points=20_000, noise=0.001, misalignment=MIS, seed=4)
+    rng = np.random.default_rng(5)
+    k = 1000
+    q = s.points_cad[:k].copy()
+    rho = np.hypot(q[:, 0], q[:, 1])[:, None]
+    q[:, :2] += q[:, :2] / rho * rng.uniform(1.0, 2.0, (k, 1))
+    pts = s.points.copy()
+    pts[:k] = q @ s.cad_to_scan[:3, :3].T + s.cad_to_scan[:3, 3]
+    res = compare(pts, preset(SPEC), pictures=False)
+    ang, off = _errors(res, s)
+    assert ang <= 0.01 and off <= 0.001
+    msg = [w for w in res.warnings if "farther than" in w]
+    assert len(msg) == 1 and "5.00 %" in msg[0] and "1,000 of 20,000" in msg[0]
+    assert "0.5 mm" in msg[0]
+    assert res.dropped["far"] == k
+    clean_rms = res.stats["all"]["rms_um"]   # the noise along the normals
+    assert 0.4 < clean_rms < 1.0
+    wide = compare(pts, res.cad, pictures=False, max_distance=3.0, register_scan=False,
+                   init_transform=res.registration.transform)   # the same pose
+    assert not any("farther than" in w for w in wide.warnings)
+    assert wide.stats["all"]["rms_um"] > 200
+    tr = wide.stats["trimmed"]
+    assert tr["rms_um"] == pytest.approx(clean_rms, rel=0.1)
+    assert tr["trimmed_share"] == pytest.approx(0.05, abs=0.005)

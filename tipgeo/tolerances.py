@@ -61,8 +61,25 @@ class InspectSettings:
         (mm); only a speed knob, never an accuracy one.
     register_points : int
         Points the registration works on (a voxel-thinned subset).
+    flat_cone, flat_share, flat_distance, flat_extent, flat_faces
+        Large flat faces the registration's axis fit leaves out: normals
+        within ``flat_cone`` (rad) of one direction held by at least
+        ``flat_share`` of the points, within ``flat_distance`` (mm) of one
+        plane, spread ≥ ``flat_extent`` × the outer radius (RMS) in its
+        second direction; at most ``flat_faces`` of them.
+    cylinder_converge : float
+        The registration's cylinder fit stops when a step changes no
+        parameter by more than this (mm, rad).
+    fd_step : float
+        Forward-difference step of the cylinder fit's Jacobian (mm, rad).
+    axis_points : int
+        Points of the registration subset the axis (cylinder) fit uses.
     search_points : int
-        Points scored per candidate pose in the global search.
+        Points scored per candidate pose in the global search (drawn near
+        the CAD's features, where the turn about the axis shows).
+    icp_start_points, icp_mid_points : int
+        Points of the ICP runs from each candidate pose, and of the run to
+        convergence that starts the final one on every registration point.
     search_step : float
         Angular step of the global search about the axis (rad).
     search_clip : float
@@ -71,6 +88,9 @@ class InspectSettings:
         Cap of point-to-plane ICP iterations.
     icp_converge_rot, icp_converge_trans : float
         ICP stops when an update is below both (rad, mm).
+    icp_loose : float
+        ICP from each candidate pose stops when an update is below this in
+        rotation (rad) and translation (mm): enough to rank the candidates.
     degenerate : float
         A direction of the ICP normal matrix whose eigenvalue is below this
         fraction of the largest is unconstrained (rotation about the axis of a
@@ -172,13 +192,24 @@ class InspectSettings:
     histogram_bins: int = 50
     grid_cells: int = 4_000_000
     grid_entries: int = 8_000_000
-    register_points: int = 40000
-    search_points: int = 1500
+    register_points: int = 20000
+    axis_points: int = 12000
+    cylinder_converge: float = 1.0e-9
+    fd_step: float = 1.0e-7
+    flat_cone: float = 0.0872664625997164788  # 5°
+    flat_share: float = 0.05
+    flat_distance: float = 0.01
+    flat_extent: float = 0.2
+    flat_faces: int = 4
+    search_points: int = 600
+    icp_start_points: int = 1000
+    icp_mid_points: int = 6000
     search_step: float = 0.0174532925199432957 * 3.0
     search_clip: float = 0.25
     icp_iterations: int = 60
-    icp_converge_rot: float = 1.0e-9
-    icp_converge_trans: float = 1.0e-8
+    icp_loose: float = 1.0e-5
+    icp_converge_rot: float = 1.0e-7
+    icp_converge_trans: float = 1.0e-6
     degenerate: float = 1.0e-7
     ambiguity_ratio: float = 1.5
     edge_exclusion: float = 0.03

@@ -5,19 +5,29 @@ Frames and units: the scan in its scanner frame, the CAD in the cannula frame
 (+z along the axis towards the tip); mm, rad. The result maps scanner →
 cannula frame: x_cad = R x_scan + t.
 
+Every stage works on a seeded random subset of the scan
+(``tol.inspect.register_points``; fewer for the first stages).
+
 1. **Axis**: a least-squares cylinder fit (robust loss) to the points whose
    normals are perpendicular to the principal axis and whose distance to it is
-   near the nominal outer radius. It aligns the axes and measures the outer
-   diameter. ICP alone cannot do what follows: a cylinder matches itself
+   near the nominal outer radius — on the arc of wall the scan shows, with
+   large flat faces (a bevel face, ground planes) left out first, since their
+   normals lie across a wrong axis too. It aligns the axes and measures the
+   outer diameter. ICP alone cannot do what follows: a cylinder matches itself
    under any turn about and shift along its axis.
-2. **Global search** of the turn about the axis (both axis directions, every
-   ``tol.inspect.search_step``) with the axial offset from the tip's highest
-   point: each pose is scored by the mean clipped distance of a few thousand
-   points to the CAD solid. The bevel, planes or serrations decide.
-3. **Point-to-plane ICP** from the best few poses, with exact closest points
-   and normals of the CAD (the spec's exact surfaces where it has them),
-   Tukey weights, and directions the data do not constrain (a rotationally
-   symmetric tip's turn about its axis) held fixed.
+2. **Global search** of the turn about the axis (both axis directions, over
+   one symmetry period: coarse every 2·``tol.inspect.search_step``, then fine
+   about the best minima) with the axial offset from the tip's highest
+   point: each pose is scored by the mean clipped distance to the CAD solid of
+   a few hundred points drawn near the CAD's features (below them every turn
+   fits alike). The bevel, planes or serrations decide.
+3. **Point-to-plane ICP** (Gauss–Newton on exact closest points and normals
+   of the CAD — the spec's exact surfaces where it has them — with Tukey
+   weights) from the best few poses on a small subset, then to convergence on
+   a larger one, then on every registration point from there; directions the
+   data do not constrain (a rotationally symmetric tip's turn about its axis)
+   are held fixed. A k-fold symmetric tip's pose is found up to a turn of
+   360°/k, which is reported (it changes no deviation).
 
 The report gives the transform, fitness (share of points within the inlier
 distance), inlier RMSE, and warnings: an ambiguous pose (a different pose fits
@@ -82,6 +92,11 @@ class Registration:
     warnings : list of str
     iterations : int — ICP iterations of the chosen pose
     points : int — points used
+    fixed_directions : list of str — directions held (not constrained)
+    symmetry : int — the CAD tip's k-fold symmetry about its axis (0:
+        continuous, 1: none): the pose is found up to a turn of 360°/k about
+        the axis, which changes no deviation (reported as ``symmetry`` in
+        :meth:`to_dict`)
     """
 
     transform: np.ndarray
@@ -94,6 +109,7 @@ class Registration:
     iterations: int = 0
     points: int = 0
     fixed_directions: list[str] = field(default_factory=list)
+    symmetry: int = 1
 
     def apply(self, points: np.ndarray) -> np.ndarray:
         """Scanner-frame points in the cannula frame."""
@@ -109,7 +125,21 @@ class Registration:
                 "inlier_distance_mm": self.inlier_distance, "axis": self.axis,
                 "search": self.search, "warnings": list(self.warnings),
                 "iterations": self.iterations, "points": self.points,
-                "fixed_directions": list(self.fixed_directions)}
+                "fixed_directions": list(self.fixed_directions),
+                "symmetry": _symmetry_note(self.symmetry)}
+
+
+def _symmetry_note(k: int) -> dict[str, Any]:
+    """How far the pose is determined about the axis, for the report."""
+    if k == 1:
+        return {"order": 1, "turn_deg": 360.0,
+                "note": "the tip has no symmetry about its axis: the pose is unique"}
+    if k == 0:
+        return {"order": 0, "turn_deg": 0.0,
+                "note": "the tip is rotationally symmetric: the turn about the axis is free"}
+    return {"order": k, "turn_deg": 360.0 / k,
+            "note": f"the tip is {k}-fold symmetric: the pose is determined up to a turn of "
+                    f"{360.0 / k:g}° about the axis, which changes no deviation"}
 
 
 # -----------------------------------------------------------------------------
@@ -137,8 +167,6 @@ def fit_cylinder(points: np.ndarray, axis_dir: np.ndarray, axis_point: np.ndarra
     radius : float — mm
     rms : float — RMS radial residual of the points within 3·scale (mm)
     """
-    from scipy.optimize import least_squares
-
     a0 = axis_dir / np.linalg.norm(axis_dir)
     e1 = np.cross(a0, [1.0, 0, 0] if abs(a0[0]) < 0.9 else [0, 1.0, 0])
     e1 /= np.linalg.norm(e1)
@@ -153,20 +181,80 @@ def fit_cylinder(points: np.ndarray, axis_dir: np.ndarray, axis_point: np.ndarra
         d = q - c
         return np.linalg.norm(d - np.outer(d @ a, a), axis=1) - x[4], a, c
 
-    res = least_squares(lambda x: model(x)[0], np.array([0, 0, 0, 0, radius]),
-                        loss="soft_l1", f_scale=scale, x_scale=[1e-2, 1e-2, 1e-2, 1e-2, 1e-2],
-                        method="trf", max_nfev=200)
-    r, a, c = model(res.x)
+    # Levenberg–Marquardt on the soft-L1 loss by reweighting (weights
+    # (1 + (r/scale)²)^-½, the loss's derivative): a handful of 5 × 5 solves
+    x = np.array([0.0, 0.0, 0.0, 0.0, radius])
+    r = model(x)[0]
+    h = tol.inspect.fd_step
+    lam = 1e-6
+    for _ in range(tol.inspect.max_iterations):
+        w = 1.0 / np.sqrt(1.0 + (r / scale) ** 2)
+        J = np.empty((len(r), 5))
+        for k in range(5):
+            xk = x.copy()
+            xk[k] += h
+            J[:, k] = (model(xk)[0] - r) / h
+        Jw = J * w[:, None]
+        A, g = Jw.T @ J, Jw.T @ r
+        cost = np.sum(2 * scale ** 2 * (np.sqrt(1 + (r / scale) ** 2) - 1))
+        while True:
+            dx = -np.linalg.solve(A + lam * np.diag(np.diag(A) + 1e-12), g)
+            rn = model(x + dx)[0]
+            if np.sum(2 * scale ** 2 * (np.sqrt(1 + (rn / scale) ** 2) - 1)) <= cost \
+                    or lam > 1e6:
+                break
+            lam *= 10
+        x, r, lam = x + dx, rn, max(lam / 10, 1e-9)
+        if np.max(np.abs(dx)) < tol.inspect.cylinder_converge:
+            break
+    res_x = x
+    r, a, c = model(res_x)
     ok = np.abs(r) < 3 * scale
     rms = float(np.sqrt(np.mean(r[ok] ** 2))) if ok.any() else float("nan")
     point = c0 + c
     point = point + a * ((points.mean(axis=0) - point) @ a)
-    return point, a, float(res.x[4]), rms
+    return point, a, float(res_x[4]), rms
+
+
+def _flat_patches(p: np.ndarray, nrm: np.ndarray, r_nominal: float) -> np.ndarray:
+    """(n,) bool — points on large flat faces (a bevel, a ground plane, the
+    base): many normals within ``tol.inspect.flat_cone`` of one direction,
+    on one plane, spread in two directions over ≥ ``tol.inspect.flat_extent``
+    of the outer radius. A strip of the wall whose normals agree that well is
+    a thin line, not a patch, and is kept. Their normals are perpendicular to
+    a line in the face — a wrong axis — so the axis fit leaves them out."""
+    st = tol.inspect
+    n = len(p)
+    flat = np.zeros(n, bool)
+    cosc = math.cos(st.flat_cone)
+    for _ in range(st.flat_faces):
+        free = np.flatnonzero(~flat)
+        if len(free) < 50:
+            break
+        # the densest normal direction, counted on a spread sample (sign free)
+        probe = free[:: max(1, len(free) // 1500)]
+        cnt = np.count_nonzero(np.abs(nrm[probe] @ nrm[probe].T) > cosc, axis=1)
+        k = int(np.argmax(cnt))
+        if cnt[k] * len(free) / len(probe) < max(st.flat_share * n, 50):
+            break
+        m = free[np.abs(nrm[free] @ nrm[probe[k]]) > cosc]
+        c = p[m].mean(axis=0)
+        _, sv, vt = np.linalg.svd(p[m] - c, full_matrices=False)
+        on = m[np.abs((p[m] - c) @ vt[2]) < st.flat_distance]
+        if len(on) < 50:
+            break
+        ext = np.linalg.svd(p[on] - p[on].mean(axis=0), compute_uv=False) / math.sqrt(len(on))
+        if ext[1] < st.flat_extent * r_nominal:
+            break  # a strip of the wall
+        flat[on] = True
+    return flat
 
 
 def _axis_stage(p: np.ndarray, r_nominal: float) -> tuple[np.ndarray, np.ndarray, float, float]:
     """The outer wall's cylinder, fitted to the arc of it that the scan shows.
 
+    Large flat faces are left out first (:func:`_flat_patches`): their
+    normals lie across any line in the face, so they would pass for wall.
     Two starting axes: the points' longest principal direction (a long
     tube), and the direction the surface normals are most nearly
     perpendicular to (a short piece — the tip alone, one side — where the
@@ -176,6 +264,10 @@ def _axis_stage(p: np.ndarray, r_nominal: float) -> tuple[np.ndarray, np.ndarray
     cen = p.mean(axis=0)
     _, vec = np.linalg.eigh(np.cov((p - cen).T))
     nrm = point_normals(p)
+    flat = _flat_patches(p, nrm, r_nominal)
+    if np.count_nonzero(~flat) >= 20:
+        p, nrm = p[~flat], nrm[~flat]
+        cen = p.mean(axis=0)
     starts = [vec[:, -1]]
     a = np.linalg.eigh(nrm.T @ nrm)[1][:, 0]
     for _ in range(4):  # normals across the axis: the wall's (a bevel's are ≥ 0.2 off)
@@ -216,8 +308,8 @@ def _axis_fit(p, nrm, cen, a, r_nominal, first):
                             "across the axis; registration needs ≥ 20): is the scan of this "
                             "tip, in the right units, and does it show part of the outer wall?")
         idx = np.flatnonzero(sel)
-        if len(idx) > 6000:  # plenty for five parameters
-            idx = idx[np.linspace(0, len(idx) - 1, 6000).astype(int)]
+        if len(idx) > 3000:  # plenty for five parameters
+            idx = idx[np.linspace(0, len(idx) - 1, 3000).astype(int)]
         point, a, radius, rms = fit_cylinder(p[idx], a, point, radius,
                                              scale=0.02 if it == 0 else 0.004)
         if not 0.5 * r_nominal < radius < 2.0 * r_nominal:
@@ -238,20 +330,53 @@ def _frame(point, a, sign) -> np.ndarray:
     return T
 
 
-def _search(q_all, cad, step, npts, rng):
-    """Scores of turns about +z (rad) for points already on the axis."""
-    sub = q_all[rng.choice(len(q_all), min(npts, len(q_all)), replace=False)]
+def _feature_z(cad) -> float:
+    """Lowest z (cannula frame, mm) of the CAD's faces that are not the tube
+    (outer and inner wall, base): below it every turn about the axis fits
+    alike, so points there say nothing about the turn."""
+    tip = cad.tip
+    names = np.asarray(tip.label_names, dtype=object)
+    cut = ~np.isin(names[tip.label_ids], ["outer", "inner", "base"])
+    if not cut.any():
+        return cad.z_base
+    return float(tip.vertices[tip.faces[cut]][..., 2].min())
+
+
+def _scores(sub, cad, angles, dz):
+    """Mean clipped |distance| to the CAD of ``sub`` (on the axis) turned by
+    each angle about +z and shifted by dz: one batched query."""
+    c, s = np.cos(angles)[:, None], np.sin(angles)[:, None]
+    x = np.stack([c * sub[:, 0] - s * sub[:, 1], s * sub[:, 0] + c * sub[:, 1],
+                  np.broadcast_to(sub[:, 2] + dz, (len(angles), len(sub)))], 2)
+    f = cad.bound(x.reshape(-1, 3)).reshape(len(angles), len(sub))
+    return np.mean(np.minimum(np.abs(f), tol.inspect.search_clip), axis=1)
+
+
+def _search(q_all, cad, step, npts, rng, period, z_feature):
+    """The best turns about +z (rad, within one symmetry period) for points
+    already on the axis, coarse to fine: a third of ``npts`` points scored
+    every 2·step, then all of them every step/2 within ±2·step of the three
+    best coarse minima. The scored points are drawn from those near or above
+    the CAD's features (``z_feature``), where the turn shows.
+
+    Returns the coarse angles and scores, the fine minima (angle, score; best
+    first) and the axial shift dz."""
     z_top = np.quantile(q_all[:, 2], 0.9995)
     dz = cad.z_top - z_top
-    angles = np.arange(0.0, 2 * math.pi, step)
-    c, s = np.cos(angles), np.sin(angles)
-    scores = np.empty(len(angles))
-    for i in range(len(angles)):
-        x = np.stack([c[i] * sub[:, 0] - s[i] * sub[:, 1], s[i] * sub[:, 0] + c[i] * sub[:, 1],
-                      sub[:, 2] + dz], 1)
-        f = cad.bound(x)
-        scores[i] = np.mean(np.minimum(np.abs(f), tol.inspect.search_clip))
-    return angles, scores, dz
+    near = q_all[:, 2] + dz >= z_feature - cad.r_o
+    pool = q_all[near] if np.count_nonzero(near) >= 50 else q_all
+    sub = pool[rng.choice(len(pool), min(npts, len(pool)), replace=False)]
+    coarse = np.arange(0.0, period - 1e-12, 2 * step)
+    sc = _scores(sub[: max(len(sub) // 3, 1)], cad, coarse, dz)
+    mins = np.flatnonzero((sc <= np.roll(sc, 1)) & (sc <= np.roll(sc, -1)))
+    mins = mins[np.argsort(sc[mins], kind="stable")][:3]
+    win = np.arange(-4, 5) * 0.5 * step
+    fine = (coarse[mins][:, None] + win[None, :]) % period
+    fs = _scores(sub, cad, fine.ravel(), dz).reshape(fine.shape)
+    k = np.argmin(fs, axis=1)
+    best = [(float(fine[i, k[i]]), float(fs[i, k[i]])) for i in range(len(mins))]
+    best.sort(key=lambda b: b[1])
+    return coarse, sc, best, dz
 
 
 def _pose(T_axis, angle, dz):
@@ -262,10 +387,15 @@ def _pose(T_axis, angle, dz):
     return T @ T_axis
 
 
-def _icp(p, cad, T, iterations, *, fix_rz=False):
-    """Point-to-plane ICP with Tukey weights; returns T, robust σ, info."""
+def _icp(p, cad, T, iterations, *, fix_rz=False, loose=False):
+    """Point-to-plane ICP (Gauss–Newton on the exact closest points and
+    normals) with Tukey weights; returns T, robust σ, info. ``loose``: stop
+    at ``tol.inspect.icp_loose`` (rad, mm): enough to rank start poses."""
+    conv_r, conv_t = (tol.inspect.icp_loose,) * 2 if loose else \
+        (tol.inspect.icp_converge_rot, tol.inspect.icp_converge_trans)
     info = {"iterations": 0, "fixed": []}
     sigma = None
+    prev = (0.0, 0.0)
     clip = tol.inspect.search_clip
     for it in range(iterations):
         q = apply(T, p)
@@ -301,9 +431,16 @@ def _icp(p, cad, T, iterations, *, fix_rz=False):
         step[:3, 3] = ctr - R @ ctr + t_
         T = step @ T
         info["iterations"] = it + 1
-        if np.linalg.norm(w_) < tol.inspect.icp_converge_rot and \
-                np.linalg.norm(t_) < tol.inspect.icp_converge_trans:
+        # ICP converges linearly: a step shrinking by ρ per iteration leaves
+        # about ρ/(1 − ρ) of itself to go, which a weakly held direction (a
+        # turn fixed by an outline alone) makes many steps
+        sw, st_ = np.linalg.norm(w_), np.linalg.norm(t_)
+        rho = min(max(sw / prev[0] if prev[0] > 0 else 0.0,
+                      st_ / prev[1] if prev[1] > 0 else 0.0), 0.99)
+        left = max(1.0, rho / (1.0 - rho))
+        if sw * left < conv_r and st_ * left < conv_t:
             break
+        prev = (sw, st_)
     return T, sigma, info
 
 
@@ -349,9 +486,16 @@ def register(points: np.ndarray, cad, *, inlier_distance: float = 0.01,
     warnings: list[str] = []
     if len(p) < 200:
         warnings.append(f"only {len(p)} points: registration may be unreliable")
-    p = _remove_outliers(p)
-    say(f"axis fit on {len(p)} points")
-    point, a, radius, rms = _axis_stage(p, cad.r_o)
+    # isolated points out of the axis fit and the search (a stray point can
+    # pass for the tip's top); not out of ICP, whose Tukey weights take care
+    # of them, since the statistical filter also takes the sparse points
+    # along a scan's edges, which hold an outline-only pose
+    clean = _remove_outliers(p)
+    # the axis needs far fewer points than the final refinement
+    p_ax = clean if len(clean) <= tol.inspect.axis_points else \
+        clean[rng.choice(len(clean), tol.inspect.axis_points, replace=False)]
+    say(f"axis fit on {len(p_ax)} points")
+    point, a, radius, rms = _axis_stage(p_ax, cad.r_o)
     axis = {"point_mm": point.tolist(), "direction": a.tolist(), "outer_radius_mm": radius,
             "outer_diameter_mm": 2 * radius, "fit_rms_mm": rms}
     if abs(radius - cad.r_o) > 0.05 * cad.r_o:
@@ -359,30 +503,32 @@ def register(points: np.ndarray, cad, *, inlier_distance: float = 0.01,
                         f"{2 * cad.r_o:.4f} mm by more than 5 %")
     say("global search about the axis")
     cands = []
-    search: dict[str, Any] = {"step_deg": math.degrees(tol.inspect.search_step)}
+    search: dict[str, Any] = {"coarse_step_deg": 2 * math.degrees(tol.inspect.search_step),
+                              "fine_step_deg": 0.5 * math.degrees(tol.inspect.search_step)}
     sym = cad.symmetry
+    z_feature = _feature_z(cad)
     for sign in (1.0, -1.0):
         Ta = _frame(point, a, sign)
-        q = apply(Ta, p)
+        q = apply(Ta, clean)
         if sym == 0:
             ang, sc, dz = np.array([0.0]), None, cad.z_top - np.quantile(q[:, 2], 0.9995)
             cands.append((0.0, sign, 0.0, _pose(Ta, 0.0, dz)))
             continue
-        ang, sc, dz = _search(q, cad, tol.inspect.search_step, tol.inspect.search_points, rng)
         period = 2 * math.pi / sym
-        # local minima of the score, best first
-        mins = np.flatnonzero((sc <= np.roll(sc, 1)) & (sc <= np.roll(sc, -1)))
-        mins = mins[np.argsort(sc[mins])][:3]
-        for i in mins:
-            cands.append((float(sc[i]), sign, float(ang[i] % period), _pose(Ta, ang[i], dz)))
-        search[f"scores_{'plus' if sign > 0 else 'minus'}"] = sc.round(6).tolist()
+        ang, sc, best_turns, dz = _search(q, cad, tol.inspect.search_step,
+                                          tol.inspect.search_points, rng, period, z_feature)
+        for turn, score in best_turns:
+            cands.append((score, sign, turn, _pose(Ta, turn, dz)))
+        key = "plus" if sign > 0 else "minus"
+        search[f"scores_{key}"] = sc.round(6).tolist()
+        search[f"best_turns_{key}_deg"] = [[math.degrees(t_), s_] for t_, s_ in best_turns]
     cands.sort(key=lambda c: c[0])
-    say(f"ICP from {len(cands)} candidate poses")
-    small = p[rng.choice(len(p), min(3000, len(p)), replace=False)]
+    say(f"ICP from {min(4, len(cands))} candidate poses")
+    small = p[rng.choice(len(p), min(tol.inspect.icp_start_points, len(p)), replace=False)]
     results = []
     for score, sign, ang, T0 in cands[:4]:
         try:
-            T, sig, info = _icp(small, cad, T0, 10, fix_rz=(sym == 0))
+            T, sig, info = _icp(small, cad, T0, 10, fix_rz=(sym == 0), loose=True)
             d = cad.distances(apply(T, small)).distance
         except (ScanError, TipGeoError):
             continue  # this start is too far off to converge; the others may not be
@@ -394,7 +540,15 @@ def register(points: np.ndarray, cad, *, inlier_distance: float = 0.01,
                         "surface; is the scan of this tip?")
     results.sort(key=lambda r: r[0])
     best = results[0]
-    T, sigma, info = _icp(p, cad, best[1], tol.inspect.icp_iterations, fix_rz=(sym == 0))
+    # Gauss–Newton to convergence on a subset, then on every registration
+    # point from there (a few steps): the final pose is that of the full set
+    mid = p if len(p) <= tol.inspect.icp_mid_points else \
+        p[rng.choice(len(p), tol.inspect.icp_mid_points, replace=False)]
+    T, sigma, info = _icp(mid, cad, best[1], tol.inspect.icp_iterations, fix_rz=(sym == 0))
+    if mid is not p:
+        T, sigma, info2 = _icp(p, cad, T, tol.inspect.icp_iterations, fix_rz=(sym == 0))
+        info["iterations"] += info2["iterations"]
+        info["fixed"] = info2["fixed"]
     d = cad.distances(apply(T, p)).distance
     ok = np.abs(d) <= inlier_distance
     fitness = float(ok.mean())
@@ -430,8 +584,10 @@ def register(points: np.ndarray, cad, *, inlier_distance: float = 0.01,
         warnings.append(f"low fitness {fitness:.2f}: fewer than half the points lie within "
                         f"{inlier_distance * 1e3:g} µm of the CAD surface")
     search["sigma_mm"] = sigma
+    if sym > 1:
+        say(f"pose determined up to the tip's {sym}-fold symmetry ({360 / sym:g}° turns)")
     return Registration(T, fitness, rmse, inlier_distance, axis, search, warnings,
-                        info["iterations"], len(p), fixed)
+                        info["iterations"], len(p), fixed, sym)
 
 
 def _remove_outliers(p: np.ndarray, k: int = 8, ratio: float = 3.0) -> np.ndarray:

@@ -5,7 +5,12 @@ Run: python -m pytest benchmarks/test_optimize_bench.py --benchmark-only
 - the thesis's 25-point helical study and a 400-point (20 × 20) version of it,
   in this process and on two local processes (no cache: every tip analysed);
 - a fully cached re-run of the 25 points;
-- the GP fit of the seven responses and the three optimisations.
+- the GP fit of the seven responses and the three optimisations;
+- the whole shipped study as ``tipgeo optimize samples/helical-study.toml``
+  runs it (two local processes, no cache: sweep, GP, adaptive infill, the
+  three optima built, pictures): issue 13 asks for under 2 minutes on two
+  cores. CPU seconds of this process and its workers are printed and stored
+  in ``extra_info`` beside the wall time (the machine may be shared).
 """
 
 import numpy as np
@@ -39,7 +44,8 @@ def test_sweep(benchmark, levels, workers):
                                                              "cache": False,
                                                              "progress": False},
                              rounds=1, iterations=1)
-    assert res.ok.sum() == len(X)
+    # the wide box: points past the fold are refused at validation, none fails
+    assert res.ok.sum() + (res.status == "invalid").sum() == len(X)
     benchmark.extra_info["configurations"] = len(X)
     benchmark.extra_info["seconds_per_configuration"] = res.seconds / len(X)
 
@@ -51,6 +57,36 @@ def test_sweep_cached_rerun(benchmark, tmp_path):
     res = benchmark(run_sweep, cfg, executor=SerialExecutor(), cache=ResultCache(tmp_path),
                     progress=False)
     assert res.computed == 0 and res.cached == 25
+
+
+def test_whole_study_on_two_processes(benchmark, tmp_path):
+    import resource
+    import time
+
+    from tipgeo.optimize import run_study
+
+    tol.strict = False
+    cfg = study_preset("helical-study")
+
+    def cpu():
+        s, c = resource.getrusage(resource.RUSAGE_SELF), resource.getrusage(
+            resource.RUSAGE_CHILDREN)
+        return s.ru_utime + s.ru_stime + c.ru_utime + c.ru_stime
+
+    c0, t0 = cpu(), time.perf_counter()
+    rep = benchmark.pedantic(run_study, args=(cfg, tmp_path / "study"),
+                             kwargs={"executor": ProcessExecutor(2), "cache": False,
+                                     "progress": False, "log": lambda s: None},
+                             rounds=1, iterations=1)
+    wall, cpu_s = time.perf_counter() - t0, cpu() - c0
+    assert rep["infill"]["converged"]
+    assert all(o["build"]["watertight"] for o in rep["optima"])
+    benchmark.extra_info.update({"wall_s": wall, "cpu_s": cpu_s,
+                                 "training_points": rep["surrogate"]["training_points"],
+                                 "infill_added": rep["infill"]["added"]})
+    print(f"\nhelical study: {wall:.1f} s wall, {cpu_s:.1f} s CPU (this process and its "
+          f"workers); {rep['surrogate']['training_points']} training points, "
+          f"{rep['infill']['added']} added by infill")
 
 
 def test_gp_fit_and_optimise(benchmark):

@@ -65,6 +65,14 @@ nugget = false
 mode = "independent"
 starts = 12
 seed = 0
+calibrate = true      # σ̂ per response scaled so the LOO 95 % intervals hold ~95 %
+
+# Each optimum is built and analysed for real; while the GP misses any of the
+# objectives' responses there by more than 1 % of its training range, that
+# point joins the training set and the GP is re-fitted (at most 8 rounds).
+[infill]
+rounds = 8
+threshold = 0.01
 
 [[objectives]]
 name = "min-theta-max-lambda"

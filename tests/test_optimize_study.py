@@ -234,6 +234,25 @@ def test_refused_helical_points_are_reported_and_left_out_of_the_gp(tmp_path):
         assert x[i] == pytest.approx(cfg.bounds[i][0 if e["side"] == "min" else 1])
 
 
+def test_edge_report_names_the_box_edge_and_why_a_step_further_is_refused():
+    from tipgeo.optimize.study import edge_report, feasibility
+
+    cfg = loads_config(WIDE)
+    feasible = feasibility(cfg)
+    # ψ on its lower bound; φ 0.45° further the mesh would exceed the grid cap
+    r = edge_report(cfg, np.array([5.0, 16.0]), feasible, step=0.03)
+    assert r["on_box_edge"] == [{"variable": "psi_deg", "side": "min"}]
+    assert r["on_buildable_boundary"] is True
+    assert "would need a grid of" in r["buildable_boundary_reason"]
+    # a third of the range further (φ = 20°), past the fold: the geometric reason
+    r = edge_report(cfg, np.array([25.0, 15.0]), feasible, step=1 / 3)
+    assert r["on_box_edge"] == [{"variable": "psi_deg", "side": "max"}]
+    assert "folds over inside the tube" in r["buildable_boundary_reason"]
+    # inside, away from both
+    r = edge_report(cfg, np.array([15.0, 10.0]), feasible)
+    assert r == {"on_box_edge": [], "on_buildable_boundary": False}
+
+
 # -- CLI ---------------------------------------------------------------------------------
 def _run(argv):
     from tipgeo.cli.optimize import register

@@ -148,7 +148,8 @@ def cmd_optimize(args) -> int:
         for e in o.get("on_box_edge", []):
             print(f"  on the box edge: {e['variable']} = {e['side']}")
         if o.get("on_buildable_boundary"):
-            print("  on the buildable region's boundary (a step further is refused)")
+            print("  on the buildable region's boundary; a step further: "
+                  + o.get("buildable_boundary_reason", "refused"))
         if o["status"] != "ok":
             print(f"  {o['status']}: {o['error']}")
             continue

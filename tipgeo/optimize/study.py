@@ -72,7 +72,9 @@ def edge_report(config: StudyConfig, x, feasible, step: float = 0.01) -> dict[st
     dict — ``on_box_edge``: list of {variable, side} where x sits on a bound
     (within ``tol.rel`` of the range); ``on_buildable_boundary``: True when a
     probe ``step`` away along some axis, still inside the box, is refused at
-    validation (an optimum pressed against the refused region).
+    validation (an optimum pressed against the refused region), and then
+    ``buildable_boundary_reason``: that probe's refusal (geometric, or the
+    mesh-resolution cap).
     """
     from ..tolerances import tol
 
@@ -89,8 +91,17 @@ def edge_report(config: StudyConfig, x, feasible, step: float = 0.01) -> dict[st
                 p = x.copy()
                 p[i] = np.clip(x[i] + sgn * step * span[i], lo[i], hi[i])
                 probes.append(p)
-    near = bool(probes) and not bool(np.all(feasible(np.array(probes))))
-    return {"on_box_edge": edges, "on_buildable_boundary": near}
+    ok = feasible(np.array(probes)) if probes else np.ones(0, bool)
+    out = {"on_box_edge": edges, "on_buildable_boundary": not bool(np.all(ok))}
+    if out["on_buildable_boundary"]:  # why the first refused probe was refused
+        from ..errors import SpecError
+
+        p = probes[int(np.flatnonzero(~np.asarray(ok, bool))[0])]
+        try:
+            config.spec(p)
+        except SpecError as e:
+            out["buildable_boundary_reason"] = str(e)
+    return out
 
 
 def run_study(config: StudyConfig, out_dir: str | Path, *, executor=None, cache: Any = None,
@@ -154,6 +165,8 @@ def run_study(config: StudyConfig, out_dir: str | Path, *, executor=None, cache:
             + ", ".join(f"{k} = {x:.4g}" for k, x in v["x"].items()) + f" — {v['status']}"
             + "".join(f"; on the box edge {e['variable']} = {e['side']}" for e in v["on_box_edge"])
             + ("; on the buildable region's boundary" if v["on_buildable_boundary"] else ""))
+        if v.get("buildable_boundary_reason"):
+            log(f"  a step further: {v['buildable_boundary_reason']}")
         if v["status"] == "ok":
             spec = spec_from_dict(v["spec"])
             p = out / f"optimum-{obj.name}.toml"

@@ -76,7 +76,7 @@ def bevel_study(tmp_path_factory):
     out = tmp_path_factory.mktemp("bevel")
     cfg = loads_config(BEVEL, base_dir=out)
     report = run_study(cfg, out / "study", executor=SerialExecutor(), cache=False,
-                       progress=False, build=True, plots=False, log=lambda s: None)
+                       progress=False, build=True, plots=True, log=lambda s: None)
     return out, cfg, report
 
 
@@ -134,6 +134,9 @@ def test_optima_are_verified_built_and_edges_reported(bevel_study):
         spec = tipgeo.load_spec(out / "study" / f"optimum-{o['objective']}.toml")
         assert math.degrees(spec.cutters[0].xi) == pytest.approx(o["x"]["xi_deg"], abs=1e-9)
     assert rep["sweep"]["ok"] == 3
+    for png in ("surface-l_c_mm.png", "surface-theta_min_deg.png", "loo.png"):
+        data = (out / "study" / png).read_bytes()
+        assert data[:8] == b"\x89PNG\r\n\x1a\n" and len(data) > 10_000, png
 
 
 def test_calibrated_intervals_hold_the_stated_share_of_loo_points():

@@ -262,7 +262,8 @@ def test_surrogate_loo_reports_every_response():
     loo = sur.loo()
     assert set(loo) == {"f", "sq"}
     for r in loo.values():
-        assert set(r) == {"rmse", "max_abs", "nrmse", "coverage95"}
+        assert set(r) == {"rmse", "max_abs", "nrmse", "coverage95", "interval_scale"}
+        assert r["interval_scale"] == 1.0  # calibrate off
         assert math.isfinite(r["rmse"]) and r["max_abs"] >= r["rmse"] > 0
     assert loo["sq"]["nrmse"] < 1e-3  # a quadratic is easy
     assert loo["f"]["nrmse"] < 0.1

@@ -1,5 +1,13 @@
-"""The thesis's 25-point helical study end to end (sweep → GP → three
-objectives → the optima built and analysed), the CLI and the demo hook."""
+"""The study pipeline end to end (sweep → GP → objectives → adaptive infill →
+optima verified and built), the calibrated LOO intervals, the CLI and the
+shipped helical study's box.
+
+The shipped study (25 helical tips, infill, three optima built, pictures) is
+timed in benchmarks/test_optimize_bench.py, never here. These tests run the
+same pipeline on cheap cases: a one-variable bevel study (an analysis costs
+~0.1 s) for the infill loop, edge reporting and the CLI, and a 3 × 3 grid over
+the helical box for refused points.
+"""
 
 import argparse
 import json
@@ -7,21 +15,179 @@ import math
 
 import numpy as np
 import pytest
+from scipy.special import ellipe
 
 import tipgeo
 from tipgeo.errors import SpecError
 from tipgeo.optimize import (
     SerialExecutor,
+    Surrogate,
     loads_config,
     make_design,
     read_table,
     run_study,
     study_preset,
 )
+from tipgeo.optimize.gp import Z95
 
-# The shipped study (25 points over ψ 5–25°, φ 5–20°, three optima built) takes
-# ~60 s CPU: its time is measured in benchmarks/, never here. These tests run the
-# same pipeline on a 4 × 4 grid over the same box, where some points are refused.
+R_O = 2.108 / 2  # 14G outer radius (mm)
+
+# l_c falls with ξ, θ_min rises with it: "short-and-sharp" has an interior
+# optimum, "shortest" sits on the box's edge ξ = 45°.
+BEVEL = """
+name = "bevel"
+base = "bevel-14G-xi14.5"
+[[variables]]
+name = "xi_deg"
+path = "cutters[0].xi_deg"
+min = 15.0
+max = 45.0
+[design]
+levels = 3
+[analysis]
+responses = ["l_c_mm", "theta_min_deg"]
+[sweep]
+workers = 1
+cache = "cache"
+[surrogate]
+starts = 3
+calibrate = true
+[infill]
+rounds = 6
+threshold = 0.01
+[[objectives]]
+name = "short-and-sharp"
+terms = [{ response = "l_c_mm", goal = "min" }, { response = "theta_min_deg", goal = "min" }]
+[[objectives]]
+name = "shortest"
+terms = [{ response = "l_c_mm", goal = "min" }]
+"""
+
+
+def bevel_l_c(xi_deg):
+    """Outer edge of a one-plane bevel: an ellipse of semi-axes r_o/sin ξ and
+    r_o, so l_c = 4a E(1 − sin²ξ) (complete elliptic integral, parameter m)."""
+    s = math.sin(math.radians(xi_deg))
+    return 4 * (R_O / s) * ellipe(1 - s * s)
+
+
+@pytest.fixture(scope="module")
+def bevel_study(tmp_path_factory):
+    out = tmp_path_factory.mktemp("bevel")
+    cfg = loads_config(BEVEL, base_dir=out)
+    report = run_study(cfg, out / "study", executor=SerialExecutor(), cache=False,
+                       progress=False, build=True, plots=True, log=lambda s: None)
+    return out, cfg, report
+
+
+def test_infill_adds_points_until_the_gp_is_right_at_every_optimum(bevel_study):
+    out, cfg, rep = bevel_study
+    inf = rep["infill"]
+    assert inf["converged"] and 1 <= inf["added"] and inf["rounds"] <= 1 + cfg.infill["rounds"]
+    hist = inf["history"]
+    assert {h["round"] for h in hist} == set(range(inf["rounds"]))
+    # a round adds exactly the optima that missed; the last round adds none and
+    # every optimum in it is within 1 % of each response's training range
+    assert [h for h in hist if h["added"]] == [h for h in hist if h["round"] < inf["rounds"] - 1
+                                               and h["max_error_frac"] > 0.01]
+    last = [h for h in hist if h["round"] == inf["rounds"] - 1]
+    assert len(last) == 2 and all(h["max_error_frac"] <= 0.01 for h in last)
+    # the added points are training points now, with their real responses
+    sur = rep["surrogate"]
+    assert sur["training_points"] == 3 + inf["added"]
+    for p in inf["points"]:
+        assert 15.0 <= p["xi_deg"] <= 45.0
+    # the history's actual values are the real geometry's (closed form of l_c)
+    for h in hist:
+        xi = h["x"]["xi_deg"]
+        assert h["responses"]["l_c_mm"]["actual"] == pytest.approx(bevel_l_c(xi), rel=1e-6)
+    # the last round's errors are relative to the final training set's ranges
+    for h in last:
+        for name, r in h["responses"].items():
+            err = abs(r["actual"] - r["predicted"])
+            assert r["error_frac"] == pytest.approx(err / sur["training_ranges"][name],
+                                                    rel=1e-9, abs=1e-15)
+
+
+def test_optima_are_verified_built_and_edges_reported(bevel_study):
+    out, cfg, rep = bevel_study
+    opt = {o["objective"]: o for o in rep["optima"]}
+    assert list(opt) == ["short-and-sharp", "shortest"]
+    # l_c falls monotonically with ξ: the shortest edge is at the box's edge ξ = 45°
+    s = opt["shortest"]
+    assert s["x"]["xi_deg"] == pytest.approx(45.0, abs=1e-9)
+    assert s["on_box_edge"] == [{"variable": "xi_deg", "side": "max"}]
+    assert s["on_buildable_boundary"] is False
+    # the compromise is inside the box, and not reported as on its edge
+    c = opt["short-and-sharp"]
+    assert 15.0 < c["x"]["xi_deg"] < 45.0 and c["on_box_edge"] == []
+    for o in opt.values():
+        assert o["status"] == "ok" and o["search"]["starts"] >= 1
+        assert o["search"]["candidates"] > 1000
+        b = o["build"]
+        assert b["watertight"] and b["volume_mm3"] > 0 and b["cpu_seconds"] > 0
+        for name, r in o["responses"].items():
+            assert r["error_frac"] <= 0.01, (o["objective"], name)
+            assert r["error"] == pytest.approx(r["actual"] - r["predicted"], abs=1e-12)
+        assert o["responses"]["l_c_mm"]["actual"] == pytest.approx(
+            bevel_l_c(o["x"]["xi_deg"]), rel=1e-6)
+        spec = tipgeo.load_spec(out / "study" / f"optimum-{o['objective']}.toml")
+        assert math.degrees(spec.cutters[0].xi) == pytest.approx(o["x"]["xi_deg"], abs=1e-9)
+    assert rep["sweep"]["ok"] == 3
+    for png in ("surface-l_c_mm.png", "surface-theta_min_deg.png", "loo.png"):
+        data = (out / "study" / png).read_bytes()
+        assert data[:8] == b"\x89PNG\r\n\x1a\n" and len(data) > 10_000, png
+
+
+def test_calibrated_intervals_hold_the_stated_share_of_loo_points():
+    """calibrate = true: per response, σ̂ is scaled so that round(0.95 n) of the
+    n LOO residuals (at most n − 1) lie inside their 95 % intervals; the mean
+    is untouched and the factor sits halfway between the neighbouring
+    standardised residuals."""
+    from scipy.stats import qmc
+
+    def f(X):
+        return np.column_stack([np.sin(4 * X[:, 0]) + X[:, 1] ** 2,
+                                np.exp(X[:, 0] - X[:, 1])])
+
+    for n, inside in ((20, 19), (16, 15), (25, 24)):
+        X = qmc.LatinHypercube(2, seed=n).random(n)
+        kw = {"bounds": [(0, 1), (0, 1)], "responses": ["a", "b"], "starts": 3}
+        raw = Surrogate(**kw).fit(X, f(X))
+        cal = Surrogate(calibrate=True, **kw).fit(X, f(X))
+        loo = cal.loo()
+        Xt = qmc.Sobol(2, seed=1).random(16)
+        m0, s0 = raw.predict(Xt, return_std=True)
+        m1, s1 = cal.predict(Xt, return_std=True)
+        np.testing.assert_allclose(m1, m0, rtol=0, atol=1e-12)
+        for j, name in enumerate(["a", "b"]):
+            assert loo[name]["coverage95"] == inside / n
+            np.testing.assert_allclose(s1[:, j], s0[:, j] * cal.scale_[j], rtol=1e-12)
+            res, std = raw.models[j].loo()
+            z = np.sort(np.abs(res) / (Z95 * std))
+            assert cal.scale_[j] == pytest.approx(0.5 * (z[inside - 1] + z[inside]), rel=1e-12)
+            assert loo[name]["interval_scale"] == cal.scale_[j]
+
+
+# -- the helical box --------------------------------------------------------------------
+def test_the_shipped_study_spans_the_whole_box():
+    cfg = study_preset("helical-study")
+    assert cfg.bounds == [(5.0, 25.0), (5.0, 20.0)]
+    assert len(make_design(cfg.variables, cfg.design["method"], levels=cfg.design["levels"])) == 25
+    assert cfg.surrogate["calibrate"] is True
+    assert cfg.infill == {"rounds": 8, "threshold": 0.01,
+                          "responses": ("theta_min_deg", "lambda_max_deg", "l_c_mm")}
+    # beyond φ ≈ 16° the calibrated needle leans so far that the helicoid folds
+    # over inside the tube: refused at validation, with the geometric reason
+    with pytest.raises(SpecError, match="folds over inside the tube"):
+        cfg.spec(np.array([5.0, 20.0]))
+    # near that limit its mesh would exceed the grid cap: refused, with the reason
+    with pytest.raises(SpecError, match=r"would need a grid of \d+×\d+ points; allowed at "
+                                        r"most 80000"):
+        cfg.spec(np.array([5.0, 16.4]))
+    cfg.spec(np.array([10.0, 13.5]))  # the thesis needle validates
+
+
 WIDE = """
 name = "wide"
 base = "helical-14G"
@@ -36,118 +202,61 @@ path = "cutters[0].phi_deg"
 min = 5.0
 max = 20.0
 [design]
-levels = 4
+levels = 3
 [analysis]
-responses = ["l_c_mm", "lambda_max_deg", "theta_min_deg"]
+responses = ["l_c_mm", "theta_min_deg"]
 [surrogate]
-starts = 4
-[[objectives]]
-name = "min-lc-max-lambda"
-terms = [{ response = "l_c_mm", goal = "min" }, { response = "lambda_max_deg", goal = "max" }]
+starts = 2
+[infill]
+rounds = 0
 [[objectives]]
 name = "min-lc-min-theta"
 terms = [{ response = "l_c_mm", goal = "min" }, { response = "theta_min_deg", goal = "min" }]
 """
-OBJECTIVES = ["min-lc-max-lambda", "min-lc-min-theta"]
 
 
-@pytest.fixture(scope="module")
-def study(tmp_path_factory):
-    out = tmp_path_factory.mktemp("wide")
+def test_refused_helical_points_are_reported_and_left_out_of_the_gp(tmp_path):
     cfg = loads_config(WIDE)
-    report = run_study(cfg, out, executor=SerialExecutor(), cache=False, progress=False,
-                       build=False, plots=False, log=lambda s: None)
-    return out, cfg, report
+    rep = run_study(cfg, tmp_path, executor=SerialExecutor(), cache=False, progress=False,
+                    build=False, plots=False, log=lambda s: None)
+    s = rep["sweep"]
+    assert (s["configurations"], s["ok"], s["invalid"], s["failed"]) == (9, 6, 3, 0)
+    assert all("folds over inside the tube" in f["error"] for f in s["failures"])
+    t = read_table(tmp_path / "sweep.csv")
+    assert [t["phi_deg"][k] for k in range(9) if t["status"][k] != "ok"] == [20.0] * 3
+    assert rep["surrogate"]["training_points"] == 6
+    # rounds = 0: the optimum is verified, nothing is added
+    assert rep["infill"]["added"] == 0 and len(rep["infill"]["history"]) == 1
+    o = rep["optima"][0]
+    x = np.array([o["x"]["psi_deg"], o["x"]["phi_deg"]])
+    cfg.spec(x)  # the optimiser never proposes a refused point
+    assert o["status"] == "ok" and all(math.isfinite(r["actual"])
+                                       for r in o["responses"].values())
+    for e in o["on_box_edge"]:  # reported edges are really on the box's edge
+        i = ["psi_deg", "phi_deg"].index(e["variable"])
+        assert x[i] == pytest.approx(cfg.bounds[i][0 if e["side"] == "min" else 1])
 
 
-def test_the_shipped_study_spans_the_whole_box():
-    cfg = study_preset("helical-study")
-    assert cfg.bounds == [(5.0, 25.0), (5.0, 20.0)]
-    assert len(make_design(cfg.variables, cfg.design["method"], levels=cfg.design["levels"])) == 25
-    # beyond φ ≈ 15° the calibrated needle leans so far that the helicoid folds
-    # over inside the tube: refused at validation, with the geometric reason
-    with pytest.raises(SpecError, match="folds over inside the tube"):
-        cfg.spec(np.array([5.0, 20.0]))
-    cfg.spec(np.array([10.0, 13.5]))  # the thesis needle validates
+def test_edge_report_names_the_box_edge_and_why_a_step_further_is_refused():
+    from tipgeo.optimize.study import edge_report, feasibility
 
-
-def test_refused_points_are_reported_and_left_out_of_the_gp(study):
-    out, cfg, report = study
-    s = report["sweep"]
-    assert s["configurations"] == 16 and s["failed"] == 0
-    assert s["invalid"] >= 1 and s["ok"] + s["invalid"] == 16
-    assert all(f["status"] == "invalid" and "helical cutter" in f["error"]
-               for f in s["failures"])
-    t = read_table(out / "sweep.csv")
-    assert sorted(set(t["psi_deg"])) == pytest.approx([5.0, 35 / 3, 55 / 3, 25.0])
-    assert sorted(set(t["phi_deg"])) == [5.0, 10.0, 15.0, 20.0]
-    bad = [k for k in range(16) if t["status"][k] != "ok"]
-    assert len(bad) == s["invalid"]
-    assert all(t["phi_deg"][k] == 20.0 for k in bad)  # the folding side of the box
-    # LOO over the ok rows only: finite, and interpolating the training data
-    loo = report["surrogate"]["loo"]
-    assert set(loo) == {"l_c_mm", "lambda_max_deg", "theta_min_deg"}
-    for name, v in loo.items():
-        assert all(math.isfinite(v[k]) for k in ("rmse", "max_abs", "coverage95")), name
-        assert 0.0 <= v["coverage95"] <= 1.0
-
-
-def test_optima_are_feasible_inside_the_box_and_verified(study):
-    out, cfg, report = study
-    opt = {o["objective"]: o for o in report["optima"]}
-    assert list(opt) == OBJECTIVES
-    t = read_table(out / "sweep.csv")
-    span = {k: max(t[k][i] for i in range(16) if t["status"][i] == "ok")
-            - min(t[k][i] for i in range(16) if t["status"][i] == "ok")
-            for k in ("l_c_mm", "lambda_max_deg", "theta_min_deg")}
-    for name, o in opt.items():
-        x = np.array([o["x"]["psi_deg"], o["x"]["phi_deg"]])
-        assert np.all(x >= [5.0, 5.0]) and np.all(x <= [25.0, 20.0])
-        cfg.spec(x)  # validates: the optimiser never proposes a refused point
-        assert o["status"] == "ok", name
-        for e in o["on_box_edge"]:  # reported edges are really on the box's edge
-            i = ["psi_deg", "phi_deg"].index(e["variable"])
-            assert x[i] == pytest.approx(cfg.bounds[i][0 if e["side"] == "min" else 1])
-        assert isinstance(o["on_buildable_boundary"], bool)
-        for k, r in o["responses"].items():
-            # the real geometry was analysed: the GP of 16 points is within 15 % of the range
-            assert math.isfinite(r["actual"]) and abs(r["error"]) < 0.15 * span[k], (name, k)
-        spec = tipgeo.load_spec(out / f"optimum-{name}.toml")
-        c = spec.cutters[0]
-        assert math.degrees(c.helix_angle) == pytest.approx(x[0], abs=1e-9)
-        assert math.degrees(c.phi) == pytest.approx(x[1], abs=1e-9)
+    cfg = loads_config(WIDE)
+    feasible = feasibility(cfg)
+    # ψ on its lower bound; φ 0.45° further the mesh would exceed the grid cap
+    r = edge_report(cfg, np.array([5.0, 16.0]), feasible, step=0.03)
+    assert r["on_box_edge"] == [{"variable": "psi_deg", "side": "min"}]
+    assert r["on_buildable_boundary"] is True
+    assert "would need a grid of" in r["buildable_boundary_reason"]
+    # a third of the range further (φ = 20°), past the fold: the geometric reason
+    r = edge_report(cfg, np.array([25.0, 15.0]), feasible, step=1 / 3)
+    assert r["on_box_edge"] == [{"variable": "psi_deg", "side": "max"}]
+    assert "folds over inside the tube" in r["buildable_boundary_reason"]
+    # inside, away from both
+    r = edge_report(cfg, np.array([15.0, 10.0]), feasible)
+    assert r == {"on_box_edge": [], "on_buildable_boundary": False}
 
 
 # -- CLI ---------------------------------------------------------------------------------
-SMALL = """
-name = "small"
-base = "helical-14G"
-[[variables]]
-name = "psi_deg"
-path = "cutters[0].helix_angle_deg"
-min = 9.5
-max = 10.5
-[[variables]]
-name = "phi_deg"
-path = "cutters[0].phi_deg"
-min = 12.0
-max = 15.0
-[design]
-levels = 3
-[analysis]
-responses = ["l_c_mm", "lambda_max_deg"]
-[sweep]
-workers = 1
-cache = "cache"
-[surrogate]
-starts = 4
-[[objectives]]
-name = "short-and-inclined"
-combine = "pareto"
-terms = [{ response = "l_c_mm", goal = "min" }, { response = "lambda_max_deg", goal = "max" }]
-"""
-
-
 def _run(argv):
     from tipgeo.cli.optimize import register
 
@@ -159,40 +268,43 @@ def _run(argv):
 
 
 def test_cli_sweep_writes_a_table_and_reuses_the_cache(tmp_path, capsys):
-    cfg = tmp_path / "small.toml"
-    cfg.write_text(SMALL, encoding="utf-8")
+    cfg = tmp_path / "bevel.toml"
+    cfg.write_text(BEVEL, encoding="utf-8")
     table = tmp_path / "t.csv"
     assert _run(["sweep", str(cfg), "-o", str(table), "--json", "--quiet"]) == 0
     first = json.loads(capsys.readouterr().out)
-    assert first["ok"] == 9 and first["computed"] == 9 and first["table"] == str(table)
+    assert first["ok"] == 3 and first["computed"] == 3 and first["table"] == str(table)
     assert (tmp_path / "cache").is_dir()  # sweep.cache is relative to the config
     assert _run(["sweep", str(cfg), "-o", str(table), "--json", "--quiet"]) == 0
     second = json.loads(capsys.readouterr().out)
-    assert second["computed"] == 0 and second["cached"] == 9
-    assert _run(["sweep", str(cfg), "-o", str(table), "--no-cache", "--quiet"]) == 0
-    text = capsys.readouterr().out
-    assert text.startswith("small: 9 configurations — 9 ok, 0 invalid, 0 failed; 9 computed")
-    # the calibrated helical-14G
-    assert read_table(table)["l_c_mm"][4] == pytest.approx(18.185, abs=1e-3)
+    assert second["computed"] == 0 and second["cached"] == 3
+    t = read_table(table)
+    assert t["xi_deg"] == [15.0, 30.0, 45.0]
+    assert t["l_c_mm"] == pytest.approx([bevel_l_c(x) for x in (15, 30, 45)], rel=1e-6)
 
 
-def test_cli_optimize_json_report(tmp_path, capsys):
-    cfg = tmp_path / "small.toml"
-    cfg.write_text(SMALL, encoding="utf-8")
+def test_cli_optimize_report(tmp_path, capsys):
+    cfg = tmp_path / "bevel.toml"
+    cfg.write_text(BEVEL, encoding="utf-8")
     out = tmp_path / "out"
     assert _run(["optimize", str(cfg), "--out", str(out), "--no-plots", "--no-build",
                  "--json", "--quiet"]) == 0
     rep = json.loads(capsys.readouterr().out)
-    o = rep["optima"][0]
-    assert o["combine"] == "pareto" and o["pareto_points"] > 10 and o["status"] == "ok"
-    assert abs(o["responses"]["l_c_mm"]["error"]) < 0.05  # mm; a 9-point GP
-    assert set(rep["surrogate"]["loo"]) == {"l_c_mm", "lambda_max_deg"}
-    assert (out / "report.json").exists() and (out / "optimum-short-and-inclined.toml").exists()
-    assert "build" not in o
-    assert _run(["optimize", str(cfg), "--out", str(out), "--no-plots", "--quiet"]) == 0
+    assert rep["infill"]["converged"] and rep["infill"]["added"] >= 1
+    assert set(rep["surrogate"]["loo"]) == {"l_c_mm", "theta_min_deg"}
+    n = rep["surrogate"]["training_points"]
+    k = min(math.floor(0.95 * n + 0.5), n - 1)
+    for v in rep["surrogate"]["loo"].values():  # calibrated: k of n inside
+        assert v["coverage95"] == pytest.approx(k / n, abs=1e-12)
+    assert all("build" not in o for o in rep["optima"])
+    assert (out / "report.json").exists() and (out / "optimum-shortest.toml").exists()
+    # again, in plain text: everything from the cache (the infill points too)
+    assert _run(["optimize", str(cfg), "--out", str(out), "--no-plots", "--no-build"]) == 0
     text = capsys.readouterr().out
-    assert "short-and-inclined (min l_c_mm & max lambda_max_deg, pareto)" in text
-    assert "GP prediction ± 95 %" in text
+    assert "shortest (min l_c_mm, weighted): xi_deg = 45.0000" in text
+    assert "on the box edge: xi_deg = max" in text
+    assert "GP prediction ± 95 %" in text and "% of range" in text
+    assert "infill:" in text and "converged" in text
 
 
 @pytest.mark.parametrize("argv, match", [

@@ -247,22 +247,21 @@ class BuildContext:
         if z.min() <= self.z_lo:
             raise BuildError(f"surface '{label}' dips below the tube base (z = {z.min():.4g} mm)")
         top = np.stack([x, y, z], -1).reshape(-1, 3)
-        bot = np.stack([x, y, np.full_like(x, self.z_lo)], -1).reshape(-1, 3)
+        # the base (below the tube, never cut) needs only the inner and outer rings
+        bot = np.stack([x[[0, -1]], y[[0, -1]], np.full((2, angular), self.z_lo)],
+                       -1).reshape(-1, 3)
         verts = np.concatenate([top, bot])
         idx = np.arange(radial * angular).reshape(radial, angular)
         nt = radial * angular
-        tris, ids = [], []
+        b_in, b_out = nt + np.arange(angular), nt + angular + np.arange(angular)
         lid, aux = self.labels.id(label), self.labels.id(AUX)
-        for j in range(radial - 1):  # top surface, normals up
-            t = _ring_quads(idx[j], idx[j + 1], False)
-            tris.append(t[:, [0, 2, 1]])
-            ids.append(np.full(len(t), lid))
-            b = _ring_quads(idx[j] + nt, idx[j + 1] + nt, False)
-            tris.append(b)
-            ids.append(np.full(len(b), aux))
-        tris.append(_ring_quads(idx[-1], idx[-1] + nt, True))   # outer wall
-        tris.append(_ring_quads(idx[0], idx[0] + nt, False))    # inner wall
-        ids += [np.full(2 * angular, aux), np.full(2 * angular, aux)]
+        tris = [_ring_quads(idx[j], idx[j + 1], False)[:, [0, 2, 1]]  # top, normals up
+                for j in range(radial - 1)]
+        ids = [np.full(2 * angular * (radial - 1), lid)]
+        tris.append(_ring_quads(b_in, b_out, False))            # base, normals down
+        tris.append(_ring_quads(idx[-1], b_out, True))          # outer wall
+        tris.append(_ring_quads(idx[0], b_in, False))           # inner wall
+        ids.append(np.full(6 * angular, aux))
         man = _manifold(verts, np.concatenate(tris), np.concatenate(ids), label)
         if man.volume() <= 0:
             raise BuildError(f"heightfield solid of '{label}' is inside out")

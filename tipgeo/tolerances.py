@@ -635,7 +635,7 @@ class Tolerances:
     step_fit_max_grid: int = 385
     step_occ: float = 1.0e-7
     helical_max_steep_deg: float = 88.0
-    helical_max_grid: int = 150_000
+    helical_max_grid: int = 80_000
 
 
 #: The process-wide tolerance object. Tests set ``tol.strict = True``.

@@ -9,6 +9,7 @@ files, a plain summary (or ``--json``) to stdout, progress to stderr.
 
 from __future__ import annotations
 
+import math
 import sys
 from pathlib import Path
 
@@ -126,26 +127,44 @@ def cmd_optimize(args) -> int:
     print(f"{cfg.name}: {s['configurations']} configurations ({s['ok']} ok, {s['invalid']} "
           f"invalid, {s['failed']} failed) in {s['seconds']:.2f} s; GP "
           f"{rep['surrogate']['mode']}, fitted in {rep['surrogate']['fit_seconds']:.2f} s")
+    cal = " (σ̂ calibrated on LOO)" if rep["surrogate"].get("calibrate") else ""
+    print(f"{rep['surrogate']['training_points']} training points{cal}")
     print(f"{'response':<18}{'LOO RMSE':>12}{'NRMSE':>10}{'in 95 %':>9}")
     for name, r in rep["surrogate"]["loo"].items():
         nr = "—" if r["nrmse"] is None else f"{r['nrmse']:.3g}"
-        print(f"{name:<18}{r['rmse']:>12.4g}{nr:>10}{r['coverage95']:>9.0%}")
+        print(f"{name:<18}{r['rmse']:>12.4g}{nr:>10}{r['coverage95']:>9.1%}")
+    inf = rep["infill"]
+    print(f"infill: {inf['added']} point(s) added in {inf['rounds']} round(s) (at most "
+          f"{inf['max_rounds']}), " + ("converged" if inf["converged"] else "NOT converged")
+          + f": GP within {inf['threshold']:.2%} of each checked response's range at every "
+          "optimum")
     objs = {o.name: o for o in cfg.objectives}
     for o in rep["optima"]:
         print(f"\n{o['objective']} ({term_summary(objs[o['objective']])}, {o['combine']}): "
               + ", ".join(f"{k} = {v:.4f}" for k, v in o["x"].items()))
+        sr = o.get("search", {})
+        if sr:
+            print(f"  search: {sr['starts']} local start(s) from {sr['candidates']} candidates")
+        for e in o.get("on_box_edge", []):
+            print(f"  on the box edge: {e['variable']} = {e['side']}")
+        if o.get("on_buildable_boundary"):
+            print("  on the buildable region's boundary; a step further: "
+                  + o.get("buildable_boundary_reason", "refused"))
         if o["status"] != "ok":
             print(f"  {o['status']}: {o['error']}")
             continue
         b = o.get("build")
         if b:
             print("  built: " + (f"{b['triangles']} triangles, {b['volume_mm3']:.4f} mm³, "
-                                 f"watertight {b['watertight']}" if "error" not in b
-                                 else b["error"]))
-        print(f"  {'response':<18}{'GP prediction ± 95 %':>26}{'actual':>12}{'error':>11}")
+                                 f"watertight {b['watertight']}, {b['cpu_seconds']:.2f} s CPU"
+                                 if "error" not in b else b["error"]))
+        print(f"  {'response':<18}{'GP prediction ± 95 %':>26}{'actual':>12}{'error':>11}"
+              f"{'% of range':>12}")
         for name, r in o["responses"].items():
+            fr = r.get("error_frac")
             print(f"  {name:<18}{r['predicted']:>14.5f} ± {r['hi95'] - r['predicted']:<9.5f}"
                   f"{r['actual']:>12.5f}{r['error']:>11.2e}"
+                  + (f"{fr:>12.3%}" if fr is not None and math.isfinite(fr) else f"{'—':>12}")
                   + ("" if r["inside95"] else "  (outside 95 %)"))
     print()
     for f in rep["files"]:

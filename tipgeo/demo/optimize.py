@@ -15,8 +15,9 @@ def demo_outputs(out_dir: Path, log=None) -> list[str]:
     """Run the thesis's helical study into ``out_dir/helical-study/`` in this
     process, without a cache; return the files written.
 
-    25 exact analyses (~50 ms each), seven GP fits, three optima built and
-    analysed, the pictures: about 10 s on one core.
+    25 configurations (18 admitted, ~0.3 s each), seven GP fits, adaptive
+    infill at the optima (a few refits), three optima built and analysed, the
+    pictures: about a minute of CPU on one core.
     """
 
     cfg = study_preset("helical-study")

@@ -32,6 +32,12 @@ Example (``samples/helical-study.toml`` holds the thesis's study)::
     [surrogate]
     nugget = false                  # false | true (MLE) | δ
     mode = "independent"            # or "separable" (eq. 3.33)
+    calibrate = true                # σ̂ scaled so LOO 95 % intervals hold ~95 %
+
+    [infill]                        # training points added at the optima until the
+    rounds = 8                      # GP is within threshold × range of every response
+    threshold = 0.01                # there (0 rounds: verify only); checked on the
+    # responses = [...]             # objectives' responses unless given
 
     [[objectives]]
     name = "min-theta-max-lambda"
@@ -140,7 +146,11 @@ class StudyConfig:
     responses : tuple of str — recorded and modelled responses
     workers : int or None — local processes (None: all CPUs)
     cache : str, bool — folder, ``True`` (default folder) or ``False``
-    surrogate : dict — ``nugget``, ``mode``, ``starts``, ``seed``
+    surrogate : dict — ``nugget``, ``mode``, ``starts``, ``seed``, ``calibrate``
+    infill : dict — ``rounds`` (most rounds of adding training points at the
+        optima, 0: none), ``threshold`` (largest GP error at a verified
+        optimum, as a fraction of each response's training range) and
+        ``responses`` it is checked on (default: those the objectives use)
     objectives : tuple of Objective
     plots : dict — ``responses``, ``variables``, ``resolution``
     source : Path or None — the config file
@@ -156,6 +166,8 @@ class StudyConfig:
     workers: int | None = None
     cache: str | bool = True
     surrogate: dict = field(default_factory=dict)
+    infill: dict = field(default_factory=lambda: {"rounds": 0, "threshold": 0.01,
+                                                  "responses": ()})
     objectives: tuple[Objective, ...] = ()
     plots: dict = field(default_factory=dict)
     description: str = ""
@@ -397,7 +409,7 @@ def _objective(k: int, t: Any, responses: tuple[str, ...]) -> Objective:
 
 
 _TOP = ("name", "description", "base", "variables", "design", "analysis", "sweep",
-        "surrogate", "objectives", "plots")
+        "surrogate", "infill", "objectives", "plots")
 
 
 def config_from_dict(data: Any, *, base_dir: str | Path | None = None,
@@ -492,7 +504,11 @@ def config_from_dict(data: Any, *, base_dir: str | Path | None = None,
         cache = str(p if p.is_absolute() or bdir is None else bdir / p)
 
     sg = _table("surrogate", t.get("surrogate", {}), ("nugget", "mode", "starts", "seed",
-                                                      "responses"))
+                                                      "responses", "calibrate"))
+    calibrate = sg.get("calibrate", False)
+    if not isinstance(calibrate, bool):
+        raise SpecError(f"surrogate.calibrate = {brief(calibrate)} is not valid; allowed "
+                        "true or false")
     nug = sg.get("nugget", False)
     if not isinstance(nug, bool):
         nug = _num("surrogate.nugget", nug)
@@ -504,11 +520,23 @@ def config_from_dict(data: Any, *, base_dir: str | Path | None = None,
                                  SURROGATE_MODES),
                  "starts": _int("surrogate.starts", sg.get("starts", 12), 1, 1000),
                  "seed": _int("surrogate.seed", sg.get("seed", 0), 0, 2**32 - 1),
+                 "calibrate": calibrate,
                  "responses": (_responses("surrogate.responses", sg["responses"], responses)
                                if "responses" in sg else responses)}
 
+    inf = _table("infill", t.get("infill", {}), ("rounds", "threshold", "responses"))
+    threshold = _num("infill.threshold", inf.get("threshold", 0.01))
+    if not 0 < threshold <= 1:
+        raise SpecError(f"infill.threshold = {threshold:g} is out of range; allowed a fraction "
+                        "of the response's training range, 0 < t ≤ 1")
     objs = tuple(_objective(k, o, surrogate["responses"])
                  for k, o in enumerate(_list("objectives", t.get("objectives", []))))
+    used = tuple(dict.fromkeys(tt.response for o in objs for tt in o.terms))
+    infill = {"rounds": _int("infill.rounds", inf.get("rounds", 8), 0, 100),
+              "threshold": threshold,
+              "responses": (_responses("infill.responses", inf["responses"],
+                                       surrogate["responses"])
+                            if "responses" in inf else used or surrogate["responses"])}
     if len({o.name for o in objs}) != len(objs):
         raise SpecError("objectives: two objectives share a name; allowed unique names")
 
@@ -529,7 +557,7 @@ def config_from_dict(data: Any, *, base_dir: str | Path | None = None,
     return StudyConfig(name=name, description=description, base_name=base_name, base=base,
                        variables=variables, design=design, analysis=analysis,
                        responses=responses, workers=workers, cache=cache, surrogate=surrogate,
-                       objectives=objs, plots=plots, source=source)
+                       infill=infill, objectives=objs, plots=plots, source=source)
 
 
 def loads_config(text: str, *, base_dir: str | Path | None = None,

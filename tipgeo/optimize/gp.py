@@ -142,13 +142,15 @@ class GaussianProcess:
                             "1–1000")
 
     # -- fitting ----------------------------------------------------------------
-    def fit(self, X, Y) -> GaussianProcess:
+    def fit(self, X, Y, *, init=None) -> GaussianProcess:
         """Fit by maximum likelihood (eq. 3.27–3.30).
 
         Parameters
         ----------
         X : (n, d) float — training inputs (any consistent units)
         Y : (n,) or (n, q) float — training responses
+        init : (k, d) float, optional — extra starting ω (e.g. a previous fit's,
+            when points were added), tried before the ``starts`` random ones
 
         Returns
         -------
@@ -165,6 +167,11 @@ class GaussianProcess:
         lhs = qmc.LatinHypercube(d + fit_nugget, seed=self.seed)
         box = np.array([self.start_box] * d + ([(-8.0, -2.0)] if fit_nugget else []))
         pts = box[:, 0] + lhs.random(self.starts) * (box[:, 1] - box[:, 0])
+        if init is not None:
+            w0 = np.clip(np.atleast_2d(np.asarray(init, float)), lo, hi)
+            if fit_nugget:
+                w0 = np.column_stack([w0, np.full(len(w0), -5.0)])
+            pts = np.vstack([w0, pts])
         best = None
         nd = len(bounds)
         for p0 in pts:

@@ -43,6 +43,9 @@ class Optimum:
     value : float — objective value (scaled, see the module docstring)
     predicted, std : dict name -> float — GP mean and standard deviation there
     front : dict or None — ``pareto``: ``x`` (k, d) and ``terms`` (k, t) of the front
+    search : dict — ``candidates`` (global sample size, corners and training
+        points included) and ``starts`` (local L-BFGS-B searches from distinct,
+        feasible candidates; ``pareto``: refinement rounds of the front)
     """
 
     objective: Objective
@@ -52,6 +55,7 @@ class Optimum:
     std: dict
     front: dict | None = None
     verified: dict | None = field(default=None)
+    search: dict = field(default_factory=dict)
 
 
 def _ranges(surrogate, names) -> tuple[np.ndarray, np.ndarray]:
@@ -163,6 +167,7 @@ def optimize_objective(surrogate, objective: Objective, *, feasible=None,
         order = np.argsort(Sf[:, 0])
         front = {"x": Xf[order], "terms": Sf[order]}
         best_x, best_v = Xf[k], float(dist[k])
+        n_starts = refine
     else:
         # feasibility (a spec validation, ~0.1 s) is checked lazily, best candidates first
         v = value(U)
@@ -186,13 +191,16 @@ def optimize_objective(surrogate, objective: Objective, *, feasible=None,
                 best_x, best_v = xr, float(res.fun)
         if best_x is None:
             raise SpecError(f"objective '{objective.name}': no feasible configuration in the box")
+        n_starts = len(seen)
     mean, std = surrogate.predict(best_x[None], return_std=True)
     return Optimum(objective=objective, x=np.asarray(best_x, float), value=best_v,
                    predicted=dict(zip(surrogate.responses, mean[0].tolist())),
-                   std=dict(zip(surrogate.responses, std[0].tolist())), front=front)
+                   std=dict(zip(surrogate.responses, std[0].tolist())), front=front,
+                   search={"candidates": int(len(U)), "starts": int(n_starts)})
 
 
-def verify_optimum(config, optimum: Optimum, *, build: bool = True) -> dict[str, Any]:
+def verify_optimum(config, optimum: Optimum, *, build: bool = True,
+                   result: dict | None = None, ranges: dict | None = None) -> dict[str, Any]:
     """Build and analyse the optimum for real; compare with the GP.
 
     Parameters
@@ -200,13 +208,18 @@ def verify_optimum(config, optimum: Optimum, *, build: bool = True) -> dict[str,
     config : StudyConfig
     optimum : Optimum
     build : bool — also build the tip mesh (watertight, volume)
+    result : dict, optional — this configuration's analysis already done
+        (:func:`~tipgeo.optimize.responses.evaluate_spec`'s form), not repeated
+    ranges : dict name -> float, optional — each response's training range
+        (max − min, its units); adds ``range`` and ``error_frac`` (|error| / range)
 
     Returns
     -------
     dict with ``status``, ``error``, ``x`` (name -> value), ``build`` (triangles,
-    volume_mm3, watertight) and ``responses``: name -> ``predicted``, ``std``,
-    ``lo95``, ``hi95``, ``actual``, ``error`` (actual − predicted) and
-    ``inside95``. Stored on ``optimum.verified`` as well.
+    volume_mm3, watertight, cpu_seconds of the build) and ``responses``: name ->
+    ``predicted``, ``std``, ``lo95``, ``hi95``, ``actual``, ``error`` (actual −
+    predicted), ``inside95`` (and ``range``, ``error_frac`` with ``ranges``).
+    Stored on ``optimum.verified`` as well.
     """
     from .gp import Z95
     from .responses import evaluate_spec
@@ -218,16 +231,21 @@ def verify_optimum(config, optimum: Optimum, *, build: bool = True) -> dict[str,
                            "x": {v.name: (int(round(val)) if v.integer else float(val))
                                  for v, val in zip(config.variables, x)},
                            "spec": spec_dict}
-    r = evaluate_spec(spec_dict, dict(config.analysis))
+    r = result if result is not None else evaluate_spec(spec_dict, dict(config.analysis))
     out["status"], out["error"] = r["status"], r["error"]
     if build and r["status"] == "ok":
+        import time
+
         from ..build import build_tip
         from ..spec import spec_from_dict
 
         try:
-            tip = build_tip(spec_from_dict(spec_dict))
+            spec = spec_from_dict(spec_dict)
+            t0 = time.process_time()
+            tip = build_tip(spec)
             out["build"] = {"triangles": int(len(tip.faces)), "volume_mm3": float(tip.volume),
-                            "watertight": bool(tip.is_watertight)}
+                            "watertight": bool(tip.is_watertight),
+                            "cpu_seconds": time.process_time() - t0}
         except Exception as e:  # reported, not raised: the analysis may still hold
             out["build"] = {"error": f"{type(e).__name__}: {e}"}
     resp = {}
@@ -238,6 +256,10 @@ def verify_optimum(config, optimum: Optimum, *, build: bool = True) -> dict[str,
                       "hi95": pred + Z95 * sd, "actual": act, "error": act - pred,
                       # at a training point sd = 0: allow the interpolation's round-off
                       "inside95": bool(abs(act - pred) <= Z95 * sd + tol.rel * max(1.0, abs(pred)))}
+        if ranges is not None and name in ranges:
+            resp[name]["range"] = float(ranges[name])
+            resp[name]["error_frac"] = (abs(act - pred) / ranges[name] if ranges[name] > 0
+                                        else math.nan)
     out["responses"] = resp
     optimum.verified = out
     return out

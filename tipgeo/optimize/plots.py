@@ -168,12 +168,8 @@ def plot_loo(surrogate, path) -> Path:
 
     plt = _plt()
     stats = surrogate.loo()
-    if surrogate.mode == "separable":
-        res, std = surrogate.models[0].loo()
-    else:
-        pairs = [m.loo() for m in surrogate.models]
-        res = np.column_stack([p[0] for p in pairs])
-        std = np.column_stack([p[1] for p in pairs])
+    # residuals and standard deviations (calibrated, when the surrogate is)
+    res, std = surrogate.loo_residuals_, surrogate.loo_std_
     q = len(surrogate.responses)
     cols = min(q, 4)
     rows = -(-q // cols)
@@ -185,8 +181,9 @@ def plot_loo(surrogate, path) -> Path:
         ax.errorbar(y, -res[:, j], yerr=Z95 * std[:, j], fmt="o", ms=3, lw=0.8, capsize=2,
                     label="LOO error ± 95 %")
         s = stats[name]
+        cal = f" (σ̂ × {s['interval_scale']:.3g})" if surrogate.calibrate else ""
         ax.set_title(f"{name}\nRMSE {s['rmse']:.3g}, NRMSE {s['nrmse']:.2g}, "
-                     f"{s['coverage95']:.0%} inside 95 %", fontsize=8)
+                     f"{s['coverage95']:.0%} inside 95 %{cal}", fontsize=8)
         ax.set_xlabel(f"true {name}", fontsize=8)
         ax.set_ylabel("LOO prediction − true", fontsize=8)
         ax.tick_params(labelsize=7)

@@ -31,7 +31,7 @@ name = "helical-study"
 description = "thesis §3.4.2: GP of l_c, λ, θ, α over ψ 5–25° and φ 5–20°; Table 3.4 objectives"
 base = "helical-14G"
 
-# Beyond φ ≈ 15° the calibrated needle leans so far towards the helix axis
+# Beyond φ ≈ 16° the calibrated needle leans so far towards the helix axis
 # that the helicoid folds over inside the tube (or its mesh at the default
 # tolerance would exceed the cap of tol.helical_max_grid): such points are
 # refused at validation with that reason and recorded as invalid rows.
@@ -65,6 +65,14 @@ nugget = false
 mode = "independent"
 starts = 12
 seed = 0
+calibrate = true      # σ̂ per response scaled so the LOO 95 % intervals hold ~95 %
+
+# Each optimum is built and analysed for real; while the GP misses any of the
+# objectives' responses there by more than 1 % of its training range, that
+# point joins the training set and the GP is re-fitted (at most 8 rounds).
+[infill]
+rounds = 8
+threshold = 0.01
 
 [[objectives]]
 name = "min-theta-max-lambda"

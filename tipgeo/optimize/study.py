@@ -1,4 +1,5 @@
-"""A whole study: sweep → GP surrogate → optima → verification → pictures.
+"""A whole study: sweep → GP surrogate → optima, verified and refined by
+adaptive infill (:mod:`.infill`) → the optima built → pictures.
 
 Outputs in one folder (all written atomically):
 
@@ -7,7 +8,9 @@ Outputs in one folder (all written atomically):
   the variables' units, δ, β̂, Σ̂) and the leave-one-out errors;
 - ``optimum-<objective>.toml`` — each optimum as a tip spec (``tipgeo build`` it);
 - ``report.json`` — all of the above plus each optimum's GP prediction
-  against the real geometry's values;
+  against the real geometry's values (error as a fraction of the response's
+  training range), the multi-start search, whether it lies on the box's edge
+  or the buildable region's boundary, and the infill history;
 - ``surface-<response>.png``, ``loo.png``, ``pareto-<objective>.png``.
 """
 
@@ -22,7 +25,8 @@ import numpy as np
 
 from ..jsonio import dumps as _dumps
 from .config import StudyConfig
-from .objective import optimize_objective, term_summary, verify_optimum
+from .infill import infill_optima, training_ranges
+from .objective import term_summary, verify_optimum
 from .surrogate import fit_surrogate
 from .sweep import run_sweep, write_table
 
@@ -68,7 +72,9 @@ def edge_report(config: StudyConfig, x, feasible, step: float = 0.01) -> dict[st
     dict — ``on_box_edge``: list of {variable, side} where x sits on a bound
     (within ``tol.rel`` of the range); ``on_buildable_boundary``: True when a
     probe ``step`` away along some axis, still inside the box, is refused at
-    validation (an optimum pressed against the refused region).
+    validation (an optimum pressed against the refused region), and then
+    ``buildable_boundary_reason``: that probe's refusal (geometric, or the
+    mesh-resolution cap).
     """
     from ..tolerances import tol
 
@@ -85,8 +91,17 @@ def edge_report(config: StudyConfig, x, feasible, step: float = 0.01) -> dict[st
                 p = x.copy()
                 p[i] = np.clip(x[i] + sgn * step * span[i], lo[i], hi[i])
                 probes.append(p)
-    near = bool(probes) and not bool(np.all(feasible(np.array(probes))))
-    return {"on_box_edge": edges, "on_buildable_boundary": near}
+    ok = feasible(np.array(probes)) if probes else np.ones(0, bool)
+    out = {"on_box_edge": edges, "on_buildable_boundary": not bool(np.all(ok))}
+    if out["on_buildable_boundary"]:  # why the first refused probe was refused
+        from ..errors import SpecError
+
+        p = probes[int(np.flatnonzero(~np.asarray(ok, bool))[0])]
+        try:
+            config.spec(p)
+        except SpecError as e:
+            out["buildable_boundary_reason"] = str(e)
+    return out
 
 
 def run_study(config: StudyConfig, out_dir: str | Path, *, executor=None, cache: Any = None,
@@ -126,27 +141,40 @@ def run_study(config: StudyConfig, out_dir: str | Path, *, executor=None, cache:
         log(f"  [{f['index']}] {f['status']}: {f['error']}")
     t0 = time.perf_counter()
     sur = fit_surrogate(sweep)
-    loo = sur.loo()
     t_fit = time.perf_counter() - t0
-    log(f"surrogate: {len(sur.responses)} responses ({sur.mode}) fitted in {t_fit:.2f} s")
+    log(f"surrogate: {len(sur.responses)} responses ({sur.mode}) fitted to "
+        f"{len(sur.X_)} points in {t_fit:.2f} s")
     feasible = feasibility(config)
-    optima = []
-    for obj in config.objectives:
-        opt = optimize_objective(sur, obj, feasible=feasible, seed=config.surrogate["seed"])
-        verify_optimum(config, opt, build=build)
+    t0 = time.perf_counter()
+    inf = infill_optima(config, sur, feasible=feasible, executor=executor, cache=cache, log=log)
+    t_infill = time.perf_counter() - t0
+    sur = inf.surrogate
+    loo = sur.loo()
+    log(f"infill: {inf.added} training points added in {inf.rounds} round(s), "
+        + ("converged" if inf.converged else "NOT converged")
+        + f" (threshold {config.infill['threshold']:.2%} of each response's range) in "
+        f"{t_infill:.2f} s")
+    ranges = training_ranges(sur)
+    optima = inf.optima
+    for opt, res in zip(optima, inf.results):
+        obj = opt.objective
+        verify_optimum(config, opt, build=build, result=res, ranges=ranges)
         opt.verified.update(edge_report(config, opt.x, feasible))
-        optima.append(opt)
         v = opt.verified
         log(f"objective {obj.name} ({term_summary(obj)}): "
             + ", ".join(f"{k} = {x:.4g}" for k, x in v["x"].items()) + f" — {v['status']}"
             + "".join(f"; on the box edge {e['variable']} = {e['side']}" for e in v["on_box_edge"])
             + ("; on the buildable region's boundary" if v["on_buildable_boundary"] else ""))
+        if v.get("buildable_boundary_reason"):
+            log(f"  a step further: {v['buildable_boundary_reason']}")
         if v["status"] == "ok":
             spec = spec_from_dict(v["spec"])
             p = out / f"optimum-{obj.name}.toml"
             write_text_atomic(p, dumps_spec(spec))
             files.append(str(p))
-    sdict = sur.to_dict() | {"loo": loo, "fit_seconds": t_fit}
+    sdict = sur.to_dict() | {"loo": loo, "fit_seconds": t_fit,
+                             "training_points": int(len(sur.X_)),
+                             "training_ranges": ranges}
     p = out / "surrogate.json"
     write_text_atomic(p, _dumps(sdict))
     files.append(str(p))
@@ -166,10 +194,17 @@ def run_study(config: StudyConfig, out_dir: str | Path, *, executor=None, cache:
         "variables": [{"name": v.name, "path": v.path, "min": v.lo, "max": v.hi}
                       for v in config.variables],
         "sweep": s, "surrogate": sdict,
+        "infill": {"rounds": inf.rounds, "max_rounds": config.infill["rounds"],
+                   "threshold": config.infill["threshold"], "added": inf.added,
+                   "converged": inf.converged, "seconds": t_infill,
+                   "points": [{v.name: float(x) for v, x in zip(config.variables, row)}
+                              for row in inf.X[len(inf.X) - inf.added:]],
+                   "history": inf.history},
         "optima": [{"objective": o.objective.name, "combine": o.objective.combine,
                     "terms": [{"response": t.response, "goal": t.goal, "weight": t.weight}
                               for t in o.objective.terms],
-                    "value": o.value, **{k: v for k, v in o.verified.items() if k != "spec"},
+                    "value": o.value, "search": o.search,
+                    **{k: v for k, v in o.verified.items() if k != "spec"},
                     **({"pareto_points": int(len(o.front["x"]))} if o.front else {})}
                    for o in optima],
         "files": files + [str(out / "report.json")],

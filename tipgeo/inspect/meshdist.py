@@ -266,8 +266,9 @@ class MeshSolid:
         if self._index is None:
             self._build()
         # spatial order: each search starts from its predecessor's triangle
-        # about one point per Morton cell (8**bits cells), at most 8**6
-        bits = int(min(6, max(1, np.ceil(np.log2(max(len(p), 2)) / 3))))
+        # at least one point per Morton cell on average (8**bits cells, at
+        # most 8**6): the counting sort's table stays no larger than the points
+        bits = int(min(6, max(1, np.floor(np.log2(max(len(p), 2)) / 3))))
         t = self._index.nearest(p, spatial_order(p, bits))
         d, q, normal, feature = signed_query(p, t, self.v, self.f, self.fn, self.en, self.vn,
                                              tol.inspect.feature_eps)

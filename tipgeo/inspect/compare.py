@@ -30,6 +30,7 @@ from .checks import check_geometry, check_match
 from .deviation import histogram, statistics, trimmed
 from .exact import Distances
 from .measure import measure
+from .meshdist import MeshSolid
 from .register import Registration, apply, register
 from .scanio import Scan, ScanError, check_points, load_scan
 from .transform import check_transform
@@ -245,6 +246,12 @@ def _deviations(model: CadModel, local: np.ndarray, T: np.ndarray, *, z_min, max
         if not kept:
             continue
         q, r = q_buf[:kept], r_buf[:kept]
+        if isinstance(getattr(model, "engine", None), MeshSolid):  # into the results directly
+            cur, near = model.engine.distances_into(
+                q, r, far=max_distance, near=tol.inspect.match_distance,
+                out=(P, dist, clo, nrm, face, feat, rows), cur=cur)
+            cnt["match"] += near
+            continue
         D = model.distances(q)
         ad = np.abs(D.distance)
         cnt["match"] += int(np.count_nonzero(ad <= tol.inspect.match_distance))

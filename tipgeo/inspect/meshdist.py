@@ -253,6 +253,18 @@ class MeshSolid:
         sub, parent = _split_fat(self.v, self.f, self.cell)
         self._index = _Tree(sub, parent)
 
+    def _nearest(self, p: np.ndarray) -> np.ndarray:
+        """(n,) int — nearest parent triangle of every point ((n, 3) float64)."""
+        from .nearest import spatial_order
+
+        if self._index is None:
+            self._build()
+        # spatial order: each search starts from its predecessor's triangle;
+        # at least one point per Morton cell on average (8**bits cells, at
+        # most 8**6): the counting sort's table stays no larger than the points
+        bits = int(min(6, max(1, np.floor(np.log2(max(len(p), 2)) / 3))))
+        return self._index.nearest(p, spatial_order(p, bits))
+
     def distances(self, points: np.ndarray) -> Distances:
         """Exact signed distance, closest point, normal and face of every point.
 
@@ -260,19 +272,40 @@ class MeshSolid:
         ----------
         points : (n, 3) float — mm
         """
-        from .nearest import signed_query, spatial_order
+        from .nearest import signed_query
 
         p = np.ascontiguousarray(np.asarray(points, float).reshape(-1, 3))
-        if self._index is None:
-            self._build()
-        # spatial order: each search starts from its predecessor's triangle
-        # at least one point per Morton cell on average (8**bits cells, at
-        # most 8**6): the counting sort's table stays no larger than the points
-        bits = int(min(6, max(1, np.floor(np.log2(max(len(p), 2)) / 3))))
-        t = self._index.nearest(p, spatial_order(p, bits))
+        t = self._nearest(p)
         d, q, normal, feature = signed_query(p, t, self.v, self.f, self.fn, self.en, self.vn,
                                              tol.inspect.feature_eps)
         return Distances(d, q, normal, self.label_ids[t], feature, self.labels)
+
+    def distances_into(self, points: np.ndarray, rows: np.ndarray, *, far: float, near: float,
+                       out: tuple, cur: int) -> tuple[int, int]:
+        """:meth:`distances` of the points (mm), appended to a scan's result
+        arrays from row ``cur`` on where |d| ≤ ``far`` (mm), with no
+        temporary per point (what ``compare`` uses).
+
+        Parameters
+        ----------
+        points : (n, 3) float64 — mm, cannula frame
+        rows : (n,) int — their rows in the scan
+        far : float — points farther from the mesh are left out (mm)
+        near : float — the count returned is of points within it (mm)
+        out : tuple — (points (m, 3) float32, distance (m,) float64, closest
+            (m, 3) float32, normal (m, 3) float32, face (m,) int, feature (m,)
+            int8, rows (m,) int)
+
+        Returns
+        -------
+        cur : int — rows filled; near_count : int — points with |d| ≤ ``near``
+        """
+        from .nearest import signed_into
+
+        p = np.ascontiguousarray(points, float)
+        t = self._nearest(p)
+        return signed_into(p, t, rows, self.v, self.f, self.fn, self.en, self.vn,
+                           tol.inspect.feature_eps, self.label_ids, far, near, *out, cur)
 
     def bound(self, points: np.ndarray) -> np.ndarray:
         """Signed distance (exact here; the name matches :class:`ExactSolid`)."""

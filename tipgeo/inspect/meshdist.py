@@ -29,7 +29,7 @@ from ..errors import TipGeoError
 from ..tolerances import tol
 from .exact import Distances
 
-__all__ = ["MeshSolid", "closest_on_triangles"]
+__all__ = ["MeshSolid", "brute_force_distances", "closest_on_triangles"]
 
 
 def closest_on_triangles(p: np.ndarray, a: np.ndarray, b: np.ndarray, c: np.ndarray):
@@ -82,6 +82,28 @@ def closest_on_triangles(p: np.ndarray, a: np.ndarray, b: np.ndarray, c: np.ndar
     bary = np.stack([u, v, w], 1)
     q = a * u[:, None] + b * v[:, None] + c * w[:, None]
     return q, bary
+
+
+def brute_force_distances(points: np.ndarray, triangles: np.ndarray) -> np.ndarray:
+    """Unsigned distance of every point to the nearest of all triangles,
+    by :func:`closest_on_triangles` against each triangle in turn (float64):
+    the reference the compiled kernel is tested and benchmarked against.
+
+    Parameters
+    ----------
+    points : (n, 3) float — mm
+    triangles : (m, 3, 3) float — mm
+
+    Returns
+    -------
+    (n,) float — mm
+    """
+    p = np.asarray(points, float)
+    best = np.full(len(p), np.inf)
+    for t in np.asarray(triangles, float):
+        q, _ = closest_on_triangles(p, *(np.broadcast_to(t[i], p.shape) for i in range(3)))
+        best = np.minimum(best, np.linalg.norm(p - q, axis=1))
+    return best
 
 
 def _dot(x, y):

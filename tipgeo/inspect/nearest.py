@@ -181,7 +181,8 @@ def nearest_triangles(p, order, box, first_leaf, start, stop, tri, tbox,
             c = (iz * dims[1] + iy) * dims[0] + ix
             for e in range(cstart[c], cstart[c + 1]):
                 k = cprim[e]
-                if _box_d2(px, py, pz, tbox, k) > bd:
+                # the seed is in bd already; its box never prunes it
+                if k == prev or _box_d2(px, py, pz, tbox, k) > bd:
                     continue
                 d = _d2(px, py, pz, tri, k)
                 if d < bd:
@@ -264,55 +265,6 @@ def spatial_order(p, bits):
 
 
 @njit(cache=True, fastmath=False, nogil=True)
-def _signed_one(px, py, pz, k, v, f, fn, en, vn, eps, tt):
-    """Signed distance of p to triangle k of the mesh, its closest point,
-    normal and feature (see :func:`signed_query`); ``tt`` (3, 3) scratch."""
-    for j in range(3):
-        for c in range(3):
-            tt[j, c] = v[f[k, j], c]
-    b0, b1, b2 = closest_on_triangle(px, py, pz, tt)
-    qx = tt[0, 0] * b0 + tt[1, 0] * b1 + tt[2, 0] * b2
-    qy = tt[0, 1] * b0 + tt[1, 1] * b1 + tt[2, 1] * b2
-    qz = tt[0, 2] * b0 + tt[1, 2] * b1 + tt[2, 2] * b2
-    nz = 0
-    z = -1
-    if b2 <= eps:
-        nz += 1
-        z = 2
-    if b1 <= eps:
-        nz += 1
-        z = 1
-    if b0 <= eps:
-        nz += 1
-        z = 0
-    if nz == 1:
-        e = (z + 1) % 3
-        pnx, pny, pnz = en[k, e, 0], en[k, e, 1], en[k, e, 2]
-        fe = 1
-    elif nz >= 2:
-        corner = 0
-        if b1 > b0:
-            corner = 1
-        if b2 > (b1 if corner == 1 else b0):
-            corner = 2
-        w = f[k, corner]
-        pnx, pny, pnz = vn[w, 0], vn[w, 1], vn[w, 2]
-        fe = 2
-    else:
-        pnx, pny, pnz = fn[k, 0], fn[k, 1], fn[k, 2]
-        fe = 0
-    rx, ry, rz = px - qx, py - qy, pz - qz
-    dist = np.sqrt(rx * rx + ry * ry + rz * rz)
-    sign = -1.0 if rx * pnx + ry * pny + rz * pnz < 0.0 else 1.0
-    if fe == 0 or not dist > 0.0:
-        nx, ny, nzz = fn[k, 0], fn[k, 1], fn[k, 2]
-    else:
-        s = sign / dist
-        nx, ny, nzz = rx * s, ry * s, rz * s
-    return sign * dist, qx, qy, qz, nx, ny, nzz, fe
-
-
-@njit(cache=True, fastmath=False, nogil=True)
 def signed_query(p, t, v, f, fn, en, vn, eps):
     """Signed distance, closest point, normal and feature of every point to
     its nearest triangle ``t`` (parent mesh), signs from the angle-weighted
@@ -339,10 +291,9 @@ def signed_query(p, t, v, f, fn, en, vn, eps):
     q = np.empty((n, 3))
     nrm = np.empty((n, 3))
     feat = np.empty(n, np.int8)
-    tt = np.empty((3, 3))
-    for i in range(n):
-        (d[i], q[i, 0], q[i, 1], q[i, 2], nrm[i, 0], nrm[i, 1], nrm[i, 2],
-         feat[i]) = _signed_one(p[i, 0], p[i, 1], p[i, 2], t[i], v, f, fn, en, vn, eps, tt)
+    rows = np.arange(n)
+    signed_into(p, t, rows, v, f, fn, en, vn, eps, np.zeros(fn.shape[0], np.int64), np.inf,
+                0.0, p, d, q, nrm, np.empty(n, np.int64), feat, rows, 0)
     return d, q, nrm, feat
 
 
@@ -351,8 +302,10 @@ def signed_into(p, t, rows, v, f, fn, en, vn, eps, label, far, near, P, dist, cl
                 face, feat, out_rows, cur):
     """:func:`signed_query` written straight into the result arrays of a
     scan: points with |d| ≤ ``far`` are appended at row ``cur`` of ``P``
-    (float32 point), ``dist``, ``clo``, ``nrm`` (float32), ``face`` (the
-    label id of ``t``, ``label[t]``), ``feat`` and ``out_rows`` (``rows``).
+    (the point), ``dist``, ``clo`` (closest point), ``nrm`` (normal),
+    ``face`` (the label id of ``t``, ``label[t]``), ``feat`` and
+    ``out_rows`` (``rows``); any float dtype for the points, closest points
+    and normals (compare keeps them in float32).
 
     Returns
     -------
@@ -360,20 +313,54 @@ def signed_into(p, t, rows, v, f, fn, en, vn, eps, label, far, near, P, dist, cl
     near_count : int — points with |d| ≤ ``near``
     """
     tt = np.empty((3, 3))
+    b = np.empty(3)
     nn = 0
     for i in range(p.shape[0]):
         k = t[i]
-        d, qx, qy, qz, nx, ny, nz, fe = _signed_one(p[i, 0], p[i, 1], p[i, 2], k, v, f, fn,
-                                                    en, vn, eps, tt)
-        a = abs(d)
-        if a <= near:
+        for j in range(3):
+            for c in range(3):
+                tt[j, c] = v[f[k, j], c]
+        px, py, pz = p[i, 0], p[i, 1], p[i, 2]
+        b[0], b[1], b[2] = closest_on_triangle(px, py, pz, tt)
+        qx = tt[0, 0] * b[0] + tt[1, 0] * b[1] + tt[2, 0] * b[2]
+        qy = tt[0, 1] * b[0] + tt[1, 1] * b[1] + tt[2, 1] * b[2]
+        qz = tt[0, 2] * b[0] + tt[1, 2] * b[1] + tt[2, 2] * b[2]
+        nz = 0
+        z = -1
+        for j in range(3):
+            if b[j] <= eps:
+                nz += 1
+                if z < 0:
+                    z = j
+        if nz == 1:
+            pnx, pny, pnz = en[k, (z + 1) % 3, 0], en[k, (z + 1) % 3, 1], en[k, (z + 1) % 3, 2]
+            fe = 1
+        elif nz >= 2:
+            corner = 0
+            for j in range(1, 3):
+                if b[j] > b[corner]:
+                    corner = j
+            w = f[k, corner]
+            pnx, pny, pnz = vn[w, 0], vn[w, 1], vn[w, 2]
+            fe = 2
+        else:
+            pnx, pny, pnz = fn[k, 0], fn[k, 1], fn[k, 2]
+            fe = 0
+        rx, ry, rz = px - qx, py - qy, pz - qz
+        dd = np.sqrt(rx * rx + ry * ry + rz * rz)
+        sign = -1.0 if rx * pnx + ry * pny + rz * pnz < 0.0 else 1.0
+        if dd <= near:
             nn += 1
-        if not a <= far:
+        if not dd <= far:
             continue
-        P[cur, 0], P[cur, 1], P[cur, 2] = p[i, 0], p[i, 1], p[i, 2]
-        dist[cur] = d
+        P[cur, 0], P[cur, 1], P[cur, 2] = px, py, pz
+        dist[cur] = sign * dd
         clo[cur, 0], clo[cur, 1], clo[cur, 2] = qx, qy, qz
-        nrm[cur, 0], nrm[cur, 1], nrm[cur, 2] = nx, ny, nz
+        if fe == 0 or not dd > 0.0:
+            nrm[cur, 0], nrm[cur, 1], nrm[cur, 2] = fn[k, 0], fn[k, 1], fn[k, 2]
+        else:
+            s = sign / dd
+            nrm[cur, 0], nrm[cur, 1], nrm[cur, 2] = rx * s, ry * s, rz * s
         face[cur] = label[k]
         feat[cur] = fe
         out_rows[cur] = rows[i]

@@ -13,7 +13,9 @@ Run:
         -k process --benchmark-only -s
 
 What each test records in ``extra_info`` (CPU seconds: user + system of the
-child process, start-up and imports included):
+child process, start-up and imports included; medians of
+TIPGEO_BENCH_CC_REPEAT runs, default 3, tipgeo and CloudCompare interleaved
+so that both see the same load; the 1-minute load average beside them):
 - ``test_deviation_step_1M``: the exact distance step on 10⁶ aligned points
   (index built and kernel compiled beforehand), its deviation from an
   all-triangle float64 brute force on 20,000 of them, and — when
@@ -23,13 +25,13 @@ child process, start-up and imports included):
 - ``test_compare_process_no_register``: ``tipgeo compare SCAN CAD.stl
   --no-register --no-pictures`` against ``CloudCompare -O SCAN -O CAD.stl
   -C2M_DIST`` at TIPGEO_BENCH_CC_POINTS points (default 10⁶), CPU and peak
-  memory (VmHWM) of both, and the ratio.
+  memory (VmHWM) of tipgeo, and the ratio.
 - ``test_compare_process_register_1M``: the whole ``tipgeo compare`` with
   registration at 10⁶ points, CPU and peak memory (CloudCompare's ICP+C2M
   process took 5.4 s on the issue's machine).
 
-Figures of one run on the shared 2-core development machine (load ≈ 8, so
-noisy): see README's inspection section.
+Figures on the shared 2-core development machine (load 10–12, so noisy):
+see README's inspection section.
 """
 
 from __future__ import annotations

@@ -38,6 +38,10 @@ def test_percentiles_equal_numpy_bit_for_bit(values, q):
     assert np.array_equal(percentiles(x, q), np.percentile(x, q))
     assert np.array_equal(percentiles(x, q, absolute=True), np.percentile(np.abs(x), q))
     assert np.array_equal(percentiles(x, q, bounds=(x.min(), x.max())), np.percentile(x, q))
+    # bounds need only enclose the values
+    a = np.abs(x)
+    assert np.array_equal(percentiles(x, q, absolute=True, bounds=(0.0, a.max() * 1.5 + 1.0)),
+                          np.percentile(a, q))
 
 
 @pytest.mark.parametrize("kind", ["normal", "ties", "outlier"])

@@ -28,7 +28,8 @@ def _block(d: np.ndarray, tol: float) -> dict[str, Any]:
     m = moments(d, tol)
     n = m["count"]
     p5, p95 = percentiles(d, [5.0, 95.0], bounds=(m["min"], m["max"])) * 1e3
-    pa95 = float(percentiles(d, [95.0], absolute=True)[0]) * 1e3
+    pa95 = float(percentiles(d, [95.0], absolute=True,
+                             bounds=(0.0, max(-m["min"], m["max"])))[0]) * 1e3
     return {"count": int(n), "mean_um": m["mean"] * 1e3, "std_um": m["std"] * 1e3,
             "rms_um": m["rms"] * 1e3, "min_um": float(m["min"]) * 1e3,
             "max_um": float(m["max"]) * 1e3, "p5_um": float(p5), "p95_um": float(p95),

@@ -28,7 +28,7 @@ _BUCKETS = 1 << 12   # the count table stays in the L1 cache
 def _order_statistics(x, ks, absolute, lo, hi):
     """The values of ranks ``ks`` ((m,) int, 0-based, ascending) of ``x`` (or
     of |x| when ``absolute``) in sorted order; ``lo``, ``hi``: the least and
-    the greatest value (NaN: found here)."""
+    the greatest value or bounds on them (NaN: found here)."""
     n = x.shape[0]
     out = np.empty(ks.shape[0])
     if not (lo <= hi):
@@ -88,8 +88,9 @@ def percentiles(x: np.ndarray, q, *, absolute: bool = False,
     x : (n,) float — values (n ≥ 1), e.g. deviations in mm
     q : sequence of float — percentiles in [0, 100]
     absolute : bool — of |x| (no |x| array is made)
-    bounds : (min, max) of the values (of |x| when ``absolute``), when known
-        (saves a pass)
+    bounds : (low, high) — the values (|x| when ``absolute``) lie in
+        [low, high], when known (saves a pass; the order statistics stay
+        exact for any such bounds)
 
     Returns
     -------

@@ -19,7 +19,7 @@ from tipgeo.cli import main
 from tipgeo.errors import SpecError
 from tipgeo.inspect import compare, deviation_colours, write_ply
 from tipgeo.inspect.deviation import histogram, trimmed
-from tipgeo.inspect.meshdist import MeshSolid, closest_on_triangles
+from tipgeo.inspect.meshdist import MeshSolid, brute_force_distances
 from tipgeo.inspect.register import apply
 from tipgeo.inspect.transform import read_transform, write_transform
 from tipgeo.io import export_tip
@@ -45,15 +45,6 @@ def _surface(n, rng, sigma=0.002):
     p = (tri[k, 0] * (1 - s)[:, None] + tri[k, 1] * (s * (1 - r2))[:, None]
          + tri[k, 2] * (s * r2)[:, None])
     return p + tip.face_normals[k] * rng.normal(0.0, sigma, n)[:, None]
-
-
-def _brute(points, tri):
-    best = np.full(len(points), np.inf)
-    for t in tri:
-        q, _ = closest_on_triangles(points, *(np.broadcast_to(t[i], points.shape)
-                                              for i in range(3)))
-        best = np.minimum(best, np.linalg.norm(points - q, axis=1))
-    return best
 
 
 def _rigid(angle_deg, axis, shift):
@@ -82,7 +73,7 @@ def test_kernel_equals_all_triangle_brute_force(grid, monkeypatch):
     m = MeshSolid(tip)
     d = m.distances(pts)
     assert (m._index.dims.prod() > 1) == grid
-    assert np.max(np.abs(np.abs(d.distance) - _brute(pts, tip.triangles))) <= 1e-12
+    assert np.max(np.abs(np.abs(d.distance) - brute_force_distances(pts, tip.triangles))) <= 1e-12
     assert np.allclose(np.linalg.norm(pts - d.closest, axis=1), np.abs(d.distance),
                        rtol=0, atol=1e-12)
 

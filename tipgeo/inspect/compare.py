@@ -30,6 +30,7 @@ from .checks import check_geometry, check_match
 from .deviation import histogram, statistics, trimmed
 from .exact import Distances
 from .measure import measure
+from .meshdist import MeshSolid
 from .register import Registration, apply, register
 from .scanio import Scan, ScanError, check_points, load_scan
 from .transform import check_transform
@@ -222,7 +223,6 @@ def _deviations(model: CadModel, local: np.ndarray, T: np.ndarray, *, z_min, max
     reach = model.r_o + max_distance
     z_lo, z_hi = model.z_base - max_distance, model.z_top + max_distance
     cur = 0
-    R, t = T[:3, :3], T[:3, 3]
 
     def take(mask, *arrays):
         """The rows of ``arrays`` where ``mask`` holds (no copy when all do)."""
@@ -230,22 +230,27 @@ def _deviations(model: CadModel, local: np.ndarray, T: np.ndarray, *, z_min, max
             return arrays
         return tuple(a[mask] for a in arrays)
 
+    from .nearest import transform_envelope
+
+    q_buf = np.empty((min(chunk, m), 3))
+    r_buf = np.empty(min(chunk, m), np.int64)
+    R, t = np.ascontiguousarray(T[:3, :3], float), np.ascontiguousarray(T[:3, 3], float)
     for i in range(0, m, chunk):
-        x = np.asarray(local[i:i + chunk], np.float64)
-        r = np.arange(i, i + len(x))
-        q = np.empty_like(x)
-        for k in range(3):  # R x + t by columns: no BLAS call (threads, small matrices)
-            q[:, k] = x[:, 0] * R[k, 0] + x[:, 1] * R[k, 1] + x[:, 2] * R[k, 2] + t[k]
-        del x
-        if z_min is not None:
-            keep = q[:, 2] >= z_min
-            cnt["crop"] += int(len(q) - np.count_nonzero(keep))
-            q, r = take(keep, q, r)
-        cnt["compared"] += len(q)
-        box = (np.hypot(q[:, 0], q[:, 1]) <= reach) & (q[:, 2] >= z_lo) & (q[:, 2] <= z_hi)
-        q, r = take(box, q, r)
-        cnt["envelope"] += len(q)
-        if not len(q):
+        # R x + t, the crop and the envelope in one compiled pass (float64)
+        kept, cropped = transform_envelope(local[i:i + chunk], R, t, z_min is not None,
+                                           -np.inf if z_min is None else float(z_min), reach,
+                                           z_lo, z_hi, q_buf, r_buf, i)
+        cnt["crop"] += cropped
+        cnt["compared"] += min(chunk, m - i) - cropped
+        cnt["envelope"] += kept
+        if not kept:
+            continue
+        q, r = q_buf[:kept], r_buf[:kept]
+        if isinstance(getattr(model, "engine", None), MeshSolid):  # into the results directly
+            cur, near = model.engine.distances_into(
+                q, r, far=max_distance, near=tol.inspect.match_distance,
+                out=(P, dist, clo, nrm, face, feat, rows), cur=cur)
+            cnt["match"] += near
             continue
         D = model.distances(q)
         ad = np.abs(D.distance)

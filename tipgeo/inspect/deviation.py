@@ -18,23 +18,23 @@ STAT_KEYS = ("count", "mean_um", "std_um", "rms_um", "min_um", "max_um", "p5_um"
              "mean_abs_um", "p95_abs_um", "within_tol_share")
 
 
-def _block(d: np.ndarray, tol: float, chunk: int = 1 << 20) -> dict[str, Any]:
+def _block(d: np.ndarray, tol: float) -> dict[str, Any]:
     if not len(d):
         return {k: None for k in STAT_KEYS} | {"count": 0}
-    # float64 sums over chunks: no full-size temporary but the percentiles' copy
-    n = len(d)
-    mean = float(np.mean(d))
-    ss = sum(float(np.sum((d[i:i + chunk] - mean) ** 2)) for i in range(0, n, chunk))
-    sq = sum(float(np.sum(d[i:i + chunk] ** 2)) for i in range(0, n, chunk))
-    within = sum(int(np.count_nonzero(np.abs(d[i:i + chunk]) <= tol))
-                 for i in range(0, n, chunk))
-    sa = sum(float(np.sum(np.abs(d[i:i + chunk]))) for i in range(0, n, chunk))
-    p5, p95 = np.percentile(d, [5.0, 95.0]) * 1e3
-    pa95 = float(np.percentile(np.abs(d), 95.0)) * 1e3
-    return {"count": int(n), "mean_um": mean * 1e3, "std_um": float(np.sqrt(ss / n)) * 1e3,
-            "rms_um": float(np.sqrt(sq / n)) * 1e3, "min_um": float(d.min()) * 1e3,
-            "max_um": float(d.max()) * 1e3, "p5_um": float(p5), "p95_um": float(p95),
-            "mean_abs_um": sa / n * 1e3, "p95_abs_um": pa95, "within_tol_share": within / n}
+    from .quantiles import moments, percentiles  # numba: imported where used
+
+    # two compiled passes for the moments and one or two for the
+    # percentiles: no full-size temporary
+    m = moments(d, tol)
+    n = m["count"]
+    p5, p95 = percentiles(d, [5.0, 95.0], bounds=(m["min"], m["max"])) * 1e3
+    pa95 = float(percentiles(d, [95.0], absolute=True,
+                             bounds=(0.0, max(-m["min"], m["max"])))[0]) * 1e3
+    return {"count": int(n), "mean_um": m["mean"] * 1e3, "std_um": m["std"] * 1e3,
+            "rms_um": m["rms"] * 1e3, "min_um": float(m["min"]) * 1e3,
+            "max_um": float(m["max"]) * 1e3, "p5_um": float(p5), "p95_um": float(p95),
+            "mean_abs_um": m["mean_abs"] * 1e3, "p95_abs_um": pa95,
+            "within_tol_share": m["within"] / n}
 
 
 def _order(name: str):
@@ -99,12 +99,14 @@ def trimmed(distance: np.ndarray, tolerance: float, *, sigmas: float) -> dict[st
     s = d[::max(1, len(d) >> 20)]
     med = float(np.median(s)) if len(s) else 0.0
     sigma = 1.4826 * float(np.median(np.abs(s - med))) if len(s) else 0.0
-    keep = np.abs(d - med) <= sigmas * sigma
-    out = _block(d[keep], tolerance)
+    from .quantiles import within_band
+
+    kept = within_band(d, med, sigmas * sigma)
+    out = _block(kept, tolerance)
     out.update({"rule": f"|d - median| <= {sigmas:g} x 1.4826 MAD (median and MAD of every "
                         f"{max(1, len(d) >> 20)}th point)",
                 "median_um": med * 1e3, "robust_sigma_um": sigma * 1e3,
-                "trimmed_share": 1.0 - float(np.count_nonzero(keep)) / max(len(d), 1)})
+                "trimmed_share": 1.0 - float(len(kept)) / max(len(d), 1)})
     return out
 
 

@@ -29,7 +29,7 @@ from ..errors import TipGeoError
 from ..tolerances import tol
 from .exact import Distances
 
-__all__ = ["MeshSolid", "closest_on_triangles"]
+__all__ = ["MeshSolid", "brute_force_distances", "closest_on_triangles"]
 
 
 def closest_on_triangles(p: np.ndarray, a: np.ndarray, b: np.ndarray, c: np.ndarray):
@@ -82,6 +82,28 @@ def closest_on_triangles(p: np.ndarray, a: np.ndarray, b: np.ndarray, c: np.ndar
     bary = np.stack([u, v, w], 1)
     q = a * u[:, None] + b * v[:, None] + c * w[:, None]
     return q, bary
+
+
+def brute_force_distances(points: np.ndarray, triangles: np.ndarray) -> np.ndarray:
+    """Unsigned distance of every point to the nearest of all triangles,
+    by :func:`closest_on_triangles` against each triangle in turn (float64):
+    the reference the compiled kernel is tested and benchmarked against.
+
+    Parameters
+    ----------
+    points : (n, 3) float — mm
+    triangles : (m, 3, 3) float — mm
+
+    Returns
+    -------
+    (n,) float — mm
+    """
+    p = np.asarray(points, float)
+    best = np.full(len(p), np.inf)
+    for t in np.asarray(triangles, float):
+        q, _ = closest_on_triangles(p, *(np.broadcast_to(t[i], p.shape) for i in range(3)))
+        best = np.minimum(best, np.linalg.norm(p - q, axis=1))
+    return best
 
 
 def _dot(x, y):
@@ -253,6 +275,18 @@ class MeshSolid:
         sub, parent = _split_fat(self.v, self.f, self.cell)
         self._index = _Tree(sub, parent)
 
+    def _nearest(self, p: np.ndarray) -> np.ndarray:
+        """(n,) int — nearest parent triangle of every point ((n, 3) float64)."""
+        from .nearest import spatial_order
+
+        if self._index is None:
+            self._build()
+        # spatial order: each search starts from its predecessor's triangle;
+        # at least one point per Morton cell on average (8**bits cells, at
+        # most 8**6): the counting sort's table stays no larger than the points
+        bits = int(min(6, max(1, np.floor(np.log2(max(len(p), 2)) / 3))))
+        return self._index.nearest(p, spatial_order(p, bits))
+
     def distances(self, points: np.ndarray) -> Distances:
         """Exact signed distance, closest point, normal and face of every point.
 
@@ -260,18 +294,40 @@ class MeshSolid:
         ----------
         points : (n, 3) float — mm
         """
-        from .nearest import signed_query, spatial_order
+        from .nearest import signed_query
 
         p = np.ascontiguousarray(np.asarray(points, float).reshape(-1, 3))
-        if self._index is None:
-            self._build()
-        # spatial order: each search starts from its predecessor's triangle
-        # about one point per Morton cell (8**bits cells), at most 8**6
-        bits = int(min(6, max(1, np.ceil(np.log2(max(len(p), 2)) / 3))))
-        t = self._index.nearest(p, spatial_order(p, bits))
+        t = self._nearest(p)
         d, q, normal, feature = signed_query(p, t, self.v, self.f, self.fn, self.en, self.vn,
                                              tol.inspect.feature_eps)
         return Distances(d, q, normal, self.label_ids[t], feature, self.labels)
+
+    def distances_into(self, points: np.ndarray, rows: np.ndarray, *, far: float, near: float,
+                       out: tuple, cur: int) -> tuple[int, int]:
+        """:meth:`distances` of the points (mm), appended to a scan's result
+        arrays from row ``cur`` on where |d| ≤ ``far`` (mm), with no
+        temporary per point (what ``compare`` uses).
+
+        Parameters
+        ----------
+        points : (n, 3) float64 — mm, cannula frame
+        rows : (n,) int — their rows in the scan
+        far : float — points farther from the mesh are left out (mm)
+        near : float — the count returned is of points within it (mm)
+        out : tuple — (points (m, 3) float32, distance (m,) float64, closest
+            (m, 3) float32, normal (m, 3) float32, face (m,) int, feature (m,)
+            int8, rows (m,) int)
+
+        Returns
+        -------
+        cur : int — rows filled; near_count : int — points with |d| ≤ ``near``
+        """
+        from .nearest import signed_into
+
+        p = np.ascontiguousarray(points, float)
+        t = self._nearest(p)
+        return signed_into(p, t, rows, self.v, self.f, self.fn, self.en, self.vn,
+                           tol.inspect.feature_eps, self.label_ids, far, near, *out, cur)
 
     def bound(self, points: np.ndarray) -> np.ndarray:
         """Signed distance (exact here; the name matches :class:`ExactSolid`)."""

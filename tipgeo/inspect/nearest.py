@@ -22,11 +22,13 @@ evaluation (~1e-16 mm).
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 from numba import njit
 
-__all__ = ["closest_on_triangle", "grid_lists", "nearest_triangles", "signed_query",
-           "spatial_order"]
+__all__ = ["closest_on_triangle", "grid_lists", "nearest_triangles", "signed_into",
+           "signed_query", "spatial_order", "transform_envelope"]
 
 
 @njit(cache=True, fastmath=False, nogil=True)
@@ -159,10 +161,17 @@ def nearest_triangles(p, order, box, first_leaf, start, stop, tri, tbox,
     n = p.shape[0]
     best = np.empty(n, np.int64)
     stack = np.empty(256, np.int64)
-    prev = 0
+    # the points gathered in visiting order first: one pass of independent
+    # loads, then a sequential walk (about 40 % faster than reading p[order[j]]
+    # inside the search)
+    ps = np.empty((n, 3))
     for j in range(n):
         i = order[j]
-        px, py, pz = p[i, 0], p[i, 1], p[i, 2]
+        ps[j, 0], ps[j, 1], ps[j, 2] = p[i, 0], p[i, 1], p[i, 2]
+    prev = 0
+    bs = np.empty(n, np.int64)
+    for j in range(n):
+        px, py, pz = ps[j, 0], ps[j, 1], ps[j, 2]
         bt = prev
         bd = _d2(px, py, pz, tri, bt)
         ix = int(np.floor((px - origin[0]) / cell))
@@ -172,7 +181,8 @@ def nearest_triangles(p, order, box, first_leaf, start, stop, tri, tbox,
             c = (iz * dims[1] + iy) * dims[0] + ix
             for e in range(cstart[c], cstart[c + 1]):
                 k = cprim[e]
-                if _box_d2(px, py, pz, tbox, k) > bd:
+                # the seed is in bd already; its box never prunes it
+                if k == prev or _box_d2(px, py, pz, tbox, k) > bd:
                     continue
                 d = _d2(px, py, pz, tri, k)
                 if d < bd:
@@ -180,8 +190,10 @@ def nearest_triangles(p, order, box, first_leaf, start, stop, tri, tbox,
                     bt = k
         if not bd <= reach2:
             bt = _walk(px, py, pz, box, first_leaf, start, stop, tri, tbox, stack, bt, bd)
-        best[i] = bt
+        bs[j] = bt
         prev = bt
+    for j in range(n):
+        best[order[j]] = bs[j]
     return best
 
 
@@ -279,9 +291,31 @@ def signed_query(p, t, v, f, fn, en, vn, eps):
     q = np.empty((n, 3))
     nrm = np.empty((n, 3))
     feat = np.empty(n, np.int8)
+    rows = np.arange(n)
+    signed_into(p, t, rows, v, f, fn, en, vn, eps, np.zeros(fn.shape[0], np.int64), np.inf,
+                0.0, p, d, q, nrm, np.empty(n, np.int64), feat, rows, 0)
+    return d, q, nrm, feat
+
+
+@njit(cache=True, fastmath=False, nogil=True)
+def signed_into(p, t, rows, v, f, fn, en, vn, eps, label, far, near, P, dist, clo, nrm,
+                face, feat, out_rows, cur):
+    """:func:`signed_query` written straight into the result arrays of a
+    scan: points with |d| ≤ ``far`` are appended at row ``cur`` of ``P``
+    (the point), ``dist``, ``clo`` (closest point), ``nrm`` (normal),
+    ``face`` (the label id of ``t``, ``label[t]``), ``feat`` and
+    ``out_rows`` (``rows``); any float dtype for the points, closest points
+    and normals (compare keeps them in float32).
+
+    Returns
+    -------
+    cur : int — rows filled after this call
+    near_count : int — points with |d| ≤ ``near``
+    """
     tt = np.empty((3, 3))
     b = np.empty(3)
-    for i in range(n):
+    nn = 0
+    for i in range(p.shape[0]):
         k = t[i]
         for j in range(3):
             for c in range(3):
@@ -313,14 +347,62 @@ def signed_query(p, t, v, f, fn, en, vn, eps):
             pnx, pny, pnz = fn[k, 0], fn[k, 1], fn[k, 2]
             fe = 0
         rx, ry, rz = px - qx, py - qy, pz - qz
-        dist = np.sqrt(rx * rx + ry * ry + rz * rz)
+        dd = np.sqrt(rx * rx + ry * ry + rz * rz)
         sign = -1.0 if rx * pnx + ry * pny + rz * pnz < 0.0 else 1.0
-        d[i] = sign * dist
-        q[i, 0], q[i, 1], q[i, 2] = qx, qy, qz
-        if fe == 0 or not dist > 0.0:
-            nrm[i, 0], nrm[i, 1], nrm[i, 2] = fn[k, 0], fn[k, 1], fn[k, 2]
+        if dd <= near:
+            nn += 1
+        if not dd <= far:
+            continue
+        P[cur, 0], P[cur, 1], P[cur, 2] = px, py, pz
+        dist[cur] = sign * dd
+        clo[cur, 0], clo[cur, 1], clo[cur, 2] = qx, qy, qz
+        if fe == 0 or not dd > 0.0:
+            nrm[cur, 0], nrm[cur, 1], nrm[cur, 2] = fn[k, 0], fn[k, 1], fn[k, 2]
         else:
-            s = sign / dist
-            nrm[i, 0], nrm[i, 1], nrm[i, 2] = rx * s, ry * s, rz * s
-        feat[i] = fe
-    return d, q, nrm, feat
+            s = sign / dd
+            nrm[cur, 0], nrm[cur, 1], nrm[cur, 2] = rx * s, ry * s, rz * s
+        face[cur] = label[k]
+        feat[cur] = fe
+        out_rows[cur] = rows[i]
+        cur += 1
+    return cur, nn
+
+
+@njit(cache=True, fastmath=False, nogil=True)
+def transform_envelope(x, R, t, crop, z_min, reach, z_lo, z_hi, q, rows, first):
+    """Map points by a rigid transform and keep those that may lie near the CAD.
+
+    Parameters
+    ----------
+    x : (n, 3) float32 or float64 — points (offsets in the scanner frame, mm)
+    R : (3, 3) float; t : (3,) float — the transform, ``q = R x + t`` (into
+        the cannula frame, float64)
+    crop : bool — drop points with z < ``z_min`` (counted as cropped)
+    reach : float — radius of the envelope cylinder about +z (mm)
+    z_lo, z_hi : float — its axial extent (mm)
+    q : (≥ n, 3) float — filled with the kept points, in input order
+    rows : (≥ n,) int — filled with their rows, ``first`` + index in ``x``
+
+    Returns
+    -------
+    kept : int — points in the envelope (the first ``kept`` rows of q, rows)
+    cropped : int — points dropped by the crop
+    """
+    kept = 0
+    cropped = 0
+    for i in range(x.shape[0]):
+        a, b, c = np.float64(x[i, 0]), np.float64(x[i, 1]), np.float64(x[i, 2])
+        qz = a * R[2, 0] + b * R[2, 1] + c * R[2, 2] + t[2]
+        if crop and not qz >= z_min:
+            cropped += 1
+            continue
+        if qz < z_lo or qz > z_hi:
+            continue
+        qx = a * R[0, 0] + b * R[0, 1] + c * R[0, 2] + t[0]
+        qy = a * R[1, 0] + b * R[1, 1] + c * R[1, 2] + t[1]
+        if not math.hypot(qx, qy) <= reach:
+            continue
+        q[kept, 0], q[kept, 1], q[kept, 2] = qx, qy, qz
+        rows[kept] = first + i
+        kept += 1
+    return kept, cropped

@@ -1,0 +1,125 @@
+"""Issue 17 (speed): the compiled passes behind ``tipgeo compare`` give the
+same numbers as the plain numpy they replace — percentiles equal to
+``numpy.percentile`` bit for bit, moments to numpy within round-off, the
+binary PLY fast path equal to the general reader bit for bit, and the
+deviations written straight into the result arrays equal to
+``MeshSolid.distances``. Small arrays: the file runs in a few CPU seconds."""
+
+from __future__ import annotations
+
+import functools
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+import tipgeo.inspect.scanio as scanio
+from tipgeo import build_tip, preset
+from tipgeo.inspect import CadModel, compare, load_scan, write_ply
+from tipgeo.inspect.meshdist import MeshSolid
+from tipgeo.inspect.quantiles import moments, percentiles, within_band
+from tipgeo.inspect.scanio import ScanError
+
+
+@functools.cache
+def _tip():
+    return build_tip(preset("bevel-14G-xi14.5"), tolerance=1e-3)
+
+
+_finite = st.floats(-1e3, 1e3, allow_nan=False, allow_infinity=False)
+
+
+@settings(max_examples=60, deadline=None)
+@given(st.lists(_finite, min_size=1, max_size=300),
+       st.lists(st.floats(0.0, 100.0), min_size=1, max_size=5))
+def test_percentiles_equal_numpy_bit_for_bit(values, q):
+    x = np.asarray(values)
+    assert np.array_equal(percentiles(x, q), np.percentile(x, q))
+    assert np.array_equal(percentiles(x, q, absolute=True), np.percentile(np.abs(x), q))
+    assert np.array_equal(percentiles(x, q, bounds=(x.min(), x.max())), np.percentile(x, q))
+    # bounds need only enclose the values
+    a = np.abs(x)
+    assert np.array_equal(percentiles(x, q, absolute=True, bounds=(0.0, a.max() * 1.5 + 1.0)),
+                          np.percentile(a, q))
+
+
+@pytest.mark.parametrize("kind", ["normal", "ties", "outlier"])
+def test_percentiles_of_a_large_array(kind):
+    """2·10⁵ values (many per bucket; ties; one far outlier stretching the
+    buckets): still numpy's values exactly."""
+    rng = np.random.default_rng(3)
+    x = rng.normal(0.0, 2e-3, 200_000)
+    if kind == "ties":
+        x = np.round(x * 1e3) * 1e-3
+    elif kind == "outlier":
+        x[17] = 40.0
+    q = [0.0, 5.0, 50.0, 95.0, 99.9, 100.0]
+    assert np.array_equal(percentiles(x, q), np.percentile(x, q))
+    assert np.array_equal(percentiles(x, q, absolute=True), np.percentile(np.abs(x), q))
+
+
+def test_moments_and_band_match_numpy():
+    rng = np.random.default_rng(4)
+    x = rng.normal(1e-3, 2e-3, 100_003)
+    m = moments(x, 0.002)
+    assert m["count"] == len(x)
+    assert m["mean"] == pytest.approx(np.mean(x), rel=1e-12)
+    assert m["std"] == pytest.approx(np.std(x), rel=1e-12)
+    assert m["rms"] == pytest.approx(np.sqrt(np.mean(x ** 2)), rel=1e-12)
+    assert m["mean_abs"] == pytest.approx(np.mean(np.abs(x)), rel=1e-12)
+    assert (m["min"], m["max"]) == (x.min(), x.max())
+    assert m["within"] == np.count_nonzero(np.abs(x) <= 0.002)
+    kept = within_band(x, 1e-3, 3e-3)
+    assert np.array_equal(kept, x[np.abs(x - 1e-3) <= 3e-3])
+
+
+@pytest.mark.parametrize("units", ["mm", "um", "m"])
+@pytest.mark.parametrize("double", [True, False])
+def test_binary_ply_fast_path_equals_the_general_reader(tmp_path, monkeypatch, units, double):
+    """float64 and float32 columns, mm/µm/m (metres: the offsets outgrow
+    float32 and the storage widens): the compiled pass stores the same
+    offsets, origin and metadata as the numpy path."""
+    rng = np.random.default_rng(5)
+    pts = rng.normal(0.0, 1.0, (3001, 3)) + [5.0, -3.0, 2.0]
+    f = write_ply(tmp_path / "s.ply", pts, double=double)
+    monkeypatch.setattr(scanio, "_CHUNK_ROWS", 1000)      # several chunks
+    fast = load_scan(f, units=units, compact=True)
+    monkeypatch.setattr(scanio._Accumulator, "add_fields", lambda self, *cols: False)
+    ref = load_scan(f, units=units, compact=True)
+    assert fast.local.dtype == ref.local.dtype
+    assert np.array_equal(fast.local, ref.local)
+    assert np.array_equal(fast.origin, ref.origin)
+    assert fast.meta == ref.meta
+
+
+def test_binary_ply_with_a_nan_still_names_the_point(tmp_path):
+    pts = np.random.default_rng(6).normal(0.0, 1.0, (50, 3))
+    pts[31, 1] = np.nan
+    f = write_ply(tmp_path / "bad.ply", pts)
+    with pytest.raises(ScanError, match="the first is point 32"):
+        load_scan(f, compact=True)
+
+
+def test_deviations_written_in_place_equal_distances():
+    """compare()'s mesh path (transform, envelope and signed distances into
+    the result arrays) against MeshSolid.distances of the same float64
+    points: equal bit for bit; points beyond max_distance left out."""
+    rng = np.random.default_rng(7)
+    tip = _tip()
+    tri = tip.triangles
+    k = rng.integers(0, len(tri), 3000)
+    w = rng.dirichlet([1.0, 1.0, 1.0], 3000)
+    p = np.einsum("ni,nij->nj", w, tri[k]) + tip.face_normals[k] * rng.normal(0, 0.002,
+                                                                                (3000, 1))
+    p[:40] += tip.face_normals[k[:40]] * 0.8            # far: left out at 0.5 mm
+    res = compare(p, CadModel(tip=tip), register_scan=False)
+    assert isinstance(res.cad.engine, MeshSolid)
+    ref = MeshSolid(tip).distances(p)
+    keep = np.abs(ref.distance) <= 0.5
+    assert np.array_equal(res.index, np.flatnonzero(keep))
+    assert np.array_equal(res.distances.distance, ref.distance[keep])
+    assert np.array_equal(res.distances.face, ref.face[keep])
+    assert np.array_equal(res.distances.feature, ref.feature[keep])
+    assert np.array_equal(res.distances.closest, ref.closest[keep].astype(np.float32))
+    assert res.dropped["far"] == np.count_nonzero(~keep)

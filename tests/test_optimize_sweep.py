@@ -142,6 +142,7 @@ points = 7
     ({"sweep": {"workers": 0}}, r"sweep\.workers = 0 is out of range"),
     ({"surrogate": {"nugget": 3}}, r"surrogate\.nugget = 3 is out of range"),
     ({"surrogate": {"mode": "joint"}}, r"surrogate\.mode = 'joint' is not valid"),
+    ({"surrogate": {"kernel": "rbf"}}, r"surrogate\.kernel = 'rbf' is not valid"),
     ({"objectives": [{"name": "o", "terms": [{"response": "l_c_mm", "goal": "smallest"}]}]},
      r"objectives\[0\]\.terms\[0\]\.goal = 'smallest' is not valid; expected one of: min, max"),
     ({"objectives": [{"name": "o", "terms": [{"response": "inner_l_c_mm"}]}]},

@@ -31,6 +31,7 @@ Example (``samples/helical-study.toml`` holds the thesis's study)::
 
     [surrogate]
     nugget = false                  # false | true (MLE) | δ
+    kernel = "gaussian"             # eq. 3.26 | "matern52" | "matern32" | "auto"
     mode = "independent"            # or "separable" (eq. 3.33)
     calibrate = true                # σ̂ scaled so LOO 95 % intervals hold ~95 %
 
@@ -69,6 +70,8 @@ ANALYSIS_METHODS = ("exact", "fourier", "mesh")
 GOALS = ("min", "max")
 COMBINE = ("weighted", "pareto")
 SURROGATE_MODES = ("independent", "separable")
+#: ``[surrogate] kernel``: a correlation family (gp.KERNELS) or per-response choice.
+SURROGATE_KERNELS = ("gaussian", "matern52", "matern32", "auto")
 
 _NAME = re.compile(r"^[A-Za-z_][A-Za-z0-9_.\-]*$")
 _PATH = re.compile(r"^(?:(?P<top>tolerance_um)|cannula\.(?P<ckey>\w+)|"
@@ -146,7 +149,8 @@ class StudyConfig:
     responses : tuple of str — recorded and modelled responses
     workers : int or None — local processes (None: all CPUs)
     cache : str, bool — folder, ``True`` (default folder) or ``False``
-    surrogate : dict — ``nugget``, ``mode``, ``starts``, ``seed``, ``calibrate``
+    surrogate : dict — ``nugget``, ``mode``, ``kernel``, ``starts``, ``seed``,
+        ``calibrate``
     infill : dict — ``rounds`` (most rounds of adding training points at the
         optima, 0: none), ``threshold`` (largest GP error at a verified
         optimum, as a fraction of each response's training range) and
@@ -504,7 +508,7 @@ def config_from_dict(data: Any, *, base_dir: str | Path | None = None,
         cache = str(p if p.is_absolute() or bdir is None else bdir / p)
 
     sg = _table("surrogate", t.get("surrogate", {}), ("nugget", "mode", "starts", "seed",
-                                                      "responses", "calibrate"))
+                                                      "responses", "calibrate", "kernel"))
     calibrate = sg.get("calibrate", False)
     if not isinstance(calibrate, bool):
         raise SpecError(f"surrogate.calibrate = {brief(calibrate)} is not valid; allowed "
@@ -521,6 +525,8 @@ def config_from_dict(data: Any, *, base_dir: str | Path | None = None,
                  "starts": _int("surrogate.starts", sg.get("starts", 12), 1, 1000),
                  "seed": _int("surrogate.seed", sg.get("seed", 0), 0, 2**32 - 1),
                  "calibrate": calibrate,
+                 "kernel": _choice("surrogate.kernel", sg.get("kernel", "gaussian"),
+                                   SURROGATE_KERNELS),
                  "responses": (_responses("surrogate.responses", sg["responses"], responses)
                                if "responses" in sg else responses)}
 

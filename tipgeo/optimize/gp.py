@@ -1,9 +1,17 @@
 r"""Gaussian-process surrogate of thesis §3.4.1 (eq. 3.24–3.33).
 
-Model (constant mean, Gaussian correlation)::
+Model (constant mean, Gaussian correlation by default)::
 
     y(x) = β + ξ₀(x),   cov(ξ₀(x), ξ₀(x′)) = σ² r(x, x′),
-    r(x, x′) = exp(−Σᵢ 10^ωᵢ (xᵢ − x′ᵢ)²)                       (eq. 3.26)
+    h² = Σᵢ 10^ωᵢ (xᵢ − x′ᵢ)²,
+    r = exp(−h²)                                    gaussian  (eq. 3.26)
+    r = (1 + √5 h + 5h²/3) exp(−√5 h)               matern52
+    r = (1 + √3 h) exp(−√3 h)                       matern32
+
+The Matérn correlations (ν = 5/2, 3/2; twice and once differentiable paths)
+are options beside the thesis's Gaussian for responses with kinks (a min or
+max over the edge changes where it is attained); they share ω, so ℓᵢ =
+10^(−ωᵢ/2) is their length scale (:func:`length_scales`).
 
 fitted by maximum likelihood with β and σ² profiled out (eq. 3.28–3.29), so
 that ω (and the nugget δ, when it is fitted) minimise
@@ -46,19 +54,53 @@ import numpy as np
 from ..errors import SpecError
 from ..tolerances import tol
 
-__all__ = ["GaussianProcess", "FitResult", "length_scales", "Z95"]
+__all__ = ["GaussianProcess", "FitResult", "KERNELS", "length_scales", "Z95"]
+
+#: Correlation families (see the module docstring); ``gaussian`` is eq. 3.26.
+KERNELS = ("gaussian", "matern52", "matern32")
 
 #: Two-sided 95 % normal quantile (eq. 3.31–3.32 intervals).
 Z95 = 1.959963984540054
 _LN10 = math.log(10.0)
 
 
-def length_scales(omega) -> np.ndarray:
-    """RBF length scales ℓᵢ = 1/√(2·10^ωᵢ) equivalent to the roughness ω of eq. 3.26.
+def length_scales(omega, kernel: str = "gaussian") -> np.ndarray:
+    """Length scales ℓᵢ equivalent to the roughness ω, as scikit-learn's kernels
+    define them (same units as the GP's inputs).
 
-    ``exp(−10^ω Δ²) = exp(−Δ² / (2ℓ²))``; same units as the GP's inputs.
+    Gaussian: ``exp(−10^ω Δ²) = exp(−Δ² / (2ℓ²))``, ℓ = 1/√(2·10^ω) (RBF);
+    Matérn: h = |Δ|/ℓ, ℓ = 10^(−ω/2).
     """
-    return 1.0 / np.sqrt(2.0 * 10.0 ** np.asarray(omega, float))
+    w = 10.0 ** np.asarray(omega, float)
+    return 1.0 / np.sqrt(2.0 * w) if kernel == "gaussian" else 1.0 / np.sqrt(w)
+
+
+def correlation(h2, kernel: str = "gaussian"):
+    """Correlation r and its derivative dr/d(h²) at squared scaled distances h².
+
+    Parameters
+    ----------
+    h2 : float array — h² = Σᵢ 10^ωᵢ Δᵢ² (dimensionless)
+    kernel : one of :data:`KERNELS`
+
+    Returns
+    -------
+    r, dr_dh2 : arrays of h2's shape
+    """
+    h2 = np.maximum(h2, 0.0)
+    if kernel == "gaussian":
+        r = np.exp(-h2)
+        return r, -r
+    h = np.sqrt(h2)
+    if kernel == "matern52":
+        s5h = math.sqrt(5.0) * h
+        e = np.exp(-s5h)
+        return (1.0 + s5h + 5.0 * h2 / 3.0) * e, -(5.0 / 6.0) * (1.0 + s5h) * e
+    if kernel == "matern32":
+        s3h = math.sqrt(3.0) * h
+        e = np.exp(-s3h)
+        return (1.0 + s3h) * e, -1.5 * e
+    raise SpecError(f"kernel = {kernel!r} is not valid; expected one of: {', '.join(KERNELS)}")
 
 
 @dataclass(frozen=True)
@@ -68,7 +110,7 @@ class FitResult:
     Attributes
     ----------
     omega : (d,) float — roughness parameters ω (eq. 3.26), log10 units
-    nugget : float — δ (0 when off)
+    nugget : float — δ (0 when off); the noise variance is δ·σ̂²
     beta : (q,) float — constant means β̂ (eq. 3.28), response units
     sigma : (q, q) float — process covariance Σ̂ (σ̂² when q = 1, eq. 3.29)
     objective : float — L at the optimum (eq. 3.30; lower is better)
@@ -85,13 +127,17 @@ class FitResult:
 
 @dataclass
 class GaussianProcess:
-    """Constant-mean GP with the Gaussian correlation of eq. 3.26.
+    """Constant-mean GP with the Gaussian correlation of eq. 3.26 (or a Matérn).
 
     Parameters
     ----------
+    kernel : str
+        Correlation family, one of :data:`KERNELS` (default ``gaussian``,
+        eq. 3.26).
     nugget : bool or float
         ``False`` (default): interpolate (δ = 0). A number: that δ, fixed.
-        ``True``: δ fitted by MLE with log10 δ in ``nugget_bounds``.
+        ``True``: δ fitted by MLE with log10 δ in ``nugget_bounds``. δ is
+        relative to σ²: C_δ = C + δ I, so the noise variance is δ·σ̂².
     separable : bool
         Fit several responses (Y of shape (n, q)) jointly with the separable
         covariance Σ ⊗ r of eq. 3.33: one ω, a mean per response. Otherwise Y
@@ -119,6 +165,7 @@ class GaussianProcess:
 
     nugget: bool | float = False
     separable: bool = False
+    kernel: str = "gaussian"
     starts: int = 12
     omega_bounds: tuple[float, float] = (-20.0, 5.0)
     start_box: tuple[float, float] = (-2.0, 3.0)
@@ -136,6 +183,9 @@ class GaussianProcess:
         else:
             raise SpecError(f"nugget = {self.nugget!r} is not valid; allowed false, true or a "
                             "number 0 ≤ δ < 1")
+        if self.kernel not in KERNELS:
+            raise SpecError(f"kernel = {self.kernel!r} is not valid; expected one of: "
+                            f"{', '.join(KERNELS)}")
         if not isinstance(self.starts, int) or isinstance(self.starts, bool) \
                 or not 1 <= self.starts <= 1000:
             raise SpecError(f"starts = {self.starts!r} is out of range; allowed an integer "
@@ -199,11 +249,11 @@ class GaussianProcess:
         self._set(omega, delta)
         return self
 
-    def _corr(self, omega, delta):
-        C = np.exp(-np.tensordot(10.0 ** omega, self._D, axes=1))
+    def _corr(self, omega, delta, *, deriv: bool = False):
+        C, dC = correlation(np.tensordot(10.0 ** omega, self._D, axes=1), self.kernel)
         if delta:
             C = C + delta * np.eye(len(C))
-        return C
+        return (C, dC) if deriv else C
 
     def _delta(self, theta):
         d = self.X_.shape[1]
@@ -230,7 +280,7 @@ class GaussianProcess:
         n, q = self.Y_.shape
         d = len(omega)
         bad = (_BAD, np.zeros(d), 0.0)
-        C = self._corr(omega, delta)
+        C, dC = self._corr(omega, delta, deriv=True)
         Lc, info = lapack.dpotrf(C, lower=1, clean=1)
         if info != 0:
             return bad
@@ -259,8 +309,7 @@ class GaussianProcess:
         # dL = tr(W dC) with W = q C⁻¹ − A Σ̂⁻¹ Aᵀ (β̂, Σ̂ at their optimum)
         Ci, _ = lapack.dpotrs(Lc, np.eye(n), lower=1)
         W = q * Ci - A @ np.linalg.solve(S, A.T)
-        C0 = C - delta * np.eye(n) if delta else C
-        g = np.array([np.sum(W * (-_LN10 * 10.0 ** omega[k] * self._D[k] * C0))
+        g = np.array([np.sum(W * (_LN10 * 10.0 ** omega[k] * self._D[k] * dC))
                       for k in range(d)])
         return L, g, float(_LN10 * delta * np.trace(W))
 
@@ -309,7 +358,7 @@ class GaussianProcess:
         if self.fit_ is None:
             raise SpecError("the GP is not fitted; call fit(X, Y) first")
 
-    def predict(self, Xs, *, return_std: bool = False):
+    def predict(self, Xs, *, return_std: bool = False, noise: bool = False):
         """Predictive mean (eq. 3.31) and standard deviation (√ of eq. 3.32).
 
         Parameters
@@ -319,8 +368,9 @@ class GaussianProcess:
         Returns
         -------
         mean : (m,) or (m, q) float
-        std : same shape, when ``return_std`` — of the latent response (the
-            nugget's noise is not added)
+        std : same shape, when ``return_std`` — of the latent response, or
+            with ``noise`` of a new observation (the nugget's noise variance
+            δ·σ̂² added; the same as the latent one when δ = 0)
         """
         from scipy.linalg import cho_solve
 
@@ -328,7 +378,7 @@ class GaussianProcess:
         Xs = np.atleast_2d(np.asarray(Xs, float))
         f = self.fit_
         diff2 = (Xs[:, None, :] - self.X_[None, :, :]) ** 2  # (m, n, d)
-        r = np.exp(-(diff2 @ (10.0 ** f.omega)))  # (m, n)
+        r, _ = correlation(diff2 @ (10.0 ** f.omega), self.kernel)  # (m, n)
         mean = f.beta + r @ self._A
         if self._vector:
             mean = mean[:, 0]
@@ -337,6 +387,8 @@ class GaussianProcess:
         Cir = cho_solve(self._cf, r.T)  # (n, m)
         h = 1.0 - self._Ci1 @ r.T
         unit = 1.0 - np.einsum("mn,nm->m", r, Cir) + h ** 2 / self._one_Ci1
+        if noise:
+            unit = unit + f.nugget
         var = np.maximum(unit, 0.0)[:, None] * np.diag(f.sigma)[None, :]
         std = np.sqrt(var)
         return mean, (std[:, 0] if self._vector else std)

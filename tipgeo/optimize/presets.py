@@ -63,9 +63,13 @@ cache = true
 [surrogate]
 nugget = false
 mode = "independent"
+# Matérn 5/2, not the thesis's Gaussian (eq. 3.26): the min/max-over-the-edge
+# responses have kinks, and on 250 held-out 1° grid points the Gaussian's 95 %
+# intervals held 56–80 % of them, the Matérn 5/2's 90–98 % (README).
+kernel = "matern52"
 starts = 12
 seed = 0
-calibrate = true      # σ̂ per response scaled so the LOO 95 % intervals hold ~95 %
+calibrate = false     # true: σ̂ scaled so the LOO 95 % intervals hold ~95 % by construction
 
 # Each optimum is built and analysed for real; while the GP misses any of the
 # objectives' responses there by more than 1 % of its training range, that

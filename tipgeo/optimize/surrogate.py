@@ -13,9 +13,9 @@ from typing import Any
 import numpy as np
 
 from ..errors import SpecError
-from .gp import Z95, GaussianProcess
+from .gp import KERNELS, Z95, GaussianProcess
 
-__all__ = ["Surrogate", "fit_surrogate"]
+__all__ = ["Surrogate", "fit_surrogate", "loo_log_density"]
 
 
 @dataclass
@@ -28,6 +28,15 @@ class Surrogate:
     responses : sequence of str — response names (columns of Y)
     mode : ``independent`` (one GP per response) | ``separable`` (eq. 3.33)
     nugget : False | True | float — see :class:`~tipgeo.optimize.gp.GaussianProcess`
+        (with a nugget, intervals are for a new analysis: its noise δ·σ̂² is
+        included, as in the LOO intervals)
+    kernel : str
+        Correlation family of every model (``gaussian``, eq. 3.26;
+        ``matern52``; ``matern32``), or ``auto``: each response (the one
+        separable model) gets the family with the highest leave-one-out log
+        predictive density Σᵢ log N(yᵢ; ŷ₋ᵢ, s₋ᵢ²) — a proper scoring rule, which
+        rewards intervals as wide as the errors, neither wider nor narrower;
+        ties (within 1e-9) go to the earlier family in that list.
     starts, seed : MLE starts and their seed
     variables : sequence of str — variable names (reports only)
     calibrate : bool
@@ -48,6 +57,7 @@ class Surrogate:
     responses: list
     mode: str = "independent"
     nugget: bool | float = False
+    kernel: str = "gaussian"
     starts: int = 12
     seed: int = 0
     variables: list = field(default_factory=list)
@@ -62,6 +72,9 @@ class Surrogate:
         if self.mode not in ("independent", "separable"):
             raise SpecError(f"mode = {self.mode!r} is not valid; expected one of: "
                             "independent, separable")
+        if self.kernel not in (*KERNELS, "auto"):
+            raise SpecError(f"kernel = {self.kernel!r} is not valid; expected one of: "
+                            f"{', '.join((*KERNELS, 'auto'))}")
         self.responses = list(self.responses)
         self.variables = list(self.variables) or [f"x{k}" for k in range(len(b))]
 
@@ -89,18 +102,32 @@ class Surrogate:
                     "constant over the training set (Σ̂ of eq. 3.33 would be singular; e.g. "
                     "theta_max = 180 − theta_min); choose independent responses or "
                     "mode = 'independent'")
-            init = [warm.models[0].fit_.omega] if warm is not None else None
-            self.models = [GaussianProcess(separable=True, **kw).fit(U, Y, init=init)]
+            self.models = [self._fit_one(U, Y, None if warm is None else warm.models[0],
+                                         separable=True, **kw)]
         else:
-            self.models = [GaussianProcess(**kw).fit(
-                U, Y[:, j], init=None if warm is None else [warm.models[j].fit_.omega])
-                for j in range(Y.shape[1])]
+            self.models = [self._fit_one(U, Y[:, j], None if warm is None else warm.models[j],
+                                         **kw) for j in range(Y.shape[1])]
         self.scale_ = np.ones(Y.shape[1])
         if self.calibrate:
             res, std = self._loo_raw()
             self.scale_ = np.array([_interval_scale(res[:, j], std[:, j])
                                     for j in range(Y.shape[1])])
         return self
+
+    def _fit_one(self, U, y, warm, **kw) -> GaussianProcess:
+        """One model; with ``kernel = 'auto'`` the family of highest LOO log
+        predictive density (a warm start's own family is tried with its ω)."""
+        fams = KERNELS if self.kernel == "auto" else (self.kernel,)
+        best, best_lpd = None, -np.inf
+        for fam in fams:
+            init = [warm.fit_.omega] if warm is not None and warm.kernel == fam else None
+            m = GaussianProcess(kernel=fam, **kw).fit(U, y, init=init)
+            if len(fams) == 1:
+                return m
+            lpd = loo_log_density(*m.loo())
+            if lpd > best_lpd + 1e-9:
+                best, best_lpd = m, lpd
+        return best
 
     def _loo_raw(self):
         if self.mode == "separable":
@@ -109,12 +136,13 @@ class Surrogate:
         return np.column_stack([p[0] for p in pairs]), np.column_stack([p[1] for p in pairs])
 
     def predict(self, X, *, return_std: bool = False):
-        """Mean (m, q) and, with ``return_std``, standard deviation (m, q)."""
+        """Mean (m, q) and, with ``return_std``, standard deviation (m, q) of a
+        new analysis at X (the nugget's noise included when there is one)."""
         U = self.unit(X)
         if self.mode == "separable":
-            out = self.models[0].predict(U, return_std=return_std)
+            out = self.models[0].predict(U, return_std=return_std, noise=True)
             return (out[0], out[1] * self.scale_) if return_std else out
-        outs = [m.predict(U, return_std=return_std) for m in self.models]
+        outs = [m.predict(U, return_std=return_std, noise=True) for m in self.models]
         if not return_std:
             return np.column_stack(outs)
         return (np.column_stack([o[0] for o in outs]),
@@ -132,7 +160,9 @@ class Surrogate:
         -------
         name -> ``rmse`` and ``max_abs`` (response units), ``nrmse`` (rmse /
         standard deviation of the training responses; < 0.1 is a good model),
-        ``coverage95`` (fraction of points inside their LOO 95 % interval).
+        ``coverage95`` (fraction of points inside their LOO 95 % interval),
+        ``log_density`` (Σᵢ log N(yᵢ; ŷ₋ᵢ, s₋ᵢ²), the LOO log predictive
+        density; higher is better), ``kernel``, ``interval_scale``.
         """
         res, std = self._loo_raw()
         std = std * self.scale_
@@ -144,9 +174,18 @@ class Surrogate:
             out[name] = {"rmse": rmse, "max_abs": float(np.max(np.abs(r))),
                          "nrmse": rmse / sd_y if sd_y > 0 else float("nan"),
                          "coverage95": float(np.mean(np.abs(r) <= Z95 * std[:, j])),
+                         "log_density": loo_log_density(r, std[:, j]),
+                         "kernel": self.kernels[j],
                          "interval_scale": float(self.scale_[j])}
         self.loo_residuals_, self.loo_std_ = res, std
         return out
+
+    @property
+    def kernels(self) -> list[str]:
+        """Correlation family per response (after ``auto`` chose)."""
+        if self.mode == "separable":
+            return [self.models[0].kernel] * len(self.responses)
+        return [m.kernel for m in self.models]
 
     def to_dict(self) -> dict[str, Any]:
         """Hyperparameters per model: ω (unit-box inputs), ℓ, δ, β̂, Σ̂."""
@@ -156,15 +195,25 @@ class Surrogate:
         names = [self.responses] if self.mode == "separable" else [[r] for r in self.responses]
         for m, resp in zip(self.models, names):
             f = m.fit_
-            models.append({"responses": resp, "omega": f.omega.tolist(),
-                           "length_scales_unit": length_scales(f.omega).tolist(),
-                           "length_scales": (length_scales(f.omega) * self._span).tolist(),
+            ls = length_scales(f.omega, m.kernel)
+            models.append({"responses": resp, "kernel": m.kernel, "omega": f.omega.tolist(),
+                           "length_scales_unit": ls.tolist(),
+                           "length_scales": (ls * self._span).tolist(),
                            "nugget": f.nugget, "beta": f.beta.tolist(),
                            "sigma": f.sigma.tolist(), "neg_log_likelihood_L": f.objective})
-        return {"mode": self.mode, "variables": self.variables, "calibrate": self.calibrate,
+        return {"mode": self.mode, "variables": self.variables, "kernel": self.kernel,
+                "calibrate": self.calibrate,
                 "interval_scale": dict(zip(self.responses, self.scale_.tolist())),
                 "bounds": np.column_stack([self._lo, self._lo + self._span]).tolist(),
                 "models": models}
+
+
+def loo_log_density(res, std) -> float:
+    """Σᵢ log N(resᵢ; 0, stdᵢ²): the leave-one-out log predictive density of
+    residuals ``res`` with predictive standard deviations ``std`` (same units)."""
+    res = np.asarray(res, float)
+    std = np.maximum(np.asarray(std, float), np.finfo(float).tiny)
+    return float(np.sum(-0.5 * (res / std) ** 2 - np.log(std) - 0.5 * np.log(2 * np.pi)))
 
 
 def _interval_scale(res: np.ndarray, std: np.ndarray) -> float:
@@ -200,6 +249,7 @@ def fit_surrogate(sweep, *, responses=None) -> Surrogate:
         raise SpecError(f"sweep '{cfg.name}': {int(ok.sum())} of {len(ok)} configurations "
                         "succeeded; the surrogate needs at least 2 (see the failures)")
     s = Surrogate(bounds=cfg.bounds, responses=names, mode=sg["mode"], nugget=sg["nugget"],
+                  kernel=sg.get("kernel", "gaussian"),
                   starts=sg["starts"], seed=sg["seed"], variables=[v.name for v in cfg.variables],
                   calibrate=sg.get("calibrate", False))
     return s.fit(sweep.X[ok], sweep.responses(names)[ok])

@@ -145,8 +145,11 @@ def test_mesh_path_on_a_built_tip_agrees_with_exact():
     # the mesh path fits eq. 3.12's five harmonics: on the calibrated edge the
     # series itself is up to ~11 µm off the exact edge (test_helical_example)
     assert np.abs(me.outer.at(G)["z"] - ex.outer.at(G)["z"]).max() < 15e-3
-    # facet normals of a curved surface: measured 0.11° at the default tolerance
-    assert maxdeg(me.outer.at(G)["theta"], ex.outer.at(G)["theta"]) < 0.2
+    # facet normals of a curved surface meshed to a chordal error e are off by
+    # up to about sqrt(2 κ e): measured 0.32° (near γ = 120°) at the default
+    # tolerance since the helicoid's grid is held to the tolerance along the
+    # surface normal (issue 13; the finer grid before read 0.11°)
+    assert maxdeg(me.outer.at(G)["theta"], ex.outer.at(G)["theta"]) < 0.4
 
 
 # -- helical, serrations -------------------------------------------------------------

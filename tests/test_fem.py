@@ -349,6 +349,8 @@ def test_axisymmetric_within_20_percent_of_3d_for_the_punch(build_preset, tmp_pa
     (["--depth-mm", "1", "--friction", "-0.1"], "--friction"),
     (["--depth-mm", "6"], "depth = 6 mm"),
     (["--depth-mm", "1", "--stress-at-mm", "2"], "--stress-at-mm"),
+    (["--depth-mm", "0.5", "--cut", "erosion", "--abaqus"], "erosion"),
+    (["--depth-mm", "0.2", "--cut", "erosion", "--model", "3d"], "axisymmetric model only"),
 ])
 def test_cli_bad_input_exit_2(tmp_path, capsys, args, word):
     from tipgeo.cli import main

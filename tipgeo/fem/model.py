@@ -22,7 +22,7 @@ from typing import Any
 
 import numpy as np
 
-from ..errors import FemError
+from ..errors import SpecError
 from .material import FemMaterial
 
 __all__ = ["ElementBlock", "FemModel", "FACE_NODES", "boundary_faces"]
@@ -285,7 +285,7 @@ class FemModel:
         with stabilisation (as B2). Not for erosion models (``stages``):
         Abaqus remeshes adaptively instead, as the thesis did."""
         if self.stages:
-            raise FemError("the Abaqus deck is not written for the erosion cut (Abaqus "
+            raise SpecError("the Abaqus deck is not written for the erosion cut (Abaqus "
                            "remeshes adaptively instead, as the thesis did); drop --abaqus "
                            "or --cut erosion")
         o = ["*Heading\n", f"tipgeo {self.kind} needle insertion: {self.name}\n", self.header(),

@@ -65,7 +65,8 @@ def cmd_fem(args) -> int:
     res = run_fem(spec, model=args.model, depth=depth, out_dir=args.output,
                   tissue=args.tissue, friction=friction, mesh=_um("--mesh-um", args.mesh_um),
                   deck_only=args.deck_only, abaqus=args.abaqus, time_limit_s=limit,
-                  output_depths=outs, progress=say)
+                  output_depths=outs, progress=say,
+                  **({} if args.cut == "none" else {"cut": args.cut}))
     d = res.to_dict()
     if args.json:
         print(_dumps(d))
@@ -91,6 +92,7 @@ def cmd_fem(args) -> int:
 
 def register(sub) -> None:
     """Add ``fem`` to the ``tipgeo`` sub-command parsers."""
+    from ..fem.axisym import CUTS
     from ..fem.study import MODEL_KINDS
     from ..mechanics import tissue_names
 
@@ -118,6 +120,9 @@ def register(sub) -> None:
     f.add_argument("--convergence", type=float, nargs=3, default=None,
                    metavar=("UM1", "UM2", "UM3"),
                    help="mesh-convergence study: three element sizes (µm), coarse to fine")
+    f.add_argument("--cut", choices=CUTS, default="none",
+                   help="axisymmetric: 'erosion' removes the tissue under the needle's front "
+                        "layer by layer as it advances (a predefined cut path; default none)")
     f.add_argument("--deck-only", action="store_true", help="write the decks, do not run ccx")
     f.add_argument("--abaqus", action="store_true", help="also write the Abaqus deck")
     f.add_argument("--time-limit-s", type=float, default=1800.0, metavar="S",

@@ -19,10 +19,13 @@ from ..tip import Tip
 from ..tolerances import tol
 from .material import DEFAULT_NU, fem_material, friction_coefficient
 from .mesh import mesh_2d
-from .model import ElementBlock, FemModel, boundary_faces
+from .model import FACE_NODES, ElementBlock, FemModel, boundary_faces
 from .profile import clip_profile, round_corners, wall_profile
 
-__all__ = ["axisymmetric_model", "BLOCK_2D", "AXISYMMETRIC_FORCE_SCALE"]
+__all__ = ["axisymmetric_model", "BLOCK_2D", "AXISYMMETRIC_FORCE_SCALE", "CUTS"]
+
+#: Cut models of the axisymmetric insertion (see ``cut``).
+CUTS = ("none", "erosion")
 
 #: Block radius and height of the thesis's 2D model (§4.4.1.2), mm.
 BLOCK_2D = (7.0, 7.0)
@@ -56,7 +59,8 @@ def axisymmetric_model(tip: Tip, *, depth: float, tissue: str = "pvc-sp0",
                        penalty_factor: float = 50.0, edge_radius: float = EDGE_RADIUS,
                        contact: str = "node", nose_refine: float = 1.0,
                        far: float | None = None,
-                       contact_stiffness: float | None = None) -> FemModel:
+                       contact_stiffness: float | None = None, cut: str = "none",
+                       cut_step: float | None = None, cut_lead: int = 1) -> FemModel:
     """The axisymmetric insertion model of ``tip`` pushed ``depth`` into a
     tissue block.
 
@@ -89,6 +93,20 @@ def axisymmetric_model(tip: Tip, *, depth: float, tissue: str = "pvc-sp0",
     contact_stiffness : float, optional — the penalty stiffness itself,
         MPa/mm (overrides ``penalty_factor``; a convergence study holds it
         fixed so that only the mesh changes)
+    cut : ``none`` (one continuous block: the tissue under the needle's
+        front can only wrap around it — the thesis's Abaqus model remeshes
+        adaptively, CalculiX cannot, so its elements there crush within
+        about 1 mm) | ``erosion`` (a predefined cut path with element
+        deletion: the column of tissue between the front's inner and outer
+        radii is a structured mesh of layers ``cut_step`` thick; the needle
+        advances ``cut_step`` per step and each step first removes the
+        layers the front has reached, ``*MODEL CHANGE``, and moves the
+        needle's contact onto the faces that become exposed)
+    cut_step : float, optional — erosion: needle advance per step and layer
+        thickness, mm (default ``mesh``)
+    cut_lead : int — erosion: step k (front from d_(k−1) to d_k) removes the
+        layers whose top lies above d_(k−1) + ``cut_lead`` layers (0: only
+        the layers the front has passed; 1: also the one it enters)
 
     Returns
     -------
@@ -129,8 +147,22 @@ def axisymmetric_model(tip: Tip, *, depth: float, tissue: str = "pvc-sp0",
     # the tissue that wraps the needle's front: finer still (h / nose_refine)
     h_nose = h / nose_refine
     nose = (r_lo - 2 * h, r_hi + 2 * h, -3 * h, h_nose)
+    if cut not in CUTS:
+        raise SpecError(f"cut = {cut!r} is not valid; expected one of: " + ", ".join(CUTS))
+    column = None
+    if cut == "erosion":
+        dz = h if cut_step is None else v.real("cut_step", cut_step, lo=0.001, hi=depth,
+                                               unit="mm")
+        lead = int(v.real("cut_lead", cut_lead, lo=0, hi=3))
+        tip_pts = needle[needle[:, 1] <= r_e + tol.fem.profile]
+        r_a, r_b = float(tip_pts[:, 0].min()), float(tip_pts[:, 0].max())
+        n_y = int(np.ceil(depth / dz - 1e-9)) + 2
+        if n_y * dz >= 0.9 * H:
+            raise SpecError(f"the cut path to depth {n_y * dz:g} mm does not fit the block "
+                            f"height {H:g} mm")
+        column = (r_a, r_b, -n_y * dz, max(2, int(np.ceil((r_b - r_a) / h - 1e-9))), n_y)
     nodes, parts = mesh_2d(needle, block=(R, H), boxes=[(box, h), (nose, h_nose)],
-                           h_far=h_far, grade=grade)
+                           h_far=h_far, grade=grade, column=column)
     blocks, eid = [], 1
     for part in ("tissue", "needle"):
         for et, conn in sorted(parts[part].items()):
@@ -169,13 +201,78 @@ def axisymmetric_model(tip: Tip, *, depth: float, tissue: str = "pvc-sp0",
             "inner_diameter_mm": 2 * float(prof[:, 0].min()),
             "_needle_section": needle.tolist(), "contact": contact, "nu": nu, "friction": mu,
             "friction_source": mu_src}
+    surfaces, stages, node_surfaces = {"TISSUE": top, "NEEDLE": master}, (), {}
+    if column is not None:
+        stages, node_surfaces = _erosion_stages(nodes, tb, column, dz, lead, depth, out,
+                                                surfaces, eps)
+        info.update({"cut": cut, "cut_step_um": round(dz * 1e3, 6), "cut_lead": lead,
+                     "cut_r_mm": [column[0], column[1]], "steps": len(stages)})
     return FemModel(kind="axisymmetric", name=info["tip"], nodes=nodes, blocks=blocks,
-                    nsets=nsets, fixed={"BASE": (1, 2), "AXIS": (1,)},
-                    surfaces={"TISSUE": top, "NEEDLE": master}, material=mat, friction=mu,
+                    nsets=nsets, fixed={"BASE": (1, 2), "AXIS": (1,)}, stages=stages,
+                    node_surfaces=node_surfaces,
+                    surfaces=surfaces, material=mat, friction=mu,
                     depth=depth, penalty=penalty_factor * mat.E0 / h if contact_stiffness is None
                     else v.real("contact_stiffness", contact_stiffness, lo=0.0, lo_open=True,
                                 unit="MPa/mm"),
                     force_scale=AXISYMMETRIC_FORCE_SCALE,
                     increments=(min(dmax, depth / 50) / depth, 1e-6, dmax / depth),
-                    output_depths=out, contact=contact, slave="needle", info=info)
+                    output_depths=out, contact=contact,
+                    slave="tissue" if stages else "needle", info=info)
 
+
+
+def _erosion_stages(nodes, tb, column, dz, lead, depth, out, surfaces, eps):
+    """The steps of the erosion model (see :class:`~tipgeo.fem.model.FemModel`
+    ``stages``) and its node surfaces: ``TISSUE`` (the block's top outside
+    the cut column and the column's walls, which are never removed; it takes
+    the place of the element surface ``TISSUE`` in ``surfaces``) and
+    ``EXPOSED<n>``, the inner nodes of the top of layer n (0 at the top),
+    the contact of the steps after n layers are gone."""
+    r_a, r_b, y_b = column[:3]
+    cid, layer = [], []
+    faces = []  # (element, face, node ids) of every tissue element
+    for b in tb:
+        for f, loc in enumerate(FACE_NODES[b.etype], 1):
+            for e, row in zip(b.ids.tolist(), b.conn[:, loc].tolist()):
+                faces.append((e, f, row))
+        c = nodes[b.conn - 1].mean(axis=1)
+        inside = (c[:, 0] > r_a) & (c[:, 0] < r_b) & (c[:, 1] > y_b)
+        cid += b.ids[inside].tolist()
+        layer += np.floor(-c[inside, 1] / dz).astype(int).tolist()
+    col = set(cid)
+    layer_of = dict(zip(cid, layer))
+    xy = nodes
+    top_of, walls = {}, []
+    for e, f, ns in faces:
+        p = xy[np.asarray(ns) - 1]
+        if e in col:
+            y_top = -layer_of[e] * dz
+            if np.all(np.abs(p[:, 1] - y_top) <= eps * 10):
+                top_of[e] = f
+        elif np.all(np.abs(p[:, 0] - r_a) <= eps * 10) or np.all(np.abs(p[:, 0] - r_b)
+                                                                 <= eps * 10):
+            if np.all(p[:, 1] >= y_b - eps):
+                walls.append((e, f, float(p[:, 1].min())))
+    # every contact of the erosion model has the tissue's nodes slave to the
+    # needle's faces: the block's top and the cut's walls (never removed),
+    # and each step the nodes of the layer top it exposes
+    keep = {(e, f) for e, f in surfaces.pop("TISSUE") if e not in col} | {
+        (e, f) for e, f, _ in walls}
+    kept = [ns for e, f, ns in faces if (e, f) in keep]
+    wall_nodes = np.unique(np.asarray(kept, dtype=int))
+    node_surfaces = {"TISSUE": wall_nodes}
+    ends = sorted({round(min(k * dz, depth), 12) for k in range(1, int(np.ceil(
+        depth / dz - 1e-9)) + 1)} | {round(d, 12) for d in out})
+    stages, gone, prev = [], 0, 0.0
+    for d in ends:
+        n_gone = max(gone, int(np.ceil((prev + lead * dz) / dz - 1e-9)))
+        removed = np.array(sorted(e for e in cid if gone <= layer_of[e] < n_gone), dtype=int)
+        name = f"EXPOSED{n_gone}"
+        if name not in node_surfaces:
+            exposed = [ns for e, f, ns in faces if e in top_of and top_of[e] == f
+                       and layer_of[e] == n_gone]
+            node_surfaces[name] = np.setdiff1d(np.unique(np.asarray(exposed, dtype=int)),
+                                               wall_nodes)
+        stages.append((d, removed, name))
+        gone, prev = n_gone, d
+    return tuple(stages), node_surfaces

@@ -74,7 +74,8 @@ def _elements_2d(gmsh, tag: int) -> dict[str, tuple[np.ndarray, np.ndarray]]:
 
 
 def mesh_2d(needle: np.ndarray, *, block: tuple[float, float], boxes,
-            h_far: float, grade: float
+            h_far: float, grade: float,
+            column: tuple[float, float, float, int, int] | None = None
             ) -> tuple[np.ndarray, dict[str, dict[str, np.ndarray]]]:
     """Mesh the axisymmetric tissue block [0, R] × [−H, 0] with quadrilaterals
     (triangles where recombination leaves them) and the needle polygon with
@@ -87,20 +88,39 @@ def mesh_2d(needle: np.ndarray, *, block: tuple[float, float], boxes,
     boxes : list of ((xmin, xmax, ymin, ymax), h) — fine zones and their
         element sizes, mm
     h_far, grade : float — far size and grading distance, mm
+    column : (r_a, r_b, y_b, n_r, n_y), optional — a structured column of
+        the tissue, [r_a, r_b] × [y_b, 0], meshed with n_r × n_y equal
+        quadrilaterals (the cut path of an erosion model), its nodes shared
+        with the rest of the block
 
     Returns
     -------
     nodes : (N, 2) float — mm; node i is row i − 1
     parts : {'tissue': {etype: (m, k) node numbers}, 'needle': {...}},
-        counter-clockwise elements
+        counter-clockwise elements; with ``column`` also 'column':
+        {'CAX4': (n_r n_y, 4)} — the column's elements (also in 'tissue')
     """
     R, H = block
     with gmsh_session() as gmsh:
         geo = gmsh.model.geo
         _size_field(gmsh, boxes, h_far, grade)
-        c = [geo.addPoint(*p, 0.0) for p in ((0, -H), (R, -H), (R, 0), (0, 0))]
-        tl = geo.addCurveLoop([geo.addLine(c[i], c[(i + 1) % 4]) for i in range(4)])
-        ts = geo.addPlaneSurface([tl])
+        cs = None
+        if column is None:
+            c = [geo.addPoint(*p, 0.0) for p in ((0, -H), (R, -H), (R, 0), (0, 0))]
+            tl = geo.addCurveLoop([geo.addLine(c[i], c[(i + 1) % 4]) for i in range(4)])
+            ts = geo.addPlaneSurface([tl])
+        else:
+            ra, rb, yb, n_r, n_y = column
+            c = [geo.addPoint(*p, 0.0) for p in ((0, -H), (R, -H), (R, 0), (rb, 0), (rb, yb),
+                                                 (ra, yb), (ra, 0), (0, 0))]
+            ln = [geo.addLine(c[i], c[(i + 1) % 8]) for i in range(8)]
+            ts = geo.addPlaneSurface([geo.addCurveLoop(ln)])
+            top = geo.addLine(c[6], c[3])
+            cs = geo.addPlaneSurface([geo.addCurveLoop([top, ln[3], ln[4], ln[5]])])
+            for line, n in ((top, n_r), (ln[4], n_r), (ln[3], n_y), (ln[5], n_y)):
+                geo.mesh.setTransfiniteCurve(line, n + 1)
+            geo.mesh.setTransfiniteSurface(cs)
+            geo.mesh.setRecombine(2, cs)
         q = [geo.addPoint(x, y, 0.0) for x, y in needle]
         nl = geo.addCurveLoop([geo.addLine(q[i], q[(i + 1) % len(q)]) for i in range(len(q))])
         ns = geo.addPlaneSurface([nl])
@@ -113,6 +133,13 @@ def mesh_2d(needle: np.ndarray, *, block: tuple[float, float], boxes,
         tags = np.asarray(tags, dtype=np.int64)
         xyz = np.asarray(xyz).reshape(-1, 3)[:, :2]
         parts = {"tissue": _elements_2d(gmsh, ts), "needle": _elements_2d(gmsh, ns)}
+        if cs is not None:
+            col = _elements_2d(gmsh, cs)
+            if set(col) != {"CAX4"}:
+                raise FemError("gmsh left triangles in the structured cut column")
+            parts["column"] = col
+            parts["tissue"]["CAX4"] = np.vstack([parts["tissue"].get(
+                "CAX4", np.zeros((0, 4), dtype=np.int64)), col["CAX4"]])
     # renumber 1..N over the nodes used
     used = np.unique(np.concatenate([c.ravel() for p in parts.values() for c in p.values()]))
     pos = np.full(int(tags.max()) + 1, -1, dtype=np.int64)

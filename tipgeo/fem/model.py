@@ -22,6 +22,7 @@ from typing import Any
 
 import numpy as np
 
+from ..errors import SpecError
 from .material import FemMaterial
 
 __all__ = ["ElementBlock", "FemModel", "FACE_NODES", "boundary_faces"]
@@ -100,6 +101,13 @@ class FemModel:
         ``node`` (node-to-surface)
     info : dict — element size, counts, sources (for reports); keys starting
         with ``_`` hold geometry for pictures
+    stages : tuple of (depth, removed element ids, node surface) — an
+        erosion model's steps: step k pushes the needle to ``depth`` (mm),
+        first removing those tissue elements (``*MODEL CHANGE``) and
+        switching on the contact of that node surface of the tissue (the
+        nodes exposed once they are gone, slave to the needle's faces) in
+        place of the previous one; empty: one step to ``depth``
+    node_surfaces : dict name → (k,) int — node surfaces (``TYPE=NODE``)
     """
 
     kind: str
@@ -119,6 +127,8 @@ class FemModel:
     contact: str = "surface"
     slave: str = "needle"
     info: dict[str, Any] = field(default_factory=dict)
+    stages: tuple[tuple[float, np.ndarray, str], ...] = ()
+    node_surfaces: dict[str, np.ndarray] = field(default_factory=dict)
 
     def public_info(self) -> dict[str, Any]:
         """``info`` without the geometry kept for pictures (keys starting
@@ -208,13 +218,23 @@ class FemModel:
                     f"{self.penalty:.8g}, {1e-3 * self.penalty * h:.6g}, {0.1 * h:.6g}\n"))
         if self.friction > 0:
             o.append(f"*FRICTION\n{self.friction:.6g}, {self.penalty:.8g}\n")
-        o.append("*CONTACT PAIR, INTERACTION=CONTACT, TYPE="
-                 + ("SURFACE TO SURFACE\n" if self.contact == "surface" else "NODE TO SURFACE\n")
+        for name, ids in self.node_surfaces.items():
+            o.append(f"*SURFACE, NAME={name}, TYPE=NODE\n"
+                     + "".join(f"{i}\n" for i in np.asarray(ids).tolist()))
+        kind = "SURFACE TO SURFACE\n" if self.contact == "surface" else "NODE TO SURFACE\n"
+        if self.stages:
+            kind = "NODE TO SURFACE\n"
+        o.append("*CONTACT PAIR, INTERACTION=CONTACT, TYPE=" + kind
                  + ("NEEDLE, TISSUE\n" if self.slave == "needle" else "TISSUE, NEEDLE\n"))
+        masters = list(dict.fromkeys(m for _, _, m in self.stages))
+        o += [f"*CONTACT PAIR, INTERACTION=CONTACT, TYPE=NODE TO SURFACE\n{m}, NEEDLE\n"
+              for m in masters]
         o.append("*BOUNDARY\n" + "".join(f"{ns}, {d}, {d}, 0\n" for ns, dofs in
                                          self.fixed.items() for d in dofs))
         side = [d for d in range(1, self.dim + 1) if d != 2]
         o.append("".join(f"NEEDLE, {d}, {d}, 0\n" for d in side))
+        if self.stages:
+            return "".join(o) + self._erosion_steps(masters)
         o.append("*TIME POINTS, NAME=OUT\n" + "".join(f"{t:.12g}\n" for t in self.step_times()))
         dt0, dtmin, dtmax = self.increments
         o.append("*STEP, NLGEOM, INC=100000\n"
@@ -226,13 +246,48 @@ class FemModel:
                  "*NODE FILE, TIME POINTS=OUT\nU\n*EL FILE, TIME POINTS=OUT\nS\n*END STEP\n")
         return "".join(o)
 
+    @staticmethod
+    def _pair(slave: str) -> str:
+        return f"{slave}, NEEDLE\n"
+
+    def _erosion_steps(self, masters: list[str]) -> str:
+        """The steps of an erosion model (see ``stages``): step times add up
+        to 1 at ``depth``, so total time × depth is the needle's depth."""
+        o, prev_d, prev_m = [], 0.0, None
+        outs = {round(d, 9) for d in self.output_depths} | {round(self.depth, 9)}
+        for k, (d, removed, master) in enumerate(self.stages):
+            period = (d - prev_d) / self.depth
+            o.append("*STEP, NLGEOM, INC=100000\n"
+                     "*CONTROLS, PARAMETERS=TIME INCREMENTATION\n8, 16, 9, 40, 10, 4, , 10\n"
+                     f"*STATIC\n{period:.9g}, {period:.9g}, {1e-5 * period:.6g}, "
+                     f"{period:.9g}\n")
+            if len(removed):
+                o.append("*MODEL CHANGE, TYPE=ELEMENT, REMOVE\n" + self._id_lines(removed))
+            if k == 0:
+                o += [f"*MODEL CHANGE, TYPE=CONTACT PAIR, REMOVE\n{self._pair(m)}"
+                      for m in masters if m != master]
+            elif master != prev_m:
+                o.append(f"*MODEL CHANGE, TYPE=CONTACT PAIR, REMOVE\n{self._pair(prev_m)}"
+                         f"*MODEL CHANGE, TYPE=CONTACT PAIR, ADD\n{self._pair(master)}")
+            o.append(f"*BOUNDARY\nNEEDLE, 2, 2, {-d:.9f}\n")
+            o.append("*NODE PRINT, NSET=NEEDLE, TOTALS=ONLY\nRF\n")
+            f = 1 if round(d, 9) in outs else 0
+            o.append(f"*NODE FILE, FREQUENCY={f}\nU\n*EL FILE, FREQUENCY={f}\nS\n*END STEP\n")
+            prev_d, prev_m = d, master
+        return "".join(o)
+
     def abaqus_deck(self) -> str:
         """The same model as an Abaqus/Standard deck in the layout of the
         thesis's Appendix B: parts ``Tissue`` and ``Needle``, an assembly with
         one instance each, the needle a ``*Rigid Body`` (its boundary as
         RAX2/R3D3 elements) driven through its reference node, a
         ``*Contact Pair`` with the friction coefficient, and one static step
-        with stabilisation (as B2)."""
+        with stabilisation (as B2). Not for erosion models (``stages``):
+        Abaqus remeshes adaptively instead, as the thesis did."""
+        if self.stages:
+            raise SpecError("the Abaqus deck is not written for the erosion cut (Abaqus "
+                           "remeshes adaptively instead, as the thesis did); drop --abaqus "
+                           "or --cut erosion")
         o = ["*Heading\n", f"tipgeo {self.kind} needle insertion: {self.name}\n", self.header(),
              "*Preprint, echo=NO, model=NO, history=NO, contact=NO\n"]
         tissue = [b for b in self.blocks if b.part == "tissue"]

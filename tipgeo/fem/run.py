@@ -150,14 +150,14 @@ def run_ccx(job: str | Path, *, time_limit_s: float = 600.0, threads: int = 1,
                     done = [r for r in read_sta(job.with_suffix(".sta")) if r[3]]
                     if len(done) > seen:
                         seen = len(done)
-                        progress(done[-1][6], seen)
+                        progress(done[-1][5], seen)
                 if time.monotonic() - t0 > time_limit_s:
                     os.killpg(proc.pid, signal.SIGKILL)
                     proc.wait()
                     done = [r for r in read_sta(job.with_suffix(".sta")) if r[3]]
-                    last = done[-1][6] if done else 0.0
+                    last = done[-1][5] if done else 0.0
                     raise FemError(f"ccx ran over the time limit of {time_limit_s:g} s "
-                                   f"(killed at step time {last:.4g}; {log.name} has its "
+                                   f"(killed at time {last:.4g}; {log.name} has its "
                                    "output)")
         except BaseException:
             if proc.poll() is None:
@@ -185,8 +185,8 @@ def run_ccx(job: str | Path, *, time_limit_s: float = 600.0, threads: int = 1,
     done = [r for r in rows if r[3]]
     if not done:
         raise FemError(f"ccx converged no increment ({job.with_suffix('.sta').name})")
-    if done[-1][6] < 1.0 - tol.fem.step_end:
-        raise FemError(f"ccx stopped at step time {done[-1][6]:.6g} of 1 (last converged "
+    if done[-1][5] < 1.0 - tol.fem.step_end:  # total time: 1 at the end of the last step
+        raise FemError(f"ccx stopped at time {done[-1][5]:.6g} of 1 (last converged "
                        "increment); the run is incomplete")
     for ext in (".dat", ".frd"):
         p = job.with_suffix(ext)

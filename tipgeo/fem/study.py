@@ -61,6 +61,10 @@ def build_model(tip, kind: str, *, depth: float, tissue: str = "pvc-sp0",
                                   nu=0.475 if nu is None else nu, friction=friction,
                                   mesh=0.025 if mesh is None else mesh,
                                   output_depths=output_depths, **kw)
+    if kw.get("cut", "none") != "none":
+        raise SpecError(f"cut = {kw['cut']!r} is for the axisymmetric model only; the 3d "
+                        "model has no cut")
+    kw.pop("cut", None)
     from .solid import indentation_model
 
     return indentation_model(tip, depth=depth, tissue=tissue, material_model=material_model,

@@ -474,12 +474,12 @@ def _call_args(code: str, start: int, name: str, lineno: int) -> tuple[int, list
     if i >= len(code) or code[i] != "(":
         return None
     depth, args, arg0, j = 0, [], i + 1, i
-    strings = False
+    in_string = False
     while j < len(code):
         c = code[j]
         if c == '"':
-            strings = not strings
-        elif not strings:
+            in_string = not in_string
+        elif not in_string:
             if c == "(":
                 depth += 1
             elif c == ")":

@@ -109,6 +109,7 @@ def infill_optima(config, surrogate: Surrogate, *, feasible=None, executor=None,
     X, Y = np.array(surrogate.X_, float), np.array(surrogate.Y_, float)
     sur = surrogate
     history: list[dict] = []
+    analysed: dict[tuple, dict] = {}
     added = 0
     r = 0
     while True:
@@ -117,12 +118,18 @@ def infill_optima(config, surrogate: Surrogate, *, feasible=None, executor=None,
                                  for obj in config.objectives]
         if not optima:
             return InfillResult(sur, [], [], X, Y, 0, r, True, history)
-        xs = np.array([o.x for o in optima])
-        sw = run_sweep(config, X=xs, executor=executor, cache=cache, progress=False)
+        # an optimum at a point already analysed (an earlier round, or another
+        # objective) is not analysed again
+        fresh = list(dict.fromkeys(tuple(o.x) for o in optima if tuple(o.x) not in analysed))
+        if fresh:
+            sw = run_sweep(config, X=np.array(fresh), executor=executor, cache=cache,
+                           progress=False)
+            analysed.update(zip(fresh, sw.results))
+        results = [analysed[tuple(o.x)] for o in optima]
         ranges = training_ranges(sur)
         new_x, new_y = [], []
         worst_all = 0.0
-        for o, res in zip(optima, sw.results):
+        for o, res in zip(optima, results):
             row: dict[str, Any] = {"round": r, "objective": o.objective.name,
                                    "x": {v.name: float(val)
                                          for v, val in zip(config.variables, o.x)},
@@ -159,7 +166,7 @@ def infill_optima(config, surrogate: Surrogate, *, feasible=None, executor=None,
                 + (" — added" if add else ""))
         converged = worst_all <= threshold
         if converged or not new_x or r >= rounds:
-            return InfillResult(sur, optima, sw.results, X, Y, added, r + 1, converged,
+            return InfillResult(sur, optima, results, X, Y, added, r + 1, converged,
                                 history)
         X = np.vstack([X, new_x])
         Y = np.vstack([Y, new_y])

@@ -11,7 +11,7 @@ import functools
 
 import numpy as np
 import pytest
-from hypothesis import given, settings
+from hypothesis import example, given, settings
 from hypothesis import strategies as st
 
 import tipgeo.inspect.scanio as scanio
@@ -33,6 +33,10 @@ _finite = st.floats(-1e3, 1e3, allow_nan=False, allow_infinity=False)
 @settings(max_examples=60, deadline=None)
 @given(st.lists(_finite, min_size=1, max_size=300),
        st.lists(st.floats(0.0, 100.0), min_size=1, max_size=5))
+# a subnormal span (bucket scale overflows to ∞: 0·∞ is NaN) crashed the
+# kernel on CI once hypothesis drew it
+@example([0.0, 5e-324, 1e-320], [0.0, 50.0, 100.0])
+@example([-1e-310, 1e-310, 0.0], [25.0, 75.0])
 def test_percentiles_equal_numpy_bit_for_bit(values, q):
     x = np.asarray(values)
     assert np.array_equal(percentiles(x, q), np.percentile(x, q))
@@ -42,6 +46,15 @@ def test_percentiles_equal_numpy_bit_for_bit(values, q):
     a = np.abs(x)
     assert np.array_equal(percentiles(x, q, absolute=True, bounds=(0.0, a.max() * 1.5 + 1.0)),
                           np.percentile(a, q))
+
+
+@pytest.mark.parametrize("x", [[-1.7e308, 1.7e308, 0.0, 3.0],       # the span overflows to ∞
+                               [1e-310, 2e-310, 3e-310, -4e-310]])  # a subnormal span
+def test_percentiles_at_extreme_spans(x):
+    x = np.asarray(x)
+    q = [0.0, 10.0, 50.0, 90.0, 100.0]
+    assert np.array_equal(percentiles(x, q), np.percentile(x, q))
+    assert np.array_equal(percentiles(x, q, absolute=True), np.percentile(np.abs(x), q))
 
 
 @pytest.mark.parametrize("kind", ["normal", "ties", "outlier"])

@@ -251,7 +251,8 @@ def spatial_order(p, bits):
     for i in range(n):
         code = 0
         for c in range(3):
-            q = int((p[i, c] - lo[c]) * sc[c])
+            f = (p[i, c] - lo[c]) * sc[c]   # NaN or ∞ on a subnormal span:
+            q = int(f) if 0.0 < f < (1 << bits) else (0 if not f > 0.0 else (1 << bits) - 1)
             for j in range(bits):
                 code |= ((q >> j) & 1) << (3 * j + c)
         key[i] = code

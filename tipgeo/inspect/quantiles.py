@@ -24,6 +24,20 @@ __all__ = ["moments", "percentiles", "within_band"]
 _BUCKETS = 1 << 12   # the count table stays in the L1 cache
 
 
+@njit(cache=True, nogil=True, inline="always")
+def _bucket(v, lo, scale, nb):
+    """The bucket of ``v`` in 0..nb-1, monotone in ``v``, for any scale:
+    (v − lo)·scale is NaN (0·∞, ∞·0) or ∞ when the span is subnormal or
+    overflows, and a float beyond int64 has no defined conversion — so
+    the index is clamped as a float before it becomes an int."""
+    f = (v - lo) * scale
+    if f >= nb - 1:
+        return nb - 1
+    if f > 0.0:
+        return int(f)
+    return 0
+
+
 @njit(cache=True, nogil=True)
 def _order_statistics(x, ks, absolute, lo, hi):
     """The values of ranks ``ks`` ((m,) int, 0-based, ascending) of ``x`` (or
@@ -46,7 +60,7 @@ def _order_statistics(x, ks, absolute, lo, hi):
     count = np.zeros(nb + 1, np.int64)
     for i in range(n):
         v = abs(x[i]) if absolute else x[i]
-        count[min(int((v - lo) * scale), nb - 1) + 1] += 1
+        count[_bucket(v, lo, scale, nb) + 1] += 1
     for b in range(nb):
         count[b + 1] += count[b]          # count[b]: values in buckets before b
     # the bucket of every wanted rank, and a slot in one gather buffer for it
@@ -63,7 +77,7 @@ def _order_statistics(x, ks, absolute, lo, hi):
     fill = np.zeros(nb, np.int64)
     for i in range(n):
         v = abs(x[i]) if absolute else x[i]
-        b = min(int((v - lo) * scale), nb - 1)
+        b = _bucket(v, lo, scale, nb)
         if want[b] >= 0:
             buf[want[b] + fill[b]] = v
             fill[b] += 1

@@ -3,7 +3,9 @@ tube, the bevel face with a rim of wall — with no false warning (the outer
 cylinder is fitted to the arc of wall that is there, large flat faces left
 out of that fit), the pose checked against the virtual profilometer's truth;
 a multi-plane tip's face and rim give the pose up to the tip's own symmetry,
-which is reported; gross outliers in a scan that is registered are warned
+which is reported; what the scan cannot fix to 0.01° (the back of a tube: the
+turn about the axis from the bevel's outline alone) is reported as the pose's
+uncertainty, and its fit has one optimum; gross outliers in a scan that is registered are warned
 about with the figures, and the trimmed statistics stay at the noise.
 
 Each case: a 20,000-point synthetic scan of the 14G bevel (σ = 1 µm),
@@ -12,13 +14,22 @@ bevel slab is cut out of it)."""
 
 from __future__ import annotations
 
+import functools
 import math
 
 import numpy as np
 import pytest
 
 from tipgeo import preset
-from tipgeo.inspect import ExactSolid, Misalignment, compare, fit_plane, synthetic_scan
+from tipgeo.inspect import (
+    ExactSolid,
+    Misalignment,
+    compare,
+    fit_plane,
+    load_cad,
+    register,
+    synthetic_scan,
+)
 
 SPEC = "bevel-14G-xi14.5"
 MIS = Misalignment(20.0, 1.0, 30.0, (0.1, 0.0, 0.05))
@@ -53,26 +64,59 @@ CASES = {
     "bevel side only": (dict(views=_ring([160.0, 180.0, 200.0], 60.0)), None, 0.01, 0.001),
     "bevel face + 0.2 mm rim": (dict(z_min=0.0), 0.2, 0.01, 0.001),
     "bevel face + 0.1 mm rim": (dict(z_min=0.0), 0.1, 0.01, 0.001),
-    # the back of the tube, no bevel face: the turn about the axis comes from
-    # the outline alone, where noise along the line of sight pushes points
-    # past the edge on one side only (0.0134°, 2.3 µm here; the issue's 0.01°
-    # is not reached)
+    # the back of the tube, no bevel face: the turn about the axis and the
+    # axial shift come from the bevel's outline alone. The information the
+    # 20,000 points hold there fixes the turn to ±0.018° (1σ, the Cramér–Rao
+    # bound the registration reports), so the issue's 0.01° is out of reach
+    # of any estimator on this scan: 0.0084° and 2.2 µm here; over seeds 1–8
+    # median 0.018°, worst 0.039° (it was worst 0.096° before the outline fit)
     "back half, no bevel face": (dict(views=_ring([-30.0, 0.0, 30.0], 30.0)), None, 0.02,
-                                 0.003),
+                                 0.004),
 }
+BACK = "back half, no bevel face"
+
+
+@functools.cache
+def _scan(case):
+    opts, slab = CASES[case][:2]
+    s = synthetic_scan(preset(SPEC), points=20_000 if slab is None else 60_000, noise=0.001,
+                       misalignment=MIS, seed=3, **opts)
+    return s, (s.points if slab is None else s.points[_bevel_slab(s, slab)])
 
 
 @pytest.mark.parametrize("case", list(CASES))
 def test_partial_scan_registers_without_false_warnings(case):
-    opts, slab, max_deg, max_mm = CASES[case]
-    s = synthetic_scan(preset(SPEC), points=20_000 if slab is None else 60_000, noise=0.001,
-                       misalignment=MIS, seed=3, **opts)
-    pts = s.points if slab is None else s.points[_bevel_slab(s, slab)]
+    """The pose within the bound; the reported 1σ uncertainty of the
+    rotation says whether the scan fixes it to the issue's 0.01°: well below
+    (a third of it) where a face shows, above it for the back of the tube."""
+    max_deg, max_mm = CASES[case][2:]
+    s, pts = _scan(case)
     res = compare(pts, preset(SPEC), pictures=False)
     assert res.warnings == []
     assert res.match["ok"]
     ang, off = _errors(res, s)
     assert ang <= max_deg and off <= max_mm
+    unc = res.registration.to_dict()["uncertainty"]
+    if case == BACK:
+        # the outline alone: the turn is the weak direction, the tilt is not
+        assert 0.01 < unc["turn_about_axis_deg"] < 0.03
+        assert max(unc["rotation_deg"][:2]) < 0.001
+    else:
+        assert max(unc["rotation_deg"]) < 0.01 / 3
+
+
+def test_an_outline_only_pose_has_one_optimum():
+    """The back of the tube: before the outline was fitted as a blurred step,
+    the fit stopped wherever the outline first covered every point — the
+    registration's own random subsets (its seed) moved the turn by 0.39° and
+    the axial shift by 26 µm. Now every seed reaches the same pose (to the
+    ICP's convergence, 1e-7 rad and 1e-6 mm)."""
+    s, pts = _scan(BACK)
+    cad = load_cad(preset(SPEC))
+    T = [register(pts, cad, seed=k).transform for k in (0, 1)]
+    dR = T[1][:3, :3] @ T[0][:3, :3].T
+    assert math.degrees(math.acos(min(1.0, (np.trace(dR) - 1) / 2))) < 1e-4
+    assert np.linalg.norm(T[1][:3, 3] - T[0][:3, 3]) < 1e-4
 
 
 def test_a_multiplane_face_and_rim_give_the_pose_up_to_the_symmetry():

@@ -179,6 +179,24 @@ class InspectSettings:
     scale_floor : float
         Added to the robust residual scale of a plane fit, so exact data
         never makes it zero (mm).
+    outline_seen : float
+        A face holding a smaller share of the registration's inlier points is
+        out of view: the edges the scan shows of it are fitted as outlines
+        (the likelihood of a blurred step, not the distance to the solid).
+    outline_near : float
+        Points within this many robust σ below an outline, or past it, feel
+        its blur; those farther in count its density (σ multiples).
+    outline_band : float
+        Width of the band below an outline whose points give the density of
+        points there (mm of distance to the unseen face's surface).
+    outline_min_points : float
+        An outline is fitted only where the band's density promises at least
+        this many points within its blur.
+    outline_reach : float
+        ... and where at least half the points that density promises within
+        this of the outline are there (mm): a scan's boundary farther short of
+        the edge is a crop or the end of its views, not the outline. Points
+        farther than this past an outline are outliers to it.
     """
 
     feasible: float = 1.0e-10
@@ -239,6 +257,11 @@ class InspectSettings:
     area_floor: float = 1.0e-12
     ray_lift: float = 2.0e-3
     scale_floor: float = 1.0e-12
+    outline_seen: float = 0.005
+    outline_near: float = 4.0
+    outline_band: float = 0.05
+    outline_min_points: float = 5.0
+    outline_reach: float = 0.02
 
 
 @dataclass

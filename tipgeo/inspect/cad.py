@@ -80,6 +80,13 @@ class CadModel:
         """Signed distances of points (cannula frame, mm) to the CAD surface."""
         return self.engine.distances(points)
 
+    def face_fields(self, points: np.ndarray):
+        """Every analytic face's signed distance (n, K) and unit outward
+        gradient (n, K, 3) at points (cannula frame, mm), in the order of
+        :attr:`labels`; None when the CAD is a mesh (no analytic faces)."""
+        fields = getattr(self.engine, "face_fields", None)
+        return None if fields is None else fields(points)
+
     def bound(self, points: np.ndarray) -> np.ndarray:
         """A cheap signed distance (exact inside, a lower bound outside)."""
         return self.engine.bound(points)

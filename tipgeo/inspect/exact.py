@@ -243,6 +243,20 @@ class ExactSolid:
         p = _points(points)
         return np.stack([f.signed(p, self.offset) for f in self.faces], 1)
 
+    def face_fields(self, points: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Every face's function and its unit outward gradient at every point.
+
+        Returns
+        -------
+        values : (n, K) float — mm; the signed distance to each face's surface
+            (first-order for implicit faces, exact for the others)
+        gradients : (n, K, 3) float — unit outward normals of the faces'
+            surfaces (or of their level sets through the points)
+        """
+        p = _points(points)
+        out = [f.eval(p, self.offset) for f in self.faces]
+        return np.stack([v for v, _ in out], 1), np.stack([np.asarray(g) for _, g in out], 1)
+
     def bound(self, points: np.ndarray) -> np.ndarray:
         """max_k f_k: the exact signed distance inside the solid, a lower bound
         of it outside (mm). Cheap: no projections (first-order for implicit

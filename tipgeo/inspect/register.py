@@ -12,8 +12,10 @@ Every stage works on a seeded random subset of the scan
    normals are perpendicular to the principal axis and whose distance to it is
    near the nominal outer radius — on the arc of wall the scan shows, with
    large flat faces (a bevel face, ground planes) left out first, since their
-   normals lie across a wrong axis too. It aligns the axes and measures the
-   outer diameter. ICP alone cannot do what follows: a cylinder matches itself
+   normals lie across a wrong axis too; it starts on the axis where the
+   points' normal lines meet, and fits a bore seen beside the wall (through a
+   bevel's opening) as the coaxial inner cylinder. It aligns the axes and
+   measures the outer diameter. ICP alone cannot do what follows: a cylinder matches itself
    under any turn about and shift along its axis.
 2. **Global search** of the turn about the axis (both axis directions, over
    one symmetry period: coarse every 2·``tol.inspect.search_step``, then fine
@@ -26,8 +28,13 @@ Every stage works on a seeded random subset of the scan
    weights) from the best few poses on a small subset, then to convergence on
    a larger one, then on every registration point from there; directions the
    data do not constrain (a rotationally symmetric tip's turn about its axis)
-   are held fixed. A k-fold symmetric tip's pose is found up to a turn of
-   360°/k, which is reported (it changes no deviation).
+   are held fixed. Where the scan ends at the edge of a face it does not show
+   (the back of a tube at the bevel's outline), that outline is fitted as a
+   blurred step by maximum likelihood, not by distances to the solid, which
+   only ask the outline to cover every point. A k-fold symmetric tip's pose
+   is found up to a turn of 360°/k, which is reported (it changes no
+   deviation), and so is each direction's 1σ uncertainty from the
+   information the scan holds (the Cramér–Rao bound).
 
 The report gives the transform, fitness (share of points within the inlier
 distance), inlier RMSE, and warnings: an ambiguous pose (a different pose fits
@@ -97,6 +104,11 @@ class Registration:
         continuous, 1: none): the pose is found up to a turn of 360°/k about
         the axis, which changes no deviation (reported as ``symmetry`` in
         :meth:`to_dict`)
+    uncertainty : dict — standard uncertainty (1σ) of the pose from the
+        Fisher information the scan holds (a Cramér–Rao bound under the noise
+        model): ``rotation_deg`` about the cannula frame's x, y, z (z: the turn
+        about the axis; None where the turn is held by the tip's rotational
+        symmetry), ``translation_um`` at the points' centroid, cannula frame
     """
 
     transform: np.ndarray
@@ -110,6 +122,7 @@ class Registration:
     points: int = 0
     fixed_directions: list[str] = field(default_factory=list)
     symmetry: int = 1
+    uncertainty: dict[str, Any] = field(default_factory=dict)
 
     def apply(self, points: np.ndarray) -> np.ndarray:
         """Scanner-frame points in the cannula frame."""
@@ -126,7 +139,8 @@ class Registration:
                 "search": self.search, "warnings": list(self.warnings),
                 "iterations": self.iterations, "points": self.points,
                 "fixed_directions": list(self.fixed_directions),
-                "symmetry": _symmetry_note(self.symmetry)}
+                "symmetry": _symmetry_note(self.symmetry),
+                "uncertainty": dict(self.uncertainty)}
 
 
 def _symmetry_note(k: int) -> dict[str, Any]:
@@ -156,9 +170,12 @@ def point_normals(p: np.ndarray, k: int = 12) -> np.ndarray:
 
 
 def fit_cylinder(points: np.ndarray, axis_dir: np.ndarray, axis_point: np.ndarray,
-                 radius: float, *, scale: float = 0.005):
+                 radius: float, *, scale: float = 0.005, bore: np.ndarray | None = None,
+                 wall: float = 0.0):
     """Least-squares cylinder through points (robust soft-L1 loss of width
-    ``scale`` mm), from an initial axis and radius.
+    ``scale`` mm), from an initial axis and radius. With ``bore`` ((n,) bool)
+    those points lie on a coaxial cylinder ``wall`` mm smaller (a tube's
+    bore seen with its outer wall): one axis from both.
 
     Returns
     -------
@@ -173,13 +190,14 @@ def fit_cylinder(points: np.ndarray, axis_dir: np.ndarray, axis_point: np.ndarra
     e2 = np.cross(a0, e1)
     c0 = axis_point + a0 * ((points.mean(axis=0) - axis_point) @ a0)
     q = points - c0
+    inset = 0.0 if bore is None else wall * np.asarray(bore, float)
 
     def model(x):
         a = a0 + x[0] * e1 + x[1] * e2
         a = a / np.linalg.norm(a)
         c = x[2] * e1 + x[3] * e2
         d = q - c
-        return np.linalg.norm(d - np.outer(d @ a, a), axis=1) - x[4], a, c
+        return np.linalg.norm(d - np.outer(d @ a, a), axis=1) - x[4] + inset, a, c
 
     # Levenberg–Marquardt on the soft-L1 loss by reweighting (weights
     # (1 + (r/scale)²)^-½, the loss's derivative): a handful of 5 × 5 solves
@@ -250,7 +268,8 @@ def _flat_patches(p: np.ndarray, nrm: np.ndarray, r_nominal: float) -> np.ndarra
     return flat
 
 
-def _axis_stage(p: np.ndarray, r_nominal: float) -> tuple[np.ndarray, np.ndarray, float, float]:
+def _axis_stage(p: np.ndarray, r_nominal: float,
+                r_inner: float | None = None) -> tuple[np.ndarray, np.ndarray, float, float]:
     """The outer wall's cylinder, fitted to the arc of it that the scan shows.
 
     Large flat faces are left out first (:func:`_flat_patches`): their
@@ -260,7 +279,9 @@ def _axis_stage(p: np.ndarray, r_nominal: float) -> tuple[np.ndarray, np.ndarray
     perpendicular to (a short piece — the tip alone, one side — where the
     longest extent may run across the axis). Each is refined on the points
     that look like the wall; the fit with the most wall points near the
-    nominal radius wins."""
+    nominal radius wins. Points nearer the bore's radius (``r_inner``: the
+    bore seen through a bevel's opening) are fitted as the bore, coaxial and
+    one nominal wall thickness in, not mistaken for outer wall."""
     cen = p.mean(axis=0)
     _, vec = np.linalg.eigh(np.cov((p - cen).T))
     nrm = point_normals(p)
@@ -280,7 +301,8 @@ def _axis_stage(p: np.ndarray, r_nominal: float) -> tuple[np.ndarray, np.ndarray
     best, err = None, None
     for a0 in starts:
         try:
-            fit = _axis_fit(p, nrm, cen, a0, r_nominal, first=0.3 if a0 is starts[0] else 0.15)
+            fit = _axis_fit(p, nrm, cen, a0, r_nominal, first=0.3 if a0 is starts[0] else 0.15,
+                            r_inner=r_inner)
         except ScanError as e:
             err = e
             continue
@@ -292,8 +314,36 @@ def _axis_stage(p: np.ndarray, r_nominal: float) -> tuple[np.ndarray, np.ndarray
     return best[1][:4]
 
 
-def _axis_fit(p, nrm, cen, a, r_nominal, first):
-    point = cen
+def _axis_centre(p, nrm, a, radii):
+    """The point where the normal lines of wall-like points (normals across
+    ``a``) meet the axis: each votes at its own distance ``radii`` along its
+    normal, both ways; the densest cell of the votes, refined to their mean
+    near it (a start for the cylinder fit that neither the scan's one-sided
+    centroid nor a bore seen beside the outer wall pulls off the axis)."""
+    e1 = np.cross(a, [1.0, 0, 0] if abs(a[0]) < 0.9 else [0, 1.0, 0])
+    e1 /= np.linalg.norm(e1)
+    e2 = np.cross(a, e1)
+    wall = np.abs(nrm @ a) < 0.15
+    if np.count_nonzero(wall) < 20:
+        return None
+    P = np.column_stack([p[wall] @ e1, p[wall] @ e2])
+    N = np.column_stack([nrm[wall] @ e1, nrm[wall] @ e2])
+    N /= np.maximum(np.linalg.norm(N, axis=1, keepdims=True), tol.tiny)
+    votes = np.vstack([P + sg * r * N for r in radii for sg in (1.0, -1.0)])
+    h = 0.02 * max(radii)
+    cell = np.floor((votes - votes.min(axis=0)) / h).astype(np.int64)
+    key = cell[:, 0] * (int(cell[:, 1].max()) + 1) + cell[:, 1]
+    uk, cnt = np.unique(key, return_counts=True)
+    c = votes[key == uk[np.argmax(cnt)]].mean(axis=0)
+    for _ in range(3):
+        c = votes[np.linalg.norm(votes - c, axis=1) < 2 * h].mean(axis=0)
+    return c[0] * e1 + c[1] * e2 + a * float(p.mean(axis=0) @ a)
+
+
+def _axis_fit(p, nrm, cen, a, r_nominal, first, r_inner=None):
+    thick = None if r_inner is None or not 0 < r_inner < r_nominal else r_nominal - r_inner
+    point = _axis_centre(p, nrm, a, (r_nominal,) if thick is None else (r_nominal, r_inner))
+    point = cen if point is None else point
     radius = r_nominal
     sel = np.ones(len(p), bool)
     for it in range(4):
@@ -302,6 +352,11 @@ def _axis_fit(p, nrm, cen, a, r_nominal, first):
         wall = np.abs(nrm @ a) < (first if it == 0 else 0.15)
         band = 0.25 * r_nominal if it == 0 else max(0.02 * r_nominal, 0.005)
         sel = wall & (np.abs(rho - radius) < band)
+        bore = np.zeros(len(p), bool)
+        if thick is not None:
+            # nearer the bore's radius than the outer one: the bore
+            bore = wall & (np.abs(rho - radius + thick) < np.minimum(band, np.abs(rho - radius)))
+            sel = (sel & ~bore) | bore
         if sel.sum() < 20:
             raise ScanError(f"only {int(sel.sum())} of {len(p)} scan points look like the "
                             f"outer wall (radius {r_nominal:.4g} ± {band:.2g} mm, normals "
@@ -311,7 +366,8 @@ def _axis_fit(p, nrm, cen, a, r_nominal, first):
         if len(idx) > 3000:  # plenty for five parameters
             idx = idx[np.linspace(0, len(idx) - 1, 3000).astype(int)]
         point, a, radius, rms = fit_cylinder(p[idx], a, point, radius,
-                                             scale=0.02 if it == 0 else 0.004)
+                                             scale=0.02 if it == 0 else 0.004,
+                                             bore=bore[idx], wall=thick or 0.0)
         if not 0.5 * r_nominal < radius < 2.0 * r_nominal:
             raise ScanError(f"the outer wall's cylinder fit ran off to radius {radius:.4g} mm "
                             f"(nominal {r_nominal:.4g} mm): does the scan show the outer wall?")
@@ -387,16 +443,155 @@ def _pose(T_axis, angle, dz):
     return T @ T_axis
 
 
-def _icp(p, cad, T, iterations, *, fix_rz=False, loose=False):
+def _outline(cad, q, D, w, c, sigma, check_reach=True):
+    """The points near an outline: an edge of a face the scan sees (F) with
+    an analytic face it does not see (k) — the back of a tube ends at the
+    bevel's edge, whose face is out of view.
+
+    There the scan constrains the pose one-sidedly: a point pushed past the
+    edge by the scanner's noise is far from the solid, while the solid may
+    reach past the last points at no cost. Least squares on distances to the
+    solid then stops wherever the outline first covers every point (a flat
+    minimum: the turn about the axis of a scan of the back of a bevel came
+    out anywhere within ±0.1°). The model that makes it well-posed: points
+    lie uniformly on F up to the edge, blurred by the noise. Per point the
+    normal residual is the distance to F's own surface (extended past the
+    edge: the noise across the edge is the outline's business, not the
+    face's), and the signed distance s = f_k of the point to k's surface
+    enters through the likelihood of a blurred step, log Φ(−s/σ), with the
+    face's extent paid for by the density of points just inside it
+    (:func:`_outline_terms`).
+
+    ``check_reach``: require the points within ``tol.inspect.outline_reach``
+    of the edge that the band's density promises (a scan cropped farther
+    short of the edge has none); an ICP run checks it until it first holds —
+    later, a pose whose outline overshoots the points may have none there,
+    and it is the outline's pull that brings it back.
+
+    Returns None (no outline: every face near the points is seen, the scan
+    does not reach the edge, or the CAD is a mesh), else (zone, r, n, s,
+    grad_k, near, band): ``zone`` indexes the points, r and n are their
+    residuals and normals on F, s and grad_k their value and gradient of k,
+    ``near`` and ``band`` boolean masks of the zone (within the blur of the
+    edge; the band of uniform density below it)."""
+    st = tol.inspect
+    fields = cad.face_fields(q)
+    if fields is None:
+        return None
+    F, G = fields
+    K = F.shape[1]
+    live = (w > 0) & (D.feature == 0)
+    share = np.bincount(D.face[live], minlength=K) / max(int(live.sum()), 1)
+    unseen = np.flatnonzero(share < st.outline_seen)
+    if not len(unseen) or len(unseen) == K:
+        return None
+    near_at, band_at = -st.outline_near * sigma, -st.outline_band - st.outline_near * sigma
+    rows, r_z, n_z, s_z, g_z = [], [], [], [], []
+    taken = np.zeros(len(q), bool)
+    for k in unseen:
+        s = F[:, k]
+        cand = np.flatnonzero((s > band_at) & (s <= max(c, st.outline_reach)) & ~taken)
+        if not len(cand):
+            continue
+        Fo = F[cand].copy()
+        Fo[:, k] = -np.inf
+        own = np.argmax(Fo, axis=1)
+        f_own = Fo[np.arange(len(cand)), own]
+        ok = (np.abs(f_own) < c) & ~np.isin(own, unseen)
+        cand, own, f_own = cand[ok], own[ok], f_own[ok]
+        if not len(cand):
+            continue
+        taken[cand] = True
+        rows.append(cand)
+        r_z.append(f_own)
+        n_z.append(G[cand, own])
+        s_z.append(s[cand])
+        g_z.append(G[cand, k])
+    if not rows:
+        return None
+    zone = np.concatenate(rows)
+    s = np.concatenate(s_z)
+    near, band = s > near_at, s <= near_at
+    # the scan must reach the outline: within ``outline_reach`` of it, at
+    # least half the points the band's density promises there (a scan
+    # cropped short of an edge, or stopping where its views end, has none —
+    # its boundary is no outline)
+    rho = np.count_nonzero(band) / st.outline_band
+    if rho * (st.outline_near + _STEP_MEAN) * sigma < st.outline_min_points or (
+            check_reach and np.count_nonzero(s > -st.outline_reach) < 0.5 * rho * st.outline_reach):
+        return None
+    return (zone, np.concatenate(r_z), np.concatenate(n_z), s, np.concatenate(g_z), near, band)
+
+
+def _outline_terms(outline, q, w, ctr, sigma):
+    """Gauss–Newton terms (6 × 6 and 6) of the outline likelihood, in the
+    units of the ICP's ½ Σ w r² (that is σ² × the negative log-likelihood).
+
+    A blurred step: the density of the points' s (signed distance to the
+    unseen face k) is ∝ Φ(−s/σ) (uniform on the face up to the edge, noise σ
+    across it), so the negative log-likelihood is Σ −log Φ(−s_i/σ) plus the
+    log of the face's extent — linearised, ρ · (the edge's shift), ρ the
+    points per unit s and unit edge length, estimated point by point from
+    the band of uniform density below the edge (``tol.inspect.outline_band``
+    wide): −Σ_band s_i / band. The points past the edge pull it outwards,
+    the points below it pull it in; at the balance the edge sits where the
+    points' density says (the estimate is the maximum-likelihood one, not the
+    smallest outline covering every point). σ is the ICP's robust scale
+    (isotropic noise assumed)."""
+    from scipy.special import log_ndtr
+
+    zone, _, _, s, gk, near, band = outline
+    wz = w[zone]
+    Jk = np.hstack([np.cross(q[zone] - ctr, gk), gk])
+    z = -s[near] / sigma
+    lam = np.exp(-0.5 * z * z - 0.5 * math.log(2 * math.pi) - log_ndtr(z))
+    a = wz[near]
+    H = (Jk[near] * (a * lam * (z + lam))[:, None]).T @ Jk[near]
+    g = (Jk[near] * (a * sigma * lam)[:, None]).sum(axis=0)
+    g -= sigma ** 2 / tol.inspect.outline_band * (Jk[band] * wz[band][:, None]).sum(axis=0)
+    return H, g, int(near.sum())
+
+
+#: ∫ φ(z)²/Φ(z) dz: Fisher information on the position of a uniform density's
+#: edge blurred by unit Gaussian noise, per point per unit length of density
+#: (quadrature; dimensionless)
+_STEP_FISHER = 0.9031972855686256
+#: ∫₀^∞ Φ(−z) dz = 1/√(2π): the points a blurred step puts past its edge, in
+#: units of σ × the density (dimensionless)
+_STEP_MEAN = 1.0 / math.sqrt(2.0 * math.pi)
+
+
+def _covariance(H, outline, q, w, ctr, sigma, V):
+    """(6, 6) covariance of an ICP step (rotation about ``ctr``, rad;
+    translation, mm) from the Fisher information at the pose: H/σ² of the
+    normal residuals (H = Σ w J Jᵀ) plus the outline's expected information
+    c/(σ·band) Σ_band J_k J_kᵀ (c = ∫ φ²/Φ, :data:`_STEP_FISHER`: the
+    information on the position of a blurred step per point density). Only the directions ``V``
+    the step moves in; the held ones have none. It is the Cramér–Rao bound
+    under the noise model (σ isotropic)."""
+    info = H / sigma ** 2
+    if outline is not None:
+        zone, *_, gk, _, band = outline
+        Jk = np.hstack([np.cross(q[zone][band] - ctr, gk[band]), gk[band]])
+        info = info + _STEP_FISHER / (sigma * tol.inspect.outline_band) * \
+            (Jk * w[zone][band][:, None]).T @ Jk
+    red = V.T @ info @ V
+    return V @ np.linalg.pinv(red) @ V.T
+
+
+def _icp(p, cad, T, iterations, *, fix_rz=False, loose=False, outlines=True):
     """Point-to-plane ICP (Gauss–Newton on the exact closest points and
     normals) with Tukey weights; returns T, robust σ, info. ``loose``: stop
-    at ``tol.inspect.icp_loose`` (rad, mm): enough to rank start poses."""
+    at ``tol.inspect.icp_loose`` (rad, mm): enough to rank start poses.
+    ``outlines``: the points near an edge of a face the scan does not show
+    are fitted by the likelihood of a blurred outline (:func:`_outline`)."""
     conv_r, conv_t = (tol.inspect.icp_loose,) * 2 if loose else \
         (tol.inspect.icp_converge_rot, tol.inspect.icp_converge_trans)
     info = {"iterations": 0, "fixed": []}
     sigma = None
     prev = (0.0, 0.0)
     clip = tol.inspect.search_clip
+    reached = False  # the scan reaches an outline (see _outline)
     for it in range(iterations):
         q = apply(T, p)
         D = cad.distances(q)
@@ -408,10 +603,21 @@ def _icp(p, cad, T, iterations, *, fix_rz=False, loose=False):
         clip = max(c, 0.5 * clip)
         u = r / c
         w = np.where(np.abs(u) < 1, (1 - u * u) ** 2, 0.0)
+        outline = _outline(cad, q, D, w, c, sigma, not reached) if outlines else None
+        reached = reached or outline is not None
+        if outline is not None:
+            zone, r_z, n_z = outline[:3]
+            r, n = r.copy(), n.copy()
+            r[zone], n[zone] = r_z, n_z
+            u = r / c
+            w = np.where(np.abs(u) < 1, (1 - u * u) ** 2, 0.0)
         ctr = np.average(q, axis=0, weights=w) if w.sum() > 0 else q.mean(axis=0)
         J = np.hstack([np.cross(q - ctr, n), n])
         H = (J * w[:, None]).T @ J
         g = (J * w[:, None]).T @ r
+        if outline is not None:
+            H_o, g_o, info["outline_points"] = _outline_terms(outline, q, w, ctr, sigma)
+            H, g = H + H_o, g + g_o
         lam, V = np.linalg.eigh(H)
         if not lam[-1] > 0:
             raise ScanError("registration failed: no scan point lies within "
@@ -424,6 +630,8 @@ def _icp(p, cad, T, iterations, *, fix_rz=False, loose=False):
             keep &= np.abs(V.T @ ez) < 0.9
         x = -V[:, keep] @ ((V[:, keep].T @ g) / lam[keep])
         info["fixed"] = int((~keep).sum())
+        info["covariance"] = _covariance(H - (H_o if outline is not None else 0.0),
+                                         outline, q, w, ctr, sigma, V[:, keep])
         w_, t_ = x[:3], x[3:]
         R = _rot(w_, np.linalg.norm(w_))
         step = np.eye(4)
@@ -495,7 +703,7 @@ def register(points: np.ndarray, cad, *, inlier_distance: float = 0.01,
     p_ax = clean if len(clean) <= tol.inspect.axis_points else \
         clean[rng.choice(len(clean), tol.inspect.axis_points, replace=False)]
     say(f"axis fit on {len(p_ax)} points")
-    point, a, radius, rms = _axis_stage(p_ax, cad.r_o)
+    point, a, radius, rms = _axis_stage(p_ax, cad.r_o, cad.r_i)
     axis = {"point_mm": point.tolist(), "direction": a.tolist(), "outer_radius_mm": radius,
             "outer_diameter_mm": 2 * radius, "fit_rms_mm": rms}
     if abs(radius - cad.r_o) > 0.05 * cad.r_o:
@@ -549,6 +757,7 @@ def register(points: np.ndarray, cad, *, inlier_distance: float = 0.01,
         T, sigma, info2 = _icp(p, cad, T, tol.inspect.icp_iterations, fix_rz=(sym == 0))
         info["iterations"] += info2["iterations"]
         info["fixed"] = info2["fixed"]
+        info["covariance"] = info2["covariance"]
     d = cad.distances(apply(T, p)).distance
     ok = np.abs(d) <= inlier_distance
     fitness = float(ok.mean())
@@ -587,7 +796,24 @@ def register(points: np.ndarray, cad, *, inlier_distance: float = 0.01,
     if sym > 1:
         say(f"pose determined up to the tip's {sym}-fold symmetry ({360 / sym:g}° turns)")
     return Registration(T, fitness, rmse, inlier_distance, axis, search, warnings,
-                        info["iterations"], len(p), fixed, sym)
+                        info["iterations"], len(p), fixed, sym,
+                        _uncertainty(info.get("covariance"), sym))
+
+
+def _uncertainty(cov, sym) -> dict[str, Any]:
+    """The report's 1σ pose uncertainty from the ICP covariance (rad, mm)."""
+    if cov is None:
+        return {}
+    sd = np.sqrt(np.clip(np.diag(cov), 0.0, None))
+    rot = [math.degrees(v) for v in sd[:3]]
+    if sym == 0:
+        rot[2] = None
+    return {"rotation_deg": rot, "turn_about_axis_deg": rot[2],
+            "translation_um": [v * 1e3 for v in sd[3:]],
+            "note": "1σ from the information the scan holds about each direction (a "
+                    "Cramér–Rao bound for σ-isotropic noise along the surface and across "
+                    "outlines); rotations about the cannula frame's axes, translation at the "
+                    "points' centroid"}
 
 
 def _remove_outliers(p: np.ndarray, k: int = 8, ratio: float = 3.0) -> np.ndarray:

@@ -416,7 +416,8 @@ def _write_markdown(res, path: Path) -> None:
               f"{reg['fitness']:.4f} |",
               f"| inlier RMSE | {reg['inlier_rmse_mm'] * 1e3:.3f} µm |",
               f"| fitted outer diameter | {reg['axis']['outer_diameter_mm']:.4f} mm |",
-              f"| ICP iterations | {reg['iterations']} on {reg['points']:,} points |", "",
+              f"| ICP iterations | {reg['iterations']} on {reg['points']:,} points |",
+              *_uncertainty_rows(reg.get("uncertainty") or {}), "",
               "```", *("  ".join(f"{v:+.9f}" for v in row) for row in T), "```", ""]
     L += ["## Deviations (µm)", "",
           "| region | points | mean | std | RMS | min | max | P5 | P95 | within tol |",
@@ -473,3 +474,13 @@ def _write_markdown(res, path: Path) -> None:
     L += ["## Timings", "", "| stage | s |", "|---|---:|"]
     L += [f"| {k} | {v:.3f} |" for k, v in r["timings_s"].items()]
     _atomic_text(path, "\n".join(L) + "\n")
+
+
+def _uncertainty_rows(u: dict) -> list[str]:
+    """Table rows of the registration's 1σ pose uncertainty (degrees, µm)."""
+    if not u:
+        return []
+    rot = ", ".join("held" if v is None else f"{v:.4f}°" for v in u["rotation_deg"])
+    tr = ", ".join(f"{v:.3f}" for v in u["translation_um"])
+    return [f"| rotation 1σ about x, y, z (z: the axis) | {rot} |",
+            f"| translation 1σ at the points' centroid (x, y, z) | {tr} µm |"]

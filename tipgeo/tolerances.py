@@ -192,6 +192,10 @@ class InspectSettings:
     outline_min_points : float
         An outline is fitted only where the band's density promises at least
         this many points within its blur.
+    held_share : float
+        A pose parameter whose squared share in the directions the ICP holds
+        (unconstrained) exceeds this gets no reported uncertainty
+        (dimensionless).
     outline_reach : float
         ... and where at least half the points that density promises within
         this of the outline are there (mm): a scan's boundary farther short of
@@ -262,6 +266,7 @@ class InspectSettings:
     outline_band: float = 0.05
     outline_min_points: float = 5.0
     outline_reach: float = 0.02
+    held_share: float = 1.0e-3
 
 
 @dataclass

@@ -107,8 +107,9 @@ class Registration:
     uncertainty : dict — standard uncertainty (1σ) of the pose from the
         Fisher information the scan holds (a Cramér–Rao bound under the noise
         model): ``rotation_deg`` about the cannula frame's x, y, z (z: the turn
-        about the axis; None where the turn is held by the tip's rotational
-        symmetry), ``translation_um`` at the points' centroid, cannula frame
+        about the axis), ``translation_um`` at the points' centroid, cannula
+        frame; None for a component a held direction touches (the turn of a
+        rotationally symmetric tip)
     """
 
     transform: np.ndarray
@@ -567,8 +568,9 @@ def _covariance(H, outline, q, w, ctr, sigma, V):
     normal residuals (H = Σ w J Jᵀ) plus the outline's expected information
     c/(σ·band) Σ_band J_k J_kᵀ (c = ∫ φ²/Φ, :data:`_STEP_FISHER`: the
     information on the position of a blurred step per point density). Only the directions ``V``
-    the step moves in; the held ones have none. It is the Cramér–Rao bound
-    under the noise model (σ isotropic)."""
+    the step moves in; a parameter the held ones touch gets an infinite
+    variance. It is the Cramér–Rao bound under the noise model (σ
+    isotropic)."""
     info = H / sigma ** 2
     if outline is not None:
         zone, *_, gk, _, band = outline
@@ -576,7 +578,10 @@ def _covariance(H, outline, q, w, ctr, sigma, V):
         info = info + _STEP_FISHER / (sigma * tol.inspect.outline_band) * \
             (Jk * w[zone][band][:, None]).T @ Jk
     red = V.T @ info @ V
-    return V @ np.linalg.pinv(red) @ V.T
+    cov = V @ np.linalg.pinv(red) @ V.T
+    held = np.diag(np.eye(6) - V @ V.T) > tol.inspect.held_share
+    cov[held, held] = np.inf   # a held direction has no uncertainty to give
+    return cov
 
 
 def _icp(p, cad, T, iterations, *, fix_rz=False, loose=False, outlines=True):
@@ -805,11 +810,11 @@ def _uncertainty(cov, sym) -> dict[str, Any]:
     if cov is None:
         return {}
     sd = np.sqrt(np.clip(np.diag(cov), 0.0, None))
-    rot = [math.degrees(v) for v in sd[:3]]
+    rot = [math.degrees(v) if math.isfinite(v) else None for v in sd[:3]]
     if sym == 0:
         rot[2] = None
     return {"rotation_deg": rot, "turn_about_axis_deg": rot[2],
-            "translation_um": [v * 1e3 for v in sd[3:]],
+            "translation_um": [v * 1e3 if math.isfinite(v) else None for v in sd[3:]],
             "note": "1σ from the information the scan holds about each direction (a "
                     "Cramér–Rao bound for σ-isotropic noise along the surface and across "
                     "outlines); rotations about the cannula frame's axes, translation at the "

@@ -481,6 +481,6 @@ def _uncertainty_rows(u: dict) -> list[str]:
     if not u:
         return []
     rot = ", ".join("held" if v is None else f"{v:.4f}°" for v in u["rotation_deg"])
-    tr = ", ".join(f"{v:.3f}" for v in u["translation_um"])
+    tr = ", ".join("held" if v is None else f"{v:.3f}" for v in u["translation_um"])
     return [f"| rotation 1σ about x, y, z (z: the axis) | {rot} |",
             f"| translation 1σ at the points' centroid (x, y, z) | {tr} µm |"]

@@ -145,6 +145,10 @@ def test_a_conical_tip_warns_that_its_rotation_is_free():
     assert any("rotationally symmetric" in w for w in reg.warnings)
     d = _cad("conical-14G-theta15").distances(reg.apply(s.points)).distance
     assert np.sqrt(np.mean(d ** 2)) < 0.002
+    # the held turn has no uncertainty to report; the tilts have a finite one
+    unc = reg.to_dict()["uncertainty"]
+    assert unc["turn_about_axis_deg"] is None and unc["rotation_deg"][2] is None
+    assert all(0 < v < 0.01 for v in unc["rotation_deg"][:2])
 
 
 def test_a_featureless_scan_is_flagged_ambiguous():

@@ -33,12 +33,18 @@ from .sweep import run_sweep, write_table
 __all__ = ["run_study", "feasibility", "edge_report"]
 
 
-def feasibility(config: StudyConfig):
+def feasibility(config: StudyConfig, known=None):
     """A callable (m, d) -> (m,) bool: does the spec at each row validate
-    (e.g. the helix axis clears the tube, thesis §3.1.1)?"""
+    (e.g. the helix axis clears the tube, thesis §3.1.1)?
+
+    ``known``: {``X``: (m, d), ``ok``: (m,) bool} verdicts already found (a
+    ``maximin`` design's screening, :attr:`SweepResult.screen`), not re-validated."""
     from ..errors import SpecError
 
     memo: dict[tuple, bool] = {}  # a validation costs ~0.1 s; plots re-ask the same grid
+    if known is not None:
+        for x, ok in zip(np.asarray(known["X"], float), known["ok"]):
+            memo[tuple(np.round(x, 12).tolist())] = bool(ok)
 
     def feasible(X) -> np.ndarray:
         X = np.atleast_2d(np.asarray(X, float))
@@ -139,12 +145,22 @@ def run_study(config: StudyConfig, out_dir: str | Path, *, executor=None, cache:
         f"{s['cached']} cached) in {s['seconds']:.2f} s")
     for f in s["failures"][:5]:
         log(f"  [{f['index']}] {f['status']}: {f['error']}")
+    dz = s.get("design", {})
+    if dz.get("method") == "maximin":
+        log(f"design: {dz['points']} admissible maximin points of {dz['candidates']} "
+            f"candidates; {dz['admissible']} admissible (buildable fraction "
+            f"{dz['buildable_fraction']:.1%}); min distance {dz['min_distance_unit']:.3f}, "
+            f"fill distance {dz['fill_distance_unit']:.3f} (unit box)")
+        log(f"  {dz['candidates'] - dz['admissible']} candidates refused "
+            f"({dz['refused_inferred']} of them inferred from their coarse cell):")
+        for g in dz["refusals"][:5]:
+            log(f"  {g['count']} validated, e.g.: {g['example']}")
     t0 = time.perf_counter()
     sur = fit_surrogate(sweep)
     t_fit = time.perf_counter() - t0
     log(f"surrogate: {len(sur.responses)} responses ({sur.mode}) fitted to "
         f"{len(sur.X_)} points in {t_fit:.2f} s")
-    feasible = feasibility(config)
+    feasible = feasibility(config, known=sweep.screen)
     t0 = time.perf_counter()
     inf = infill_optima(config, sur, feasible=feasible, executor=executor, cache=cache, log=log)
     t_infill = time.perf_counter() - t0

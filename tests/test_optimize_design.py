@@ -168,6 +168,10 @@ def test_helical_sweep_uses_only_admissible_points_and_reports_the_refused_share
     assert all("folds over inside the tube" in g["example"] or "would need a grid" in
                g["example"] for g in d["refusals"])
     assert res.screen["ok"].shape == (d["validated"],)
+    # every node's verdict, for the pictures: each candidate answers its own
+    from tipgeo.optimize.study import grid_verdicts
+
+    assert np.array_equal(grid_verdicts(cfg, res.screen)(pool), truth)
     # the same design again, every verdict from the cache
     hits = cache.hits
     X2, d2 = design_points(cfg, executor=SerialExecutor(), cache=cache)

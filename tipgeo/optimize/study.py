@@ -30,7 +30,7 @@ from .objective import term_summary, verify_optimum
 from .surrogate import fit_surrogate
 from .sweep import run_sweep, write_table
 
-__all__ = ["run_study", "feasibility", "edge_report"]
+__all__ = ["run_study", "feasibility", "grid_verdicts", "edge_report"]
 
 
 def feasibility(config: StudyConfig, known=None):
@@ -59,6 +59,24 @@ def feasibility(config: StudyConfig, known=None):
                     memo[key] = False
             out[i] = memo[key]
         return out
+
+    return feasible
+
+
+def grid_verdicts(config: StudyConfig, screen: dict):
+    """A callable (m, d) -> (m,) bool answering from a ``maximin`` design's
+    candidate grid (:attr:`SweepResult.screen`): each point takes the verdict
+    of its nearest node (validated or inferred) — no validation. For the
+    pictures' blank region only; optima are checked by :func:`feasibility`."""
+    levels = tuple(int(k) for k in screen["levels"])
+    ok = np.asarray(screen["grid_ok"], bool)
+    lo, hi = np.array(config.bounds, float).T
+    top = np.array(levels) - 1
+
+    def feasible(X) -> np.ndarray:
+        U = (np.atleast_2d(np.asarray(X, float)) - lo) / (hi - lo)
+        idx = np.clip(np.rint(U * top), 0, top).astype(int)
+        return ok[np.ravel_multi_index(tuple(idx.T), levels)]
 
     return feasible
 
@@ -197,9 +215,13 @@ def run_study(config: StudyConfig, out_dir: str | Path, *, executor=None, cache:
     if plots:
         from .plots import plot_loo, plot_pareto, plot_response
 
+        # a maximin design's screened candidate grid already shows the refused region
+        shade = (grid_verdicts(config, sweep.screen) if sweep.screen is not None
+                 else feasible)
+
         for name in config.plots["responses"]:
             files.append(str(plot_response(sur, config, name, out / f"surface-{name}.png",
-                                           optima=optima, feasible=feasible)))
+                                           optima=optima, feasible=shade)))
 
         files.append(str(plot_loo(sur, out / "loo.png")))
         for opt in optima:

@@ -54,8 +54,9 @@ class SweepResult:
     computed, cached : int — configurations evaluated now / served by the cache
     executor : str; workers : int
     design : dict — how the design was made (see :func:`design_points`)
-    screen : dict or None — ``maximin``: ``X`` (m, d) candidates and ``ok`` (m,)
-        bool, their validation verdicts
+    screen : dict or None — ``maximin``: ``X`` (m, d) validated candidates and
+        ``ok`` (m,) bool, their verdicts; ``levels`` of the candidate grid and
+        ``grid_ok``, every node's verdict (validated or inferred), grid order
     """
 
     config: StudyConfig
@@ -373,7 +374,8 @@ def _design(config: StudyConfig, *, executor, cache, progress, stream):
             "fill_distance_unit": fill_distance(U[sel], U),
             "seconds": time.perf_counter() - t0}
     known = np.array([e is not None for e in errors])
-    return pool[cand[sel]], info, {"X": pool[known], "ok": ok[known]}
+    return pool[cand[sel]], info, {"X": pool[known], "ok": ok[known], "levels": levels,
+                                   "grid_ok": ok}
 
 
 _NUMBER = re.compile(r"[-+]?\d+(?:\.\d+)?(?:e[-+]?\d+)?")

@@ -65,18 +65,28 @@ def feasibility(config: StudyConfig, known=None):
 
 def grid_verdicts(config: StudyConfig, screen: dict):
     """A callable (m, d) -> (m,) bool answering from a ``maximin`` design's
-    candidate grid (:attr:`SweepResult.screen`): each point takes the verdict
-    of its nearest node (validated or inferred) — no validation. For the
-    pictures' blank region only; optima are checked by :func:`feasibility`."""
+    candidate grid (:attr:`SweepResult.screen`) — no validation: a point is
+    admissible when any node of the grid cell holding it is (validated or
+    inferred), so the refused region drawn is the part of the box where the
+    grid saw nothing admissible, and no admissible training point or optimum
+    falls inside it. For the pictures' blank region only; optima are checked
+    by :func:`feasibility`."""
+    import itertools
+
     levels = tuple(int(k) for k in screen["levels"])
     ok = np.asarray(screen["grid_ok"], bool)
     lo, hi = np.array(config.bounds, float).T
     top = np.array(levels) - 1
 
     def feasible(X) -> np.ndarray:
-        U = (np.atleast_2d(np.asarray(X, float)) - lo) / (hi - lo)
-        idx = np.clip(np.rint(U * top), 0, top).astype(int)
-        return ok[np.ravel_multi_index(tuple(idx.T), levels)]
+        t = np.clip((np.atleast_2d(np.asarray(X, float)) - lo) / (hi - lo) * top, 0, top)
+        below = np.floor(t + 1e-9).astype(int)
+        above = np.minimum(np.ceil(t - 1e-9).astype(int), top)
+        out = np.zeros(len(t), bool)
+        for pick in itertools.product((False, True), repeat=len(levels)):
+            idx = np.where(np.array(pick), above, below)
+            out |= ok[np.ravel_multi_index(tuple(idx.T), levels)]
+        return out
 
     return feasible
 

@@ -46,6 +46,7 @@ import warnings
 import numpy as np
 
 from ..errors import SpecError
+from ..tolerances import tol
 
 __all__ = ["DESIGN_METHODS", "MAXIMIN_P", "make_design", "unit_design", "candidate_pool",
            "candidate_levels", "candidate_pool_size", "default_candidates", "maximin_select",
@@ -71,7 +72,7 @@ def default_candidates(points: int, dims: int) -> int:
     4·⌈points^(1/d)⌉ + 1 levels per variable, so that the nodes of a plain grid
     of ``points`` points (when there is one) are among the candidates — for
     25 points in 2 variables, 21 × 21."""
-    k = 4 * int(math.ceil(points ** (1.0 / dims) - 1e-9)) + 1
+    k = 4 * int(math.ceil(points ** (1.0 / dims) - tol.rel)) + 1
     return k ** dims
 
 
@@ -178,7 +179,7 @@ def _levels(dims: int, candidates: int) -> int:
             or candidates < 2:
         raise SpecError(f"design.candidates = {candidates!r} is out of range; allowed an "
                         "integer ≥ 2")
-    k = max(2, int(math.ceil(candidates ** (1.0 / dims) - 1e-9)))
+    k = max(2, int(math.ceil(candidates ** (1.0 / dims) - tol.rel)))
     return k
 
 
@@ -277,7 +278,7 @@ def maximin_select(U, points: int, *, seed: int = 0,
     for s in range(MAXIMIN_STARTS if starts is None else starts):
         sel = greedy.copy() if s == 0 else rng.choice(m, points, replace=False)
         sel, v = _exchange(U, sel, rng, ref)
-        if best is None or v < best_v * (1 - 1e-12):
+        if best is None or v < best_v * (1 - tol.maximin_improve):
             best, best_v = sel, v
     return np.sort(best)
 
@@ -325,7 +326,7 @@ def _exchange(U, sel, rng, ref) -> tuple[np.ndarray, float]:
             stay = gain[sel[i]]
             gain[sel] = np.inf
             c = int(np.argmin(gain))
-            if not gain[c] < stay * (1 - 1e-12):
+            if not gain[c] < stay * (1 - tol.maximin_improve):
                 continue
             sel[i] = c
             E[i] = _terms(U, U[c], ref)

@@ -73,6 +73,8 @@ def grid_verdicts(config: StudyConfig, screen: dict):
     by :func:`feasibility`."""
     import itertools
 
+    from ..tolerances import tol
+
     levels = tuple(int(k) for k in screen["levels"])
     ok = np.asarray(screen["grid_ok"], bool)
     lo, hi = np.array(config.bounds, float).T
@@ -80,8 +82,8 @@ def grid_verdicts(config: StudyConfig, screen: dict):
 
     def feasible(X) -> np.ndarray:
         t = np.clip((np.atleast_2d(np.asarray(X, float)) - lo) / (hi - lo) * top, 0, top)
-        below = np.floor(t + 1e-9).astype(int)
-        above = np.minimum(np.ceil(t - 1e-9).astype(int), top)
+        below = np.floor(t + tol.rel).astype(int)
+        above = np.minimum(np.ceil(t - tol.rel).astype(int), top)
         out = np.zeros(len(t), bool)
         for pick in itertools.product((False, True), repeat=len(levels)):
             idx = np.where(np.array(pick), above, below)

@@ -2,8 +2,8 @@
 
 Run: python -m pytest benchmarks/test_optimize_bench.py --benchmark-only
 
-- the thesis's 25-point helical study and a 400-point (20 × 20) version of it,
-  in this process and on two local processes (no cache: every tip analysed);
+- a 25-point (5 × 5 grid) helical sweep and a 400-point (20 × 20) one, in this
+  process and on two local processes (no cache: every tip analysed);
 - a fully cached re-run of the 25 points;
 - the GP fit of the seven responses and the three optimisations;
 - the whole shipped study as ``tipgeo optimize samples/helical-study.toml``
@@ -117,7 +117,7 @@ def test_study_demo_hook(benchmark, tmp_path_factory):
 
 
 def test_holdout_coverage_of_the_intervals(benchmark):
-    """The shipped study's GP (its 25-point grid; Matérn 5/2, uncalibrated)
+    """The shipped study's GP (its 25 maximin points; Matérn 5/2, uncalibrated)
     against every admitted point of the 1° grid over the box that it was not
     trained on: the share inside the 95 % intervals, the held-out log
     predictive density per point and the mean's error as a share of the

@@ -23,7 +23,6 @@ from tipgeo.optimize import (
     SerialExecutor,
     Surrogate,
     loads_config,
-    make_design,
     read_table,
     run_study,
     study_preset,
@@ -173,7 +172,9 @@ def test_calibrated_intervals_hold_the_stated_share_of_loo_points():
 def test_the_shipped_study_spans_the_whole_box():
     cfg = study_preset("helical-study")
     assert cfg.bounds == [(5.0, 25.0), (5.0, 20.0)]
-    assert len(make_design(cfg.variables, cfg.design["method"], levels=cfg.design["levels"])) == 25
+    # 25 admissible points chosen among a 21 × 21 candidate grid (tests/test_optimize_design.py)
+    assert cfg.design == {"method": "maximin", "levels": None, "points": 25, "seed": 0,
+                          "candidates": 441}
     assert cfg.surrogate["calibrate"] is False and cfg.surrogate["kernel"] == "matern52"
     assert cfg.infill == {"rounds": 8, "threshold": 0.01,
                           "responses": ("theta_min_deg", "lambda_max_deg", "l_c_mm")}

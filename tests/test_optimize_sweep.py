@@ -180,7 +180,8 @@ _var = st.fixed_dictionaries({}, optional={
                              "cannula.length_mm", "cannula.gauge", "tolerance_um",
                              "cutters[0].count", "cutters[9].phi_deg", "x", "cannula.preset"]),
     "min": _values, "max": _values, "levels": _values, "name": _values})
-_table = st.dictionaries(st.sampled_from(["method", "levels", "points", "seed", "responses",
+_table = st.dictionaries(st.sampled_from(["method", "levels", "points", "seed", "candidates",
+                                          "responses",
                                           "workers", "cache", "nugget", "mode", "starts",
                                           "variables", "resolution", "harmonics", "forces"]),
                          _values, max_size=4)
@@ -227,7 +228,8 @@ _DELETE = object()
 _PATHS = [("name",), ("base",), ("description",), ("variables",), ("variables", 0, "path"),
           ("variables", 0, "min"), ("variables", 1, "max"), ("variables", 1, "levels"),
           ("variables", 0, "name"), ("design", "method"), ("design", "levels"),
-          ("design", "points"), ("design", "seed"), ("analysis", "method"),
+          ("design", "points"), ("design", "seed"), ("design", "candidates"),
+          ("analysis", "method"),
           ("analysis", "responses"), ("analysis", "harmonics"), ("analysis", "samples"),
           ("analysis", "forces"), ("sweep", "workers"), ("sweep", "cache"),
           ("surrogate", "nugget"), ("surrogate", "mode"), ("surrogate", "starts"),
@@ -236,7 +238,8 @@ _PATHS = [("name",), ("base",), ("description",), ("variables",), ("variables", 
           ("objectives", 0, "terms", 0, "weight"), ("objectives", 0, "combine"),
           ("plots", "variables"), ("plots", "resolution"), ("plots", "responses")]
 _mut_values = st.one_of(_values, st.just(_DELETE),
-                        st.sampled_from(["lhs", "sobol", "grid", "pareto", "max", "fourier",
+                        st.sampled_from(["lhs", "sobol", "grid", "maximin", "pareto", "max",
+                                         "fourier",
                                          "cutters[0].pitch_mm", "separable", "l_c_mm",
                                          ["l_c_mm"], {"speed_ratio": 0.3}, [3, 3], 1e-3,
                                          "helical-14G", "psi_deg"]))
@@ -518,7 +521,9 @@ def test_sample_study_config_matches_the_built_in():
     assert [v.path for v in cfg.variables] == ["cutters[0].helix_angle_deg",
                                               "cutters[0].phi_deg"]
     assert cfg.responses == THESIS and len(cfg.objectives) == 3
-    X = make_design(cfg.variables, "grid", levels=cfg.design["levels"])
+    assert cfg.design["method"] == "maximin" and cfg.design["points"] == 25
+    # the plain 5 × 5 grid the thesis used would waste points on refused tips
+    X = make_design(cfg.variables, "grid", levels=5)
     assert len(X) == 25 and X.min(0).tolist() == [5.0, 5.0] and X.max(0).tolist() == [25.0, 20.0]
     # every configuration is a valid tip or refused at validation with the
     # geometric reason (the needle leaning too far towards the helix axis)

@@ -613,6 +613,10 @@ class Tolerances:
         Most (angular × radial) grid points a helicoid's mesh may take; a spec
         that would need more at the default tolerance is refused at
         validation (it bounds the build to about a second).
+    maximin_improve : float
+        A ``maximin`` design's point exchange accepts a move, and one start
+        beats another, only when it lowers φ_p by more than this share
+        (dimensionless; below it the difference is round-off).
     """
 
     chordal: float = DEFAULT_CHORDAL_MM
@@ -665,6 +669,7 @@ class Tolerances:
     step_occ: float = 1.0e-7
     helical_max_steep_deg: float = 88.0
     helical_max_grid: int = 80_000
+    maximin_improve: float = 1.0e-12
 
 
 #: The process-wide tolerance object. Tests set ``tol.strict = True``.

@@ -69,20 +69,46 @@ def cmd_sweep(args) -> int:
           f"{s['invalid']} invalid, {s['failed']} failed; {s['computed']} computed, "
           f"{s['cached']} from the cache; {s['seconds']:.2f} s on {s['workers']} "
           f"worker(s) ({s['executor']})")
+    _print_design(s)
     for f in s["failures"]:
         print(f"  [{f['index']}] {f['status']}: {f['error']}")
     print(f"wrote {out}")
     return 0
 
 
+def _print_design(s: dict) -> None:
+    d = s.get("design", {})
+    if d.get("method") != "maximin":
+        return
+    print(f"design: maximin, {d['points']} of {d['admissible']} admissible candidates of "
+          f"{d['candidates']} (buildable fraction {d['buildable_fraction']:.1%}; "
+          f"{d['validated']} validated, {d['refused_inferred']} refused by inference)")
+    for g in d["refusals"]:
+        print(f"  {g['count']} refused, e.g.: {g['example']}")
+
+
 def _dry_run(cfg, args) -> int:
-    """Validate the config and every configuration's spec; compute nothing."""
+    """Validate the config and every configuration's spec; compute nothing.
+
+    A ``maximin`` design is chosen by screening its candidate grid (one
+    validation per candidate, the sweep's work): here only the box's corners
+    are checked and the candidate count is reported."""
     from ..errors import SpecError
-    from ..optimize.design import make_design
+    from ..optimize.design import candidate_pool_size, make_design
     from ..spec import spec_from_dict
 
-    X = make_design(cfg.variables, cfg.design["method"], levels=cfg.design["levels"],
-                    points=cfg.design["points"], seed=cfg.design["seed"])
+    maximin = cfg.design["method"] == "maximin"
+    if maximin:
+        X = make_design(cfg.variables, "grid", levels=2)
+        n = cfg.design["points"]
+        pool = candidate_pool_size(cfg.variables, cfg.design["candidates"])
+        what = (f"{n} maximin configurations of {', '.join(v.name for v in cfg.variables)} "
+                f"to be chosen among the admissible ones of {pool} candidates (screened "
+                f"when the sweep runs); the box's {len(X)} corners checked")
+    else:
+        X = make_design(cfg.variables, cfg.design["method"], levels=cfg.design["levels"],
+                        points=cfg.design["points"], seed=cfg.design["seed"])
+        n = len(X)
     rows = []
     for i, x in enumerate(X[:DRY_RUN_CHECKS]):
         try:
@@ -94,14 +120,19 @@ def _dry_run(cfg, args) -> int:
     names = [v.name for v in cfg.variables]
     valid = sum(r["status"] == "valid" for r in rows)
     if args.json:
-        print(_dumps({"name": cfg.name, "variables": names, "configurations": len(X),
-                          "checked": len(rows),
-                          "valid": valid, "rows": rows}))
+        print(_dumps({"name": cfg.name, "variables": names, "configurations": n,
+                      "checked": len(rows), "valid": valid, "rows": rows}
+                     | ({"candidates": pool, "checked_rows": "box corners"} if maximin
+                        else {})))
         return 0
-    checked = "" if len(rows) == len(X) else f" (the first {len(rows)} checked)"
-    print(f"{cfg.name}: {len(X)} configurations of {', '.join(names)} "
-          f"({cfg.design['method']}){checked}; {valid} valid specs, {len(rows) - valid} "
-          "invalid; nothing computed (--dry-run)")
+    if maximin:
+        print(f"{cfg.name}: {what}; {valid} valid specs, {len(rows) - valid} invalid; "
+              "nothing computed (--dry-run)")
+    else:
+        checked = "" if len(rows) == len(X) else f" (the first {len(rows)} checked)"
+        print(f"{cfg.name}: {len(X)} configurations of {', '.join(names)} "
+              f"({cfg.design['method']}){checked}; {valid} valid specs, {len(rows) - valid} "
+              "invalid; nothing computed (--dry-run)")
     for r in rows:
         if r["status"] != "valid":
             print(f"  [{r['index']}] invalid: {r['error']}")
@@ -127,6 +158,7 @@ def cmd_optimize(args) -> int:
     print(f"{cfg.name}: {s['configurations']} configurations ({s['ok']} ok, {s['invalid']} "
           f"invalid, {s['failed']} failed) in {s['seconds']:.2f} s; GP "
           f"{rep['surrogate']['mode']}, fitted in {rep['surrogate']['fit_seconds']:.2f} s")
+    _print_design(s)
     cal = " (σ̂ calibrated on LOO)" if rep["surrogate"].get("calibrate") else ""
     print(f"{rep['surrogate']['training_points']} training points{cal}")
     print(f"{'response':<18}{'LOO RMSE':>12}{'NRMSE':>10}{'in 95 %':>9}")

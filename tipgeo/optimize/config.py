@@ -17,8 +17,10 @@ Example (``samples/helical-study.toml`` holds the thesis's study)::
     max = 11.0
 
     [design]
-    method = "grid"                 # grid | lhs | sobol
-    levels = 5                      # grid: per variable; lhs/sobol: points = N
+    method = "grid"                 # grid | lhs | sobol | maximin
+    levels = 5                      # grid: per variable; lhs/sobol/maximin: points = N
+    # maximin: N admissible points, maximin over a screened grid of candidates
+    # (default (4·⌈N^(1/d)⌉ + 1)^d); seed = 0 orders its exchange (design.py)
 
     [analysis]
     method = "exact"                # exact | fourier | mesh
@@ -70,6 +72,8 @@ ANALYSIS_METHODS = ("exact", "fourier", "mesh")
 GOALS = ("min", "max")
 COMBINE = ("weighted", "pareto")
 SURROGATE_MODES = ("independent", "separable")
+#: Most ``[design] candidates`` of a ``maximin`` design (each is a spec validation).
+MAX_CANDIDATES = 100_000
 #: ``[surrogate] kernel``: a correlation family (gp.KERNELS) or per-response choice.
 SURROGATE_KERNELS = ("gaussian", "matern52", "matern32", "auto")
 
@@ -144,7 +148,8 @@ class StudyConfig:
     base_name : str — preset name or spec file it came from
     base : dict — the base spec in TOML form (mm, degrees)
     variables : tuple of Variable
-    design : dict — ``method``, ``levels``, ``points``, ``seed``
+    design : dict — ``method``, ``levels``, ``points``, ``seed``, ``candidates``
+        (``maximin``: the candidate count asked for; None otherwise)
     analysis : dict — ``method``, ``harmonics``, ``samples``
     responses : tuple of str — recorded and modelled responses
     workers : int or None — local processes (None: all CPUs)
@@ -437,7 +442,8 @@ def config_from_dict(data: Any, *, base_dir: str | Path | None = None,
         raise SpecError("base is missing; expected a preset name or a spec file (.toml)")
     base_name, base = _base(t["base"], bdir)
 
-    design = _table("design", t.get("design", {}), ("method", "levels", "points", "seed"))
+    design = _table("design", t.get("design", {}), ("method", "levels", "points", "seed",
+                                                    "candidates"))
     method = _choice("design.method", design.get("method", "grid"), tuple(DESIGN_METHODS))
     levels = design.get("levels")
     if levels is not None:
@@ -449,6 +455,13 @@ def config_from_dict(data: Any, *, base_dir: str | Path | None = None,
     if points is not None:
         points = _int("design.points", points, 2, 1_000_000)
     seed = _int("design.seed", design.get("seed", 0), 0, 2**32 - 1)
+    candidates = design.get("candidates")
+    if candidates is not None:
+        if method != "maximin":
+            raise SpecError(f"design.candidates is not used by method '{method}'; it is "
+                            "for method 'maximin'")
+        # every candidate costs a spec validation (~0.05 s): bounded here
+        candidates = _int("design.candidates", candidates, 2, MAX_CANDIDATES)
 
     raw_vars = _list("variables", t.get("variables", []))
     if not raw_vars:
@@ -481,7 +494,18 @@ def config_from_dict(data: Any, *, base_dir: str | Path | None = None,
                             "points (≥ 2)")
         if levels is not None:
             raise SpecError(f"design.levels is not used by method '{method}'; give points")
-    design = {"method": method, "levels": levels, "points": points, "seed": seed}
+    if method == "maximin":
+        from .design import candidate_pool_size, default_candidates
+
+        if candidates is None:
+            candidates = min(default_candidates(points, len(variables)), MAX_CANDIDATES)
+        size = candidate_pool_size(variables, candidates)
+        if size < points:
+            raise SpecError(f"design.candidates = {candidates} gives a grid of {size} "
+                            f"candidates for design.points = {points}; allowed candidates "
+                            "giving at least as many grid points as design points")
+    design = {"method": method, "levels": levels, "points": points, "seed": seed,
+              "candidates": candidates}
 
     an = _table("analysis", t.get("analysis", {}), ("method", "harmonics", "samples",
                                                     "responses", "forces"))

@@ -19,8 +19,9 @@ HELICAL_STUDY_TOML = """\
 # helix axis, axis offset 4.7665 mm; see `tipgeo calibrate`). ψ and φ change as
 # a CAD user changes them in that model: the rulings follow ψ, the needle
 # tilts by φ about the point where its axis crosses the helicoid, and the rest
-# of the placement is held. 25 training points (5 × 5 grid, like the thesis);
-# for more, raise [design] levels or use method = "lhs" with points = N.
+# of the placement is held. 25 training points like the thesis, all of them
+# buildable (a maximin design over the admissible part of the box); for more,
+# raise [design] points.
 #
 #   tipgeo sweep samples/helical-study.toml
 #   tipgeo optimize samples/helical-study.toml --out helical-study
@@ -34,7 +35,8 @@ base = "helical-14G"
 # Beyond φ ≈ 16° the calibrated needle leans so far towards the helix axis
 # that the helicoid folds over inside the tube (or its mesh at the default
 # tolerance would exceed the cap of tol.helical_max_grid): such points are
-# refused at validation with that reason and recorded as invalid rows.
+# refused at validation with that reason. The design screens its candidates
+# so and reports the refused share of the box.
 [[variables]]
 name = "psi_deg"
 path = "cutters[0].helix_angle_deg"
@@ -47,9 +49,15 @@ path = "cutters[0].phi_deg"
 min = 5.0
 max = 20.0
 
+# maximin: 25 points chosen among the candidates of a 21 × 21 grid over the box
+# that pass validation, spread so that the closest two are as far apart as
+# possible (on the unit box); seeded, deterministic (tipgeo/optimize/design.py).
+# A 5 × 5 grid (method = "grid", levels = 5) would waste 7 of its 25 points
+# on refused configurations.
 [design]
-method = "grid"
-levels = 5
+method = "maximin"
+points = 25
+seed = 0
 
 [analysis]
 method = "exact"
@@ -64,8 +72,9 @@ cache = true
 nugget = false
 mode = "independent"
 # Matérn 5/2, not the thesis's Gaussian (eq. 3.26): the min/max-over-the-edge
-# responses have kinks, and on 250 held-out 1° grid points the Gaussian's 95 %
-# intervals held 56–80 % of them, the Matérn 5/2's 90–98 % (README).
+# responses have kinks, and on 250 held-out 1° grid points (trained on the
+# earlier 5 × 5 grid) the Gaussian's 95 % intervals held 56–80 % of them, the
+# Matérn 5/2's 90–98 % (README).
 kernel = "matern52"
 starts = 12
 seed = 0

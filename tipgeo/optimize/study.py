@@ -30,15 +30,21 @@ from .objective import term_summary, verify_optimum
 from .surrogate import fit_surrogate
 from .sweep import run_sweep, write_table
 
-__all__ = ["run_study", "feasibility", "edge_report"]
+__all__ = ["run_study", "feasibility", "grid_verdicts", "edge_report"]
 
 
-def feasibility(config: StudyConfig):
+def feasibility(config: StudyConfig, known=None):
     """A callable (m, d) -> (m,) bool: does the spec at each row validate
-    (e.g. the helix axis clears the tube, thesis §3.1.1)?"""
+    (e.g. the helix axis clears the tube, thesis §3.1.1)?
+
+    ``known``: {``X``: (m, d), ``ok``: (m,) bool} verdicts already found (a
+    ``maximin`` design's screening, :attr:`SweepResult.screen`), not re-validated."""
     from ..errors import SpecError
 
     memo: dict[tuple, bool] = {}  # a validation costs ~0.1 s; plots re-ask the same grid
+    if known is not None:
+        for x, ok in zip(np.asarray(known["X"], float), known["ok"]):
+            memo[tuple(np.round(x, 12).tolist())] = bool(ok)
 
     def feasible(X) -> np.ndarray:
         X = np.atleast_2d(np.asarray(X, float))
@@ -52,6 +58,36 @@ def feasibility(config: StudyConfig):
                 except SpecError:
                     memo[key] = False
             out[i] = memo[key]
+        return out
+
+    return feasible
+
+
+def grid_verdicts(config: StudyConfig, screen: dict):
+    """A callable (m, d) -> (m,) bool answering from a ``maximin`` design's
+    candidate grid (:attr:`SweepResult.screen`) — no validation: a point is
+    admissible when any node of the grid cell holding it is (validated or
+    inferred), so the refused region drawn is the part of the box where the
+    grid saw nothing admissible, and no admissible training point or optimum
+    falls inside it. For the pictures' blank region only; optima are checked
+    by :func:`feasibility`."""
+    import itertools
+
+    from ..tolerances import tol
+
+    levels = tuple(int(k) for k in screen["levels"])
+    ok = np.asarray(screen["grid_ok"], bool)
+    lo, hi = np.array(config.bounds, float).T
+    top = np.array(levels) - 1
+
+    def feasible(X) -> np.ndarray:
+        t = np.clip((np.atleast_2d(np.asarray(X, float)) - lo) / (hi - lo) * top, 0, top)
+        below = np.floor(t + tol.rel).astype(int)
+        above = np.minimum(np.ceil(t - tol.rel).astype(int), top)
+        out = np.zeros(len(t), bool)
+        for pick in itertools.product((False, True), repeat=len(levels)):
+            idx = np.where(np.array(pick), above, below)
+            out |= ok[np.ravel_multi_index(tuple(idx.T), levels)]
         return out
 
     return feasible
@@ -139,12 +175,22 @@ def run_study(config: StudyConfig, out_dir: str | Path, *, executor=None, cache:
         f"{s['cached']} cached) in {s['seconds']:.2f} s")
     for f in s["failures"][:5]:
         log(f"  [{f['index']}] {f['status']}: {f['error']}")
+    dz = s.get("design", {})
+    if dz.get("method") == "maximin":
+        log(f"design: {dz['points']} admissible maximin points of {dz['candidates']} "
+            f"candidates; {dz['admissible']} admissible (buildable fraction "
+            f"{dz['buildable_fraction']:.1%}); min distance {dz['min_distance_unit']:.3f}, "
+            f"fill distance {dz['fill_distance_unit']:.3f} (unit box)")
+        log(f"  {dz['candidates'] - dz['admissible']} candidates refused "
+            f"({dz['refused_inferred']} of them inferred from their coarse cell):")
+        for g in dz["refusals"][:5]:
+            log(f"  {g['count']} validated, e.g.: {g['example']}")
     t0 = time.perf_counter()
     sur = fit_surrogate(sweep)
     t_fit = time.perf_counter() - t0
     log(f"surrogate: {len(sur.responses)} responses ({sur.mode}) fitted to "
         f"{len(sur.X_)} points in {t_fit:.2f} s")
-    feasible = feasibility(config)
+    feasible = feasibility(config, known=sweep.screen)
     t0 = time.perf_counter()
     inf = infill_optima(config, sur, feasible=feasible, executor=executor, cache=cache, log=log)
     t_infill = time.perf_counter() - t0
@@ -181,9 +227,13 @@ def run_study(config: StudyConfig, out_dir: str | Path, *, executor=None, cache:
     if plots:
         from .plots import plot_loo, plot_pareto, plot_response
 
+        # a maximin design's screened candidate grid already shows the refused region
+        shade = (grid_verdicts(config, sweep.screen) if sweep.screen is not None
+                 else feasible)
+
         for name in config.plots["responses"]:
             files.append(str(plot_response(sur, config, name, out / f"surface-{name}.png",
-                                           optima=optima, feasible=feasible)))
+                                           optima=optima, feasible=shade)))
 
         files.append(str(plot_loo(sur, out / "loo.png")))
         for opt in optima:

@@ -13,8 +13,10 @@ from __future__ import annotations
 
 import csv
 import io
+import itertools
 import json
 import math
+import re
 import sys
 import time
 from dataclasses import dataclass, field
@@ -30,7 +32,8 @@ from .config import StudyConfig
 from .design import make_design
 from .executors import Progress, SerialExecutor, make_executor
 
-__all__ = ["SweepResult", "run_sweep", "write_table", "read_table", "STATUSES"]
+__all__ = ["SweepResult", "run_sweep", "design_points", "write_table", "read_table",
+           "STATUSES"]
 
 STATUSES = ("ok", "invalid", "failed")
 
@@ -50,6 +53,10 @@ class SweepResult:
     seconds : float — wall time of the sweep (s)
     computed, cached : int — configurations evaluated now / served by the cache
     executor : str; workers : int
+    design : dict — how the design was made (see :func:`design_points`)
+    screen : dict or None — ``maximin``: ``X`` (m, d) validated candidates and
+        ``ok`` (m,) bool, their verdicts; ``levels`` of the candidate grid and
+        ``grid_ok``, every node's verdict (validated or inferred), grid order
     """
 
     config: StudyConfig
@@ -64,6 +71,8 @@ class SweepResult:
     executor: str = "serial"
     workers: int = 1
     extra: dict = field(default_factory=dict)
+    design: dict = field(default_factory=dict)
+    screen: dict | None = field(default=None, repr=False)
 
     @property
     def status(self) -> np.ndarray:
@@ -117,7 +126,8 @@ class SweepResult:
                 **{s: st.count(s) for s in STATUSES}, "computed": self.computed,
                 "cached": self.cached, "seconds": self.seconds, "executor": self.executor,
                 "workers": self.workers, "failures": fails,
-                "foreign_code": self.extra.get("foreign_code", 0)}
+                "foreign_code": self.extra.get("foreign_code", 0),
+                **({"design": self.design} if self.design else {})}
 
 
 def write_table(result: SweepResult, path: str | Path) -> Path:
@@ -184,21 +194,14 @@ def run_sweep(config: StudyConfig, *, X=None, executor=None, cache: Any = None,
     SweepResult — rows in design order; failures recorded, never raised.
     """
     t0 = time.perf_counter()
-    if X is None:
-        X = make_design(config.variables, config.design["method"],
-                        levels=config.design["levels"], points=config.design["points"],
-                        seed=config.design["seed"])
-    X = np.asarray(X, float).reshape(-1, len(config.variables))
-    if cache is None:
-        cache = config.cache
-    if cache is True:
-        cache = ResultCache(default_cache_dir())
-    elif cache is False:
-        cache = None
-    elif not isinstance(cache, ResultCache):
-        cache = ResultCache(cache)
+    cache = _resolve_cache(config, cache)
     if executor is None:
         executor = make_executor(config.workers)
+    design, screen = {"method": "given"}, None
+    if X is None:
+        X, design, screen = _design(config, executor=executor, cache=cache,
+                                    progress=progress, stream=stream)
+    X = np.asarray(X, float).reshape(-1, len(config.variables))
     analysis = dict(config.analysis)
     specs = [config.spec_dict(x, i) for i, x in enumerate(X)]
     hashes = [spec_hash(s, analysis) for s in specs]
@@ -245,7 +248,170 @@ def run_sweep(config: StudyConfig, *, X=None, executor=None, cache: Any = None,
                        hashes=hashes,
                        seconds=time.perf_counter() - t0, computed=len(tasks), cached=n_cached,
                        executor=ex.name, workers=ex.workers,
-                       extra={"foreign_code": len(foreign)} if foreign else {})
+                       extra={"foreign_code": len(foreign)} if foreign else {},
+                       design=design, screen=screen)
+
+
+def _resolve_cache(config: StudyConfig, cache: Any):
+    if cache is None:
+        cache = config.cache
+    if cache is True:
+        return ResultCache(default_cache_dir())
+    if cache is False:
+        return None
+    return cache if isinstance(cache, ResultCache) else ResultCache(cache)
+
+
+def design_points(config: StudyConfig, *, executor=None, cache: Any = None,
+                  progress: bool = False, stream=None) -> tuple[np.ndarray, dict]:
+    """The config's design, and how it was made.
+
+    For ``maximin`` every candidate is screened by the spec's validation
+    (geometric, no build; on the executor, verdicts cached like sweep results)
+    and only admissible candidates are chosen (:mod:`.design`).
+
+    Parameters
+    ----------
+    config : StudyConfig
+    executor, cache, progress, stream : see :func:`run_sweep`
+
+    Returns
+    -------
+    X : (n, d) float — the variables' units
+    info : dict — ``method``, ``points``; for ``maximin`` also ``seed``,
+        ``candidates`` (the grid's node count) and ``levels`` (per variable),
+        ``validated`` (nodes whose spec was validated; the others took their
+        coarse cell's verdict), ``admissible``, ``buildable_fraction``
+        (admissible share of the candidates: the box's buildable fraction on
+        that grid), ``refusals`` (validated refusals per distinct reason,
+        numbers aside: ``count`` and one ``example`` message),
+        ``refused_inferred`` (refused by inference), ``min_distance_unit`` and
+        ``fill_distance_unit`` (smallest pairwise distance of the design and
+        largest distance from an admissible candidate to it, on the unit box)
+        and ``seconds`` (screening and selection, wall)
+    """
+    if executor is None:
+        executor = make_executor(config.workers)
+    X, info, _ = _design(config, executor=executor, cache=_resolve_cache(config, cache),
+                         progress=progress, stream=stream)
+    return X, info
+
+
+def _design(config: StudyConfig, *, executor, cache, progress, stream):
+    from .design import (
+        candidate_levels,
+        candidate_pool,
+        fill_distance,
+        maximin_select,
+        min_distance,
+    )
+
+    d = config.design
+    if d["method"] != "maximin":
+        X = make_design(config.variables, d["method"], levels=d["levels"], points=d["points"],
+                        seed=d["seed"])
+        return X, {"method": d["method"], "points": int(len(X))}, None
+    t0 = time.perf_counter()
+    pool = candidate_pool(config.variables, d["candidates"])
+    levels = candidate_levels(config.variables, d["candidates"])
+    n = len(pool)
+    errors: list = [None] * n  # validation message ('' = admissible); None: not validated
+
+    def screen(idx) -> None:
+        idx = [int(i) for i in idx if errors[i] is None]
+        if idx:
+            for i, e in zip(idx, _screen(config, pool[idx], executor=executor, cache=cache,
+                                         progress=progress, stream=stream)):
+                errors[i] = e
+
+    # coarse to fine: every other node, then the nodes whose coarse cell disagrees
+    grid = np.array(np.unravel_index(np.arange(n), levels)).T  # (n, d) level indices
+    coarse = (np.all(grid % 2 == 0, axis=1) if all(k >= 3 and k % 2 for k in levels)
+              else np.ones(n, bool))
+    screen(np.flatnonzero(coarse))
+    inferred = np.zeros(n, bool)
+    ok = np.array([e == "" for e in errors])
+    mixed = []
+    for i in np.flatnonzero(~coarse):
+        corners = itertools.product(*[(g,) if g % 2 == 0 else (g - 1, g + 1) for g in grid[i]])
+        votes = {bool(ok[np.ravel_multi_index(c, levels)]) for c in corners}
+        if len(votes) == 1:
+            ok[i], inferred[i] = votes.pop(), True
+        else:
+            mixed.append(i)
+    screen(mixed)
+    lo = np.array([v.lo for v in config.variables], float)
+    span = np.array([v.hi - v.lo for v in config.variables], float)
+    while True:
+        ok = np.array([e == "" if e is not None else bool(ok[i])
+                       for i, e in enumerate(errors)])
+        if ok.sum() < d["points"]:
+            raise SpecError(f"design.points = {d['points']} is out of range; only "
+                            f"{int(ok.sum())} of the {n} candidates (design.candidates = "
+                            f"{d['candidates']}) pass validation; allowed at most that many "
+                            "(raise design.candidates, or move the box onto the buildable "
+                            "region)")
+        cand = np.flatnonzero(ok)
+        U = (pool[cand] - lo) / span
+        sel = maximin_select(U, d["points"], seed=d["seed"])
+        unchecked = [int(cand[j]) for j in sel if errors[cand[j]] is None]
+        if not unchecked:
+            break
+        screen(unchecked)  # chosen on an inferred verdict: validate before use
+        inferred[unchecked] = False
+    groups: dict[str, dict] = {}
+    for e in errors:
+        if e:
+            g = groups.setdefault(_NUMBER.sub("#", e), {"count": 0, "example": e})
+            g["count"] += 1
+    info = {"method": "maximin", "points": int(d["points"]), "seed": int(d["seed"]),
+            "candidates": int(n), "levels": [int(k) for k in levels],
+            "validated": int(sum(e is not None for e in errors)),
+            "admissible": int(ok.sum()), "buildable_fraction": float(ok.mean()),
+            "refused_inferred": int(np.sum(~ok & (np.array([e is None for e in errors])))),
+            "refusals": sorted(groups.values(), key=lambda g: -g["count"]),
+            "min_distance_unit": min_distance(U[sel]),
+            "fill_distance_unit": fill_distance(U[sel], U),
+            "seconds": time.perf_counter() - t0}
+    known = np.array([e is not None for e in errors])
+    return pool[cand[sel]], info, {"X": pool[known], "ok": ok[known], "levels": levels,
+                                   "grid_ok": ok}
+
+
+_NUMBER = re.compile(r"[-+]?\d+(?:\.\d+)?(?:e[-+]?\d+)?")
+#: the "analysis" a validation verdict is cached under (beside sweep results)
+_SCREEN = {"screen": "validate"}
+
+
+def _screen(config: StudyConfig, X, *, executor, cache, progress, stream) -> list[str]:
+    """Validation message per row of X ('' when the spec validates)."""
+    specs = [config.spec_dict(x) for x in X]
+    keys = [key_from_hash(spec_hash(s, _SCREEN)) for s in specs]
+    out: list = [None] * len(specs)
+    bar = Progress(len(specs), f"screen {config.name}", stream=stream, enabled=progress)
+    todo = []
+    for i, k in enumerate(keys):
+        hit = cache.get(k) if cache is not None else None
+        if hit is not None and "error" in hit:
+            out[i] = hit["error"]
+            bar.update(cached=True, failed=bool(out[i]))
+        else:
+            todo.append(i)
+    here = code_fingerprint()
+
+    def done(j: int, r: dict) -> None:
+        i = todo[j]
+        if r.get("status") not in ("ok", "invalid"):  # a worker died: refuse, say why
+            r = {"status": "invalid", "error": f"validation failed: {r.get('error', '')}"}
+        elif cache is not None and r.get("code", here) == here:
+            cache.put(keys[i], {"status": r["status"], "error": r["error"]})
+        out[i] = r["error"] if r["status"] != "ok" else ""
+        bar.update(failed=bool(out[i]))
+
+    if todo:
+        ex = executor if len(todo) > 1 else SerialExecutor()
+        ex.run(validate_spec_task, [(specs[i],) for i in todo], done)
+    return out
 
 
 def evaluate_spec_task(spec_dict: dict, analysis: dict) -> dict:
@@ -256,4 +422,18 @@ def evaluate_spec_task(spec_dict: dict, analysis: dict) -> dict:
 
     r = responses.evaluate_spec(spec_dict, analysis)
     r["code"] = code_fingerprint()  # checked (and dropped) by the sweep
+    return r
+
+
+def validate_spec_task(spec_dict: dict) -> dict:
+    """Worker entry point: does the spec validate? ``status`` ``ok`` or
+    ``invalid`` with the ``error`` message, tagged with the code fingerprint."""
+    from ..spec import spec_from_dict
+
+    try:
+        spec_from_dict(spec_dict)
+        r = {"status": "ok", "error": ""}
+    except SpecError as e:
+        r = {"status": "invalid", "error": str(e)}
+    r["code"] = code_fingerprint()
     return r

@@ -136,3 +136,41 @@ def test_deviations_written_in_place_equal_distances():
     assert np.array_equal(res.distances.feature, ref.feature[keep])
     assert np.array_equal(res.distances.closest, ref.closest[keep].astype(np.float32))
     assert res.dropped["far"] == np.count_nonzero(~keep)
+
+
+def test_fused_kernel_equals_separate_search_at_edges_and_vertices():
+    """The one-call kernel (spatial order, nearest search, signed distance:
+    ``MeshSolid.distances_into``) against the separate search and
+    ``signed_query`` (``MeshSolid.distances``): the same distances, closest
+    points, normals, faces and features bit for bit, on points just off the
+    mesh's vertices and edge midpoints (edge and vertex features) and far off
+    it (tree walks); distances equal an all-triangle brute force."""
+    from tipgeo.inspect.meshdist import brute_force_distances
+
+    rng = np.random.default_rng(11)
+    tip = _tip()
+    v, f = tip.vertices, tip.faces
+    mid = 0.5 * (v[f[:, 0]] + v[f[:, 1]])
+    p = np.vstack([v[rng.integers(0, len(v), 400)], mid[rng.integers(0, len(f), 400)]])
+    p = p + rng.normal(0.0, 0.003, p.shape)
+    p = np.vstack([p, rng.uniform(-2.0, 2.0, (100, 3))])       # far: tree walks
+    mesh = MeshSolid(tip)
+    ref = mesh.distances(p)
+    n = len(p)
+    out = (np.empty((n, 3)), np.empty(n), np.empty((n, 3)), np.empty((n, 3)),
+           np.empty(n, np.int64), np.empty(n, np.int8), np.empty(n, np.int64))
+    far = 0.5
+    cur, near = mesh.distances_into(p, np.arange(n) + 10, far=far, near=0.05, out=out, cur=0)
+    keep = np.abs(ref.distance) <= far
+    assert cur == np.count_nonzero(keep)
+    assert near == np.count_nonzero(np.abs(ref.distance) <= 0.05)
+    P, dist, clo, nrm, face, feat, rows = (a[:cur] for a in out)
+    assert np.array_equal(rows, np.flatnonzero(keep) + 10)
+    assert np.array_equal(P, p[keep])
+    assert np.array_equal(dist, ref.distance[keep])
+    assert np.array_equal(clo, ref.closest[keep])
+    assert np.array_equal(nrm, ref.normal[keep])
+    assert np.array_equal(face, ref.face[keep])
+    assert np.array_equal(feat, ref.feature[keep])
+    assert {0, 1, 2} <= set(np.unique(ref.feature[:800]).tolist())   # every feature seen
+    assert np.max(np.abs(np.abs(ref.distance) - brute_force_distances(p, tip.triangles))) < 1e-12

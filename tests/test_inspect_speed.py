@@ -174,3 +174,25 @@ def test_fused_kernel_equals_separate_search_at_edges_and_vertices():
     assert np.array_equal(feat, ref.feature[keep])
     assert {0, 1, 2} <= set(np.unique(ref.feature[:800]).tolist())   # every feature seen
     assert np.max(np.abs(np.abs(ref.distance) - brute_force_distances(p, tip.triangles))) < 1e-12
+
+
+@settings(max_examples=40, deadline=None)
+@given(st.lists(st.floats(-0.05, 0.05), min_size=1, max_size=200),
+       st.integers(1, 60), st.floats(-0.03, -1e-4), st.floats(1e-4, 0.03))
+@example([-0.025, 0.025, 0.0, -0.0249999, 0.02499999], 50, -0.025, 0.025)   # on the edges
+def test_histogram_and_grouping_equal_numpy(values, bins, lo, hi):
+    """The compiled histogram against numpy.histogram (edges and counts
+    equal, values on the edges included), and the one-copy grouping against
+    a mask per group (the same values in the same order)."""
+    from tipgeo.inspect.quantiles import by_group, histogram_counts
+
+    x = np.asarray(values)
+    counts, edges, below, above = histogram_counts(x, lo, hi, bins)
+    ref, ref_edges = np.histogram(x, bins=bins, range=(lo, hi))
+    assert np.array_equal(edges, ref_edges) and np.array_equal(counts, ref)
+    assert (below, above) == (np.count_nonzero(x < lo), np.count_nonzero(x > hi))
+    gid = (np.arange(len(x)) * 7919) % 5
+    gmap = np.array([2, 0, 1, 0, 2])
+    vals, start = by_group(x, gid, gmap, 3)
+    for g in range(3):
+        assert np.array_equal(vals[start[g]:start[g + 1]], x[gmap[gid] == g])

@@ -229,6 +229,19 @@ def measure(points: np.ndarray, dist, cad, *, min_points: int = 50,
     return out
 
 
+def _highest(z: np.ndarray, mask: np.ndarray, k: int) -> np.ndarray:
+    """Indices of the k highest ``z`` where ``mask`` holds (all of them when
+    fewer; at a tie the first rows), by a partition of the values alone and
+    no index array over all the points."""
+    zm = np.where(mask, z, -np.inf)
+    m = int(np.count_nonzero(mask))
+    if m <= k:
+        return np.flatnonzero(mask)
+    thr = np.partition(zm, len(zm) - k)[len(zm) - k]     # the k-th highest
+    above = np.flatnonzero(zm > thr)
+    return np.sort(np.concatenate([above, np.flatnonzero(zm == thr)[:k - len(above)]]))
+
+
 def _tip(points, d, near, fitted, planes, axis_pt, axis_dir, out, cad):
     r_o = out["outer"]["diameter_mm"] / 2 if out.get("outer") else cad.r_o
     if fitted and len(fitted) == len(planes):
@@ -237,11 +250,9 @@ def _tip(points, d, near, fitted, planes, axis_pt, axis_dir, out, cad):
                          np.array([0.0, 0.0, 1.0]), cad.r_o)
         how = "fitted planes ∩ fitted outer cylinder"
     else:
-        sel = np.flatnonzero(near)
-        if not len(sel):
+        top = _highest(points[:, 2], near, 20)
+        if not len(top):
             return None
-        z = points[sel, 2]
-        top = sel[np.argpartition(z, len(z) - 20)[-20:]] if len(z) > 20 else sel
         apex = np.asarray(points[top], np.float64).mean(axis=0)
         cad_apex = None
         how = "mean of the 20 highest scan points near the surface"

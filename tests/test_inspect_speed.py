@@ -196,3 +196,27 @@ def test_histogram_and_grouping_equal_numpy(values, bins, lo, hi):
     vals, start = by_group(x, gid, gmap, 3)
     for g in range(3):
         assert np.array_equal(vals[start[g]:start[g + 1]], x[gmap[gid] == g])
+
+
+def test_envelope_radius_test_equals_hypot_at_the_reach():
+    """transform_envelope decides by the square of the radius and falls back
+    to hypot only within round-off of the reach: on points a few ulps either
+    side of the reach (and far from it) it keeps exactly the points the C
+    library's hypot keeps (numpy.hypot; Python's math.hypot rounds its own
+    way and differs in the last bit at a few of them)."""
+    from tipgeo.inspect.nearest import transform_envelope
+
+    rng = np.random.default_rng(5)
+    reach = 1.05 + 0.5
+    ang = rng.uniform(0.0, 2 * np.pi, 4000)
+    r = reach * (1.0 + rng.integers(-8, 9, 4000) * 2.0 ** -52)
+    r[:500] = rng.uniform(0.0, 3.0, 500)
+    x = np.stack([r * np.cos(ang), r * np.sin(ang), rng.uniform(-1.0, 1.0, 4000)], 1)
+    R, t = np.eye(3), np.zeros(3)
+    q, rows = np.empty_like(x), np.empty(len(x), np.int64)
+    kept, cropped = transform_envelope(x, R, t, False, -np.inf, reach, -2.0, 2.0, q, rows, 0)
+    ref = np.flatnonzero(np.hypot(x[:, 0], x[:, 1]) <= reach)
+    assert cropped == 0 and 0 < len(ref) < len(x)
+    assert 0 < np.count_nonzero(ref >= 500) < 3500     # points a few ulps off: both sides
+    assert np.array_equal(rows[:kept], ref)
+    assert np.array_equal(q[:kept], x[ref])

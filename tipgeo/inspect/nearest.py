@@ -458,6 +458,11 @@ def transform_envelope(x, R, t, crop, z_min, reach, z_lo, z_hi, q, rows, first):
     """
     kept = 0
     cropped = 0
+    # the radius by its square, and math.hypot only within round-off of the
+    # reach (the squares' relative error is below 1e-15): the same decisions
+    # as hypot alone, at a quarter of the cost
+    lo2 = reach * reach * (1.0 - 1e-12)
+    hi2 = reach * reach * (1.0 + 1e-12)
     for i in range(x.shape[0]):
         a, b, c = np.float64(x[i, 0]), np.float64(x[i, 1]), np.float64(x[i, 2])
         qz = a * R[2, 0] + b * R[2, 1] + c * R[2, 2] + t[2]
@@ -468,7 +473,8 @@ def transform_envelope(x, R, t, crop, z_min, reach, z_lo, z_hi, q, rows, first):
             continue
         qx = a * R[0, 0] + b * R[0, 1] + c * R[0, 2] + t[0]
         qy = a * R[1, 0] + b * R[1, 1] + c * R[1, 2] + t[1]
-        if not math.hypot(qx, qy) <= reach:
+        r2 = qx * qx + qy * qy
+        if not r2 <= lo2 and not (r2 <= hi2 and math.hypot(qx, qy) <= reach):
             continue
         q[kept, 0], q[kept, 1], q[kept, 2] = qx, qy, qz
         rows[kept] = first + i

@@ -134,7 +134,9 @@ def test_deviations_written_in_place_equal_distances():
     assert np.array_equal(res.distances.distance, ref.distance[keep])
     assert np.array_equal(res.distances.face, ref.face[keep])
     assert np.array_equal(res.distances.feature, ref.feature[keep])
+    # computed on first use from each point's triangle: the same values
     assert np.array_equal(res.distances.closest, ref.closest[keep].astype(np.float32))
+    assert np.array_equal(res.distances.normal, ref.normal[keep].astype(np.float32))
     assert res.dropped["far"] == np.count_nonzero(~keep)
 
 

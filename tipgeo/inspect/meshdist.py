@@ -313,7 +313,7 @@ class MeshSolid:
         return Distances(d, q, normal, self.label_ids[t], feature, self.labels)
 
     def distances_into(self, points: np.ndarray, rows: np.ndarray, *, far: float, near: float,
-                       out: tuple, cur: int) -> tuple[int, int]:
+                       out: tuple, cur: int, tri: np.ndarray | None = None) -> tuple[int, int]:
         """:meth:`distances` of the points (mm), appended to a scan's result
         arrays from row ``cur`` on where |d| ≤ ``far`` (mm), with no
         temporary per point (what ``compare`` uses).
@@ -326,7 +326,9 @@ class MeshSolid:
         near : float — the count returned is of points within it (mm)
         out : tuple — (points (m, 3) float32, distance (m,) float64, closest
             (m, 3) float32, normal (m, 3) float32, face (m,) int, feature (m,)
-            int8, rows (m,) int)
+            int8, rows (m,) int); closest and normal with no rows: not
+            written (:meth:`closest_normals` gives them later)
+        tri : (m,) int, optional — receives each kept point's triangle
 
         Returns
         -------
@@ -338,10 +340,41 @@ class MeshSolid:
         if self._index is None:
             self._build()
         # one compiled call: spatial order, nearest search, signed distances
+        P, dist, clo, nrm, face, feat, out_rows = out
         return nearest_signed_into(p, rows, self._bits(len(p)), *self._index.args,
                                    self._index.parent, self.PT, self.f, self.fn, self.en,
                                    self.vn, tol.inspect.feature_eps, self.label_ids, far, near,
-                                   *out, cur)
+                                   P, dist, clo, nrm,
+                                   np.empty(0, np.int32) if tri is None else tri, face, feat,
+                                   out_rows, cur)
+
+    def closest_normals(self, x: np.ndarray, rows: np.ndarray, T: np.ndarray,
+                        tri: np.ndarray, dtype=np.float32) -> tuple[np.ndarray, np.ndarray]:
+        """Closest points and normals (as :meth:`distances` gives them) of the
+        points ``T`` applied to ``x[rows]``, given their triangles ``tri``
+        (from :meth:`distances_into`): the same values bit for bit as when the
+        points went through it, the rigid transform done by the same
+        arithmetic.
+
+        Parameters
+        ----------
+        x : (n, 3) float — points (mm, e.g. a scan's offsets)
+        rows : (k,) int — which; T : (4, 4) float — into the mesh's frame
+        tri : (k,) int — their triangles
+        dtype : the result's float type
+
+        Returns
+        -------
+        closest, normal : (k, 3) — mm, mesh frame; unit
+        """
+        from .nearest import signed_rows
+
+        clo = np.empty((len(rows), 3), dtype)
+        nrm = np.empty((len(rows), 3), dtype)
+        signed_rows(x, rows, np.ascontiguousarray(T[:3, :3], float),
+                    np.ascontiguousarray(T[:3, 3], float), tri, self.PT, self.f, self.fn,
+                    self.en, self.vn, tol.inspect.feature_eps, clo, nrm)
+        return clo, nrm
 
     def bound(self, points: np.ndarray) -> np.ndarray:
         """Signed distance (exact here; the name matches :class:`ExactSolid`)."""

@@ -28,7 +28,7 @@ import numpy as np
 from numba import njit
 
 __all__ = ["closest_on_triangle", "grid_lists", "nearest_signed_into", "nearest_triangles",
-           "signed_query", "spatial_order", "transform_envelope"]
+           "signed_query", "signed_rows", "spatial_order", "transform_envelope"]
 
 
 @njit(cache=True, fastmath=False, nogil=True)
@@ -394,7 +394,7 @@ def signed_query(p, t, PT, f, fn, en, vn, eps):
 @njit(cache=True, fastmath=False, nogil=True)
 def nearest_signed_into(p, rows, bits, box, first_leaf, start, stop, T, origin, cell, dims,
                         cstart, cprim, reach2, parent, PT, f, fn, en, vn, eps, label, far,
-                        near, P, dist, clo, nrm, face, feat, out_rows, cur):
+                        near, P, dist, clo, nrm, tri, face, feat, out_rows, cur):
     """The nearest triangle of every point and its signed distance in one
     compiled call (what ``compare`` runs per chunk): the points are put in
     :func:`spatial_order` (``bits``), searched by :func:`nearest_triangles`
@@ -405,7 +405,9 @@ def nearest_signed_into(p, rows, bits, box, first_leaf, start, stop, T, origin, 
     for the points, closest points and normals (compare keeps them in
     float32). ``parent`` maps sub-triangles to the mesh's triangles, whose
     corners are rows of ``PT``; ``f``, ``fn``, ``en``, ``vn``, ``eps`` as in
-    :func:`signed_query`.
+    :func:`signed_query`. ``clo`` and ``nrm`` with no rows are not written
+    (:func:`signed_rows` gives them later); ``tri`` with rows receives each
+    point's triangle.
 
     Returns
     -------
@@ -427,13 +429,34 @@ def nearest_signed_into(p, rows, bits, box, first_leaf, start, stop, T, origin, 
             continue
         P[cur, 0], P[cur, 1], P[cur, 2] = px, py, pz
         dist[cur] = d
-        clo[cur, 0], clo[cur, 1], clo[cur, 2] = qx, qy, qz
-        nrm[cur, 0], nrm[cur, 1], nrm[cur, 2] = nx, ny, nz
+        if clo.shape[0]:
+            clo[cur, 0], clo[cur, 1], clo[cur, 2] = qx, qy, qz
+            nrm[cur, 0], nrm[cur, 1], nrm[cur, 2] = nx, ny, nz
+        if tri.shape[0]:
+            tri[cur] = k
         face[cur] = label[k]
         feat[cur] = fe
         out_rows[cur] = rows[i]
         cur += 1
     return cur, nn
+
+
+@njit(cache=True, fastmath=False, nogil=True)
+def signed_rows(x, rows, R, t, tri, PT, f, fn, en, vn, eps, clo, nrm):
+    """Closest points and normals of the points ``R x[rows] + t`` to their
+    triangles ``tri`` (the arithmetic of :func:`transform_envelope` and of
+    :func:`nearest_signed_into`, so the same values bit for bit), written to
+    ``clo`` and ``nrm`` ((len(rows), 3), any float dtype); the other
+    arguments as in :func:`signed_query`."""
+    for j in range(rows.shape[0]):
+        i = rows[j]
+        a, b, c = np.float64(x[i, 0]), np.float64(x[i, 1]), np.float64(x[i, 2])
+        qz = a * R[2, 0] + b * R[2, 1] + c * R[2, 2] + t[2]
+        qx = a * R[0, 0] + b * R[0, 1] + c * R[0, 2] + t[0]
+        qy = a * R[1, 0] + b * R[1, 1] + c * R[1, 2] + t[1]
+        _, cx, cy, cz, nx, ny, nz, _ = _signed(qx, qy, qz, tri[j], PT, f, fn, en, vn, eps)
+        clo[j, 0], clo[j, 1], clo[j, 2] = cx, cy, cz
+        nrm[j, 0], nrm[j, 1], nrm[j, 2] = nx, ny, nz
 
 
 @njit(cache=True, fastmath=False, nogil=True)

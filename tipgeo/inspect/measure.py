@@ -148,11 +148,13 @@ def measure(points: np.ndarray, dist, cad, *, min_points: int = 50,
     d = dist.distance
     # fits take every point of a face that is not far off (robust fits drop
     # the rest): a bevel ground 0.5° off lies up to ~70 µm from the CAD plane
-    near = np.abs(d) < 0.5 * (cad.r_o - cad.r_i)
+    half = 0.5 * (cad.r_o - cad.r_i)
+    near = (d < half) & (d > -half)      # |d| < half, with no |d| array
+    flat = dist.feature == 0
     ez = np.array([0.0, 0.0, 1.0])
     axis_pt, axis_dir = np.zeros(3), ez
     for wall, r_nom in (("outer", cad.r_o), ("inner", cad.r_i)):
-        sel = on(wall) & near & (dist.feature == 0)
+        sel = on(wall) & near & flat
         if sel.sum() < min_points:
             out[wall] = None
             out["notes"].append(f"{wall} wall: {int(sel.sum())} points, too few to fit")
@@ -180,7 +182,7 @@ def measure(points: np.ndarray, dist, cad, *, min_points: int = 50,
     fitted = []
     for label, plane in planes.items():
         k = cad.labels.index(label) if label in cad.labels else None
-        sel = on(label) & near & (dist.feature == 0)
+        sel = on(label) & near & flat
         if k is not None and sel.any():
             idx = np.flatnonzero(sel)
             for ch in _chunks(len(idx)):

@@ -86,3 +86,29 @@ def test_closed_pipe_is_quiet():
     err = p.stderr.read().decode()
     assert p.wait(timeout=120) in (0, 1)
     assert err == ""
+
+
+def test_command_table_names_every_stage_command():
+    """``tipgeo CMD`` builds only CMD's stage (tipgeo.cli.COMMANDS): the table
+    equals what the stages register, and such a parser has CMD alone's
+    stage commands (``compare`` imports no other stage's modules)."""
+    import argparse
+    import importlib
+
+    from tipgeo.cli import COMMANDS, STAGES, build_parser
+
+    seen = {}
+    for stage in STAGES:
+        sub = argparse.ArgumentParser().add_subparsers()
+        importlib.import_module(f"tipgeo.cli.{stage}").register(sub)
+        seen.update({cmd: stage for cmd in sub.choices})
+    assert seen == COMMANDS
+    sub = next(a for a in build_parser("compare")._actions
+               if isinstance(a, argparse._SubParsersAction))
+    assert set(sub.choices) == {"compare", "scan-synth"}
+    code = ("import sys\nfrom tipgeo.cli import build_parser\nbuild_parser('compare')\n"
+            "print(sorted(m for m in sys.modules if m.startswith(('tipgeo.fem', "
+            "'tipgeo.mechanics', 'tipgeo.io'))))")
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                         check=True).stdout
+    assert out.strip() == "[]"

@@ -134,5 +134,91 @@ def test_deviations_written_in_place_equal_distances():
     assert np.array_equal(res.distances.distance, ref.distance[keep])
     assert np.array_equal(res.distances.face, ref.face[keep])
     assert np.array_equal(res.distances.feature, ref.feature[keep])
+    # computed on first use from each point's triangle: the same values
     assert np.array_equal(res.distances.closest, ref.closest[keep].astype(np.float32))
+    assert np.array_equal(res.distances.normal, ref.normal[keep].astype(np.float32))
     assert res.dropped["far"] == np.count_nonzero(~keep)
+
+
+def test_fused_kernel_equals_separate_search_at_edges_and_vertices():
+    """The one-call kernel (spatial order, nearest search, signed distance:
+    ``MeshSolid.distances_into``) against the separate search and
+    ``signed_query`` (``MeshSolid.distances``): the same distances, closest
+    points, normals, faces and features bit for bit, on points just off the
+    mesh's vertices and edge midpoints (edge and vertex features) and far off
+    it (tree walks); distances equal an all-triangle brute force."""
+    from tipgeo.inspect.meshdist import brute_force_distances
+
+    rng = np.random.default_rng(11)
+    tip = _tip()
+    v, f = tip.vertices, tip.faces
+    mid = 0.5 * (v[f[:, 0]] + v[f[:, 1]])
+    p = np.vstack([v[rng.integers(0, len(v), 400)], mid[rng.integers(0, len(f), 400)]])
+    p = p + rng.normal(0.0, 0.003, p.shape)
+    p = np.vstack([p, rng.uniform(-2.0, 2.0, (100, 3))])       # far: tree walks
+    mesh = MeshSolid(tip)
+    ref = mesh.distances(p)
+    n = len(p)
+    out = (np.empty((n, 3)), np.empty(n), np.empty((n, 3)), np.empty((n, 3)),
+           np.empty(n, np.int64), np.empty(n, np.int8), np.empty(n, np.int64))
+    far = 0.5
+    cur, near = mesh.distances_into(p, np.arange(n) + 10, far=far, near=0.05, out=out, cur=0)
+    keep = np.abs(ref.distance) <= far
+    assert cur == np.count_nonzero(keep)
+    assert near == np.count_nonzero(np.abs(ref.distance) <= 0.05)
+    P, dist, clo, nrm, face, feat, rows = (a[:cur] for a in out)
+    assert np.array_equal(rows, np.flatnonzero(keep) + 10)
+    assert np.array_equal(P, p[keep])
+    assert np.array_equal(dist, ref.distance[keep])
+    assert np.array_equal(clo, ref.closest[keep])
+    assert np.array_equal(nrm, ref.normal[keep])
+    assert np.array_equal(face, ref.face[keep])
+    assert np.array_equal(feat, ref.feature[keep])
+    assert {0, 1, 2} <= set(np.unique(ref.feature[:800]).tolist())   # every feature seen
+    assert np.max(np.abs(np.abs(ref.distance) - brute_force_distances(p, tip.triangles))) < 1e-12
+
+
+@settings(max_examples=40, deadline=None)
+@given(st.lists(st.floats(-0.05, 0.05), min_size=1, max_size=200),
+       st.integers(1, 60), st.floats(-0.03, -1e-4), st.floats(1e-4, 0.03))
+@example([-0.025, 0.025, 0.0, -0.0249999, 0.02499999], 50, -0.025, 0.025)   # on the edges
+def test_histogram_and_grouping_equal_numpy(values, bins, lo, hi):
+    """The compiled histogram against numpy.histogram (edges and counts
+    equal, values on the edges included), and the one-copy grouping against
+    a mask per group (the same values in the same order)."""
+    from tipgeo.inspect.quantiles import by_group, histogram_counts
+
+    x = np.asarray(values)
+    counts, edges, below, above = histogram_counts(x, lo, hi, bins)
+    ref, ref_edges = np.histogram(x, bins=bins, range=(lo, hi))
+    assert np.array_equal(edges, ref_edges) and np.array_equal(counts, ref)
+    assert (below, above) == (np.count_nonzero(x < lo), np.count_nonzero(x > hi))
+    gid = (np.arange(len(x)) * 7919) % 5
+    gmap = np.array([2, 0, 1, 0, 2])
+    vals, start = by_group(x, gid, gmap, 3)
+    for g in range(3):
+        assert np.array_equal(vals[start[g]:start[g + 1]], x[gmap[gid] == g])
+
+
+def test_envelope_radius_test_equals_hypot_at_the_reach():
+    """transform_envelope decides by the square of the radius and falls back
+    to hypot only within round-off of the reach: on points a few ulps either
+    side of the reach (and far from it) it keeps exactly the points the C
+    library's hypot keeps (numpy.hypot; Python's math.hypot rounds its own
+    way and differs in the last bit at a few of them)."""
+    from tipgeo.inspect.nearest import transform_envelope
+
+    rng = np.random.default_rng(5)
+    reach = 1.05 + 0.5
+    ang = rng.uniform(0.0, 2 * np.pi, 4000)
+    r = reach * (1.0 + rng.integers(-8, 9, 4000) * 2.0 ** -52)
+    r[:500] = rng.uniform(0.0, 3.0, 500)
+    x = np.stack([r * np.cos(ang), r * np.sin(ang), rng.uniform(-1.0, 1.0, 4000)], 1)
+    R, t = np.eye(3), np.zeros(3)
+    q, rows = np.empty_like(x), np.empty(len(x), np.int64)
+    kept, cropped = transform_envelope(x, R, t, False, -np.inf, reach, -2.0, 2.0, q, rows, 0)
+    ref = np.flatnonzero(np.hypot(x[:, 0], x[:, 1]) <= reach)
+    assert cropped == 0 and 0 < len(ref) < len(x)
+    assert 0 < np.count_nonzero(ref >= 500) < 3500     # points a few ulps off: both sides
+    assert np.array_equal(rows[:kept], ref)
+    assert np.array_equal(q[:kept], x[ref])

@@ -16,20 +16,32 @@ import sys
 
 from .common import check_files, declare_files
 
-__all__ = ["main", "build_parser", "declare_files", "check_files", "STAGES"]
+__all__ = ["main", "build_parser", "declare_files", "check_files", "STAGES", "COMMANDS"]
 
 #: The stages whose commands ``tipgeo`` offers, in the order of ``--help``.
 STAGES = ("design", "analyse", "make", "mechanics", "fem", "optimize", "inspect", "demo")
 
+#: The stage that registers each command: ``tipgeo CMD …`` builds only that
+#: stage's parser, so a command imports what it needs and no other stage's
+#: modules (start-up counts for ``compare`` on large scans). A test keeps the
+#: table equal to what the stages register.
+COMMANDS = {"build": "design", "gauges": "design", "samples": "design",
+            "angles": "analyse", "calibrate": "analyse",
+            "laser": "make", "gcode": "make", "grind": "make", "mill": "make",
+            "forces": "mechanics", "tissue": "mechanics", "fem": "fem",
+            "sweep": "optimize", "optimize": "optimize",
+            "compare": "inspect", "scan-synth": "inspect", "demo": "demo"}
 
-def build_parser() -> argparse.ArgumentParser:
-    """The ``tipgeo`` argument parser, every stage's commands registered."""
+
+def build_parser(command: str | None = None) -> argparse.ArgumentParser:
+    """The ``tipgeo`` argument parser: every stage's commands registered, or
+    with ``command`` (a key of :data:`COMMANDS`) only its stage's."""
     import importlib
 
     p = argparse.ArgumentParser(prog="tipgeo", description="Geometry and CAM of hollow-needle "
                                 "tips (mm, degrees; needle axis +z towards the tip).")
     sub = p.add_subparsers(dest="command", required=True)
-    for stage in STAGES:
+    for stage in (COMMANDS[command],) if command in COMMANDS else STAGES:
         importlib.import_module(f".{stage}", __name__).register(sub)
     return p
 
@@ -55,7 +67,8 @@ def main(argv: list[str] | None = None) -> int:
     """Entry point of the ``tipgeo`` command."""
     from ..errors import SpecError
 
-    args = build_parser().parse_args(argv)
+    argv = sys.argv[1:] if argv is None else list(argv)
+    args = build_parser(argv[0] if argv else None).parse_args(argv)
     try:
         if getattr(args, "output", None) == [] and args.command == "build" and not args.png:
             raise SpecError("build needs at least one -o FILE (or --png FILE)")

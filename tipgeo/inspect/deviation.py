@@ -67,16 +67,17 @@ def statistics(distance: np.ndarray, labels: np.ndarray, tolerance: float, *,
         for name in sorted(set(lab.tolist()), key=_order):
             out["regions"][name] = _block(d[lab == name], tolerance)
         return out
+    from .quantiles import by_group
+
     ids = np.asarray(labels)
-    counts = np.bincount(ids.astype(np.int64), minlength=len(names))
-    present = {}
-    for k, c in enumerate(counts):
-        if c:
-            present.setdefault(str(names[k]), []).append(k)
-    for name in sorted(present, key=_order):
-        ks = present[name]
-        sel = ids == ks[0] if len(ks) == 1 else np.isin(ids, ks)
-        out["regions"][name] = _block(d[sel], tolerance)
+    # one group per face name (several ids may share one), the values
+    # grouped in one copy rather than a mask and a copy per face
+    order = sorted({str(nm) for nm in names}, key=_order)
+    gmap = np.array([order.index(str(nm)) for nm in names], np.int64)
+    vals, start = by_group(d, ids, gmap, len(order))
+    for g, name in enumerate(order):
+        if start[g + 1] > start[g]:
+            out["regions"][name] = _block(vals[start[g]:start[g + 1]], tolerance)
     return out
 
 
@@ -113,7 +114,8 @@ def trimmed(distance: np.ndarray, tolerance: float, *, sigmas: float) -> dict[st
 def histogram(distance: np.ndarray, lo: float, hi: float, bins: int) -> dict[str, Any]:
     """Histogram of signed deviations as data: ``bins`` equal bins over
     [lo, hi] (mm in, µm out) and the counts below and above the range."""
-    d = np.asarray(distance, float)
-    counts, edges = np.histogram(d, bins=bins, range=(lo, hi))
+    from .quantiles import histogram_counts
+
+    counts, edges, below, above = histogram_counts(np.asarray(distance, float), lo, hi, bins)
     return {"edges_um": (edges * 1e3).tolist(), "counts": counts.tolist(),
-            "below": int(np.count_nonzero(d < lo)), "above": int(np.count_nonzero(d > hi))}
+            "below": below, "above": above}

@@ -148,11 +148,13 @@ def measure(points: np.ndarray, dist, cad, *, min_points: int = 50,
     d = dist.distance
     # fits take every point of a face that is not far off (robust fits drop
     # the rest): a bevel ground 0.5° off lies up to ~70 µm from the CAD plane
-    near = np.abs(d) < 0.5 * (cad.r_o - cad.r_i)
+    half = 0.5 * (cad.r_o - cad.r_i)
+    near = (d < half) & (d > -half)      # |d| < half, with no |d| array
+    flat = dist.feature == 0
     ez = np.array([0.0, 0.0, 1.0])
     axis_pt, axis_dir = np.zeros(3), ez
     for wall, r_nom in (("outer", cad.r_o), ("inner", cad.r_i)):
-        sel = on(wall) & near & (dist.feature == 0)
+        sel = on(wall) & near & flat
         if sel.sum() < min_points:
             out[wall] = None
             out["notes"].append(f"{wall} wall: {int(sel.sum())} points, too few to fit")
@@ -180,7 +182,7 @@ def measure(points: np.ndarray, dist, cad, *, min_points: int = 50,
     fitted = []
     for label, plane in planes.items():
         k = cad.labels.index(label) if label in cad.labels else None
-        sel = on(label) & near & (dist.feature == 0)
+        sel = on(label) & near & flat
         if k is not None and sel.any():
             idx = np.flatnonzero(sel)
             for ch in _chunks(len(idx)):
@@ -229,6 +231,19 @@ def measure(points: np.ndarray, dist, cad, *, min_points: int = 50,
     return out
 
 
+def _highest(z: np.ndarray, mask: np.ndarray, k: int) -> np.ndarray:
+    """Indices of the k highest ``z`` where ``mask`` holds (all of them when
+    fewer; at a tie the first rows), by a partition of the values alone and
+    no index array over all the points."""
+    zm = np.where(mask, z, -np.inf)
+    m = int(np.count_nonzero(mask))
+    if m <= k:
+        return np.flatnonzero(mask)
+    thr = np.partition(zm, len(zm) - k)[len(zm) - k]     # the k-th highest
+    above = np.flatnonzero(zm > thr)
+    return np.sort(np.concatenate([above, np.flatnonzero(zm == thr)[:k - len(above)]]))
+
+
 def _tip(points, d, near, fitted, planes, axis_pt, axis_dir, out, cad):
     r_o = out["outer"]["diameter_mm"] / 2 if out.get("outer") else cad.r_o
     if fitted and len(fitted) == len(planes):
@@ -237,11 +252,9 @@ def _tip(points, d, near, fitted, planes, axis_pt, axis_dir, out, cad):
                          np.array([0.0, 0.0, 1.0]), cad.r_o)
         how = "fitted planes ∩ fitted outer cylinder"
     else:
-        sel = np.flatnonzero(near)
-        if not len(sel):
+        top = _highest(points[:, 2], near, 20)
+        if not len(top):
             return None
-        z = points[sel, 2]
-        top = sel[np.argpartition(z, len(z) - 20)[-20:]] if len(z) > 20 else sel
         apex = np.asarray(points[top], np.float64).mean(axis=0)
         cad_apex = None
         how = "mean of the 20 highest scan points near the surface"

@@ -166,9 +166,10 @@ class _Tree:
         # ranges are never empty: sizes at a level differ by at most one and
         # the last split was of ranges longer than LEAF
         tlo, thi = lo[perm], hi[perm]
-        self.tbox = np.ascontiguousarray(np.hstack([tlo, thi]))
         self.parent = parent[perm]
-        self.tri = np.ascontiguousarray(sub[perm])
+        # one row per sub-triangle: its box, then its corners (what the
+        # kernel reads together, in one or two cache lines)
+        self.T = np.ascontiguousarray(np.hstack([tlo, thi, sub[perm].reshape(-1, 9)]))
         self.box = np.ascontiguousarray(np.hstack([
             np.concatenate([np.minimum.reduceat(tlo, r[:, 0], axis=0) for r in levels]),
             np.concatenate([np.maximum.reduceat(thi, r[:, 0], axis=0) for r in levels])]))
@@ -207,18 +208,22 @@ class _Tree:
             return
         from .nearest import grid_lists
 
-        self.cstart, self.cprim = grid_lists(self.tbox, origin, cell, dims, grow)
+        self.cstart, self.cprim = grid_lists(self.T, origin, cell, dims, grow)
         self.cell, self.reach2, self.origin, self.dims = cell, reach * reach, origin, dims
+
+    @property
+    def args(self) -> tuple:
+        """The tree and grid arguments of :func:`~tipgeo.inspect.nearest.nearest_triangles`
+        (from ``box`` to ``reach2``)."""
+        return (self.box, self.first_leaf, self.start, self.stop, self.T, self.origin,
+                self.cell, self.dims, self.cstart, self.cprim, self.reach2)
 
     def nearest(self, p: np.ndarray, order: np.ndarray) -> np.ndarray:
         """(n,) int — parent triangle nearest to each point (exact), visiting
         the points in ``order``."""
         from .nearest import nearest_triangles
 
-        k = nearest_triangles(p, order, self.box, self.first_leaf, self.start, self.stop,
-                              self.tri, self.tbox, self.origin, self.cell, self.dims,
-                              self.cstart, self.cprim, self.reach2)
-        return self.parent[k]
+        return self.parent[nearest_triangles(p, order, *self.args)]
 
 
 class MeshSolid:
@@ -236,6 +241,7 @@ class MeshSolid:
         self.tip = tip
         self.v = np.ascontiguousarray(tip.vertices, float)
         self.f = np.ascontiguousarray(tip.faces, np.int64)
+        self.PT = np.ascontiguousarray(self.v[self.f].reshape(-1, 9))  # corners a, b, c
         self.labels = tuple(tip.label_names)
         self.label_ids = np.asarray(tip.label_ids)
         self.cell = float(cell or tol.inspect.mesh_cell)
@@ -275,17 +281,21 @@ class MeshSolid:
         sub, parent = _split_fat(self.v, self.f, self.cell)
         self._index = _Tree(sub, parent)
 
+    @staticmethod
+    def _bits(n: int) -> int:
+        """Morton bits per axis of the spatial order of n points: at least
+        one point per cell on average (8**bits cells, at most 8**6), so the
+        counting sort's table stays no larger than the points."""
+        return int(min(6, max(1, np.floor(np.log2(max(n, 2)) / 3))))
+
     def _nearest(self, p: np.ndarray) -> np.ndarray:
         """(n,) int — nearest parent triangle of every point ((n, 3) float64)."""
         from .nearest import spatial_order
 
         if self._index is None:
             self._build()
-        # spatial order: each search starts from its predecessor's triangle;
-        # at least one point per Morton cell on average (8**bits cells, at
-        # most 8**6): the counting sort's table stays no larger than the points
-        bits = int(min(6, max(1, np.floor(np.log2(max(len(p), 2)) / 3))))
-        return self._index.nearest(p, spatial_order(p, bits))
+        # spatial order: each search starts from its predecessor's triangle
+        return self._index.nearest(p, spatial_order(p, self._bits(len(p))))
 
     def distances(self, points: np.ndarray) -> Distances:
         """Exact signed distance, closest point, normal and face of every point.
@@ -298,12 +308,12 @@ class MeshSolid:
 
         p = np.ascontiguousarray(np.asarray(points, float).reshape(-1, 3))
         t = self._nearest(p)
-        d, q, normal, feature = signed_query(p, t, self.v, self.f, self.fn, self.en, self.vn,
+        d, q, normal, feature = signed_query(p, t, self.PT, self.f, self.fn, self.en, self.vn,
                                              tol.inspect.feature_eps)
         return Distances(d, q, normal, self.label_ids[t], feature, self.labels)
 
     def distances_into(self, points: np.ndarray, rows: np.ndarray, *, far: float, near: float,
-                       out: tuple, cur: int) -> tuple[int, int]:
+                       out: tuple, cur: int, tri: np.ndarray | None = None) -> tuple[int, int]:
         """:meth:`distances` of the points (mm), appended to a scan's result
         arrays from row ``cur`` on where |d| ≤ ``far`` (mm), with no
         temporary per point (what ``compare`` uses).
@@ -316,18 +326,55 @@ class MeshSolid:
         near : float — the count returned is of points within it (mm)
         out : tuple — (points (m, 3) float32, distance (m,) float64, closest
             (m, 3) float32, normal (m, 3) float32, face (m,) int, feature (m,)
-            int8, rows (m,) int)
+            int8, rows (m,) int); closest and normal with no rows: not
+            written (:meth:`closest_normals` gives them later)
+        tri : (m,) int, optional — receives each kept point's triangle
 
         Returns
         -------
         cur : int — rows filled; near_count : int — points with |d| ≤ ``near``
         """
-        from .nearest import signed_into
+        from .nearest import nearest_signed_into
 
         p = np.ascontiguousarray(points, float)
-        t = self._nearest(p)
-        return signed_into(p, t, rows, self.v, self.f, self.fn, self.en, self.vn,
-                           tol.inspect.feature_eps, self.label_ids, far, near, *out, cur)
+        if self._index is None:
+            self._build()
+        # one compiled call: spatial order, nearest search, signed distances
+        P, dist, clo, nrm, face, feat, out_rows = out
+        return nearest_signed_into(p, rows, self._bits(len(p)), *self._index.args,
+                                   self._index.parent, self.PT, self.f, self.fn, self.en,
+                                   self.vn, tol.inspect.feature_eps, self.label_ids, far, near,
+                                   P, dist, clo, nrm,
+                                   np.empty(0, np.int32) if tri is None else tri, face, feat,
+                                   out_rows, cur)
+
+    def closest_normals(self, x: np.ndarray, rows: np.ndarray, T: np.ndarray,
+                        tri: np.ndarray, dtype=np.float32) -> tuple[np.ndarray, np.ndarray]:
+        """Closest points and normals (as :meth:`distances` gives them) of the
+        points ``T`` applied to ``x[rows]``, given their triangles ``tri``
+        (from :meth:`distances_into`): the same values bit for bit as when the
+        points went through it, the rigid transform done by the same
+        arithmetic.
+
+        Parameters
+        ----------
+        x : (n, 3) float — points (mm, e.g. a scan's offsets)
+        rows : (k,) int — which; T : (4, 4) float — into the mesh's frame
+        tri : (k,) int — their triangles
+        dtype : the result's float type
+
+        Returns
+        -------
+        closest, normal : (k, 3) — mm, mesh frame; unit
+        """
+        from .nearest import signed_rows
+
+        clo = np.empty((len(rows), 3), dtype)
+        nrm = np.empty((len(rows), 3), dtype)
+        signed_rows(x, rows, np.ascontiguousarray(T[:3, :3], float),
+                    np.ascontiguousarray(T[:3, 3], float), tri, self.PT, self.f, self.fn,
+                    self.en, self.vn, tol.inspect.feature_eps, clo, nrm)
+        return clo, nrm
 
     def bound(self, points: np.ndarray) -> np.ndarray:
         """Signed distance (exact here; the name matches :class:`ExactSolid`)."""

@@ -19,7 +19,7 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
-__all__ = ["moments", "percentiles", "within_band"]
+__all__ = ["by_group", "histogram_counts", "moments", "percentiles", "within_band"]
 
 _BUCKETS = 1 << 12   # the count table stays in the L1 cache
 
@@ -188,13 +188,84 @@ def moments(x: np.ndarray, band: float) -> dict:
 
 @njit(cache=True, nogil=True)
 def _band(x, centre, half):
-    kept = np.empty(x.shape[0])
+    # counted first: the result is allocated at its size (a full-size buffer
+    # and a copy would touch twice the memory, and fresh pages cost)
+    k = 0
+    for i in range(x.shape[0]):
+        if abs(x[i] - centre) <= half:
+            k += 1
+    kept = np.empty(k)
     k = 0
     for i in range(x.shape[0]):
         if abs(x[i] - centre) <= half:
             kept[k] = x[i]
             k += 1
-    return kept[:k].copy()
+    return kept
+
+
+@njit(cache=True, nogil=True)
+def _by_group(x, gid, gmap, ngroup):
+    """The values of ``x`` grouped by ``gmap[gid]`` (0..ngroup-1), input
+    order kept within a group (a stable counting sort), and each group's
+    start."""
+    start = np.zeros(ngroup + 1, np.int64)
+    for i in range(x.shape[0]):
+        start[gmap[gid[i]] + 1] += 1
+    for g in range(ngroup):
+        start[g + 1] += start[g]
+    fill = start[:-1].copy()
+    out = np.empty(x.shape[0])
+    for i in range(x.shape[0]):
+        g = gmap[gid[i]]
+        out[fill[g]] = x[i]
+        fill[g] += 1
+    return out, start
+
+
+def by_group(x: np.ndarray, gid: np.ndarray, gmap: np.ndarray,
+             ngroup: int) -> tuple[np.ndarray, np.ndarray]:
+    """The values of ``x`` ((n,) float) grouped by ``gmap[gid]`` (``gid``:
+    (n,) int; ``gmap``: int, values in 0..ngroup-1; input order kept within
+    a group) and the groups' starts ((ngroup + 1,) int): group g is
+    ``values[start[g]:start[g + 1]]``. One copy of ``x`` in two passes, not
+    a mask and a copy per group."""
+    return _by_group(np.ascontiguousarray(x, float), np.ascontiguousarray(gid),
+                     np.ascontiguousarray(gmap, np.int64), int(ngroup))
+
+
+@njit(cache=True, nogil=True)
+def _hist(x, edges):
+    nb = edges.shape[0] - 1
+    out = np.zeros(nb + 2, np.int64)   # the bins, then below and above
+    first, last = edges[0], edges[nb]
+    denom = last - first
+    for i in range(x.shape[0]):
+        v = x[i]
+        if v < first:
+            out[nb] += 1
+        elif v > last:
+            out[nb + 1] += 1
+        elif v >= first and v <= last:
+            # numpy's rule for equal bins: the index from the scaled offset,
+            # then corrected against the edges themselves
+            j = int(((v - first) / denom) * nb)
+            if j == nb:
+                j -= 1
+            if v < edges[j]:
+                j -= 1
+            if v >= edges[j + 1] and j != nb - 1:
+                j += 1
+            out[j] += 1
+    return out
+
+
+def histogram_counts(x: np.ndarray, lo: float, hi: float, bins: int):
+    """``numpy.histogram(x, bins, range=(lo, hi))`` (the same edges and
+    counts; lo < hi finite) and the counts below lo and above hi, in one
+    compiled pass and no temporary."""
+    edges = np.linspace(lo, hi, bins + 1)
+    c = _hist(np.ascontiguousarray(x, float), edges)
+    return c[:bins], edges, int(c[bins]), int(c[bins + 1])
 
 
 def within_band(x: np.ndarray, centre: float, half: float) -> np.ndarray:

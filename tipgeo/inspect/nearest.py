@@ -27,57 +27,17 @@ import math
 import numpy as np
 from numba import njit
 
-__all__ = ["closest_on_triangle", "grid_lists", "nearest_signed_into", "nearest_triangles",
+__all__ = ["grid_lists", "nearest_signed_into", "nearest_triangles",
            "signed_query", "signed_rows", "spatial_order", "transform_envelope"]
-
-
-@njit(cache=True, fastmath=False, nogil=True)
-def closest_on_triangle(px, py, pz, t):
-    """Closest point on triangle ``t`` ((3, 3) float, rows a, b, c) to p:
-    barycentric weights (u, v, w) of a, b, c, in the region order of
-    :func:`tipgeo.inspect.meshdist.closest_on_triangles` (exact 0 and 1 in
-    edge and vertex regions)."""
-    ax, ay, az = t[0, 0], t[0, 1], t[0, 2]
-    abx, aby, abz = t[1, 0] - ax, t[1, 1] - ay, t[1, 2] - az
-    acx, acy, acz = t[2, 0] - ax, t[2, 1] - ay, t[2, 2] - az
-    apx, apy, apz = px - ax, py - ay, pz - az
-    d1 = abx * apx + aby * apy + abz * apz
-    d2 = acx * apx + acy * apy + acz * apz
-    bpx, bpy, bpz = px - t[1, 0], py - t[1, 1], pz - t[1, 2]
-    d3 = abx * bpx + aby * bpy + abz * bpz
-    d4 = acx * bpx + acy * bpy + acz * bpz
-    cpx, cpy, cpz = px - t[2, 0], py - t[2, 1], pz - t[2, 2]
-    d5 = abx * cpx + aby * cpy + abz * cpz
-    d6 = acx * cpx + acy * cpy + acz * cpz
-    va = d3 * d6 - d5 * d4
-    vb = d5 * d2 - d1 * d6
-    vc = d1 * d4 - d3 * d2
-    if d1 <= 0.0 and d2 <= 0.0:
-        return 1.0, 0.0, 0.0
-    if d3 >= 0.0 and d4 <= d3:
-        return 0.0, 1.0, 0.0
-    if d6 >= 0.0 and d5 <= d6:
-        return 0.0, 0.0, 1.0
-    if vc <= 0.0 and d1 >= 0.0 and d3 <= 0.0:
-        s = d1 / (d1 - d3)
-        return 1.0 - s, s, 0.0
-    if vb <= 0.0 and d2 >= 0.0 and d6 <= 0.0:
-        s = d2 / (d2 - d6)
-        return 1.0 - s, 0.0, s
-    if va <= 0.0 and (d4 - d3) >= 0.0 and (d5 - d6) >= 0.0:
-        s = (d4 - d3) / ((d4 - d3) + (d5 - d6))
-        return 0.0, 1.0 - s, s
-    den = va + vb + vc
-    v = vb / den
-    w = vc / den
-    return 1.0 - v - w, v, w
 
 
 @njit(cache=True, fastmath=False, nogil=True, inline="always")
 def _bary(px, py, pz, T, k, o):
-    """:func:`closest_on_triangle` of the triangle stored flat in row ``k``
-    of ``T`` from column ``o`` on (a, b, c: nine floats): the same operations
-    in the same order, so the same weights bit for bit."""
+    """Closest point on the triangle stored flat in row ``k`` of ``T`` from
+    column ``o`` on (a, b, c: nine floats) to p: barycentric weights (u, v, w)
+    of a, b, c, in the region order of
+    :func:`tipgeo.inspect.meshdist.closest_on_triangles` (exact 0 and 1 in
+    edge and vertex regions)."""
     ax, ay, az = T[k, o], T[k, o + 1], T[k, o + 2]
     bx, by, bz = T[k, o + 3], T[k, o + 4], T[k, o + 5]
     cx, cy, cz = T[k, o + 6], T[k, o + 7], T[k, o + 8]

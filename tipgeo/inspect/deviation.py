@@ -97,15 +97,16 @@ def trimmed(distance: np.ndarray, tolerance: float, *, sigmas: float) -> dict[st
     d = np.asarray(distance, float)
     # the band from an evenly strided sample of at most 2^20 deviations (a
     # robust scale needs no more; large scans skip two full partitions)
-    s = d[::max(1, len(d) >> 20)]
+    step = max(1, len(d) >> 20)
+    s = d[::step]
     med = float(np.median(s)) if len(s) else 0.0
     sigma = 1.4826 * float(np.median(np.abs(s - med))) if len(s) else 0.0
     from .quantiles import within_band
 
     kept = within_band(d, med, sigmas * sigma)
     out = _block(kept, tolerance)
-    out.update({"rule": f"|d - median| <= {sigmas:g} x 1.4826 MAD (median and MAD of every "
-                        f"{max(1, len(d) >> 20)}th point)",
+    of = "every point" if step == 1 else f"every {step}th point"
+    out.update({"rule": f"|d - median| <= {sigmas:g} x 1.4826 MAD (median and MAD of {of})",
                 "median_um": med * 1e3, "robust_sigma_um": sigma * 1e3,
                 "trimmed_share": 1.0 - float(len(kept)) / max(len(d), 1)})
     return out

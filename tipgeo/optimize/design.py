@@ -158,20 +158,25 @@ def make_design(variables, method: str, *, levels=None, points: int | None = Non
         if any(k is None for k in levels):
             raise SpecError("design.levels is missing; a grid needs levels (per variable or "
                             "in [design])")
-    u = unit_design(method, len(variables), levels=levels, points=points, seed=seed)
-    lo = np.array([v.lo for v in variables])
-    hi = np.array([v.hi for v in variables])
-    x = lo + u * (hi - lo)
-    for k, v in enumerate(variables):
-        if v.integer:
-            x[:, k] = np.round(x[:, k])
-    return x
+    return _from_unit(variables, unit_design(method, len(variables), levels=levels,
+                                             points=points, seed=seed))
 
 
 def _to_unit(variables, X) -> np.ndarray:
     lo = np.array([v.lo for v in variables], float)
     hi = np.array([v.hi for v in variables], float)
     return (np.asarray(X, float) - lo) / (hi - lo)
+
+
+def _from_unit(variables, U) -> np.ndarray:
+    """Unit-box rows ``U`` in the variables' units, integer variables rounded."""
+    lo = np.array([v.lo for v in variables], float)
+    hi = np.array([v.hi for v in variables], float)
+    X = lo + np.asarray(U, float) * (hi - lo)
+    for j, v in enumerate(variables):
+        if v.integer:
+            X[:, j] = np.round(X[:, j])
+    return X
 
 
 def _levels(dims: int, candidates: int) -> int:
@@ -214,14 +219,8 @@ def candidate_pool(variables, candidates: int) -> np.ndarray:
     varying fastest; no repeated rows (an integer variable has at most one
     level per integer, so its rounded levels are distinct)
     """
-    U = unit_design("grid", len(variables), levels=candidate_levels(variables, candidates))
-    lo = np.array([v.lo for v in variables], float)
-    hi = np.array([v.hi for v in variables], float)
-    X = lo + U * (hi - lo)
-    for j, v in enumerate(variables):
-        if v.integer:
-            X[:, j] = np.round(X[:, j])
-    return X
+    return _from_unit(variables, unit_design("grid", len(variables),
+                                             levels=candidate_levels(variables, candidates)))
 
 
 def _dist_to(U, x) -> np.ndarray:

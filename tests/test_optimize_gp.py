@@ -159,7 +159,8 @@ def test_separable_model_shares_omega_and_profiles_sigma(lhs25):
         GaussianProcess().fit(lhs25, Y)
 
 
-@pytest.mark.parametrize("kernel, nu", [("matern52", 2.5), ("matern32", 1.5)])
+@pytest.mark.parametrize("kernel, nu", [("matern72", 3.5), ("matern52", 2.5),
+                                        ("matern32", 1.5)])
 def test_matern_kernels_are_sklearns_with_mapped_length_scales(lhs25, kernel, nu):
     """Same ω → the correlation of scikit-learn's Matérn(ℓ = 10^(−ω/2), ν) and
     the same posterior mean; dr/dh² matches a finite difference."""
@@ -254,6 +255,32 @@ def test_gp_rejects_bad_input(kwargs, X, y, match):
     with pytest.raises(SpecError, match=match):
         gp = GaussianProcess(**kwargs)
         gp.fit(X, y)
+
+
+def test_response_kernels_set_one_responses_family():
+    """``response_kernels``: the named response gets its own family, the others
+    ``kernel``'s; each model is the plain GP of that family (same ω, same
+    predictions); names and families are checked."""
+    from scipy.stats import qmc
+
+    X = qmc.LatinHypercube(2, seed=3).random(20)
+    Y = np.column_stack([smooth(X), np.abs(X[:, 0] - 0.4) + X[:, 1]])
+    s = Surrogate(BOX_UNIT, ["smooth", "kink"], kernel="matern52",
+                  response_kernels={"smooth": "matern72"}, starts=3).fit(X, Y)
+    assert s.kernels == ["matern72", "matern52"]
+    one = GaussianProcess(kernel="matern72", starts=3).fit(X, Y[:, 0])
+    assert np.allclose(s.models[0].fit_.omega, one.fit_.omega, atol=1e-9)
+    Xt = np.random.default_rng(1).random((50, 2))
+    assert np.allclose(s.predict(Xt)[:, 0], one.predict(Xt), rtol=0, atol=1e-9)
+    assert s.loo()["smooth"]["kernel"] == "matern72"
+    assert s.to_dict()["response_kernels"] == {"smooth": "matern72"}
+    with pytest.raises(SpecError, match=r"response_kernels = \{'other'"):
+        Surrogate(BOX_UNIT, ["smooth"], response_kernels={"other": "matern72"})
+    with pytest.raises(SpecError, match=r"response_kernels\['smooth'\] = 'cubic'"):
+        Surrogate(BOX_UNIT, ["smooth"], response_kernels={"smooth": "cubic"})
+    with pytest.raises(SpecError, match="independent"):
+        Surrogate(BOX_UNIT, ["smooth", "kink"], mode="separable",
+                  response_kernels={"smooth": "matern72"})
 
 
 # -- optimiser on known problems ------------------------------------------------------

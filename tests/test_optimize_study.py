@@ -176,6 +176,8 @@ def test_the_shipped_study_spans_the_whole_box():
     assert cfg.design == {"method": "maximin", "levels": None, "points": 25, "seed": 0,
                           "candidates": 441}
     assert cfg.surrogate["calibrate"] is False and cfg.surrogate["kernel"] == "matern52"
+    # θ_max is smooth (no kink): the likelihood prefers Matérn 7/2 (README)
+    assert cfg.surrogate["response_kernels"] == {"theta_max_deg": "matern72"}
     assert cfg.infill == {"rounds": 8, "threshold": 0.01,
                           "responses": ("theta_min_deg", "lambda_max_deg", "l_c_mm")}
     # beyond φ ≈ 16° the calibrated needle leans so far that the helicoid folds

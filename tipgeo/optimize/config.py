@@ -33,7 +33,8 @@ Example (``samples/helical-study.toml`` holds the thesis's study)::
 
     [surrogate]
     nugget = false                  # false | true (MLE) | δ
-    kernel = "gaussian"             # eq. 3.26 | "matern52" | "matern32" | "auto"
+    kernel = "gaussian"             # eq. 3.26 | "matern72" | "matern52" | "matern32" | "auto"
+    # response_kernels = { theta_max_deg = "matern72" }   # per-response exceptions
     mode = "independent"            # or "separable" (eq. 3.33)
     calibrate = true                # σ̂ scaled so LOO 95 % intervals hold ~95 %
 
@@ -75,7 +76,7 @@ SURROGATE_MODES = ("independent", "separable")
 #: Most ``[design] candidates`` of a ``maximin`` design (each is a spec validation).
 MAX_CANDIDATES = 100_000
 #: ``[surrogate] kernel``: a correlation family (gp.KERNELS) or per-response choice.
-SURROGATE_KERNELS = ("gaussian", "matern52", "matern32", "auto")
+SURROGATE_KERNELS = ("gaussian", "matern72", "matern52", "matern32", "auto")
 
 _NAME = re.compile(r"^[A-Za-z_][A-Za-z0-9_.\-]*$")
 _PATH = re.compile(r"^(?:(?P<top>tolerance_um)|cannula\.(?P<ckey>\w+)|"
@@ -154,8 +155,8 @@ class StudyConfig:
     responses : tuple of str — recorded and modelled responses
     workers : int or None — local processes (None: all CPUs)
     cache : str, bool — folder, ``True`` (default folder) or ``False``
-    surrogate : dict — ``nugget``, ``mode``, ``kernel``, ``starts``, ``seed``,
-        ``calibrate``
+    surrogate : dict — ``nugget``, ``mode``, ``kernel``, ``response_kernels``
+        (response → family), ``starts``, ``seed``, ``calibrate``
     infill : dict — ``rounds`` (most rounds of adding training points at the
         optima, 0: none), ``threshold`` (largest GP error at a verified
         optimum, as a fraction of each response's training range) and
@@ -532,7 +533,8 @@ def config_from_dict(data: Any, *, base_dir: str | Path | None = None,
         cache = str(p if p.is_absolute() or bdir is None else bdir / p)
 
     sg = _table("surrogate", t.get("surrogate", {}), ("nugget", "mode", "starts", "seed",
-                                                      "responses", "calibrate", "kernel"))
+                                                      "responses", "calibrate", "kernel",
+                                                      "response_kernels"))
     calibrate = sg.get("calibrate", False)
     if not isinstance(calibrate, bool):
         raise SpecError(f"surrogate.calibrate = {brief(calibrate)} is not valid; allowed "
@@ -553,6 +555,13 @@ def config_from_dict(data: Any, *, base_dir: str | Path | None = None,
                                    SURROGATE_KERNELS),
                  "responses": (_responses("surrogate.responses", sg["responses"], responses)
                                if "responses" in sg else responses)}
+    rk = _table("surrogate.response_kernels", sg.get("response_kernels", {}),
+                tuple(surrogate["responses"]))
+    surrogate["response_kernels"] = {k: _choice(f"surrogate.response_kernels.{k}", v,
+                                                SURROGATE_KERNELS) for k, v in rk.items()}
+    if surrogate["response_kernels"] and surrogate["mode"] == "separable":
+        raise SpecError("surrogate.response_kernels needs mode = 'independent'; the separable "
+                        "model (eq. 3.33) has one correlation for all responses")
 
     inf = _table("infill", t.get("infill", {}), ("rounds", "threshold", "responses"))
     threshold = _num("infill.threshold", inf.get("threshold", 0.01))

@@ -5,13 +5,16 @@ Model (constant mean, Gaussian correlation by default)::
     y(x) = β + ξ₀(x),   cov(ξ₀(x), ξ₀(x′)) = σ² r(x, x′),
     h² = Σᵢ 10^ωᵢ (xᵢ − x′ᵢ)²,
     r = exp(−h²)                                    gaussian  (eq. 3.26)
+    r = (1 + √7 h + 14h²/5 + 7√7h³/15) exp(−√7 h)   matern72
     r = (1 + √5 h + 5h²/3) exp(−√5 h)               matern52
     r = (1 + √3 h) exp(−√3 h)                       matern32
 
-The Matérn correlations (ν = 5/2, 3/2; twice and once differentiable paths)
-are options beside the thesis's Gaussian for responses with kinks (a min or
-max over the edge changes where it is attained); they share ω, so ℓᵢ =
-10^(−ωᵢ/2) is their length scale (:func:`length_scales`).
+The Matérn correlations (ν = 7/2, 5/2, 3/2; paths three, two and one times
+differentiable) are options beside the thesis's Gaussian (infinitely
+differentiable): ν = 5/2 and 3/2 for responses with kinks (a min or max over
+the edge changes where it is attained), ν = 7/2 for smooth responses whose
+Gaussian intervals are too narrow between the training points; they share
+ω, so ℓᵢ = 10^(−ωᵢ/2) is their length scale (:func:`length_scales`).
 
 fitted by maximum likelihood with β and σ² profiled out (eq. 3.28–3.29), so
 that ω (and the nugget δ, when it is fitted) minimise
@@ -57,7 +60,7 @@ from ..tolerances import tol
 __all__ = ["GaussianProcess", "FitResult", "KERNELS", "length_scales", "Z95"]
 
 #: Correlation families (see the module docstring); ``gaussian`` is eq. 3.26.
-KERNELS = ("gaussian", "matern52", "matern32")
+KERNELS = ("gaussian", "matern72", "matern52", "matern32")
 
 #: Two-sided 95 % normal quantile (eq. 3.31–3.32 intervals).
 Z95 = 1.959963984540054
@@ -92,6 +95,12 @@ def correlation(h2, kernel: str = "gaussian"):
         r = np.exp(-h2)
         return r, -r
     h = np.sqrt(h2)
+    if kernel == "matern72":
+        s7h = math.sqrt(7.0) * h
+        e = np.exp(-s7h)
+        r = (1.0 + s7h + 0.4 * s7h ** 2 + s7h ** 3 / 15.0) * e
+        # dr/ds = −(s/15)(3 + 3s + s²)e^(−s), ds/dh² = 7/(2s)
+        return r, -(7.0 / 30.0) * (3.0 + 3.0 * s7h + s7h ** 2) * e
     if kernel == "matern52":
         s5h = math.sqrt(5.0) * h
         e = np.exp(-s5h)

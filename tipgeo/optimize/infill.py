@@ -71,7 +71,7 @@ def _refit(old: Surrogate, X, Y) -> Surrogate:
     of the random starts (the added points move the optimum little)."""
     s = Surrogate(bounds=old.bounds,
                   responses=old.responses, mode=old.mode, nugget=old.nugget,
-                  kernel=old.kernel,
+                  kernel=old.kernel, response_kernels=old.response_kernels,
                   starts=max(2, old.starts // 4), seed=old.seed + 1, variables=old.variables,
                   calibrate=old.calibrate)
     return s.fit(X, Y, warm=old)

@@ -32,11 +32,16 @@ class Surrogate:
         included, as in the LOO intervals)
     kernel : str
         Correlation family of every model (``gaussian``, eq. 3.26;
-        ``matern52``; ``matern32``), or ``auto``: each response (the one
+        ``matern72``; ``matern52``; ``matern32``), or ``auto``: each response (the one
         separable model) gets the family with the highest leave-one-out log
         predictive density Σᵢ log N(yᵢ; ŷ₋ᵢ, s₋ᵢ²) — a proper scoring rule, which
         rewards intervals as wide as the errors, neither wider nor narrower;
         ties (within 1e-9) go to the earlier family in that list.
+    response_kernels : dict, optional
+        Per-response exceptions to ``kernel`` (response name → family or
+        ``auto``), e.g. ``{"theta_max_deg": "matern72"}`` for one smooth
+        response among kinked ones. Independent mode only (the separable model
+        has one correlation for all responses).
     starts, seed : MLE starts and their seed
     variables : sequence of str — variable names (reports only)
     calibrate : bool
@@ -58,6 +63,7 @@ class Surrogate:
     mode: str = "independent"
     nugget: bool | float = False
     kernel: str = "gaussian"
+    response_kernels: dict = field(default_factory=dict)
     starts: int = 12
     seed: int = 0
     variables: list = field(default_factory=list)
@@ -76,6 +82,19 @@ class Surrogate:
             raise SpecError(f"kernel = {self.kernel!r} is not valid; expected one of: "
                             f"{', '.join((*KERNELS, 'auto'))}")
         self.responses = list(self.responses)
+        self.kernels_by_response = {r: self.kernel for r in self.responses}
+        for name, fam in dict(self.response_kernels or {}).items():
+            if name not in self.responses:
+                raise SpecError(f"response_kernels = {{{name!r}: ...}} names no modelled "
+                                "response; expected one of: " + ", ".join(self.responses))
+            if fam not in (*KERNELS, "auto"):
+                raise SpecError(f"response_kernels[{name!r}] = {fam!r} is not valid; expected "
+                                f"one of: {', '.join((*KERNELS, 'auto'))}")
+            self.kernels_by_response[name] = fam
+        if self.response_kernels and self.mode == "separable":
+            raise SpecError("response_kernels (per-response families) need mode = "
+                            "'independent'; the separable model (eq. 3.33) has one correlation "
+                            "for all responses")
         self.variables = list(self.variables) or [f"x{k}" for k in range(len(b))]
 
     def unit(self, X) -> np.ndarray:
@@ -103,10 +122,11 @@ class Surrogate:
                     "theta_max = 180 − theta_min); choose independent responses or "
                     "mode = 'independent'")
             self.models = [self._fit_one(U, Y, None if warm is None else warm.models[0],
-                                         separable=True, **kw)]
+                                         self.kernel, separable=True, **kw)]
         else:
             self.models = [self._fit_one(U, Y[:, j], None if warm is None else warm.models[j],
-                                         **kw) for j in range(Y.shape[1])]
+                                         self.kernels_by_response[name], **kw)
+                           for j, name in enumerate(self.responses)]
         self.scale_ = np.ones(Y.shape[1])
         if self.calibrate:
             res, std = self._loo_raw()
@@ -114,10 +134,10 @@ class Surrogate:
                                     for j in range(Y.shape[1])])
         return self
 
-    def _fit_one(self, U, y, warm, **kw) -> GaussianProcess:
-        """One model; with ``kernel = 'auto'`` the family of highest LOO log
-        predictive density (a warm start's own family is tried with its ω)."""
-        fams = KERNELS if self.kernel == "auto" else (self.kernel,)
+    def _fit_one(self, U, y, warm, kernel: str, **kw) -> GaussianProcess:
+        """One model of family ``kernel``; with ``'auto'`` the family of highest
+        LOO log predictive density (a warm start's own family is tried with its ω)."""
+        fams = KERNELS if kernel == "auto" else (kernel,)
         best, best_lpd = None, -np.inf
         for fam in fams:
             init = [warm.fit_.omega] if warm is not None and warm.kernel == fam else None
@@ -202,6 +222,7 @@ class Surrogate:
                            "nugget": f.nugget, "beta": f.beta.tolist(),
                            "sigma": f.sigma.tolist(), "neg_log_likelihood_L": f.objective})
         return {"mode": self.mode, "variables": self.variables, "kernel": self.kernel,
+                "response_kernels": dict(self.response_kernels or {}),
                 "calibrate": self.calibrate,
                 "interval_scale": dict(zip(self.responses, self.scale_.tolist())),
                 "bounds": np.column_stack([self._lo, self._lo + self._span]).tolist(),
@@ -250,6 +271,8 @@ def fit_surrogate(sweep, *, responses=None) -> Surrogate:
                         "succeeded; the surrogate needs at least 2 (see the failures)")
     s = Surrogate(bounds=cfg.bounds, responses=names, mode=sg["mode"], nugget=sg["nugget"],
                   kernel=sg.get("kernel", "gaussian"),
+                  response_kernels={k: v for k, v in sg.get("response_kernels", {}).items()
+                                    if k in names},
                   starts=sg["starts"], seed=sg["seed"], variables=[v.name for v in cfg.variables],
                   calibrate=sg.get("calibrate", False))
     return s.fit(sweep.X[ok], sweep.responses(names)[ok])

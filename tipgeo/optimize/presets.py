@@ -79,7 +79,7 @@ kernel = "matern52"
 # θ_max (the edge's largest θ, near the heel) has no kink: its likelihood
 # (eq. 3.30, on these 25 points) prefers the smoother Matérn 7/2 decisively
 # (L = −176.9 against −148.2 for 5/2; for the kinked responses the two are
-# within 0.9–1.7 of each other). With 5/2 its LOO intervals held all 25
+# within 0.5–1.7 of each other). With 5/2 its LOO intervals held all 25
 # points and 98.8 % of 242 held-out ones (too wide); with 7/2, 23/25 and a
 # mean 5× closer (README).
 response_kernels = { theta_max_deg = "matern72" }

@@ -150,6 +150,24 @@ def test_monotonic_check():
     assert is_monotonic([0, 1, 2, 2 - 1e-6, 3])  # within tol.fem.monotone of the peak
 
 
+def test_force_picture_zooms_on_the_fem_curve_when_another_dwarfs_it(tmp_path):
+    """A comparison curve above 5× the FEM curve's peak (the uncut column of eq.
+    4.22 beside an erosion run) adds a second panel framed on the FEM curve;
+    comparable curves keep one panel. Width in pixels at 110 dpi: 11 / 6.4 in."""
+    import matplotlib.image as mpimg
+
+    from tipgeo.fem.plots import plot_force_curves
+
+    d = np.linspace(0.0, 5.0, 11)
+    fem = 0.006 * d
+    one = plot_force_curves([("FEM", d, fem, "-o"), ("model", d, 1.2 * fem, "--")],
+                            tmp_path / "one.png")
+    two = plot_force_curves([("FEM", d, fem, "-o"), ("column", d, 0.1 * np.expm1(d), "--")],
+                            tmp_path / "two.png")
+    assert mpimg.imread(one).shape[1] == round(6.4 * 110)
+    assert mpimg.imread(two).shape[1] == round(11.0 * 110)
+
+
 # -- decks ------------------------------------------------------------------------------
 def test_axisymmetric_deck_without_ccx(build_preset, tmp_path):
     m = axisymmetric_model(build_preset("punch-plain"), depth=1.0, mesh=0.1,

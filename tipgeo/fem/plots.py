@@ -28,22 +28,36 @@ def _save(fig, path) -> Path:
         plt.close(fig)
 
 
-def plot_force_curves(curves, path, *, title: str = "") -> Path:
+def plot_force_curves(curves, path, *, title: str = "", focus: int = 0) -> Path:
     """Axial force against depth, one line per ``(label, depth (k,), force
-    (k,), style)``; style is a matplotlib format string or None."""
+    (k,), style)``; style is a matplotlib format string or None.
+
+    When another curve rises above 5× the largest force of curve ``focus``
+    (e.g. the uncut column of eq. 4.22 beside an erosion run), a second panel
+    repeats the curves with the force axis framed on curve ``focus``, so that
+    it is not drawn flat at the bottom."""
     import matplotlib
 
     matplotlib.use("Agg", force=False)
     import matplotlib.pyplot as plt
 
-    fig, ax = plt.subplots(figsize=(6.4, 4.4))
-    for label, d, f, style in curves:
-        ax.plot(d, f, style or "-o", ms=3, label=label)
-    ax.set_xlabel("needle depth (mm)")
-    ax.set_ylabel("axial force (N)")
-    ax.grid(alpha=0.3)
-    ax.legend(fontsize=8)
-    ax.set_title(title, fontsize=9)
+    top = float(np.nanmax(np.abs(curves[focus][2]))) if len(curves[focus][2]) else 0.0
+    rest = [float(np.nanmax(np.abs(c[2]))) for c in curves if len(c[2])]
+    zoom = top > 0 and max(rest) > 5.0 * top
+    fig, axes = plt.subplots(1, 2 if zoom else 1, figsize=(11.0 if zoom else 6.4, 4.4),
+                             squeeze=False)
+    for k, ax in enumerate(axes[0]):
+        for label, d, f, style in curves:
+            ax.plot(d, f, style or "-o", ms=3, label=label)
+        ax.set_xlabel("needle depth (mm)")
+        ax.set_ylabel("axial force (N)")
+        ax.grid(alpha=0.3)
+        if k == 1:
+            ax.set_ylim(min(0.0, float(np.nanmin(curves[focus][2]))) - 0.05 * top, 1.25 * top)
+            ax.set_title(f"zoom on {curves[focus][0]}", fontsize=9)
+        else:
+            ax.legend(fontsize=8)
+            ax.set_title(title, fontsize=9)
     fig.tight_layout()
     return _save(fig, path)
 

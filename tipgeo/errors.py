@@ -9,14 +9,19 @@ Two families, which the command line maps to its exit codes:
 - a failed operation — :class:`BuildError` (a boolean, a construction) and
   its kinds :class:`ExportError` (a file could not be written) and
   :class:`FemError` (a finite-element run failed),
-  :class:`UnsupportedCutter` (no face-wise exact surface): exit code 1.
+  :class:`UnsupportedCutter` (no face-wise exact surface): exit code 1;
+- a missing external tool — :class:`MissingToolError` (CalculiX ``ccx``,
+  the OpenCASCADE bindings, Dask, pyarrow): exit code 3. Its message says
+  how to install the tool. Where an older family named the same failure
+  (a missing ``ccx`` is also a :class:`FemError`) the raised class derives
+  from both.
 
 Every message names the parameter (or key, file, line), the offending value
 and the allowed range or form.
 """
 
 __all__ = ["TipGeoError", "InputError", "SpecError", "ScanError", "BuildError", "ExportError",
-           "UnsupportedCutter", "FemError"]
+           "UnsupportedCutter", "FemError", "MissingToolError"]
 
 
 class TipGeoError(Exception):
@@ -61,3 +66,9 @@ class FemError(BuildError):
     """A finite-element run failed: the solver is missing, reported an
     ``*ERROR``, did not converge, ran out of time or left no result; the
     message quotes the solver's own line."""
+
+
+class MissingToolError(TipGeoError):
+    """An external program or optional library the request needs is not
+    installed (``ccx``, OCP, Dask, pyarrow): the message names it and the
+    command that installs it. The command line exits 3."""

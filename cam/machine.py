@@ -71,8 +71,9 @@ import numpy as np
 from tipgeo.errors import TipGeoError
 from tipgeo.tolerances import tol
 
-__all__ = ["CamError", "AxisLimit", "Machine", "machine_toml", "wheel_from_needle", "f_surf",
-           "plane_2_36", "near_generator", "wheel_height", "face_plane"]
+__all__ = ["CamError", "AxisLimit", "Machine", "machine_toml", "machine_number",
+           "wheel_from_needle", "f_surf", "plane_2_36", "near_generator", "wheel_height",
+           "face_plane"]
 
 
 class CamError(TipGeoError, ValueError):
@@ -163,7 +164,7 @@ class Machine:
                 if not isinstance(val, str) or not val.strip():
                     raise CamError(f"machine name = {val!r} must be a non-empty string")
                 continue
-            kw[k] = _positive(k, val, "mm/min" if k in _PER_MIN else _UNITS.get(k, ""))
+            kw[k] = machine_number(k, val, "mm/min" if k in _PER_MIN else _UNITS.get(k, ""))
             if k in _PER_MIN:
                 kw[_PER_MIN[k]] = kw.pop(k) / 60.0
         if not kw.get("phi_deg", cls.phi_deg) < 90.0:
@@ -210,7 +211,7 @@ _UNITS = {"phi_deg": "deg", "wheel_diameter": "mm", "wheel_thickness": "mm", "wh
           "feed_min": "mm/s", "feed_max": "mm/s", "rapid_speed": "mm/s"}
 
 
-def _positive(key: str, val, unit: str = "") -> float:
+def machine_number(key: str, val, unit: str = "") -> float:
     """A machine file's number: finite and > 0, else a CamError naming it."""
     from tipgeo.validate import brief
 

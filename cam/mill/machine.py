@@ -187,7 +187,7 @@ class MillMachine:
         naming the key, its value and what is allowed."""
         from tipgeo.validate import brief
 
-        from ..machine import _positive
+        from ..machine import machine_number
         from .post import POSTS
 
         kw = machine_toml(cls, path, ("x", "y", "z"))
@@ -213,7 +213,7 @@ class MillMachine:
                                    "numbers (X, Y, Z) in mm")
                 val = tuple(float(a) for a in val)
             else:
-                val = _positive(k, val, "rpm" if "rpm" in k else "mm/min")
+                val = machine_number(k, val, "rpm" if "rpm" in k else "mm/min")
             kw[k] = val
         for lo, hi, unit in (("spindle_rpm_min", "spindle_rpm_max", "rpm"),
                              ("feed_min", "feed_max", "mm/min")):

@@ -193,7 +193,8 @@ def _header_tokens(line: str, sep: str | None) -> list[str]:
     its name (``X [mm]``)."""
     if sep is not None:
         return _split(line, sep)
-    return re.findall(r'"[^"]*"|\'[^\']*\'|[^\s\[(]+(?:\s*[\[(][^\])]*[\])])?', line)
+    return re.findall(r'"[^"]*"|\'[^\']*\'|[\[(][^\])]*[\])]|[^\s\[(]+(?:\s*[\[(][^\])]*[\])])?',
+                      line)
 
 
 def _is_comment(s: str) -> bool:
@@ -232,16 +233,29 @@ def _open_bytes(p: Path, where: str):
 
 # -----------------------------------------------------------------------------
 def _choose_dialect(sample: list[str]) -> tuple[str | None, str, int] | None:
+    """(separator, decimal, fields) under which the first sampled line is a
+    row of numbers and most of the others agree; None where the lines agree
+    on nothing — or where only the plain whitespace/comma reader's dialect
+    fits, but not every line (ragged rows, mixed separators: that reader's
+    business)."""
+    best = None
     for sep in _SEPS:
         for dec in (".", ","):
             if dec == "," and sep == ",":
                 continue
-            counts = {_numeric_row(s, sep, dec, some=False) for s in sample}
-            if len(counts) == 1 and (n := counts.pop()) >= 1:
-                if n == 1 and sep is not None:
-                    continue            # one field per line: try the next separator
-                return sep, dec, n
-    return None
+            n = _numeric_row(sample[0], sep, dec)
+            if n == 0 or (n == 1 and sep is not None):
+                continue
+            agree = sum(_numeric_row(s, sep, dec, some=False) == n for s in sample)
+            if best is None or agree > best[3]:
+                best = (sep, dec, n, agree)
+    if best is None:
+        return None
+    sep, dec, n, agree = best
+    plain = sep in (None, ",", "\t") and dec == "." and not any('"' in s for s in sample)
+    if agree < len(sample) and (plain or 2 * agree < len(sample)):
+        return None
+    return sep, dec, n
 
 
 def _value_unit(text: str, dec: str, where: str, line: int, key: str):
@@ -285,6 +299,24 @@ def _key_value(line: str, sep: str | None):
     if len(toks) in (2, 3):
         return toks[0], toks[1], (toks[2] if len(toks) == 3 else None)
     return None
+
+
+_ALL_KEYS = (_DX_KEYS | _DY_KEYS | _DXY_KEYS | _X0_KEYS | _Y0_KEYS | _ZUNIT_KEYS | _XYUNIT_KEYS
+             | _UNIT_KEYS | _NX_KEYS | _NY_KEYS)
+
+
+def _is_key_line(line: str, sep: str | None) -> bool:
+    """A metadata line (``key = value``, ``key: value``, or a known key
+    followed by its value), never a header row."""
+    s = line.strip()
+    if "=" in s or re.match(r"^[^\s;,\t|]+[^;,\t|]*:\s", s):
+        return True
+    kv = _key_value(line, sep)
+    if kv is None:
+        return False
+    m = _BRACKET_UNIT.match(kv[0])
+    name = _norm_key(m.group("name") if m and m.group("name").strip() else kv[0])
+    return name in _ALL_KEYS
 
 
 def _column_name_unit(tok: str, where: str, line: int) -> tuple[str, str | None]:
@@ -385,6 +417,7 @@ def sniff_table(path: str | os.PathLike[str], *, units: str | None = None,
     pre = [i for i in range(k0) if lines[i].strip()]
     header_i = units_i = None
     non_comment = [i for i in pre if not _is_comment(lines[i].strip())]
+    non_comment = [i for i in non_comment if not _is_key_line(lines[i], sep)]
     if non_comment:
         last = non_comment[-1]
         toks = _header_tokens(lines[last], sep)
@@ -698,7 +731,7 @@ def read_table_grid(path: str | os.PathLike[str], t: Table, *,
         raise ScanError(f"{t.where} has {p.stat().st_size:,} bytes; allowed at most "
                         f"{MAX_SCAN_BYTES:,}")
     if t.rows_hint is not None and t.rows_hint * t.ncols > max_pixels:
-        raise ScanError(f"{t.where}: the header gives {t.ncols} × {t.rows_hint} = "
+        raise ScanError(f"{t.where}: the header gives {t.ncols} × {t.rows_hint:,} = "
                         f"{t.ncols * t.rows_hint:,} pixels; allowed at most {max_pixels:,}")
     parts, ny = [], 0
     for _, a, _ in _rows(p, t):

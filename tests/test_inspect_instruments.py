@@ -178,6 +178,26 @@ def test_sdf_float64_round_trips(tmp_path, binary):
     assert np.array_equal(np.isnan(hm.z), ~OK)            # type minimum / BAD
 
 
+def test_al3d_repeatability_plane_hides_unrepeatable_depths(tmp_path):
+    codes = np.zeros(Z.shape, np.uint8)
+    codes[10, 11] = codes[30, 52] = 200                   # above the filter value
+    codes[3, 5] = 250                                     # already invalid
+    f = write_al3d(tmp_path / "r.al3d", Z, DX, DY, repeatability_codes=codes,
+                   filter_value=100.0, shift=0.5, minimum=1.0)
+    hm = read_height_map(f)
+    assert hm.invalid == 4 and hm.meta["unrepeatable_pixels"] == 2
+    assert np.isnan(hm.z[10, 11]) and np.isnan(hm.z[30, 52])
+    s = load_scan(f)
+    assert s.meta["invalid_pixels"] == 4 and len(s) == NX * NY - 4
+    if surfalize_available():            # surfalize applies the same filter
+        import surfalize
+
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            theirs = surfalize.Surface.load(f)
+        assert np.array_equal(np.isnan(theirs.data), np.isnan(hm.z))
+
+
 def test_compact_storage_of_a_height_map(tmp_path):
     f = write_x3p(tmp_path / "d.x3p", Z, DX, DY)
     s = load_scan(f, compact=True)
@@ -207,6 +227,34 @@ def test_surfalize_reads_our_files_alike(tmp_path, name):
     assert np.nanmax(np.abs(theirs.data / 1000.0 - ours.z)) <= 1e-15
     assert theirs.step_x / 1000.0 == pytest.approx(ours.dx, rel=1e-15)
     assert theirs.step_y / 1000.0 == pytest.approx(ours.dy, rel=1e-15)
+
+
+@needs_surfalize
+@pytest.mark.parametrize("ext, kw", [(".x3p", {}), (".x3p", {"dtype": "F"}), (".al3d", {}),
+                                     (".sur", {}), (".sur", {"compressed": True}),
+                                     (".sdf", {}), (".sdf", {"binary": False})])
+def test_our_readers_read_surfalizes_files(tmp_path, ext, kw):
+    """The other direction: files written by surfalize's writers (an
+    independent implementation of each specification) read by tipgeo, within
+    what each file stores: float64 m (x3p D, sdf binary); float32 m (x3p F,
+    al3d); 10 decimals of the value scaled to one leading digit (sdf ASCII);
+    int32 over the range with a float32 step and a float32 offset in µm (sur:
+    half a step + the float32 rounding of the offset, 2⁻¹⁷ µm at 240 µm)."""
+    import surfalize
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        surf = surfalize.Surface(Z * 1000.0, DX * 1000.0, DY * 1000.0)
+        p = tmp_path / f"s{ext}"
+        surf.save(p, **kw)
+    hm = read_height_map(p)
+    assert np.array_equal(np.isnan(hm.z), ~OK)
+    err = np.max(np.abs(hm.z[OK] - Z[OK]))
+    tol = {".x3p": 1e-15 if not kw else 2.0**-36 * 1000, ".al3d": 2.0**-36 * 1000,
+           ".sdf": 1e-15 if not kw else 1e-11, ".sur": 2.0**-17 / 1000 + 1e-11}[ext]
+    assert err <= tol, (ext, kw, err)
+    lat = 1e-15 * DX if ext != ".sur" else 2.0**-24 * DX       # float32 µm spacing in SUR
+    assert abs(hm.dx - DX) <= lat and abs(hm.dy - DY) <= lat * DY / DX
 
 
 @needs_surfalize
@@ -385,6 +433,45 @@ def test_malformed_binary_maps_name_the_part(tmp_path):
         with pytest.raises(ScanError, match=match) as e:
             load_scan(tmp_path / name)
         assert "\n" not in str(e.value) and name in str(e.value)
+
+
+_GOOD = {}
+
+
+def _good_file(ext: str) -> bytes:
+    if ext not in _GOOD:
+        with tempfile.TemporaryDirectory() as tmp:
+            p = Path(tmp) / f"g{ext}"
+            z = Z[:9, :11]
+            {".x3p": lambda: write_x3p(p, z, DX, DY), ".al3d": lambda: write_al3d(p, z, DX, DY),
+             ".sur": lambda: write_sur(p, z, 1.25, 1.5, compressed=True),
+             ".sdf": lambda: write_sdf(p, z, DX, DY)}[ext]()
+            _GOOD[ext] = p.read_bytes()
+    return _GOOD[ext]
+
+
+@settings(max_examples=150, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@given(st.sampled_from([".x3p", ".al3d", ".sur", ".sdf"]),
+       st.lists(st.tuples(st.integers(0, 1 << 16), st.integers(0, 255)), max_size=6),
+       st.one_of(st.none(), st.integers(0, 1 << 16)))
+def test_corrupt_height_maps_give_a_map_or_a_one_line_scan_error(ext, flips, cut):
+    """Bytes changed, the file cut short: a height map (some corruptions
+    leave a readable file) or a one-line ScanError naming the file — never
+    another exception."""
+    b = bytearray(_good_file(ext))
+    for pos, val in flips:
+        b[pos % len(b)] = val
+    if cut is not None:
+        b = b[:cut % (len(b) + 1)]
+    with tempfile.TemporaryDirectory() as tmp:
+        p = Path(tmp) / f"c{ext}"
+        p.write_bytes(bytes(b))
+        try:
+            s = load_scan(p)
+        except ScanError as e:
+            assert "\n" not in str(e) and f"c{ext}" in str(e)
+            return
+    assert len(s) >= 1 and np.all(np.isfinite(s.points))
 
 
 # -----------------------------------------------------------------------------

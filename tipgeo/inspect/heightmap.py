@@ -283,7 +283,8 @@ def read_height_map(path: str | os.PathLike[str], *, max_pixels: int = MAX_SCAN_
     reader = {".x3p": _read_x3p, ".al3d": _read_al3d, ".sur": _read_sur,
               ".sdf": _read_sdf}.get(ext, _read_surfalize)
     try:
-        hm = reader(p, where, max_pixels)
+        with np.errstate(invalid="ignore", over="ignore"):   # a NaN payload, a huge scale
+            hm = reader(p, where, max_pixels)
     except (ScanError, MissingToolError):
         raise
     except MemoryError:
@@ -666,23 +667,74 @@ def _read_al3d(p: Path, where: str, max_pixels: int) -> HeightMap:
     z[bad] = np.nan
     meta = {"file_units": "m", "data_type": "float32", "invalid_value": inv,
             "version": tags.get("Version")}
+    rep = _al3d_unrepeatable(p, tags, nx, ny, size, where)
+    if rep is not None:
+        meta["unrepeatable_pixels"] = int(np.count_nonzero(rep & ~bad))
+        z[rep] = np.nan
     return _checked_map(z, dx, dy, 0.0, 0.0, where, "al3d", meta, p.name)
 
 
-def write_al3d(path: str | os.PathLike[str], z_mm, dx_mm: float, dy_mm: float) -> Path:
+def _al3d_unrepeatable(p: Path, tags: dict[str, str], nx: int, ny: int, size: int,
+                       where: str) -> np.ndarray | None:
+    """Pixels whose depth repeatability exceeds the file's filter value, or
+    None when the file has no repeatability plane. The repeatability is
+    ``code · DepthResShiftVal + DepthResMinVal`` (÷√8 on both sides of the
+    test) from uint8 texture plane ``DepthImageResPtr``; the Alicona software
+    hides these pixels by default (``DepthResFilterVal``)."""
+    keys = ("DepthImageResPtr", "DepthResFilterVal", "TextureImageOffset")
+    if not all(tags.get(k, "").strip() for k in keys):
+        return None
+    try:
+        plane, off = int(tags["DepthImageResPtr"]), int(tags["TextureImageOffset"])
+        limit = float(tags["DepthResFilterVal"])
+        shift = float(tags.get("DepthResShiftVal", "0") or 0)
+        lo = float(tags.get("DepthResMinVal", "0") or 0)
+    except ValueError:
+        raise ScanError(f"{where}: header tags {', '.join(keys)}, DepthResShiftVal, "
+                        "DepthResMinVal must be numbers") from None
+    if off == 0:
+        return None
+    stride = _al3d_stride(nx, 1)
+    start = off + plane * stride * ny
+    if plane < 0 or start + stride * (ny - 1) + nx > size:
+        raise ScanError(f"{where}: repeatability plane DepthImageResPtr = {plane} at "
+                        f"TextureImageOffset = {off} lies past the end of the file ({size:,} "
+                        "bytes)")
+    with open(p, "rb") as fh:
+        fh.seek(start)
+        buf = fh.read(stride * ny)
+    buf = buf + b"\0" * (stride * ny - len(buf))
+    codes = np.ndarray((ny, nx), np.uint8, buffer=buf, strides=(stride, 1))
+    return codes * shift + lo > limit
+
+
+def write_al3d(path: str | os.PathLike[str], z_mm, dx_mm: float, dy_mm: float, *,
+               repeatability_codes=None, filter_value: float = 0.0, shift: float = 1.0,
+               minimum: float = 0.0) -> Path:
     """Write an Alicona AL3D depth image (float32 metres; NaN → the invalid
     value 3e15), pixel sizes as decimal text in m (exact), scanlines padded
-    to 8 bytes."""
+    to 8 bytes; with ``repeatability_codes`` ((ny, nx) uint8), a texture
+    plane of them and the tags that make the reader hide the pixels whose
+    ``code·shift + minimum > filter_value``."""
     z = np.asarray(z_mm, np.float64)
     ny, nx = z.shape
-    tags = [("Version", "1"), ("TagCount", "9"), ("Cols", str(nx)), ("Rows", str(ny)),
+    tags = [("Version", "1"), ("TagCount", "0"), ("Cols", str(nx)), ("Rows", str(ny)),
             ("PixelSizeXMeter", str(Decimal(repr(float(dx_mm))) / 1000)),
             ("PixelSizeYMeter", str(Decimal(repr(float(dy_mm))) / 1000)),
-            ("InvalidPixelValue", repr(_AL3D_INVALID)), ("NumberOfPlanes", "0"),
-            ("IconOffset", "0"), ("TextureImageOffset", "0"), ("DepthImageOffset", "0")]
+            ("InvalidPixelValue", repr(_AL3D_INVALID)), ("IconOffset", "0"),
+            ("NumberOfPlanes", "0" if repeatability_codes is None else "1"),
+            ("TextureImageOffset", "0"), ("DepthImageOffset", "0")]
+    if repeatability_codes is not None:
+        tags += [("DepthImageResPtr", "0"), ("DepthResFilterVal", repr(float(filter_value))),
+                 ("DepthResShiftVal", repr(float(shift))), ("DepthResMinVal",
+                                                             repr(float(minimum)))]
+    tags[1] = ("TagCount", str(len(tags) - 2))
     hdr_len = 17 + 52 * len(tags)
     off = -(-hdr_len // 8) * 8 + 8
-    tags[-1] = ("DepthImageOffset", str(off))
+    tags[tags.index(("DepthImageOffset", "0"))] = ("DepthImageOffset", str(off))
+    tex_off = off + _al3d_stride(nx, 4) * ny
+    if repeatability_codes is not None:
+        tags[tags.index(("TextureImageOffset", "0"))] = ("TextureImageOffset", str(tex_off))
     head = bytearray(_AL3D_MAGIC)
     for k, v in tags:
         kb, vb = k.encode("latin-1"), v.encode("latin-1")
@@ -695,10 +747,17 @@ def write_al3d(path: str | os.PathLike[str], z_mm, dx_mm: float, dy_mm: float) -
     d = np.where(np.isfinite(z), z / 1000.0, _AL3D_INVALID)
     img[:, :nx] = d
 
+    tex = b""
+    if repeatability_codes is not None:
+        codes = np.zeros((ny, _al3d_stride(nx, 1)), np.uint8)
+        codes[:, :nx] = np.asarray(repeatability_codes, np.uint8)
+        tex = codes.tobytes()
+
     def write(tmp):
         with open(tmp, "wb") as fh:
             fh.write(bytes(head))
             fh.write(img.tobytes())
+            fh.write(tex)
 
     write_atomic(Path(path), write)
     return Path(path)
@@ -779,6 +838,9 @@ def _read_sur(p: Path, where: str, max_pixels: int) -> HeightMap:
                                 f"bytes in a file of {size:,}")
             parts = []
             for i, (rawlen, ziplen) in enumerate(dirs):
+                if rawlen == 0:        # max_length 0 would mean 'unbounded'
+                    fh.seek(ziplen, 1)
+                    continue
                 d = zlib.decompressobj()
                 try:
                     out = d.decompress(fh.read(ziplen), rawlen)

@@ -23,6 +23,7 @@ surfalize's reading of the files written here is cross-checked.
 from __future__ import annotations
 
 import hashlib
+import json
 import struct
 import sys
 import tempfile
@@ -84,6 +85,7 @@ def _check_points(s, hm_z, dx, dy, x0=0.0, y0=0.0):
     assert np.array_equal(s.points, want)
     assert s.meta["invalid_pixels"] == int((~np.isfinite(hm_z)).sum())
     assert s.meta["grid"] == list(hm_z.shape) and s.meta["pixels"] == hm_z.size
+    json.dumps(s.meta)                                    # the report can carry it
 
 
 # -----------------------------------------------------------------------------
@@ -530,10 +532,30 @@ def test_csv_grids_with_spacing_keys(tmp_path, head):
     assert s.meta["invalid_pixels"] == 1
     dx = 0.0005
     dy = 0.00025
-    assert s.meta["spacing_mm"] == [dx, dy]
+    assert s.meta["spacing_mm"] == [dx, dy]               # decimal text scaled exactly
+    json.dumps(s.meta)
     want = [[0, 0, 1], [dx, 0, 2], [2 * dx, 0, 3], [3 * dx, 0, 4], [0, dy, 5], [2 * dx, dy, 7],
             [3 * dx, dy, 8]]
     assert np.array_equal(s.points, np.array(want, float) * [1, 1, 1e-3])
+
+
+@pytest.mark.parametrize("sep, dec, enc", [(",", ".", "cp1252"), (";", ",", "utf-8")])
+def test_a_vendor_style_height_export(tmp_path, sep, dec, enc):
+    """A microscope's CSV height export: quoted metadata rows, a calibration
+    row with its unit, a unit row, a title row, then the matrix (an empty
+    field: not measured)."""
+    q = lambda *f: sep.join(f'"{x}"' for x in f)           # noqa: E731
+    n = (lambda v: v.replace(".", ",")) if dec == "," else (lambda v: v)
+    text = "\n".join([q("File name", "sample.vk4"), q("Measurement date", "2023/01/01 12:00"),
+                      q("Objective lens", "50x"), q("XY calibration", n("0.139"), "µm"),
+                      q("Output image data", "Height"), q("Unit", "µm"), '""', q("Height"),
+                      q(n("12.3"), n("12.4"), n("12.5")), q(n("12.6"), "", n("12.8"))]) + "\n"
+    s = load_scan(_write(tmp_path, "k.csv", text, enc))
+    assert s.meta["grid"] == [2, 3] and s.meta["invalid_pixels"] == 1
+    assert s.meta["spacing_mm"] == [0.000139, 0.000139]   # the decimal 0.139 µm, exactly
+    d = 0.000139
+    assert np.array_equal(s.points, np.array([[0, 0, 12.3], [d, 0, 12.4], [2 * d, 0, 12.5],
+                                              [0, d, 12.6], [2 * d, d, 12.8]]) / [1, 1, 1000])
 
 
 def test_grid_spacing_from_the_caller_and_layout(tmp_path):

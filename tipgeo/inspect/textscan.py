@@ -27,11 +27,15 @@ line, a column per x position) with its lateral spacing from header keys
 x, y, z is a point list; one with spacing keys (or read with a spacing, or
 ``layout='grid'``) is a grid; otherwise a point list.
 
-Units are converted to mm exactly (:func:`tipgeo.inspect.heightmap.to_mm`);
-a unit the file states wins over the caller's ``units`` (which applies to
-what the file leaves unstated). An unknown unit, a malformed line, a ragged
-row: a one-line :class:`~tipgeo.errors.ScanError` naming the file, the line
-and what was expected.
+Units are converted to mm exactly: header numbers (spacing, origin) are
+scaled in decimal arithmetic and rounded once (``0.139 µm`` is the double
+nearest 0.000139 mm); data values are parsed to the nearest double and divided
+(or multiplied) by the unit's exact integer ratio, correctly rounded
+(:func:`tipgeo.inspect.heightmap.to_mm`). A unit the file states wins over the
+caller's ``units`` (which applies to what the file leaves unstated). An
+unknown unit, a malformed line, a ragged row: a one-line
+:class:`~tipgeo.errors.ScanError` naming the file, the line and what was
+expected.
 """
 
 from __future__ import annotations
@@ -40,6 +44,7 @@ import io
 import os
 import re
 from dataclasses import dataclass, field
+from decimal import Decimal
 from pathlib import Path
 from typing import Any
 
@@ -259,7 +264,7 @@ def _choose_dialect(sample: list[str]) -> tuple[str | None, str, int] | None:
 
 
 def _value_unit(text: str, dec: str, where: str, line: int, key: str):
-    """(value, unit or None) of a metadata value such as '0,5 µm'."""
+    """(value as a Decimal, unit or None) of a metadata value such as '0,5 µm'."""
     m = _NUMBER_UNIT.match(_strip(text))
     if not m:
         return None, None
@@ -275,7 +280,14 @@ def _value_unit(text: str, dec: str, where: str, line: int, key: str):
         if unit is None:
             raise ScanError(f"{where}: line {line}: {key} = {_strip(text)[:40]}: unit '{u}' is "
                             f"not a length unit; allowed: {ALLOWED_UNITS_TEXT}")
-    return float(num), unit
+    return Decimal(num), unit
+
+
+def _dec_mm(value: Decimal, unit: str) -> float:
+    """A header number given as decimal text, in mm: scaled exactly, rounded
+    once."""
+    f = LENGTH_UNITS[unit]
+    return float(value * f.numerator / f.denominator)
 
 
 def _key_value(line: str, sep: str | None):
@@ -478,7 +490,7 @@ def sniff_table(path: str | os.PathLike[str], *, units: str | None = None,
             meta_keys[name] = (v, u or key_unit, i + 1)
         elif name in _NX_KEYS | _NY_KEYS and re.fullmatch(r"\d{1,12}", _strip(val)):
             meta_keys[name] = (int(_strip(val)), None, i + 1)
-    t.meta["header_keys"] = {k: (v if not isinstance(v, float) else v, u)
+    t.meta["header_keys"] = {k: (str(v) if isinstance(v, Decimal) else v, u)
                              for k, (v, u, _) in meta_keys.items()}
 
     def key_of(keys):
@@ -557,8 +569,8 @@ def sniff_table(path: str | os.PathLike[str], *, units: str | None = None,
             t.dx, t.dy = float(sx), float(sy)
             t.meta["spacing_from"] = "argument (mm)"
         elif dxk is not None and dyk is not None:
-            t.dx = to_mm(dxk[0], dxk[1] or lat)
-            t.dy = to_mm(dyk[0], dyk[1] or lat)
+            t.dx = _dec_mm(dxk[0], dxk[1] or lat)
+            t.dy = _dec_mm(dyk[0], dyk[1] or lat)
             t.meta["spacing_from"] = f"header lines {dxk[2]}, {dyk[2]}"
         else:
             have = dxk or dyk
@@ -573,8 +585,8 @@ def sniff_table(path: str | os.PathLike[str], *, units: str | None = None,
                 raise ScanError(f"{where}: lateral spacing {name} = {v} mm; expected a finite "
                                 "number > 0")
         x0k, y0k = key_of(_X0_KEYS)[1], key_of(_Y0_KEYS)[1]
-        t.x0 = to_mm(x0k[0], x0k[1] or lat) if x0k else 0.0
-        t.y0 = to_mm(y0k[0], y0k[1] or lat) if y0k else 0.0
+        t.x0 = _dec_mm(x0k[0], x0k[1] or lat) if x0k else 0.0
+        t.y0 = _dec_mm(y0k[0], y0k[1] or lat) if y0k else 0.0
         nxk, nyk = key_of(_NX_KEYS)[1], key_of(_NY_KEYS)[1]
         t.cols_hint = int(nxk[0]) if nxk else None
         t.rows_hint = int(nyk[0]) if nyk else None

@@ -28,6 +28,7 @@ DIMENSIONLESS = {
     "--sweep": "values of S",
     "--friction": "a Coulomb coefficient",
     "--views": "mixed: its metavars name the unit (ELEVATION_DEG COUNT)",
+    "--share": "a fraction of a face's points",
 }
 
 #: Spellings retired by issue 24: never a visible flag again.

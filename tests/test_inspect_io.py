@@ -177,15 +177,18 @@ def test_cli_scan_synth_then_compare(tmp_path, capsys):
     assert "wrote" in capsys.readouterr().out
     t = json.loads(truth.read_text())
     assert t["xi_deg"] == 15.0 and t["points"] == 40000
+    # ground at 15° for a 14.5° CAD: measured, and out of its ±5 µm band
     assert _cli(["compare", str(scan_path), BEVEL, "--out-dir", str(tmp_path / "r"),
-                 "--band-um", "5", "--json", "--quiet"]) == 0
+                 "--band-um", "5", "--json", "--quiet"]) == 1
     rep = json.loads(capsys.readouterr().out)
+    assert rep["verdict"]["ok"] is False
+    assert any(r.startswith("cut:bevel:") for r in rep["verdict"]["reasons"])
     assert rep["measured"]["faces"]["cut:bevel"]["xi_deg"] == pytest.approx(15.0, abs=0.05)
     assert rep["tolerance_um"] == 5.0
     assert (tmp_path / "r" / "report.md").exists()
-    assert _cli(["compare", str(scan_path), BEVEL, "--no-pictures", "--quiet"]) == 0
+    assert _cli(["compare", str(scan_path), BEVEL, "--no-pictures", "--quiet"]) == 1
     out = capsys.readouterr().out
-    assert "cut:bevel: ξ 15.0" in out and "deviation (µm)" in out
+    assert "cut:bevel: ξ 15.0" in out and "deviation (µm)" in out and "FAIL" in out
 
 
 @pytest.mark.parametrize("args, code, match", [

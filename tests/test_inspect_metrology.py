@@ -221,5 +221,5 @@ def test_cli_options_and_batch(tmp_path, capsys):
     assert rows[0]["warnings"] == 0 and "c.ply" in rows[2]["scan"]
     assert (tmp_path / "reports" / "a" / "report.json").is_file()
     table = capsys.readouterr().out.splitlines()
-    assert table[0].startswith("scan,status,points") and len(table) == 4
+    assert table[0].startswith("scan,status,verdict,reasons,points") and len(table) == 4
     assert main(["compare", str(good), str(noisy), str(cad), "--no-register", "--quiet"]) == 2

@@ -56,6 +56,20 @@ def _error_line(capsys, rc, *needles):
     return lines[0]
 
 
+def _fail_line(capsys, rc, *needles):
+    """A verdict, not bad input: rc is 1, stdout says FAIL and stderr is one
+    'tipgeo: fail:' line holding every needle."""
+    cap = capsys.readouterr()
+    assert rc == 1, cap.err
+    assert "Traceback" not in cap.err
+    lines = cap.err.strip().splitlines()
+    assert len(lines) == 1 and lines[0].startswith("tipgeo: fail:"), cap.err
+    assert cap.out.startswith("FAIL ")
+    for n in needles:
+        assert n in lines[0], (n, lines[0])
+    return lines[0]
+
+
 # -----------------------------------------------------------------------------
 # 1. degenerate scans
 def _degenerate(tmp_path):
@@ -266,23 +280,25 @@ def sphere_file(tmp_path_factory):
 def test_a_sphere_is_refused_with_the_figures(sphere_file, tmp_path, capsys):
     out = tmp_path / "rep"
     rc = main(["compare", str(sphere_file), BEVEL, "--quiet", "--out-dir", str(out)])
-    line = _error_line(capsys, rc, "'sphere.ply' does not match the CAD 'bevel-14G-xi14.5'",
+    line = _fail_line(capsys, rc, "'sphere.ply' does not match the CAD 'bevel-14G-xi14.5'",
                        "within 50 µm of the CAD surface (needs ≥ 50 %)",
                        "fitness", "needs ≥ 0.3)", "--allow-mismatch")
     share = float(line.split("inlier share ")[1].split(" %")[0])
     assert 10 < share < 50
     assert not out.exists()
     rc = main(["compare", str(sphere_file), BEVEL, "--quiet", "--no-register"])
-    _error_line(capsys, rc, "does not match the CAD", "inlier share")
+    _fail_line(capsys, rc, "does not match the CAD", "inlier share")
 
 
 def test_the_override_compares_a_mismatch_with_a_warning(sphere_file, tmp_path, capsys):
     out = tmp_path / "rep"
     rc = main(["compare", str(sphere_file), BEVEL, "--quiet", "--json", "--allow-mismatch",
                "--out-dir", str(out), "--no-pictures"])
-    assert rc == 0
+    assert rc == 1  # compared, but the verdict is a fail: not this tip
     rep = json.loads(capsys.readouterr().out)
     assert rep["match"]["ok"] is False
+    assert rep["verdict"]["ok"] is False
+    assert rep["verdict"]["reasons"][0].startswith("the scan is not this tip")
     assert rep["match"]["inlier_share"] < 0.5
     assert any("does not match the CAD" in w and "compared anyway" in w
                for w in rep["warnings"])
@@ -298,7 +314,7 @@ def test_another_gauge_is_refused_by_its_diameter(capsys, tmp_path):
     s = synthetic_scan(spec15, points=6000, noise=0.001, seed=7, misalignment=MIS)
     write_ply(tmp_path / "g15.ply", s.points)
     rc = main(["compare", str(tmp_path / "g15.ply"), BEVEL, "--quiet"])
-    line = _error_line(capsys, rc, "CAD's outer diameter is 2.1080 mm", "allowed ±5 %",
+    line = _fail_line(capsys, rc, "CAD's outer diameter is 2.1080 mm", "allowed ±5 %",
                        "refused before registration")
     od = float(line.split("outermost wall has diameter ")[1].split(" mm")[0])
     assert od == pytest.approx(1.829, rel=0.01)  # an estimate for a ±5 % decision

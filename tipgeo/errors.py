@@ -21,7 +21,7 @@ and the allowed range or form.
 """
 
 __all__ = ["TipGeoError", "InputError", "SpecError", "ScanError", "BuildError", "ExportError",
-           "UnsupportedCutter", "FemError", "MissingToolError"]
+           "UnsupportedCutter", "FemError", "MissingToolError", "NotThisTip"]
 
 
 class TipGeoError(Exception):
@@ -45,6 +45,12 @@ class SpecError(InputError):
 class ScanError(InputError):
     """A scan file or point array is missing, empty, unreadable, non-finite,
     degenerate, or does not show the CAD tip."""
+
+
+class NotThisTip(ScanError):
+    """The scan is not of the CAD's tip (another gauge, another kind, a
+    mismatch of its surfaces): a verdict, not bad input — the command line
+    exits 1 with the reason."""
 
 
 class BuildError(TipGeoError, RuntimeError):

@@ -15,7 +15,7 @@ import sys
 from pathlib import Path
 
 from ..jsonio import dumps as _dumps
-from .common import declare_files, deprecated, spec_arg
+from .common import declare_files, deprecated, spec_arg, verdict_status
 
 __all__ = ["register", "cmd_compare", "cmd_scan_synth"]
 
@@ -68,7 +68,15 @@ def _compare_kwargs(args) -> dict:
         from ..inspect.transform import read_transform
 
         init = read_transform(args.init_transform)
-    kw = dict(tolerance=tol, units=args.units, register_scan=not args.no_register,
+    from ..inspect.acceptance import AcceptanceRule, Band, load_acceptance
+
+    if not (args.share is not None and math.isfinite(args.share) and 0 < args.share <= 1):
+        raise SpecError(f"--share = {args.share}; allowed 0 < share ≤ 1 (a fraction of each "
+                        "face's points)")
+    base = Band(tol, args.share)
+    rule = load_acceptance(args.acceptance, default=base) if args.acceptance else \
+        AcceptanceRule(base)
+    kw = dict(tolerance=tol, acceptance=rule, units=args.units, register_scan=not args.no_register,
               z_min=args.z_min_mm, voxel=None if voxel is None else voxel * 1e-3,
               outliers=args.outliers, colour_scale=None if scale is None else scale * 1e-3,
               pictures=not args.no_pictures, allow_mismatch=args.allow_mismatch,
@@ -120,8 +128,19 @@ def cmd_compare(args) -> int:
         raise SpecError(f"{len(args.scan)} scans given; compare one, or several with --batch")
     if args.summary:
         raise SpecError("--summary goes with --batch")
+    from ..errors import NotThisTip
+
     try:
         res = compare(args.scan[0], args.cad, out=args.out_dir, progress=_log(args), **kw)
+    except NotThisTip as e:  # a verdict: the scan is not this tip
+        reason = _one_line(e)
+        if args.json:
+            print(_dumps({"verdict": {"ok": False, "subject": f"{args.cad} vs {args.scan[0]}",
+                                      "checks": [], "reasons": [reason]}}))
+        else:
+            print(f"FAIL {args.cad} vs {args.scan[0]}: {reason}")
+        print(f"tipgeo: fail: {reason}", file=sys.stderr)
+        return 1
     except ScanError as e:
         print(f"tipgeo: error: {_one_line(e)}", file=sys.stderr)
         return 2
@@ -138,9 +157,10 @@ def cmd_compare(args) -> int:
         T = res.registration.transform if res.registration else \
             (kw["init_transform"] if kw["init_transform"] is not None else np.eye(4))
         res.outputs.append(write_transform(args.matrix_out, T))
+    status = verdict_status(res.verdict, args)
     if args.json:
         print(_dumps(res.to_dict()))
-        return 0
+        return status
     r = res.to_dict()
     st = r["deviation"]["all"]
     print(f"{r['cad']['name']} vs {r['scan']['source']}: {r['compared_points']:,} points, "
@@ -180,15 +200,17 @@ def cmd_compare(args) -> int:
         print(edges_text(res.edges))
     for w in r["warnings"]:
         print(f"  warning: {w}")
+    print(f"  {res.verdict.line()}")
     for o in r["outputs"]:
         print(f"  wrote {o}")
-    return 0
+    return status
 
 
 #: Columns of the --batch summary table.
-SUMMARY_COLUMNS = ("scan", "status", "points", "compared", "mean_um", "std_um", "rms_um",
-                   "mean_abs_um", "p95_abs_um", "trimmed_rms_um", "within_tol_share",
-                   "fitness", "rotation_deg", "far_share", "warnings", "error")
+SUMMARY_COLUMNS = ("scan", "status", "verdict", "reasons", "points", "compared", "mean_um",
+                   "std_um", "rms_um", "mean_abs_um", "p95_abs_um", "trimmed_rms_um",
+                   "within_tol_share", "fitness", "rotation_deg", "far_share", "warnings",
+                   "error")
 
 
 def _summary_row(scan: str, res=None, error: str | None = None) -> dict:
@@ -196,6 +218,8 @@ def _summary_row(scan: str, res=None, error: str | None = None) -> dict:
     row["scan"], row["status"], row["error"] = scan, "error" if error else "ok", error
     if res is None:
         return row
+    row["verdict"] = "pass" if res.verdict.ok else "fail"
+    row["reasons"] = "; ".join(res.verdict.reasons)
     r = res.to_dict()
     st = r["deviation"]["all"]
     reg = r["registration"] or {}
@@ -213,11 +237,13 @@ def _summary_row(scan: str, res=None, error: str | None = None) -> dict:
 
 def _batch(args, kw) -> int:
     """Compare every scan with the one CAD; one summary table (stdout, and
-    --summary FILE as CSV or JSON); each report in --out DIR/<scan name>/.
-    Exit 0 when every scan compared, 2 when any failed (its row says why)."""
+    --summary FILE as CSV or JSON); each report in --out-dir DIR/<scan name>/.
+    Exit 0 when every scan passed, 1 when any failed its verdict (its row
+    says why), 2 when any could not be compared (bad input)."""
     import csv
     import io
 
+    from ..errors import NotThisTip
     from ..inspect import ScanError, compare, load_cad
 
     log = _log(args)
@@ -239,6 +265,10 @@ def _batch(args, kw) -> int:
         try:
             res = compare(scan, cad, out=out, progress=None, **kw)
             rows.append(_summary_row(scan, res))
+        except NotThisTip as e:
+            row = _summary_row(scan)
+            row.update(status="ok", verdict="fail", reasons=_one_line(e))
+            rows.append(row)
         except (ScanError, ArithmeticError, MemoryError) as e:
             rows.append(_summary_row(scan, error=_one_line(e)))
         if log:
@@ -261,7 +291,14 @@ def _batch(args, kw) -> int:
         print(_dumps({"cad": cad.name, "scans": rows}))
     else:
         print(buf.getvalue(), end="")
-    return 0 if all(r["status"] == "ok" for r in rows) else 2
+    if any(r["status"] != "ok" for r in rows):
+        return 2
+    failed = [r["scan"] for r in rows if r["verdict"] != "pass"]
+    if failed:
+        print(f"tipgeo: fail: {len(failed)} of {len(rows)} scans failed: {', '.join(failed)}",
+              file=sys.stderr)
+        return 1
+    return 0
 
 
 def cmd_scan_synth(args) -> int:
@@ -364,6 +401,12 @@ def register(subparsers) -> None:
                    "deviations.ply (coloured), deviation-map.png and histogram.png here")
     c.add_argument("--band-um", type=float, default=10.0, metavar="N",
                    help="± acceptance band in µm (default 10)")
+    c.add_argument("--share", type=float, default=0.95, metavar="F",
+                   help="the verdict: at least this fraction of each face's points within the "
+                        "band (default 0.95)")
+    c.add_argument("--acceptance", metavar="TOML",
+                   help="acceptance file: bands and shares per face (cut:*, outer, inner, "
+                        "edges); overrides --band-um and --share where it sets them")
     c.add_argument("--scale-um", type=float, default=None, metavar="S",
                    help="colour scale ±S µm (default 2.5 × the band)")
     c.add_argument("--units", choices=("mm", "um", "µm", "m"), default="mm",
@@ -422,7 +465,7 @@ def register(subparsers) -> None:
     deprecated(c, "--tolerance-um", "--band-um",
                note=" (the ± acceptance band; --tolerance-um is a mesh's chordal tolerance)")
     c.set_defaults(func=cmd_compare)
-    declare_files(c, inputs=("scan", "cad", "init_transform"),
+    declare_files(c, inputs=("scan", "cad", "init_transform", "acceptance"),
                   outputs=("export", "matrix_out", "summary"), blas_threads=None)
 
     s = subparsers.add_parser("scan-synth", help="synthetic scan of a tip (virtual "

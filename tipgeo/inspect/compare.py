@@ -23,7 +23,7 @@ from typing import Any
 
 import numpy as np
 
-from ..errors import SpecError
+from ..errors import NotThisTip, SpecError
 from ..tolerances import tol
 from .cad import CadModel, load_cad
 from .checks import check_geometry, check_match
@@ -69,6 +69,8 @@ class Comparison:
     notes : list of str — further warnings (a mismatch let through)
     edges : MeasuredEdges or None — cutting edges and angles measured on the
         scan (``compare(..., angles=True)``)
+    rule : AcceptanceRule — the acceptance rule (:mod:`.acceptance`)
+    verdict : Verdict — pass or fail under ``rule``, with the figures and reasons
     """
 
     scan: Scan
@@ -90,6 +92,8 @@ class Comparison:
     match: dict[str, Any] = field(default_factory=dict)
     notes: list[str] = field(default_factory=list)
     edges: Any = None
+    rule: Any = None
+    verdict: Any = None
 
     @property
     def colour_limits(self) -> tuple[float, float]:
@@ -122,6 +126,8 @@ class Comparison:
                              "vertex": int(np.sum(self.distances.feature == 2))},
                 "measured": self.measured,
                 "match": self.match,
+                "acceptance": self.rule.to_dict() if self.rule is not None else None,
+                "verdict": self.verdict.to_dict() if self.verdict is not None else None,
                 "warnings": self.warnings,
                 **({"measured_edges": self.edges.summary()} if self.edges is not None else {}),
                 "timings_s": dict(self.timings),
@@ -311,14 +317,18 @@ def compare(scan, cad, *, tolerance: float = 0.01, units: str = "mm",
             edge_band: float | None = None,
             init_transform: np.ndarray | None = None,
             colour_range: tuple[float, float] | None = None,
-            colormap: str | None = None) -> Comparison:
-    """Compare a scan with a CAD tip.
+            colormap: str | None = None, acceptance=None) -> Comparison:
+    """Compare a scan with a CAD tip, and judge it.
 
     Parameters
     ----------
     scan : path, Scan or (n, 3) array — the scan (scanner frame)
     cad : TipSpec, Tip, CadModel, spec/mesh path or preset name
     tolerance : float — ± tolerance band (mm)
+    acceptance : AcceptanceRule, optional — the rule of the verdict
+        (:mod:`tipgeo.inspect.acceptance`); default ± ``tolerance`` on 95 %
+        of each face's points. The result's ``verdict`` is never a pass for a
+        scan that is not this tip or whose registration is not certain.
     units : {'mm', 'um', 'm'} — units of a scan file
     register_scan : bool — False when the scan is already in the cannula frame
     z_min : float — compare only points with z ≥ z_min after registration (mm)
@@ -392,6 +402,9 @@ def compare(scan, cad, *, tolerance: float = 0.01, units: str = "mm",
     timings: dict[str, float] = {}
     cpu: dict[str, float] = {}
     t0 = _now()
+    from .acceptance import AcceptanceRule, Band
+
+    rule = acceptance if acceptance is not None else AcceptanceRule(Band(tolerance, 0.95))
     if isinstance(scan, Scan):
         sc = scan
     elif isinstance(scan, (str, Path)):
@@ -429,8 +442,9 @@ def compare(scan, cad, *, tolerance: float = 0.01, units: str = "mm",
                            max_diameter_error=None if allow_mismatch else
                            tol.inspect.match_diameter)
         except ScanError as e:
-            hint = " (--allow-mismatch compares it anyway)" if "another gauge" in str(e) else ""
-            raise ScanError(f"{where}: {e}{hint}") from None
+            if "another gauge" in str(e):
+                raise NotThisTip(f"{where}: {e} (--allow-mismatch compares it anyway)") from None
+            raise ScanError(f"{where}: {e}") from None
         if init_transform is None:
             T_loc = reg.transform          # offsets → cannula frame
             reg.axis["point_mm"] = (np.asarray(reg.axis["point_mm"]) + origin).tolist()
@@ -487,10 +501,10 @@ def compare(scan, cad, *, tolerance: float = 0.01, units: str = "mm",
         msg = (f"{where} does not match the CAD '{model.name}': "
                + "; ".join(match["problems"]))
         if not allow_mismatch:
-            raise ScanError(msg + " (--allow-mismatch compares it anyway)")
+            raise NotThisTip(msg + " (--allow-mismatch compares it anyway)")
         notes.append(msg + " (compared anyway: --allow-mismatch)")
     res = Comparison(sc, model, reg, pts, dist, stats, measured, tolerance, scale, dropped,
-                     timings, cpu, match=match, notes=notes,
+                     timings, cpu, match=match, notes=notes, rule=rule,
                      index=rows if src is None else src[rows], colour_range=colour_range,
                      colormap=colormap or "RdYlBu_r")
     if angles:
@@ -501,6 +515,10 @@ def compare(scan, cad, *, tolerance: float = 0.01, units: str = "mm",
         res.edges = measure_edges(pts, model, edge_band=edge_band,
                                   progress=lambda m: say(f"  {m}"))
         timings["edges"] = _lap(cpu, "edges", t)
+    from .acceptance import judge
+
+    res.verdict = judge(res, rule)
+    say(res.verdict.line())
     timings["total"] = _lap(cpu, "total", t0)
     if out is not None:
         from .report import write_report

@@ -383,6 +383,17 @@ def _write_markdown(res, path: Path) -> None:
 
     r = res.to_dict()
     L = [f"# Inspection: {r['cad']['name']} vs {r['scan']['source']}", ""]
+    v = r.get("verdict")
+    if v is not None:
+        L += [f"**Verdict: {'PASS' if v['ok'] else 'FAIL'}** — rule: "
+              f"{res.rule.describe() if res.rule is not None else '—'}", ""]
+        L += ["| check | rule | value | result |", "|---|---|---|---|"]
+        for c in v["checks"]:
+            val = c["value"]
+            val = f"{100 * val:.2f} %" if isinstance(val, float) else str(val)
+            L.append(f"| {c['name']} | {c['rule']} | {val} | "
+                     f"{'pass' if c['ok'] else 'FAIL: ' + c['reason']} |")
+        L.append("")
     L += [f"- CAD: `{r['cad']['name']}`, measured against **{r['cad']['method']}**",
           f"- scan: `{r['scan']['source']}`, {r['scan']['points']:,} points; "
           f"{r['compared_points']:,} compared"

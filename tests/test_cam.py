@@ -168,8 +168,8 @@ def test_machine_from_toml(tmp_path):
 def test_cli_grind(tmp_path, capsys):
     out = tmp_path / "p.json"
     assert main(["grind", "lancet-14G", "-o", str(out), "--gcode", str(tmp_path / "p.nc"),
-                 "--sheet", str(tmp_path / "s.md"), "--simulate", str(tmp_path / "g.stl"),
-                 "--report"]) == 0
+                 "--sheet", str(tmp_path / "s.md"), "--mesh", str(tmp_path / "g.stl"),
+                 "--compare"]) == 0
     text = capsys.readouterr().out
     assert "Hausdorff" in text and "faces 3" in text
     assert json.loads(out.read_text())["summary"]["faces"] == 3

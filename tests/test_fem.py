@@ -280,15 +280,15 @@ def test_cli_deck_only_and_missing_ccx(tmp_path, monkeypatch, capsys):
     from tipgeo.cli import main
 
     assert main(["fem", "punch-plain", "--depth-mm", "0.5", "--mesh-um", "100", "--deck-only",
-                 "--abaqus", "-o", str(tmp_path / "d")]) == 0
+                 "--abaqus", "--out-dir", str(tmp_path / "d")]) == 0
     out = capsys.readouterr().out
     assert "wrote" in out and (tmp_path / "d" / "punch-plain_axisymmetric_abaqus.inp").is_file()
     monkeypatch.setenv("TIPGEO_CCX", str(tmp_path / "no-ccx"))
     assert main(["fem", "punch-plain", "--depth-mm", "0.5", "--mesh-um", "100", "--quiet",
-                 "-o", str(tmp_path / "r")]) == 1
+                 "--out-dir", str(tmp_path / "r")]) == 1
     assert "apt-get install calculix-ccx" in capsys.readouterr().err
     assert main(["fem", "bevel-14G-xi14.5", "--depth-mm", "0.5", "--deck-only",
-                 "-o", str(tmp_path / "b")]) == 2
+                 "--out-dir", str(tmp_path / "b")]) == 2
     assert "not axisymmetric" in capsys.readouterr().err
 
 
@@ -372,7 +372,7 @@ def test_axisymmetric_within_20_percent_of_3d_for_the_punch(build_preset, tmp_pa
 def test_cli_bad_input_exit_2(tmp_path, capsys, args, word):
     from tipgeo.cli import main
 
-    assert main(["fem", "punch-plain", "--deck-only", "-o", str(tmp_path), *args]) == 2
+    assert main(["fem", "punch-plain", "--deck-only", "--out-dir", str(tmp_path), *args]) == 2
     assert word in capsys.readouterr().err
     assert not list(tmp_path.iterdir())  # nothing written
 

@@ -142,7 +142,7 @@ def test_cli_laser_check_and_sim(tmp_path, capsys):
     out = json.loads(capsys.readouterr().out.split("\n", 1)[1])
     assert len(out["toolpath"]["c_angles_with_beam_deg"]) == 5
     png, stl = tmp_path / "p.png", tmp_path / "s.stl"
-    assert main(["gcode", "sim", str(prog), "--spec", "punch-C4", "--plot", str(png),
+    assert main(["gcode", "sim", str(prog), "--spec", "punch-C4", "--png", str(png),
                  "--mesh", str(stl), "--tolerance-um", "0.1"]) == 0
     text = capsys.readouterr().out
     assert "5 notches" in text and "Hausdorff" in text

@@ -97,7 +97,7 @@ def test_degenerate_scans_are_one_line_errors(tmp_path, capsys, name, units, nee
     need = settings.min_points_compare if no_register else settings.min_points_register
     out = tmp_path / "rep"
     argv = ["compare", str(tmp_path / name), BEVEL, "--units", units, "--quiet",
-            "--out", str(out)] + (["--no-register"] if no_register else [])
+            "--out-dir", str(out)] + (["--no-register"] if no_register else [])
     _error_line(capsys, main(argv), *[s.format(n=need) for s in needles])
     assert not out.exists()
 
@@ -265,7 +265,7 @@ def sphere_file(tmp_path_factory):
 
 def test_a_sphere_is_refused_with_the_figures(sphere_file, tmp_path, capsys):
     out = tmp_path / "rep"
-    rc = main(["compare", str(sphere_file), BEVEL, "--quiet", "--out", str(out)])
+    rc = main(["compare", str(sphere_file), BEVEL, "--quiet", "--out-dir", str(out)])
     line = _error_line(capsys, rc, "'sphere.ply' does not match the CAD 'bevel-14G-xi14.5'",
                        "within 50 µm of the CAD surface (needs ≥ 50 %)",
                        "fitness", "needs ≥ 0.3)", "--allow-mismatch")
@@ -279,7 +279,7 @@ def test_a_sphere_is_refused_with_the_figures(sphere_file, tmp_path, capsys):
 def test_the_override_compares_a_mismatch_with_a_warning(sphere_file, tmp_path, capsys):
     out = tmp_path / "rep"
     rc = main(["compare", str(sphere_file), BEVEL, "--quiet", "--json", "--allow-mismatch",
-               "--out", str(out), "--no-pictures"])
+               "--out-dir", str(out), "--no-pictures"])
     assert rc == 0
     rep = json.loads(capsys.readouterr().out)
     assert rep["match"]["ok"] is False
@@ -339,8 +339,8 @@ def test_a_failing_report_leaves_nothing_in_out(scan, tmp_path, monkeypatch):
 def test_out_that_is_a_file_is_refused_before_any_work(tmp_path, capsys):
     (tmp_path / "f").write_text("x")
     write_ply(tmp_path / "s.ply", np.zeros((3, 3)))
-    rc = main(["compare", str(tmp_path / "s.ply"), BEVEL, "--out", str(tmp_path / "f")])
-    _error_line(capsys, rc, "--out", "is a file")
+    rc = main(["compare", str(tmp_path / "s.ply"), BEVEL, "--out-dir", str(tmp_path / "f")])
+    _error_line(capsys, rc, "--out-dir", "is a file")
     assert (tmp_path / "f").read_text() == "x"
 
 

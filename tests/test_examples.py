@@ -319,9 +319,9 @@ def test_not_run_is_the_list():
 
 
 def test_every_command_is_parsed():
-    """Every fenced ``tipgeo`` line is seen by the runner: a ``$ tipgeo`` or a
-    leading ``tipgeo `` in any console/sh block, and nothing that shlex cannot
-    split."""
+    """Every command line is seen by the runner (a ``$ tipgeo`` line of a
+    console block, a ``tipgeo`` line of a sh block), no other fenced block
+    shows a ``tipgeo`` command (they would not run), and shlex splits each."""
     total = 0
     for p in markdown_files():
         text = p.read_text(encoding="utf-8")
@@ -339,9 +339,13 @@ def test_every_command_is_parsed():
                 lang = (m.group("info").split() or [""])[0] if fenced else ""
                 continue
             s = line.strip()
-            if fenced and lang in ("console", "sh", "bash", "shell") and (
-                    s.startswith("$ tipgeo ") or s.startswith("tipgeo ")):
+            if fenced and ((lang == "console" and s.startswith("$ tipgeo "))
+                           or (lang in ("sh", "bash", "shell") and s.startswith("tipgeo "))):
                 in_fences += 1
+            elif fenced and lang not in ("console", "sh", "bash", "shell"):
+                assert not re.match(r"(\$ )?tipgeo [a-z]", s), (
+                    f"{_rel(p)}: `{s}` in a {lang or 'plain'} block would not run; show it "
+                    "in a console or sh block, or as prose")
         assert len(found) == in_fences, _rel(p)
     assert total > 0
 

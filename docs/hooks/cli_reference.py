@@ -1,9 +1,13 @@
-"""mkdocs hook: the CLI reference page is generated from the parser at build
-time (``tipgeo.cli.build_parser()``), so it is never stale.
+"""mkdocs hook: the CLI reference is generated from the parser at build time
+(``tipgeo.cli.build_parser()``), so it is never stale.
 
-``docs/reference/cli.md`` holds the marker ``<!-- cli-reference -->``; this
-hook replaces it with one section per command (and per sub-command), each
-with its description, usage and a table of its arguments.
+- ``docs/reference/cli.md``: the marker ``<!-- cli-reference -->`` becomes one
+  section per command (and per sub-command), each with its description,
+  usage and a table of its arguments;
+- ``docs/reference/vocabulary.md``: ``<!-- cli-vocabulary -->`` becomes the
+  table of shared flags (``tipgeo.cli.common.VOCABULARY``) with the commands
+  that take each, ``<!-- cli-renamed -->`` the table of renamed flags
+  (``tipgeo.cli.common.DEPRECATED``, filled as the parser is built).
 """
 
 from __future__ import annotations
@@ -14,6 +18,9 @@ from pathlib import Path
 
 MARKER = "<!-- cli-reference -->"
 PAGE = "reference/cli.md"
+VOCABULARY_PAGE = "reference/vocabulary.md"
+VOCABULARY_MARKER = "<!-- cli-vocabulary -->"
+RENAMED_MARKER = "<!-- cli-renamed -->"
 
 
 def on_config(config, **kwargs):
@@ -141,9 +148,59 @@ def cli_reference() -> str:
     return "\n".join(lines)
 
 
+def _commands(parser: argparse.ArgumentParser, path: str = ""):
+    """(command path, its parser) for every command and sub-command."""
+    for action in parser._actions:
+        if isinstance(action, argparse._SubParsersAction):
+            for name, sub in action.choices.items():
+                full = f"{path} {name}".strip()
+                yield full, sub
+                yield from _commands(sub, full)
+
+
+def vocabulary_table() -> str:
+    """The shared flags, their one meaning, and the commands that take each."""
+    from tipgeo.cli import build_parser
+    from tipgeo.cli.common import VOCABULARY
+
+    commands = list(_commands(build_parser()))
+    rows = ["| flag | meaning | commands |", "|---|---|---|"]
+    for flag, meaning in VOCABULARY.items():
+        names = flag.split("/")
+        having = [c for c, p in commands
+                  if any(o in names for a in p._actions if a.help != argparse.SUPPRESS
+                         for o in a.option_strings)]
+        where = "every command" if len(having) == len(commands) else ", ".join(
+            f"`{c}`" for c in having)
+        shown = ", ".join(f"`{n}`" for n in names)
+        rows.append(f"| {shown} | {_escape(meaning)} | {where} |")
+    return "\n".join(rows)
+
+
+def renamed_table() -> str:
+    """Every renamed flag: command, old spelling, new spelling."""
+    from tipgeo.cli import build_parser
+    from tipgeo.cli.common import DEPRECATED
+
+    build_parser()  # fills DEPRECATED
+    seen = []
+    for row in DEPRECATED:
+        if row not in seen:
+            seen.append(row)
+    rows = ["| command | old | new |", "|---|---|---|"]
+    rows += [f"| `{c}` | `{old}` | `{new}` |" for c, old, new in seen]
+    return "\n".join(rows)
+
+
 def on_page_markdown(markdown: str, page, config, files, **kwargs):
-    if page.file.src_uri != PAGE:
-        return markdown
-    if MARKER not in markdown:
-        raise ValueError(f"{PAGE} lost its marker {MARKER}")
-    return markdown.replace(MARKER, cli_reference())
+    if page.file.src_uri == PAGE:
+        if MARKER not in markdown:
+            raise ValueError(f"{PAGE} lost its marker {MARKER}")
+        return markdown.replace(MARKER, cli_reference())
+    if page.file.src_uri == VOCABULARY_PAGE:
+        for marker in (VOCABULARY_MARKER, RENAMED_MARKER):
+            if marker not in markdown:
+                raise ValueError(f"{VOCABULARY_PAGE} lost its marker {marker}")
+        return (markdown.replace(VOCABULARY_MARKER, vocabulary_table())
+                .replace(RENAMED_MARKER, renamed_table()))
+    return markdown

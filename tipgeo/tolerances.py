@@ -123,6 +123,22 @@ class InspectSettings:
         distance) does not match the CAD.
     match_diameter : float
         Fitted diameters must lie within this fraction of the CAD's.
+    wall_bin : float
+        Bin width (mm) of the radial histogram whose peaks are a scan's
+        coaxial walls: wider than the scanner's noise, narrower than a wall.
+    wall_share : float
+        A peak holding at least this share of the points is a wall (a
+        tube's wall holds 15–60 % of a scan's points; a fixture's scattered
+        points and an edge's rounding hold far less).
+    wall_normal : float
+        A point counts toward a wall when its normal's cosine with the
+        direction to the axis exceeds this (a wall's normals point at the
+        axis; a plane seen about a wrong axis does not).
+    wall_min_share : float
+        The early gauge check judges only scans of which at least this share
+        is wall about the axis it found (measured: 86 % for a whole 14G bevel
+        scan, 74 % for its last 5 mm, 24 % for one plane of a three-plane tip
+        with a 0.1 mm rim, whose axis came out 13° off).
     chunk : int
         Points per chunk of the deviation pass (memory and speed — a larger
         chunk is put in a finer spatial order — not results).
@@ -246,6 +262,10 @@ class InspectSettings:
     match_min_share: float = 0.5
     match_min_fitness: float = 0.3
     match_diameter: float = 0.05
+    wall_bin: float = 0.005
+    wall_share: float = 0.05
+    wall_normal: float = 0.9
+    wall_min_share: float = 0.5
     chunk: int = 1 << 18
     multiplier: float = 1.0e-9
     gram_det: float = 1.0e-24

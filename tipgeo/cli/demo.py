@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import sys
+
 from ..jsonio import dumps as _dumps
 from .common import deprecated, tolerance_arg
 
@@ -33,6 +35,9 @@ def cmd_demo(args) -> int:
 
     summary = run_demo(args.out_dir, tolerance=tolerance_arg(args), log=_Notes(),
                        pictures=not args.no_pictures)
+    leaky = [r["name"] for r in summary["tips"] if not r["watertight"]]
+    if leaky:
+        print(f"tipgeo: fail: not watertight: {', '.join(leaky)}", file=sys.stderr)
     if args.json:
         print(_dumps(summary))
     else:
@@ -41,7 +46,7 @@ def cmd_demo(args) -> int:
             print(f"{r['name']:<22}{r['triangles']:>9}  {r['volume_mm3']:10.5f}  "
                   f"{r['build_seconds']:7.3f}  {r['watertight']}")
         print(f"wrote {summary['out']}")
-    return 0
+    return 1 if leaky else 0
 
 
 def register(sub) -> None:

@@ -21,12 +21,15 @@ __all__ = ["register", "cmd_build", "cmd_gauges", "cmd_samples"]
 
 
 def cmd_build(args) -> int:
+    from .. import progress
     from ..build import build_tip
     from ..io import export_many
 
     spec = spec_arg(args.spec)
+    tolerance = tolerance_arg(args)
     t0 = time.perf_counter()
-    tip = build_tip(spec, tolerance=tolerance_arg(args))
+    with progress.stage(f"building {spec.name or args.spec}"):
+        tip = build_tip(spec, tolerance=tolerance)
     dt = time.perf_counter() - t0
 
     report = export_many(tip, args.output, on_error=cannot_write, gltf_units=args.gltf_units,

@@ -225,7 +225,11 @@ def _batch(args, kw) -> int:
     rows = []
     n = len(args.scan)
     stems = [Path(s).stem for s in args.scan]
+    from .. import progress
+
+    pb = progress.bar(n, "compare", unit="scan")
     for i, scan in enumerate(args.scan):
+        pb.set_postfix_str(Path(scan).name)
         if log:
             log(f"[{i + 1}/{n}] {scan}")
         out = None
@@ -241,6 +245,8 @@ def _batch(args, kw) -> int:
             r = rows[-1]
             log(f"[{i + 1}/{n}] {r['status']}" + (f": RMS {r['rms_um']:.3f} µm"
                                                    if r["status"] == "ok" else f": {r['error']}"))
+        pb.update()
+    pb.close()
     buf = io.StringIO()
     w = csv.DictWriter(buf, fieldnames=SUMMARY_COLUMNS, lineterminator="\n")
     w.writeheader()

@@ -657,8 +657,98 @@ def _icp(p, cad, T, iterations, *, fix_rz=False, loose=False, outlines=True):
     return T, sigma, info
 
 
+def wall_radii(points: np.ndarray, point: np.ndarray, direction: np.ndarray,
+               r_hint: float, normals: np.ndarray | None = None) -> list[float]:
+    """The radii (mm, ascending) of the walls coaxial with an axis, from the
+    peaks of the points' radial distances (a tube's walls are sharp peaks:
+    ``tol.inspect.wall_bin`` wide, holding at least ``tol.inspect.wall_share``
+    of the points within 3 ``r_hint`` of the axis); empty when no wall shows
+    (a scan of the cut faces alone). With ``normals`` only points whose
+    normal points at the axis (within ``tol.inspect.wall_normal``) count, so
+    that a plane seen about a wrong axis is no wall, and when they are fewer
+    than ``tol.inspect.wall_min_share`` of the points no wall is reported
+    (the axis itself is then not to be trusted).
+
+    Parameters
+    ----------
+    points : (n, 3) float — mm, any frame
+    point, direction : (3,) float — the axis (direction of unit length)
+    r_hint : float — mm, the CAD's outer radius (sets the range searched)
+    normals : (n, 3) float, optional — unit normals of the points
+    """
+    d = points - point
+    radial = d - np.outer(d @ direction, direction)
+    r = np.linalg.norm(radial, axis=1)
+    near = r < 3 * r_hint
+    n_all = int(near.sum())
+    if n_all < 100:
+        return []
+    if normals is not None:
+        cos = np.abs(np.einsum("ij,ij->i", normals, radial)) / np.maximum(r, tol.tiny)
+        near &= (cos > tol.inspect.wall_normal) & (np.abs(normals @ direction) < 0.15)
+        if near.sum() < tol.inspect.wall_min_share * n_all:
+            return []  # too little of the scan is wall about this axis to trust it
+    r = r[near]
+    w = tol.inspect.wall_bin
+    h, edges = np.histogram(r, bins=np.arange(0.0, 3 * r_hint + w, w))
+    pair = h[:-1] + h[1:]   # a wall straddling two bins counts whole
+    strong = np.flatnonzero(pair >= tol.inspect.wall_share * n_all)
+    walls = []
+    for run in np.split(strong, np.flatnonzero(np.diff(strong) > 1) + 1):
+        if len(run):
+            sel = r[(r >= edges[run[0]]) & (r < edges[run[-1] + 2])]
+            walls.append(float(np.median(sel)))
+    return walls
+
+
+def _free_axis(p: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray] | None:
+    """An axis found without any radius: the direction the wall-like points'
+    normals are most nearly perpendicular to, through the point nearest all
+    their normal lines (a tube's walls, inner and outer, all point at it);
+    returns (point, direction, the points' normals), None when too few
+    points look like wall."""
+    nrm = point_normals(p)
+    a = np.linalg.eigh(nrm.T @ nrm)[1][:, 0]
+    wall = np.ones(len(p), bool)
+    for _ in range(4):
+        wall = np.abs(nrm @ a) < 0.15
+        if wall.sum() < 20:
+            return None
+        a = np.linalg.eigh(nrm[wall].T @ nrm[wall])[1][:, 0]
+    n = nrm[wall] - np.outer(nrm[wall] @ a, a)
+    n /= np.maximum(np.linalg.norm(n, axis=1, keepdims=True), tol.tiny)
+    q = p[wall]
+    # least squares: the point c whose offset from each q, across a, lies along its normal
+    P = np.eye(3)[None] - n[:, :, None] * n[:, None, :] - np.outer(a, a)[None]
+    A = P.sum(axis=0) + np.outer(a, a)
+    b = np.einsum("nij,nj->i", P, q) + a * (a @ q.mean(axis=0))
+    return np.linalg.solve(A, b), a, nrm
+
+
+def _check_gauge(points: np.ndarray, cad, max_error: float) -> None:
+    """Refuse, before the costly search, a scan whose coaxial walls are not
+    the CAD's: with two or more walls the outermost must be its outer wall;
+    a single wall (a scan of one side) its outer or its inner wall."""
+    axis = _free_axis(points)
+    if axis is None:
+        return
+    walls = wall_radii(points, axis[0], axis[1], cad.r_o, normals=axis[2])
+    if not walls:
+        return
+    r = walls[-1]
+    if abs(r - cad.r_o) <= max_error * cad.r_o:
+        return
+    if len(walls) == 1 and abs(r - cad.r_i) <= max_error * cad.r_i:
+        return
+    raise ScanError(f"its outermost wall has diameter {2 * r:.4f} mm where the CAD's outer "
+                    f"diameter is {2 * cad.r_o:.4f} mm ({100 * (r / cad.r_o - 1):+.1f} %, allowed "
+                    f"±{100 * max_error:g} %): a scan of another gauge? (refused before "
+                    "registration)")
+
+
 def register(points: np.ndarray, cad, *, inlier_distance: float = 0.01,
-             seed: int = 0, progress=None) -> Registration:
+             seed: int = 0, progress=None,
+             max_diameter_error: float | None = None) -> Registration:
     """Register scan points (scanner frame, mm) onto a :class:`CadModel`.
 
     Parameters
@@ -668,6 +758,11 @@ def register(points: np.ndarray, cad, *, inlier_distance: float = 0.01,
     inlier_distance : float — fitness and inlier RMSE count points within this (mm)
     seed : int — subsets are drawn with this seed (results are reproducible)
     progress : callable(str), optional — stage messages
+    max_diameter_error : float, optional — refuse, right after the axis fit
+        and before the costly search, a scan whose outermost coaxial wall
+        (:func:`wall_radii`) is off the CAD's outer diameter (and, if
+        smaller, its inner one) by more than this share: a wrong gauge;
+        None: only warn beyond 5 %
 
     Returns
     -------
@@ -707,11 +802,14 @@ def register(points: np.ndarray, cad, *, inlier_distance: float = 0.01,
     # the axis needs far fewer points than the final refinement
     p_ax = clean if len(clean) <= tol.inspect.axis_points else \
         clean[rng.choice(len(clean), tol.inspect.axis_points, replace=False)]
+    if max_diameter_error is not None:  # no sharp coaxial wall: no refusal here
+        _check_gauge(p_ax, cad, max_diameter_error)
     say(f"axis fit on {len(p_ax)} points")
     point, a, radius, rms = _axis_stage(p_ax, cad.r_o, cad.r_i)
     axis = {"point_mm": point.tolist(), "direction": a.tolist(), "outer_radius_mm": radius,
             "outer_diameter_mm": 2 * radius, "fit_rms_mm": rms}
-    if abs(radius - cad.r_o) > 0.05 * cad.r_o:
+    off = abs(radius - cad.r_o) / cad.r_o
+    if off > 0.05:
         warnings.append(f"fitted outer diameter {2 * radius:.4f} mm differs from the CAD's "
                         f"{2 * cad.r_o:.4f} mm by more than 5 %")
     say("global search about the axis")

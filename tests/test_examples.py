@@ -17,6 +17,10 @@ same for authors):
   and :data:`NOT_RUN` lists each such command, so none slips in unnoticed;
   any other ``# comment`` is dropped.
 
+A command that exits 3 (an external tool such as CalculiX is missing) skips
+its file's test with the tool's install line instead of failing it; CI
+installs every tool, so there they all run.
+
 The commands of one Markdown file run in order in one temporary folder (later
 commands read earlier outputs) holding the repository's ``samples/`` at
 ``samples/``, with ``TIPGEO_PROGRESS=off`` and a cache of their own.
@@ -49,6 +53,10 @@ NOT_RUN = {
     ("docs/tutorials/optimise.md",
      "tipgeo sweep bevel-study.toml --scheduler tcp://host:8786"),
 }
+
+#: The exit code of a command whose external tool (ccx, OCP, Dask, pyarrow)
+#: is missing: its example is skipped, with the tool's install line, not failed.
+MISSING_TOOL = 3
 
 #: Seconds one command may take before the example counts as failed.
 COMMAND_TIMEOUT_S = 300
@@ -287,7 +295,7 @@ def test_examples_run(path: Path, tmp_path: Path):
     rel = _rel(path)
     (tmp_path / "samples").symlink_to(ROOT / "samples", target_is_directory=True)
     env = _environment(tmp_path)
-    failures = []
+    failures, missing_tool = [], []
     for item in examples(path.read_text(encoding="utf-8")):
         if isinstance(item, WriteFile):
             target = tmp_path / item.name
@@ -300,6 +308,10 @@ def test_examples_run(path: Path, tmp_path: Path):
                 "not in tests/test_examples.py NOT_RUN")
             continue
         result = run_command(item, tmp_path, env)
+        if result.returncode == MISSING_TOOL != item.exit_code:
+            # an external tool this machine lacks (ccx, OCP, …): not a failure here
+            missing_tool.append(f"{rel}:{item.line}: {result.stderr.strip()[-300:]}")
+            continue
         if result.returncode != item.exit_code:
             failures.append(_report(rel, item, result, f"expected exit code {item.exit_code}"))
             continue
@@ -308,6 +320,8 @@ def test_examples_run(path: Path, tmp_path: Path):
             failures.append(_report(rel, item, result,
                                     f"no output line matches the quoted line {miss[0]!r}"))
     assert not failures, "\n\n".join(failures)
+    if missing_tool:
+        pytest.skip("an external tool is missing (exit 3): " + "; ".join(missing_tool))
 
 
 def test_not_run_is_the_list():

@@ -410,14 +410,18 @@ def _scores(sub, cad, angles, dz):
 
 
 def _search(q_all, cad, step, npts, rng, period, z_feature):
-    """The best turns about +z (rad, within one symmetry period) for points
-    already on the axis, coarse to fine: a third of ``npts`` points scored
-    every 2·step, then all of them every step/2 within ±2·step of the three
-    best coarse minima. The scored points are drawn from those near or above
-    the CAD's features (``z_feature``), where the turn shows.
+    """The best poses about +z for points already on the axis: turns (rad,
+    within one symmetry period) and axial shifts, coarse to fine. A third of
+    ``npts`` points scored every 2·step at the shift that puts the scan's top
+    at the CAD's; then, at each of the three best coarse minima, the shift
+    searched (:func:`_dz_search`: the top of a sparse scan of a sharp tip is
+    no place to hang the shift on, and the tube, which most points lie on,
+    is blind to it) and all the points scored every step/2 within ±2·step
+    at that shift. The scored points are drawn from those near or above the
+    CAD's features (``z_feature``), where the turn shows.
 
-    Returns the coarse angles and scores, the fine minima (angle, score; best
-    first) and the axial shift dz."""
+    Returns the coarse angles and scores, and the fine minima (angle, score,
+    dz; best first)."""
     z_top = np.quantile(q_all[:, 2], 0.9995)
     dz = cad.z_top - z_top
     near = q_all[:, 2] + dz >= z_feature - cad.r_o
@@ -428,12 +432,52 @@ def _search(q_all, cad, step, npts, rng, period, z_feature):
     mins = np.flatnonzero((sc <= np.roll(sc, 1)) & (sc <= np.roll(sc, -1)))
     mins = mins[np.argsort(sc[mins], kind="stable")][:3]
     win = np.arange(-4, 5) * 0.5 * step
-    fine = (coarse[mins][:, None] + win[None, :]) % period
-    fs = _scores(sub, cad, fine.ravel(), dz).reshape(fine.shape)
-    k = np.argmin(fs, axis=1)
-    best = [(float(fine[i, k[i]]), float(fs[i, k[i]])) for i in range(len(mins))]
+    best = []
+    for m in mins:
+        dzm = _dz_search(sub, cad, float(coarse[m]), dz)
+        fine = (coarse[m] + win) % period
+        fs = _scores(sub, cad, fine, dzm)
+        k = int(np.argmin(fs))
+        best.append((float(fine[k]), float(fs[k]), dzm))
     best.sort(key=lambda b: b[1])
-    return coarse, sc, best, dz
+    return coarse, sc, best
+
+
+def _dz_search(sub, cad, angle, dz0):
+    """The axial shift (mm) that best fits at ``angle``. A scan's top lies
+    at or below the CAD's (sparse points, a rounded tip): when the shift
+    that matches the tops (``dz0``) scores within ``tol.inspect.search_dz_keep``
+    times the best of the others plus ``search_dz_floor`` (the scan shows
+    its top) it is kept; else the shift is searched from
+    ``search_dz_span`` outer radii below ``dz0`` to a tenth of that above,
+    every ``search_dz_step`` radii, then at a tenth of the step around the
+    pick — the highest shift scoring within a tenth of the score's range of
+    the best (a scan that shows no cut face fits as well anywhere lower,
+    where the CAD's tube still holds it)."""
+    st = tol.inspect
+    span, h = st.search_dz_span * cad.r_o, st.search_dz_step * cad.r_o
+    grid = dz0 + np.arange(-span, 0.1 * span + 1e-12, h)
+    sc = _scores_dz(sub, cad, np.full(len(grid), angle), grid)
+    s0 = float(_scores_dz(sub, cad, np.array([angle]), np.array([dz0]))[0])
+    if s0 <= st.search_dz_keep * sc.min() + st.search_dz_floor:
+        return dz0
+
+    def pick(grid, sc):
+        ok = sc <= sc.min() + 0.1 * (sc.max() - sc.min())
+        return float(grid[np.flatnonzero(ok)[-1]])
+
+    d1 = pick(grid, sc)
+    fine = d1 + np.arange(-10, 11) * 0.1 * h
+    return pick(fine, _scores_dz(sub, cad, np.full(len(fine), angle), fine))
+
+
+def _scores_dz(sub, cad, angles, dzs):
+    """:func:`_scores` for one (angle, dz) pair per row."""
+    c, s = np.cos(angles)[:, None], np.sin(angles)[:, None]
+    x = np.stack([c * sub[:, 0] - s * sub[:, 1], s * sub[:, 0] + c * sub[:, 1],
+                  sub[:, 2][None, :] + np.asarray(dzs)[:, None]], 2)
+    f = cad.bound(x.reshape(-1, 3)).reshape(len(angles), len(sub))
+    return np.mean(np.minimum(np.abs(f), tol.inspect.search_clip), axis=1)
 
 
 def _pose(T_axis, angle, dz):
@@ -826,13 +870,13 @@ def register(points: np.ndarray, cad, *, inlier_distance: float = 0.01,
             cands.append((0.0, sign, 0.0, _pose(Ta, 0.0, dz)))
             continue
         period = 2 * math.pi / sym
-        ang, sc, best_turns, dz = _search(q, cad, tol.inspect.search_step,
-                                          tol.inspect.search_points, rng, period, z_feature)
-        for turn, score in best_turns:
+        ang, sc, best_turns = _search(q, cad, tol.inspect.search_step,
+                                      tol.inspect.search_points, rng, period, z_feature)
+        for turn, score, dz in best_turns:
             cands.append((score, sign, turn, _pose(Ta, turn, dz)))
         key = "plus" if sign > 0 else "minus"
         search[f"scores_{key}"] = sc.round(6).tolist()
-        search[f"best_turns_{key}_deg"] = [[math.degrees(t_), s_] for t_, s_ in best_turns]
+        search[f"best_turns_{key}_deg"] = [[math.degrees(t_), s_] for t_, s_, _ in best_turns]
     cands.sort(key=lambda c: c[0])
     say(f"ICP from {min(4, len(cands))} candidate poses")
     small = p[rng.choice(len(p), min(tol.inspect.icp_start_points, len(p)), replace=False)]

@@ -71,7 +71,7 @@ def cmd_fem(args) -> int:
     res = run_fem(spec, model=args.model, depth=depth, out_dir=args.out_dir,
                   tissue=args.tissue, friction=friction, mesh=_um("--mesh-um", args.mesh_um),
                   deck_only=args.deck_only, abaqus=args.abaqus, time_limit_s=limit,
-                  output_depths=outs, progress=say,
+                  output_depths=outs, progress=say, pictures=not args.no_pictures,
                   **({} if args.cut == "none" else {"cut": args.cut}))
     d = res.to_dict()
     verdict = getattr(res, "verdict", None)
@@ -138,6 +138,8 @@ def register(sub) -> None:
     f.add_argument("--time-limit-s", type=float, default=1800.0, metavar="S",
                    help="kill ccx after this wall time (default 1800 s)")
     f.add_argument("--out-dir", metavar="DIR", help="output folder (required)")
+    f.add_argument("--no-pictures", action="store_true",
+                   help="skip the force curve and stress contour PNGs")
     f.add_argument("--json", action="store_true", help="the result as JSON on stdout")
     deprecated(f, ("-o", "--output"), "--out-dir")
     deprecated(f, "--convergence", "--convergence-um")

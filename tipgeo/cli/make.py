@@ -24,8 +24,13 @@ __all__ = ["register", "cmd_laser", "cmd_gcode", "cmd_grind", "cmd_mill"]
 
 
 def _laser_params(args):
+    """The laser station (``--machine`` file, else the defaults) with the
+    flags given on top of it."""
+    import dataclasses
+
     from gcode.emitter import LaserParams
 
+    base = LaserParams.from_toml(args.machine) if args.machine else LaserParams()
     kw = {}
     for opt, key, scale in (("beam_diameter_um", "beam_diameter", 1e-3),
                             ("overlap", "overlap", 1.0),
@@ -40,7 +45,7 @@ def _laser_params(args):
     feed = feed_mm_min_arg("--feed-mm-min", args.feed_mm_min)
     if feed is not None:
         kw["feed"] = feed
-    return LaserParams(**kw)
+    return dataclasses.replace(base, **kw) if kw else base
 
 
 def cmd_laser(args) -> int:
@@ -69,9 +74,12 @@ def cmd_laser(args) -> int:
 
 
 def cmd_gcode(args) -> int:
+    from gcode.emitter import LaserParams
     from gcode.pipeline import laser_check, make_limits, read_program, write_laser_outputs
 
-    beam = (args.beam_diameter_um or 20.0) * 1e-3
+    station = LaserParams.from_toml(args.machine) if args.machine else LaserParams()
+    beam = station.beam_diameter if args.beam_diameter_um is None else \
+        args.beam_diameter_um * 1e-3
     spec = spec_arg(args.spec) if args.action == "sim" else None
     limits = make_limits(max_statements=args.max_statements, max_repeat=args.max_repeat,
                          max_segments=args.max_moves, max_operations=args.max_operations)
@@ -106,11 +114,15 @@ def cmd_gcode(args) -> int:
               f"watertight {a['watertight']}")
     if "comparison" in out:
         c = out["comparison"]
-        print(f"  vs spec: radius {c['radius_mm']['fitted_mean'] * 1e3:.3f} µm fitted "
-              f"(spec {c['radius_mm']['spec'] * 1e3:.3f}, max error "
-              f"{c['radius_mm']['fitted_max_error'] * 1e3:.3f} µm), spacing max error "
+        rad = c["radius_mm"]
+
+        def um(x):
+            return "n/a" if x is None else f"{x * 1e3:.3f}"
+
+        print(f"  vs spec: radius {um(rad['fitted_mean'])} µm fitted (spec {um(rad['spec'])}, "
+              f"max error {um(rad['fitted_max_error'])} µm), spacing max error "
               f"{c['spacing_deg']['fitted_max_error']}°, Hausdorff "
-              f"{c['hausdorff_mm'] * 1e3:.3f} µm")
+              f"{um(c['hausdorff_mm'])} µm")
     if verdict is not None:
         print(f"  {verdict.line()}")
     for o in res.files:
@@ -239,10 +251,12 @@ def register(sub) -> None:
                      ("--compensation-mm", "G41 lead-in (0.05)")):
         la.add_argument(opt, type=float, default=None, help=hlp)
     la.add_argument("--finishing-passes", type=int, default=None, help="(80)")
+    la.add_argument("--machine", metavar="TOML", help="laser station file (e.g. "
+                    "samples/machines/a3200-laser.toml); flags given override it")
     deprecated(la, "--feed-mm-s", "--feed-mm-min", convert=lambda v: v * 60.0,
                note=" (mm/min; the value given was converted from mm/s)")
     la.set_defaults(func=cmd_laser)
-    declare_files(la, inputs=("spec",), outputs=("output",))
+    declare_files(la, inputs=("spec", "machine"), outputs=("output",))
     gc = sub.add_parser("gcode", help="check or simulate an AeroBasic laser program")
     gc.add_argument("action", choices=("check", "sim"))
     gc.add_argument("program", metavar="PROGRAM")
@@ -252,7 +266,10 @@ def register(sub) -> None:
                     metavar=("X0", "Y0"),
                     help="program coordinates (mm) of the first serration's centre on the rim")
     gc.add_argument("--beam-diameter-um", type=float, default=None,
-                    help="beam diameter (20); T1's radius is half of it")
+                    help="beam diameter (20, or the --machine file's); T1's radius is half "
+                         "of it")
+    gc.add_argument("--machine", metavar="TOML", help="laser station file (its beam diameter; "
+                    "e.g. samples/machines/a3200-laser.toml)")
     gc.add_argument("--tolerance-um", type=float, default=None, metavar="N",
                     help="chordal tolerance of the simulated tip's mesh, µm")
     gc.add_argument("--lenient", action="store_true",
@@ -269,7 +286,7 @@ def register(sub) -> None:
     deprecated(gc, "--plot", "--png")
     deprecated(gc, "--origin", "--origin-mm")
     gc.set_defaults(func=cmd_gcode)
-    declare_files(gc, inputs=("program", "spec"), outputs=("mesh",), pictures=("png",),
+    declare_files(gc, inputs=("program", "spec", "machine"), outputs=("mesh",), pictures=("png",),
                   exts={"mesh": export_exts()}, derived=gcode_derived)
     gr = sub.add_parser("grind", help="five-axis grinding program, set-up and simulation")
     gr.add_argument("spec", metavar="SPEC")

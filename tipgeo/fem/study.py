@@ -390,7 +390,7 @@ def run_fem(spec, *, model: str = "axisymmetric", depth: float, out_dir: str | P
             deck_only: bool = False, abaqus: bool = False, time_limit_s: float = 600.0,
             output_depths: tuple[float, ...] | None = None,
             progress: Callable[[str], None] | None = None, partial: bool = True,
-            **kw) -> FemResult:
+            pictures: bool = True, **kw) -> FemResult:
     """Build, write and (unless ``deck_only``) run the ``model`` of tip
     ``spec`` pushed ``depth`` mm into ``tissue`` (see :func:`run_model`).
     Stresses are written at ``output_depths`` (default: the final depth and,
@@ -404,7 +404,7 @@ def run_fem(spec, *, model: str = "axisymmetric", depth: float, out_dir: str | P
     m = build_model(spec, model, depth=depth, tissue=tissue, mesh=mesh, friction=friction,
                     output_depths=output_depths, **kw)
     return run_model(m, out_dir, deck_only=deck_only, abaqus=abaqus, time_limit_s=time_limit_s,
-                     progress=progress, partial=partial)
+                     progress=progress, partial=partial, pictures=pictures)
 
 
 def richardson(values: tuple[float, float, float], ratio: float) -> dict[str, float | None]:

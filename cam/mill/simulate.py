@@ -278,8 +278,14 @@ def simulate_mill(gcode: str, spec, *, tool, setup, cell_um: tuple[float, float]
     cell_um : (along X, across Y) µm — the deviation grid (program frame)
     rings, around : the milled tip's polar grid (radii × angles)
 
-    Returns a :class:`MilledTip`; raises :class:`CamError` for programs it
-    cannot read.
+    Returns
+    -------
+    MilledTip
+
+    Raises
+    ------
+    CamError
+        A program it cannot read.
     """
     from tipgeo import progress as pg
 

@@ -115,6 +115,8 @@ class BevelCutter(PlanarCutter):
     name : str
         Face label becomes ``cut:<name>``.
 
+    Notes
+    -----
     The plane passes through the heel (r_o cos β, r_o sin β, 0); the tip lies
     at γ = β + π, z = 2 r_o cot ξ.
     """
@@ -166,6 +168,8 @@ class MultiPlaneCutter(PlanarCutter):
     name : str
         Faces are labelled ``cut:<name>.<k>``, k = 0 … P_l − 1.
 
+    Notes
+    -----
     The apex lies on the axis at z = r_o cot ξ so every plane's heel is at
     z = 0; plane k owns the span of γ nearest its heel direction.
     """
@@ -298,6 +302,8 @@ class LancetCutter(PlanarCutter):
     name : str
         Faces ``cut:<name>.primary``, ``cut:<name>.plus``, ``cut:<name>.minus``.
 
+    Notes
+    -----
     Both secondary planes pass through the primary bevel's tip point
     (−r_o, 0, 2 r_o cot ξ₁) (rotated), so the point stays where the primary
     put it and the secondaries sharpen its flanks. They must stay above the

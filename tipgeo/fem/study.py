@@ -112,6 +112,8 @@ class FemResult:
     stress : dict depth (mm) → (max principal at the peak node (MPa), its
         position (2 or 3,) mm deformed, the edge's tensile peak (MPa))
 
+    Notes
+    -----
     A run ccx stopped before the requested depth (an increment below its
     minimum, too many cutbacks) is kept when :func:`run_model` is asked to
     (its default): ``depth`` ends where the last output was written,

@@ -315,8 +315,8 @@ def optimal_slice_push_ratio(x: float, *, R: float, r_i: float, r_o: float, thet
 
     Parameters
     ----------
-    x : float — displacement after rupture, mm (≥ 0)
-    (others as :func:`cutting_forces`)
+    x : float — displacement after rupture, mm (≥ 0); the other parameters
+        as :func:`cutting_forces`
     k_max : float — upper end of the search (default: the regression's range,
         or 10 for constant coefficients)
 

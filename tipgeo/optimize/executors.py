@@ -48,6 +48,8 @@ class ProcessExecutor:
     ----------
     workers : int — processes (default: the number of CPUs)
 
+    Notes
+    -----
     Each worker limits BLAS to one thread (``threadpoolctl``, when installed).
     Workers are forked from this process when it runs no other thread (they
     start at once, tipgeo already imported); otherwise they come from a

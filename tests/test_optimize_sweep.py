@@ -628,3 +628,56 @@ def test_missing_pyarrow_is_a_missing_tool_error(monkeypatch, tmp_path, op):
         (write_table(res, tmp_path / "s.parquet") if op == "write"
          else read_table(tmp_path / "s.parquet"))
     assert isinstance(e.value, SpecError)
+
+
+# -- the content hash is cheap: no geometric check ----------------------------------------
+def test_content_hash_is_the_validated_canonical_form_without_validating(monkeypatch):
+    """spec_hash normalises the keys as spec_from_dict does (so a valid spec
+    hashes as its spec_to_dict form) but never runs the cutters' geometric
+    checks: a cached sweep or screening re-run hashes every configuration."""
+    from tipgeo.cutters.helical import HelicalCutter
+    from tipgeo.optimize.cache import _canonical
+    from tipgeo.presets import preset, preset_names
+    from tipgeo.spec import spec_from_dict, spec_to_dict
+
+    def validated(d):
+        out = spec_to_dict(spec_from_dict(d))
+        out.pop("name", None)
+        out.pop("description", None)
+        return out
+
+    cfg = cfg3()
+    dicts = ([spec_to_dict(preset(n)) for n in preset_names()]
+             + [cfg.spec_dict(x, i) for i, x in enumerate(make_design(cfg.variables, "grid",
+                                                                      levels=3))])
+    expected = [validated(d) for d in dicts]
+    calls = []
+    orig = HelicalCutter.check
+    monkeypatch.setattr(HelicalCutter, "check",
+                        lambda self, cannula: calls.append(1) or orig(self, cannula))
+    assert [_canonical(d) for d in dicts] == expected
+    # equal tips hash equal however written (10 or 10.0 degrees)
+    d = spec_to_dict(preset("bevel-14G-xi15"))
+    d2 = json.loads(json.dumps(d))
+    d2["cutters"][0]["xi_deg"] = 15
+    assert spec_hash(d, {}) == spec_hash(d2, {})
+    assert calls == []
+
+
+def test_cached_maximin_re_run_validates_nothing(monkeypatch, tmp_path):
+    from tipgeo.cutters.helical import HelicalCutter
+
+    cfg = loads_config(HELICAL_3X3.replace("[design]\nlevels = 3",
+                                           "[design]\nmethod = \"maximin\"\npoints = 4\n"
+                                           "candidates = 25"))
+    first = run_sweep(cfg, cache=ResultCache(tmp_path / "c"), progress=False)
+    calls = []
+    orig = HelicalCutter.check
+    monkeypatch.setattr(HelicalCutter, "check",
+                        lambda self, cannula: calls.append(1) or orig(self, cannula))
+    monkeypatch.setattr(responses_mod, "evaluate_spec",
+                        lambda *a: pytest.fail("a cached configuration was analysed"))
+    second = run_sweep(cfg, cache=ResultCache(tmp_path / "c"), progress=False)
+    assert calls == [] and second.computed == 0 and second.cached == 4
+    assert second.to_csv() == first.to_csv()
+    np.testing.assert_array_equal(second.screen["grid_ok"], first.screen["grid_ok"])

@@ -24,6 +24,7 @@ from typing import Any
 
 import numpy as np
 
+from .. import progress as _progress
 from ..jsonio import dumps as _dumps
 from .config import StudyConfig
 from .infill import infill_optima, training_ranges
@@ -295,6 +296,31 @@ def study_verdict(config: StudyConfig, report: dict[str, Any]):
     return Verdict.of(f"study {config.name}", checks)
 
 
+def _stage(enabled: bool, desc: str):
+    """A stage of unknown length on the progress line (or nothing)."""
+    from contextlib import nullcontext
+
+    return _progress.stage(desc) if enabled else nullcontext()
+
+
+def _bar(enabled: bool, total: int, desc: str, unit: str):
+    return _progress.bar(total, desc, unit=unit) if enabled else _progress._Silent()
+
+
+def _above_bars(log, enabled: bool):
+    """``log``, its lines written above any open progress bar (not through it)."""
+    if not (enabled and _progress.enabled()):
+        return log
+
+    def say(msg: str) -> None:
+        from tqdm import tqdm
+
+        with tqdm.external_write_mode(file=sys.stderr):
+            log(msg)
+
+    return say
+
+
 def run_study(config: StudyConfig, out_dir: str | Path, *, executor=None, cache: Any = None,
               progress: bool = True, build: bool = True, plots: bool = True,
               table: str = "sweep.csv", log=None) -> dict[str, Any]:
@@ -329,7 +355,7 @@ def run_study(config: StudyConfig, out_dir: str | Path, *, executor=None, cache:
     from ..atomic import write_text_atomic
     from ..spec import dumps_spec, spec_from_dict
 
-    log = log or (lambda s: print(s, file=sys.stderr, flush=True))
+    log = _above_bars(log or (lambda s: print(s, file=sys.stderr, flush=True)), progress)
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
     files: list[str] = []
@@ -368,15 +394,17 @@ def run_study(config: StudyConfig, out_dir: str | Path, *, executor=None, cache:
     sur = inf = None
     if fitted:
         t0 = time.perf_counter()
-        sur = fit_surrogate(sweep, responses=fitted)
+        with _stage(progress, f"GP fit ({len(fitted)} responses)"):
+            sur = fit_surrogate(sweep, responses=fitted)
         t_fit = time.perf_counter() - t0
         log(f"surrogate: {len(sur.responses)} response(s) ({sur.mode}) fitted to "
             f"{len(sur.X_)} points in {t_fit:.2f} s")
         t0 = time.perf_counter()
-        inf = infill_optima(config, sur, feasible=search_feasibility(config, feasible,
-                                                                    sweep.screen),
-                            executor=executor, cache=cache,
-                            log=log, objectives=[p["run"] for p in plans if p["run"]])
+        with _stage(progress, "optimise and infill"):
+            inf = infill_optima(config, sur, feasible=search_feasibility(config, feasible,
+                                                                        sweep.screen),
+                                executor=executor, cache=cache,
+                                log=log, objectives=[p["run"] for p in plans if p["run"]])
         t_infill = time.perf_counter() - t0
         sur = inf.surrogate
         log(f"infill: {inf.added} training points added in {inf.rounds} round(s), "
@@ -389,7 +417,10 @@ def run_study(config: StudyConfig, out_dir: str | Path, *, executor=None, cache:
     optima = inf.optima if inf is not None else []
     by_name = {o.objective.name: (o, r) for o, r in zip(optima, inf.results)} if inf else {}
     entries = []
-    for p in plans:
+    vbar = _bar(progress, len(plans), "verify optima", "optimum")
+    for i, p in enumerate(plans):
+        if i:
+            vbar.update()  # the previous one done
         obj = p["objective"]
         head = {"objective": obj.name, "combine": obj.combine,
                 "terms": [{"response": t.response, "goal": t.goal, "weight": t.weight}
@@ -426,6 +457,8 @@ def run_study(config: StudyConfig, out_dir: str | Path, *, executor=None, cache:
                                **{k: x for k, x in v.items() if k != "spec"},
                                **({"pareto_points": int(len(opt.front["x"]))}
                                   if opt.front else {})})
+    vbar.update()
+    vbar.close()
     if sur is not None:
         sdict = sur.to_dict() | {"loo": sur.loo(), "fit_seconds": t_fit,
                                  "training_points": int(len(sur.X_)),
@@ -445,16 +478,22 @@ def run_study(config: StudyConfig, out_dir: str | Path, *, executor=None, cache:
         shade = (grid_verdicts(config, sweep.screen) if sweep.screen is not None
                  else feasible)
 
-        for name in config.plots["responses"]:
-            if name not in sur.responses:  # constant, or neither used nor asked for
-                continue
-            files.append(str(plot_response(sur, config, name, out / f"surface-{name}.png",
-                                           optima=optima, feasible=shade)))
-
-        files.append(str(plot_loo(sur, out / "loo.png")))
-        for opt in optima:
-            if opt.front is not None:
+        # constant responses, and those neither used nor asked for, have no GP
+        surfaces = [n for n in config.plots["responses"] if n in sur.responses]
+        fronts = [o for o in optima if o.front is not None]
+        pbar = _bar(progress, len(surfaces) + 1 + len(fronts), "pictures", "picture")
+        try:
+            for name in surfaces:
+                files.append(str(plot_response(sur, config, name, out / f"surface-{name}.png",
+                                               optima=optima, feasible=shade)))
+                pbar.update()
+            files.append(str(plot_loo(sur, out / "loo.png")))
+            pbar.update()
+            for opt in fronts:
                 files.append(str(plot_pareto(opt, out / f"pareto-{opt.objective.name}.png")))
+                pbar.update()
+        finally:
+            pbar.close()
     n_added = inf.added if inf else 0
     report = {
         "name": config.name, "description": config.description, "base": config.base_name,

@@ -63,3 +63,10 @@ def test_every_stage_is_reported_and_logged(both):
 def test_workers_must_be_a_positive_integer(tmp_path, w):
     with pytest.raises(InputError, match=r"workers = .* is out of range; allowed an integer"):
         run_demo(tmp_path, names=NAMES, workers=w)
+
+
+def test_a_failing_stage_is_raised_from_the_workers(tmp_path):
+    from tipgeo.errors import SpecError
+
+    with pytest.raises(SpecError, match="no-such-tip"):
+        run_demo(tmp_path, names=["no-such-tip"], pictures=False, workers=2)

@@ -130,17 +130,22 @@ def _parallel(calls: dict, workers: int, log) -> tuple[dict, dict, dict]:
 
     results, seconds, cpu = {}, {}, {}
     want_log = log is not None
-    with ProcessPoolExecutor(max_workers=workers, mp_context=_context(),
-                             initializer=_worker_init) as pool:
+    pool = ProcessPoolExecutor(max_workers=workers, mp_context=_context(),
+                               initializer=_worker_init)
+    try:
         futs = {pool.submit(_stage, key, calls[key][0], calls[key][1], want_log): key
                 for key in STAGES}
         with progress.bar(len(futs), "demo", unit="stage") as pb:
             for f in as_completed(futs):
-                key, result, text, dt, dc = f.result()
+                key, result, text, dt, dc = f.result()  # a stage's error is raised here
                 results[key], seconds[key], cpu[key] = result, dt, dc
                 _emit(log, text)
                 pb.set_postfix_str(key, refresh=False)
                 pb.update()
+    except BaseException:
+        pool.shutdown(wait=False, cancel_futures=True)  # the stages not started: dropped
+        raise
+    pool.shutdown()
     return results, seconds, cpu
 
 

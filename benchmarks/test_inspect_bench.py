@@ -135,7 +135,7 @@ def test_compare_large_xyz_memory(benchmark, large_xyz, tmp_path):
 
     def run():
         r = subprocess.run([sys.executable, "-c", _CHILD, "compare", str(large_xyz), SPEC,
-                            "--out", str(out), "--quiet", "--no-pictures"],
+                            "--out-dir", str(out), "--quiet", "--no-pictures"],
                            capture_output=True, text=True)
         assert r.returncode == 0, r.stderr
         line = next(ln for ln in r.stderr.splitlines() if ln.startswith("RUSAGE"))

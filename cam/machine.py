@@ -71,8 +71,9 @@ import numpy as np
 from tipgeo.errors import TipGeoError
 from tipgeo.tolerances import tol
 
-__all__ = ["CamError", "AxisLimit", "Machine", "machine_toml", "wheel_from_needle", "f_surf",
-           "plane_2_36", "near_generator", "wheel_height", "face_plane"]
+__all__ = ["CamError", "AxisLimit", "Machine", "machine_toml", "machine_number",
+           "wheel_from_needle", "f_surf", "plane_2_36", "near_generator", "wheel_height",
+           "face_plane"]
 
 
 class CamError(TipGeoError, ValueError):
@@ -97,9 +98,11 @@ class AxisLimit:
 
 @dataclass(frozen=True, kw_only=True)
 class Machine:
-    """The grinder (defaults: thesis §2.3.1.2), overridable from TOML.
+    """The grinder (defaults: thesis §2.3.1.2), overridable from TOML
+    (:meth:`from_toml`; sample: ``samples/machines/grinder.toml``).
 
-    Lengths mm, angles deg, feeds mm/s, speeds rpm.
+    Lengths mm, angles deg, feeds mm/s inside (mm/min in TOML files:
+    ``feed_min_mm_min``, ``feed_max_mm_min``, ``rapid_speed_mm_min``), speeds rpm.
     """
 
     name: str = "five-axis needle grinder (thesis §2.3.1.2)"
@@ -132,13 +135,58 @@ class Machine:
     @classmethod
     def from_toml(cls, path) -> Machine:
         """A machine from a TOML file: top-level keys override the defaults;
-        ``[t1]`` … ``[r5]`` tables give ``lo``, ``hi``, ``resolution``."""
-        return cls(**machine_toml(cls, path, ("t1", "t2", "r3", "r4", "r5")))
+        ``[t1]`` … ``[r5]`` tables give ``lo``, ``hi``, ``resolution``.
+
+        Feeds are given in mm/min, their unit in the key: ``feed_min_mm_min``,
+        ``feed_max_mm_min``, ``rapid_speed_mm_min`` (converted to the mm/s
+        the grinder works in); the old mm/s keys ``feed_min``, ``feed_max``,
+        ``rapid_speed`` are read for one release with a deprecation warning.
+        Every number must be finite and positive (``phi_deg`` below 90°,
+        ``feed_min`` ≤ ``feed_max``, the contact radius inside the wheel);
+        anything else is a :class:`CamError` naming the key, its value and
+        what is allowed.
+        """
+        import warnings
+
+        kw = machine_toml(cls, path, ("t1", "t2", "r3", "r4", "r5"),
+                          extra=tuple(_PER_MIN), drop=tuple(_PER_MIN.values()))
+        for old, new in ((v, k) for k, v in _PER_MIN.items()):
+            if old in kw:
+                if new in kw:
+                    raise CamError(f"machine keys '{old}' (mm/s) and '{new}' (mm/min) name "
+                                   "the same feed; give only the second")
+                warnings.warn(f"machine key '{old}' (mm/s) is deprecated; use '{new}' "
+                              "(mm/min)", DeprecationWarning, stacklevel=2)
+        for k, val in list(kw.items()):
+            if k in ("t1", "t2", "r3", "r4", "r5"):
+                continue
+            if k == "name":
+                if not isinstance(val, str) or not val.strip():
+                    raise CamError(f"machine name = {val!r} must be a non-empty string")
+                continue
+            kw[k] = machine_number(k, val, "mm/min" if k in _PER_MIN else _UNITS.get(k, ""))
+            if k in _PER_MIN:
+                kw[_PER_MIN[k]] = kw.pop(k) / 60.0
+        if not kw.get("phi_deg", cls.phi_deg) < 90.0:
+            raise CamError(f"machine phi_deg = {kw['phi_deg']:g} is out of range; allowed "
+                           "0 < value < 90 (deg)")
+        lo, hi = kw.get("feed_min", cls.feed_min), kw.get("feed_max", cls.feed_max)
+        if lo > hi:
+            raise CamError(f"machine feed_min_mm_min = {lo * 60:g} is above feed_max_mm_min = "
+                           f"{hi * 60:g} (mm/min)")
+        d, rho = kw.get("wheel_diameter", cls.wheel_diameter), kw.get("contact_radius",
+                                                                      cls.contact_radius)
+        if not rho < d / 2:
+            raise CamError(f"machine contact_radius = {rho:g} mm must lie inside the wheel: "
+                           f"allowed 0 < value < wheel_diameter/2 = {d / 2:g} mm")
+        return cls(**kw)
 
     def check_feed(self, feed: float) -> float:
         if not self.feed_min <= feed <= self.feed_max:
             raise CamError(f"feed = {feed:g} mm/s is outside the machine's range "
-                           f"[{self.feed_min:g}, {self.feed_max:g}] mm/s")
+                           f"[{self.feed_min:g}, {self.feed_max:g}] mm/s (= {feed * 60:g} "
+                           f"mm/min; range [{self.feed_min * 60:g}, {self.feed_max * 60:g}] "
+                           "mm/min)")
         return feed
 
     def table(self) -> list[tuple[str, str]]:
@@ -155,36 +203,80 @@ class Machine:
         return rows
 
 
-def machine_toml(cls, path, axes: tuple[str, ...]) -> dict:
+#: Grinder TOML keys in mm/min → the mm/s fields they set.
+_PER_MIN = {"feed_min_mm_min": "feed_min", "feed_max_mm_min": "feed_max",
+            "rapid_speed_mm_min": "rapid_speed"}
+_UNITS = {"phi_deg": "deg", "wheel_diameter": "mm", "wheel_thickness": "mm", "wheel_rim": "mm",
+          "wheel_rpm": "rpm", "contact_radius": "mm", "needle_rpm_max": "rpm",
+          "feed_min": "mm/s", "feed_max": "mm/s", "rapid_speed": "mm/s"}
+
+
+def machine_number(key: str, val, unit: str = "") -> float:
+    """A machine file's number: finite and > 0, else a CamError naming it."""
+    from tipgeo.validate import brief
+
+    if isinstance(val, bool) or not isinstance(val, (int, float)):
+        raise CamError(f"machine {key} = {brief(val)} is not a number; expected a real number "
+                       f"> 0{' (' + unit + ')' if unit else ''}")
+    try:
+        x = float(val)
+    except OverflowError:
+        x = math.inf
+    if not (math.isfinite(x) and x > 0):
+        raise CamError(f"machine {key} = {brief(val)} is out of range; allowed value > 0"
+                       f"{' (' + unit + ')' if unit else ''}")
+    return x
+
+
+def machine_toml(cls, path, axes: tuple[str, ...], *, extra: tuple[str, ...] = (),
+                 drop: tuple[str, ...] = ()) -> dict:
     """The keyword arguments of machine dataclass ``cls`` from the TOML file
     ``path``: top-level keys override its defaults (unknown keys refused,
-    naming the allowed ones); the tables named in ``axes`` give ``lo``,
-    ``hi``, ``resolution`` (an :class:`AxisLimit`, lo < hi, resolution > 0).
+    naming the allowed ones; ``extra`` keys are allowed too, ``drop`` fields
+    are left out of the list shown); the tables named in ``axes`` give
+    ``lo``, ``hi``, ``resolution`` (an :class:`AxisLimit`: finite numbers,
+    lo < hi — a travel of zero or less is refused —, resolution > 0).
     Other values are returned as read, for the caller to check.
 
     Raises :class:`CamError` naming the key, its value and what is allowed.
     """
     from tipgeo.errors import SpecError
     from tipgeo.tomlio import loads_toml, read_text_file
+    from tipgeo.validate import brief
 
     try:
         data = loads_toml(read_text_file(path, "machine file"), f"machine file '{path}'")
     except SpecError as e:
         raise CamError(str(e)) from None
-    known = {f.name for f in fields(cls)}
+    known = {f.name for f in fields(cls)} | set(extra)
+    shown = sorted(known - set(drop))
     kw = {}
     for k, val in data.items():
         if k not in known:
-            raise CamError(f"machine key '{k}' is not known; allowed: "
-                           + ", ".join(sorted(known)))
+            raise CamError(f"machine key '{k}' is not known; allowed: " + ", ".join(shown))
         if k in axes:
-            try:
-                val = AxisLimit(float(val["lo"]), float(val["hi"]), float(val["resolution"]))
-            except (KeyError, TypeError, ValueError):
-                raise CamError(f"machine axis [{k}] needs numbers lo, hi, resolution") from None
-            if not (val.lo < val.hi and val.resolution > 0):
-                raise CamError(f"machine axis [{k}]: lo = {val.lo:g} must be below hi = "
-                               f"{val.hi:g} and resolution = {val.resolution:g} > 0")
+            if not isinstance(val, dict) or set(val) != {"lo", "hi", "resolution"}:
+                raise CamError(f"machine axis [{k}] = {brief(val)}: needs exactly the numbers "
+                               "lo, hi, resolution")
+            nums = []
+            for part in ("lo", "hi", "resolution"):
+                x = val[part]
+                try:
+                    ok = not isinstance(x, bool) and isinstance(x, (int, float)) and \
+                        math.isfinite(float(x))
+                except OverflowError:
+                    ok = False
+                if not ok:
+                    raise CamError(f"machine axis [{k}] {part} = {brief(x)} is not a finite "
+                                   "number")
+                nums.append(float(x))
+            val = AxisLimit(*nums)
+            if not val.lo < val.hi:
+                raise CamError(f"machine axis [{k}]: travel hi − lo = {val.hi - val.lo:g} "
+                               f"(lo = {val.lo:g}, hi = {val.hi:g}) must be positive")
+            if not val.resolution > 0:
+                raise CamError(f"machine axis [{k}]: resolution = {val.resolution:g} is out of "
+                               "range; allowed value > 0")
         kw[k] = val
     return kw
 

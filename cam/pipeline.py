@@ -27,6 +27,8 @@ class GrindResult:
     program : GrindProgram — the axis program with its set-up
     ground : Tip or None — the simulated ground tip (mm, cannula frame)
     comparison : dict or None — :func:`cam.compare_with_cad` of the ground tip
+    verdict : Verdict or None — the comparison judged (property; None when
+        not compared)
     files : list of str — files written by :func:`write_grind_outputs`
     failed : list of dict — files it could not write: ``path``, ``error``
     """
@@ -42,10 +44,47 @@ class GrindResult:
         out: dict[str, Any] = {"program": self.program.summary()}
         if self.comparison is not None:
             out["comparison"] = self.comparison
+            out["verdict"] = self.verdict.to_dict()
         out["wrote"] = list(self.files)
         if self.failed:
             out["failed"] = list(self.failed)
         return out
+
+    @property
+    def verdict(self):
+        """:class:`tipgeo.verdict.Verdict` of the ground tip against CAD;
+        None when the run was not compared.
+
+        Rules:
+
+        - ``hausdorff_um`` ≤ the coarsest linear axis resolution (t1, t2:
+          0.1 µm on the thesis's grinder) plus the chordal tolerance of the
+          two meshes: a program whose axis values are right to their
+          resolution leaves faces within one resolution step of CAD, and two
+          tessellations of the same faces differ by at most their tolerance;
+        - λ, θ, α of both edges from the ground faces analysed exactly
+          (``angles_max_diff_deg``) within the coarsest rotary axis
+          resolution (r3, r4, r5: 0.001°). The mesh path's differences are
+          reported, not judged: they hold its own method error (0.13° on the
+          lancet).
+        """
+        c = self.comparison
+        if c is None:
+            return None
+        from tipgeo.verdict import Verdict, check_max
+
+        m = self.program.machine
+        tess = float(getattr(self.ground, "tolerance", None) or 0.0)
+        band = (max(m.t1.resolution, m.t2.resolution) + tess) * 1e3
+        turn = max(m.r3.resolution, m.r4.resolution, m.r5.resolution)
+        checks = [check_max("hausdorff_um", c["hausdorff_mm"] * 1e3, round(band, 6),
+                            what="Hausdorff distance ground vs CAD (µm)")]
+        for wall in ("outer", "inner"):
+            for k, sym in (("lambda", "λ"), ("theta", "θ"), ("alpha", "α")):
+                checks.append(check_max(f"{wall}_{k}_diff_deg",
+                                        c["angles_max_diff_deg"][wall][k], turn,
+                                        what=f"{wall} edge {sym} − CAD (°)"))
+        return Verdict.of(f"ground {self.program.name} vs CAD", checks)
 
     def worst_angle_diff_deg(self) -> tuple[float, float] | None:
         """Largest λ/θ/α difference ground vs CAD (deg): exact surfaces, mesh path."""
@@ -76,12 +115,16 @@ def grind(spec, *, machine: Machine | None = None, feed: float = 0.1,
     ------
     CamError — the machine cannot make the tip (naming the axis or limit).
     """
+    from tipgeo import progress as pg
+
     prog = make_program(spec, machine=machine or Machine(), feed=feed, needle_rpm=needle_rpm)
     res = GrindResult(prog)
     if simulate_tip or compare:
-        res.ground = simulate(prog, spec, tolerance=tolerance)
+        with pg.stage("grind: simulate"):
+            res.ground = simulate(prog, spec, tolerance=tolerance)
         if compare:
-            res.comparison = compare_with_cad(res.ground, spec)
+            with pg.stage("grind: compare with CAD"):
+                res.comparison = compare_with_cad(res.ground, spec)
     return res
 
 

@@ -170,9 +170,13 @@ def ablate(toolpath: Toolpath, spec, *, beam_diameter: float = 0.020,
     ctx = BuildContext(cannula=cannula, chordal=chordal, segments=tip0.segments or 360,
                        z_bottom=-cannula.length, z_top=float(tip0.bounds[1, 2]))
     ctx.labels.names = names
+    from tipgeo import progress as pg
+
     cuts = []
     notches = 0
+    bar = pg.bar(len(groups), "laser: ablation", unit="notch")
     for c_deg, segs in sorted(groups.items()):
+        bar.update()
         gamma = math.radians(c_deg + gamma0_deg)
         z_rim = min(float(np.min(np.atleast_1d(cut.edge_z(np.array([gamma]), cannula.r_i,
                                                             cannula))))
@@ -208,8 +212,10 @@ def ablate(toolpath: Toolpath, spec, *, beam_diameter: float = 0.020,
                     mat = np.stack([u, [0.0, 0.0, 1.0], w, r0 * w], 1)
                     cuts.append(prism.transform(mat))
         notches += 1
+    bar.close()
     if cuts:
-        solid = solid - m3d.Manifold.batch_boolean(cuts, m3d.OpType.Add)
+        with pg.stage("laser: ablation (boolean)"):
+            solid = solid - m3d.Manifold.batch_boolean(cuts, m3d.OpType.Add)
     if solid.status() != m3d.Error.NoError or solid.is_empty():
         raise TipGeoError(f"ablation left no valid solid ({solid.status()})")
     parts = solid.decompose()
@@ -238,7 +244,11 @@ def _prism(ctx, poly, thick, label):
 def compare_with_cutter(result: AblationResult, spec, *, beam_diameter: float = 0.020) -> dict:
     """Compare an ablated tip with the serration cutter of ``spec`` built
     exactly (edge radius 0, the laser cuts sharp edges): notch count, fitted
-    notch radius and spacing, and the Hausdorff distance (mm, degrees)."""
+    notch radius and spacing, the Hausdorff distance, and its two signed
+    parts: ``material_left_mm`` (the farthest the simulated part stands
+    outside the CAD solid) and ``overcut_mm`` (the farthest CAD's surface
+    lies outside the simulated part) (mm, degrees; vertex-sampled, so each
+    includes up to the meshes' chordal tolerance ``tolerance_mm``)."""
     import trimesh
 
     from tipgeo.build import build_tip
@@ -284,13 +294,21 @@ def compare_with_cutter(result: AblationResult, spec, *, beam_diameter: float = 
     mb = trimesh.Trimesh(cad.vertices, cad.faces, process=False)
     d_ab = trimesh.proximity.closest_point(mb, sim.vertices)[1].max()
     d_ba = trimesh.proximity.closest_point(ma, cad.vertices)[1].max()
+    # signed (+ inside): a simulated vertex outside CAD is material left; a
+    # CAD vertex outside the simulated part was cut away
+    left = -float(trimesh.proximity.signed_distance(mb, sim.vertices).min())
+    over = -float(trimesh.proximity.signed_distance(ma, cad.vertices).min())
     return {"notches_sim": result.notches, "notches_cad": s.n,
-            "radius_mm": {"spec": s.arc_radius, "fitted_mean": float(np.mean(radii)),
+            "radius_mm": {"spec": s.arc_radius,
+                          "fitted_mean": float(np.mean(radii)) if radii else None,
                           "fitted_max_error": float(np.max(np.abs(np.array(radii)
-                                                                  - s.arc_radius)))},
+                                                                  - s.arc_radius)))
+                          if radii else None},
             "spacing_deg": {"spec": math.degrees(s.rho),
                             "fitted_max_error": float(np.max(np.abs(spacing
                                                                     - math.degrees(s.rho))))
                             if len(spacing) else None},
             "hausdorff_mm": float(max(d_ab, d_ba)),
+            "material_left_mm": max(left, 0.0), "overcut_mm": max(over, 0.0),
+            "tolerance_mm": float(sim.tolerance), "inner_radius_mm": float(cannula.r_i),
             "slugs_removed": result.slugs_removed}

@@ -59,7 +59,7 @@ from tipgeo import validate as v
 from tipgeo.errors import SpecError
 from tipgeo.tolerances import tol
 
-__all__ = ["LaserParams", "emit_program", "LENGTH_DECIMALS"]
+__all__ = ["LaserParams", "emit_program", "LENGTH_DECIMALS", "LASER_TOML_KEYS"]
 
 LENGTH_DECIMALS = 4
 ANGLE_DECIMALS = 4
@@ -112,6 +112,69 @@ class LaserParams:
             raise SpecError(f"compensation = {self.compensation:g} mm must exceed the beam "
                             f"radius {self.beam_diameter / 2:g} mm (the G41 lead-in)")
 
+    @classmethod
+    def from_toml(cls, path) -> LaserParams:
+        """The laser station's parameters from a TOML file (sample:
+        ``samples/machines/a3200-laser.toml``): the keys of
+        :data:`LASER_TOML_KEYS`, each with its unit in its name (feeds per
+        minute, converted to the mm/s and deg/s the program is written in);
+        a key left out keeps its default.
+
+        Raises :class:`gcode.GCodeError` (one line, naming the file, the key,
+        its value and the allowed range) for an unreadable file, an unknown
+        key, a value of the wrong type or out of range.
+        """
+        from tipgeo.errors import SpecError as _SpecError
+        from tipgeo.tomlio import loads_toml, read_text_file
+
+        from .errors import GCodeError
+
+        try:
+            data = loads_toml(read_text_file(path, "laser file"), f"laser file '{path}'")
+        except _SpecError as e:
+            raise GCodeError(str(e)) from None
+        return cls.from_dict(data, source=f"laser file '{path}'")
+
+    @classmethod
+    def from_dict(cls, table, *, source: str = "laser table") -> LaserParams:
+        """:meth:`from_toml` of a table already read (a dict)."""
+        from tipgeo.validate import brief
+
+        from .errors import GCodeError
+
+        if not isinstance(table, dict):
+            raise GCodeError(f"{source}: expected a table of keys, not {brief(table)}")
+        kw = {}
+        try:
+            for key, val in table.items():
+                if key not in LASER_TOML_KEYS:
+                    raise SpecError(f"key {brief(key)} is not known; allowed: "
+                                    + ", ".join(LASER_TOML_KEYS))
+                field_, scale, lo, hi, unit = LASER_TOML_KEYS[key]
+                if field_ == "finishing_passes":
+                    kw[field_] = v.integer(key, val, lo=lo, hi=hi)
+                    continue
+                if key == "pulse_on_us" and "pulse_period_us" in table:
+                    hi = v.real("pulse_period_us", table["pulse_period_us"], lo=0.0,
+                                lo_open=True, hi=1e6, unit="µs")
+                x = v.real(key, val, lo=lo, hi=hi, lo_open=key not in _CLOSED_LOW,
+                           hi_open=key == "overlap", unit=unit)
+                kw[field_] = x / scale
+            beam = kw.get("beam_diameter", cls.beam_diameter)
+            comp = kw.get("compensation", cls.compensation)
+            if not comp > beam / 2:
+                raise SpecError(f"compensation_mm = {comp:g} is out of range; allowed value > "
+                                f"the beam radius beam_diameter_um / 2 = {beam * 500:g} µm = "
+                                f"{beam / 2:g} mm")
+            on = kw.get("pulse_on_us", cls.pulse_on_us)
+            per = kw.get("pulse_period_us", cls.pulse_period_us)
+            if on > per:
+                raise SpecError(f"pulse_on_us = {on:g} is out of range; allowed 0 < value ≤ "
+                                f"pulse_period_us = {per:g} (µs)")
+            return cls(**kw)
+        except SpecError as e:
+            raise GCodeError(f"{source}: {e}") from None
+
     @property
     def pass_step(self) -> float:
         """dist_R: radial step between roughing passes (mm)."""
@@ -126,6 +189,27 @@ class LaserParams:
     def tool_radius(self) -> float:
         """T1's radius in the tool table: the beam radius (mm)."""
         return self.beam_diameter / 2
+
+
+#: The laser station's TOML keys (:meth:`LaserParams.from_toml`): key →
+#: (LaserParams field, key units per field unit, lo, hi, unit). Lower ends
+#: are open (the value must exceed them) except for ``overlap``,
+#: ``roughing_depth_um``, ``finishing_passes`` and ``power_w``, which may be 0;
+#: ``overlap`` stays below 1.
+LASER_TOML_KEYS = {
+    "beam_diameter_um": ("beam_diameter", 1000.0, 0.0, 1000.0, "µm"),
+    "overlap": ("overlap", 1.0, 0.0, 1.0, ""),
+    "roughing_depth_um": ("roughing_depth", 1000.0, 0.0, 5000.0, "µm"),
+    "finishing_passes": ("finishing_passes", 1.0, 0, 100_000, ""),
+    "feed_mm_min": ("feed", 60.0, 0.0, 60_000.0, "mm/min"),
+    "pulse_period_us": ("pulse_period_us", 1.0, 0.0, 1e6, "µs"),
+    "pulse_on_us": ("pulse_on_us", 1.0, 0.0, 1e6, "µs"),
+    "compensation_mm": ("compensation", 1.0, 0.0, 5.0, "mm"),
+    "clearance_mm": ("clearance", 1.0, 0.0, 5.0, "mm"),
+    "rotary_feed_deg_min": ("rotary_feed", 60.0, 0.0, 600_000.0, "deg/min"),
+    "power_w": ("power_w", 1.0, 0.0, 1000.0, "W"),
+}
+_CLOSED_LOW = {"overlap", "roughing_depth_um", "power_w"}
 
 
 def _mm(x: float) -> str:

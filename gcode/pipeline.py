@@ -39,6 +39,8 @@ class LaserCheck:
     toolpath : Toolpath — the interpreted moves (beam radius compensated)
     ablation : AblationResult or None — the simulated tip (cannula frame)
     comparison : dict or None — :func:`gcode.ablation.compare_with_cutter`
+    verdict : Verdict or None — the comparison judged (property; None
+        without a spec with serrations)
     files : list of str — files written by :func:`write_laser_outputs`
     failed : list of dict — files it could not write: ``path``, ``error``
     """
@@ -49,6 +51,51 @@ class LaserCheck:
     comparison: dict | None = None
     files: list[str] = field(default_factory=list)
     failed: list[dict] = field(default_factory=list)
+
+    @property
+    def verdict(self):
+        """:class:`tipgeo.verdict.Verdict` of the simulated part against the
+        serration spec; None when nothing was compared (no spec, or a spec
+        without serrations).
+
+        Rules (b = ``tol.gcode.laser_band``, 1 µm; t = the meshes' chordal
+        tolerance, which every vertex-sampled distance includes):
+
+        - ``notches``: the program cuts as many notches as the spec has;
+        - ``material_left_um`` ≤ b + t: the part stands nowhere outside CAD;
+        - ``overcut_um`` ≤ b + t: nor is it cut away anywhere inside it;
+        - ``hausdorff_um`` ≤ b + t: the larger of the two, unsigned;
+        - ``radius_error_um`` ≤ b + t: each notch's fitted radius;
+        - ``spacing_error_deg`` ≤ b / r_i in degrees: the notches' centres,
+          b along the inner rim (only with two notches or more).
+        """
+        c = self.comparison
+        if c is None:
+            return None
+        import math
+
+        from tipgeo.tolerances import tol
+        from tipgeo.verdict import Verdict, check_max, check_true
+
+        b = tol.gcode.laser_band
+        lim = round((b + c["tolerance_mm"]) * 1e3, 6)
+        n_sim, n_cad = c["notches_sim"], c["notches_cad"]
+        checks = [check_true("notches", n_sim == n_cad, f"notches = {n_cad} (the spec's)",
+                             f"the program cuts {n_sim} notches; the spec has {n_cad}"),
+                  check_max("material_left_um", c["material_left_mm"] * 1e3, lim,
+                            what="material left outside CAD (µm)"),
+                  check_max("overcut_um", c["overcut_mm"] * 1e3, lim,
+                            what="cut beyond CAD (µm)"),
+                  check_max("hausdorff_um", c["hausdorff_mm"] * 1e3, lim,
+                            what="Hausdorff distance vs CAD (µm)")]
+        err = c["radius_mm"]["fitted_max_error"]
+        checks.append(check_max("radius_error_um", None if err is None else err * 1e3, lim,
+                                what="notch radius error (µm)"))
+        if n_cad > 1:
+            checks.append(check_max("spacing_error_deg", c["spacing_deg"]["fitted_max_error"],
+                                    round(math.degrees(b / c["inner_radius_mm"]), 6),
+                                    what="notch spacing error (°)"))
+        return Verdict.of("laser-cut serrations vs spec", checks)
 
     def summary(self, *, source: str = "") -> dict[str, Any]:
         """The report (mm, s, degrees): toolpath, every warning, the
@@ -70,6 +117,7 @@ class LaserCheck:
                                "watertight": res.tip.is_watertight}
         if self.comparison is not None:
             out["comparison"] = self.comparison
+            out["verdict"] = self.verdict.to_dict()
         if self.files:
             out["pictures"] = [f for f in self.files if f.lower().endswith(".png")]
         out["wrote"] = list(self.files)
@@ -127,12 +175,16 @@ def laser_check(program: str | ast.Program, *, beam_diameter: float = 0.020, spe
     tp = interpret(prog, tool_radii={0: 0.0, 1: beam_diameter / 2}, **kw)
     res = LaserCheck(prog, tp)
     if spec is not None:
+        from tipgeo import progress as pg
+
         from .ablation import ablate, compare_with_cutter
 
         res.ablation = ablate(tp, spec, beam_diameter=beam_diameter, origin=tuple(origin),
                               tolerance=tolerance)
         if any(c.process == "laser" for c in spec.cutters):
-            res.comparison = compare_with_cutter(res.ablation, spec, beam_diameter=beam_diameter)
+            with pg.stage("laser: compare with the spec"):
+                res.comparison = compare_with_cutter(res.ablation, spec,
+                                                     beam_diameter=beam_diameter)
     return res
 
 

@@ -244,7 +244,7 @@ def test_analysis_errors_are_clear():
 def test_cli_angles_outputs(tmp_path, capsys):
     csv_path, png = tmp_path / "a.csv", tmp_path / "a.png"
     assert main(["angles", "helical-14G", "bevel-14G-xi14.5", "--csv", str(csv_path),
-                 "--plot", str(png), "--step-deg", "2"]) == 0
+                 "--png", str(png), "--step-deg", "2", "--method", "fourier"]) == 0
     out = capsys.readouterr().out
     assert "helical-14G" in out and "R²" in out
     lines = csv_path.read_text().splitlines()
@@ -253,8 +253,9 @@ def test_cli_angles_outputs(tmp_path, capsys):
                                    "alpha_i_deg"]
     assert len(lines) == 1 + 2 * 180
     assert png.stat().st_size > 10_000
-    assert main(["angles", "bevel-14G-xi45", "--json", "--method", "exact"]) == 0
+    assert main(["angles", "bevel-14G-xi45", "--json"]) == 0  # exact: the default for specs
     data = json.loads(capsys.readouterr().out)
+    assert data["summary"]["method"] == "exact"
     assert data["summary"]["outer"]["l_c_mm"] == pytest.approx(
         cf.bevel_edge_length(RO, math.radians(45)), rel=1e-9)
     assert len(data["table"]["gamma_deg"]) == 360

@@ -153,10 +153,11 @@ def test_unreachable_angles_and_kinds():
 
 def test_machine_from_toml(tmp_path):
     p = tmp_path / "m.toml"
-    p.write_text('contact_radius = 40.0\nfeed_max = 0.3\n[r5]\nlo = 12.0\nhi = 60.0\n'
+    p.write_text('contact_radius = 40.0\nfeed_max_mm_min = 18.0\n[r5]\nlo = 12.0\nhi = 60.0\n'
                  'resolution = 0.001\n')
     m = Machine.from_toml(p)
     assert m.contact_radius == 40.0 and m.r5.hi == 60.0
+    assert m.feed_max == pytest.approx(0.3, rel=1e-12)       # 18 mm/min
     assert m.H == pytest.approx(40.0 / math.sin(PHI))
     with pytest.raises(CamError, match="r5"):
         make_program(preset("bevel-14G-xi75"), machine=m)
@@ -168,11 +169,47 @@ def test_machine_from_toml(tmp_path):
 def test_cli_grind(tmp_path, capsys):
     out = tmp_path / "p.json"
     assert main(["grind", "lancet-14G", "-o", str(out), "--gcode", str(tmp_path / "p.nc"),
-                 "--sheet", str(tmp_path / "s.md"), "--simulate", str(tmp_path / "g.stl"),
-                 "--report"]) == 0
+                 "--sheet", str(tmp_path / "s.md"), "--mesh", str(tmp_path / "g.stl"),
+                 "--compare"]) == 0
     text = capsys.readouterr().out
     assert "Hausdorff" in text and "faces 3" in text
     assert json.loads(out.read_text())["summary"]["faces"] == 3
     assert (tmp_path / "g.stl").stat().st_size > 1000
     assert main(["grind", "punch-C2", "-o", str(out)]) == 2
     assert "flat land" in capsys.readouterr().err
+
+
+# -- verdicts -------------------------------------------------------------------------
+@pytest.mark.parametrize("name", ["lancet-14G", "conical-14G-theta15"])
+def test_grind_verdict_passes_when_the_ground_tip_is_cad(name):
+    """The simulated ground tip of the program is CAD to round-off: Hausdorff
+    far below the 0.15 µm bound (t1/t2 resolution 0.1 µm + the meshes'
+    0.05 µm chordal tolerance), λ θ α of the exact ground faces far within
+    the 0.001° of the rotary axes."""
+    from cam import grind
+
+    res = grind(preset(name))
+    v = res.verdict
+    assert v.ok, v.reasons
+    assert v.checks[0].name == "hausdorff_um" and v.checks[0].rule == "hausdorff_um ≤ 0.15"
+    assert v.checks[0].value < 1e-6
+    assert {c.rule.split(" ≤ ")[1] for c in v.checks[1:]} == {"0.001"}
+    assert len(v.checks) == 7
+    assert res.summary()["verdict"] == v.to_dict()
+
+
+def test_grind_verdict_fails_against_another_tip():
+    """The 15° bevel's program judged against the 14.5° bevel's CAD: the
+    faces differ by 0.5°, and the verdict says so with the figures."""
+    from cam import grind
+
+    res = grind(preset("bevel-14G-xi15"), compare=False)
+    assert res.verdict is None and "verdict" not in res.summary()
+    res.comparison = compare_with_cad(res.ground, preset("bevel-14G-xi14.5"))
+    v = res.verdict
+    assert not v.ok
+    failed = {c.name for c in v.failed}
+    assert "hausdorff_um" in failed and "outer_theta_diff_deg" in failed
+    assert any(r.startswith("Hausdorff distance ground vs CAD (µm) = ") for r in v.reasons)
+    assert res.comparison["angles_max_diff_deg"]["outer"]["theta"] == pytest.approx(0.5,
+                                                                                    abs=0.05)

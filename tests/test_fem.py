@@ -262,6 +262,8 @@ def test_punch_axisymmetric_insertion_to_1mm(build_preset, tmp_path):
     assert res.depth[-1] == pytest.approx(1.0, abs=1e-9) and len(res.depth) == 21
     assert res.run.increments >= 20
     assert np.all(np.diff(res.force) > 0) and res.monotonic
+    assert res.verdict.ok and res.reached_depth == pytest.approx(1.0, abs=1e-9)
+    assert res.to_dict()["verdict"]["checks"][0]["rule"] == "depth_mm ≥ 1 (the requested depth)"
     ana = analytical_force(res.model, res.depth)
     # the coarse FEM stays within 15 % of the analytical column (β = 2.5)
     np.testing.assert_allclose(res.force[1:], ana[1:], rtol=0.15)
@@ -280,15 +282,16 @@ def test_cli_deck_only_and_missing_ccx(tmp_path, monkeypatch, capsys):
     from tipgeo.cli import main
 
     assert main(["fem", "punch-plain", "--depth-mm", "0.5", "--mesh-um", "100", "--deck-only",
-                 "--abaqus", "-o", str(tmp_path / "d")]) == 0
+                 "--abaqus", "--out-dir", str(tmp_path / "d")]) == 0
     out = capsys.readouterr().out
     assert "wrote" in out and (tmp_path / "d" / "punch-plain_axisymmetric_abaqus.inp").is_file()
     monkeypatch.setenv("TIPGEO_CCX", str(tmp_path / "no-ccx"))
+    # a missing tool (CcxMissing: a MissingToolError and a FemError): exit 3
     assert main(["fem", "punch-plain", "--depth-mm", "0.5", "--mesh-um", "100", "--quiet",
-                 "-o", str(tmp_path / "r")]) == 1
+                 "--out-dir", str(tmp_path / "r")]) == 3
     assert "apt-get install calculix-ccx" in capsys.readouterr().err
     assert main(["fem", "bevel-14G-xi14.5", "--depth-mm", "0.5", "--deck-only",
-                 "-o", str(tmp_path / "b")]) == 2
+                 "--out-dir", str(tmp_path / "b")]) == 2
     assert "not axisymmetric" in capsys.readouterr().err
 
 
@@ -372,7 +375,7 @@ def test_axisymmetric_within_20_percent_of_3d_for_the_punch(build_preset, tmp_pa
 def test_cli_bad_input_exit_2(tmp_path, capsys, args, word):
     from tipgeo.cli import main
 
-    assert main(["fem", "punch-plain", "--deck-only", "-o", str(tmp_path), *args]) == 2
+    assert main(["fem", "punch-plain", "--deck-only", "--out-dir", str(tmp_path), *args]) == 2
     assert word in capsys.readouterr().err
     assert not list(tmp_path.iterdir())  # nothing written
 
@@ -453,6 +456,10 @@ def test_convergence_study_refines_only_the_contact_zone(build_preset, tmp_path)
                                                           rel=1e-12)
     assert out["curves"]["depth_mm"][-1] == pytest.approx(0.1, abs=1e-12)
     assert (tmp_path / "convergence.json").is_file()
+    v = out["verdict"]
+    assert v["ok"] is (abs(rows[2]["change_percent"]) <= 2.0)
+    assert v["checks"][0]["rule"] == "finest_change_percent ≤ 2"
+    assert v["checks"][0]["value"] == pytest.approx(abs(rows[2]["change_percent"]), rel=1e-12)
 
 
 @needs_ccx
@@ -494,3 +501,64 @@ def test_punch_erosion_cut_runs_deeper(build_preset, tmp_path):
     res = run_model(m, tmp_path, time_limit_s=600, pictures=False)
     assert res.depth[-1] == pytest.approx(depth, abs=1e-9)
     assert res.run.increments >= 20 and res.monotonic and res.force[-1] > 0
+
+
+# -- verdicts (issue 24) -----------------------------------------------------------------
+def test_deck_only_has_no_verdict(build_preset, tmp_path):
+    from tipgeo.fem import run_model
+
+    m = axisymmetric_model(build_preset("punch-plain"), depth=0.5, mesh=0.1)
+    res = run_model(m, tmp_path, deck_only=True)
+    assert res.verdict is None and res.reached_depth is None
+    assert "verdict" not in res.to_dict()
+
+
+@needs_ccx
+def test_run_stopped_before_the_depth_fails_its_verdict(build_preset, tmp_path):
+    """A run ccx stops before the requested depth is kept (its curve up to
+    there, written like a full run) with a verdict naming the depth reached
+    and the depth requested; asked not to keep it, it is a FemError. The
+    stop is made cheap here: the step may take 8 increments (ccx: max. # of
+    increments reached; the first ones are cut back), so it stops at 0.125
+    mm, its outputs every 0.025 mm. (The
+    real stops are the same kind of line: the uncut punch at 100 µm to 2 mm
+    stops at 1.684 mm, "increment size smaller than minimum".)"""
+    from tipgeo.fem import run_model
+
+    m = axisymmetric_model(build_preset("punch-plain"), depth=0.5, mesh=0.1, block=(3.0, 3.0))
+    deck = m.ccx_deck()
+    assert deck.count("INC=100000") == 1
+    m.ccx_deck = lambda: deck.replace("INC=100000", "INC=8")
+    res = run_model(m, tmp_path / "out", pictures=False)
+    assert res.run.stopped.startswith("*ERROR") and "increments" in res.run.stopped
+    assert res.run.increments == 8
+    assert res.reached_depth == pytest.approx(0.125, abs=1e-9)
+    assert res.depth == pytest.approx([0.0, 0.025, 0.05, 0.075, 0.1, 0.125], abs=1e-9)
+    v = res.verdict
+    assert not v.ok and v.failed[0].name == "depth_mm"
+    assert v.reasons[0] == ("the run stopped at depth 0.125 mm of the requested 0.5 mm (ccx: "
+                            "*ERROR in nonlingeo: max. # of increments reached)")
+    d = res.to_dict()
+    assert d["verdict"]["ok"] is False and d["reached_depth_mm"] == pytest.approx(0.125)
+    assert (tmp_path / "out" / "punch-plain_axisymmetric_force.csv").is_file()
+    with pytest.raises(FemError, match=r"ccx: \*ERROR.*increments"):
+        run_model(m, tmp_path / "strict", partial=False)
+    assert not (tmp_path / "strict").exists()
+
+
+def test_convergence_verdict_rule():
+    """The finest change (middle to finest mesh) against the target:
+    ``tol.fem.convergence_change`` (2 %) unless the study or call states one."""
+    from tipgeo.fem import convergence_verdict
+
+    study = {"depth_mm": 0.5, "rows": [
+        {"element_size_um": 50.0, "change_percent": None},
+        {"element_size_um": 25.0, "change_percent": -3.46},
+        {"element_size_um": 12.5, "change_percent": -0.97}]}
+    v = convergence_verdict(study)
+    assert v.ok and v.checks[0].rule == "finest_change_percent ≤ 2"
+    assert v.checks[0].value == pytest.approx(0.97)
+    tight = convergence_verdict(study, target_change=0.005)
+    assert not tight.ok
+    assert tight.reasons == ["force change from 25 to 12.5 µm (%) = 0.97 is above 0.5"]
+    assert not convergence_verdict({**study, "target_change_percent": 0.5}).ok

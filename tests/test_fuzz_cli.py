@@ -178,5 +178,5 @@ def test_mutated_scans_compare_or_fail_cleanly(text, register):
         d = Path(d)
         (d / "scan.xyz").write_text(text, encoding="utf-8")
         argv = ["compare", str(d / "scan.xyz"), "bevel-14G-xi15", "--quiet", "--no-pictures",
-                "--out", str(d / "report")]
+                "--out-dir", str(d / "report")]
         _run(argv + ([] if register else ["--no-register"]), d, {"scan.xyz"})

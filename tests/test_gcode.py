@@ -142,7 +142,7 @@ def test_cli_laser_check_and_sim(tmp_path, capsys):
     out = json.loads(capsys.readouterr().out.split("\n", 1)[1])
     assert len(out["toolpath"]["c_angles_with_beam_deg"]) == 5
     png, stl = tmp_path / "p.png", tmp_path / "s.stl"
-    assert main(["gcode", "sim", str(prog), "--spec", "punch-C4", "--plot", str(png),
+    assert main(["gcode", "sim", str(prog), "--spec", "punch-C4", "--png", str(png),
                  "--mesh", str(stl), "--tolerance-um", "0.1"]) == 0
     text = capsys.readouterr().out
     assert "5 notches" in text and "Hausdorff" in text
@@ -190,3 +190,65 @@ def test_end_of_program_stops_execution():
     for end in ("END", "END PROGRAM", "end program"):
         tp = run(f"F1\nG01 X1\n{end}\nG01 X2\n")
         assert len(tp.segments) == 1
+
+
+# -- verdicts (issue 24) -----------------------------------------------------------------
+def test_laser_verdict_of_tipgeos_own_program_passes():
+    """tipgeo's program for punch-C2, simulated: 16 notches, nothing left or
+    cut beyond CAD by more than the meshes' chordal tolerance (0.05 µm), all
+    within the 1 µm band (+ the tolerance)."""
+    from gcode.pipeline import laser_check
+
+    spec = preset("punch-C2")
+    res = laser_check(emit_program(spec), spec=spec)
+    v = res.verdict
+    assert v.ok, v.reasons
+    c = res.comparison
+    assert c["notches_sim"] == 16 and c["hausdorff_mm"] < 1e-4
+    assert c["material_left_mm"] < 1e-4 and c["overcut_mm"] < 1e-4
+    assert [k.name for k in v.checks] == ["notches", "material_left_um", "overcut_um",
+                                          "hausdorff_um", "radius_error_um", "spacing_error_deg"]
+    assert v.checks[1].rule == "material_left_um ≤ 1.05"
+    assert res.summary()["verdict"] == v.to_dict()
+    assert laser_check(emit_program(spec)).verdict is None      # no spec: nothing judged
+
+
+def test_appendix_c_fails_against_punch_c2():
+    """The thesis's program as printed (its roughing radius and lead-in are
+    never reset), simulated on punch-C2 with origin (−0.15, 0): the notch
+    count, radii (0.013 µm) and spacing are right and it leaves no material,
+    but it cuts 19.95 µm — a beam diameter — beyond CAD at the rim by the
+    16th notch (γ ≈ 329°), and two more slugs fall out (18): the verdict
+    fails, naming the overcut and the Hausdorff distance."""
+    from gcode.pipeline import laser_check, read_program
+
+    res = laser_check(read_program(SAMPLES / "appendix_c.pgm"), spec=preset("punch-C2"),
+                      origin=(-0.15, 0.0))
+    c, v = res.comparison, res.verdict
+    assert not v.ok
+    assert {k.name for k in v.failed} == {"overcut_um", "hausdorff_um"}
+    assert c["overcut_mm"] * 1e3 == pytest.approx(19.95, abs=0.1)
+    assert c["hausdorff_mm"] == pytest.approx(c["overcut_mm"], rel=1e-9)
+    assert c["material_left_mm"] < 1e-4 and c["notches_sim"] == 16
+    assert c["radius_mm"]["fitted_max_error"] < 1e-4
+    assert c["slugs_removed"] == 18
+    assert v.reasons[0].startswith("cut beyond CAD (µm) = 19.9")
+
+
+def test_program_missing_a_serration_fails_naming_the_notch_count():
+    """tipgeo's punch-C2 program with one serration's block taken out (the
+    serrations are one block repeated: 15 repeats instead of 16): the
+    verdict names the notch count, and the notch left uncut as material."""
+    from gcode.pipeline import laser_check
+
+    spec = preset("punch-C2")
+    text = emit_program(spec)
+    assert text.count("REPEAT 16 ; every serration") == 1
+    res = laser_check(text.replace("REPEAT 16 ; every serration", "REPEAT 15 ; every serration"),
+                      spec=spec)
+    v = res.verdict
+    assert not v.ok
+    assert v.failed[0].name == "notches"
+    assert v.reasons[0] == "the program cuts 15 notches; the spec has 16"
+    assert "material_left_um" in {k.name for k in v.failed}
+    assert res.comparison["material_left_mm"] > 0.1           # a whole notch is left

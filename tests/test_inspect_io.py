@@ -177,8 +177,8 @@ def test_cli_scan_synth_then_compare(tmp_path, capsys):
     assert "wrote" in capsys.readouterr().out
     t = json.loads(truth.read_text())
     assert t["xi_deg"] == 15.0 and t["points"] == 40000
-    assert _cli(["compare", str(scan_path), BEVEL, "--out", str(tmp_path / "r"),
-                 "--tolerance-um", "5", "--json", "--quiet"]) == 0
+    assert _cli(["compare", str(scan_path), BEVEL, "--out-dir", str(tmp_path / "r"),
+                 "--band-um", "5", "--json", "--quiet"]) == 0
     rep = json.loads(capsys.readouterr().out)
     assert rep["measured"]["faces"]["cut:bevel"]["xi_deg"] == pytest.approx(15.0, abs=0.05)
     assert rep["tolerance_um"] == 5.0
@@ -192,7 +192,7 @@ def test_cli_scan_synth_then_compare(tmp_path, capsys):
     (["compare", "missing.ply", BEVEL], 2, "does not exist"),
     (["compare", "bad.ply", BEVEL], 2, "PLY"),
     (["compare", "ok.ply", "nope-spec"], 2, "neither a spec file"),
-    (["compare", "ok.ply", BEVEL, "--tolerance-um", "0"], 2, "tolerance-um"),
+    (["compare", "ok.ply", BEVEL, "--band-um", "0"], 2, "band-um"),
     (["scan-synth", BEVEL, "-o", "x.las"], 2, "extensions"),
     (["scan-synth", BEVEL, "-o", "x.ply", "--points", "3"], 2, "points"),
 ])

@@ -213,7 +213,7 @@ def test_cli_options_and_batch(tmp_path, capsys):
     assert np.loadtxt(tmp_path / "p.csv", delimiter=",", skiprows=2).shape == (500, 7)
     rc = main(["compare", str(good), str(noisy), str(wrong), str(cad), "--no-register",
                "--batch", "--quiet", "--summary", str(tmp_path / "s.json"), "--no-pictures",
-               "--out", str(tmp_path / "reports")])
+               "--out-dir", str(tmp_path / "reports")])
     assert rc == 2                                   # one scan failed
     rows = json.loads((tmp_path / "s.json").read_text())["scans"]
     assert [r["status"] for r in rows] == ["ok", "ok", "error"]

@@ -97,7 +97,7 @@ def test_degenerate_scans_are_one_line_errors(tmp_path, capsys, name, units, nee
     need = settings.min_points_compare if no_register else settings.min_points_register
     out = tmp_path / "rep"
     argv = ["compare", str(tmp_path / name), BEVEL, "--units", units, "--quiet",
-            "--out", str(out)] + (["--no-register"] if no_register else [])
+            "--out-dir", str(out)] + (["--no-register"] if no_register else [])
     _error_line(capsys, main(argv), *[s.format(n=need) for s in needles])
     assert not out.exists()
 
@@ -265,7 +265,7 @@ def sphere_file(tmp_path_factory):
 
 def test_a_sphere_is_refused_with_the_figures(sphere_file, tmp_path, capsys):
     out = tmp_path / "rep"
-    rc = main(["compare", str(sphere_file), BEVEL, "--quiet", "--out", str(out)])
+    rc = main(["compare", str(sphere_file), BEVEL, "--quiet", "--out-dir", str(out)])
     line = _error_line(capsys, rc, "'sphere.ply' does not match the CAD 'bevel-14G-xi14.5'",
                        "within 50 µm of the CAD surface (needs ≥ 50 %)",
                        "fitness", "needs ≥ 0.3)", "--allow-mismatch")
@@ -279,7 +279,7 @@ def test_a_sphere_is_refused_with_the_figures(sphere_file, tmp_path, capsys):
 def test_the_override_compares_a_mismatch_with_a_warning(sphere_file, tmp_path, capsys):
     out = tmp_path / "rep"
     rc = main(["compare", str(sphere_file), BEVEL, "--quiet", "--json", "--allow-mismatch",
-               "--out", str(out), "--no-pictures"])
+               "--out-dir", str(out), "--no-pictures"])
     assert rc == 0
     rep = json.loads(capsys.readouterr().out)
     assert rep["match"]["ok"] is False
@@ -292,14 +292,50 @@ def test_the_override_compares_a_mismatch_with_a_warning(sphere_file, tmp_path, 
 
 
 def test_another_gauge_is_refused_by_its_diameter(capsys, tmp_path):
-    """A 15G tube (1.829 mm) with the same bevel, compared with the 14G CAD."""
+    """A 15G tube (1.829 mm) with the same bevel, compared with the 14G CAD:
+    refused by its outer wall, before the registration's search."""
     spec15 = preset(BEVEL).with_(cannula=Cannula.from_gauge(15))
     s = synthetic_scan(spec15, points=6000, noise=0.001, seed=7, misalignment=MIS)
     write_ply(tmp_path / "g15.ply", s.points)
     rc = main(["compare", str(tmp_path / "g15.ply"), BEVEL, "--quiet"])
-    line = _error_line(capsys, rc, "vs CAD 2.108 mm (allowed ±5 %)")
-    od = float(line.split("fitted outer diameter ")[1].split(" mm")[0])
-    assert od == pytest.approx(1.829, abs=0.01)
+    line = _error_line(capsys, rc, "CAD's outer diameter is 2.1080 mm", "allowed ±5 %",
+                       "refused before registration")
+    od = float(line.split("outermost wall has diameter ")[1].split(" mm")[0])
+    assert od == pytest.approx(1.829, rel=0.01)  # an estimate for a ±5 % decision
+
+
+@pytest.mark.parametrize(("scan_gauge", "cad_gauge"), [(14, 16), (14, 12), (16, 14)])
+def test_nested_gauges_are_refused_before_the_search(scan_gauge, cad_gauge, monkeypatch):
+    """A 14G tube's outer wall (Ø 2.108) is nearly a 12G tube's bore and a
+    16G tube's outer wall (Ø 1.651) nearly a 14G tube's bore (Ø 1.6): the
+    outermost of two walls must be the CAD's outer wall. The global search is
+    never reached (it would raise if called)."""
+    import importlib
+
+    reg_mod = importlib.import_module("tipgeo.inspect.register")  # the module
+
+    spec = preset(BEVEL).with_(cannula=Cannula.from_gauge(scan_gauge))
+    s = synthetic_scan(spec, points=6000, noise=0.001, seed=3, misalignment=MIS)
+    cad_spec = preset(BEVEL).with_(cannula=Cannula.from_gauge(cad_gauge))
+
+    def no_search(*a, **k):
+        raise AssertionError("the global search ran")
+
+    monkeypatch.setattr(reg_mod, "_search", no_search)
+    with pytest.raises(ScanError, match="another gauge") as e:
+        compare(s.points, load_cad(cad_spec))
+    od = float(str(e.value).split("outermost wall has diameter ")[1].split(" mm")[0])
+    # the refusal estimate (about an axis found without a radius) is good to 1 %
+    assert od == pytest.approx(Cannula.from_gauge(scan_gauge).outer_diameter, rel=0.01)
+
+
+def test_wall_radii_of_a_scan_are_its_two_walls(scan):
+    """The coaxial walls found about the true axis are the tube's r_i and r_o."""
+    from tipgeo.inspect.register import wall_radii
+
+    c = Cannula.from_gauge(14)
+    walls = wall_radii(scan.points_cad, np.zeros(3), np.array([0.0, 0.0, 1.0]), c.r_o)
+    assert walls == pytest.approx([c.r_i, c.r_o], abs=0.003)
 
 
 def test_a_half_tube_scan_is_accepted(scan, cad):
@@ -339,8 +375,8 @@ def test_a_failing_report_leaves_nothing_in_out(scan, tmp_path, monkeypatch):
 def test_out_that_is_a_file_is_refused_before_any_work(tmp_path, capsys):
     (tmp_path / "f").write_text("x")
     write_ply(tmp_path / "s.ply", np.zeros((3, 3)))
-    rc = main(["compare", str(tmp_path / "s.ply"), BEVEL, "--out", str(tmp_path / "f")])
-    _error_line(capsys, rc, "--out", "is a file")
+    rc = main(["compare", str(tmp_path / "s.ply"), BEVEL, "--out-dir", str(tmp_path / "f")])
+    _error_line(capsys, rc, "--out-dir", "is a file")
     assert (tmp_path / "f").read_text() == "x"
 
 

@@ -383,7 +383,7 @@ def test_cli_forces_json_matches_the_library(capsys, tmp_path):
     png = tmp_path / "f.png"
     assert _run(["forces", "bevel-14G-xi14.5", "helical-14G", "--speed-ratio", "0.3",
                  "--json", "--step-deg", "10", "--sweep", "0", "2", "5",
-                 "--plot", str(png)]) == 0
+                 "--png", str(png)]) == 0
     out = json.loads(capsys.readouterr().out)
     assert [t["name"] for t in out["tips"]] == ["bevel-14G-xi14.5", "helical-14G"]
     want = edge_forces(edge_geometry(preset("bevel-14G-xi14.5")), 0.3, R=R45, mu_d=0.4)

@@ -348,8 +348,8 @@ def _run(argv):
 
 def test_cli_tissue_fit_json_and_plot(capsys, tmp_path):
     png = tmp_path / "fit.png"
-    assert _run(["tissue", "fit", str(SAMPLE), "--model", "arruda-boyce", "--model",
-                 "neo-hookean", "--json", "--plot", str(png)]) == 0
+    assert _run(["tissue", "fit", str(SAMPLE), "--law", "arruda-boyce", "--law",
+                 "neo-hookean", "--json", "--png", str(png)]) == 0
     out = json.loads(capsys.readouterr().out)
     lam, sig, _ = read_uniaxial_csv(SAMPLE)
     want = fit_uniaxial(lam, sig, "arruda-boyce")

@@ -201,8 +201,12 @@ def test_tools_and_their_errors():
     ({"tool": EndMill(reach=3.0)}, r"axis Z: the tool must reach .* its reach is 3 mm"),
     ({"machine": MillMachine(z=MillMachine().z.__class__(-400.5, 0.0, 0.002))},
      r"axis Z = .* outside its travel \[-400.5, 0\] mm"),
-    ({"params": MillParams(scallop=1e-4), "tool": EndMill(kind="ball", diameter=0.004)},
-     "scallop = 0.1 µm needs a step-over below the axis resolution"),
+    ({"params": MillParams(scallop=3e-3), "tool": EndMill(kind="ball", diameter=0.0015)},
+     "scallop = 3 µm needs a step-over below the axis resolution"),
+    # the bevel's n_z = sin 14.5° = 0.25: the Z round-up alone leaves 0.5 µm
+    ({"params": MillParams(scallop=4e-4)},
+     r"scallop = 0.4 µm cannot be held: Z is rounded up to the axis resolution 0.002 mm, "
+     r"which alone leaves up to 0.5\d* µm .* allowed scallop > 0.52\d* µm"),
 ])
 def test_bad_requests_name_axis_value_and_limit(kw, match):
     with pytest.raises(CamError, match=match):
@@ -238,33 +242,39 @@ SCALLOP_UM = 6.0
 @pytest.mark.parametrize("name", ["helical-14G", "bevel-14G-xi14.5", "threeplane-14G-xi15"])
 def test_milled_matches_cad(name):
     """The simulated surface (read back from the G-code) lies within the
-    target scallop + 1 µm of the CAD surface over the cut face away from the
-    edge (annulus shrunk by 20 µm), no point (edges included) gouges deeper
-    than 1 µm (the region leaves out 20 µm along the rims and 100 µm along
-    ridges between faces), and the outer edge's λ and θ are within 0.5° of
-    CAD for γ in [5°, 355°] away from the rim corners (see
-    :func:`cam.mill.compare_milled`)."""
+    target scallop of the CAD surface over the cut face away from the edge
+    (annulus shrunk by 20 µm; the planner budgets the Z round-up), no point
+    (edges included) gouges deeper than 1 µm (the region leaves out 20 µm
+    along the rims and 100 µm along ridges between faces), the outer edge's λ
+    is within 0.5° and θ within 1° of CAD for γ in [5°, 355°] away from the
+    rim corners (see :func:`cam.mill.compare_milled`), and the verdict passes."""
     # roughing (which leaves 50 µm) is simulated for the helical tip only
     res = mill(preset(name), params=MillParams(scallop=SCALLOP_UM * 1e-3,
                                                rough=name == "helical-14G"))
     c = res.comparison
     assert res.milled.tip.is_watertight and res.milled.tip.genus == 1
-    assert c["scallop_measured_um"] <= SCALLOP_UM + 1.0
-    assert c["scallop_measured_um"] > 0.3 * SCALLOP_UM     # the scallops are there
+    assert c["scallop_measured_um"] <= SCALLOP_UM
+    assert c["scallop_measured_um"] > 0.5 * SCALLOP_UM     # the scallops are there
     assert c["gouge_um"] <= 1.0 and c["deviation_all_min_um"] >= -1.0
     # λ from the edge's deviation averaged over whole scallops (the raw
     # edge's local λ swings by several degrees across each scallop), θ from
     # the surface fitted over two step-overs along the edge
     a = c["angles"]["outer"]
     assert a["lambda_max_diff_deg"] < 0.5
-    assert a["theta_max_diff_deg"] < 0.5
+    # θ from a plane fitted one step-over into the wall: the ripple of a 6 µm
+    # scallop over the three-plane tip's 98 µm step-over tilts it by 0.6°
+    assert a["theta_max_diff_deg"] < 1.0
+    v = res.verdict
+    assert v.ok, v.reasons
+    assert res.summary()["verdict"]["ok"] is True
 
 
 @pytest.mark.parametrize("tool", ["bull:1.588:0.25", "flat:1"])
 def test_bull_nose_and_flat_mill_the_bevel(tool):
     """The 14.5° bevel milled with a bull nose and a flat end mill (step-over
-    from their swept profile, simulated from the G-code): within the target
-    scallop + 1 µm over the stated region, no gouge deeper than 1 µm."""
+    from their swept profile with the Z round-up, simulated from the
+    G-code): within the target scallop over the stated region, no gouge
+    deeper than 1 µm."""
     spec = preset("bevel-14G-xi14.5")
     res = mill(spec, tool=parse_tool(tool), compare=False,
                params=MillParams(scallop=SCALLOP_UM * 1e-3, rough=False))
@@ -273,7 +283,7 @@ def test_bull_nose_and_flat_mill_the_bevel(tool):
     rr = np.hypot(*np.meshgrid(m.x, m.y))
     can = spec.cannula
     region = (rr >= can.r_i + 0.02) & (rr <= can.r_o - 0.02)        # the bevel has no ridge
-    assert 0.3 * SCALLOP_UM < np.nanmax(dev[region]) <= SCALLOP_UM + 1.0
+    assert 0.3 * SCALLOP_UM < np.nanmax(dev[region]) <= SCALLOP_UM
     assert np.nanmin(dev) >= -1.0
     assert m.tip.is_watertight
 
@@ -377,3 +387,39 @@ def test_planar_stepover_closed_forms():
     c = 0.02
     want = h * math.sqrt(1 + c * c) / c
     assert planar_stepover(f, np.array([[0.0, c]]), 0.0, h) == pytest.approx(want, rel=5e-3)
+
+
+def test_default_helical_mill_meets_its_own_target():
+    """The helical needle at the default 2 µm scallop with the thesis's ball
+    mill (what ``tipgeo mill helical-14G --compare`` runs): the planner
+    budgets the Z round-up to the 0.002 mm grid (up to 0.74 µm normal to the
+    surface where n_z = 0.37), so the step-over is 82 µm, not the 104 µm of
+    the plane formula alone, and the measured scallop, 1.90 µm, is within the
+    target (it was 2.52 µm). The verdict passes; judged against a 1.5 µm
+    target the same run fails, naming the scallop."""
+    res = mill(preset("helical-14G"))
+    tp, c = res.toolpath, res.comparison
+    assert tp.setup.stepover < 0.104 - 1e-9
+    assert tp.stats["scallop_rounding_um"] == pytest.approx(0.74, abs=0.01)
+    assert tp.stats["scallop_planned_um"] <= 0.95 * 2.0 + 1e-9
+    assert 1.0 < c["scallop_measured_um"] <= 2.0
+    assert c["gouge_um"] <= 1.0
+    v = res.verdict
+    assert v.ok, v.reasons
+    names = [k.name for k in v.checks]
+    assert names[:2] == ["scallop_um", "gouge_um"] and "inner_lambda_diff_deg" in names
+    bound = math.degrees(math.atan(2e-3 / tp.setup.stepover))
+    assert v.checks[2].rule == f"outer_lambda_diff_deg ≤ {round(bound, 4):g}"
+    assert res.summary()["verdict"] == v.to_dict()
+    tight = res.judge(scallop_um=1.5)
+    assert not tight.ok
+    assert [k.name for k in tight.failed][0] == "scallop_um"
+    assert tight.reasons[0].startswith("scallop measured (µm) = ")
+    assert "is above 1.5" in tight.reasons[0]
+
+
+def test_no_comparison_no_verdict():
+    res = mill(preset("bevel-14G-xi14.5"), params=MillParams(scallop=0.02, rough=False),
+               simulate_tip=False, compare=False)
+    assert res.verdict is None and res.judge(1.0) is None
+    assert "verdict" not in res.summary()

@@ -9,7 +9,6 @@ same pipeline on cheap cases: a one-variable bevel study (an analysis costs
 the helical box for refused points.
 """
 
-import argparse
 import json
 import math
 
@@ -283,12 +282,9 @@ def test_edge_report_names_the_box_edge_and_why_a_step_further_is_refused():
 
 # -- CLI ---------------------------------------------------------------------------------
 def _run(argv):
-    from tipgeo.cli.optimize import register
+    from tipgeo.cli import build_parser
 
-    p = argparse.ArgumentParser()
-    sub = p.add_subparsers(dest="command", required=True)
-    register(sub)
-    args = p.parse_args(argv)
+    args = build_parser(argv[0]).parse_args(argv)
     return args.func(args)
 
 
@@ -312,7 +308,7 @@ def test_cli_optimize_report(tmp_path, capsys):
     cfg = tmp_path / "bevel.toml"
     cfg.write_text(BEVEL, encoding="utf-8")
     out = tmp_path / "out"
-    assert _run(["optimize", str(cfg), "--out", str(out), "--no-plots", "--no-build",
+    assert _run(["optimize", str(cfg), "--out-dir", str(out), "--no-pictures", "--no-build",
                  "--json", "--quiet"]) == 0
     rep = json.loads(capsys.readouterr().out)
     assert rep["infill"]["converged"] and rep["infill"]["added"] >= 1
@@ -324,7 +320,7 @@ def test_cli_optimize_report(tmp_path, capsys):
     assert all("build" not in o for o in rep["optima"])
     assert (out / "report.json").exists() and (out / "optimum-shortest.toml").exists()
     # again, in plain text: everything from the cache (the infill points too)
-    assert _run(["optimize", str(cfg), "--out", str(out), "--no-plots", "--no-build"]) == 0
+    assert _run(["optimize", str(cfg), "--out-dir", str(out), "--no-pictures", "--no-build"]) == 0
     text = capsys.readouterr().out
     assert "shortest (min l_c_mm, weighted): xi_deg = 45.0000" in text
     assert "on the box edge: xi_deg = max" in text

@@ -97,10 +97,10 @@ def test_meaningless_cutter_sizes_are_errors():
 
 # -- outputs -------------------------------------------------------------------
 @pytest.mark.parametrize("cmd", [
-    ["angles", "{spec}", "--plot", "{d}/out.txt"],
+    ["angles", "{spec}", "--png", "{d}/out.txt"],
     ["build", "{spec}", "--png", "{d}/out.txt"],
     ["build", "{spec}", "-o", "{d}/t.stl", "--png", "{d}/out.jpeg"],
-    ["forces", "{spec}", "-S", "0.3", "--plot", "{d}/f.csv"],
+    ["forces", "{spec}", "-S", "0.3", "--png", "{d}/f.csv"],
 ])
 def test_picture_extensions_are_checked_before_any_work(cmd, tmp_path, capsys):
     spec = tmp_path / "b.toml"
@@ -116,8 +116,8 @@ def test_picture_extensions_are_checked_before_any_work(cmd, tmp_path, capsys):
     (["angles", "{d}/b2.toml", "--csv", "{d}/b2.toml"], "b2.toml"),
     (["angles", "{d}/b2.toml", "--csv", "{d}/sub/../b2.toml"], "b2.toml"),
     (["build", "{d}/spec.png", "-o", "{d}/x.stl", "--png", "{d}/spec.png"], "spec.png"),
-    (["gcode", "check", "{d}/prog.png", "--plot", "{d}/prog.png"], "prog.png"),
-    (["gcode", "sim", "{d}/c2-rim.png", "--plot", "{d}/c2.png"], "c2-rim.png"),
+    (["gcode", "check", "{d}/prog.png", "--png", "{d}/prog.png"], "prog.png"),
+    (["gcode", "sim", "{d}/c2-rim.png", "--png", "{d}/c2.png"], "c2-rim.png"),
     (["grind", "{d}/b2.toml", "--gcode", "{d}/b2.toml"], "b2.toml"),
     (["sweep", "{d}/study.csv", "-o", "{d}/study.csv"], "study.csv"),
 ])
@@ -149,7 +149,7 @@ def test_the_same_output_named_twice_is_refused(tmp_path, capsys):
     rc = main(["build", "bevel-14G-xi15", "-o", str(tmp_path / "t.stl"), "-o",
                str(tmp_path / "." / "t.stl")])
     _one_line_error(capsys, 2, rc, "also given as")
-    rc = main(["angles", "bevel-14G-xi15", "--csv", str(tmp_path / "a.png"), "--plot",
+    rc = main(["angles", "bevel-14G-xi15", "--csv", str(tmp_path / "a.png"), "--png",
                str(tmp_path / "a.png")])
     _one_line_error(capsys, 2, rc, "also given as")
     assert not list(tmp_path.iterdir())
@@ -159,7 +159,7 @@ def test_outputs_share_one_file_mode(tmp_path, capsys):
     umask = os.umask(0o022)
     os.umask(umask)
     want = 0o666 & ~umask
-    assert main(["angles", "bevel-14G-xi15", "--csv", str(tmp_path / "a.csv"), "--plot",
+    assert main(["angles", "bevel-14G-xi15", "--csv", str(tmp_path / "a.csv"), "--png",
                  str(tmp_path / "a.png")]) == 0
     assert main(["build", "bevel-14G-xi15", "-o", str(tmp_path / "t.stl"), "--png",
                  str(tmp_path / "t.png")]) == 0

@@ -309,7 +309,7 @@ def test_cli_gcode_sim_reports_the_failed_mesh(tmp_path, monkeypatch, capsys):
     monkeypatch.setitem(sys.modules, "OCP", None)
     monkeypatch.setitem(sys.modules, "OCP.BRep", None)
     png, mesh = tmp_path / "p.png", tmp_path / "s.step"
-    assert main(["gcode", "sim", str(prog), "--spec", "punch-C4", "--plot", str(png),
+    assert main(["gcode", "sim", str(prog), "--spec", "punch-C4", "--png", str(png),
                  "--mesh", str(mesh), "--tolerance-um", "2", "--json"]) == 1
     cap = capsys.readouterr()
     info = json.loads(cap.out)

@@ -82,6 +82,18 @@ class InspectSettings:
         convergence that starts the final one on every registration point.
     search_step : float
         Angular step of the global search about the axis (rad).
+    search_dz_span, search_dz_step : float
+        The axial shift is searched from this many outer radii below the
+        shift that matches the scan's top with the CAD's (a sparse sample
+        of a sharp tip tops out 0.13 mm low: a uniform 200 000-point sample
+        of a 14G bevel) to a tenth of that above, every ``search_dz_step``
+        radii (10 µm for 14G), then a tenth of that around the pick.
+    search_dz_keep, search_dz_floor : float
+        The shift that matches the tops is kept when its search score (a
+        mean clipped distance, mm) is within ``keep`` times the best plus
+        ``floor``: measured 0.60 against 0.48 µm for the back half of a
+        tube scanned with 1 µm noise (its top is the tip: keep), 4.0 against
+        0.0 µm for a uniform sample of the whole CAD (search).
     search_clip : float
         Distances are clipped to this in the global search score (mm).
     icp_iterations : int
@@ -123,6 +135,22 @@ class InspectSettings:
         distance) does not match the CAD.
     match_diameter : float
         Fitted diameters must lie within this fraction of the CAD's.
+    wall_bin : float
+        Bin width (mm) of the radial histogram whose peaks are a scan's
+        coaxial walls: wider than the scanner's noise, narrower than a wall.
+    wall_share : float
+        A peak holding at least this share of the points is a wall (a
+        tube's wall holds 15–60 % of a scan's points; a fixture's scattered
+        points and an edge's rounding hold far less).
+    wall_normal : float
+        A point counts toward a wall when its normal's cosine with the
+        direction to the axis exceeds this (a wall's normals point at the
+        axis; a plane seen about a wrong axis does not).
+    wall_min_share : float
+        The early gauge check judges only scans of which at least this share
+        is wall about the axis it found (measured: 86 % for a whole 14G bevel
+        scan, 74 % for its last 5 mm, 24 % for one plane of a three-plane tip
+        with a 0.1 mm rim, whose axis came out 13° off).
     chunk : int
         Points per chunk of the deviation pass (memory and speed — a larger
         chunk is put in a finer spatial order — not results).
@@ -228,6 +256,10 @@ class InspectSettings:
     icp_start_points: int = 1000
     icp_mid_points: int = 6000
     search_step: float = 0.0174532925199432957 * 3.0
+    search_dz_span: float = 0.5
+    search_dz_step: float = 0.01
+    search_dz_keep: float = 1.5
+    search_dz_floor: float = 2.0e-4
     search_clip: float = 0.25
     icp_iterations: int = 60
     icp_loose: float = 1.0e-5
@@ -246,6 +278,10 @@ class InspectSettings:
     match_min_share: float = 0.5
     match_min_fitness: float = 0.3
     match_diameter: float = 0.05
+    wall_bin: float = 0.005
+    wall_share: float = 0.05
+    wall_normal: float = 0.9
+    wall_min_share: float = 0.5
     chunk: int = 1 << 18
     multiplier: float = 1.0e-9
     gram_det: float = 1.0e-24
@@ -301,6 +337,15 @@ class GCodeTolerances:
         (dimensionless).
     half_floor : float
         Floor of the half-width of the ablated profile (mm).
+    laser_band : float
+        Acceptance band of a simulated laser cut against its serration spec
+        (mm; :attr:`gcode.LaserCheck.verdict`): material left, Hausdorff
+        distance and fitted notch radius each within this plus the meshes'
+        chordal tolerance, notch spacing within this along the inner rim.
+        1 µm, a twentieth of the thesis's 20 µm beam: a program that puts the
+        beam's edge on the contour cuts within it (tipgeo's own programs: 0.05
+        µm); a program whose lead-in drifts by a pass step or more (Appendix C
+        as printed) does not.
     """
 
     arc: float = 1.0e-6
@@ -312,6 +357,7 @@ class GCodeTolerances:
     step_floor: float = 1.0e-9
     whole: float = 1.0e-9
     half_floor: float = 1.0e-6
+    laser_band: float = 1.0e-3
 
 
 @dataclass
@@ -353,6 +399,19 @@ class CamTolerances:
     mill_ridge_margin : float
         … and this wide (mm) along ridges between faces (multi-plane tips),
         where parallel passes crossing a convex ridge leave higher cusps.
+    mill_scallop_share : float
+        Share of the scallop target the planned scallop (cusp between passes
+        plus the Z round-up to the axis resolution) may take; the rest is kept
+        for what the plan does not model: the drop-cutter's mesh and the
+        chords between kept points (dimensionless).
+    mill_gouge : float
+        Deepest gouge a milled part may show and pass (mm, normal to the
+        surface; :attr:`cam.mill.MillResult.verdict`). The drop-cutter follows
+        the tip mesh built at ``mill_mesh`` (1 µm): on a convex face its facets
+        lie up to that inside the CAD surface and a tool resting on them cuts
+        as deep; Z rounded up to the axis grid never gouges, so 1 µm is the
+        planner's own bound (measured: 0 on the shipped tips at 2 µm, 0.54 µm
+        on the helical tip with a 0.1 µm axis grid, which rounds up less).
     """
 
     axial: float = 1.0e-9
@@ -366,6 +425,8 @@ class CamTolerances:
     mill_normal_z: float = 0.01745
     mill_edge_margin: float = 0.02
     mill_ridge_margin: float = 0.1
+    mill_scallop_share: float = 0.95
+    mill_gouge: float = 1.0e-3
 
 
 @dataclass
@@ -472,12 +533,17 @@ class FemTolerances:
     monotone : float
         A force curve rises monotonically when no value falls below an
         earlier one by more than this fraction of the peak (dimensionless).
+    convergence_change : float
+        A mesh-convergence study passes when the force at depth changes by at
+        most this fraction from the middle to the finest mesh (0.02: 2 %; the
+        Fig. 4.7 punch, 50 / 25 / 12.5 µm at 0.5 mm, changes by 0.97 %).
     """
 
     profile: float = 1.0e-9
     axisymmetry: float = 1.0e-3
     step_end: float = 1.0e-6
     monotone: float = 1.0e-3
+    convergence_change: float = 0.02
 
 
 @dataclass

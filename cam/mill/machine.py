@@ -177,27 +177,49 @@ class MillMachine:
 
     @classmethod
     def from_toml(cls, path) -> MillMachine:
-        """A machine from a TOML file: top-level keys override the defaults;
-        ``[x]``, ``[y]``, ``[z]`` tables give ``lo``, ``hi``, ``resolution``."""
+        """A machine from a TOML file (sample: ``samples/machines/haas-vf2.toml``):
+        top-level keys override the defaults; ``[x]``, ``[y]``, ``[z]`` tables
+        give ``lo``, ``hi``, ``resolution`` (mm; a travel hi − lo of zero or
+        less is refused). Feeds and the rapid rate in mm/min, speeds in rpm:
+        finite and positive, each minimum at most its maximum; ``work_offset``
+        three finite numbers (mm); ``controller`` one with a post
+        (:data:`cam.mill.post.POSTS`). Anything else is a :class:`CamError`
+        naming the key, its value and what is allowed."""
+        from tipgeo.validate import brief
+
+        from ..machine import machine_number
+        from .post import POSTS
+
         kw = machine_toml(cls, path, ("x", "y", "z"))
         for k, val in kw.items():
-            if k in ("x", "y", "z", "name", "controller"):
+            if k in ("x", "y", "z"):
                 continue
-            if k == "work_offset":
+            if k == "name":
+                if not isinstance(val, str) or not val.strip():
+                    raise CamError(f"machine name = {brief(val)} must be a non-empty string")
+            elif k == "controller":
+                if val not in POSTS:
+                    raise CamError(f"machine controller = {brief(val)} has no post; allowed: "
+                                   + ", ".join(sorted(POSTS)))
+            elif k == "work_offset":
                 try:
-                    val = tuple(float(a) for a in val)
-                except (TypeError, ValueError):
-                    val = ()
-                if len(val) != 3:
-                    raise CamError("machine work_offset needs three numbers (X, Y, Z) in mm")
+                    ok = (isinstance(val, list) and len(val) == 3
+                          and all(not isinstance(a, bool) and isinstance(a, (int, float))
+                                  and math.isfinite(float(a)) for a in val))
+                except OverflowError:
+                    ok = False
+                if not ok:
+                    raise CamError(f"machine work_offset = {brief(val)}: needs three finite "
+                                   "numbers (X, Y, Z) in mm")
+                val = tuple(float(a) for a in val)
             else:
-                try:
-                    val = float(val)
-                except (TypeError, ValueError):
-                    raise CamError(f"machine {k} = {val!r} must be a number") from None
-                if not math.isfinite(val) or val <= 0:
-                    raise CamError(f"machine {k} = {val:g} must be a positive number")
+                val = machine_number(k, val, "rpm" if "rpm" in k else "mm/min")
             kw[k] = val
+        for lo, hi, unit in (("spindle_rpm_min", "spindle_rpm_max", "rpm"),
+                             ("feed_min", "feed_max", "mm/min")):
+            a, b = kw.get(lo, getattr(cls, lo)), kw.get(hi, getattr(cls, hi))
+            if a > b:
+                raise CamError(f"machine {lo} = {a:g} is above {hi} = {b:g} ({unit})")
         return cls(**kw)
 
     def check_feed(self, name: str, feed: float) -> float:

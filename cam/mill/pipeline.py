@@ -14,9 +14,12 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
+from tipgeo import progress as pg
+from tipgeo.tolerances import tol
+
 from .machine import EndMill, MillMachine
 from .post import post_program
-from .toolpath import MillParams, MillToolpath, plan_toolpaths
+from .toolpath import MillParams, MillToolpath, plan_toolpaths, progress_say
 
 __all__ = ["MillResult", "mill", "write_mill_outputs", "setup_sheet"]
 
@@ -24,7 +27,8 @@ __all__ = ["MillResult", "mill", "write_mill_outputs", "setup_sheet"]
 @dataclass
 class MillResult:
     """What :func:`mill` made: the toolpath, its G-code, the simulated milled
-    tip (:class:`cam.mill.simulate.MilledTip`) and its comparison with CAD."""
+    tip (:class:`cam.mill.simulate.MilledTip`), its comparison with CAD and
+    the :attr:`verdict` on it."""
 
     toolpath: MillToolpath
     gcode: str
@@ -33,8 +37,53 @@ class MillResult:
     cpu_s: dict = field(default_factory=dict)
     files: list[str] = field(default_factory=list)
 
+    @property
+    def verdict(self):
+        """:class:`tipgeo.verdict.Verdict` of the comparison with CAD against
+        the toolpath's own scallop target (:meth:`judge`); None when the run
+        was not compared."""
+        return self.judge()
+
+    def judge(self, scallop_um: float | None = None):
+        """The milled part against a scallop target (µm; default the one the
+        toolpath was planned for), or None without a comparison.
+
+        Rules (figures of :func:`cam.mill.compare_milled`, over its stated
+        region away from the edges and ridges):
+
+        - ``scallop_um`` ≤ the target;
+        - ``gouge_um`` ≤ ``tol.cam.mill_gouge`` (1 µm: the drop-cutter's mesh,
+          see :class:`tipgeo.tolerances.CamTolerances`);
+        - λ, θ and α of both edges within atan(h / s) of CAD (h the target, s
+          the step-over): a surface anywhere within [0, h] of CAD — what the
+          scallop rule lets through — may tilt by that much over one
+          step-over, the width the edge angles are fitted over; a larger
+          difference is a shape error, not the scallops.
+        """
+        c = self.comparison
+        if c is None:
+            return None
+        from tipgeo.verdict import Verdict, check_max
+
+        target = self.toolpath.params.scallop * 1e3 if scallop_um is None else float(scallop_um)
+        step = self.toolpath.setup.stepover
+        bound = math.degrees(math.atan(target * 1e-3 / step))
+        checks = [check_max("scallop_um", c["scallop_measured_um"], target,
+                            what="scallop measured (µm)"),
+                  check_max("gouge_um", c["gouge_um"], tol.cam.mill_gouge * 1e3,
+                            what="gouge (µm)")]
+        for wall in ("outer", "inner"):
+            a = c["angles"][wall]
+            for k, sym in (("lambda", "λ"), ("theta", "θ"), ("alpha", "α")):
+                checks.append(check_max(f"{wall}_{k}_diff_deg", a[f"{k}_max_diff_deg"],
+                                        round(bound, 4),
+                                        what=f"{wall} edge {sym} − CAD (°)"))
+        return Verdict.of(f"milled {self.toolpath.name} vs CAD (scallop target {target:g} µm)",
+                          checks)
+
     def summary(self) -> dict[str, Any]:
-        """Toolpath, program and (if any) comparison, in report units."""
+        """Toolpath, program and (if any) comparison and its verdict, in
+        report units."""
         from .simulate import read_gcode
 
         moves = self.milled.moves if self.milled is not None else read_gcode(self.gcode)
@@ -42,6 +91,7 @@ class MillResult:
                                "program": moves.summary(self.toolpath.machine.rapid)}
         if self.comparison is not None:
             out["comparison"] = self.comparison
+            out["verdict"] = self.verdict.to_dict()
         out["cpu_s"] = dict(self.cpu_s)
         out["wrote"] = list(self.files)
         return out
@@ -51,7 +101,11 @@ def mill(spec, *, tool: EndMill | None = None, machine: MillMachine | None = Non
          params: MillParams | None = None, simulate_tip: bool = True, compare: bool = True,
          cell_um: tuple[float, float] = (20.0, 1.0), progress=None) -> MillResult:
     """Mill ``spec`` tip-up: toolpaths, G-code, and (by default) the milled
-    tip simulated from the G-code text and compared with the CAD tip.
+    tip simulated from the G-code text and compared with the CAD tip (then
+    :attr:`MillResult.verdict` judges it).
+
+    ``progress``: a callable taking a line (a library user's printer); by
+    default the stages report through :mod:`tipgeo.progress`.
 
     Raises :class:`cam.CamError` naming the axis or parameter, value and limit.
     """
@@ -71,8 +125,10 @@ def mill(spec, *, tool: EndMill | None = None, machine: MillMachine | None = Non
         t3 = time.process_time()
         cpu["simulate"] = t3 - t2
         if compare:
-            res.comparison = compare_milled(res.milled, spec, scallop=tp.params.scallop,
-                                            stepover=tp.setup.stepover)
+            progress_say(progress)("mill: comparing the milled tip with CAD")
+            with pg.stage("mill: compare with CAD"):
+                res.comparison = compare_milled(res.milled, spec, scallop=tp.params.scallop,
+                                                stepover=tp.setup.stepover)
             cpu["compare"] = time.process_time() - t3
     return res
 

@@ -281,7 +281,11 @@ def simulate_mill(gcode: str, spec, *, tool, setup, cell_um: tuple[float, float]
     Returns a :class:`MilledTip`; raises :class:`CamError` for programs it
     cannot read.
     """
-    say = progress or (lambda msg: None)
+    from tipgeo import progress as pg
+
+    from .toolpath import progress_say
+
+    say = progress_say(progress)
     moves = read_gcode(gcode)
     if moves.tool is not None and moves.tool != tool.number:
         raise CamError(f"the program calls T{moves.tool}; the tool given is T{tool.number}")
@@ -290,7 +294,8 @@ def simulate_mill(gcode: str, spec, *, tool, setup, cell_um: tuple[float, float]
     dx, dy = (float(c) * 1e-3 for c in cell_um)
     if not (0.1e-3 <= dx <= 0.05 and 0.1e-3 <= dy <= 0.05):
         raise CamError(f"cell_um = {tuple(cell_um)}: each between 0.1 and 50 µm")
-    dex = _Dexels(moves, tool, setup.z_top, can.r_i, can.r_o)
+    with pg.stage("mill: simulate (tiling the moves)"):
+        dex = _Dexels(moves, tool, setup.z_top, can.r_i, can.r_o)
     say(f"simulate: {len(dex.A)} moves reach the stock")
     x = np.arange(-can.r_o, can.r_o + dx / 2, dx)
     y = np.arange(-can.r_o, can.r_o + dy / 2, dy)
@@ -300,7 +305,13 @@ def simulate_mill(gcode: str, spec, *, tool, setup, cell_um: tuple[float, float]
     pc = to_cannula(np.column_stack([X[on], Y[on], np.zeros(on.sum())]), setup.clocking)
     zc, nc = cad_height(spec, pc[:, 0], pc[:, 1], normals=True)
     say(f"simulate: {on.sum()} columns")
-    h = dex.heights(np.column_stack([X[on], Y[on]]))
+    q = np.column_stack([X[on], Y[on]])
+    h = np.empty(len(q))
+    chunks = np.array_split(np.arange(len(q)), max(1, min(20, len(q) // 2000)))
+    with pg.bar(len(chunks), "mill: simulate (dexel columns)", unit="chunk") as bar:
+        for idx in chunks:
+            h[idx] = dex.heights(q[idx])
+            bar.update()
     H = np.full(X.shape, np.nan)
     C = np.full(X.shape, np.nan)
     NZ = np.full(X.shape, np.nan)
@@ -309,7 +320,8 @@ def simulate_mill(gcode: str, spec, *, tool, setup, cell_um: tuple[float, float]
     N[on] = nc
     res = MilledTip(None, x, y, H, C, NZ, moves, setup.clocking, R, dexels=dex,
                     z_top=setup.z_top, normals=N)
-    res.tip = _milled_tip(res, spec, rings, around)
+    with pg.stage("mill: simulate (milled tip mesh)"):
+        res.tip = _milled_tip(res, spec, rings, around)
     return res
 
 

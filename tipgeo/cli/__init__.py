@@ -4,9 +4,11 @@ per stage (:mod:`.design`, :mod:`.analyse`, :mod:`.make`, :mod:`.mechanics`, :mo
 commands; errors map to exit codes here, in one place.
 
 Lengths in mm, angles in degrees, tolerances in µm at this boundary. Plain,
-scriptable output on stdout; progress and errors on stderr; ``--json`` where
-a machine reads it. Exit status 0 on success, 2 on bad input, 1 on a failed
-build or write.
+scriptable output on stdout; progress (tqdm, :mod:`tipgeo.progress`) and
+errors on stderr; every command takes ``--json`` (one JSON object on stdout),
+``--quiet`` and ``--progress``. Exit status, every command: 0 the result is
+within its targets, 1 it is not (the failing figures named; or a build,
+computation or write failed), 2 bad input, 3 a missing external tool.
 """
 
 from __future__ import annotations
@@ -14,9 +16,24 @@ from __future__ import annotations
 import argparse
 import sys
 
-from .common import check_files, declare_files
+from .common import add_common_flags, check_files, declare_files
 
-__all__ = ["main", "build_parser", "declare_files", "check_files", "STAGES", "COMMANDS"]
+__all__ = ["main", "build_parser", "declare_files", "check_files", "STAGES", "COMMANDS",
+           "EXIT_CODES"]
+
+#: The exit codes of every command.
+EXIT_CODES = {0: "the result is within its targets",
+              1: "the result is outside its targets (named on stderr and in --json), or a "
+                 "build, computation or write failed",
+              2: "bad input (arguments, options, spec, scan, program, machine file)",
+              3: "a missing external tool (CalculiX ccx, OCP, Dask, pyarrow)"}
+
+
+class _Parser(argparse.ArgumentParser):
+    """argparse with one-line errors (``tipgeo build: error: …``), exit 2."""
+
+    def error(self, message: str):  # type: ignore[override]
+        self.exit(2, f"{self.prog}: error: {message} (see '{self.prog} --help')\n")
 
 #: The stages whose commands ``tipgeo`` offers, in the order of ``--help``.
 STAGES = ("design", "analyse", "make", "mechanics", "fem", "optimize", "inspect", "demo")
@@ -38,11 +55,17 @@ def build_parser(command: str | None = None) -> argparse.ArgumentParser:
     with ``command`` (a key of :data:`COMMANDS`) only its stage's."""
     import importlib
 
-    p = argparse.ArgumentParser(prog="tipgeo", description="Geometry and CAM of hollow-needle "
-                                "tips (mm, degrees; needle axis +z towards the tip).")
+    from .. import __version__
+
+    p = _Parser(prog="tipgeo", description="Geometry and CAM of hollow-needle tips (mm, "
+                "degrees; needle axis +z towards the tip).",
+                epilog="exit status: " + "; ".join(f"{k} {v}" for k, v in EXIT_CODES.items()))
+    p.add_argument("--version", action="version", version=f"tipgeo {__version__}")
     sub = p.add_subparsers(dest="command", required=True)
     for stage in (COMMANDS[command],) if command in COMMANDS else STAGES:
         importlib.import_module(f".{stage}", __name__).register(sub)
+    for sp in sub.choices.values():
+        add_common_flags(sp)
     return p
 
 
@@ -54,8 +77,10 @@ def _exit_code(e: BaseException) -> tuple[int, str] | None:
     from cam.machine import CamError
     from gcode.errors import GCodeError
 
-    from ..errors import InputError, TipGeoError
+    from ..errors import InputError, MissingToolError, TipGeoError
 
+    if isinstance(e, MissingToolError):
+        return 3, "missing tool"
     if isinstance(e, (InputError, GCodeError, CamError)):
         return 2, "error"
     if isinstance(e, (TipGeoError, OSError)):
@@ -73,7 +98,10 @@ def main(argv: list[str] | None = None) -> int:
         if getattr(args, "output", None) == [] and args.command == "build" and not args.png:
             raise SpecError("build needs at least one -o FILE (or --png FILE)")
         check_files(args)
+        from .. import progress
         from .._threads import small_linalg
+
+        progress.configure("off" if args.quiet else "on" if args.progress else "auto")
 
         with small_linalg(getattr(args, "_blas_threads", 1)):
             return args.func(args)

@@ -8,7 +8,7 @@ import sys
 from pathlib import Path
 
 from ..jsonio import dumps as _dumps
-from .common import declare_files, spec_arg
+from .common import declare_files, deprecated, spec_arg
 
 __all__ = ["register", "cmd_angles", "cmd_calibrate"]
 
@@ -22,11 +22,11 @@ def _angle_source(arg: str, args):
     if Path(arg).suffix.lower() in SUPPORTED_IMPORTS:
         if args.diameters_mm is None:
             raise SpecError(f"'{arg}' is a mesh: give --diameters-mm DE DI (its outer and inner "
-                            "diameters; axis along +z through the origin unless --axis)")
+                            "diameters; axis along +z through the origin unless --axis-mm)")
         de, di = args.diameters_mm
         if not 0 < di < de:
             raise SpecError(f"--diameters-mm = {de:g} {di:g}; allowed 0 < DI < DE")
-        ax = args.axis or [0, 0, 0, 0, 0, 1]
+        ax = args.axis_mm or [0, 0, 0, 0, 0, 1]
         tip = label_by_geometry(load_tip(arg), r_o=de / 2, r_i=di / 2, axis_point=ax[:3],
                                 axis_dir=ax[3:])
         return tip, (de / 2, di / 2), Path(arg).stem
@@ -35,16 +35,18 @@ def _angle_source(arg: str, args):
 
 
 def cmd_angles(args) -> int:
+    from .. import progress
     from ..angles import analyze
 
     reports = []
-    for k, arg in enumerate(args.spec, 1):
-        src, radii, name = _angle_source(arg, args)
-        method = args.method or ("mesh" if radii is not None else "fourier")
-        rep = analyze(src, method=method, n_harmonics=args.harmonics, radii=radii, name=name)
-        reports.append(rep)
-        if len(args.spec) > 1:
-            print(f"[{k}/{len(args.spec)}] {name}", file=sys.stderr, flush=True)
+    sources = [_angle_source(arg, args) for arg in args.spec]  # every input checked first
+    with progress.bar(len(sources), "angles", unit="tip") as pb:
+        for src, radii, name in sources:
+            pb.set_postfix_str(name)
+            method = args.method or ("mesh" if radii is not None else "exact")
+            reports.append(analyze(src, method=method, n_harmonics=args.harmonics, radii=radii,
+                                   name=name))
+            pb.update()
     if args.csv:
         from ..atomic import write_text_atomic
 
@@ -52,17 +54,18 @@ def cmd_angles(args) -> int:
         for r in reports[1:]:
             text += r.to_csv(args.step_deg).split("\n", 1)[1]
         write_text_atomic(Path(args.csv), text)
-    if args.plot:
+    if args.png:
         from ..plot import plot_angles
 
-        plot_angles(reports, args.plot)
+        plot_angles(reports, args.png)
     if args.json:
         data = [json.loads(r.to_json(args.step_deg)) for r in reports]
-        print(_dumps(data if len(data) > 1 else data[0]))
+        print(_dumps({"tips": data} if len(data) > 1 else data[0]))
         return 0
     for r in reports:
         s = r.summary()
-        print(f"{r.name} (method {r.method}, {r.n_harmonics} harmonics)")
+        print(f"{r.name} (method {r.method}"
+              + (")" if r.method == "exact" else f", {r.n_harmonics} harmonics)"))
         for wall, key in (("outer", "o"), ("inner", "i")):
             w = s[wall]
             th = w["theta_deg"] if key == "o" else w["theta_i_deg"]
@@ -80,7 +83,7 @@ def cmd_angles(args) -> int:
                       f"({kk['faces'][0]} | {kk['faces'][1]})")
             if w["jumps"]:
                 print(f"        {len(w['jumps'])} vertical stretches")
-    for o in (args.csv, args.plot):
+    for o in (args.csv, args.png):
         if o:
             print(f"wrote {o}")
     return 0
@@ -108,15 +111,22 @@ def cmd_calibrate(args) -> int:
                                 + ", ".join(known))
             readings = [known[n] for n in args.reading]
 
-        def progress(i, n, f):
-            print(f"[{i}/{n}] {f.reading.name}: outer RMS {f.outer.rms_um:.2f} µm",
-                  file=sys.stderr, flush=True)
+        from .. import progress
 
-        fits = calibrate_thesis_helical(readings, progress=None if args.json else progress)
+        with progress.bar(len(readings), "calibrate", unit="reading") as pb:
+            def step(i, n, f):
+                pb.set_postfix_str(f"{f.reading.name}: outer RMS {f.outer.rms_um:.2f} µm")
+                pb.update()
+
+            fits = calibrate_thesis_helical(readings, progress=step)
         rep = thesis_calibration_report(fits)
+    status = 0 if rep["stored"]["meets_targets"] else 1
+    if status:
+        print("tipgeo: fail: the stored helical-14G preset does not meet the Table 3.1 "
+              "targets", file=sys.stderr)
     if args.json:
         print(_dumps(rep))
-        return 0
+        return status
     t = CALIBRATION_TARGETS_UM
     print(f"Table 3.1 outer-edge targets: RMS ≤ {t['outer_rms']:g} µm, max ≤ "
           f"{t['outer_max']:g} µm; inner aim RMS ≤ {t['inner_rms']:g} µm")
@@ -153,20 +163,23 @@ def register(sub) -> None:
     a.add_argument("spec", metavar="SPEC", nargs="+",
                    help="spec file, preset name, or mesh file (.stl .ply .obj .3mf .glb)")
     a.add_argument("--method", choices=("exact", "fourier", "mesh"), default=None,
-                   help="default: fourier (the thesis's path) for specs, mesh for mesh files")
+                   help="exact (edges on the exact cutter surfaces; default for specs), fourier "
+                        "(the thesis's eq. 3.12 fit), mesh (default for mesh files)")
     a.add_argument("--harmonics", type=int, default=5, metavar="N",
                    help="Fourier harmonics (default 5, eq. 3.12)")
     a.add_argument("--step-deg", type=float, default=1.0, metavar="S",
                    help="γ step of the table (default 1°)")
     a.add_argument("--csv", metavar="FILE", help="write the table (all tips)")
-    a.add_argument("--plot", metavar="FILE", help="write the angle plots (PNG)")
+    a.add_argument("--png", metavar="FILE", help="write the angle plots (PNG)")
     a.add_argument("--json", action="store_true", help="summary and table as JSON")
     a.add_argument("--diameters-mm", type=float, nargs=2, metavar=("DE", "DI"),
                    help="outer and inner diameter of a mesh file's tube")
-    a.add_argument("--axis", type=float, nargs=6, metavar=("X", "Y", "Z", "DX", "DY", "DZ"),
-                   help="a mesh file's needle axis: a point and the direction to the tip")
+    a.add_argument("--axis-mm", type=float, nargs=6, metavar=("X", "Y", "Z", "DX", "DY", "DZ"),
+                   help="a mesh file's needle axis: a point (mm) and the direction to the tip")
+    deprecated(a, "--plot", "--png")
+    deprecated(a, "--axis", "--axis-mm")
     a.set_defaults(func=cmd_angles)
-    declare_files(a, inputs=("spec",), outputs=("csv",), pictures=("plot",))
+    declare_files(a, inputs=("spec",), outputs=("csv",), pictures=("png",))
 
     c = sub.add_parser("calibrate", help="fit the thesis's helical needle to Table 3.1 and "
                        "print the residuals (µm) of every reading")

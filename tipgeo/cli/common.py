@@ -1,15 +1,127 @@
-"""What every command shares: file arguments checked before any work
-(extensions, an output named twice, an output that is an input), spec and
-tolerance arguments. Tolerances in µm at this boundary, mm inside."""
+"""What every command shares: the flags every command takes (``--json``,
+``--quiet``, ``--progress``), renamed flags that keep working for one release,
+file arguments checked before any work (extensions, an output named twice, an
+output that is an input), spec and tolerance arguments, and the verdict's
+exit code. Tolerances in µm at this boundary, mm inside."""
 
 from __future__ import annotations
 
+import argparse
+import sys
 from pathlib import Path
 
 from ..plot import PICTURE_EXTS  # the formats every --plot/--png accepts
 
 __all__ = ["declare_files", "check_files", "spec_arg", "tolerance_arg", "write_text",
-           "export_exts", "PICTURE_EXTS"]
+           "export_exts", "PICTURE_EXTS", "COMMON_FLAGS", "add_common_flags", "deprecated",
+           "DEPRECATED", "VOCABULARY", "verdict_status", "feed_mm_min_arg"]
+
+#: The flags every command takes, with their help.
+COMMON_FLAGS = {
+    "--json": "one JSON object on stdout (nothing else there)",
+    "--quiet": "no progress on stderr (warnings and errors are still printed)",
+    "--progress": "progress on stderr even when it is not a terminal",
+}
+
+#: The flags more than one command takes, each with its one meaning
+#: (``tests/test_cli_vocabulary.py`` walks the parser against this table).
+VOCABULARY = {
+    "-o/--output": "the command's main output file (format from its extension)",
+    "--out-dir": "an output folder",
+    "--png": "the command's picture (PNG, or another format matplotlib writes)",
+    "--no-pictures": "skip the pictures a command writes by default",
+    "--json": COMMON_FLAGS["--json"],
+    "--quiet": COMMON_FLAGS["--quiet"],
+    "--progress": COMMON_FLAGS["--progress"],
+    "--mesh": "the simulated part written as a mesh",
+    "--compare": "compare the simulated part with CAD; exit 1 when outside its bounds",
+    "--sheet": "the Markdown set-up sheet",
+    "--machine": "a machine file (TOML) of limits and set-up",
+    "--tolerance-um": "chordal tolerance of a mesh, µm (never an acceptance band)",
+    "--band-um": "± acceptance band, µm",
+    "--feed-mm-min": "a feed rate, mm/min",
+    "--spec": "a tip spec file or preset name",
+    "--method": "the edge method: exact, fourier or mesh",
+    "--step-deg": "the γ step of a table, degrees",
+    "--tissue": "a tissue of the library (tipgeo tissue list)",
+    "--model": "the model kind to build or fit",
+    "--z-min-mm": "lowest z of a scan, cannula frame, mm",
+    "--beam-diameter-um": "laser beam diameter, µm",
+    "--workers": "local worker processes",
+    "--scheduler": "the address of a Dask scheduler",
+    "--cache-dir": "the sweep's result cache folder",
+    "--no-cache": "recompute everything",
+}
+
+#: Every renamed flag: (command, old spelling, new spelling). The old one
+#: keeps working for one release with a deprecation line on stderr.
+DEPRECATED: list[tuple[str, str, str]] = []
+
+
+def add_common_flags(parser: argparse.ArgumentParser) -> None:
+    """Add the :data:`COMMON_FLAGS` a sub-command does not declare itself."""
+    have = {o for a in parser._actions for o in a.option_strings}
+    for flag, hlp in COMMON_FLAGS.items():
+        if flag not in have:
+            parser.add_argument(flag, action="store_true", help=hlp)
+
+
+class _Deprecated(argparse.Action):
+    """An old spelling: warns on stderr, converts, stores into the new flag's dest."""
+
+    def __init__(self, option_strings, dest, *, new: str, convert=None, note: str = "",
+                 append: bool = False, **kw):
+        self.new, self.convert, self.note, self.append = new, convert, note, append
+        super().__init__(option_strings, dest, **kw)
+
+    def __call__(self, parser, namespace, values, option_string=None):
+        print(f"tipgeo: warning: {option_string} is deprecated and goes in the next "
+              f"release; use {self.new}{self.note}", file=sys.stderr)
+        if self.nargs == 0:
+            values = True
+        elif self.convert is not None:
+            values = self.convert(values)
+        if self.append:
+            values = [*(getattr(namespace, self.dest, None) or []), values]
+        setattr(namespace, self.dest, values)
+
+
+def deprecated(parser: argparse.ArgumentParser, old: str | tuple[str, ...], new: str, *,
+               convert=None, note: str = "") -> None:
+    """Keep ``old`` working as a hidden alias of the already declared ``new``
+    (same arguments; ``convert`` maps an old value to the new flag's units)."""
+    olds = (old,) if isinstance(old, str) else tuple(old)
+    target = next(a for a in parser._actions if new in a.option_strings)
+    flag = isinstance(target, (argparse._StoreTrueAction, argparse._StoreConstAction))
+    parser.add_argument(*olds, dest=target.dest, action=_Deprecated, new=new, convert=convert,
+                        note=note, append=isinstance(target, argparse._AppendAction),
+                        nargs=0 if flag else target.nargs, type=None if flag else target.type,
+                        metavar=target.metavar, default=argparse.SUPPRESS,
+                        help=argparse.SUPPRESS)
+    DEPRECATED.append((parser.prog.split(" ", 1)[-1], "/".join(olds), new))
+
+
+def feed_mm_min_arg(name: str, value: float | None, lo: float = 1e-4, hi: float = 1e5):
+    """A feed given in mm/min at the command line, checked, in mm/s (None if not given)."""
+    if value is None:
+        return None
+    from .. import validate as v
+
+    return v.real(name, value, lo=lo, hi=hi, unit="mm/min") / 60.0
+
+
+def verdict_status(verdict, args) -> int:
+    """The exit status of a judged result: 0 when the verdict (a
+    :class:`~tipgeo.verdict.Verdict` or its dict) holds or there is none,
+    else 1 with the failing figures named on stderr."""
+    if verdict is None:
+        return 0
+    ok, reasons = ((verdict.get("ok"), verdict.get("reasons") or []) if isinstance(verdict, dict)
+                   else (verdict.ok, verdict.reasons))
+    if ok:
+        return 0
+    print(f"tipgeo: fail: {'; '.join(reasons) or 'outside its targets'}", file=sys.stderr)
+    return 1
 
 
 def declare_files(parser, *, inputs=(), outputs=(), pictures=(), exts=None, derived=None,

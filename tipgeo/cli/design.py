@@ -8,18 +8,28 @@ import time
 from pathlib import Path
 
 from ..jsonio import dumps as _dumps
-from .common import cannot_write, declare_files, export_exts, spec_arg, tolerance_arg
+from .common import (
+    cannot_write,
+    declare_files,
+    deprecated,
+    export_exts,
+    spec_arg,
+    tolerance_arg,
+)
 
 __all__ = ["register", "cmd_build", "cmd_gauges", "cmd_samples"]
 
 
 def cmd_build(args) -> int:
+    from .. import progress
     from ..build import build_tip
     from ..io import export_many
 
     spec = spec_arg(args.spec)
+    tolerance = tolerance_arg(args)
     t0 = time.perf_counter()
-    tip = build_tip(spec, tolerance=tolerance_arg(args))
+    with progress.stage(f"building {spec.name or args.spec}"):
+        tip = build_tip(spec, tolerance=tolerance)
     dt = time.perf_counter() - t0
 
     report = export_many(tip, args.output, on_error=cannot_write, gltf_units=args.gltf_units,
@@ -66,14 +76,26 @@ def cmd_samples(args) -> int:
     from ..presets import preset, preset_names
     from ..spec import dumps_spec, save_spec
 
-    if args.write:
-        out = Path(args.write)
+    if args.out_dir:
+        out = Path(args.out_dir)
         out.mkdir(parents=True, exist_ok=True)
-        for n in preset_names():
-            print(save_spec(preset(n), out / f"{n}.toml"))
+        wrote = [str(save_spec(preset(n), out / f"{n}.toml")) for n in preset_names()]
+        if args.json:
+            print(_dumps({"out_dir": str(out), "wrote": wrote}))
+        else:
+            print("\n".join(wrote))
         return 0
     if args.name:
-        sys.stdout.write(dumps_spec(preset(args.name)))
+        text = dumps_spec(preset(args.name))
+        if args.json:
+            print(_dumps({"name": args.name, "description": preset(args.name).description,
+                          "toml": text}))
+        else:
+            sys.stdout.write(text)
+        return 0
+    if args.json:
+        print(_dumps({"samples": [{"name": n, "description": preset(n).description}
+                                  for n in preset_names()]}))
         return 0
     for n in preset_names():
         print(f"{n:<22} {preset(n).description}")
@@ -108,5 +130,6 @@ def register(sub) -> None:
     g.set_defaults(func=cmd_gauges)
     s = sub.add_parser("samples", help="list the built-in specs, print one, or write all")
     s.add_argument("name", nargs="?", help="print this preset's TOML")
-    s.add_argument("--write", metavar="DIR", help="write every preset as DIR/<name>.toml")
+    s.add_argument("--out-dir", metavar="DIR", help="write every preset as DIR/<name>.toml")
+    deprecated(s, "--write", "--out-dir")
     s.set_defaults(func=cmd_samples)

@@ -7,10 +7,8 @@ fails with how to install it; ``--deck-only`` still writes the decks.
 
 from __future__ import annotations
 
-import sys
-
 from ..jsonio import dumps as _dumps
-from .common import declare_files, spec_arg
+from .common import declare_files, deprecated, spec_arg, verdict_status
 
 __all__ = ["register", "cmd_fem"]
 
@@ -26,24 +24,28 @@ def cmd_fem(args) -> int:
     from .. import validate as v
     from ..fem.study import convergence_study, run_fem
 
+    if args.out_dir is None:
+        from ..errors import InputError
+
+        raise InputError("fem needs --out-dir DIR (the output folder)")
     spec = spec_arg(args.spec)
     depth = v.real("--depth-mm", args.depth_mm, lo=0.0, lo_open=True, unit="mm")
     friction = None if args.friction is None else v.real("--friction", args.friction, lo=0.0,
                                                           hi=2.0)
     limit = v.real("--time-limit-s", args.time_limit_s, lo=1.0, unit="s")
 
-    def say(s: str) -> None:
-        if not args.quiet:
-            print(s, file=sys.stderr, flush=True)
+    from .. import progress
 
-    if args.convergence:
-        meshes = tuple(_um("--convergence", x) for x in args.convergence)
+    say = progress.note
+    if args.convergence_um:
+        meshes = tuple(_um("--convergence-um", x) for x in args.convergence_um)
         out = convergence_study(spec, model=args.model, depth=depth, meshes=meshes,
-                                out_dir=args.output, tissue=args.tissue, friction=friction,
+                                out_dir=args.out_dir, tissue=args.tissue, friction=friction,
                                 time_limit_s=limit, progress=say)
+        status = verdict_status(out.get("verdict"), args)
         if args.json:
             print(_dumps(out))
-            return 0
+            return status
         print(f"force at depth {out['depth_mm']:g} mm; far elements {out['far_element_um']} µm "
               f"and contact stiffness {out['contact_stiffness_MPa_per_mm']:.6g} MPa/mm "
               "held fixed")
@@ -59,18 +61,24 @@ def cmd_fem(args) -> int:
                   f"{ri['extrapolated']:.6f} N")
         else:
             print("Richardson: no estimate (the changes are not in the asymptotic range)")
-        return 0
+        if out.get("verdict") is not None:
+            v = out["verdict"]
+            print(("PASS " if v["ok"] else "FAIL ") + v["subject"]
+                  + ("" if v["ok"] else ": " + "; ".join(v["reasons"])))
+        return status
     outs = tuple(v.real("--stress-at-mm", d, lo=0.0, hi=depth, lo_open=True, unit="mm")
                  for d in args.stress_at_mm) if args.stress_at_mm else None
-    res = run_fem(spec, model=args.model, depth=depth, out_dir=args.output,
+    res = run_fem(spec, model=args.model, depth=depth, out_dir=args.out_dir,
                   tissue=args.tissue, friction=friction, mesh=_um("--mesh-um", args.mesh_um),
                   deck_only=args.deck_only, abaqus=args.abaqus, time_limit_s=limit,
-                  output_depths=outs, progress=say,
+                  output_depths=outs, progress=say, pictures=not args.no_pictures,
                   **({} if args.cut == "none" else {"cut": args.cut}))
     d = res.to_dict()
+    verdict = getattr(res, "verdict", None)
+    status = verdict_status(verdict, args)
     if args.json:
         print(_dumps(d))
-        return 0
+        return status
     m = res.model
     print(f"{m.name} ({m.kind}): {m.n_elements} elements, {len(m.nodes)} nodes, "
           f"{m.info['element_size_um']:g} µm at the edge; tissue {m.material.name} "
@@ -85,9 +93,11 @@ def cmd_fem(args) -> int:
         for k, s in res.stress.items():
             print(f"at {k:g} mm: max principal stress {s['max_principal_MPa'] * 1e3:.4g} kPa, "
                   f"near the edge {s['max_principal_near_edge_MPa'] * 1e3:.4g} kPa")
+    if verdict is not None:
+        print(verdict.line())
     for p in res.files:
         print(f"wrote {p}")
-    return 0
+    return status
 
 
 def register(sub) -> None:
@@ -117,7 +127,7 @@ def register(sub) -> None:
                    help="element size at the contact zone (µm; default 25 in 2D, 100 in 3D)")
     f.add_argument("--stress-at-mm", type=float, nargs="+", default=None, metavar="D",
                    help="depths (mm) for the stress contours (default: 1 mm and the end)")
-    f.add_argument("--convergence", type=float, nargs=3, default=None,
+    f.add_argument("--convergence-um", type=float, nargs=3, default=None,
                    metavar=("UM1", "UM2", "UM3"),
                    help="mesh-convergence study: three element sizes (µm), coarse to fine")
     f.add_argument("--cut", choices=CUTS, default="none",
@@ -127,8 +137,11 @@ def register(sub) -> None:
     f.add_argument("--abaqus", action="store_true", help="also write the Abaqus deck")
     f.add_argument("--time-limit-s", type=float, default=1800.0, metavar="S",
                    help="kill ccx after this wall time (default 1800 s)")
-    f.add_argument("-o", "--output", required=True, metavar="DIR", help="output folder")
-    f.add_argument("--quiet", action="store_true", help="no progress on stderr")
+    f.add_argument("--out-dir", metavar="DIR", help="output folder (required)")
+    f.add_argument("--no-pictures", action="store_true",
+                   help="skip the force curve and stress contour PNGs")
     f.add_argument("--json", action="store_true", help="the result as JSON on stdout")
+    deprecated(f, ("-o", "--output"), "--out-dir")
+    deprecated(f, "--convergence", "--convergence-um")
     f.set_defaults(func=cmd_fem)
     declare_files(f, inputs=("spec",))

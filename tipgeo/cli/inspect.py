@@ -15,7 +15,7 @@ import sys
 from pathlib import Path
 
 from ..jsonio import dumps as _dumps
-from .common import declare_files, spec_arg
+from .common import declare_files, deprecated, spec_arg
 
 __all__ = ["register", "cmd_compare", "cmd_scan_synth"]
 
@@ -32,9 +32,11 @@ def _positive(name: str, value: float | None, hi: float | None = None) -> float 
 
 
 def _log(args):
-    if getattr(args, "quiet", False):
+    from .. import progress
+
+    if not progress.enabled():
         return None
-    return lambda msg: print(f"[{args.command}] {msg}", file=sys.stderr, flush=True)
+    return lambda msg: progress.note(f"[{args.command}] {msg}")
 
 
 def _one_line(e: BaseException) -> str:
@@ -47,7 +49,7 @@ def _compare_kwargs(args) -> dict:
 
     from ..errors import InputError as SpecError  # options and paths, not specs
 
-    tol = _positive("--tolerance-um", args.tolerance_um, 1e4) * 1e-3
+    tol = _positive("--band-um", args.band_um, 1e4) * 1e-3
     scale = _positive("--scale-um", args.scale_um, 1e5)
     voxel = _positive("--voxel-um", args.voxel_um, 1e5)
     far = _positive("--max-distance-mm", args.max_distance_mm, 1e3)
@@ -102,22 +104,24 @@ def cmd_compare(args) -> int:
 
     kw = _compare_kwargs(args)
     inputs = [*args.scan, args.cad]
-    if args.out is not None and Path(args.out).exists() and not Path(args.out).is_dir():
-        raise SpecError(f"--out = '{args.out}' is a file; expected a folder (or a new name)")
+    if args.out_dir is not None and Path(args.out_dir).exists() and \
+            not Path(args.out_dir).is_dir():
+        raise SpecError(f"--out-dir = '{args.out_dir}' is a file; expected a folder (or a new "
+                        "name)")
     _check_out_file("--export", args.export, (".csv", ".ply"), inputs)
     _check_out_file("--matrix-out", args.matrix_out, (".txt", ".csv", ".mat"), inputs)
     _check_out_file("--summary", args.summary, (".csv", ".json"), inputs)
     if args.batch:
         if args.export or args.matrix_out:
             raise SpecError("--export and --matrix-out name one file; with --batch each scan's "
-                            "report (--out DIR/<scan>/) holds its own")
+                            "report (--out-dir DIR/<scan>/) holds its own")
         return _batch(args, kw)
     if len(args.scan) != 1:
         raise SpecError(f"{len(args.scan)} scans given; compare one, or several with --batch")
     if args.summary:
         raise SpecError("--summary goes with --batch")
     try:
-        res = compare(args.scan[0], args.cad, out=args.out, progress=_log(args), **kw)
+        res = compare(args.scan[0], args.cad, out=args.out_dir, progress=_log(args), **kw)
     except ScanError as e:
         print(f"tipgeo: error: {_one_line(e)}", file=sys.stderr)
         return 2
@@ -221,13 +225,17 @@ def _batch(args, kw) -> int:
     rows = []
     n = len(args.scan)
     stems = [Path(s).stem for s in args.scan]
+    from .. import progress
+
+    pb = progress.bar(n, "compare", unit="scan")
     for i, scan in enumerate(args.scan):
+        pb.set_postfix_str(Path(scan).name)
         if log:
             log(f"[{i + 1}/{n}] {scan}")
         out = None
-        if args.out:
+        if args.out_dir:
             name = stems[i] if stems.count(stems[i]) == 1 else f"{i + 1:03d}-{stems[i]}"
-            out = Path(args.out) / name
+            out = Path(args.out_dir) / name
         try:
             res = compare(scan, cad, out=out, progress=None, **kw)
             rows.append(_summary_row(scan, res))
@@ -237,6 +245,8 @@ def _batch(args, kw) -> int:
             r = rows[-1]
             log(f"[{i + 1}/{n}] {r['status']}" + (f": RMS {r['rms_um']:.3f} µm"
                                                    if r["status"] == "ok" else f": {r['error']}"))
+        pb.update()
+    pb.close()
     buf = io.StringIO()
     w = csv.DictWriter(buf, fieldnames=SUMMARY_COLUMNS, lineterminator="\n")
     w.writeheader()
@@ -350,12 +360,12 @@ def register(subparsers) -> None:
     c.add_argument("cad", metavar="SPEC|MESH",
                    help="spec file or preset (exact surfaces), or a CAD mesh in the cannula "
                         "frame (.stl .ply .obj .3mf .glb)")
-    c.add_argument("--out", metavar="DIR", help="write report.json, report.md, deviations.ply "
-                   "(coloured), deviation-map.png and histogram.png here")
-    c.add_argument("--tolerance-um", type=float, default=10.0, metavar="N",
-                   help="± tolerance band in µm (default 10)")
+    c.add_argument("--out-dir", metavar="DIR", help="write report.json, report.md, "
+                   "deviations.ply (coloured), deviation-map.png and histogram.png here")
+    c.add_argument("--band-um", type=float, default=10.0, metavar="N",
+                   help="± acceptance band in µm (default 10)")
     c.add_argument("--scale-um", type=float, default=None, metavar="S",
-                   help="colour scale ±S µm (default 2.5 × tolerance)")
+                   help="colour scale ±S µm (default 2.5 × the band)")
     c.add_argument("--units", choices=("mm", "um", "µm", "m"), default="mm",
                    help="units of the scan file (default mm)")
     c.add_argument("--no-register", action="store_true",
@@ -402,13 +412,15 @@ def register(subparsers) -> None:
                    metavar=("LOW", "HIGH"), help="asymmetric colour scale LOW < 0 < HIGH µm "
                    "(overrides --scale-um)")
     c.add_argument("--batch", action="store_true", help="compare every SCAN with the CAD: one "
-                   "summary table (stdout, --summary), reports in --out DIR/<scan>/; exit 2 "
-                   "when any scan failed")
+                   "summary table (stdout, --summary), reports in --out-dir DIR/<scan>/; exit "
+                   "2 when any scan failed")
     c.add_argument("--summary", metavar="FILE", help="with --batch: the summary table as .csv "
                    "or .json")
     c.add_argument("--no-pictures", action="store_true", help="skip the PNGs")
-    c.add_argument("--quiet", action="store_true", help="no progress on stderr")
     c.add_argument("--json", action="store_true", help="the full report as JSON on stdout")
+    deprecated(c, "--out", "--out-dir")
+    deprecated(c, "--tolerance-um", "--band-um",
+               note=" (the ± acceptance band; --tolerance-um is a mesh's chordal tolerance)")
     c.set_defaults(func=cmd_compare)
     declare_files(c, inputs=("scan", "cad", "init_transform"),
                   outputs=("export", "matrix_out", "summary"), blas_threads=None)
@@ -446,7 +458,5 @@ def register(subparsers) -> None:
                         "default 30 8")
     s.add_argument("--truth", metavar="FILE.json",
                    help="write the truth (transform scan→CAD, parameters) as JSON")
-    s.add_argument("--quiet", action="store_true")
-    s.add_argument("--json", action="store_true")
     s.set_defaults(func=cmd_scan_synth)
     declare_files(s, inputs=("spec",), outputs=("output", "truth"))

@@ -11,9 +11,12 @@ from ..jsonio import dumps as _dumps
 from .common import (
     cannot_write,
     declare_files,
+    deprecated,
     export_exts,
+    feed_mm_min_arg,
     spec_arg,
     tolerance_arg,
+    verdict_status,
     write_text,
 )
 
@@ -21,51 +24,74 @@ __all__ = ["register", "cmd_laser", "cmd_gcode", "cmd_grind", "cmd_mill"]
 
 
 def _laser_params(args):
+    """The laser station (``--machine`` file, else the defaults) with the
+    flags given on top of it."""
+    import dataclasses
+
     from gcode.emitter import LaserParams
 
+    base = LaserParams.from_toml(args.machine) if args.machine else LaserParams()
     kw = {}
     for opt, key, scale in (("beam_diameter_um", "beam_diameter", 1e-3),
                             ("overlap", "overlap", 1.0),
                             ("roughing_depth_um", "roughing_depth", 1e-3),
                             ("finishing_passes", "finishing_passes", None),
-                            ("feed_mm_s", "feed", 1.0),
                             ("pulse_period_us", "pulse_period_us", 1.0),
                             ("pulse_on_us", "pulse_on_us", 1.0),
                             ("compensation_mm", "compensation", 1.0)):
         val = getattr(args, opt, None)
         if val is not None:
             kw[key] = val if scale is None else val * scale
-    return LaserParams(**kw)
+    feed = feed_mm_min_arg("--feed-mm-min", args.feed_mm_min)
+    if feed is not None:
+        kw["feed"] = feed
+    return dataclasses.replace(base, **kw) if kw else base
 
 
 def cmd_laser(args) -> int:
     from gcode.emitter import emit_program
 
+    from ..errors import InputError
+
     spec = spec_arg(args.spec)
-    text = emit_program(spec, _laser_params(args))
+    params = _laser_params(args)
+    text = emit_program(spec, params)
     if args.output == "-":
+        if args.json:
+            raise InputError("-o - writes the program on stdout; with --json, stdout holds "
+                             "the JSON: give -o FILE")
         sys.stdout.write(text)
+        return 0
+    write_text(args.output, text)
+    if args.json:
+        from dataclasses import asdict
+
+        print(_dumps({"spec": spec.name, "program": str(args.output),
+                      "lines": len(text.splitlines()), "params": asdict(params)}))
     else:
-        write_text(args.output, text)
         print(f"wrote {args.output} ({len(text.splitlines())} lines)")
     return 0
 
 
 def cmd_gcode(args) -> int:
+    from gcode.emitter import LaserParams
     from gcode.pipeline import laser_check, make_limits, read_program, write_laser_outputs
 
-    beam = (args.beam_diameter_um or 20.0) * 1e-3
+    station = LaserParams.from_toml(args.machine) if args.machine else LaserParams()
+    beam = station.beam_diameter if args.beam_diameter_um is None else \
+        args.beam_diameter_um * 1e-3
     spec = spec_arg(args.spec) if args.action == "sim" else None
     limits = make_limits(max_statements=args.max_statements, max_repeat=args.max_repeat,
                          max_segments=args.max_moves, max_operations=args.max_operations)
     res = laser_check(read_program(args.program), beam_diameter=beam, spec=spec,
-                      origin=tuple(args.origin), tolerance=tolerance_arg(args),
+                      origin=tuple(args.origin_mm), tolerance=tolerance_arg(args),
                       lenient=args.lenient, limits=limits, max_tokens=args.max_tokens)
     write_laser_outputs(res, spec, mesh=args.mesh if args.action == "sim" else None,
-                        plot=args.plot, on_error=cannot_write)
+                        plot=args.png, on_error=cannot_write)
     out = res.summary(source=args.program)
     prog, tp, s = res.program, res.toolpath, out["toolpath"]
-    status = 1 if res.failed else 0
+    verdict = getattr(res, "verdict", None)
+    status = 1 if res.failed else verdict_status(verdict, args)
     if args.json:
         print(_dumps(out))
         return status
@@ -88,11 +114,17 @@ def cmd_gcode(args) -> int:
               f"watertight {a['watertight']}")
     if "comparison" in out:
         c = out["comparison"]
-        print(f"  vs spec: radius {c['radius_mm']['fitted_mean'] * 1e3:.3f} µm fitted "
-              f"(spec {c['radius_mm']['spec'] * 1e3:.3f}, max error "
-              f"{c['radius_mm']['fitted_max_error'] * 1e3:.3f} µm), spacing max error "
+        rad = c["radius_mm"]
+
+        def um(x):
+            return "n/a" if x is None else f"{x * 1e3:.3f}"
+
+        print(f"  vs spec: radius {um(rad['fitted_mean'])} µm fitted (spec {um(rad['spec'])}, "
+              f"max error {um(rad['fitted_max_error'])} µm), spacing max error "
               f"{c['spacing_deg']['fitted_max_error']}°, Hausdorff "
-              f"{c['hausdorff_mm'] * 1e3:.3f} µm")
+              f"{um(c['hausdorff_mm'])} µm")
+    if verdict is not None:
+        print(f"  {verdict.line()}")
     for o in res.files:
         print(f"  wrote {o}")
     for f in res.failed:
@@ -105,19 +137,21 @@ def cmd_grind(args) -> int:
 
     spec = spec_arg(args.spec)
     machine = Machine.from_toml(args.machine) if args.machine else Machine()
-    res = grind(spec, machine=machine, feed=args.feed, needle_rpm=args.needle_rpm,
-                simulate_tip=bool(args.simulate or args.report), compare=args.report,
-                tolerance=tolerance_arg(args))
+    feed = feed_mm_min_arg("--feed-mm-min", args.feed_mm_min)
+    res = grind(spec, machine=machine, feed=6.0 / 60.0 if feed is None else feed,
+                needle_rpm=args.needle_rpm, simulate_tip=bool(args.mesh or args.compare),
+                compare=args.compare, tolerance=tolerance_arg(args))
     write_grind_outputs(res, program=args.output, gcode=args.gcode, sheet=args.sheet,
-                        mesh=args.simulate, on_error=cannot_write)
+                        mesh=args.mesh, on_error=cannot_write)
     out = res.summary()
-    status = 1 if res.failed else 0
+    verdict = getattr(res, "verdict", None)
+    status = 1 if res.failed else verdict_status(verdict, args)
     if args.json:
         print(_dumps(out))
         return status
     s = out["program"]
     print(f"{s['name']}: faces {s['faces']}, {s['rows']} program rows, time {s['time_s']:.1f} s, "
-          f"feed {s['feed_mm_s']:g} mm/s")
+          f"feed {s['feed_mm_s'] * 60:g} mm/min")
     for f in s["setup"]:
         print(f"  {f['face']:<22} ξ {f['xi_deg']:8.4f}°  r5=ϕ_g {f['r5_phi_g_deg']:8.4f}°  "
               f"r4 {f['r4_deg']:8.4f}°  t1 {f['t1_mm']:8.4f} mm  OC {f['OC_mm']:.3f} mm"
@@ -126,6 +160,8 @@ def cmd_grind(args) -> int:
         worst, worst_m = res.worst_angle_diff_deg()
         print(f"  ground vs CAD: Hausdorff {res.comparison['hausdorff_mm'] * 1e3:.4f} µm, angles "
               f"within {worst:.2e}° (exact surfaces), {worst_m:.3f}° (mesh path)")
+    if verdict is not None:
+        print(f"  {verdict.line()}")
     for w in res.files:
         print(f"  wrote {w}")
     for f in res.failed:
@@ -158,16 +194,19 @@ def cmd_mill(args) -> int:
     if args.no_rough:
         kw["rough"] = False
     params = MillParams(**kw)
-    simulate = bool(args.simulate or args.report or args.deviation)
-    log = None if args.json else (lambda msg: print(msg, file=sys.stderr, flush=True))
+    simulate = bool(args.mesh or args.compare or args.deviation_png)
+    from .. import progress
+
     res = mill(spec, tool=tool, machine=machine, params=params, simulate_tip=simulate,
-               compare=bool(args.report or args.deviation), progress=log)
-    write_mill_outputs(res, program=args.output, sheet=args.sheet, mesh=args.simulate,
-                       deviation=args.deviation, toolpath=args.toolpath_png)
+               compare=bool(args.compare or args.deviation_png), progress=progress.note)
+    write_mill_outputs(res, program=args.output, sheet=args.sheet, mesh=args.mesh,
+                       deviation=args.deviation_png, toolpath=args.png)
     out = res.summary()
+    verdict = getattr(res, "verdict", None)
+    status = verdict_status(verdict, args)
     if args.json:
         print(_dumps(out))
-        return 0
+        return status
     t, p = out["toolpath"], out["program"]
     print(f"{t['name']}: {t['tool']}; clocking {t['clocking_deg']:.2f}°, finishing step-over "
           f"{t['stepover_mm'] * 1e3:.0f} µm for a {t['scallop_um']:g} µm scallop, "
@@ -182,15 +221,17 @@ def cmd_mill(args) -> int:
         print(f"  outer edge: λ within {a['lambda_max_diff_deg']:.3f}°, θ within "
               f"{a['theta_max_diff_deg']:.3f}°, α within {a['alpha_max_diff_deg']:.3f}° "
               f"({c['gamma_compared']})")
+    if verdict is not None:
+        print(f"  {verdict.line()}")
     for w in res.files:
         print(f"  wrote {w}")
-    return 0
+    return status
 
 
 def gcode_derived(args) -> list[str]:
-    """``gcode sim --plot FILE`` also writes FILE-rim.png."""
-    if args.action == "sim" and args.plot:
-        p = Path(args.plot)
+    """``gcode sim --png FILE`` also writes FILE-rim.png."""
+    if args.action == "sim" and args.png:
+        p = Path(args.png)
         return [str(p.with_name(p.stem + "-rim.png"))]
     return []
 
@@ -204,29 +245,37 @@ def register(sub) -> None:
     for opt, hlp in (("--beam-diameter-um", "beam diameter (20)"),
                      ("--overlap", "pass overlap (0.95)"),
                      ("--roughing-depth-um", "radial roughing depth (20)"),
-                     ("--feed-mm-s", "feed (0.1)"),
+                     ("--feed-mm-min", "feed, mm/min (6)"),
                      ("--pulse-period-us", "PSOPULSE period (10)"),
                      ("--pulse-on-us", "PSOPULSE on time (5)"),
                      ("--compensation-mm", "G41 lead-in (0.05)")):
         la.add_argument(opt, type=float, default=None, help=hlp)
     la.add_argument("--finishing-passes", type=int, default=None, help="(80)")
+    la.add_argument("--machine", metavar="TOML", help="laser station file (e.g. "
+                    "samples/machines/a3200-laser.toml); flags given override it")
+    deprecated(la, "--feed-mm-s", "--feed-mm-min", convert=lambda v: v * 60.0,
+               note=" (mm/min; the value given was converted from mm/s)")
     la.set_defaults(func=cmd_laser)
-    declare_files(la, inputs=("spec",), outputs=("output",))
+    declare_files(la, inputs=("spec", "machine"), outputs=("output",))
     gc = sub.add_parser("gcode", help="check or simulate an AeroBasic laser program")
     gc.add_argument("action", choices=("check", "sim"))
     gc.add_argument("program", metavar="PROGRAM")
     gc.add_argument("--spec", default="punch-plain",
                     help="the punch to cut (spec or preset; default punch-plain)")
-    gc.add_argument("--origin", type=float, nargs=2, default=(0.0, 0.0), metavar=("X0", "Y0"),
-                    help="program coordinates of the first serration's centre on the rim")
+    gc.add_argument("--origin-mm", type=float, nargs=2, default=(0.0, 0.0),
+                    metavar=("X0", "Y0"),
+                    help="program coordinates (mm) of the first serration's centre on the rim")
     gc.add_argument("--beam-diameter-um", type=float, default=None,
-                    help="beam diameter (20); T1's radius is half of it")
-    gc.add_argument("--tolerance-um", type=float, default=None)
+                    help="beam diameter (20, or the --machine file's); T1's radius is half "
+                         "of it")
+    gc.add_argument("--machine", metavar="TOML", help="laser station file (its beam diameter; "
+                    "e.g. samples/machines/a3200-laser.toml)")
+    gc.add_argument("--tolerance-um", type=float, default=None, metavar="N",
+                    help="chordal tolerance of the simulated tip's mesh, µm")
     gc.add_argument("--lenient", action="store_true",
                     help="skip unsupported statements with a warning (never a move)")
-    gc.add_argument("--plot", metavar="FILE", help="toolpath picture (and FILE-rim.png)")
+    gc.add_argument("--png", metavar="FILE", help="toolpath picture (and FILE-rim.png)")
     gc.add_argument("--mesh", metavar="FILE", help="write the ablated tip (sim)")
-    gc.add_argument("--json", action="store_true")
     for opt, hlp in (("--max-statements", "statements executed (1000000)"),
                      ("--max-repeat", "largest REPEAT count (1000000)"),
                      ("--max-moves", "programmed moves (100000)"),
@@ -234,25 +283,34 @@ def register(sub) -> None:
                      ("--max-tokens", "tokens in the program file (250000)")):
         gc.add_argument(opt, type=int, default=None, metavar="N",
                         help=f"bound: {hlp}; each default costs at most ~5 s to reach")
+    deprecated(gc, "--plot", "--png")
+    deprecated(gc, "--origin", "--origin-mm")
     gc.set_defaults(func=cmd_gcode)
-    declare_files(gc, inputs=("program", "spec"), outputs=("mesh",), pictures=("plot",),
+    declare_files(gc, inputs=("program", "spec", "machine"), outputs=("mesh",), pictures=("png",),
                   exts={"mesh": export_exts()}, derived=gcode_derived)
     gr = sub.add_parser("grind", help="five-axis grinding program, set-up and simulation")
     gr.add_argument("spec", metavar="SPEC")
     gr.add_argument("-o", "--output", metavar="FILE", help="axis program (.json or .csv)")
     gr.add_argument("--gcode", metavar="FILE", help="ISO G-code rendering")
     gr.add_argument("--sheet", metavar="FILE", help="Markdown set-up sheet")
-    gr.add_argument("--simulate", metavar="FILE", help="write the simulated ground tip mesh")
-    gr.add_argument("--report", action="store_true", help="compare the simulation with CAD")
-    gr.add_argument("--machine", metavar="TOML", help="machine limits and set-up overrides")
-    gr.add_argument("--feed", type=float, default=0.1, help="infeed, mm/s (0.1)")
+    gr.add_argument("--mesh", metavar="FILE", help="write the simulated ground tip mesh")
+    gr.add_argument("--compare", action="store_true",
+                    help="compare the simulated tip with CAD (exit 1 when outside its bounds)")
+    gr.add_argument("--machine", metavar="TOML", help="machine limits and set-up overrides "
+                    "(e.g. samples/machines/grinder.toml)")
+    gr.add_argument("--feed-mm-min", type=float, default=None, metavar="F",
+                    help="infeed, mm/min (6)")
     gr.add_argument("--needle-rpm", type=float, default=1000.0,
                     help="needle spin for conical tips (1000)")
-    gr.add_argument("--tolerance-um", type=float, default=None)
-    gr.add_argument("--json", action="store_true")
+    gr.add_argument("--tolerance-um", type=float, default=None, metavar="N",
+                    help="chordal tolerance of the simulated tip's mesh, µm")
+    deprecated(gr, "--simulate", "--mesh")
+    deprecated(gr, "--report", "--compare")
+    deprecated(gr, "--feed", "--feed-mm-min", convert=lambda v: v * 60.0,
+               note=" (mm/min; the value given was converted from mm/s)")
     gr.set_defaults(func=cmd_grind)
-    declare_files(gr, inputs=("spec", "machine"), outputs=("output", "gcode", "sheet", "simulate"),
-                  exts={"output": (".json", ".csv"), "simulate": export_exts()})
+    declare_files(gr, inputs=("spec", "machine"), outputs=("output", "gcode", "sheet", "mesh"),
+                  exts={"output": (".json", ".csv"), "mesh": export_exts()})
     mi = sub.add_parser("mill", help="three-axis milling (Haas VF-2): toolpaths, G-code, "
                         "material-removal simulation")
     mi.add_argument("spec", metavar="SPEC")
@@ -269,15 +327,21 @@ def register(sub) -> None:
                     help="roughing stock allowance (0.05)")
     mi.add_argument("--no-rough", action="store_true", help="finishing passes only")
     mi.add_argument("--sheet", metavar="FILE", help="Markdown set-up sheet")
-    mi.add_argument("--simulate", metavar="MILLED", help="write the simulated milled tip mesh")
-    mi.add_argument("--deviation", metavar="PNG", help="deviation map milled − CAD (µm)")
-    mi.add_argument("--toolpath-png", metavar="PNG",
+    mi.add_argument("--mesh", metavar="FILE", help="write the simulated milled tip mesh")
+    mi.add_argument("--png", metavar="FILE",
                     help="picture of the toolpaths (plan and side view)")
-    mi.add_argument("--report", action="store_true", help="compare the simulation with CAD")
-    mi.add_argument("--machine", metavar="TOML", help="machine limits and set-up overrides")
-    mi.add_argument("--json", action="store_true")
+    mi.add_argument("--deviation-png", metavar="FILE",
+                    help="deviation map milled − CAD (µm); implies --compare")
+    mi.add_argument("--compare", action="store_true",
+                    help="compare the simulated tip with CAD (exit 1 when the scallop or a "
+                         "gouge is outside its target)")
+    mi.add_argument("--machine", metavar="TOML", help="machine limits and set-up overrides "
+                    "(e.g. samples/machines/haas-vf2.toml)")
+    deprecated(mi, "--simulate", "--mesh")
+    deprecated(mi, "--report", "--compare")
+    deprecated(mi, "--toolpath-png", "--png")
+    deprecated(mi, "--deviation", "--deviation-png")
     mi.set_defaults(func=cmd_mill)
-    declare_files(mi, inputs=("spec", "machine"), outputs=("output", "sheet", "simulate"),
-                  pictures=("deviation", "toolpath_png"),
-                  exts={"output": (".nc", ".ngc", ".tap", ".txt"),
-                                                 "simulate": export_exts()})
+    declare_files(mi, inputs=("spec", "machine"), outputs=("output", "sheet", "mesh"),
+                  pictures=("deviation_png", "png"),
+                  exts={"output": (".nc", ".ngc", ".tap", ".txt"), "mesh": export_exts()})

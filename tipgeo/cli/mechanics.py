@@ -13,7 +13,7 @@ import math
 from pathlib import Path
 
 from ..jsonio import dumps as _dumps
-from .common import declare_files, spec_arg
+from .common import declare_files, deprecated, spec_arg
 
 __all__ = ["register", "cmd_forces", "cmd_tissue"]
 
@@ -41,7 +41,7 @@ def cmd_forces(args) -> int:
     from ..mechanics.report import tip_forces
 
     S_values = _sweep(args)
-    if args.plot and S_values is None:
+    if args.png and S_values is None:
         S_values = np.linspace(0.0, 3.0, 61)
     R = None if args.R_j_m2 is None else v.real("--R-j-m2", args.R_j_m2, lo=0.0,
                                                  lo_open=True, unit="J/m²") * J_PER_M2
@@ -57,11 +57,11 @@ def cmd_forces(args) -> int:
                                   method=args.method, S_values=S_values,
                                   label=spec.name or Path(arg).stem))
     wrote = []
-    if args.plot:
+    if args.png:
         from ..mechanics.plots import plot_edge_forces
 
         wrote.append(str(plot_edge_forces([(r.label, r.forces, r.sweep) for r in results],
-                                          args.plot)))
+                                          args.png)))
     if args.json:
         data = [r.to_dict(args.step_deg) for r in results]
         out = {"tips": data, "wrote": wrote}
@@ -115,7 +115,7 @@ def cmd_tissue(args) -> int:
 
     if args.action == "list":
         if args.json:
-            print(_dumps([t.summary() for t in TISSUES.values()]))
+            print(_dumps({"tissues": [t.summary() for t in TISSUES.values()]}))
             return 0
         for t in TISSUES.values():
             print(f"{t.name:<20} {t.description}")
@@ -131,13 +131,13 @@ def cmd_tissue(args) -> int:
     if not args.target:
         raise SpecError("tissue fit: give a data file (CSV)")
     lam, sig, info = read_uniaxial_csv(args.target)
-    models = args.model or ["arruda-boyce"]
+    models = args.law or ["arruda-boyce"]
     fits = [fit_uniaxial(lam, sig, m, terms=args.terms) for m in models]
     wrote = []
-    if args.plot:
+    if args.png:
         from ..mechanics.plots import plot_tissue_fit
 
-        wrote.append(str(plot_tissue_fit(lam, sig, fits, args.plot,
+        wrote.append(str(plot_tissue_fit(lam, sig, fits, args.png,
                                          title=f"{Path(args.target).name}: true stress "
                                                "against stretch")))
     if args.json:
@@ -184,11 +184,12 @@ def register(subparsers) -> None:
                    help="also the means over γ for N values of S from S0 to S1 (Fig. 3.12b)")
     f.add_argument("--step-deg", type=float, default=1.0, metavar="DEG",
                    help="γ step of the JSON along-edge table (default 1°)")
-    f.add_argument("--plot", metavar="FILE", help="PNG like Fig. 3.12 (along the edge; means "
+    f.add_argument("--png", metavar="FILE", help="PNG like Fig. 3.12 (along the edge; means "
                    "against S, 0–3 unless --sweep)")
     f.add_argument("--json", action="store_true", help="summaries, tables and sweeps as JSON")
+    deprecated(f, "--plot", "--png")
     f.set_defaults(func=cmd_forces)
-    declare_files(f, inputs=("spec",), pictures=("plot",))
+    declare_files(f, inputs=("spec",), pictures=("png",))
 
     t = subparsers.add_parser(
         "tissue", help="tissue models: fit uniaxial data, list the materials library",
@@ -198,11 +199,14 @@ def register(subparsers) -> None:
     t.add_argument("action", choices=("fit", "list", "show"))
     t.add_argument("target", nargs="?", metavar="DATA|NAME",
                    help="fit: the CSV file; show: the tissue name")
-    t.add_argument("--model", action="append", choices=("arruda-boyce", "ogden", "neo-hookean"),
-                   help="model to fit (repeatable; default arruda-boyce)")
+    t.add_argument("--law", action="append", choices=("arruda-boyce", "ogden", "neo-hookean"),
+                   help="hyperelastic law to fit (repeatable; default arruda-boyce)")
     t.add_argument("--terms", type=int, default=3, metavar="N",
                    help="Ogden terms (default 3, as the thesis)")
-    t.add_argument("--plot", metavar="FILE", help="PNG of data and fits (like Fig. 4.4)")
+    t.add_argument("--png", metavar="FILE", help="PNG of data and fits (like Fig. 4.4)")
     t.add_argument("--json", action="store_true", help="machine-readable output")
+    deprecated(t, "--plot", "--png")
+    deprecated(t, "--model", "--law", note=" (the hyperelastic law; fem's --model is the "
+               "finite-element model)")
     t.set_defaults(func=cmd_tissue)
-    declare_files(t, inputs=("target",), pictures=("plot",))
+    declare_files(t, inputs=("target",), pictures=("png",))

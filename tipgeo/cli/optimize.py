@@ -14,7 +14,7 @@ import sys
 from pathlib import Path
 
 from ..jsonio import dumps as _dumps
-from .common import declare_files
+from .common import declare_files, deprecated, verdict_status
 
 __all__ = ["register", "cmd_sweep", "cmd_optimize", "DRY_RUN_CHECKS"]
 
@@ -62,9 +62,14 @@ def cmd_sweep(args) -> int:
                     progress=not args.quiet)
     write_table(res, out)
     s = res.summary() | {"table": str(out)}
+    status = 0
+    if s["failed"]:
+        print(f"tipgeo: fail: {s['failed']} of {s['configurations']} configurations failed "
+              "(their rows say why)", file=sys.stderr)
+        status = 1
     if args.json:
         print(_dumps(s))
-        return 0
+        return status
     print(f"{cfg.name}: {s['configurations']} configurations — {s['ok']} ok, "
           f"{s['invalid']} invalid, {s['failed']} failed; {s['computed']} computed, "
           f"{s['cached']} from the cache; {s['seconds']:.2f} s on {s['workers']} "
@@ -73,7 +78,7 @@ def cmd_sweep(args) -> int:
     for f in s["failures"]:
         print(f"  [{f['index']}] {f['status']}: {f['error']}")
     print(f"wrote {out}")
-    return 0
+    return status
 
 
 def _print_design(s: dict) -> None:
@@ -145,15 +150,17 @@ def cmd_optimize(args) -> int:
     from ..optimize.study import run_study
 
     cfg = _config(args.config)
-    out = Path(args.out or cfg.name)
+    from .. import progress
+
+    out = Path(args.out_dir or cfg.name)
     table = "sweep.parquet" if args.parquet else "sweep.csv"
-    log = (lambda s: None) if args.quiet else (lambda s: print(s, file=sys.stderr, flush=True))
     rep = run_study(cfg, out, executor=_executor(args, cfg), cache=_cache(args),
                     progress=not args.quiet, build=not args.no_build,
-                    plots=not args.no_plots, table=table, log=log)
+                    plots=not args.no_pictures, table=table, log=progress.note)
+    status = verdict_status(rep.get("verdict"), args)
     if args.json:
         print(_dumps(rep))
-        return 0
+        return status
     s = rep["sweep"]
     print(f"{cfg.name}: {s['configurations']} configurations ({s['ok']} ok, {s['invalid']} "
           f"invalid, {s['failed']} failed) in {s['seconds']:.2f} s; GP "
@@ -199,9 +206,13 @@ def cmd_optimize(args) -> int:
                   + (f"{fr:>12.3%}" if fr is not None and math.isfinite(fr) else f"{'—':>12}")
                   + ("" if r["inside95"] else "  (outside 95 %)"))
     print()
+    v = rep.get("verdict")
+    if v is not None:
+        print(("PASS " if v["ok"] else "FAIL ") + v["subject"]
+              + ("" if v["ok"] else ": " + "; ".join(v["reasons"])))
     for f in rep["files"]:
         print(f"wrote {f}")
-    return 0
+    return status
 
 
 def _common(p) -> None:
@@ -215,7 +226,6 @@ def _common(p) -> None:
     p.add_argument("--cache-dir", metavar="DIR", help="result cache folder (default: the "
                    "config's sweep.cache, else ~/.cache/tipgeo/sweep)")
     p.add_argument("--no-cache", action="store_true", help="recompute everything")
-    p.add_argument("--quiet", action="store_true", help="no progress on stderr")
     p.add_argument("--json", action="store_true", help="machine-readable summary on stdout")
 
 
@@ -235,10 +245,12 @@ def register(subparsers) -> None:
     o = subparsers.add_parser("optimize", help="sweep, GP surrogate (thesis §3.4), optimise "
                               "objectives, verify on the real geometry")
     _common(o)
-    o.add_argument("--out", metavar="DIR", help="output folder (default ./<name>)")
+    o.add_argument("--out-dir", metavar="DIR", help="output folder (default ./<name>)")
     o.add_argument("--parquet", action="store_true", help="sweep table as Parquet")
     o.add_argument("--no-build", action="store_true",
                    help="analyse the optima without building their meshes")
-    o.add_argument("--no-plots", action="store_true", help="skip the PNGs")
+    o.add_argument("--no-pictures", action="store_true", help="skip the PNGs")
+    deprecated(o, "--out", "--out-dir")
+    deprecated(o, "--no-plots", "--no-pictures")
     o.set_defaults(func=cmd_optimize)
     declare_files(o, inputs=("config",))

@@ -37,13 +37,14 @@ from __future__ import annotations
 from .material import FemMaterial, compressibility, fem_material, friction_coefficient
 from .model import ElementBlock, FemModel
 from .results import FrdResults, max_principal, read_dat_totals, read_frd
-from .run import INSTALL_HINT, CcxRun, ccx_path, ccx_version, run_ccx
+from .run import INSTALL_HINT, CcxMissing, CcxRun, ccx_path, ccx_version, require_ccx, run_ccx
 from .study import (
     MODEL_KINDS,
     FemResult,
     analytical_force,
     build_model,
     convergence_study,
+    convergence_verdict,
     is_monotonic,
     run_fem,
     run_model,
@@ -53,7 +54,8 @@ __all__ = [
     "FemMaterial", "fem_material", "compressibility", "friction_coefficient",
     "ElementBlock", "FemModel",
     "FrdResults", "read_frd", "read_dat_totals", "max_principal",
-    "INSTALL_HINT", "CcxRun", "ccx_path", "ccx_version", "run_ccx",
+    "INSTALL_HINT", "CcxRun", "CcxMissing", "ccx_path", "ccx_version", "require_ccx", "run_ccx",
     "MODEL_KINDS", "FemResult", "build_model", "run_model", "run_fem", "convergence_study",
+    "convergence_verdict",
     "analytical_force", "is_monotonic",
 ]

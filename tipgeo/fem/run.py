@@ -21,16 +21,31 @@ from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
 
-from ..errors import FemError
+from ..errors import FemError, MissingToolError
 from ..tolerances import tol
 
-__all__ = ["ccx_path", "ccx_version", "run_ccx", "CcxRun", "INSTALL_HINT", "read_sta"]
+__all__ = ["ccx_path", "ccx_version", "run_ccx", "CcxRun", "CcxMissing", "INSTALL_HINT",
+           "read_sta", "require_ccx", "STOP_PATTERN"]
 
 #: How to get CalculiX, for messages and the README.
 INSTALL_HINT = ("CalculiX 'ccx' is not installed: on Debian/Ubuntu run "
                 "'apt-get install calculix-ccx'; on other systems install CalculiX 2.20 "
                 "(conda-forge 'calculix', Homebrew 'calculix-ccx', or the binaries at "
                 "http://www.calculix.de) and put 'ccx' on PATH or set TIPGEO_CCX")
+
+#: ccx's ``*ERROR`` lines that mean "stopped converging" (the step is cut
+#: short, the increments up to there converged): the increment fell below
+#: its minimum, too many cutbacks, the allowed increments ran out.
+STOP_PATTERN = re.compile(r"increment size smaller than minimum|too many cutbacks|"
+                          r"increments? (is |was )?(reached|exceeded)|max(imum|\.)? ?#? ?(number )?"
+                          r"of increments", re.IGNORECASE)
+
+
+class CcxMissing(MissingToolError, FemError):
+    """CalculiX ``ccx`` is not installed (or ``TIPGEO_CCX`` names no
+    executable): a missing external tool (exit 3), and a failed FEM run for
+    callers that catch :class:`~tipgeo.errors.FemError`."""
+
 
 _STA_ROW = re.compile(r"^\s*(\d+)\s+(\d+)\s+(\d+)(U?)\s+(\d+)\s+(\S+)\s+(\S+)\s+(\S+)\s*$")
 
@@ -42,6 +57,19 @@ def ccx_path() -> str | None:
     if env:
         return env if os.path.isfile(env) and os.access(env, os.X_OK) else None
     return shutil.which("ccx")
+
+
+def require_ccx() -> str:
+    """The ``ccx`` executable, or :class:`CcxMissing` with the install line
+    (naming ``TIPGEO_CCX`` when it is set to something that is not an
+    executable file)."""
+    exe = ccx_path()
+    if exe is not None:
+        return exe
+    env = os.environ.get("TIPGEO_CCX")
+    if env:
+        raise CcxMissing(f"TIPGEO_CCX = '{env}' is not an executable file; {INSTALL_HINT}")
+    raise CcxMissing(INSTALL_HINT)
 
 
 def ccx_version() -> str | None:
@@ -84,6 +112,10 @@ class CcxRun:
         system time)
     increments : int — converged increments; cutbacks : int — attempts refused
     warnings : list of str — ccx's ``*WARNING`` lines
+    reached : float — total time of the last converged increment (1 at the
+        end of the step; less for a run kept with ``partial``)
+    stopped : str — ccx's ``*ERROR`` line when it stopped before the end
+        (empty for a complete run)
     """
 
     job: Path
@@ -92,6 +124,13 @@ class CcxRun:
     increments: int
     cutbacks: int
     warnings: list[str] = field(default_factory=list)
+    reached: float = 1.0
+    stopped: str = ""
+
+    @property
+    def complete(self) -> bool:
+        """Whether the run reached the end of its step."""
+        return self.reached >= 1.0 - tol.fem.step_end
 
     def path(self, ext: str) -> Path:
         return self.job.with_suffix(ext)
@@ -104,7 +143,7 @@ def _child_cpu() -> float:
 
 def run_ccx(job: str | Path, *, time_limit_s: float = 600.0, threads: int = 1,
             progress: Callable[[float, int], None] | None = None,
-            poll_s: float = 0.5) -> CcxRun:
+            poll_s: float = 0.5, partial: bool = False) -> CcxRun:
     """Run ``ccx -i JOB`` in JOB's folder and check that it really finished.
 
     Parameters
@@ -114,16 +153,21 @@ def run_ccx(job: str | Path, *, time_limit_s: float = 600.0, threads: int = 1,
     threads : int — ``OMP_NUM_THREADS`` / ``CCX_NPROC_EQUATION_SOLVER``
     progress : callable(step_time, converged increments), optional — called
         when a new increment converges
+    partial : bool — keep a run that stopped converging before the end of
+        its step (ccx's ``*ERROR`` matches :data:`STOP_PATTERN`, at least one
+        increment converged and ``.dat`` holds results): the returned run has
+        ``reached`` < 1 and ``stopped`` quoting ccx; without it such a run is
+        a FemError like any other
 
     Raises
     ------
+    CcxMissing
+        ccx is missing (a :class:`~tipgeo.errors.MissingToolError` and a FemError).
     FemError
-        ccx is missing, ran over the time limit, printed ``*ERROR``, stopped
-        before the end of the step, or left no results.
+        ccx ran over the time limit, printed ``*ERROR``, stopped before the
+        end of the step (unless ``partial``), or left no results.
     """
-    exe = ccx_path()
-    if exe is None:
-        raise FemError(INSTALL_HINT)
+    exe = require_ccx()
     job = Path(job)
     if job.suffix == ".inp":
         job = job.with_suffix("")
@@ -167,6 +211,7 @@ def run_ccx(job: str | Path, *, time_limit_s: float = 600.0, threads: int = 1,
     wall, cpu = time.monotonic() - t0, _child_cpu() - cpu0
     text = log.read_text(errors="replace").splitlines()
     errors = [i for i, s in enumerate(text) if "*ERROR" in s]
+    stopped = ""
     if errors:
         i = errors[0]
         quote = [text[i].strip()]
@@ -174,8 +219,21 @@ def run_ccx(job: str | Path, *, time_limit_s: float = 600.0, threads: int = 1,
             if not s.strip() or "*ERROR" in s or "*WARNING" in s:
                 break
             quote.append(s.strip())
-        raise FemError(f"ccx: {' '.join(quote)} ({len(errors)} *ERROR line(s); {log.name} has "
-                       "the whole output)")
+        done = [r for r in read_sta(job.with_suffix(".sta")) if r[3]]
+        dat = job.with_suffix(".dat")
+        if (partial and len(errors) == 1 and STOP_PATTERN.search(" ".join(quote)) and done
+                and dat.is_file() and dat.stat().st_size > 0):
+            stopped = quote[0]
+        else:
+            raise FemError(f"ccx: {' '.join(quote)} ({len(errors)} *ERROR line(s); {log.name} "
+                           "has the whole output)")
+    if stopped:
+        rows = read_sta(job.with_suffix(".sta"))
+        done = [r for r in rows if r[3]]
+        return CcxRun(job=job, wall_s=wall, cpu_s=cpu, increments=len(done),
+                      cutbacks=len(rows) - len(done),
+                      warnings=[s.strip() for s in text if "*WARNING" in s],
+                      reached=done[-1][5], stopped=stopped)
     if proc.returncode != 0:
         raise FemError(f"ccx exited with status {proc.returncode}: "
                        f"{text[-1].strip() if text else '(no output)'}")

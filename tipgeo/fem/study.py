@@ -25,6 +25,7 @@ from typing import Any
 
 import numpy as np
 
+from .. import progress as pg
 from .. import validate as v
 from ..atomic import write_bytes_atomic, write_text_atomic
 from ..errors import FemError, SpecError
@@ -32,10 +33,11 @@ from ..jsonio import dumps
 from ..tolerances import tol
 from .model import FemModel
 from .results import max_principal, read_dat_totals, read_frd
-from .run import CcxRun, run_ccx
+from .run import CcxRun, require_ccx, run_ccx
 
 __all__ = ["MODEL_KINDS", "FemResult", "build_model", "run_model", "run_fem",
-           "convergence_study", "richardson", "analytical_force", "is_monotonic"]
+           "convergence_study", "convergence_verdict", "richardson", "analytical_force",
+           "is_monotonic"]
 
 #: Model kinds of :func:`build_model`.
 MODEL_KINDS = ("axisymmetric", "3d")
@@ -109,6 +111,12 @@ class FemResult:
     files : list of Path written
     stress : dict depth (mm) → (max principal at the peak node (MPa), its
         position (2 or 3,) mm deformed, the edge's tensile peak (MPa))
+
+    A run ccx stopped before the requested depth (an increment below its
+    minimum, too many cutbacks) is kept when :func:`run_model` is asked to
+    (its default): ``depth`` ends where the last output was written,
+    :attr:`reached_depth` is where the last increment converged, and
+    :attr:`verdict` fails naming both.
     """
 
     model: FemModel
@@ -123,6 +131,34 @@ class FemResult:
         return is_monotonic(self.force)
 
     @property
+    def requested_depth(self) -> float:
+        """The depth asked for (mm)."""
+        return float(self.model.depth)
+
+    @property
+    def reached_depth(self) -> float | None:
+        """Where the last converged increment left the needle (mm; None
+        without a run)."""
+        return None if self.run is None else float(self.run.reached * self.model.depth)
+
+    @property
+    def verdict(self):
+        """:class:`tipgeo.verdict.Verdict`: the run reached the requested depth
+        (to ``tol.fem.step_end`` of the step); None for decks only (nothing
+        was run, nothing judged)."""
+        if self.run is None:
+            return None
+        from ..verdict import Check, Verdict
+
+        req, got = self.requested_depth, self.reached_depth
+        ok = self.run.complete
+        why = "" if ok else (f"the run stopped at depth {got:.4g} mm of the requested {req:g} mm"
+                             + (f" (ccx: {self.run.stopped})" if self.run.stopped else ""))
+        return Verdict.of(f"FEM {self.model.kind} {self.model.name} to {req:g} mm",
+                          [Check("depth_mm", ok, got, f"depth_mm ≥ {req:g} (the requested "
+                                 "depth)", why)])
+
+    @property
     def peak_force(self) -> float:
         return float(np.max(self.force)) if len(self.force) else math.nan
 
@@ -134,14 +170,20 @@ class FemResult:
         if self.run is not None:
             ana = analytical_force(m, self.depth)
             d.update({"wall_s": round(self.run.wall_s, 3), "cpu_s": round(self.run.cpu_s, 3),
+                      "reached_depth_mm": self.reached_depth, "stopped": self.run.stopped,
                       "increments": self.run.increments, "cutbacks": self.run.cutbacks,
                       "warnings": self.run.warnings[:20], "monotonic": self.monotonic,
                       "peak_force_N": self.peak_force,
                       "curve": [{"depth_mm": float(a), "force_N": float(b),
                                  "analytical_N": float(c)}
                                 for a, b, c in zip(self.depth, self.force, ana)],
-                      "stress": {f"{k:g}": s for k, s in self.stress.items()}})
+                      "stress": {f"{k:g}": s for k, s in self.stress.items()},
+                      "verdict": self.verdict.to_dict()})
         return d
+
+    def summary(self) -> dict[str, Any]:
+        """The same as :meth:`to_dict` (the name every make-stage result has)."""
+        return self.to_dict()
 
 
 def _curve_csv(depth, force, ana) -> str:
@@ -165,9 +207,11 @@ def _tissue_tris(model: FemModel) -> np.ndarray:
     return np.vstack(tris) - 1
 
 
-def _stress_pictures(model: FemModel, frd, out: Path, stem: str) -> tuple[list[Path], dict]:
+def _stress_pictures(model: FemModel, frd, out: Path, stem: str,
+                     reached: float = math.inf) -> tuple[list[Path], dict]:
     """Max principal stress contours (2D: the r–Y plane; 3D: the symmetry
-    plane X = 0) at each output depth, and the stress summary."""
+    plane X = 0) at each output depth the run reached (mm), and the stress
+    summary."""
     files, summary = [], {}
     pos = np.full(int(frd.node_ids.max()) + 1, -1)
     pos[frd.node_ids] = np.arange(len(frd.node_ids))
@@ -175,6 +219,8 @@ def _stress_pictures(model: FemModel, frd, out: Path, stem: str) -> tuple[list[P
 
     tissue = model.part_nodes("tissue")
     for d in model.output_depths:
+        if d > reached + 1e-9:         # the run stopped before it
+            continue
         t = d / model.depth
         nid, u = frd.field_at("DISP", t)
         sid, s = frd.field_at("STRESS", t)
@@ -221,7 +267,7 @@ def _stress_pictures(model: FemModel, frd, out: Path, stem: str) -> tuple[list[P
 def run_model(model: FemModel, out_dir: str | Path, *, stem: str | None = None,
               deck_only: bool = False, abaqus: bool = False, time_limit_s: float = 600.0,
               threads: int = 1, progress: Callable[[str], None] | None = None,
-              pictures: bool = True) -> FemResult:
+              pictures: bool = True, partial: bool = True) -> FemResult:
     """Write ``model``'s decks to ``out_dir`` and (unless ``deck_only``) run
     ccx, check it, and write the curve (CSV, JSON, PNG) and the stress
     contours at ``model.output_depths``.
@@ -234,6 +280,13 @@ def run_model(model: FemModel, out_dir: str | Path, *, stem: str | None = None,
     run has been checked, each written atomically. A failed run leaves
     nothing in ``out_dir`` (a folder this call created is removed again) and
     raises :class:`~tipgeo.errors.FemError` quoting ccx's own line.
+
+    With ``partial`` (the default) a run that stopped converging before the
+    requested depth is kept and written up to where it stopped, with a
+    failing :attr:`FemResult.verdict`; without it, it is a FemError.
+    ``progress`` (a callable taking a line) gets the run's lines; without one
+    they go to :mod:`tipgeo.progress` (a stage with the increment and depth
+    from ccx's ``.sta``).
     """
     out = Path(out_dir)
     stem = stem or f"{model.name}_{model.kind}"
@@ -246,21 +299,31 @@ def run_model(model: FemModel, out_dir: str | Path, *, stem: str | None = None,
         out.mkdir(parents=True, exist_ok=True)
         res.files += [write_text_atomic(out / n, t) for n, t in decks]
         return res
-    say = progress or (lambda s: None)
+    require_ccx()
+    say = progress or pg.note
     with tempfile.TemporaryDirectory(prefix="tipgeo-ccx-") as tmp:
         job = Path(tmp) / "job.inp"
         job.write_text(deck)
         t0 = time.monotonic()
         say(f"ccx: {model.n_elements} elements, {len(model.nodes)} nodes, "
             f"{model.info.get('element_size_um')} µm at the edge")
-        try:
-            run = run_ccx(job, time_limit_s=time_limit_s, threads=threads,
-                          progress=lambda st, n: say(
-                              f"ccx: increment {n}, depth {st * model.depth:.4f} mm "
-                              f"({time.monotonic() - t0:.0f} s)"))
-        except FemError as e:  # ccx's output goes with its temporary folder
-            msg = re.sub(r";? ?job\.log has (its|the whole) output", "", str(e))
-            raise FemError(msg.replace("job.", f"{stem}.")) from e
+        with pg.stage(f"ccx {stem}") as bar:
+            def on_increment(st: float, n: int) -> None:
+                bar.set_postfix_str(f"increment {n}, depth {st * model.depth:.4f} of "
+                                    f"{model.depth:g} mm")
+                if progress is not None:
+                    progress(f"ccx: increment {n}, depth {st * model.depth:.4f} mm "
+                             f"({time.monotonic() - t0:.0f} s)")
+
+            try:
+                run = run_ccx(job, time_limit_s=time_limit_s, threads=threads,
+                              progress=on_increment, partial=partial)
+            except FemError as e:  # ccx's output goes with its temporary folder
+                msg = re.sub(r";? ?job\.log has (its|the whole) output", "", str(e))
+                raise type(e)(msg.replace("job.", f"{stem}.")) from e
+        if run.stopped:
+            say(f"ccx stopped at depth {run.reached * model.depth:.4f} mm of {model.depth:g} mm: "
+                f"{run.stopped}")
         t, f = read_dat_totals(job.with_suffix(".dat"))
         if len(t) == 0:
             raise FemError(f"ccx wrote no reaction-force totals of set NEEDLE to {stem}.dat")
@@ -291,7 +354,9 @@ def _finish(res: FemResult, frd, t: np.ndarray, f: np.ndarray, out: Path, stem: 
     res.depth = np.r_[0.0, t * model.depth]
     res.force = np.r_[0.0, -f[:, 1] * model.force_scale]
     if frd is not None:
-        pngs, res.stress = _stress_pictures(model, frd, out, stem) if pictures else ([], {})
+        pngs, res.stress = (_stress_pictures(model, frd, out, stem,
+                                             res.run.reached * model.depth + 1e-9)
+                            if pictures else ([], {}))
         res.files += pngs
     ana = analytical_force(model, res.depth)
     res.files.append(write_text_atomic(out / f"{stem}_force.csv",
@@ -322,18 +387,22 @@ def run_fem(spec, *, model: str = "axisymmetric", depth: float, out_dir: str | P
             tissue: str = "pvc-sp0", friction: float | None = None, mesh: float | None = None,
             deck_only: bool = False, abaqus: bool = False, time_limit_s: float = 600.0,
             output_depths: tuple[float, ...] | None = None,
-            progress: Callable[[str], None] | None = None, **kw) -> FemResult:
+            progress: Callable[[str], None] | None = None, partial: bool = True,
+            pictures: bool = True, **kw) -> FemResult:
     """Build, write and (unless ``deck_only``) run the ``model`` of tip
     ``spec`` pushed ``depth`` mm into ``tissue`` (see :func:`run_model`).
     Stresses are written at ``output_depths`` (default: the final depth and,
-    when deeper than 1 mm, 1 mm)."""
+    when deeper than 1 mm, 1 mm). Without ccx (and not ``deck_only``) it
+    raises :class:`~tipgeo.fem.run.CcxMissing` before meshing."""
     depth = v.real("depth", depth, lo=0.0, lo_open=True, unit="mm")
+    if not deck_only:
+        require_ccx()
     if output_depths is None:
         output_depths = tuple(sorted({depth, *([1.0] if depth > 1.0 else [])}))
     m = build_model(spec, model, depth=depth, tissue=tissue, mesh=mesh, friction=friction,
                     output_depths=output_depths, **kw)
     return run_model(m, out_dir, deck_only=deck_only, abaqus=abaqus, time_limit_s=time_limit_s,
-                     progress=progress)
+                     progress=progress, partial=partial, pictures=pictures)
 
 
 def richardson(values: tuple[float, float, float], ratio: float) -> dict[str, float | None]:
@@ -351,11 +420,31 @@ def richardson(values: tuple[float, float, float], ratio: float) -> dict[str, fl
     return {"order": p, "extrapolated": f3 + e2 / (ratio ** p - 1.0)}
 
 
+def convergence_verdict(study: dict[str, Any], target_change: float | None = None):
+    """:class:`tipgeo.verdict.Verdict` of a :func:`convergence_study` result:
+    the relative change of the force at depth from the middle to the finest
+    mesh within ``target_change`` (a fraction; default the study's own
+    ``target_change_percent``, else ``tol.fem.convergence_change``)."""
+    from ..verdict import Verdict, check_max
+
+    if target_change is None:
+        pct = study.get("target_change_percent")
+        target_change = tol.fem.convergence_change if pct is None else pct / 100.0
+    rows = study["rows"]
+    ch = rows[-1]["change_percent"]
+    what = (f"force change from {rows[-2]['element_size_um']:g} to "
+            f"{rows[-1]['element_size_um']:g} µm (%)")
+    return Verdict.of(f"mesh convergence of the force at {study['depth_mm']:g} mm",
+                      [check_max("finest_change_percent", None if ch is None else abs(ch),
+                                 100.0 * target_change, what=what)])
+
+
 def convergence_study(spec, *, model: str = "axisymmetric", depth: float,
                       meshes: tuple[float, float, float], out_dir: str | Path,
                       tissue: str = "pvc-sp0", friction: float | None = None,
                       time_limit_s: float = 1800.0,
-                      progress: Callable[[str], None] | None = None, **kw) -> dict[str, Any]:
+                      progress: Callable[[str], None] | None = None,
+                      target_change: float | None = None, **kw) -> dict[str, Any]:
     """Run the same insertion, to the same ``depth``, at three element sizes
     of the contact zone (mm, coarse to fine) and report the force of each at
     that depth (its peak: the curves rise), the relative change from the
@@ -366,12 +455,19 @@ def convergence_study(spec, *, model: str = "axisymmetric", depth: float,
     contact penalty stiffness are those of the coarsest mesh for all three (a
     penalty that scales with 1/h would change the model with the mesh; the
     coarsest's, the softest, is the one all three meshes converge with).
-    Every run must reach ``depth`` (an incomplete run is an error)."""
+    Every run must reach ``depth`` (an incomplete run is an error).
+
+    The result holds ``verdict`` (:func:`convergence_verdict`, as a dict):
+    whether the finest change, middle to finest mesh, is within
+    ``target_change`` (a fraction; default ``tol.fem.convergence_change``)."""
     if len(meshes) != 3:
         raise SpecError(f"meshes = {meshes}: expected three element sizes")
     meshes = tuple(v.real("mesh", h, lo=0.001, hi=0.5, unit="mm") for h in meshes)
     if not meshes[0] > meshes[1] > meshes[2]:
         raise SpecError(f"meshes = {[h * 1e3 for h in meshes]} µm: expected coarse to fine")
+    target = tol.fem.convergence_change if target_change is None else v.real(
+        "target_change", target_change, lo=0.0, lo_open=True, hi=1.0)
+    require_ccx()
     probe = build_model(spec, model, depth=depth, tissue=tissue, mesh=meshes[0],
                         friction=friction, **kw)
     fixed = {"contact_stiffness": probe.penalty}
@@ -379,11 +475,18 @@ def convergence_study(spec, *, model: str = "axisymmetric", depth: float,
         fixed["far"] = float(probe.info["element_size_far_um"]) * 1e-3
     grid = np.linspace(0.1, 1.0, 10) * depth
     rows, curves = [], []
+    bar = pg.bar(len(meshes), "fem: convergence study", unit="mesh")
     for h in meshes:
         sub = Path(out_dir) / f"mesh_{h * 1e3:g}um"
-        r = run_fem(spec, model=model, depth=depth, out_dir=sub, tissue=tissue,
-                    friction=friction, mesh=h, time_limit_s=time_limit_s, progress=progress,
-                    output_depths=(depth,), **fixed, **kw)
+        bar.set_postfix_str(f"{h * 1e3:g} µm")
+        try:
+            r = run_fem(spec, model=model, depth=depth, out_dir=sub, tissue=tissue,
+                        friction=friction, mesh=h, time_limit_s=time_limit_s, progress=progress,
+                        output_depths=(depth,), partial=False, **fixed, **kw)
+        except BaseException:
+            bar.close()
+            raise
+        bar.update()
         f_end = float(np.interp(depth, r.depth, r.force))
         curves.append(np.interp(grid, r.depth, r.force))
         prev = rows[-1]["force_at_depth_N"] if rows else None
@@ -392,6 +495,7 @@ def convergence_study(spec, *, model: str = "axisymmetric", depth: float,
                      "peak_force_N": r.peak_force, "increments": r.run.increments,
                      "cpu_s": round(r.run.cpu_s, 2), "wall_s": round(r.run.wall_s, 2),
                      "change_percent": None if prev is None else 100.0 * (f_end - prev) / prev})
+    bar.close()
     ratios = meshes[0] / meshes[1], meshes[1] / meshes[2]
     rich = richardson(tuple(r["force_at_depth_N"] for r in rows), ratios[0]) \
         if abs(ratios[0] - ratios[1]) <= 1e-9 * ratios[0] else {"order": None,
@@ -401,6 +505,8 @@ def convergence_study(spec, *, model: str = "axisymmetric", depth: float,
            "contact_stiffness_MPa_per_mm": fixed["contact_stiffness"], "rows": rows,
            "richardson": rich,
            "curves": {"depth_mm": grid.tolist(),
-                      **{f"{h * 1e3:g}um": c.tolist() for h, c in zip(meshes, curves)}}}
+                      **{f"{h * 1e3:g}um": c.tolist() for h, c in zip(meshes, curves)}},
+           "target_change_percent": 100.0 * target}
+    out["verdict"] = convergence_verdict(out).to_dict()
     write_text_atomic(Path(out_dir) / "convergence.json", dumps(out))
     return out

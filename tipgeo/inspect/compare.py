@@ -425,9 +425,12 @@ def compare(scan, cad, *, tolerance: float = 0.01, units: str = "mm",
         say("registering")
         try:
             start = loc if init_transform is None else apply(init_transform @ _shift(origin), loc)
-            reg = register(start, model, seed=seed, progress=lambda m: say(f"  {m}"))
+            reg = register(start, model, seed=seed, progress=lambda m: say(f"  {m}"),
+                           max_diameter_error=None if allow_mismatch else
+                           tol.inspect.match_diameter)
         except ScanError as e:
-            raise ScanError(f"{where}: {e}") from None
+            hint = " (--allow-mismatch compares it anyway)" if "another gauge" in str(e) else ""
+            raise ScanError(f"{where}: {e}{hint}") from None
         if init_transform is None:
             T_loc = reg.transform          # offsets → cannula frame
             reg.axis["point_mm"] = (np.asarray(reg.axis["point_mm"]) + origin).tolist()

@@ -410,14 +410,18 @@ def _scores(sub, cad, angles, dz):
 
 
 def _search(q_all, cad, step, npts, rng, period, z_feature):
-    """The best turns about +z (rad, within one symmetry period) for points
-    already on the axis, coarse to fine: a third of ``npts`` points scored
-    every 2·step, then all of them every step/2 within ±2·step of the three
-    best coarse minima. The scored points are drawn from those near or above
-    the CAD's features (``z_feature``), where the turn shows.
+    """The best poses about +z for points already on the axis: turns (rad,
+    within one symmetry period) and axial shifts, coarse to fine. A third of
+    ``npts`` points scored every 2·step at the shift that puts the scan's top
+    at the CAD's; then, at each of the three best coarse minima, the shift
+    searched (:func:`_dz_search`: the top of a sparse scan of a sharp tip is
+    no place to hang the shift on, and the tube, which most points lie on,
+    is blind to it) and all the points scored every step/2 within ±2·step
+    at that shift. The scored points are drawn from those near or above the
+    CAD's features (``z_feature``), where the turn shows.
 
-    Returns the coarse angles and scores, the fine minima (angle, score; best
-    first) and the axial shift dz."""
+    Returns the coarse angles and scores, and the fine minima (angle, score,
+    dz; best first)."""
     z_top = np.quantile(q_all[:, 2], 0.9995)
     dz = cad.z_top - z_top
     near = q_all[:, 2] + dz >= z_feature - cad.r_o
@@ -428,12 +432,52 @@ def _search(q_all, cad, step, npts, rng, period, z_feature):
     mins = np.flatnonzero((sc <= np.roll(sc, 1)) & (sc <= np.roll(sc, -1)))
     mins = mins[np.argsort(sc[mins], kind="stable")][:3]
     win = np.arange(-4, 5) * 0.5 * step
-    fine = (coarse[mins][:, None] + win[None, :]) % period
-    fs = _scores(sub, cad, fine.ravel(), dz).reshape(fine.shape)
-    k = np.argmin(fs, axis=1)
-    best = [(float(fine[i, k[i]]), float(fs[i, k[i]])) for i in range(len(mins))]
+    best = []
+    for m in mins:
+        dzm = _dz_search(sub, cad, float(coarse[m]), dz)
+        fine = (coarse[m] + win) % period
+        fs = _scores(sub, cad, fine, dzm)
+        k = int(np.argmin(fs))
+        best.append((float(fine[k]), float(fs[k]), dzm))
     best.sort(key=lambda b: b[1])
-    return coarse, sc, best, dz
+    return coarse, sc, best
+
+
+def _dz_search(sub, cad, angle, dz0):
+    """The axial shift (mm) that best fits at ``angle``. A scan's top lies
+    at or below the CAD's (sparse points, a rounded tip): when the shift
+    that matches the tops (``dz0``) scores within ``tol.inspect.search_dz_keep``
+    times the best of the others plus ``search_dz_floor`` (the scan shows
+    its top) it is kept; else the shift is searched from
+    ``search_dz_span`` outer radii below ``dz0`` to a tenth of that above,
+    every ``search_dz_step`` radii, then at a tenth of the step around the
+    pick — the highest shift scoring within a tenth of the score's range of
+    the best (a scan that shows no cut face fits as well anywhere lower,
+    where the CAD's tube still holds it)."""
+    st = tol.inspect
+    span, h = st.search_dz_span * cad.r_o, st.search_dz_step * cad.r_o
+    grid = dz0 + np.arange(-span, 0.1 * span + 1e-12, h)
+    sc = _scores_dz(sub, cad, np.full(len(grid), angle), grid)
+    s0 = float(_scores_dz(sub, cad, np.array([angle]), np.array([dz0]))[0])
+    if s0 <= st.search_dz_keep * sc.min() + st.search_dz_floor:
+        return dz0
+
+    def pick(grid, sc):
+        ok = sc <= sc.min() + 0.1 * (sc.max() - sc.min())
+        return float(grid[np.flatnonzero(ok)[-1]])
+
+    d1 = pick(grid, sc)
+    fine = d1 + np.arange(-10, 11) * 0.1 * h
+    return pick(fine, _scores_dz(sub, cad, np.full(len(fine), angle), fine))
+
+
+def _scores_dz(sub, cad, angles, dzs):
+    """:func:`_scores` for one (angle, dz) pair per row."""
+    c, s = np.cos(angles)[:, None], np.sin(angles)[:, None]
+    x = np.stack([c * sub[:, 0] - s * sub[:, 1], s * sub[:, 0] + c * sub[:, 1],
+                  sub[:, 2][None, :] + np.asarray(dzs)[:, None]], 2)
+    f = cad.bound(x.reshape(-1, 3)).reshape(len(angles), len(sub))
+    return np.mean(np.minimum(np.abs(f), tol.inspect.search_clip), axis=1)
 
 
 def _pose(T_axis, angle, dz):
@@ -657,8 +701,98 @@ def _icp(p, cad, T, iterations, *, fix_rz=False, loose=False, outlines=True):
     return T, sigma, info
 
 
+def wall_radii(points: np.ndarray, point: np.ndarray, direction: np.ndarray,
+               r_hint: float, normals: np.ndarray | None = None) -> list[float]:
+    """The radii (mm, ascending) of the walls coaxial with an axis, from the
+    peaks of the points' radial distances (a tube's walls are sharp peaks:
+    ``tol.inspect.wall_bin`` wide, holding at least ``tol.inspect.wall_share``
+    of the points within 3 ``r_hint`` of the axis); empty when no wall shows
+    (a scan of the cut faces alone). With ``normals`` only points whose
+    normal points at the axis (within ``tol.inspect.wall_normal``) count, so
+    that a plane seen about a wrong axis is no wall, and when they are fewer
+    than ``tol.inspect.wall_min_share`` of the points no wall is reported
+    (the axis itself is then not to be trusted).
+
+    Parameters
+    ----------
+    points : (n, 3) float — mm, any frame
+    point, direction : (3,) float — the axis (direction of unit length)
+    r_hint : float — mm, the CAD's outer radius (sets the range searched)
+    normals : (n, 3) float, optional — unit normals of the points
+    """
+    d = points - point
+    radial = d - np.outer(d @ direction, direction)
+    r = np.linalg.norm(radial, axis=1)
+    near = r < 3 * r_hint
+    n_all = int(near.sum())
+    if n_all < 100:
+        return []
+    if normals is not None:
+        cos = np.abs(np.einsum("ij,ij->i", normals, radial)) / np.maximum(r, tol.tiny)
+        near &= (cos > tol.inspect.wall_normal) & (np.abs(normals @ direction) < 0.15)
+        if near.sum() < tol.inspect.wall_min_share * n_all:
+            return []  # too little of the scan is wall about this axis to trust it
+    r = r[near]
+    w = tol.inspect.wall_bin
+    h, edges = np.histogram(r, bins=np.arange(0.0, 3 * r_hint + w, w))
+    pair = h[:-1] + h[1:]   # a wall straddling two bins counts whole
+    strong = np.flatnonzero(pair >= tol.inspect.wall_share * n_all)
+    walls = []
+    for run in np.split(strong, np.flatnonzero(np.diff(strong) > 1) + 1):
+        if len(run):
+            sel = r[(r >= edges[run[0]]) & (r < edges[run[-1] + 2])]
+            walls.append(float(np.median(sel)))
+    return walls
+
+
+def _free_axis(p: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray] | None:
+    """An axis found without any radius: the direction the wall-like points'
+    normals are most nearly perpendicular to, through the point nearest all
+    their normal lines (a tube's walls, inner and outer, all point at it);
+    returns (point, direction, the points' normals), None when too few
+    points look like wall."""
+    nrm = point_normals(p)
+    a = np.linalg.eigh(nrm.T @ nrm)[1][:, 0]
+    wall = np.ones(len(p), bool)
+    for _ in range(4):
+        wall = np.abs(nrm @ a) < 0.15
+        if wall.sum() < 20:
+            return None
+        a = np.linalg.eigh(nrm[wall].T @ nrm[wall])[1][:, 0]
+    n = nrm[wall] - np.outer(nrm[wall] @ a, a)
+    n /= np.maximum(np.linalg.norm(n, axis=1, keepdims=True), tol.tiny)
+    q = p[wall]
+    # least squares: the point c whose offset from each q, across a, lies along its normal
+    P = np.eye(3)[None] - n[:, :, None] * n[:, None, :] - np.outer(a, a)[None]
+    A = P.sum(axis=0) + np.outer(a, a)
+    b = np.einsum("nij,nj->i", P, q) + a * (a @ q.mean(axis=0))
+    return np.linalg.solve(A, b), a, nrm
+
+
+def _check_gauge(points: np.ndarray, cad, max_error: float) -> None:
+    """Refuse, before the costly search, a scan whose coaxial walls are not
+    the CAD's: with two or more walls the outermost must be its outer wall;
+    a single wall (a scan of one side) its outer or its inner wall."""
+    axis = _free_axis(points)
+    if axis is None:
+        return
+    walls = wall_radii(points, axis[0], axis[1], cad.r_o, normals=axis[2])
+    if not walls:
+        return
+    r = walls[-1]
+    if abs(r - cad.r_o) <= max_error * cad.r_o:
+        return
+    if len(walls) == 1 and abs(r - cad.r_i) <= max_error * cad.r_i:
+        return
+    raise ScanError(f"its outermost wall has diameter {2 * r:.4f} mm where the CAD's outer "
+                    f"diameter is {2 * cad.r_o:.4f} mm ({100 * (r / cad.r_o - 1):+.1f} %, allowed "
+                    f"±{100 * max_error:g} %): a scan of another gauge? (refused before "
+                    "registration)")
+
+
 def register(points: np.ndarray, cad, *, inlier_distance: float = 0.01,
-             seed: int = 0, progress=None) -> Registration:
+             seed: int = 0, progress=None,
+             max_diameter_error: float | None = None) -> Registration:
     """Register scan points (scanner frame, mm) onto a :class:`CadModel`.
 
     Parameters
@@ -668,6 +802,11 @@ def register(points: np.ndarray, cad, *, inlier_distance: float = 0.01,
     inlier_distance : float — fitness and inlier RMSE count points within this (mm)
     seed : int — subsets are drawn with this seed (results are reproducible)
     progress : callable(str), optional — stage messages
+    max_diameter_error : float, optional — refuse, right after the axis fit
+        and before the costly search, a scan whose outermost coaxial wall
+        (:func:`wall_radii`) is off the CAD's outer diameter (and, if
+        smaller, its inner one) by more than this share: a wrong gauge;
+        None: only warn beyond 5 %
 
     Returns
     -------
@@ -707,11 +846,14 @@ def register(points: np.ndarray, cad, *, inlier_distance: float = 0.01,
     # the axis needs far fewer points than the final refinement
     p_ax = clean if len(clean) <= tol.inspect.axis_points else \
         clean[rng.choice(len(clean), tol.inspect.axis_points, replace=False)]
+    if max_diameter_error is not None:  # no sharp coaxial wall: no refusal here
+        _check_gauge(p_ax, cad, max_diameter_error)
     say(f"axis fit on {len(p_ax)} points")
     point, a, radius, rms = _axis_stage(p_ax, cad.r_o, cad.r_i)
     axis = {"point_mm": point.tolist(), "direction": a.tolist(), "outer_radius_mm": radius,
             "outer_diameter_mm": 2 * radius, "fit_rms_mm": rms}
-    if abs(radius - cad.r_o) > 0.05 * cad.r_o:
+    off = abs(radius - cad.r_o) / cad.r_o
+    if off > 0.05:
         warnings.append(f"fitted outer diameter {2 * radius:.4f} mm differs from the CAD's "
                         f"{2 * cad.r_o:.4f} mm by more than 5 %")
     say("global search about the axis")
@@ -728,13 +870,13 @@ def register(points: np.ndarray, cad, *, inlier_distance: float = 0.01,
             cands.append((0.0, sign, 0.0, _pose(Ta, 0.0, dz)))
             continue
         period = 2 * math.pi / sym
-        ang, sc, best_turns, dz = _search(q, cad, tol.inspect.search_step,
-                                          tol.inspect.search_points, rng, period, z_feature)
-        for turn, score in best_turns:
+        ang, sc, best_turns = _search(q, cad, tol.inspect.search_step,
+                                      tol.inspect.search_points, rng, period, z_feature)
+        for turn, score, dz in best_turns:
             cands.append((score, sign, turn, _pose(Ta, turn, dz)))
         key = "plus" if sign > 0 else "minus"
         search[f"scores_{key}"] = sc.round(6).tolist()
-        search[f"best_turns_{key}_deg"] = [[math.degrees(t_), s_] for t_, s_ in best_turns]
+        search[f"best_turns_{key}_deg"] = [[math.degrees(t_), s_] for t_, s_, _ in best_turns]
     cands.sort(key=lambda c: c[0])
     say(f"ICP from {min(4, len(cands))} candidate poses")
     small = p[rng.choice(len(p), min(tol.inspect.icp_start_points, len(p)), replace=False)]

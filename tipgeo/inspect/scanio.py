@@ -1,11 +1,18 @@
-"""Reading and writing scans (point clouds and meshes).
+"""Reading and writing scans (point clouds, meshes, instrument height maps).
 
 Units: coordinates are scaled to mm on reading (``units``: ``mm``, ``um``,
 ``m``); the frame is whatever the scanner used (registration finds the
 cannula frame).
 
 Formats: PLY (point cloud or mesh), PCD, XYZ/TXT/PTS/XYZN, STL and OBJ
-(through trimesh; their vertices are the measured points). XYZ/TXT/PTS/XYZN
+(through trimesh; their vertices are the measured points); CSV/TXT exports
+in any common dialect, point lists or height-map grids
+(:mod:`tipgeo.inspect.textscan`); instrument height maps — ``.x3p``,
+``.al3d``, ``.sur``, ``.sdf`` read by tipgeo, the vendor formats of
+:data:`~tipgeo.inspect.heightmap.SURFALIZE_FORMATS` through the optional
+surfalize (:mod:`tipgeo.inspect.heightmap`) — whose valid pixels become
+points in the instrument frame (x, y from the lateral spacing, z the height,
+mm), the count of invalid pixels in ``Scan.meta['invalid_pixels']``. XYZ/TXT/PTS/XYZN
 text and PLY vertices (binary or ASCII) are read in chunks with numpy, so a
 scan of 10⁷ points never sits in memory as text or as Python objects; PCD
 goes through open3d. Errors for missing, empty, unreadable, non-finite or
@@ -33,16 +40,29 @@ import numpy as np
 
 from ..atomic import write_atomic
 from ..errors import ScanError
+from .heightmap import (
+    HEIGHT_MAP_FORMATS,
+    MAX_SCAN_BYTES,
+    MAX_SCAN_POINTS,
+    HeightMap,
+    read_height_map,
+)
+from .textscan import TABLE_LAYOUTS, iter_table_points, read_table_grid, sniff_table
 
 __all__ = ["Scan", "ScanError", "load_scan", "write_ply", "check_points", "SCAN_FORMATS",
+           "POINT_FORMATS", "HEIGHT_MAP_FORMATS", "MAX_SCAN_POINTS", "MAX_SCAN_BYTES",
+           "scan_from_height_map",
            "UNITS", "MAX_COORDINATE_MM", "F32_OFFSET_LIMIT_MM"]
 
 #: Length units accepted for scan files, and their size in mm.
 UNITS: dict[str, float] = {"mm": 1.0, "um": 1.0e-3, "µm": 1.0e-3, "m": 1.0e3}
 
-#: Scan file extensions (lower case).
-SCAN_FORMATS: tuple[str, ...] = (".ply", ".pcd", ".xyz", ".xyzn", ".txt", ".pts", ".stl",
-                                 ".obj")
+#: Point-cloud, mesh and text scan extensions (lower case).
+POINT_FORMATS: tuple[str, ...] = (".ply", ".pcd", ".xyz", ".xyzn", ".txt", ".csv", ".pts",
+                                  ".stl", ".obj")
+
+#: Every scan file extension (lower case): point formats, then height maps.
+SCAN_FORMATS: tuple[str, ...] = POINT_FORMATS + HEIGHT_MAP_FORMATS
 
 #: Largest |coordinate| a scan may have, in mm after the unit conversion (1 km:
 #: far beyond any scanner's frame, far below where squares of coordinates
@@ -191,10 +211,16 @@ class _Accumulator:
     def failed(self) -> bool:
         return self.bad > 0 or self.biggest * self.factor > MAX_COORDINATE_MM
 
+    def _check_count(self, m: int) -> None:
+        if self.count + m > MAX_SCAN_POINTS:
+            raise ScanError(f"{self.where}: more than {MAX_SCAN_POINTS:,} points; allowed at "
+                            f"most {MAX_SCAN_POINTS:,}")
+
     def add(self, xyz: np.ndarray, nrm: np.ndarray | None = None) -> None:
         m = len(xyz)
         if not m:
             return
+        self._check_count(m)
         fin = np.isfinite(xyz).all(axis=1)
         nb = m - int(np.count_nonzero(fin))
         if nb:
@@ -236,6 +262,7 @@ class _Accumulator:
             return False
         if not len(x):
             return True
+        self._check_count(len(x))
         nbad, biggest, lo, hi = chunk_bounds(x, y, z)
         if nbad or max(self.biggest, biggest) * self.factor > MAX_COORDINATE_MM:
             return False
@@ -301,32 +328,57 @@ class _Accumulator:
 
 
 def load_scan(path: str | os.PathLike[str], *, units: str = "mm",
-              compact: bool = False) -> Scan:
+              compact: bool = False, spacing_mm: float | tuple[float, float] | None = None,
+              layout: str | None = None) -> Scan:
     """Read a scan file.
 
     Parameters
     ----------
     path : str or PathLike
-        ``.ply .pcd .xyz .xyzn .txt .pts .stl .obj`` (case-insensitive).
+        Any of :data:`SCAN_FORMATS` (case-insensitive): ``.ply .pcd .xyz
+        .xyzn .txt .csv .pts .stl .obj``, and the height maps of
+        :data:`HEIGHT_MAP_FORMATS` (``.x3p .al3d .sur .sdf`` and, with
+        surfalize, the vendor formats). ``.txt``/``.csv`` are sniffed: a plain
+        x y z list, or any dialect of :mod:`tipgeo.inspect.textscan`.
     units : {'mm', 'um', 'm'}
-        Length unit of the file's coordinates; they are scaled to mm.
+        Length unit of what the file leaves unstated (PLY, XYZ, a CSV without
+        units); a unit the file states (X3P, AL3D, SUR, SDF, a CSV header or
+        key) wins. Everything is scaled to mm.
     compact : bool
         Keep float32 offsets from a float64 origin where that rounds no
         coordinate by more than 2⁻²¹ mm (see the module docstring); default:
         every coordinate exactly as read (float64).
+    spacing_mm : float or (dx, dy), optional
+        Lateral spacing (mm) of a CSV/TXT height-map grid whose header gives
+        none (it makes a file without x, y, z column names a grid).
+    layout : {'points', 'grid'}, optional
+        Force a CSV/TXT file's layout instead of sniffing it.
 
     Returns
     -------
     Scan
+        ``meta`` has the format, the file's units and where they came from
+        (``units_from``), and for a height map its ``grid`` (rows, columns),
+        ``spacing_mm``, ``pixels`` and ``invalid_pixels`` (dropped: NaN or the
+        format's no-data code); for a CSV/TXT point list ``invalid_points``.
 
     Raises
     ------
     ScanError
-        Unknown extension or units; missing, empty or unreadable file; no
-        points; non-finite coordinates; |coordinate| > MAX_COORDINATE_MM.
+        Unknown extension or units; missing, empty, malformed or unreadable
+        file (the message names the file, the part and what was expected);
+        no points; non-finite coordinates; |coordinate| > MAX_COORDINATE_MM;
+        more than :data:`MAX_SCAN_POINTS` points or pixels (a height map is
+        refused from its header, before its data are read).
+    MissingToolError
+        A height-map format that needs surfalize while it is not installed
+        (the message gives the pip line; the command line exits 3).
     """
     if units not in UNITS:
         raise ScanError(f"units = {units!r} is not supported; allowed: mm, um, m")
+    if layout is not None and layout not in TABLE_LAYOUTS:
+        raise ScanError(f"layout = {layout!r} is not supported; allowed: "
+                        + ", ".join(TABLE_LAYOUTS))
     p = Path(path)
     ext = p.suffix.lower()
     if ext not in SCAN_FORMATS:
@@ -336,9 +388,15 @@ def load_scan(path: str | os.PathLike[str], *, units: str = "mm",
         raise ScanError(f"scan '{p}' does not exist")
     if not p.is_file():
         raise ScanError(f"scan '{p}' is not a regular file")
-    if p.stat().st_size == 0:
+    size = p.stat().st_size
+    if size == 0:
         raise ScanError(f"scan '{p}' is empty (0 bytes)")
+    if size > MAX_SCAN_BYTES:
+        raise ScanError(f"scan '{p}' has {size:,} bytes; allowed at most {MAX_SCAN_BYTES:,}")
     where = f"scan '{p}'"
+    meta = {"path": str(p), "format": ext[1:], "source": p.name}
+    if ext in HEIGHT_MAP_FORMATS:
+        return scan_from_height_map(read_height_map(p), compact=compact, meta=meta)
     acc = None
     try:
         if ext in (".stl", ".obj"):
@@ -347,7 +405,37 @@ def load_scan(path: str | os.PathLike[str], *, units: str = "mm",
             acc.add(np.asarray(pts, np.float64), nrm)
         elif ext == ".ply":
             acc = _read_ply(p, where, units, compact)
-        elif ext in (".xyz", ".txt", ".pts", ".xyzn"):
+        elif ext in (".txt", ".csv"):
+            table = sniff_table(p, units=units, spacing_mm=spacing_mm, layout=layout)
+            if table is None:            # no one dialect: the plain x y z reader
+                acc = _Accumulator(where, units, compact)
+                _read_text(p, acc, normals=False, count_line=False)
+                meta["units_from"] = "argument"
+            elif table.layout == "grid":
+                hm = read_table_grid(p, table)
+                return scan_from_height_map(hm, compact=compact, meta=meta)
+            else:
+                acc = _Accumulator(where, "mm", compact)
+                invalid = 0
+                for pts, bad in iter_table_points(p, table):
+                    invalid += bad
+                    acc.add(pts)
+                if acc.count == 0 and not acc.failed:
+                    raise ScanError(f"{where} holds no valid points ({invalid} rows with "
+                                    "no-data fields)")
+                s = acc.finish(meta)
+                units_col = [table.col_units[k] or (table.z_unit if a == "z" else
+                                                    table.xy_unit)
+                             for a, k in zip("xyz", table.xyz)]
+                s.meta.update(file_units=units_col[2] if len(set(units_col)) == 1 else
+                              "/".join(units_col), units_from=table.units_from,
+                              invalid_points=invalid, layout="points",
+                              separator=table.sep or "whitespace", decimal=table.decimal,
+                              columns=[table.columns[k] or str(k + 1) for k in table.xyz])
+                if table.unit_col is not None:
+                    s.meta["file_units"] = "per row (unit column)"
+                return s
+        elif ext in (".xyz", ".pts", ".xyzn"):
             acc = _Accumulator(where, units, compact)
             _read_text(p, acc, normals=(ext == ".xyzn"), count_line=(ext == ".pts"))
         else:
@@ -361,7 +449,31 @@ def load_scan(path: str | os.PathLike[str], *, units: str = "mm",
     except Exception as e:  # any reader failure is a bad file
         raise ScanError(f"{where} could not be read as {ext}: {type(e).__name__}: {e}") \
             from None
-    return acc.finish({"path": str(p), "format": ext[1:], "source": p.name})
+    return acc.finish(meta)
+
+
+def scan_from_height_map(hm: HeightMap, *, compact: bool = False,
+                         meta: dict[str, Any] | None = None) -> Scan:
+    """The valid pixels of a height map as a :class:`Scan` in the instrument
+    frame (x = x0 + column·dx, y = y0 + row·dy, z = height; mm), its grid,
+    spacing and invalid-pixel count in ``meta``."""
+    where = f"scan '{hm.source}'"
+    if hm.pixels > MAX_SCAN_POINTS:
+        raise ScanError(f"{where}: {hm.pixels:,} pixels; allowed at most {MAX_SCAN_POINTS:,}")
+    acc = _Accumulator(where, "mm", compact, capacity=hm.pixels - hm.invalid)
+    for pts in hm.iter_points(rows=max(1, (1 << 20) // max(1, hm.shape[1]))):
+        acc.add(pts)
+    invalid = hm.invalid
+    if acc.count == 0:
+        raise ScanError(f"{where}: every one of its {hm.pixels:,} pixels is invalid (no-data)")
+    m = dict(meta or {"format": hm.format, "source": hm.source})
+    m.update({k: v for k, v in hm.meta.items() if k not in ("header_keys",)})
+    s = acc.finish(m)
+    s.meta.update(file_units=hm.meta.get("file_units", "mm"),
+                  units_from=hm.meta.get("units_from", "file"), layout="grid",
+                  grid=list(hm.shape), spacing_mm=[hm.dx, hm.dy],
+                  origin_mm=[hm.x0, hm.y0], pixels=hm.pixels, invalid_pixels=invalid)
+    return s
 
 
 def _read_open3d(p: Path, ext: str):
@@ -559,6 +671,9 @@ def _read_ply(p: Path, where: str, units: str, compact: bool) -> _Accumulator:
         acc.add(pts, nrm)
         return acc
     _, n, props = elements[0]
+    if n > MAX_SCAN_POINTS:
+        raise ScanError(f"{where}: the PLY header gives {n:,} vertices; allowed at most "
+                        f"{MAX_SCAN_POINTS:,}")
     names = [k for k, _ in props]
     if not {"x", "y", "z"} <= set(names):
         raise ScanError(f"{where}: the vertex element has no x, y, z properties")

@@ -35,14 +35,30 @@ from types import SimpleNamespace
 
 import numpy as np
 
-from ..errors import ExportError
+from ..errors import ExportError, MissingToolError
 from ..tolerances import tol
 
-__all__ = ["ExactSolid", "exact_solid", "exact_supported", "occ"]
+__all__ = ["ExactSolid", "exact_solid", "exact_supported", "occ", "OcpMissing", "ocp_missing"]
+
+#: How to get OCP, for messages.
+OCP_INSTALL = 'pip install "tipgeo[step]"'
+
+
+class OcpMissing(MissingToolError, ExportError):
+    """The OpenCASCADE bindings OCP are not installed: a missing external
+    tool (exit 3), and a file that could not be written for callers that
+    catch :class:`~tipgeo.errors.ExportError`."""
+
+
+def ocp_missing(exc: ImportError) -> OcpMissing:
+    """The error for a failed OCP import, with the install line."""
+    return OcpMissing(f"STEP export needs the OpenCASCADE bindings OCP, which are not "
+                      f"installed ({exc}); install them with: {OCP_INSTALL}")
 
 
 def occ() -> SimpleNamespace:
-    """The OCP modules the exact B-rep uses (ExportError if OCP is missing)."""
+    """The OCP modules the exact B-rep uses (:class:`OcpMissing`, an
+    ExportError, if OCP is missing)."""
     try:
         from OCP import (
             GC,
@@ -61,9 +77,7 @@ def occ() -> SimpleNamespace:
         )
         from OCP.collections import Array2_double
     except ImportError as exc:
-        raise ExportError(f"STEP export needs the OpenCASCADE bindings OCP, which are not "
-                          f"installed ({exc}); install them with: pip install \"tipgeo[step]\""
-                          ) from exc
+        raise ocp_missing(exc) from exc
     return SimpleNamespace(BRepAlgoAPI=BRepAlgoAPI, BRepBuilderAPI=BRepBuilderAPI,
                            BRepCheck=BRepCheck, BRepGProp=BRepGProp, BRepPrimAPI=BRepPrimAPI,
                            GeomAPI=GeomAPI, GProp=GProp, ShapeUpgrade=ShapeUpgrade,

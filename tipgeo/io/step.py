@@ -23,7 +23,7 @@ from pathlib import Path
 from types import SimpleNamespace
 
 from ..tip import Tip
-from .brep import exact_solid, exact_supported
+from .brep import exact_solid, exact_supported, ocp_missing
 from .common import ExportError
 from .registry import STEP_FORMS, ExportOptions, register_exporter
 
@@ -31,7 +31,8 @@ __all__ = ["STEP_FORMS", "precheck_step", "step_form_for", "step_solid", "write_
 
 
 def _ocp() -> SimpleNamespace:
-    """The OCP classes the STEP writer uses (ExportError if OCP is missing)."""
+    """The OCP classes the STEP writer uses (:class:`~tipgeo.io.brep.OcpMissing`,
+    a MissingToolError and an ExportError, if OCP is missing)."""
     try:
         from OCP.BRep import BRep_Builder
         from OCP.BRepBuilderAPI import BRepBuilderAPI_MakeShapeOnMesh
@@ -47,9 +48,7 @@ def _ocp() -> SimpleNamespace:
         from OCP.TopExp import TopExp_Explorer
         from OCP.TopoDS import TopoDS_Shell, TopoDS_Solid
     except ImportError as exc:
-        raise ExportError(f"STEP export needs the OpenCASCADE bindings OCP, which are not "
-                          f"installed ({exc}); install them with: pip install \"tipgeo[step]\""
-                          ) from exc
+        raise ocp_missing(exc) from exc
     return SimpleNamespace(
         BRep_Builder=BRep_Builder, BRepBuilderAPI_MakeShapeOnMesh=BRepBuilderAPI_MakeShapeOnMesh,
         gp_Pnt=gp_Pnt, IFSelect_RetDone=IFSelect_RetDone, Interface_Static=Interface_Static,

@@ -511,7 +511,6 @@ def run_study(config: StudyConfig, out_dir: str | Path, *, executor=None, cache:
     }
     verdict = study_verdict(config, report)
     report["verdict"] = verdict.to_dict()
-    log(verdict.line())
     f = out / "report.json"
     write_text_atomic(f, _dumps(report))
     return report

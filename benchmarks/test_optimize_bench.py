@@ -6,6 +6,7 @@ Run: python -m pytest benchmarks/test_optimize_bench.py --benchmark-only
   process and on two local processes (no cache: every tip analysed);
 - a fully cached re-run of the 25 points;
 - the GP fit of the seven responses and the three optimisations;
+- the shipped bevel study (`bevel-study`) end to end;
 - the whole shipped study as ``tipgeo optimize samples/helical-study.toml``
   runs it (two local processes, no cache: sweep, GP, adaptive infill, the
   three optima built, pictures): issue 13 asks for under 2 minutes on two
@@ -151,3 +152,17 @@ def test_holdout_coverage_of_the_intervals(benchmark):
         print(f"  {name:<16} inside 95 %: {v['holdout_coverage95']:.1%}; largest error "
               + (f"{v['max_error_frac']:.2%} of the range" if v["max_error_frac"] is not None
                  else "—") + f"; log density {v['holdout_log_density']:.2f} per point")
+
+
+def test_bevel_study(benchmark, tmp_path_factory):
+    """The shipped bevel study (13 points over ξ 15–75°, three objectives, the
+    optima built, pictures) in this process, no cache."""
+    from tipgeo.optimize import run_study
+
+    cfg = study_preset("bevel-study")
+    rep = benchmark.pedantic(
+        lambda: run_study(cfg, tmp_path_factory.mktemp("bevel"), executor=SerialExecutor(),
+                          cache=False, progress=False, log=lambda s: None),
+        rounds=1, iterations=1)
+    assert rep["verdict"]["ok"], rep["verdict"]["reasons"]
+    benchmark.extra_info["optima_xi_deg"] = [o["x"]["xi_deg"] for o in rep["optima"]]

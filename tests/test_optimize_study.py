@@ -339,3 +339,35 @@ def test_cli_optimize_report(tmp_path, capsys):
 def test_cli_bad_input_is_a_spec_error(argv, match):
     with pytest.raises(SpecError, match=match):
         _run(argv)
+
+
+def test_the_search_refuses_unvalidated_only_where_the_grid_saw_nothing_buildable(
+        monkeypatch):
+    """search_feasibility: a point in a cell of the screened candidate grid with
+    no admissible node is refused without validation; every other point is
+    validated, so everything it admits is buildable."""
+    from tipgeo.cutters.helical import HelicalCutter
+    from tipgeo.optimize import run_sweep
+    from tipgeo.optimize.study import feasibility, grid_verdicts, search_feasibility
+
+    cfg = loads_config(WIDE.replace("[design]\nlevels = 3",
+                                    "[design]\nmethod = \"maximin\"\npoints = 6\n"
+                                    "candidates = 25"))
+    sw = run_sweep(cfg, executor=SerialExecutor(), cache=False, progress=False)
+    assert not sw.screen["grid_ok"].all()  # φ = 20° is past the fold
+    calls = []
+    orig = HelicalCutter.check
+    monkeypatch.setattr(HelicalCutter, "check",
+                        lambda self, cannula: calls.append(1) or orig(self, cannula))
+    search = search_feasibility(cfg, feasibility(cfg), sw.screen)
+    P = np.array(np.meshgrid(np.linspace(5.0, 25.0, 21), np.linspace(5.0, 20.0, 21))
+                 ).reshape(2, -1).T
+    X = P[~grid_verdicts(cfg, sw.screen)(P)]  # cells with no admissible node
+    assert len(X) >= 10 and np.all(X[:, 1] >= 16.25)  # at or beyond the fold, all of them
+    assert not search(X).any() and calls == []
+    Y = np.column_stack([np.linspace(5.0, 25.0, 5), np.linspace(6.0, 14.0, 5)])
+    ok = search(Y)
+    assert len(calls) == 5 and ok.all()  # validated, one each
+    for y in Y:
+        cfg.spec(y)
+    assert search_feasibility(cfg, feasibility(cfg), None) is not None

@@ -475,13 +475,71 @@ def test_tables_round_trip_csv_and_parquet(tmp_path):
         write_table(res, tmp_path / "s.xlsx")
 
 
-def test_progress_goes_to_the_stream():
-    import io
+class _Recorder:
+    """Stands in for a tqdm bar: what the sweep told it."""
 
-    buf = io.StringIO()
-    run_sweep(cfg3(), cache=False, progress=True, stream=buf)
-    last = buf.getvalue().strip().splitlines()[-1]
-    assert "9/9 100%" in last and last.startswith("sweep h3:")
+    def __init__(self, log, total, desc, unit):
+        self.log, self.total, self.desc, self.unit = log, total, desc, unit
+        self.n, self.postfix, self.closed = 0, "", False
+        log.append(self)
+
+    def update(self, n=1):
+        self.n += n
+
+    def set_postfix_str(self, s="", refresh=True):
+        self.postfix = s
+
+    def refresh(self):
+        pass
+
+    def close(self):
+        self.closed = True
+
+
+@pytest.fixture
+def bars(monkeypatch):
+    """Progress on, every bar recorded (tipgeo.progress.bar replaced)."""
+    from tipgeo import progress
+
+    log = []
+    monkeypatch.setattr(progress, "_mode", "on")
+    monkeypatch.setattr(progress, "bar",
+                        lambda total, desc, *, unit="it", leave=False:
+                        _Recorder(log, total, desc, unit))
+    return log
+
+
+def test_sweep_progress_goes_through_tipgeo_progress(bars, tmp_path):
+    cache = ResultCache(tmp_path / "c")
+    run_sweep(cfg3(), cache=cache, progress=True)
+    (b,) = bars
+    assert (b.desc, b.unit, b.total, b.n, b.closed) == ("sweep h3", "config", 9, 9, True)
+    assert b.postfix == ""  # nothing cached, nothing failed
+    # the cached re-run counts its cache hits on the bar
+    run_sweep(cfg3(), cache=ResultCache(tmp_path / "c"), progress=True)
+    assert (bars[1].n, bars[1].postfix) == (9, "9 cached")
+
+
+def test_progress_false_silences_the_bars(bars):
+    run_sweep(cfg3(), cache=False, progress=False)
+    assert bars == []
+
+
+def test_maximin_screening_shows_one_bar_cached_on_the_re_run(bars, tmp_path):
+    cfg = loads_config(HELICAL_3X3.replace("[design]\nlevels = 3",
+                                           "[design]\nmethod = \"maximin\"\npoints = 4\n"
+                                           "candidates = 25"))
+    first = run_sweep(cfg, cache=ResultCache(tmp_path / "c"), progress=True)
+    screen, sweep = bars
+    v = first.design["validated"]
+    assert (screen.desc, screen.unit, screen.total, screen.n) == ("screen h3", "spec", v, v)
+    assert screen.closed and (sweep.desc, sweep.total) == ("sweep h3", 4)
+    bars.clear()
+    second = run_sweep(cfg, cache=ResultCache(tmp_path / "c"), progress=True)
+    assert second.design == first.design | {"seconds": second.design["seconds"]}
+    screen, sweep = bars
+    assert screen.n == v and screen.postfix.startswith(f"{v} cached")
+    assert sweep.postfix == "4 cached" and second.computed == 0
 
 
 # -- executors -------------------------------------------------------------------------
@@ -544,3 +602,82 @@ def test_sample_study_config_matches_the_built_in():
             assert x[1] > 15.0
             assert "folds over inside the tube" in str(e) or "too steep or curved" in str(e)
     assert 0 < refused < 25
+
+
+# -- missing optional tools: exit code 3, the install line named ---------------------------
+def test_missing_dask_is_a_missing_tool_error(monkeypatch):
+    from tipgeo.errors import MissingToolError
+    from tipgeo.optimize import DaskExecutor
+
+    monkeypatch.setitem(__import__("sys").modules, "distributed", None)  # import fails
+    with pytest.raises(MissingToolError, match=r'pip install "dask\[distributed\]"') as e:
+        run_sweep(cfg3(), executor=DaskExecutor("tcp://127.0.0.1:9"), cache=False,
+                  progress=False)
+    assert isinstance(e.value, SpecError)  # as before the family existed
+
+
+@pytest.mark.parametrize("op", ["write", "read"])
+def test_missing_pyarrow_is_a_missing_tool_error(monkeypatch, tmp_path, op):
+    from tipgeo.errors import MissingToolError
+
+    res = run_sweep(cfg3(), X=np.array([[10.0, 13.5]]), cache=False, progress=False)
+    monkeypatch.setitem(__import__("sys").modules, "pyarrow", None)
+    monkeypatch.setitem(__import__("sys").modules, "pyarrow.parquet", None)
+    with pytest.raises(MissingToolError, match=r"pip install pyarrow .*allowed without it: "
+                                               r"\.csv") as e:
+        (write_table(res, tmp_path / "s.parquet") if op == "write"
+         else read_table(tmp_path / "s.parquet"))
+    assert isinstance(e.value, SpecError)
+
+
+# -- the content hash is cheap: no geometric check ----------------------------------------
+def test_content_hash_is_the_validated_canonical_form_without_validating(monkeypatch):
+    """spec_hash normalises the keys as spec_from_dict does (so a valid spec
+    hashes as its spec_to_dict form) but never runs the cutters' geometric
+    checks: a cached sweep or screening re-run hashes every configuration."""
+    from tipgeo.cutters.helical import HelicalCutter
+    from tipgeo.optimize.cache import _canonical
+    from tipgeo.presets import preset, preset_names
+    from tipgeo.spec import spec_from_dict, spec_to_dict
+
+    def validated(d):
+        out = spec_to_dict(spec_from_dict(d))
+        out.pop("name", None)
+        out.pop("description", None)
+        return out
+
+    cfg = cfg3()
+    dicts = ([spec_to_dict(preset(n)) for n in preset_names()]
+             + [cfg.spec_dict(x, i) for i, x in enumerate(make_design(cfg.variables, "grid",
+                                                                      levels=3))])
+    expected = [validated(d) for d in dicts]
+    calls = []
+    orig = HelicalCutter.check
+    monkeypatch.setattr(HelicalCutter, "check",
+                        lambda self, cannula: calls.append(1) or orig(self, cannula))
+    assert [_canonical(d) for d in dicts] == expected
+    # equal tips hash equal however written (10 or 10.0 degrees)
+    d = spec_to_dict(preset("bevel-14G-xi15"))
+    d2 = json.loads(json.dumps(d))
+    d2["cutters"][0]["xi_deg"] = 15
+    assert spec_hash(d, {}) == spec_hash(d2, {})
+    assert calls == []
+
+
+def test_cached_maximin_re_run_validates_nothing(monkeypatch, tmp_path):
+    from tipgeo.cutters.helical import HelicalCutter
+
+    cfg = loads_config(HELICAL_3X3.replace("[design]\nlevels = 3",
+                                           "[design]\nmethod = \"maximin\"\npoints = 4\n"
+                                           "candidates = 25"))
+    first = run_sweep(cfg, cache=ResultCache(tmp_path / "c"), progress=False)
+    calls = []
+    orig = HelicalCutter.check
+    monkeypatch.setattr(HelicalCutter, "check",
+                        lambda self, cannula: calls.append(1) or orig(self, cannula))
+    monkeypatch.setattr(responses_mod, "evaluate_spec",
+                        lambda *a: pytest.fail("a cached configuration was analysed"))
+    second = run_sweep(cfg, cache=ResultCache(tmp_path / "c"), progress=False)
+    assert calls == [] and second.computed == 0 and second.cached == 4
+    assert second.to_csv() == first.to_csv()
+    np.testing.assert_array_equal(second.screen["grid_ok"], first.screen["grid_ok"])

@@ -28,7 +28,7 @@ from .config import (
     loads_config,
 )
 from .design import DESIGN_METHODS, make_design, unit_design
-from .executors import DaskExecutor, ProcessExecutor, Progress, SerialExecutor, make_executor
+from .executors import DaskExecutor, ProcessExecutor, SerialExecutor, make_executor
 from .gp import GaussianProcess, length_scales
 from .objective import Optimum, optimize_objective, pareto_front, scaled_terms, verify_optimum
 from .presets import STUDIES, resolve_study, study_preset
@@ -41,7 +41,7 @@ __all__ = ["ResultCache", "code_fingerprint", "default_cache_dir", "spec_hash", 
            "Objective",
            "StudyConfig", "Term", "Variable", "config_from_dict", "load_config",
            "loads_config", "DESIGN_METHODS", "make_design", "unit_design", "DaskExecutor",
-           "ProcessExecutor", "Progress", "SerialExecutor", "make_executor", "GaussianProcess",
+           "ProcessExecutor", "SerialExecutor", "make_executor", "GaussianProcess",
            "length_scales", "Optimum", "optimize_objective", "pareto_front", "scaled_terms",
            "verify_optimum", "RESPONSES", "THESIS", "evaluate_spec", "responses_from_summary",
            "feasibility", "run_study", "Surrogate", "fit_surrogate", "SweepResult",

@@ -55,13 +55,39 @@ def code_fingerprint() -> str:
 
 
 def _canonical(spec_dict: dict[str, Any]) -> dict[str, Any]:
+    """The spec's geometry in canonical TOML form, without name and description.
+
+    Every key is parsed and normalised as :func:`~tipgeo.spec.spec_from_dict`
+    does (units, defaults, alternatives such as gauge or diameters), but the
+    cutters are not checked against the cannula: that geometric check (a
+    helical cutter's fold-over and mesh-resolution tests, ~0.05 s each) decides
+    whether a tip exists, not what it is, and hashing must stay cheap — a
+    cached sweep or screening re-run hashes every configuration and candidate.
+    For a valid spec this is ``spec_to_dict(spec_from_dict(d))``; a spec whose
+    keys do not parse is hashed as written.
+    """
+    from types import SimpleNamespace
+
+    from .. import spec as S
     from ..errors import SpecError
-    from ..spec import spec_from_dict, spec_to_dict
 
     try:
-        d = spec_to_dict(spec_from_dict(spec_dict))
+        t = S._keys("spec", spec_dict, S._TOP_KEYS)
+        cannula = S._cannula(S._need("spec", t, "cannula"))
+        raw = S._need("spec", t, "cutters")
+        if not isinstance(raw, list) or not raw:
+            raise SpecError("cutters: expected a non-empty array of tables")
+        cutters = [S._cutter(S._cutter_table(k, c, None)) for k, c in enumerate(raw)]
+        tolerance = None
+        if "tolerance_um" in t:
+            tu = S._num("tolerance_um", t["tolerance_um"])
+            if not 0 < tu <= 100:
+                raise SpecError(f"tolerance_um = {tu:g} is out of range")
+            tolerance = tu * 1e-3
+        d = S.spec_to_dict(SimpleNamespace(cannula=cannula, cutters=tuple(cutters), name="",
+                                           description="", tolerance=tolerance))
     except SpecError:
-        d = dict(spec_dict)  # an invalid spec: hash it as written
+        d = dict(spec_dict)  # keys that do not parse: hash it as written
     d.pop("name", None)
     d.pop("description", None)
     return d

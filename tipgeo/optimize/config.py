@@ -32,6 +32,9 @@ Example (``samples/helical-study.toml`` holds the thesis's study)::
     cache = true                    # or a folder; false: no cache
 
     [surrogate]
+    # responses = [...]             # GPs fitted: the objectives' responses unless given
+    #                               # (a response constant over the design is never
+    #                               # fitted: the report lists it, an objective on it is flat)
     nugget = false                  # false | true (MLE) | δ
     kernel = "gaussian"             # eq. 3.26 | "matern72" | "matern52" | "matern32" | "auto"
     # response_kernels = { theta_max_deg = "matern72" }   # per-response exceptions
@@ -155,8 +158,12 @@ class StudyConfig:
     responses : tuple of str — recorded and modelled responses
     workers : int or None — local processes (None: all CPUs)
     cache : str, bool — folder, ``True`` (default folder) or ``False``
-    surrogate : dict — ``nugget``, ``mode``, ``kernel``, ``response_kernels``
-        (response → family), ``starts``, ``seed``, ``calibrate``
+    surrogate : dict — ``responses`` (those that may be modelled: the
+        objectives' terms are among them; default the recorded responses),
+        ``requested`` (those the config names to be modelled: ``[surrogate]``,
+        ``[infill]`` or ``[plots] responses`` given explicitly), ``nugget``,
+        ``mode``, ``kernel``, ``response_kernels`` (response → family),
+        ``starts``, ``seed``, ``calibrate``
     infill : dict — ``rounds`` (most rounds of adding training points at the
         optima, 0: none), ``threshold`` (largest GP error at a verified
         optimum, as a fraction of each response's training range) and
@@ -199,6 +206,22 @@ class StudyConfig:
         from ..spec import spec_from_dict
 
         return spec_from_dict(self.spec_dict(x))
+
+    @property
+    def objective_responses(self) -> tuple[str, ...]:
+        """The responses the objectives' terms use, in order of first use."""
+        return tuple(dict.fromkeys(t.response for o in self.objectives for t in o.terms))
+
+    @property
+    def modelled(self) -> tuple[str, ...]:
+        """The responses a study fits a GP to (before constant ones are set
+        aside): those the objectives use and those the config asks for
+        (``surrogate["requested"]``); with no objectives, every one of
+        ``surrogate["responses"]``. Order: ``surrogate["responses"]``'s."""
+        if not self.objectives:
+            return tuple(self.surrogate["responses"])
+        want = set(self.objective_responses) | set(self.surrogate.get("requested", ()))
+        return tuple(r for r in self.surrogate["responses"] if r in want)
 
     @property
     def bounds(self) -> list[tuple[float, float]]:
@@ -580,6 +603,13 @@ def config_from_dict(data: Any, *, base_dir: str | Path | None = None,
         raise SpecError("objectives: two objectives share a name; allowed unique names")
 
     pl = _table("plots", t.get("plots", {}), ("responses", "variables", "resolution"))
+    # responses the config names to be modelled beyond the objectives' own
+    requested = tuple(dict.fromkeys(
+        (surrogate["responses"] if "responses" in sg else ())
+        + (infill["responses"] if "responses" in inf else ())
+        + (_responses("plots.responses", pl["responses"], surrogate["responses"])
+           if "responses" in pl else ())))
+    surrogate["requested"] = requested
     pvars = pl.get("variables", names[:2])
     pvars = _list("plots.variables", pvars)
     if not 1 <= len(pvars) <= 2 or len(pvars) > len(names):

@@ -11,14 +11,17 @@ the sweep.
 from __future__ import annotations
 
 import os
-import sys
-import time
 from collections.abc import Callable, Sequence
 from typing import Any
 
-from ..errors import SpecError
+from ..errors import MissingToolError, SpecError
 
-__all__ = ["SerialExecutor", "ProcessExecutor", "DaskExecutor", "make_executor", "Progress"]
+__all__ = ["SerialExecutor", "ProcessExecutor", "DaskExecutor", "make_executor", "MissingDask"]
+
+
+class MissingDask(MissingToolError, SpecError):
+    """Dask (``distributed``) is not installed: a missing tool (exit code 3),
+    and a :class:`~tipgeo.errors.SpecError` as it was before that family existed."""
 
 
 def _failure(e: BaseException) -> dict[str, Any]:
@@ -138,8 +141,8 @@ class DaskExecutor:
         try:
             from distributed import Client, as_completed
         except ImportError:
-            raise SpecError("--scheduler needs Dask: pip install \"dask[distributed]\" "
-                            "(or tipgeo[cluster])") from None
+            raise MissingDask("--scheduler needs Dask, which is not installed: pip install "
+                              "\"dask[distributed]\" (or tipgeo[cluster])") from None
         own = self.client is None
         if own:
             try:
@@ -180,51 +183,3 @@ def make_executor(workers: int | None = None, scheduler: str | None = None):
     if workers == 1:
         return SerialExecutor()
     return ProcessExecutor(workers)
-
-
-class Progress:
-    """A progress line on stderr: ``label: 12/25 48% 3.1 s ETA 3.4 s (2 cached, 1 failed)``.
-
-    On a terminal the line is redrawn in place; otherwise a line is printed at
-    most every ``interval_s`` seconds and at the end.
-    """
-
-    def __init__(self, total: int, label: str = "sweep", *, stream=None, enabled: bool = True,
-                 interval_s: float = 2.0):
-        self.total, self.label, self.enabled = total, label, enabled
-        self.stream = stream if stream is not None else sys.stderr
-        self.tty = bool(getattr(self.stream, "isatty", lambda: False)())
-        self.done = self.cached = self.failed = 0
-        self.t0 = time.perf_counter()
-        self._last = -1e9
-        self.interval_s = interval_s
-
-    def update(self, *, cached: bool = False, failed: bool = False) -> None:
-        """Count one finished configuration."""
-        self.done += 1
-        self.cached += cached
-        self.failed += failed
-        if not self.enabled:
-            return
-        now = time.perf_counter()
-        if self.tty or now - self._last >= self.interval_s or self.done == self.total:
-            self._last = now
-            self._draw(now)
-
-    def _draw(self, now: float) -> None:
-        dt = now - self.t0
-        frac = self.done / max(self.total, 1)
-        eta = dt / frac - dt if 0 < frac < 1 else 0.0
-        width = 24
-        bar = "#" * int(width * frac) + "-" * (width - int(width * frac))
-        extra = ", ".join(s for s in (f"{self.cached} cached" if self.cached else "",
-                                      f"{self.failed} failed" if self.failed else "") if s)
-        line = (f"{self.label}: [{bar}] {self.done}/{self.total} {100 * frac:3.0f}% "
-                f"{dt:.1f} s" + (f" ETA {eta:.1f} s" if self.done < self.total else "")
-                + (f" ({extra})" if extra else ""))
-        if self.tty:
-            end = "\n" if self.done == self.total else ""
-            self.stream.write("\r" + line + "\x1b[K" + end)
-        else:
-            self.stream.write(line + "\n")
-        self.stream.flush()

@@ -79,7 +79,8 @@ def _refit(old: Surrogate, X, Y) -> Surrogate:
 
 def infill_optima(config, surrogate: Surrogate, *, feasible=None, executor=None,
                   cache: Any = False, rounds: int | None = None,
-                  threshold: float | None = None, log=None) -> InfillResult:
+                  threshold: float | None = None, log=None,
+                  objectives=None) -> InfillResult:
     """Optimise the config's objectives, verify, and add training points at the
     optima until the GP's error there is below ``threshold`` × range for every
     modelled response (see the module docstring).
@@ -94,6 +95,9 @@ def infill_optima(config, surrogate: Surrogate, *, feasible=None, executor=None,
     rounds : int — most rounds that add points (default ``config.infill``)
     threshold : float — fraction of each response's training range
     log : callable(str), optional
+    objectives : sequence of Objective, optional — instead of the config's
+        (:func:`~tipgeo.optimize.study.run_study` passes them without the
+        terms on responses that are constant over the design)
 
     Returns
     -------
@@ -104,8 +108,13 @@ def infill_optima(config, surrogate: Surrogate, *, feasible=None, executor=None,
     log = log or (lambda s: None)
     rounds = config.infill["rounds"] if rounds is None else int(rounds)
     threshold = config.infill["threshold"] if threshold is None else float(threshold)
+    objectives = list(config.objectives if objectives is None else objectives)
     names = list(surrogate.responses)
-    crit = [n for n in (config.infill.get("responses") or names) if n in names]
+    # checked: the config's infill responses that are modelled, else those the
+    # objectives optimised here use, else every modelled one
+    crit = ([n for n in (config.infill.get("responses") or names) if n in names]
+            or [n for n in dict.fromkeys(t.response for o in objectives for t in o.terms)
+                if n in names] or names)
     X, Y = np.array(surrogate.X_, float), np.array(surrogate.Y_, float)
     sur = surrogate
     history: list[dict] = []
@@ -115,7 +124,7 @@ def infill_optima(config, surrogate: Surrogate, *, feasible=None, executor=None,
     while True:
         optima: list[Optimum] = [optimize_objective(sur, obj, feasible=feasible,
                                                     seed=config.surrogate["seed"])
-                                 for obj in config.objectives]
+                                 for obj in objectives]
         if not optima:
             return InfillResult(sur, [], [], X, Y, 0, r, True, history)
         # an optimum at a point already analysed (an earlier round, or another

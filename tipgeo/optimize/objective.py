@@ -93,6 +93,14 @@ def pareto_front(F: np.ndarray) -> np.ndarray:
     return keep
 
 
+def _thin(U: np.ndarray, S: np.ndarray, most: int) -> tuple[np.ndarray, np.ndarray]:
+    """At most ``most`` points of a front, evenly spaced along its first term."""
+    if len(U) <= most:
+        return U, S
+    idx = np.argsort(S[:, 0], kind="stable")[np.linspace(0, len(U) - 1, most).astype(int)]
+    return U[idx], S[idx]
+
+
 def optimize_objective(surrogate, objective: Objective, *, feasible=None,
                        candidates: int = 4096, polish: int = 6, refine: int = 4,
                        max_front: int = 200, seed: int = 0) -> Optimum:
@@ -136,7 +144,10 @@ def optimize_objective(surrogate, objective: Objective, *, feasible=None,
     if objective.combine == "pareto":
         S = scaled_terms(surrogate, objective, surrogate.predict(X))
         mask = pareto_front(S)
-        Sf, Uf = S[mask], U[mask]
+        # thinned before it is refined: where the whole box is the front (one
+        # variable, two conflicting monotone terms) the 8-fold resampling of
+        # every candidate would make the dominance test quadratic in ~37 000 points
+        Uf, Sf = _thin(U[mask], S[mask], max_front)
         # refine: resample around the front at shrinking scales, keep the non-dominated
         rng = np.random.default_rng(seed)
         scale = 0.5 / len(U) ** (1.0 / d)
@@ -147,10 +158,7 @@ def optimize_objective(surrogate, objective: Objective, *, feasible=None,
             Sf = np.vstack([Sf, scaled_terms(surrogate, objective,
                                              surrogate.predict(lo + Un * span))])
             keep = pareto_front(Sf)
-            Uf, Sf = Uf[keep], Sf[keep]
-            if len(Uf) > max_front:  # thin evenly along the first term
-                idx = np.argsort(Sf[:, 0])[np.linspace(0, len(Uf) - 1, max_front).astype(int)]
-                Uf, Sf = Uf[idx], Sf[idx]
+            Uf, Sf = _thin(Uf[keep], Sf[keep], max_front)
             scale *= 0.5
         Xf = lo + Uf * span
         if feasible is not None:  # validations are costly: only the front's points

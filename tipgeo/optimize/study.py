@@ -16,6 +16,7 @@ Outputs in one folder (all written atomically):
 
 from __future__ import annotations
 
+import math
 import sys
 import time
 from pathlib import Path
@@ -23,6 +24,7 @@ from typing import Any
 
 import numpy as np
 
+from .. import progress as _progress
 from ..jsonio import dumps as _dumps
 from .config import StudyConfig
 from .infill import infill_optima, training_ranges
@@ -30,7 +32,8 @@ from .objective import term_summary, verify_optimum
 from .surrogate import fit_surrogate
 from .sweep import run_sweep, write_table
 
-__all__ = ["run_study", "feasibility", "grid_verdicts", "edge_report"]
+__all__ = ["run_study", "feasibility", "grid_verdicts", "edge_report",
+           "constant_responses", "study_verdict", "flat_message", "search_feasibility"]
 
 
 def feasibility(config: StudyConfig, known=None):
@@ -93,6 +96,34 @@ def grid_verdicts(config: StudyConfig, screen: dict):
     return feasible
 
 
+def search_feasibility(config: StudyConfig, feasible, screen: dict | None):
+    """The optimiser's feasibility test: ``feasible`` (a real validation), but
+    a point in a cell of a ``maximin`` design's screened candidate grid where
+    no node is admissible (:func:`grid_verdicts`: the region the pictures leave
+    blank) is refused without validating it.
+
+    The objectives' best GP values often lie past the buildable boundary
+    (where the GP extrapolates), and the multi-start search checks candidates
+    best first: on the helical study 923 candidates there were validated
+    (~15 s) before six feasible starts were found, for an optimum identical
+    bit for bit to this test's, which validates 54. Only refusals are
+    inferred: every point it admits was validated. ``screen`` None (not a
+    ``maximin`` design): ``feasible`` itself."""
+    if screen is None:
+        return feasible
+    seen = grid_verdicts(config, screen)
+
+    def search(X) -> np.ndarray:
+        X = np.atleast_2d(np.asarray(X, float))
+        out = np.zeros(len(X), bool)
+        maybe = seen(X)
+        if maybe.any():
+            out[maybe] = feasible(X[maybe])
+        return out
+
+    return search
+
+
 def edge_report(config: StudyConfig, x, feasible, step: float = 0.01) -> dict[str, Any]:
     """Is ``x`` on the box's edge, or on the boundary of the buildable region?
 
@@ -140,11 +171,169 @@ def edge_report(config: StudyConfig, x, feasible, step: float = 0.01) -> dict[st
     return out
 
 
+def constant_responses(sweep, names=None) -> dict[str, float]:
+    """The responses that do not vary over a sweep's successful configurations.
+
+    A response is constant when its range (max − min) is within
+    ``tol.rel`` × max(1, max |y|) of nothing — round-off, not a signal: a
+    bevel's α_min is 0 and its λ_min ≈ 1e-14° wherever ξ is. Such a response
+    has nothing for a GP to fit (its likelihood is degenerate) and nothing for
+    an objective to steer.
+
+    Parameters
+    ----------
+    sweep : SweepResult
+    names : responses to look at (default: the recorded ones)
+
+    Returns
+    -------
+    dict name -> its value (the responses' units; 0.0 when within that
+    round-off of 0), in ``names``' order; empty with fewer than two successful
+    configurations
+    """
+    from ..tolerances import tol
+
+    names = list(names or sweep.config.responses)
+    Y = sweep.responses(names)[sweep.ok]
+    out: dict[str, float] = {}
+    if len(Y) < 2:
+        return out
+    for j, name in enumerate(names):
+        y = Y[:, j]
+        if not np.all(np.isfinite(y)):
+            continue
+        slack = tol.rel * max(1.0, float(np.max(np.abs(y))))
+        if float(np.ptp(y)) <= slack:
+            m = float(np.mean(y))
+            out[name] = 0.0 if abs(m) <= slack else m
+    return out
+
+
+def _value(v: float) -> str:
+    t = f"{v:.6g}"
+    return t if any(c in t for c in ".eni") else t + ".0"
+
+
+def flat_message(response: str, value: float, *, all_flat: bool) -> str:
+    """Why an objective (or one of its terms) cannot steer the optimum:
+    ``response alpha_min_deg is constant (0.0) over the design: the objective
+    is flat``."""
+    head = f"response {response} is constant ({_value(value)}) over the design"
+    return head + (": the objective is flat" if all_flat
+                   else ": its term is flat (the optimum is the other terms')")
+
+
+def _plan_objectives(config: StudyConfig, constant: dict[str, float]) -> list[dict[str, Any]]:
+    """Per objective of the config: the objective optimised (its terms on
+    constant responses left out; None when every term is on one) and the
+    flat terms with their messages."""
+    from .config import Objective
+
+    plans = []
+    for obj in config.objectives:
+        active = tuple(t for t in obj.terms if t.response not in constant)
+        flat = [t.response for t in obj.terms if t.response in constant]
+        if not flat:
+            run = obj
+        elif active:
+            run = Objective(obj.name, active, obj.combine if len(active) >= 2 else "weighted")
+        else:
+            run = None
+        plans.append({"objective": obj, "run": run,
+                      "flat": {r: flat_message(r, constant[r], all_flat=run is None)
+                               for r in dict.fromkeys(flat)}})
+    return plans
+
+
+def study_verdict(config: StudyConfig, report: dict[str, Any]):
+    """The study's :class:`~tipgeo.verdict.Verdict`: ok when the adaptive
+    infill converged and every objective has a verified optimum (analysed
+    for real; built watertight when it was built) that no constant response
+    leaves flat or partly flat. Each failure is named."""
+    from ..verdict import Verdict, check_true
+
+    inf = report["infill"]
+    constant = report["responses"]["constant"]
+    checks = []
+    if inf["converged"]:
+        checks.append(check_true("infill_converged", True, "infill converged", ""))
+    else:
+        worst = [h for h in inf["history"] if h.get("round") == inf["rounds"] - 1]
+        miss = [h for h in worst if not (h.get("max_error_frac", math.inf)
+                                         <= inf["threshold"])]
+        detail = "; ".join(
+            f"{h['objective']}: {h['worst_response']} off by {h['max_error_frac']:.2%} of "
+            "its range" if h.get("worst_response") else f"{h['objective']}: {h['status']}"
+            for h in miss)
+        checks.append(check_true(
+            "infill_converged", False,
+            f"infill converged (GP within {inf['threshold']:.2%} of the range at every optimum)",
+            f"infill not converged after {inf['rounds']} round(s)"
+            + (f" ({detail})" if detail else "")))
+    for o in report["optima"]:
+        name = o["objective"]
+        for r in o.get("flat_terms", {}):
+            head = f"response {r} is constant ({_value(constant[r])}) over the design"
+            checks.append(check_true(
+                f"objective {name} not flat", False,
+                f"objective {name}: every term's response varies over the design",
+                f"objective {name} is flat: {head}" if o["status"] == "flat"
+                else f"objective {name} is partly flat: {head} (optimised on its other "
+                     "terms)"))
+        if o["status"] == "flat":
+            continue
+        checks.append(check_true(f"objective {name} verified", o["status"] == "ok",
+                                 f"objective {name}: its optimum analysed for real",
+                                 f"objective {name}: the optimum's analysis is "
+                                 f"{o['status']}: {o.get('error', '')}"))
+        b = o.get("build")
+        if b is not None:
+            ok = "error" not in b and bool(b.get("watertight"))
+            checks.append(check_true(
+                f"objective {name} built", ok, f"objective {name}: its optimum built watertight",
+                f"objective {name}: the optimum's mesh "
+                + (f"failed: {b['error']}" if "error" in b else "is not watertight")))
+    return Verdict.of(f"study {config.name}", checks)
+
+
+def _stage(enabled: bool, desc: str):
+    """A stage of unknown length on the progress line (or nothing)."""
+    from contextlib import nullcontext
+
+    return _progress.stage(desc) if enabled else nullcontext()
+
+
+def _bar(enabled: bool, total: int, desc: str, unit: str):
+    return _progress.bar(total, desc, unit=unit) if enabled else _progress._Silent()
+
+
+def _above_bars(log, enabled: bool):
+    """``log``, its lines written above any open progress bar (not through it)."""
+    if not (enabled and _progress.enabled()):
+        return log
+
+    def say(msg: str) -> None:
+        from tqdm import tqdm
+
+        with tqdm.external_write_mode(file=sys.stderr):
+            log(msg)
+
+    return say
+
+
 def run_study(config: StudyConfig, out_dir: str | Path, *, executor=None, cache: Any = None,
               progress: bool = True, build: bool = True, plots: bool = True,
               table: str = "sweep.csv", log=None) -> dict[str, Any]:
     """Run the sweep, fit the surrogate, optimise every objective and check
     each optimum on the real geometry.
+
+    GPs are fitted to the responses the objectives use and those the config
+    asks for (:attr:`~tipgeo.optimize.config.StudyConfig.modelled`), except
+    the ones constant over the design (:func:`constant_responses`), which are
+    listed in the report instead. An objective on a constant response is
+    flat: its other terms are optimised, or, when it has none, it has no
+    optimum (``status = "flat"``, the message naming the response); the
+    verdict then fails, naming it.
 
     Parameters
     ----------
@@ -158,12 +347,15 @@ def run_study(config: StudyConfig, out_dir: str | Path, *, executor=None, cache:
 
     Returns
     -------
-    dict — the report (also written to ``report.json``)
+    dict — the report (also written to ``report.json``); ``responses``:
+    ``recorded``, ``fitted``, ``constant`` (name -> value) and
+    ``not_fitted`` (recorded, neither used nor asked for); ``verdict``: the
+    :func:`study_verdict` as a dict (``ok``, ``checks``, ``reasons``)
     """
     from ..atomic import write_text_atomic
     from ..spec import dumps_spec, spec_from_dict
 
-    log = log or (lambda s: print(s, file=sys.stderr, flush=True))
+    log = _above_bars(log or (lambda s: print(s, file=sys.stderr, flush=True)), progress)
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
     files: list[str] = []
@@ -185,28 +377,71 @@ def run_study(config: StudyConfig, out_dir: str | Path, *, executor=None, cache:
             f"({dz['refused_inferred']} of them inferred from their coarse cell):")
         for g in dz["refusals"][:5]:
             log(f"  {g['count']} validated, e.g.: {g['example']}")
-    t0 = time.perf_counter()
-    sur = fit_surrogate(sweep)
-    t_fit = time.perf_counter() - t0
-    log(f"surrogate: {len(sur.responses)} responses ({sur.mode}) fitted to "
-        f"{len(sur.X_)} points in {t_fit:.2f} s")
+    constant = constant_responses(sweep)
+    fitted = [r for r in config.modelled if r not in constant]
+    responses = {"recorded": list(config.responses), "fitted": fitted, "constant": constant,
+                 "not_fitted": [r for r in config.responses
+                                if r not in config.modelled and r not in constant]}
+    if constant:
+        log("constant over the design (not fitted): "
+            + ", ".join(f"{k} = {v:.6g}" for k, v in constant.items()))
+    plans = _plan_objectives(config, constant)
+    for p in plans:
+        for msg in p["flat"].values():
+            log(f"objective {p['objective'].name}: {msg}")
     feasible = feasibility(config, known=sweep.screen)
-    t0 = time.perf_counter()
-    inf = infill_optima(config, sur, feasible=feasible, executor=executor, cache=cache, log=log)
-    t_infill = time.perf_counter() - t0
-    sur = inf.surrogate
-    loo = sur.loo()
-    log(f"infill: {inf.added} training points added in {inf.rounds} round(s), "
-        + ("converged" if inf.converged else "NOT converged")
-        + f" (threshold {config.infill['threshold']:.2%} of each response's range) in "
-        f"{t_infill:.2f} s")
-    ranges = training_ranges(sur)
-    optima = inf.optima
-    for opt, res in zip(optima, inf.results):
-        obj = opt.objective
+    t_fit = t_infill = 0.0
+    sur = inf = None
+    if fitted:
+        t0 = time.perf_counter()
+        with _stage(progress, f"GP fit ({len(fitted)} responses)"):
+            sur = fit_surrogate(sweep, responses=fitted)
+        t_fit = time.perf_counter() - t0
+        log(f"surrogate: {len(sur.responses)} response(s) ({sur.mode}) fitted to "
+            f"{len(sur.X_)} points in {t_fit:.2f} s")
+        t0 = time.perf_counter()
+        with _stage(progress, "optimise and infill"):
+            inf = infill_optima(config, sur, feasible=search_feasibility(config, feasible,
+                                                                        sweep.screen),
+                                executor=executor, cache=cache,
+                                log=log, objectives=[p["run"] for p in plans if p["run"]])
+        t_infill = time.perf_counter() - t0
+        sur = inf.surrogate
+        log(f"infill: {inf.added} training points added in {inf.rounds} round(s), "
+            + ("converged" if inf.converged else "NOT converged")
+            + f" (threshold {config.infill['threshold']:.2%} of each response's range) in "
+            f"{t_infill:.2f} s")
+    else:
+        log("surrogate: no response to fit (every one is constant over the design)")
+    ranges = training_ranges(sur) if sur is not None else {}
+    optima = inf.optima if inf is not None else []
+    by_name = {o.objective.name: (o, r) for o, r in zip(optima, inf.results)} if inf else {}
+    entries = []
+    vbar = _bar(progress, len(plans), "verify optima", "optimum")
+    for i, p in enumerate(plans):
+        if i:
+            vbar.update()  # the previous one done
+        obj = p["objective"]
+        head = {"objective": obj.name, "combine": obj.combine,
+                "terms": [{"response": t.response, "goal": t.goal, "weight": t.weight}
+                          for t in obj.terms]}
+        if p["flat"]:
+            head["flat_terms"] = dict(p["flat"])
+        if p["run"] is None:
+            msg = "; ".join(p["flat"].values())
+            entries.append(head | {"status": "flat", "error": msg, "value": None,
+                                   "search": {}, "x": {}, "on_box_edge": [],
+                                   "on_buildable_boundary": False, "responses": {}})
+            log(f"objective {obj.name} ({term_summary(obj)}): flat — {msg}")
+            continue
+        opt, res = by_name[obj.name]
         verify_optimum(config, opt, build=build, result=res, ranges=ranges)
         opt.verified.update(edge_report(config, opt.x, feasible))
         v = opt.verified
+        if p["flat"] and res["status"] == "ok":  # the constant responses, there for real
+            v["constant_responses"] = {r: {"design_value": constant[r],
+                                           "actual": res["responses"].get(r, math.nan)}
+                                       for r in p["flat"]}
         log(f"objective {obj.name} ({term_summary(obj)}): "
             + ", ".join(f"{k} = {x:.4g}" for k, x in v["x"].items()) + f" — {v['status']}"
             + "".join(f"; on the box edge {e['variable']} = {e['side']}" for e in v["on_box_edge"])
@@ -215,51 +450,67 @@ def run_study(config: StudyConfig, out_dir: str | Path, *, executor=None, cache:
             log(f"  a step further: {v['buildable_boundary_reason']}")
         if v["status"] == "ok":
             spec = spec_from_dict(v["spec"])
-            p = out / f"optimum-{obj.name}.toml"
-            write_text_atomic(p, dumps_spec(spec))
-            files.append(str(p))
-    sdict = sur.to_dict() | {"loo": loo, "fit_seconds": t_fit,
-                             "training_points": int(len(sur.X_)),
-                             "training_ranges": ranges}
-    p = out / "surrogate.json"
-    write_text_atomic(p, _dumps(sdict))
-    files.append(str(p))
-    if plots:
+            f = out / f"optimum-{obj.name}.toml"
+            write_text_atomic(f, dumps_spec(spec))
+            files.append(str(f))
+        entries.append(head | {"value": opt.value, "search": opt.search,
+                               **{k: x for k, x in v.items() if k != "spec"},
+                               **({"pareto_points": int(len(opt.front["x"]))}
+                                  if opt.front else {})})
+    vbar.update()
+    vbar.close()
+    if sur is not None:
+        sdict = sur.to_dict() | {"loo": sur.loo(), "fit_seconds": t_fit,
+                                 "training_points": int(len(sur.X_)),
+                                 "training_ranges": ranges}
+    else:
+        sdict = {"mode": config.surrogate["mode"], "models": [], "loo": {},
+                 "fit_seconds": 0.0, "training_points": int(sweep.ok.sum()),
+                 "training_ranges": {}}
+    sdict["constant"] = constant
+    f = out / "surrogate.json"
+    write_text_atomic(f, _dumps(sdict))
+    files.append(str(f))
+    if plots and sur is not None:
         from .plots import plot_loo, plot_pareto, plot_response
 
         # a maximin design's screened candidate grid already shows the refused region
         shade = (grid_verdicts(config, sweep.screen) if sweep.screen is not None
                  else feasible)
 
-        for name in config.plots["responses"]:
-            files.append(str(plot_response(sur, config, name, out / f"surface-{name}.png",
-                                           optima=optima, feasible=shade)))
-
-        files.append(str(plot_loo(sur, out / "loo.png")))
-        for opt in optima:
-            if opt.front is not None:
+        # constant responses, and those neither used nor asked for, have no GP
+        surfaces = [n for n in config.plots["responses"] if n in sur.responses]
+        fronts = [o for o in optima if o.front is not None]
+        pbar = _bar(progress, len(surfaces) + 1 + len(fronts), "pictures", "picture")
+        try:
+            for name in surfaces:
+                files.append(str(plot_response(sur, config, name, out / f"surface-{name}.png",
+                                               optima=optima, feasible=shade)))
+                pbar.update()
+            files.append(str(plot_loo(sur, out / "loo.png")))
+            pbar.update()
+            for opt in fronts:
                 files.append(str(plot_pareto(opt, out / f"pareto-{opt.objective.name}.png")))
+                pbar.update()
+        finally:
+            pbar.close()
+    n_added = inf.added if inf else 0
     report = {
         "name": config.name, "description": config.description, "base": config.base_name,
         "variables": [{"name": v.name, "path": v.path, "min": v.lo, "max": v.hi}
                       for v in config.variables],
-        "sweep": s, "surrogate": sdict,
-        "infill": {"rounds": inf.rounds, "max_rounds": config.infill["rounds"],
-                   "threshold": config.infill["threshold"], "added": inf.added,
-                   "converged": inf.converged, "seconds": t_infill,
-                   "points": [{v.name: float(x) for v, x in zip(config.variables, row)}
-                              for row in inf.X[len(inf.X) - inf.added:]],
-                   "history": inf.history},
-        "optima": [{"objective": o.objective.name, "combine": o.objective.combine,
-                    "terms": [{"response": t.response, "goal": t.goal, "weight": t.weight}
-                              for t in o.objective.terms],
-                    "value": o.value, "search": o.search,
-                    **{k: v for k, v in o.verified.items() if k != "spec"},
-                    **({"pareto_points": int(len(o.front["x"]))} if o.front else {})}
-                   for o in optima],
+        "sweep": s, "responses": responses, "surrogate": sdict,
+        "infill": {"rounds": inf.rounds if inf else 0, "max_rounds": config.infill["rounds"],
+                   "threshold": config.infill["threshold"], "added": n_added,
+                   "converged": inf.converged if inf else True, "seconds": t_infill,
+                   "points": ([{v.name: float(x) for v, x in zip(config.variables, row)}
+                               for row in inf.X[len(inf.X) - n_added:]] if inf else []),
+                   "history": inf.history if inf else []},
+        "optima": entries,
         "files": files + [str(out / "report.json")],
     }
-    p = out / "report.json"
-    write_text_atomic(p, _dumps(report))
+    verdict = study_verdict(config, report)
+    report["verdict"] = verdict.to_dict()
+    f = out / "report.json"
+    write_text_atomic(f, _dumps(report))
     return report
-

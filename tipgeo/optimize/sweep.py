@@ -25,17 +25,68 @@ from typing import Any
 
 import numpy as np
 
+from .. import progress as _progress
 from ..atomic import write_bytes_atomic
-from ..errors import SpecError
+from ..errors import MissingToolError, SpecError
 from .cache import ResultCache, code_fingerprint, default_cache_dir, key_from_hash, spec_hash
 from .config import StudyConfig
 from .design import make_design
-from .executors import Progress, SerialExecutor, make_executor
+from .executors import SerialExecutor, make_executor
 
 __all__ = ["SweepResult", "run_sweep", "design_points", "write_table", "read_table",
-           "STATUSES"]
+           "STATUSES", "MissingPyarrow"]
 
 STATUSES = ("ok", "invalid", "failed")
+
+
+class MissingPyarrow(MissingToolError, SpecError):
+    """pyarrow is not installed for a Parquet table: a missing tool (exit code
+    3), and a :class:`~tipgeo.errors.SpecError` as it was before that family existed."""
+
+
+def _pyarrow(p: Path):
+    try:
+        import pyarrow as pa
+        import pyarrow.parquet as pq
+    except ImportError:
+        raise MissingPyarrow(f"table '{p}': Parquet needs pyarrow, which is not installed: "
+                             "pip install pyarrow (or tipgeo[parquet]); allowed without it: "
+                             ".csv") from None
+    return pa, pq
+
+
+class _Bar:
+    """A sweep's or a screening's progress (:mod:`tipgeo.progress`): counts
+    finished configurations, the cached and failed ones shown beside the bar.
+    ``enabled=False`` silences it whatever the progress mode."""
+
+    def __init__(self, total: int, desc: str, unit: str, enabled: bool,
+                 failed_word: str = "failed"):
+        self.bar = (_progress.bar(total, desc, unit=unit) if enabled
+                    else _progress._Silent())
+        self.total = total
+        self.cached = self.failed = 0
+        self.failed_word = failed_word
+
+    def grow(self, n: int) -> None:
+        """``n`` more steps than the bar was started with."""
+        self.total += n
+        if not isinstance(self.bar, _progress._Silent):
+            self.bar.total = self.total
+            self.bar.refresh()
+
+    def update(self, *, cached: bool = False, failed: bool = False) -> None:
+        self.cached += bool(cached)
+        self.failed += bool(failed)
+        if self.cached or self.failed:
+            self.bar.set_postfix_str(", ".join(
+                s for s in (f"{self.cached} cached" if self.cached else "",
+                            f"{self.failed} {self.failed_word}" if self.failed else "") if s),
+                refresh=False)
+        self.bar.update()
+
+    def close(self) -> None:
+        self.bar.close()
 
 
 @dataclass
@@ -137,12 +188,7 @@ def write_table(result: SweepResult, path: str | Path) -> Path:
     if ext == ".csv":
         write_bytes_atomic(p, result.to_csv().encode("utf-8"))
     elif ext in (".parquet", ".pq"):
-        try:
-            import pyarrow as pa
-            import pyarrow.parquet as pq
-        except ImportError:
-            raise SpecError(f"table '{p}': Parquet needs pyarrow (pip install pyarrow); "
-                            "allowed without it: .csv") from None
+        pa, pq = _pyarrow(p)
         table = pa.table(result.columns())
         buf = pa.BufferOutputStream()
         pq.write_table(table, buf)
@@ -156,8 +202,7 @@ def read_table(path: str | Path) -> dict[str, list]:
     """Read a sweep table back as columns (CSV or Parquet); numbers as floats."""
     p = Path(path)
     if p.suffix.lower() in (".parquet", ".pq"):
-        import pyarrow.parquet as pq
-
+        _, pq = _pyarrow(p)
         return pq.read_table(p).to_pydict()
     with open(p, newline="", encoding="utf-8") as f:
         rows = list(csv.reader(f))
@@ -176,7 +221,7 @@ def read_table(path: str | Path) -> dict[str, list]:
 
 
 def run_sweep(config: StudyConfig, *, X=None, executor=None, cache: Any = None,
-              progress: bool = True, stream=None) -> SweepResult:
+              progress: bool = True) -> SweepResult:
     """Evaluate every configuration of the config's design.
 
     Parameters
@@ -187,7 +232,12 @@ def run_sweep(config: StudyConfig, *, X=None, executor=None, cache: Any = None,
         Default: ``config.workers`` local processes (1: this process).
     cache : ResultCache, str/Path (folder), True (default folder) or False
         Default: the config's ``sweep.cache``.
-    progress : bool — a progress line on stderr (``stream``)
+    progress : bool
+        Progress bars on stderr for the screening and the sweep (cached
+        configurations counted as they are found), through
+        :mod:`tipgeo.progress`: shown when its mode allows (``auto``: stderr
+        is a terminal; ``TIPGEO_PROGRESS``); ``False`` silences them whatever
+        the mode.
 
     Returns
     -------
@@ -200,17 +250,19 @@ def run_sweep(config: StudyConfig, *, X=None, executor=None, cache: Any = None,
     design, screen = {"method": "given"}, None
     if X is None:
         X, design, screen = _design(config, executor=executor, cache=cache,
-                                    progress=progress, stream=stream)
+                                    progress=progress)
     X = np.asarray(X, float).reshape(-1, len(config.variables))
     analysis = dict(config.analysis)
     specs = [config.spec_dict(x, i) for i, x in enumerate(X)]
-    hashes = [spec_hash(s, analysis) for s in specs]
-    keys = [key_from_hash(h) for h in hashes]
+    hashes: list[str] = []
+    keys: list[str] = []
     results: list = [None] * len(specs)
-    bar = Progress(len(specs), f"sweep {config.name}", stream=stream, enabled=progress)
+    bar = _Bar(len(specs), f"sweep {config.name}", "config", progress)
     todo: dict[str, list[int]] = {}
     n_cached = 0
-    for i, k in enumerate(keys):
+    for i, s in enumerate(specs):
+        hashes.append(spec_hash(s, analysis))
+        keys.append(k := key_from_hash(hashes[-1]))
         hit = cache.get(k) if cache is not None else None
         if hit is not None:
             results[i] = hit
@@ -235,11 +287,14 @@ def run_sweep(config: StudyConfig, *, X=None, executor=None, cache: Any = None,
             results[i] = r
             bar.update(failed=r["status"] != "ok")
 
-    if tasks:
-        ex = executor if len(tasks) > 1 else SerialExecutor()
-        ex.run(evaluate_spec_task, tasks, done)
-    else:
-        ex = executor
+    try:
+        if tasks:
+            ex = executor if len(tasks) > 1 else SerialExecutor()
+            ex.run(evaluate_spec_task, tasks, done)
+        else:
+            ex = executor
+    finally:
+        bar.close()
     if foreign:
         print(f"tipgeo: warning: {len(foreign)} configurations were evaluated by workers "
               "running different tipgeo code than this machine; they were not cached "
@@ -263,7 +318,7 @@ def _resolve_cache(config: StudyConfig, cache: Any):
 
 
 def design_points(config: StudyConfig, *, executor=None, cache: Any = None,
-                  progress: bool = False, stream=None) -> tuple[np.ndarray, dict]:
+                  progress: bool = False) -> tuple[np.ndarray, dict]:
     """The config's design, and how it was made.
 
     For ``maximin`` every candidate is screened by the spec's validation
@@ -273,7 +328,7 @@ def design_points(config: StudyConfig, *, executor=None, cache: Any = None,
     Parameters
     ----------
     config : StudyConfig
-    executor, cache, progress, stream : see :func:`run_sweep`
+    executor, cache, progress : see :func:`run_sweep`
 
     Returns
     -------
@@ -293,11 +348,11 @@ def design_points(config: StudyConfig, *, executor=None, cache: Any = None,
     if executor is None:
         executor = make_executor(config.workers)
     X, info, _ = _design(config, executor=executor, cache=_resolve_cache(config, cache),
-                         progress=progress, stream=stream)
+                         progress=progress)
     return X, info
 
 
-def _design(config: StudyConfig, *, executor, cache, progress, stream):
+def _design(config: StudyConfig, *, executor, cache, progress):
     from .design import (
         candidate_levels,
         candidate_pool,
@@ -316,49 +371,56 @@ def _design(config: StudyConfig, *, executor, cache, progress, stream):
     levels = candidate_levels(config.variables, d["candidates"])
     n = len(pool)
     errors: list = [None] * n  # validation message ('' = admissible); None: not validated
+    # one bar for the whole screening: the coarse nodes, then the mixed cells,
+    # then any chosen point whose verdict was inferred
+    bar = _Bar(0, f"screen {config.name}", "spec", progress, failed_word="refused")
 
     def screen(idx) -> None:
         idx = [int(i) for i in idx if errors[i] is None]
         if idx:
+            bar.grow(len(idx))
             for i, e in zip(idx, _screen(config, pool[idx], executor=executor, cache=cache,
-                                         progress=progress, stream=stream)):
+                                         bar=bar)):
                 errors[i] = e
 
-    # coarse to fine: every other node, then the nodes whose coarse cell disagrees
-    grid = np.array(np.unravel_index(np.arange(n), levels)).T  # (n, d) level indices
-    coarse = (np.all(grid % 2 == 0, axis=1) if all(k >= 3 and k % 2 for k in levels)
-              else np.ones(n, bool))
-    screen(np.flatnonzero(coarse))
-    inferred = np.zeros(n, bool)
-    ok = np.array([e == "" for e in errors])
-    mixed = []
-    for i in np.flatnonzero(~coarse):
-        corners = itertools.product(*[(g,) if g % 2 == 0 else (g - 1, g + 1) for g in grid[i]])
-        votes = {bool(ok[np.ravel_multi_index(c, levels)]) for c in corners}
-        if len(votes) == 1:
-            ok[i], inferred[i] = votes.pop(), True
-        else:
-            mixed.append(i)
-    screen(mixed)
-    lo = np.array([v.lo for v in config.variables], float)
-    span = np.array([v.hi - v.lo for v in config.variables], float)
-    while True:
-        ok = np.array([e == "" if e is not None else bool(ok[i])
-                       for i, e in enumerate(errors)])
-        if ok.sum() < d["points"]:
-            raise SpecError(f"design.points = {d['points']} is out of range; only "
-                            f"{int(ok.sum())} of the {n} candidates (design.candidates = "
-                            f"{d['candidates']}) pass validation; allowed at most that many "
-                            "(raise design.candidates, or move the box onto the buildable "
-                            "region)")
-        cand = np.flatnonzero(ok)
-        U = (pool[cand] - lo) / span
-        sel = maximin_select(U, d["points"], seed=d["seed"])
-        unchecked = [int(cand[j]) for j in sel if errors[cand[j]] is None]
-        if not unchecked:
-            break
-        screen(unchecked)  # chosen on an inferred verdict: validate before use
-        inferred[unchecked] = False
+    try:
+        # coarse to fine: every other node, then the nodes whose coarse cell disagrees
+        grid = np.array(np.unravel_index(np.arange(n), levels)).T  # (n, d) level indices
+        coarse = (np.all(grid % 2 == 0, axis=1) if all(k >= 3 and k % 2 for k in levels)
+                  else np.ones(n, bool))
+        screen(np.flatnonzero(coarse))
+        inferred = np.zeros(n, bool)
+        ok = np.array([e == "" for e in errors])
+        mixed = []
+        for i in np.flatnonzero(~coarse):
+            corners = itertools.product(*[(g,) if g % 2 == 0 else (g - 1, g + 1) for g in grid[i]])
+            votes = {bool(ok[np.ravel_multi_index(c, levels)]) for c in corners}
+            if len(votes) == 1:
+                ok[i], inferred[i] = votes.pop(), True
+            else:
+                mixed.append(i)
+        screen(mixed)
+        lo = np.array([v.lo for v in config.variables], float)
+        span = np.array([v.hi - v.lo for v in config.variables], float)
+        while True:
+            ok = np.array([e == "" if e is not None else bool(ok[i])
+                           for i, e in enumerate(errors)])
+            if ok.sum() < d["points"]:
+                raise SpecError(f"design.points = {d['points']} is out of range; only "
+                                f"{int(ok.sum())} of the {n} candidates (design.candidates = "
+                                f"{d['candidates']}) pass validation; allowed at most that many "
+                                "(raise design.candidates, or move the box onto the buildable "
+                                "region)")
+            cand = np.flatnonzero(ok)
+            U = (pool[cand] - lo) / span
+            sel = maximin_select(U, d["points"], seed=d["seed"])
+            unchecked = [int(cand[j]) for j in sel if errors[cand[j]] is None]
+            if not unchecked:
+                break
+            screen(unchecked)  # chosen on an inferred verdict: validate before use
+            inferred[unchecked] = False
+    finally:
+        bar.close()
     groups: dict[str, dict] = {}
     for e in errors:
         if e:
@@ -383,14 +445,16 @@ _NUMBER = re.compile(r"[-+]?\d+(?:\.\d+)?(?:e[-+]?\d+)?")
 _SCREEN = {"screen": "validate"}
 
 
-def _screen(config: StudyConfig, X, *, executor, cache, progress, stream) -> list[str]:
-    """Validation message per row of X ('' when the spec validates)."""
+def _screen(config: StudyConfig, X, *, executor, cache, bar: _Bar) -> list[str]:
+    """Validation message per row of X ('' when the spec validates): cached
+    verdicts read back (keyed by a hash of the spec's keys: no validation),
+    the others validated on the executor."""
     specs = [config.spec_dict(x) for x in X]
-    keys = [key_from_hash(spec_hash(s, _SCREEN)) for s in specs]
+    keys: list[str] = []
     out: list = [None] * len(specs)
-    bar = Progress(len(specs), f"screen {config.name}", stream=stream, enabled=progress)
     todo = []
-    for i, k in enumerate(keys):
+    for i, s in enumerate(specs):
+        keys.append(k := key_from_hash(spec_hash(s, _SCREEN)))
         hit = cache.get(k) if cache is not None else None
         if hit is not None and "error" in hit:
             out[i] = hit["error"]

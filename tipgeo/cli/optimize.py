@@ -2,7 +2,7 @@
 (thesis §3.4) on the command line.
 
 CONFIG is a study TOML file (see :mod:`tipgeo.optimize.config`) or a built-in
-study name (``helical-study``). Variables are in their spec keys' units (mm,
+study name (``helical-study``, ``bevel-study``). Variables are in their spec keys' units (mm,
 degrees), responses carry theirs in their names. Tables and reports go to
 files, a plain summary (or ``--json``) to stdout, progress to stderr.
 """
@@ -172,6 +172,11 @@ def cmd_optimize(args) -> int:
     for name, r in rep["surrogate"]["loo"].items():
         nr = "—" if r["nrmse"] is None else f"{r['nrmse']:.3g}"
         print(f"{name:<18}{r['rmse']:>12.4g}{nr:>10}{r['coverage95']:>9.1%}")
+    const = (rep.get("responses") or {}).get("constant") or {}
+    if const:
+        items = const.items() if isinstance(const, dict) else ((c, None) for c in const)
+        print("constant over the design (not fitted): " + ", ".join(
+            k if v is None else f"{k} = {v:g}" for k, v in items))
     inf = rep["infill"]
     print(f"infill: {inf['added']} point(s) added in {inf['rounds']} round(s) (at most "
           f"{inf['max_rounds']}), " + ("converged" if inf["converged"] else "NOT converged")
@@ -217,7 +222,7 @@ def cmd_optimize(args) -> int:
 
 def _common(p) -> None:
     p.add_argument("config", metavar="CONFIG",
-                   help="study file (.toml) or built-in study (helical-study)")
+                   help="study file (.toml) or built-in study (helical-study, bevel-study)")
     p.add_argument("--workers", type=int, default=None, metavar="N",
                    help="local processes (default: the config's sweep.workers, else all "
                         "CPUs; 1 = in this process)")

@@ -38,6 +38,7 @@ from .cutters import Cutter
 from .cutters.base import CUTTER_KINDS as _REGISTRY
 from .cutters.toml import CutterTable, round_for_toml
 from .errors import SpecError
+from .names import check_name, safe_name
 from .tolerances import MAX_CUTTERS
 from .tomlio import loads_toml, read_text_file
 from .validate import brief, finite_float
@@ -76,10 +77,14 @@ class TipSpec:
         if len(cutters) > MAX_CUTTERS:
             raise SpecError(f"cutters: {len(cutters)} cutters given; allowed at most "
                             f"{MAX_CUTTERS} per tip")
+        check_name("name", self.name, empty=True)
+        if not isinstance(self.description, str):
+            raise SpecError(f"description = {brief(self.description)} is not a string")
         names = []
         for k, c in enumerate(cutters):
             if not isinstance(c, Cutter):
                 raise SpecError(f"cutters[{k}] = {c!r} is not a Cutter")
+            check_name(f"cutters[{k}].name", c.name)
             if c.name in names:
                 raise SpecError(f"cutters[{k}].name = {c.name!r} repeats an earlier cutter's "
                                 "name; allowed unique names (they label the faces)")
@@ -219,6 +224,8 @@ def _cutter_table(k: int, table: Any, base_dir: Path | None) -> CutterTable:
     if not isinstance(table, dict):
         raise SpecError(f"{where} = {brief(table)} is not a table")
     kind = _str(f"{where}.kind", _need(where, table, "kind"))
+    if "name" in table:
+        check_name(f"{where}.name", table["name"])
     if kind not in CUTTER_KINDS:
         raise SpecError(f"{where}.kind = {kind!r} is not a valid tip kind; expected one of: "
                         + ", ".join(CUTTER_KINDS))
@@ -258,7 +265,7 @@ def spec_from_dict(data: Any, *, base_dir: str | Path | None = None) -> TipSpec:
         if not 0 < tu <= 100:
             raise SpecError(f"tolerance_um = {tu:.6g} is out of range; allowed 0 < value ≤ 100")
         tolerance = tu * 1e-3
-    name = _str("name", t.get("name", ""))
+    name = check_name("name", t.get("name", ""), empty=True)
     description = _str("description", t.get("description", ""))
     try:
         return TipSpec(cannula=cannula, cutters=cutters, name=name, description=description,
@@ -285,7 +292,7 @@ def load_spec(path: str | Path) -> TipSpec:
     except SpecError as e:
         raise SpecError(f"{p.name}: {e}") from None
     if not spec.name:
-        spec = spec.with_(name=p.stem)
+        spec = spec.with_(name=safe_name(p.stem))
     return spec
 
 

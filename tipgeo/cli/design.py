@@ -8,6 +8,7 @@ import time
 from pathlib import Path
 
 from ..jsonio import dumps as _dumps
+from ..paths import inside
 from .common import (
     cannot_write,
     declare_files,
@@ -79,7 +80,7 @@ def cmd_samples(args) -> int:
     if args.out_dir:
         out = Path(args.out_dir)
         out.mkdir(parents=True, exist_ok=True)
-        wrote = [str(save_spec(preset(n), out / f"{n}.toml")) for n in preset_names()]
+        wrote = [str(save_spec(preset(n), inside(out, n, ".toml"))) for n in preset_names()]
         if args.json:
             print(_dumps({"out_dir": str(out), "wrote": wrote}))
         else:

@@ -73,10 +73,11 @@ def cutter_kind(kind: str) -> type:
 
 
 def check_name(name: object) -> None:
-    """A cutter name (it labels the faces ``cut:<name>``): letters, digits, - and _."""
-    if not isinstance(name, str) or not name or not all(c.isalnum() or c in "-_" for c in name):
-        raise SpecError(f"name = {name!r} is not a valid cutter name; allowed letters, digits, "
-                        "'-' and '_'")
+    """A cutter name (it labels the faces ``cut:<name>`` and reaches file names
+    and decks): the form of :data:`tipgeo.names.NAME_FORM`."""
+    from ..names import check_name as _check
+
+    _check("name", name)
 
 
 class Cutter(ABC):

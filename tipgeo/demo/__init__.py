@@ -36,6 +36,7 @@ from typing import Any
 
 from ..atomic import write_text_atomic
 from ..jsonio import dumps as _dumps
+from ..paths import inside
 from ..presets import preset, preset_names
 from .angles import ANGLE_GROUPS
 
@@ -195,13 +196,13 @@ def _tips(out: Path, names: list[str], tolerance, pictures: bool, log) -> list[d
         t0 = time.perf_counter()
         tip = build_tip(spec, tolerance=tolerance)
         dt = time.perf_counter() - t0
-        save_spec(spec, out / f"{name}.toml")
-        export_tip(tip, out / f"{name}.stl")
-        export_tip(tip, out / f"{name}.ply")
+        save_spec(spec, inside(out, name, ".toml"))
+        export_tip(tip, inside(out, name, ".stl"))
+        export_tip(tip, inside(out, name, ".ply"))
         if pictures:
             from ..plot import render_tip
 
-            render_tip(tip, out / f"{name}.png", title=f"{name}\n{spec.description}")
+            render_tip(tip, inside(out, name, ".png"), title=f"{name}\n{spec.description}")
         s = tip.summary()
         rows.append({"name": name, "triangles": s["triangles"], "volume_mm3": s["volume_mm3"],
                      "z_max_mm": s["z_max_mm"], "build_seconds": dt,

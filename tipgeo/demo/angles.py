@@ -8,6 +8,7 @@ from pathlib import Path
 
 from ..atomic import write_text_atomic
 from ..jsonio import dumps as _dumps
+from ..paths import inside
 from ..presets import preset
 
 __all__ = ["ANGLE_GROUPS", "angle_outputs"]
@@ -43,7 +44,7 @@ def angle_outputs(out: Path, names, pictures: bool, log) -> list[str]:
         for fname, group in ANGLE_GROUPS.items():
             reps = [reports[n] for n in group if n in reports]
             if reps:
-                files.append(str(plot_angles(reps, out / f"{fname}.png")))
+                files.append(str(plot_angles(reps, inside(out, fname, ".png"))))
     if log is not None:
         print(f"angles: {len(reports)} tips analysed, {len(files)} files", file=log, flush=True)
     return files

@@ -10,6 +10,7 @@ from __future__ import annotations
 from pathlib import Path
 
 from ..atomic import write_text_atomic
+from ..paths import inside
 from ..presets import preset
 
 __all__ = ["laser_outputs", "grind_outputs", "mill_outputs"]
@@ -29,15 +30,17 @@ def laser_outputs(out: Path, names, pictures: bool, log) -> list[dict]:
         if not any(c.process == "laser" for c in spec.cutters):
             continue
         text = emit_program(spec, laser)
-        write_text_atomic(out / f"{name}.pgm", text)
+        write_text_atomic(inside(out, name, ".pgm"), text)
         sim = name == "punch-C2"
         res = laser_check(text, beam_diameter=laser.beam_diameter, spec=spec if sim else None)
-        row = {"name": name, "program": str(out / f"{name}.pgm"), **res.toolpath.summary()}
+        row = {"name": name, "program": str(inside(out, name, ".pgm")),
+               **res.toolpath.summary()}
         if sim:
             row["comparison"] = res.comparison
-            write_laser_outputs(res, spec, mesh=out / f"{name}-laser-sim.stl",
-                                plot=out / f"{name}-toolpath.png" if pictures else None,
-                                rim=out / f"{name}-rim.png" if pictures else None)
+            write_laser_outputs(
+                res, spec, mesh=inside(out, name, "-laser-sim.stl"),
+                plot=inside(out, name, "-toolpath.png") if pictures else None,
+                rim=inside(out, name, "-rim.png") if pictures else None)
         rows.append(row)
         if log is not None:
             print(f"laser: {name}: {row['segments']} moves, {row['time_s']:.0f} s, "
@@ -58,8 +61,9 @@ def grind_outputs(out: Path, names, log) -> list[dict]:
         except CamError as e:  # e.g. punches (flat land), helical tips: not this machine
             rows.append({"name": name, "ground": False, "reason": str(e)})
             continue
-        write_grind_outputs(res, program=out / f"{name}.grind.json",
-                            gcode=out / f"{name}.grind.nc", sheet=out / f"{name}.setup.md")
+        write_grind_outputs(res, program=inside(out, name, ".grind.json"),
+                            gcode=inside(out, name, ".grind.nc"),
+                            sheet=inside(out, name, ".setup.md"))
         worst = res.worst_angle_diff_deg()[0]
         haus = res.comparison["hausdorff_mm"]
         rows.append({"name": name, "ground": True, "time_s": res.program.summary()["time_s"],
@@ -84,10 +88,11 @@ def mill_outputs(out: Path, names, pictures: bool, log) -> list[dict]:
             continue
         progress = None if log is None else (lambda m: print(f"mill: {m}", file=log, flush=True))
         res = mill(preset(name), progress=progress)
-        write_mill_outputs(res, program=out / f"{name}.mill.nc", sheet=out / f"{name}.mill.md",
-                           mesh=out / f"{name}-milled.stl",
-                           deviation=out / f"{name}-milled-deviation.png" if pictures else None,
-                           toolpath=out / f"{name}-milled-toolpath.png" if pictures else None)
+        write_mill_outputs(
+            res, program=inside(out, name, ".mill.nc"), sheet=inside(out, name, ".mill.md"),
+            mesh=inside(out, name, "-milled.stl"),
+            deviation=inside(out, name, "-milled-deviation.png") if pictures else None,
+            toolpath=inside(out, name, "-milled-toolpath.png") if pictures else None)
         s = res.summary()
         c = res.comparison
         rows.append({"name": name, "cycle_time_s": s["program"]["cycle_time_s"],

@@ -7,6 +7,7 @@ from pathlib import Path
 from ..optimize.executors import SerialExecutor
 from ..optimize.presets import study_preset
 from ..optimize.study import run_study
+from ..paths import inside
 
 __all__ = ["demo_outputs"]
 
@@ -24,6 +25,6 @@ def demo_outputs(out_dir: Path, log=None) -> list[str]:
     """
 
     cfg = study_preset("helical-study")
-    rep = run_study(cfg, Path(out_dir) / cfg.name, executor=SerialExecutor(), cache=False,
+    rep = run_study(cfg, inside(out_dir, cfg.name), executor=SerialExecutor(), cache=False,
                     progress=False, log=log or (lambda s: None))
     return rep["files"]

@@ -23,6 +23,7 @@ from typing import Any
 import numpy as np
 
 from ..errors import SpecError
+from ..names import one_line
 from .material import FemMaterial
 
 __all__ = ["ElementBlock", "FemModel", "FACE_NODES", "boundary_faces"]
@@ -181,16 +182,19 @@ class FemModel:
         return sorted({round(float(x), 12) for x in t})
 
     def header(self) -> str:
-        lines = [f"tipgeo finite-element model '{self.name}' ({self.kind}); units mm, N, s, MPa",
+        lines = [f"tipgeo finite-element model '{one_line(self.name)}' ({self.kind}); units mm, "
+                 "N, s, MPa",
                  "frame: needle moves along -Y into the block (top face Y = 0); "
                  + ("X = radius (axisymmetric)" if self.dim == 2 else "Z completes a right-"
                     "handed frame")]
         lines += [f"{k}: {v}" for k, v in self.public_info().items()]
-        return "".join(f"** {x}\n" for x in lines)
+        # every user string on one comment line: no line break can start a keyword
+        return "".join(f"** {one_line(x)}\n" for x in lines)
 
     def ccx_deck(self) -> str:
         """The CalculiX input deck (text)."""
-        o = ["*HEADING\n", f"tipgeo {self.kind} needle insertion: {self.name}\n", self.header()]
+        o = ["*HEADING\n", f"tipgeo {self.kind} needle insertion: {one_line(self.name)}\n",
+             self.header()]
         o.append("*NODE, NSET=NALL\n" + self._node_lines())
         for part in ("tissue", "needle"):
             sets = []
@@ -288,7 +292,8 @@ class FemModel:
             raise SpecError("the Abaqus deck is not written for the erosion cut (Abaqus "
                            "remeshes adaptively instead, as the thesis did); drop --abaqus "
                            "or --cut erosion")
-        o = ["*Heading\n", f"tipgeo {self.kind} needle insertion: {self.name}\n", self.header(),
+        o = ["*Heading\n", f"tipgeo {self.kind} needle insertion: {one_line(self.name)}\n",
+             self.header(),
              "*Preprint, echo=NO, model=NO, history=NO, contact=NO\n"]
         tissue = [b for b in self.blocks if b.part == "tissue"]
         tnodes = self.part_nodes("tissue")

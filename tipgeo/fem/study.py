@@ -30,6 +30,7 @@ from .. import validate as v
 from ..atomic import write_bytes_atomic, write_text_atomic
 from ..errors import FemError, SpecError
 from ..jsonio import dumps
+from ..paths import inside
 from ..tolerances import tol
 from .model import FemModel
 from .results import max_principal, read_dat_totals, read_frd
@@ -257,7 +258,7 @@ def _stress_pictures(model: FemModel, frd, out: Path, stem: str,
             r0 = float(edge.mean())
             win = (max(-r0 - 0.8, float(np.min(xy[:, 0]))), r0 + 0.8, -d - 1.0, -d + 0.6)
         files.append(plot_stress_contour(
-            xy, tris, vals, out / f"{stem}_s1_{d:g}mm.png", needle=ndl, window=win,
+            xy, tris, vals, inside(out, stem, f"_s1_{d:g}mm.png"), needle=ndl, window=win,
             title=f"{model.name}: max principal stress at depth {d:g} mm "
                   f"({model.info['element_size_um']:g} µm elements)",
             xlabel="r (mm)" if model.dim == 2 else
@@ -292,6 +293,7 @@ def run_model(model: FemModel, out_dir: str | Path, *, stem: str | None = None,
     """
     out = Path(out_dir)
     stem = stem or f"{model.name}_{model.kind}"
+    inside(out, stem, ".inp")  # refuses a name that would leave out_dir, before any work
     res = FemResult(model)
     deck = model.ccx_deck()
     decks = [(f"{stem}.inp", deck)]
@@ -299,7 +301,7 @@ def run_model(model: FemModel, out_dir: str | Path, *, stem: str | None = None,
         decks.append((f"{stem}_abaqus.inp", model.abaqus_deck()))
     if deck_only:
         out.mkdir(parents=True, exist_ok=True)
-        res.files += [write_text_atomic(out / n, t) for n, t in decks]
+        res.files += [write_text_atomic(inside(out, n), t) for n, t in decks]
         return res
     require_ccx()
     say = progress or pg.note
@@ -333,9 +335,9 @@ def run_model(model: FemModel, out_dir: str | Path, *, stem: str | None = None,
         created = not out.exists()
         out.mkdir(parents=True, exist_ok=True)
         try:
-            res.files += [write_text_atomic(out / n, t_) for n, t_ in decks]
+            res.files += [write_text_atomic(inside(out, n), t_) for n, t_ in decks]
             for ext in (".log", ".dat", ".frd"):
-                res.files.append(write_bytes_atomic(out / f"{stem}{ext}",
+                res.files.append(write_bytes_atomic(inside(out, stem, ext),
                                                     job.with_suffix(ext).read_bytes()))
         except BaseException:
             _remove(res.files, out if created else None)
@@ -361,7 +363,7 @@ def _finish(res: FemResult, frd, t: np.ndarray, f: np.ndarray, out: Path, stem: 
                             if pictures else ([], {}))
         res.files += pngs
     ana = analytical_force(model, res.depth)
-    res.files.append(write_text_atomic(out / f"{stem}_force.csv",
+    res.files.append(write_text_atomic(inside(out, stem, "_force.csv"),
                                        _curve_csv(res.depth, res.force, ana)))
     if pictures:
         from .plots import plot_force_curves
@@ -369,10 +371,10 @@ def _finish(res: FemResult, frd, t: np.ndarray, f: np.ndarray, out: Path, stem: 
         res.files.append(plot_force_curves(
             [(f"FEM {model.kind}, {model.info['element_size_um']:g} µm", res.depth, res.force,
               "-o"), ("analytical eq. 4.22 (β = 2.5)", res.depth, ana, "--")],
-            out / f"{stem}_force.png",
+            inside(out, stem, "_force.png"),
             title=f"{model.name} into {model.material.name} ({model.material.model}), "
                   f"μ = {model.friction:.3g}"))
-    res.files.append(write_text_atomic(out / f"{stem}.json", dumps(res.to_dict())))
+    res.files.append(write_text_atomic(inside(out, stem, ".json"), dumps(res.to_dict())))
 
 
 def _remove(files: list[Path], folder: Path | None) -> None:

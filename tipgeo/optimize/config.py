@@ -65,6 +65,7 @@ from pathlib import Path
 from typing import Any
 
 from ..errors import SpecError
+from ..names import MAX_NAME_LEN, safe_name
 from ..validate import brief, finite_float
 from .design import DESIGN_METHODS
 from .responses import FORCE_RESPONSES, RESPONSES, THESIS
@@ -81,7 +82,13 @@ MAX_CANDIDATES = 100_000
 #: ``[surrogate] kernel``: a correlation family (gp.KERNELS) or per-response choice.
 SURROGATE_KERNELS = ("gaussian", "matern72", "matern52", "matern32", "auto")
 
-_NAME = re.compile(r"^[A-Za-z_][A-Za-z0-9_.\-]*$")
+_NAME = re.compile(r"[A-Za-z_][A-Za-z0-9_.\-]{0,%d}" % (MAX_NAME_LEN - 1))  # noqa: UP031
+
+
+def _is_name(name: str) -> bool:
+    """A column, objective or study name: a full match of ``_NAME`` (a trailing
+    newline is no match), at most MAX_NAME_LEN characters."""
+    return _NAME.fullmatch(name) is not None
 _PATH = re.compile(r"^(?:(?P<top>tolerance_um)|cannula\.(?P<ckey>\w+)|"
                    r"cutters\[(?P<k>\d+)\]\.(?P<key>\w+))$")
 _CANNULA_NUMERIC = {"gauge": int, "outer_diameter_mm": float, "inner_diameter_mm": float,
@@ -394,9 +401,9 @@ def _variable(k: int, t: Any, base: dict) -> Variable:
                             f"{kind} cutter; allowed: " + ", ".join(numeric))
         integer = key in _INT_KEYS
     name = _str(f"{where}.name", t.get("name", path.rsplit(".", 1)[-1]))
-    if not _NAME.match(name):
-        raise SpecError(f"{where}.name = {name!r} is not a valid column name; allowed "
-                        "letters, digits, '_', '.', '-' (not first)")
+    if not _is_name(name):
+        raise SpecError(f"{where}.name = {brief(name)} is not a valid column name; allowed 1–"
+                        f"{MAX_NAME_LEN} ASCII letters, digits, '_', '.', '-' (not first)")
     for key in ("min", "max"):
         if key not in t:
             raise SpecError(f"{where}.{key} is missing; it is required")
@@ -414,9 +421,9 @@ def _objective(k: int, t: Any, responses: tuple[str, ...]) -> Objective:
     where = f"objectives[{k}]"
     t = _table(where, t, ("name", "terms", "combine"))
     name = _str(f"{where}.name", t.get("name", f"objective-{k}"))
-    if not _NAME.match(name):
-        raise SpecError(f"{where}.name = {name!r} is not a valid name; allowed letters, "
-                        "digits, '_', '.', '-' (not first)")
+    if not _is_name(name):
+        raise SpecError(f"{where}.name = {brief(name)} is not a valid name; allowed 1–"
+                        f"{MAX_NAME_LEN} ASCII letters, digits, '_', '.', '-' (not first)")
     combine = _choice(f"{where}.combine", t.get("combine", "weighted"), COMBINE)
     if "terms" not in t:
         raise SpecError(f"{where}.terms is missing; expected an array of "
@@ -457,10 +464,10 @@ def config_from_dict(data: Any, *, base_dir: str | Path | None = None,
     """
     t = _table("config", data, _TOP)
     bdir = None if base_dir is None else Path(base_dir)
-    name = _str("name", t.get("name", source.stem if source else "study"))
-    if not _NAME.match(name):
-        raise SpecError(f"name = {name!r} is not a valid name; allowed letters, digits, '_', "
-                        "'.', '-' (not first)")
+    name = _str("name", t.get("name", safe_name(source.stem) if source else "study"))
+    if not _is_name(name):
+        raise SpecError(f"name = {brief(name)} is not a valid name; allowed 1–{MAX_NAME_LEN} "
+                        "ASCII letters, digits, '_', '.', '-' (not first)")
     description = _str("description", t.get("description", ""))
     if "base" not in t:
         raise SpecError("base is missing; expected a preset name or a spec file (.toml)")

@@ -26,6 +26,7 @@ import numpy as np
 
 from .. import progress as _progress
 from ..jsonio import dumps as _dumps
+from ..paths import inside
 from .config import StudyConfig
 from .infill import infill_optima, training_ranges
 from .objective import term_summary, verify_optimum
@@ -450,7 +451,7 @@ def run_study(config: StudyConfig, out_dir: str | Path, *, executor=None, cache:
             log(f"  a step further: {v['buildable_boundary_reason']}")
         if v["status"] == "ok":
             spec = spec_from_dict(v["spec"])
-            f = out / f"optimum-{obj.name}.toml"
+            f = inside(out, f"optimum-{obj.name}", ".toml")
             write_text_atomic(f, dumps_spec(spec))
             files.append(str(f))
         entries.append(head | {"value": opt.value, "search": opt.search,
@@ -484,13 +485,15 @@ def run_study(config: StudyConfig, out_dir: str | Path, *, executor=None, cache:
         pbar = _bar(progress, len(surfaces) + 1 + len(fronts), "pictures", "picture")
         try:
             for name in surfaces:
-                files.append(str(plot_response(sur, config, name, out / f"surface-{name}.png",
+                png = inside(out, f"surface-{name}", ".png")
+                files.append(str(plot_response(sur, config, name, png,
                                                optima=optima, feasible=shade)))
                 pbar.update()
             files.append(str(plot_loo(sur, out / "loo.png")))
             pbar.update()
             for opt in fronts:
-                files.append(str(plot_pareto(opt, out / f"pareto-{opt.objective.name}.png")))
+                png = inside(out, f"pareto-{opt.objective.name}", ".png")
+                files.append(str(plot_pareto(opt, png)))
                 pbar.update()
         finally:
             pbar.close()

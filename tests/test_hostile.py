@@ -1,0 +1,193 @@
+"""Hostile and careless inputs (issue 26): names are names, paths stay inside
+the output folder, no injected solver lines."""
+
+from __future__ import annotations
+
+import dataclasses
+import re
+from pathlib import Path
+
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from tipgeo.errors import InputError, SpecError
+from tipgeo.names import MAX_NAME_LEN, NAME_FORM, check_name, is_name, one_line, safe_name
+from tipgeo.paths import inside
+from tipgeo.spec import load_spec, loads_spec
+
+PUNCH = (Path(__file__).resolve().parents[1] / "samples" / "punch-plain.toml").read_text()
+
+
+def _spec_text(name: str | None = None, cutter: str | None = None) -> str:
+    text = PUNCH
+    if name is not None:
+        text = text.replace('name = "punch-plain"', f"name = {_toml(name)}")
+    if cutter is not None:
+        text = text.replace('name = "cone"', f"name = {_toml(cutter)}")
+    return text
+
+
+def _toml(s: str) -> str:
+    return '"' + "".join(c if c.isprintable() and c not in '"\\' else f"\\u{ord(c):04x}"
+                         for c in s) + '"'
+
+
+# -- 1. names are names --------------------------------------------------------------------
+_STATED = re.compile(r"[A-Za-z0-9_][A-Za-z0-9_.\-]*")
+
+
+@settings(max_examples=300, deadline=None)
+@given(st.one_of(st.text(max_size=80),
+                 st.text(alphabet="abcXYZ019_-./\\\n\r *:", max_size=70)))
+def test_name_validator_accepts_exactly_the_stated_form(s):
+    ok = _STATED.fullmatch(s) is not None and len(s) <= MAX_NAME_LEN
+    assert is_name(s) == ok
+    if ok:
+        assert check_name("name", s) == s
+    else:
+        with pytest.raises(SpecError) as e:
+            check_name("name", s)
+        msg = str(e.value)
+        assert "\n" not in msg and msg.startswith("name = ") and "allowed" in msg
+    assert is_name(safe_name(s)) or safe_name(s) == "tip"
+
+
+@pytest.mark.parametrize("bad", ["../../escaped", "x\n*INCLUDE, INPUT=evil.inp", "a/b", ".hidden",
+                                 "-rf", "", "a" * (MAX_NAME_LEN + 1), "tab\there", "x\r", "é"])
+def test_spec_name_refused_at_load(bad):
+    with pytest.raises(SpecError) as e:
+        loads_spec(_spec_text(name=bad)) if bad else check_name("name", bad)
+    msg = str(e.value)
+    assert "\n" not in msg and "name = " in msg and "not a valid name" in msg
+    assert len(msg) < 300  # the value is shortened
+
+
+@pytest.mark.parametrize("bad", ["../x", "x\n*INCLUDE", "a b", "a" * 65])
+def test_cutter_name_refused_at_load(bad):
+    with pytest.raises(SpecError) as e:
+        loads_spec(_spec_text(cutter=bad))
+    assert str(e.value).startswith("cutters[0].name = ") and "\n" not in str(e.value)
+
+
+def test_good_names_load_and_presets_still_valid():
+    from tipgeo.optimize.config import load_config
+    from tipgeo.presets import preset, preset_names
+
+    assert loads_spec(_spec_text(name="bevel-14G-xi14.5")).name == "bevel-14G-xi14.5"
+    assert loads_spec(_spec_text(name="a" * MAX_NAME_LEN)).name == "a" * MAX_NAME_LEN
+    for n in preset_names():
+        s = preset(n)
+        assert is_name(s.name) and all(is_name(c.name) for c in s.cutters)
+    samples = Path(__file__).resolve().parents[1] / "samples"
+    for f in samples.glob("*.toml"):
+        if "study" in f.name:
+            assert is_name(load_config(f).name)
+        else:
+            assert is_name(load_spec(f).name)
+
+
+def test_spec_file_stem_becomes_a_safe_name(tmp_path):
+    f = tmp_path / "my spec (v2).toml"
+    f.write_text(PUNCH.replace('name = "punch-plain"\n', ""))
+    assert load_spec(f).name == "my_spec__v2_"
+
+
+@pytest.mark.parametrize("bad", ["../up", "x\n*INCLUDE, INPUT=evil.inp", "a" * 65])
+def test_study_name_refused(bad, tmp_path):
+    from tipgeo.optimize.config import load_config
+
+    src = (Path(__file__).resolve().parents[1] / "samples" / "bevel-study.toml").read_text()
+    text = re.sub(r'(?m)^name = .*$', lambda _: f"name = {_toml(bad)}", src, count=1)
+    f = tmp_path / "s.toml"
+    f.write_text(text)
+    with pytest.raises(SpecError) as e:
+        load_config(f)
+    assert str(e.value).count("\n") == 0 and "name" in str(e.value)
+
+
+def test_tipspec_refuses_bad_name_in_code():
+    s = loads_spec(PUNCH)
+    with pytest.raises(SpecError):
+        s.with_(name="../../escaped")
+
+
+# -- 2. paths stay inside the output folder -------------------------------------------------
+@pytest.mark.parametrize("name", ["../../escaped", "..", ".", "a/b", "/abs", "x\0y", ""])
+def test_inside_refuses_names_leaving_the_folder(tmp_path, name):
+    with pytest.raises(InputError) as e:
+        inside(tmp_path / "out", name, "" if name in ("", ".", "..") else ".inp")
+    assert "\n" not in str(e.value).replace(repr(name), "") and "output folder" in str(e.value)
+
+
+def test_inside_refuses_a_link_out_of_the_folder(tmp_path):
+    out = tmp_path / "out"
+    out.mkdir()
+    (out / "evil.inp").symlink_to(tmp_path / "elsewhere.inp")
+    with pytest.raises(InputError):
+        inside(out, "evil", ".inp")
+    assert inside(out, "good", ".inp") == out / "good.inp"
+
+
+def _files(root: Path) -> set[Path]:
+    return {p for p in root.rglob("*")}
+
+
+def test_fem_traversal_name_writes_nothing_outside(tmp_path, monkeypatch, capsys):
+    """Issue 26: name = "../../escaped" with fem --deck-only --out-dir a/b/out."""
+    from tipgeo.cli import main
+
+    monkeypatch.chdir(tmp_path)
+    spec = tmp_path / "evil.toml"
+    spec.write_text(_spec_text(name="../../escaped"))
+    before = _files(tmp_path)
+    assert main(["fem", str(spec), "--depth-mm", "0.5", "--mesh-um", "100", "--deck-only",
+                 "--out-dir", "a/b/out"]) == 2
+    err = capsys.readouterr().err.strip()
+    assert len(err.splitlines()) == 1 and "not a valid name" in err
+    assert _files(tmp_path) == before  # nothing written anywhere
+
+
+def test_fem_forged_name_past_load_is_refused_by_the_path_helper(build_preset, tmp_path):
+    from tipgeo.fem import run_model
+    from tipgeo.fem.axisym import axisymmetric_model
+
+    m = axisymmetric_model(build_preset("punch-plain"), depth=0.5, mesh=0.1)
+    forged = dataclasses.replace(m, name="../../escaped")
+    out = tmp_path / "a" / "b" / "out"
+    with pytest.raises(InputError):
+        run_model(forged, out, deck_only=True)
+    assert not (tmp_path / "a" / "escaped_axisymmetric.inp").exists()
+    assert [p for p in tmp_path.rglob("*") if p.is_file()] == []
+
+
+# -- 3. no injected solver lines ------------------------------------------------------------
+def test_injected_include_refused_at_load():
+    with pytest.raises(SpecError):
+        loads_spec(_spec_text(name="x\n*INCLUDE, INPUT=evil.inp"))
+
+
+def test_forged_name_cannot_put_a_keyword_on_its_own_line(build_preset, tmp_path):
+    from tipgeo.fem import run_model
+    from tipgeo.fem.axisym import axisymmetric_model
+
+    m = axisymmetric_model(build_preset("punch-plain"), depth=0.5, mesh=0.1)
+    evil = "x\n*INCLUDE, INPUT=evil.inp\r*INCLUDE, INPUT=b.inp\u2028*INCLUDE\x0b**"
+    forged = dataclasses.replace(m, name=evil, info={**m.info, "tip": evil})
+    for deck in (forged.ccx_deck(), forged.abaqus_deck()):
+        lines = re.split(r"\r\n|\r|\n|\x0b|\x0c|\x1c|\x1d|\x1e|\x85|\u2028|\u2029", deck)
+        assert not [ln for ln in lines if ln.upper().startswith("*INCLUDE")]
+    # and through the writer: the file on disk, with a safe stem
+    res = run_model(forged, tmp_path, stem="forged", deck_only=True, abaqus=True)
+    for f in res.files:
+        text = Path(f).read_bytes().decode()
+        assert not [ln for ln in text.splitlines() if ln.upper().startswith("*INCLUDE")]
+
+
+def test_one_line_removes_every_line_break():
+    s = one_line("a\nb\rc\x0bd\x0ce\x85f\u2028g\u2029h\x00i")
+    assert s.splitlines() == [s] and "\x00" not in s
+
+
+def test_name_form_constant_matches_the_doc():
+    assert NAME_FORM.fullmatch("bevel-14G-xi14.5") and not NAME_FORM.fullmatch(".x")

@@ -191,3 +191,37 @@ def test_one_line_removes_every_line_break():
 
 def test_name_form_constant_matches_the_doc():
     assert NAME_FORM.fullmatch("bevel-14G-xi14.5") and not NAME_FORM.fullmatch(".x")
+
+
+def test_3mf_name_with_markup_is_escaped(build_preset, tmp_path):
+    import xml.dom.minidom
+    import zipfile
+
+    from tipgeo.io import export_tip
+
+    name = 'a<b&c"d\'e</metadata>'
+    f = export_tip(build_preset("bevel-14G-xi45"), tmp_path / "t.3mf", name=name)
+    doc = xml.dom.minidom.parseString(zipfile.ZipFile(f).read("3D/3dmodel.model"))
+    assert [o.getAttribute("name") for o in doc.getElementsByTagName("object")] == [name]
+    title = [m for m in doc.getElementsByTagName("metadata")
+             if m.getAttribute("name") == "Title"][0]
+    assert title.firstChild.data == name
+
+
+def test_step_name_quote_is_doubled(build_preset, tmp_path):
+    pytest.importorskip("OCP")
+    from tipgeo.io import export_tip
+
+    f = export_tip(build_preset("bevel-14G-xi45"), tmp_path / "t.step", name="it's *INCLUDE")
+    lines = [ln for ln in f.read_text().splitlines() if "PRODUCT(" in ln]
+    assert lines and "'it''s *INCLUDE'" in lines[0]
+    assert not [ln for ln in f.read_text().splitlines() if ln.startswith("*")]
+
+
+@pytest.mark.parametrize("bad", ["a\nb", "a\rb"])
+def test_export_name_with_line_break_refused(build_preset, tmp_path, bad):
+    from tipgeo.io import export_tip
+
+    with pytest.raises(SpecError):
+        export_tip(build_preset("bevel-14G-xi45"), tmp_path / "t.step", name=bad)
+    assert list(tmp_path.iterdir()) == []

@@ -225,3 +225,95 @@ def test_export_name_with_line_break_refused(build_preset, tmp_path, bad):
     with pytest.raises(SpecError):
         export_tip(build_preset("bevel-14G-xi45"), tmp_path / "t.step", name=bad)
     assert list(tmp_path.iterdir()) == []
+
+
+# -- 4. cost bounds before work -------------------------------------------------------------
+def test_rotations_deg_capped_before_work():
+    import time
+
+    from tipgeo.tolerances import MAX_PLANES
+
+    rot = ", ".join(f"{360 * k / 5000:.6f}" for k in range(5000))
+    text = PUNCH.replace('kind = "conical"\nname = "cone"\ntheta_deg = 13.0\n'
+                         'bevel_length_mm = 0.6', f'kind = "multiplane"\nxi_deg = 15.0\n'
+                         f'rotations_deg = [{rot}]')
+    t0 = time.perf_counter()
+    with pytest.raises(SpecError) as e:
+        loads_spec(text)
+    assert time.perf_counter() - t0 < 2.0
+    msg = str(e.value)
+    assert "5000 entries" in msg and f"at most {MAX_PLANES}" in msg and "\n" not in msg
+    ok = ", ".join(f"{360 * k / MAX_PLANES:.6f}" for k in range(MAX_PLANES))
+    from tipgeo.cutters.planar import MultiPlaneCutter
+
+    assert MultiPlaneCutter(xi=0.3, rotations=[float(x) * 0.0174533 for x in ok.split(",")]
+                            ).count == MAX_PLANES
+
+
+def test_workers_capped_at_a_multiple_of_the_cpus(tmp_path, capsys):
+    import os
+
+    from tipgeo.cli import main
+    from tipgeo.optimize.executors import MAX_WORKERS_PER_CPU, make_executor, max_workers
+
+    assert max_workers() == MAX_WORKERS_PER_CPU * (os.cpu_count() or 1)
+    with pytest.raises(SpecError) as e:
+        make_executor(max_workers() + 1)
+    assert str(max_workers()) in str(e.value) and "--scheduler" in str(e.value)
+    make_executor(max_workers())  # the cap itself is allowed (no process started yet)
+    study = Path(__file__).resolve().parents[1] / "samples" / "bevel-study.toml"
+    out = tmp_path / "o"
+    assert main(["optimize", str(study), "--workers", "4096", "--out-dir", str(out)]) == 2
+    err = capsys.readouterr().err.strip()
+    assert len(err.splitlines()) == 1 and "--workers = 4096" in err
+    assert not out.exists() or not any(out.rglob("*"))
+
+
+def test_fifo_refused_before_opening(tmp_path):
+    import os
+    import subprocess
+    import sys
+
+    fifo = tmp_path / "spec.toml"
+    os.mkfifo(fifo)
+    with pytest.raises(SpecError) as e:
+        load_spec(fifo)
+    assert "FIFO" in str(e.value)
+    # and on the command line, with a guard: a hang would be a failure, not a stuck suite
+    r = subprocess.run([sys.executable, "-m", "tipgeo", "build", str(fifo), "-o",
+                        str(tmp_path / "x.stl")], capture_output=True, text=True, timeout=60,
+                       env={**os.environ, "PYTHONPATH": str(Path(__file__).resolve().parents[1])})
+    assert r.returncode == 2 and "FIFO" in r.stderr and len(r.stderr.strip().splitlines()) == 1
+    with pytest.raises(SpecError) as e:
+        load_spec("/dev/null")
+    assert "device" in str(e.value)
+
+
+@pytest.mark.parametrize("um", ["1e-30", "1e-20", "1e-300"])
+def test_tiny_tolerance_is_a_clear_error(tmp_path, capsys, um):
+    from tipgeo.cli import main
+
+    assert main(["build", "bevel-14G-xi15", "--tolerance-um", um, "-o",
+                 str(tmp_path / "x.stl")]) == 2
+    err = capsys.readouterr().err.strip()
+    assert len(err.splitlines()) == 1 and "finer than" in err and "raise --tolerance-um" in err
+    assert not (tmp_path / "x.stl").exists()
+
+
+def test_3d_fem_refused_before_meshing(tmp_path, capsys):
+    """Issue 26: a 3D deck-only of the helical tip at depth 5 mm ran over 600 s."""
+    import time
+
+    from tipgeo.cli import main
+    from tipgeo.tolerances import MAX_NEEDLE_FACES_3D
+
+    t0 = time.perf_counter()
+    assert main(["fem", "helical-14G", "--model", "3d", "--depth-mm", "5", "--deck-only",
+                 "--out-dir", str(tmp_path / "o")]) == 2
+    assert time.perf_counter() - t0 < 30
+    err = capsys.readouterr().err.strip()
+    assert len(err.splitlines()) == 1 and f"at most {MAX_NEEDLE_FACES_3D}" in err
+    assert not (tmp_path / "o").exists()
+    assert main(["fem", "punch-plain", "--model", "3d", "--depth-mm", "0.5", "--mesh-um", "5",
+                 "--deck-only", "--out-dir", str(tmp_path / "p")]) == 2
+    assert "elements; allowed up to" in capsys.readouterr().err

@@ -21,7 +21,7 @@ import numpy as np
 
 from .cannula import Cannula
 from .errors import BuildError, SpecError
-from .tolerances import tol
+from .tolerances import MIN_TOLERANCE_FRACTION, tol
 
 __all__ = ["Labels", "BuildContext", "segments_for", "AUX", "OUTER", "INNER", "BASE"]
 
@@ -48,6 +48,12 @@ def segments_for(radius: float, chordal: float, symmetry: int = 1) -> int:
     if chordal >= radius:
         raise SpecError(f"tolerance = {chordal:.6g} mm is not smaller than the radius "
                         f"{radius:.6g} mm; allowed 0 < tolerance < radius")
+    floor = MIN_TOLERANCE_FRACTION * 2.0 * radius
+    if not chordal >= floor:  # also NaN; before the segment count (1 - tol/r may round to 1)
+        raise SpecError(f"tolerance = {chordal * 1e3:.6g} µm is finer than {floor * 1e3:.3g} µm "
+                        f"({MIN_TOLERANCE_FRACTION:g} × the {2 * radius:.6g} mm tube diameter); "
+                        f"allowed at least {floor * 1e3:.3g} µm (raise --tolerance-um or "
+                        "tolerance_um)")
     n = math.ceil(math.pi / math.acos(1.0 - chordal / radius))
     k = math.lcm(tol.segment_multiple, max(int(symmetry), 1))
     n = max(tol.min_segments, k * math.ceil(n / k))

@@ -37,6 +37,28 @@ MAX_TIP_HEIGHT_MM = 1000.0
 #: cutter costs one boolean, so the cap bounds the build time).
 MAX_CUTTERS = 16
 
+#: Most planes one multi-plane cutter may have (``planes`` or the length of
+#: ``rotations_deg``): each plane is a half-space of the cutting solid, and
+#: 5,000 of them ran over 400 s (issue 26). The thesis's tips need at most 3.
+MAX_PLANES = 64
+
+#: Finest chordal tolerance, as a fraction of the tube's outer diameter d: a
+#: circle needs about π / (2·sqrt(tol / d)) segments, so 1e-8·d means about
+#: 15,700 — under ``max_segments`` (20,000) — and keeps 1 − tol/r well away
+#: from round-off (``--tolerance-um 1e-30`` divided by zero before).
+MIN_TOLERANCE_FRACTION = 1.0e-8
+
+#: Most elements a 3D FEM deck may have, estimated before meshing from the
+#: contact zone, the block's layers and the element size (tissue) plus the
+#: needle's front volume and surface (needle).
+MAX_FEM_ELEMENTS_3D = 300_000
+
+#: Most surface triangles of the needle's front (the tip clipped at the
+#: depth) that the 3D model meshes into tetrahedra: gmsh's boundary recovery
+#: grows steeply with them (helical tip: 3,390 at 0.5 mm took 15 s, 6,516 at
+#: 1 mm over 100 s, 29,530 at 5 mm over 600 s — issue 26).
+MAX_NEEDLE_FACES_3D = 5_000
+
 
 @dataclass
 class InspectSettings:

@@ -4,6 +4,8 @@ too deep for the parser — is one :class:`~tipgeo.errors.SpecError` line."""
 
 from __future__ import annotations
 
+import os
+import stat
 import sys
 from pathlib import Path
 from typing import Any
@@ -26,11 +28,30 @@ MAX_TOML_DEPTH = 32
 
 
 def read_text_file(path: str | Path, what: str, *, max_bytes: int = MAX_TOML_BYTES) -> str:
-    """The UTF-8 text of ``path``; a missing, unreadable or oversized file is a
-    :class:`SpecError` naming ``what`` and the path."""
+    """The UTF-8 text of ``path``; a missing, unreadable or oversized file, or
+    one that is not a regular file (a FIFO, a device, a socket: reading one
+    could block forever or never end), is a :class:`SpecError` naming
+    ``what`` and the path. The file is opened non-blocking and checked with
+    ``fstat`` before a byte is read."""
     p = Path(path)
     try:
-        with open(p, "rb") as f:
+        fd = os.open(p, os.O_RDONLY | getattr(os, "O_NONBLOCK", 0) | getattr(os, "O_NOCTTY", 0))
+        try:
+            mode = os.fstat(fd).st_mode
+            if stat.S_ISDIR(mode):
+                raise IsADirectoryError(p)
+            if not stat.S_ISREG(mode):
+                kind = ("a FIFO (named pipe)" if stat.S_ISFIFO(mode) else
+                        "a device" if stat.S_ISCHR(mode) or stat.S_ISBLK(mode) else
+                        "a socket" if stat.S_ISSOCK(mode) else "not a regular file")
+                raise SpecError(f"{what} '{p}' is {kind}; expected a regular file (copy its "
+                                "content to a file and give that)")
+            if hasattr(os, "set_blocking"):
+                os.set_blocking(fd, True)
+        except BaseException:
+            os.close(fd)
+            raise
+        with os.fdopen(fd, "rb") as f:
             data = f.read(max_bytes + 1)
     except FileNotFoundError:
         raise SpecError(f"{what} '{p}' does not exist") from None

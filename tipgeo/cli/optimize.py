@@ -30,10 +30,10 @@ def _config(arg: str):
 
 def _executor(args, config):
     from ..errors import SpecError
-    from ..optimize.executors import DaskExecutor, make_executor
+    from ..optimize.executors import DaskExecutor, check_workers, make_executor
 
-    if args.workers is not None and args.workers < 1:
-        raise SpecError(f"--workers = {args.workers} is out of range; allowed an integer ≥ 1")
+    if args.workers is not None:
+        check_workers("--workers", args.workers)
     if args.scheduler:
         if args.workers is not None:
             raise SpecError("--workers and --scheduler exclude each other; the cluster "

@@ -26,7 +26,7 @@ from .. import validate as v
 from ..cannula import Cannula
 from ..construct import BuildContext
 from ..errors import SpecError
-from ..tolerances import tol
+from ..tolerances import MAX_PLANES, tol
 from .base import Cutter, check_name
 from .surfaces import Plane
 from .toml import round_for_toml as _r
@@ -195,6 +195,12 @@ class MultiPlaneCutter(PlanarCutter):
         if "rotations_deg" in t:
             if "planes" in t:
                 raise SpecError(f"{t.where}: give planes or rotations_deg, not both")
+            raw = t.table["rotations_deg"]
+            if isinstance(raw, list) and len(raw) > MAX_PLANES:  # before any conversion
+                raise SpecError(f"{t.key('rotations_deg')} has {len(raw)} entries; allowed at "
+                                f"most {MAX_PLANES} planes per cutter (split the cut into "
+                                "several multiplane cutters, or use planes = N for a symmetric "
+                                "one)")
             kw["rotations"] = t.deg_list("rotations_deg", arg="rotations")
         else:
             kw["count"] = t.int("planes", arg="count", required=True)
@@ -223,8 +229,12 @@ class MultiPlaneCutter(PlanarCutter):
         object.__setattr__(self, "xi", xi)
         object.__setattr__(self, "rotation", v.angle("rotation", self.rotation))
         if self.rotations is None:
-            v.integer("count", self.count, lo=2, hi=64)
+            v.integer("count", self.count, lo=2, hi=MAX_PLANES)
         else:
+            if len(self.rotations) > MAX_PLANES:
+                raise SpecError(f"rotations has {len(self.rotations)} entries; allowed at most "
+                                f"{MAX_PLANES} planes per cutter (split the cut into several "
+                                "multiplane cutters)")
             rot = tuple(v.angle(f"rotations[{k}]", r, lo=0.0, hi=2 * math.pi, hi_open=True)
                         for k, r in enumerate(self.rotations))
             if len(rot) < 2:

@@ -25,6 +25,7 @@ import numpy as np
 from .. import validate as v
 from ..errors import FemError, SpecError
 from ..tip import Tip
+from ..tolerances import MAX_FEM_ELEMENTS_3D, MAX_NEEDLE_FACES_3D
 from .material import DEFAULT_NU, fem_material, friction_coefficient
 from .mesh import gmsh_session
 from .model import ElementBlock, FemModel, boundary_faces
@@ -35,7 +36,7 @@ __all__ = ["indentation_model", "mirror_planes", "BLOCK_3D"]
 BLOCK_3D = (10.0, 7.5)
 
 #: Limit on the model size, checked before meshing (elements).
-MAX_ELEMENTS_3D = 300_000
+MAX_ELEMENTS_3D = MAX_FEM_ELEMENTS_3D
 
 _GMSH_3D = {4: ("C3D4", 4), 5: ("C3D8", 8), 6: ("C3D6", 6)}
 
@@ -137,10 +138,18 @@ def indentation_model(tip: Tip, *, depth: float, tissue: str = "pvc-sp0",
     ring = 2 * np.pi * 0.5 * (r_in + r_out) * (0.25 if sx and sy else 0.5 if sx or sy else 1)
     n_est = (ring * (r_out - r_in + 2 * margin) / h ** 2 + np.pi * R ** 2 / far ** 2) * len(
         layers)
+    # the needle's tetrahedra: its front's volume at size h (≈ 6 per h³)
+    frac = 0.25 if sx and sy else 0.5 if sx or sy else 1.0
+    n_est += 6.0 * frac * np.pi * (r_out ** 2 - r_in ** 2) * (depth + margin) / h ** 3
     if n_est > MAX_ELEMENTS_3D:
         raise SpecError(f"mesh = {h * 1e3:g} µm needs about {n_est:.0f} elements; allowed up "
                         f"to {MAX_ELEMENTS_3D} (a coarser --mesh-um, a shallower --depth-mm)")
     fv, ff = _clip_front(tip, z_max - depth - margin)
+    if len(ff) > MAX_NEEDLE_FACES_3D:  # before gmsh: its tetrahedra cost grows steeply
+        raise SpecError(f"depth = {depth:g} mm: the needle's front has {len(ff)} surface "
+                        f"triangles; the 3D model meshes at most {MAX_NEEDLE_FACES_3D} (a "
+                        "shallower --depth-mm, a coarser tolerance, or the axisymmetric model "
+                        "for a round tip)")
     nv = np.column_stack([fv[:, 0], z_max - fv[:, 2], fv[:, 1]])
     X0, Z0 = (0.0 if sx else -R), (0.0 if sy else -R)
     with gmsh_session() as gmsh:

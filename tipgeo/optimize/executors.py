@@ -16,7 +16,30 @@ from typing import Any
 
 from ..errors import MissingToolError, SpecError
 
-__all__ = ["SerialExecutor", "ProcessExecutor", "DaskExecutor", "make_executor", "MissingDask"]
+__all__ = ["SerialExecutor", "ProcessExecutor", "DaskExecutor", "make_executor", "MissingDask",
+           "MAX_WORKERS_PER_CPU", "max_workers", "check_workers"]
+
+#: Most local worker processes per CPU: each holds a tip build (~100 MB);
+#: more than a few per CPU only adds memory and switching.
+MAX_WORKERS_PER_CPU = 8
+
+
+def max_workers() -> int:
+    """The most local workers accepted: :data:`MAX_WORKERS_PER_CPU` × the CPUs."""
+    return MAX_WORKERS_PER_CPU * (os.cpu_count() or 1)
+
+
+def check_workers(key: str, workers: object) -> int:
+    """``workers`` as an int in 1 … :func:`max_workers`, else a one-line
+    SpecError naming ``key``, the figure and the way out."""
+    if isinstance(workers, bool) or not isinstance(workers, int) or workers < 1:
+        raise SpecError(f"{key} = {workers!r} is out of range; allowed an integer ≥ 1")
+    cap = max_workers()
+    if workers > cap:
+        raise SpecError(f"{key} = {workers} is more than {cap} ({MAX_WORKERS_PER_CPU} per CPU, "
+                        f"{os.cpu_count() or 1} CPUs); give at most {cap}, or use a Dask "
+                        "cluster (--scheduler) for more")
+    return workers
 
 
 class MissingDask(MissingToolError, SpecError):
@@ -177,9 +200,8 @@ def make_executor(workers: int | None = None, scheduler: str | None = None):
     Dask ``scheduler`` address."""
     if scheduler:
         return DaskExecutor(scheduler)
-    if workers is not None and (isinstance(workers, bool) or not isinstance(workers, int)
-                                or workers < 1):
-        raise SpecError(f"workers = {workers!r} is out of range; allowed an integer ≥ 1")
+    if workers is not None:
+        check_workers("workers", workers)
     if workers == 1:
         return SerialExecutor()
     return ProcessExecutor(workers)

@@ -317,3 +317,122 @@ def test_3d_fem_refused_before_meshing(tmp_path, capsys):
     assert main(["fem", "punch-plain", "--model", "3d", "--depth-mm", "0.5", "--mesh-um", "5",
                  "--deck-only", "--out-dir", str(tmp_path / "p")]) == 2
     assert "elements; allowed up to" in capsys.readouterr().err
+
+
+# -- 5. sweep cache: forged entries recomputed and reported, never served -------------------
+def _genuine_entry(tmp_path):
+    import json
+
+    from tipgeo.optimize.cache import ResultCache, key_from_hash, spec_hash
+
+    h = spec_hash({"name": "x", "cannula": {"gauge": 14}, "cutters": []}, {"method": "exact"})
+    key = key_from_hash(h)
+    warnings: list[str] = []
+    cache = ResultCache(tmp_path / "c", warn=warnings.append)
+    assert cache.put(key, {"status": "ok", "error": "", "responses": {"theta_min_deg": 15.0,
+                                                                      "undefined": float("nan")}},
+                     h)
+    path = tmp_path / "c" / key[:2] / f"{key}.json"
+    return cache, key, h, path, json.loads(path.read_text()), warnings
+
+
+def test_cache_entry_round_trips_with_hash_and_version(tmp_path):
+    from tipgeo import __version__
+
+    cache, key, h, path, entry, warnings = _genuine_entry(tmp_path)
+    assert entry["content_hash"] == h and entry["tipgeo_version"] == __version__
+    got = cache.get(key, h)
+    assert got["responses"]["theta_min_deg"] == 15.0 and got["responses"]["undefined"] != 0
+    assert warnings == [] and cache.hits == 1
+
+
+def _forge(entry, how):
+    import copy
+
+    e = copy.deepcopy(entry)
+    r = e["result"]
+    if how == "missing-result":
+        del e["result"]
+    elif how == "missing-hash":
+        del e["content_hash"]
+    elif how == "other-hash":
+        e["content_hash"] = "0" * 64
+    elif how == "other-version":
+        e["tipgeo_version"] = "0.0.0-forged"
+    elif how == "key-not-file":
+        e["key"] = "f" * 64
+    elif how == "status-bad":
+        r["status"] = "excellent"
+    elif how == "status-number":
+        r["status"] = 3
+    elif how == "string-response":
+        r["responses"]["theta_min_deg"] = "15.0"
+    elif how == "bool-response":
+        r["responses"]["theta_min_deg"] = True
+    elif how == "responses-list":
+        r["responses"] = [15.0]
+    elif how == "result-list":
+        e["result"] = [r]
+    elif how == "error-number":
+        r["error"] = 7
+    elif how == "extra-key":
+        e["served"] = True
+    elif how == "format":
+        e["format"] = 1
+    return e
+
+
+_FORGED = ["missing-result", "missing-hash", "other-hash", "other-version", "key-not-file",
+           "status-bad", "status-number", "string-response", "bool-response", "responses-list",
+           "result-list", "error-number", "extra-key", "format"]
+_RAW = {"not-json": "{not json", "nan": None, "infinity": None, "array": "[1, 2]",
+        "empty": "", "binary": b"\xff\xfe\x00", "deep": "[" * 100000 + "]" * 100000}
+
+
+@pytest.mark.parametrize("how", _FORGED + list(_RAW))
+def test_forged_cache_entry_is_reported_and_not_served(tmp_path, how):
+    import json
+
+    cache, key, h, path, entry, warnings = _genuine_entry(tmp_path)
+    if how in _FORGED:
+        path.write_text(json.dumps(_forge(entry, how)))
+    elif how in ("nan", "infinity"):
+        text = json.dumps(entry).replace("15.0", "NaN" if how == "nan" else "Infinity")
+        path.write_text(text)
+    else:
+        raw = _RAW[how]
+        path.write_bytes(raw if isinstance(raw, bytes) else raw.encode())
+    assert cache.get(key, h) is None
+    assert len(warnings) == 1 and str(path) in warnings[0] and "recomputed" in warnings[0]
+    assert "\n" not in warnings[0]
+
+
+def test_forged_cache_entry_recomputed_in_a_sweep(tmp_path, monkeypatch, capsys):
+    import json
+
+    from tipgeo.optimize import responses as responses_mod
+    from tipgeo.optimize.config import load_config
+    from tipgeo.optimize.sweep import run_sweep
+
+    calls = []
+
+    def fake(d, a):
+        calls.append(1)
+        return {"status": "ok", "error": "", "responses": {"theta_min_deg": 1.0}}
+
+    monkeypatch.setattr(responses_mod, "evaluate_spec", fake)
+    cfg = load_config(Path(__file__).resolve().parents[1] / "samples" / "bevel-study.toml")
+    first = run_sweep(cfg, cache=tmp_path / "c", progress=False)
+    n = len(calls)
+    key = first.keys[3]
+    victim = tmp_path / "c" / key[:2] / f"{key}.json"
+    e = json.loads(victim.read_text())
+    e["result"]["responses"]["theta_min_deg"] = 1e9  # a forged value with a forged hash
+    e["content_hash"] = "a" * 64
+    victim.write_text(json.dumps(e))
+    capsys.readouterr()
+    second = run_sweep(cfg, cache=tmp_path / "c", progress=False)
+    assert len(calls) == n + 1 and second.computed == 1
+    assert 1e9 not in [r["responses"].get("theta_min_deg") for r in second.results]
+    err = capsys.readouterr().err
+    assert str(victim) in err and "content hash" in err

@@ -13,8 +13,16 @@ code (every ``.py`` file of the package), so results computed by other code
 are never served.
 
 Entries are small JSON files ``<folder>/<key[:2]>/<key>.json`` written
-atomically; a damaged entry is ignored (recomputed). Failed analyses are
-cached only when the failure is deterministic (a ``TipGeoError``).
+atomically. Each carries its key, the content hash of its inputs
+(:func:`spec_hash`) and the tipgeo version; a read checks all of them
+against what the caller computed, and the result's layout (``status`` one of
+ok/invalid/failed, ``error`` a string, ``responses`` names to finite numbers
+or ``null`` for undefined). A missing entry is a miss; a malformed or forged
+one (bad JSON, wrong types, missing keys, another hash or version, NaN or
+infinity, a string where a number goes) is a miss that is reported — one
+warning line naming the file — and recomputed, never served. Failed
+analyses are cached only when the failure is deterministic (a
+``TipGeoError``).
 """
 
 from __future__ import annotations
@@ -30,7 +38,66 @@ __all__ = ["ResultCache", "spec_hash", "spec_key", "key_from_hash", "code_finger
            "default_cache_dir"]
 
 #: Bump when the cached record's layout changes.
-CACHE_FORMAT = 1
+CACHE_FORMAT = 2
+
+_ENTRY_KEYS = {"format", "key", "content_hash", "tipgeo_version", "result"}
+_RESULT_KEYS = {"status", "error", "responses", "deterministic"}
+_STATUSES = ("ok", "invalid", "failed")
+_HEX64 = frozenset("0123456789abcdef")
+
+
+def _version() -> str:
+    from .. import __version__
+
+    return __version__
+
+
+def _no_constant(name: str):
+    raise ValueError(f"{name} is not allowed in a cache entry")
+
+
+def _is_hex64(x: object) -> bool:
+    return isinstance(x, str) and len(x) == 64 and set(x) <= _HEX64
+
+
+def _check_result(r: object) -> dict[str, Any]:
+    """The cached result with undefined responses (``null``) as NaN, or a
+    ValueError saying what is wrong with it."""
+    import math
+
+    if not isinstance(r, dict):
+        raise ValueError("result is not an object")
+    extra = set(r) - _RESULT_KEYS
+    if extra:
+        raise ValueError(f"result has unknown key {sorted(extra)[0]!r}")
+    if r.get("status") not in _STATUSES:
+        raise ValueError(f"result.status = {str(r.get('status'))[:40]!r} is not one of "
+                         + ", ".join(_STATUSES))
+    if not isinstance(r.get("error"), str):
+        raise ValueError("result.error is missing or not a string")
+    if "deterministic" in r and r["deterministic"] is not True:
+        raise ValueError("result.deterministic is not true (only deterministic results "
+                         "are cached)")
+    out = dict(r)
+    if "responses" in r:
+        resp = r["responses"]
+        if not isinstance(resp, dict):
+            raise ValueError("result.responses is not an object")
+        if resp and r["status"] != "ok":
+            raise ValueError("result.responses given for a result that is not ok")
+        clean = {}
+        for k, v in resp.items():
+            if v is None:
+                clean[k] = math.nan  # undefined (written as null)
+            elif isinstance(v, bool) or not isinstance(v, (int, float)):
+                raise ValueError(f"result.responses.{str(k)[:40]} = {str(v)[:40]!r} is not a "
+                                 "number")
+            elif not math.isfinite(v):
+                raise ValueError(f"result.responses.{str(k)[:40]} is not finite")
+            else:
+                clean[k] = float(v)
+        out["responses"] = clean
+    return out
 
 
 def default_cache_dir() -> Path:
@@ -124,33 +191,97 @@ class ResultCache:
     hits, misses, writes : int — counters since construction
     """
 
-    def __init__(self, folder: str | Path):
+    def __init__(self, folder: str | Path, *, warn=None):
         self.folder = Path(folder)
-        self.hits = self.misses = self.writes = 0
+        self.hits = self.misses = self.writes = self.rejected = 0
+        self._warn = warn
 
     def _path(self, key: str) -> Path:
+        if not _is_hex64(key):
+            raise ValueError(f"cache key {key[:70]!r} is not 64 hex digits")
         return self.folder / key[:2] / f"{key}.json"
 
-    def get(self, key: str) -> dict[str, Any] | None:
-        """The cached result, or ``None``."""
+    def _reject(self, path: Path, why: str) -> None:
+        self.rejected += 1
+        self.misses += 1
+        msg = (f"tipgeo: warning: sweep cache entry '{path}' is not valid ({why}); "
+               "recomputed")
+        if self._warn is not None:
+            self._warn(msg)
+        else:
+            import sys
+
+            print(msg, file=sys.stderr)
+
+    def get(self, key: str, content_hash: str | None = None) -> dict[str, Any] | None:
+        """The cached result, or ``None`` (a miss; a malformed or forged entry
+        is a reported miss). ``content_hash``, when given, must be the
+        entry's (the caller's :func:`spec_hash` of the inputs)."""
+        path = self._path(key)
         try:
-            data = json.loads(self._path(key).read_text(encoding="utf-8"))
-        except (OSError, ValueError):
+            raw = path.read_bytes()
+        except FileNotFoundError:
             self.misses += 1
             return None
-        if not isinstance(data, dict) or data.get("key") != key or "result" not in data:
-            self.misses += 1
+        except OSError as e:
+            self._reject(path, f"cannot be read: {e.strerror or e}")
+            return None
+        try:
+            if len(raw) > 1 << 20:
+                raise ValueError("larger than 1 MB")
+            try:
+                data = json.loads(raw.decode("utf-8"), parse_constant=_no_constant)
+            except UnicodeDecodeError:
+                raise ValueError("not UTF-8") from None
+            except RecursionError:
+                raise ValueError("nested too deeply") from None
+            except json.JSONDecodeError as e:
+                raise ValueError(f"not JSON: {e.msg}") from None
+            if not isinstance(data, dict):
+                raise ValueError("not a JSON object")
+            missing = _ENTRY_KEYS - set(data)
+            if missing:
+                raise ValueError(f"key {sorted(missing)[0]!r} is missing")
+            extra = set(data) - _ENTRY_KEYS
+            if extra:
+                raise ValueError(f"unknown key {sorted(extra)[0]!r}")
+            if data["format"] != CACHE_FORMAT or isinstance(data["format"], bool):
+                raise ValueError(f"format is not {CACHE_FORMAT}")
+            if data["key"] != key:
+                raise ValueError("its key is not its file name")
+            if data["tipgeo_version"] != _version():
+                raise ValueError(f"written by tipgeo {str(data['tipgeo_version'])[:20]}, "
+                                 f"not {_version()}")
+            h = data["content_hash"]
+            if not _is_hex64(h) or key_from_hash(h) != key:
+                raise ValueError("its content hash does not give its key")
+            if content_hash is not None and h != content_hash:
+                raise ValueError("its content hash is not the inputs' hash")
+            result = _check_result(data["result"])
+        except ValueError as e:
+            self._reject(path, str(e))
             return None
         self.hits += 1
-        return data["result"]
+        return result
 
-    def put(self, key: str, result: dict[str, Any]) -> bool:
-        """Store a result (atomically); returns whether it was cacheable."""
-        if result.get("deterministic") is False:
+    def put(self, key: str, result: dict[str, Any], content_hash: str | None = None) -> bool:
+        """Store a result (atomically) with the content hash of its inputs
+        (``key`` must be ``key_from_hash(content_hash)``); returns whether it
+        was cacheable."""
+        import math
+
+        if result.get("deterministic") is False or content_hash is None:
             return False
+        if key_from_hash(content_hash) != key:
+            raise ValueError("cache key is not the key of the content hash")
         path = self._path(key)
         path.parent.mkdir(parents=True, exist_ok=True)
-        text = json.dumps({"key": key, "result": result}, allow_nan=True)
+        stored = dict(result)
+        if isinstance(stored.get("responses"), dict):
+            stored["responses"] = {k: (None if isinstance(v, float) and not math.isfinite(v)
+                                       else v) for k, v in stored["responses"].items()}
+        text = json.dumps({"format": CACHE_FORMAT, "key": key, "content_hash": content_hash,
+                           "tipgeo_version": _version(), "result": stored}, allow_nan=False)
         from ..atomic import write_text_atomic
 
         write_text_atomic(path, text)

@@ -263,7 +263,7 @@ def run_sweep(config: StudyConfig, *, X=None, executor=None, cache: Any = None,
     for i, s in enumerate(specs):
         hashes.append(spec_hash(s, analysis))
         keys.append(k := key_from_hash(hashes[-1]))
-        hit = cache.get(k) if cache is not None else None
+        hit = cache.get(k, hashes[-1]) if cache is not None else None
         if hit is not None:
             results[i] = hit
             n_cached += 1
@@ -282,7 +282,7 @@ def run_sweep(config: StudyConfig, *, X=None, executor=None, cache: Any = None,
         if code != here:  # a worker runs other tipgeo code: keep, but never cache
             foreign.append(k)
         elif cache is not None:
-            cache.put(k, r)
+            cache.put(k, r, hashes[todo[k][0]])
         for i in todo[k]:
             results[i] = r
             bar.update(failed=r["status"] != "ok")
@@ -451,11 +451,13 @@ def _screen(config: StudyConfig, X, *, executor, cache, bar: _Bar) -> list[str]:
     the others validated on the executor."""
     specs = [config.spec_dict(x) for x in X]
     keys: list[str] = []
+    hashes: list[str] = []
     out: list = [None] * len(specs)
     todo = []
     for i, s in enumerate(specs):
-        keys.append(k := key_from_hash(spec_hash(s, _SCREEN)))
-        hit = cache.get(k) if cache is not None else None
+        hashes.append(spec_hash(s, _SCREEN))
+        keys.append(k := key_from_hash(hashes[-1]))
+        hit = cache.get(k, hashes[-1]) if cache is not None else None
         if hit is not None and "error" in hit:
             out[i] = hit["error"]
             bar.update(cached=True, failed=bool(out[i]))
@@ -468,7 +470,7 @@ def _screen(config: StudyConfig, X, *, executor, cache, bar: _Bar) -> list[str]:
         if r.get("status") not in ("ok", "invalid"):  # a worker died: refuse, say why
             r = {"status": "invalid", "error": f"validation failed: {r.get('error', '')}"}
         elif cache is not None and r.get("code", here) == here:
-            cache.put(keys[i], {"status": r["status"], "error": r["error"]})
+            cache.put(keys[i], {"status": r["status"], "error": r["error"]}, hashes[i])
         out[i] = r["error"] if r["status"] != "ok" else ""
         bar.update(failed=bool(out[i]))
 

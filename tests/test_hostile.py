@@ -436,3 +436,33 @@ def test_forged_cache_entry_recomputed_in_a_sweep(tmp_path, monkeypatch, capsys)
     assert 1e9 not in [r["responses"].get("theta_min_deg") for r in second.results]
     err = capsys.readouterr().err
     assert str(victim) in err and "content hash" in err
+
+
+# -- 6. nothing left behind -----------------------------------------------------------------
+@pytest.mark.parametrize("existing", [False, True])
+def test_optimize_refusal_after_the_sweep_leaves_no_sweep_csv(tmp_path, monkeypatch, capsys,
+                                                              existing):
+    from tipgeo.cli import main
+    from tipgeo.optimize import responses as responses_mod
+    from tipgeo.optimize import study as study_mod
+
+    def fake(d, a):
+        return {"status": "ok", "error": "", "responses": {"theta_min_deg": 1.0}}
+
+    def refuse(*a, **k):
+        raise SpecError("surrogate: refused on purpose (test)")
+
+    monkeypatch.setattr(responses_mod, "evaluate_spec", fake)
+    monkeypatch.setattr(study_mod, "fit_surrogate", refuse)
+    out = tmp_path / "o"
+    if existing:
+        out.mkdir()
+        (out / "keep.txt").write_text("mine")
+    study = Path(__file__).resolve().parents[1] / "samples" / "bevel-study.toml"
+    assert main(["optimize", str(study), "--out-dir", str(out), "--no-cache", "--quiet",
+                 "--no-pictures"]) == 2
+    assert "refused on purpose" in capsys.readouterr().err
+    if existing:
+        assert sorted(p.name for p in out.iterdir()) == ["keep.txt"]
+    else:
+        assert not out.exists()

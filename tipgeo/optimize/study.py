@@ -353,13 +353,39 @@ def run_study(config: StudyConfig, out_dir: str | Path, *, executor=None, cache:
     ``not_fitted`` (recorded, neither used nor asked for); ``verdict``: the
     :func:`study_verdict` as a dict (``ok``, ``checks``, ``reasons``)
     """
-    from ..atomic import write_text_atomic
-    from ..spec import dumps_spec, spec_from_dict
 
     log = _above_bars(log or (lambda s: print(s, file=sys.stderr, flush=True)), progress)
     out = Path(out_dir)
+    created = not out.exists()
     out.mkdir(parents=True, exist_ok=True)
     files: list[str] = []
+    try:
+        return _study(config, out, files, executor=executor, cache=cache, progress=progress,
+                      build=build, plots=plots, table=table, log=log)
+    except BaseException:  # a refusal or a failure leaves nothing behind
+        _remove_outputs(out, files, created)
+        raise
+
+
+def _remove_outputs(out: Path, files: list[str], created: bool) -> None:
+    """Remove the files a failed study wrote, and ``out`` if the study made it
+    and it is empty now."""
+    import contextlib
+
+    for f in files:
+        with contextlib.suppress(OSError):
+            Path(f).unlink()
+    if created:
+        with contextlib.suppress(OSError):
+            out.rmdir()
+
+
+def _study(config: StudyConfig, out: Path, files: list[str], *, executor, cache, progress,
+           build, plots, table, log) -> dict[str, Any]:
+    """The body of :func:`run_study` (``files`` collects what it writes)."""
+    from ..atomic import write_text_atomic
+    from ..spec import dumps_spec, spec_from_dict
+
     sweep = run_sweep(config, executor=executor, cache=cache, progress=progress)
     files.append(str(write_table(sweep, out / table)))
     s = sweep.summary()

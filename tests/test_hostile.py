@@ -466,3 +466,40 @@ def test_optimize_refusal_after_the_sweep_leaves_no_sweep_csv(tmp_path, monkeypa
         assert sorted(p.name for p in out.iterdir()) == ["keep.txt"]
     else:
         assert not out.exists()
+
+
+# -- 7. indirect inputs are never outputs ---------------------------------------------------
+def test_mesh_cutter_file_refused_as_output(tmp_path, capsys):
+    from tipgeo.cli import main
+
+    cutter = tmp_path / "cutter.stl"
+    cutter.write_text("solid precious\nendsolid precious\n")
+    spec = tmp_path / "s.toml"
+    spec.write_text(PUNCH + '\n[[cutters]]\nkind = "mesh"\nname = "m"\npath = "cutter.stl"\n')
+    assert main(["build", str(spec), "-o", str(cutter)]) == 2
+    err = capsys.readouterr().err.strip()
+    assert len(err.splitlines()) == 1 and "cutters[1].path" in err and str(cutter) in err
+    assert cutter.read_text() == "solid precious\nendsolid precious\n"
+
+
+def test_study_base_spec_refused_as_output(tmp_path, capsys):
+    from tipgeo.cli import main
+    from tipgeo.optimize.config import load_config
+    from tipgeo.presets import preset
+    from tipgeo.spec import dumps_spec
+
+    src = Path(__file__).resolve().parents[1] / "samples" / "bevel-study.toml"
+    obj = load_config(src).objectives[0].name
+    base = tmp_path / f"optimum-{obj}.toml"  # a previous run's optimum as the new base
+    base.write_text(dumps_spec(preset("bevel-14G-xi15")))
+    before = base.read_text()
+    cfg = tmp_path / "study.toml"
+    cfg.write_text(src.read_text().replace('base = "bevel-14G-xi15"', f'base = "{base.name}"'))
+    assert main(["optimize", str(cfg), "--out-dir", str(tmp_path), "--no-cache",
+                 "--quiet"]) == 2
+    err = capsys.readouterr().err.strip()
+    assert len(err.splitlines()) == 1 and "base spec" in err
+    assert base.read_text() == before and not (tmp_path / "sweep.csv").exists()
+    # the sweep's table too
+    assert main(["sweep", str(cfg), "-o", str(base)]) == 2
+    assert base.read_text() == before

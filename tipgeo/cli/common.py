@@ -156,6 +156,54 @@ def _same(a: Path, b: Path) -> bool:
         return False
 
 
+def derived_inputs(path: str | Path, *, _depth: int = 0) -> list[tuple[str, Path]]:
+    """Files an input TOML file makes the command read besides itself: a
+    spec's mesh-cutter files (``cutters[k].path``), a study config's base
+    spec (``base = "*.toml"``) and, in turn, that spec's mesh files — each as
+    (what, path), relative paths from the file's folder. A file that is not
+    TOML, or does not parse, has none (the command reports its errors)."""
+    from ..errors import SpecError
+    from ..tomlio import loads_toml, read_text_file
+
+    p = Path(path)
+    if p.suffix.lower() != ".toml" or _depth > 1 or not p.is_file():
+        return []
+    try:
+        data = loads_toml(read_text_file(p, "input"), "input")
+    except SpecError:
+        return []
+
+    def rel(v: str) -> Path:
+        q = Path(v)
+        return q if q.is_absolute() else p.parent / q
+
+    out: list[tuple[str, Path]] = []
+    cutters = data.get("cutters")
+    for k, c in enumerate(cutters if isinstance(cutters, list) else []):
+        if isinstance(c, dict) and isinstance(c.get("path"), str) and c["path"]:
+            out.append((f"the mesh file cutters[{k}].path of '{p}'", rel(c["path"])))
+    base = data.get("base")
+    if isinstance(base, str) and base.endswith(".toml"):
+        b = rel(base)
+        out.append((f"the base spec of '{p}'", b))
+        out += derived_inputs(b, _depth=_depth + 1)
+    return out
+
+
+def check_derived_inputs(inputs: list[str | Path], outs: list[tuple[str, Path]]) -> None:
+    """Refuse an output that is a file one of ``inputs`` makes the command read
+    (:func:`derived_inputs`), naming both."""
+    from ..errors import InputError
+
+    for src in inputs:
+        for what, q in derived_inputs(src):
+            for opt, p in outs:
+                if _same(q, p):
+                    raise InputError(f"{opt} = '{p}' is {what}; allowed an output that is not "
+                                     "one of the command's inputs, direct or indirect (nothing "
+                                     "was written)")
+
+
 def check_files(args) -> None:
     """Refuse, before any work, outputs with a wrong extension, an output named
     twice, and an output that is one of the command's own inputs."""
@@ -191,6 +239,8 @@ def check_files(args) -> None:
                     raise SpecError(f"{opt} = '{p}' is the command's input {dest.upper()}; "
                                     "allowed an output that is not one of its inputs "
                                     "(nothing was written)")
+    check_derived_inputs([v for dest in getattr(args, "_inputs", ())
+                          for v in _values(args, dest)], outs)
 
 
 def spec_arg(arg: str):

@@ -28,6 +28,21 @@ def _config(arg: str):
     return resolve_study(arg)
 
 
+def _check_outputs(config_arg: str, outs: list) -> None:
+    """Refuse outputs that are the config file or a file it makes the command
+    read (its base spec, that spec's mesh files)."""
+    from ..errors import InputError
+    from .common import _same, check_derived_inputs
+
+    src = Path(config_arg)
+    if src.is_file():
+        for opt, p in outs:
+            if _same(src, p):
+                raise InputError(f"{opt}: '{p}' is the command's input CONFIG; allowed an "
+                                 "output that is not one of its inputs (nothing was written)")
+        check_derived_inputs([src], outs)
+
+
 def _executor(args, config):
     from ..errors import SpecError
     from ..optimize.executors import DaskExecutor, check_workers, make_executor
@@ -56,6 +71,7 @@ def cmd_sweep(args) -> int:
 
     cfg = _config(args.config)
     out = Path(args.output or f"{cfg.name}-sweep.csv")
+    _check_outputs(args.config, [("--output", out)])
     if args.dry_run:
         return _dry_run(cfg, args)
     res = run_sweep(cfg, executor=_executor(args, cfg), cache=_cache(args),
@@ -154,6 +170,11 @@ def cmd_optimize(args) -> int:
 
     out = Path(args.out_dir or cfg.name)
     table = "sweep.parquet" if args.parquet else "sweep.csv"
+    names = [table, "surrogate.json", "report.json", "loo.png"]
+    names += [f"optimum-{o.name}.toml" for o in cfg.objectives]
+    names += [f"pareto-{o.name}.png" for o in cfg.objectives]
+    names += [f"surface-{r}.png" for r in cfg.responses]
+    _check_outputs(args.config, [("--out-dir", out / n) for n in names])
     rep = run_study(cfg, out, executor=_executor(args, cfg), cache=_cache(args),
                     progress=not args.quiet, build=not args.no_build,
                     plots=not args.no_pictures, table=table, log=progress.note)

@@ -503,3 +503,30 @@ def test_study_base_spec_refused_as_output(tmp_path, capsys):
     # the sweep's table too
     assert main(["sweep", str(cfg), "-o", str(base)]) == 2
     assert base.read_text() == before
+
+
+def test_staging_of_a_killed_run_is_removed_by_the_next(tmp_path):
+    import os
+    import signal
+    import subprocess
+    import sys
+
+    from tipgeo.atomic import STAGING_PATTERN, staging_dir
+
+    code = ("import os, signal, sys\n"
+            "from tipgeo.atomic import staging_dir\n"
+            "with staging_dir(sys.argv[1], 'tipgeo.ccx') as d:\n"
+            "    (d / 'job.inp').write_text('*HEADING')\n"
+            "    print(d, flush=True)\n"
+            "    os.kill(os.getpid(), signal.SIGKILL)\n")
+    r = subprocess.run([sys.executable, "-c", code, str(tmp_path)], capture_output=True,
+                       text=True, timeout=60,
+                       env={**os.environ, "PYTHONPATH": str(Path(__file__).resolve().parents[1])})
+    assert r.returncode == -signal.SIGKILL
+    left = Path(r.stdout.strip())
+    assert left.is_dir() and STAGING_PATTERN.match(left.name)  # the kill left it
+    other = tmp_path / "unrelated-dir"
+    other.mkdir()
+    with staging_dir(tmp_path, "tipgeo.ccx") as mine:
+        assert not left.exists() and mine.is_dir()  # the next run removed it
+    assert not mine.exists() and other.is_dir()

@@ -27,7 +27,7 @@ from collections.abc import Callable
 from pathlib import Path
 
 __all__ = ["write_atomic", "write_text_atomic", "write_bytes_atomic", "remove_stale_temporaries",
-           "TEMP_PATTERN"]
+           "TEMP_PATTERN", "staging_dir", "remove_stale_staging", "STAGING_PATTERN"]
 
 _HOST = f"{zlib.crc32(socket.gethostname().encode()) & 0xFFFFFFFF:08x}"
 
@@ -159,3 +159,58 @@ def write_text_atomic(path: str | os.PathLike, text: str) -> Path:
         with open(tmp, "w", encoding="utf-8", newline="\n") as f:
             f.write(text)
     return write_atomic(path, w)
+
+
+#: Names of staging folders: ``<tag>-<host>-<pid>-<hex>``.
+STAGING_PATTERN = re.compile(r"^(?P<tag>[A-Za-z0-9_.]+)-(?P<host>[0-9a-f]{8})-(?P<pid>[0-9]+)-"
+                             r"[0-9a-f]{12}$")
+
+
+def remove_stale_staging(parent: str | Path, tag: str) -> list[Path]:
+    """Remove the staging folders ``<tag>-…`` in ``parent`` that a killed run
+    left: this host's whose process no longer runs, and any older than
+    :data:`STALE_AGE_S`. Returns what was removed; never raises."""
+    import shutil
+
+    parent = Path(parent)
+    removed = []
+    now = time.time()
+    try:
+        entries = list(os.scandir(parent))
+    except OSError:
+        return removed
+    for e in entries:
+        m = STAGING_PATTERN.match(e.name)
+        if not m or m["tag"] != tag:
+            continue
+        try:
+            if not e.is_dir(follow_symlinks=False):
+                continue
+            old = now - e.stat(follow_symlinks=False).st_mtime > STALE_AGE_S
+        except OSError:
+            continue
+        pid = int(m["pid"])
+        dead = m["host"] == _HOST and pid != os.getpid() and not _alive(pid)
+        if old or dead:
+            shutil.rmtree(parent / e.name, ignore_errors=True)
+            if not (parent / e.name).exists():
+                removed.append(parent / e.name)
+    return removed
+
+
+@contextlib.contextmanager
+def staging_dir(parent: str | Path, tag: str):
+    """A fresh folder ``<tag>-<host>-<pid>-<hex>`` in ``parent``, removed on
+    exit whatever happens; the stale ones of killed runs (SIGKILL, power
+    loss) are removed first (:func:`remove_stale_staging`)."""
+    import shutil
+
+    if not re.fullmatch(r"[A-Za-z0-9_.]+", tag):
+        raise ValueError(f"staging tag {tag!r} is not letters, digits, '_' or '.'")
+    remove_stale_staging(parent, tag)
+    path = Path(parent) / f"{tag}-{_HOST}-{os.getpid()}-{secrets.token_hex(6)}"
+    path.mkdir(mode=0o700)
+    try:
+        yield path
+    finally:
+        shutil.rmtree(path, ignore_errors=True)

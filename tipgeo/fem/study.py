@@ -27,7 +27,7 @@ import numpy as np
 
 from .. import progress as pg
 from .. import validate as v
-from ..atomic import write_bytes_atomic, write_text_atomic
+from ..atomic import staging_dir, write_bytes_atomic, write_text_atomic
 from ..errors import FemError, SpecError
 from ..jsonio import dumps
 from ..paths import inside
@@ -305,7 +305,8 @@ def run_model(model: FemModel, out_dir: str | Path, *, stem: str | None = None,
         return res
     require_ccx()
     say = progress or pg.note
-    with tempfile.TemporaryDirectory(prefix="tipgeo-ccx-") as tmp:
+    # staging in the system's temporary folder; a killed run's is removed by the next
+    with staging_dir(tempfile.gettempdir(), "tipgeo.ccx") as tmp:
         job = Path(tmp) / "job.inp"
         job.write_text(deck)
         t0 = time.monotonic()

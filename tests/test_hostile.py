@@ -530,3 +530,15 @@ def test_staging_of_a_killed_run_is_removed_by_the_next(tmp_path):
     with staging_dir(tmp_path, "tipgeo.ccx") as mine:
         assert not left.exists() and mine.is_dir()  # the next run removed it
     assert not mine.exists() and other.is_dir()
+
+
+@settings(max_examples=200, deadline=None)
+@given(st.text(alphabet=st.characters(blacklist_categories=("Cs",)), max_size=60))
+def test_description_is_free_text_escaped_in_the_spec_file(desc):
+    from tipgeo.spec import dumps_spec
+
+    spec = loads_spec(PUNCH).with_(description=desc)
+    text = dumps_spec(spec)
+    assert [ln for ln in text.splitlines() if ln.startswith("description")] == [
+        ln for ln in text.split("\n") if ln.startswith("description")]
+    assert loads_spec(text).description == desc

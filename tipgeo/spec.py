@@ -333,7 +333,11 @@ def _toml_value(v: Any) -> str:
     if isinstance(v, float):
         return repr(v)
     if isinstance(v, str):
-        esc = v.replace("\\", "\\\\").replace('"', '\\"').replace("\n", "\\n")
+        # TOML basic string: backslash, quote and every control character escaped
+        # (a CR, NUL or DEL in a description must not end the line or the file)
+        esc = "".join("\\\\" if c == "\\" else '\\"' if c == '"' else
+                      f"\\u{ord(c):04x}" if (ord(c) < 0x20 or 0x7F <= ord(c) < 0xA0
+                                              or c in "\u2028\u2029") else c for c in v)
         return f'"{esc}"'
     if isinstance(v, list):
         return "[" + ", ".join(_toml_value(x) for x in v) + "]"

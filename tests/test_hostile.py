@@ -542,3 +542,11 @@ def test_description_is_free_text_escaped_in_the_spec_file(desc):
     assert [ln for ln in text.splitlines() if ln.startswith("description")] == [
         ln for ln in text.split("\n") if ln.startswith("description")]
     assert loads_spec(text).description == desc
+
+
+def test_tissue_names_are_names():
+    from tipgeo.mechanics.materials import TISSUES, Tissue
+
+    assert all(is_name(n) for n in TISSUES)
+    with pytest.raises(SpecError):
+        Tissue(name="pvc\n*INCLUDE, INPUT=x", description="")

@@ -74,6 +74,11 @@ class Tissue:
     fits: dict[str, dict[str, float]] = field(default_factory=dict, hash=False)
     sources: dict[str, str] = field(default_factory=dict, hash=False)
 
+    def __post_init__(self):
+        from ..names import check_name
+
+        check_name("tissue name", self.name)  # it reaches decks, file names and reports
+
     def model(self, name: str):
         """The fitted model ``arruda-boyce`` or ``ogden``."""
         m = {"arruda-boyce": self.arruda_boyce, "ogden": self.ogden}.get(name)

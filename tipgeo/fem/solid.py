@@ -41,6 +41,12 @@ MAX_ELEMENTS_3D = MAX_FEM_ELEMENTS_3D
 _GMSH_3D = {4: ("C3D4", 4), 5: ("C3D8", 8), 6: ("C3D6", 6)}
 
 
+def _gmsh_msg(e: BaseException) -> str:
+    """The first line of a gmsh error (gmsh raises a bare Exception)."""
+    text = str(e).strip()
+    return text.splitlines()[0][:200] if text else type(e).__name__
+
+
 def mirror_planes(tip: Tip, tolerance: float = 1e-6) -> tuple[bool, bool]:
     """Whether the tip's mesh maps onto itself under x → −x and under
     y → −y (every mirrored vertex within ``tolerance`` mm of a vertex)."""
@@ -197,7 +203,11 @@ def indentation_model(tip: Tip, *, depth: float, tissue: str = "pvc-sp0",
         occ.extrude(top, 0, 0, -H, numElements=[1] * len(layers), heights=heights.tolist(),
                     recombine=True)
         occ.synchronize()
-        gmsh.model.mesh.generate(3)
+        try:
+            gmsh.model.mesh.generate(3)
+        except Exception as e:  # gmsh raises a bare Exception with its last error
+            raise FemError(f"gmsh could not mesh the block ({_gmsh_msg(e)}); try another "
+                           "--mesh-um") from None
         tags, xyz, _ = gmsh.model.mesh.getNodes()
         tags = np.asarray(tags, dtype=np.int64)
         xyz = np.asarray(xyz).reshape(-1, 3)
@@ -215,7 +225,12 @@ def indentation_model(tip: Tip, *, depth: float, tissue: str = "pvc-sp0",
     with gmsh_session() as gmsh:
         _needle_tets(gmsh, nv, ff, h)
         gmsh.option.setNumber("Mesh.MeshSizeMax", max(h, 0.5 * (r_out - r_in)))
-        gmsh.model.mesh.generate(3)
+        try:
+            gmsh.model.mesh.generate(3)
+        except Exception as e:  # gmsh raises a bare Exception with its last error
+            raise FemError(f"gmsh could not tetrahedralise the needle's front to depth "
+                           f"{depth:g} mm ({_gmsh_msg(e)}); try another --depth-mm or "
+                           "--mesh-um") from None
         ntags, nxyz, _ = gmsh.model.mesh.getNodes()
         ntags = np.asarray(ntags, dtype=np.int64)
         nxyz = np.asarray(nxyz).reshape(-1, 3)

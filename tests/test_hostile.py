@@ -93,7 +93,7 @@ def test_spec_file_stem_becomes_a_safe_name(tmp_path):
     assert load_spec(f).name == "my_spec__v2_"
 
 
-@pytest.mark.parametrize("bad", ["../up", "x\n*INCLUDE, INPUT=evil.inp", "a" * 65])
+@pytest.mark.parametrize("bad", ["../up", "x\n*INCLUDE, INPUT=evil.inp", "a" * 57, "x\n"])
 def test_study_name_refused(bad, tmp_path):
     from tipgeo.optimize.config import load_config
 
@@ -106,10 +106,11 @@ def test_study_name_refused(bad, tmp_path):
     assert str(e.value).count("\n") == 0 and "name" in str(e.value)
 
 
-def test_tipspec_refuses_bad_name_in_code():
+def test_tipspec_refuses_a_multi_line_name_in_code():
     s = loads_spec(PUNCH)
     with pytest.raises(SpecError):
-        s.with_(name="../../escaped")
+        s.with_(name="x\n*INCLUDE, INPUT=evil.inp")
+    assert s.with_(name="three plane").name == "three plane"  # a display name in code
 
 
 # -- 2. paths stay inside the output folder -------------------------------------------------
@@ -564,3 +565,19 @@ def test_gmsh_failure_is_one_line_not_a_traceback(tmp_path, capsys):
     if rc == 1:
         assert len(err.splitlines()) == 1 and "gmsh" in err and "Traceback" not in err
         assert not (tmp_path / "o").exists()
+
+
+def test_longest_study_name_names_valid_configurations():
+    from tipgeo.optimize.config import MAX_STUDY_NAME_LEN, load_config
+
+    src = (Path(__file__).resolve().parents[1] / "samples" / "bevel-study.toml").read_text()
+    name = "s" * MAX_STUDY_NAME_LEN
+    cfg_text = re.sub(r'(?m)^name = .*$', lambda _: f'name = "{name}"', src, count=1)
+    from tipgeo.optimize.config import loads_config
+
+    cfg = loads_config(cfg_text, base_dir=Path(__file__).resolve().parents[1] / "samples")
+    d = cfg.spec_dict([30.0], 99999)
+    assert is_name(d["name"]) and load_config is not None
+    from tipgeo.spec import spec_from_dict
+
+    assert spec_from_dict(d).name == d["name"]

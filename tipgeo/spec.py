@@ -38,7 +38,7 @@ from .cutters import Cutter
 from .cutters.base import CUTTER_KINDS as _REGISTRY
 from .cutters.toml import CutterTable, round_for_toml
 from .errors import SpecError
-from .names import check_name, safe_name
+from .names import check_name, one_line, safe_name
 from .tolerances import MAX_CUTTERS
 from .tomlio import loads_toml, read_text_file
 from .validate import brief, finite_float
@@ -77,7 +77,11 @@ class TipSpec:
         if len(cutters) > MAX_CUTTERS:
             raise SpecError(f"cutters: {len(cutters)} cutters given; allowed at most "
                             f"{MAX_CUTTERS} per tip")
-        check_name("name", self.name, empty=True)
+        # a spec file's name is checked as a name at load (check_name); in code a
+        # display name is allowed, but on one line (paths go through paths.inside)
+        if not isinstance(self.name, str) or one_line(self.name) != self.name:
+            raise SpecError(f"name = {brief(self.name)} is not a one-line string; "
+                            "expected a name without line breaks or control characters")
         if not isinstance(self.description, str):
             raise SpecError(f"description = {brief(self.description)} is not a string")
         names = []

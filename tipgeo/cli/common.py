@@ -145,7 +145,8 @@ def _values(args, dest) -> list[str]:
     return [str(x) for x in (v if isinstance(v, (list, tuple)) else [v]) if str(x) != "-"]
 
 
-def _same(a: Path, b: Path) -> bool:
+def same_file(a: Path, b: Path) -> bool:
+    """Whether two paths name the same file (resolved, or the same inode)."""
     import os
 
     if os.path.realpath(a) == os.path.realpath(b):
@@ -198,7 +199,7 @@ def check_derived_inputs(inputs: list[str | Path], outs: list[tuple[str, Path]])
     for src in inputs:
         for what, q in derived_inputs(src):
             for opt, p in outs:
-                if _same(q, p):
+                if same_file(q, p):
                     raise InputError(f"{opt} = '{p}' is {what}; allowed an output that is not "
                                      "one of the command's inputs, direct or indirect (nothing "
                                      "was written)")
@@ -226,7 +227,7 @@ def check_files(args) -> None:
         outs += [("(derived)", Path(x)) for x in derived(args)]
     for i, (opt, p) in enumerate(outs):
         for opt2, q in outs[:i]:
-            if _same(p, q):
+            if same_file(p, q):
                 raise SpecError(f"{opt} = '{p}' is also given as {opt2} = '{q}'; allowed each "
                                 "output file once")
     for dest in getattr(args, "_inputs", ()):
@@ -235,7 +236,7 @@ def check_files(args) -> None:
             if not src.is_file():
                 continue  # a preset name, or missing (the command reports it)
             for opt, p in outs:
-                if _same(src, p):
+                if same_file(src, p):
                     raise SpecError(f"{opt} = '{p}' is the command's input {dest.upper()}; "
                                     "allowed an output that is not one of its inputs "
                                     "(nothing was written)")

@@ -32,12 +32,12 @@ def _check_outputs(config_arg: str, outs: list) -> None:
     """Refuse outputs that are the config file or a file it makes the command
     read (its base spec, that spec's mesh files)."""
     from ..errors import InputError
-    from .common import _same, check_derived_inputs
+    from .common import check_derived_inputs, same_file
 
     src = Path(config_arg)
     if src.is_file():
         for opt, p in outs:
-            if _same(src, p):
+            if same_file(src, p):
                 raise InputError(f"{opt}: '{p}' is the command's input CONFIG; allowed an "
                                  "output that is not one of its inputs (nothing was written)")
         check_derived_inputs([src], outs)

@@ -85,6 +85,11 @@ SURROGATE_KERNELS = ("gaussian", "matern72", "matern52", "matern32", "auto")
 _NAME = re.compile(r"[A-Za-z_][A-Za-z0-9_.\-]{0,%d}" % (MAX_NAME_LEN - 1))  # noqa: UP031
 
 
+#: Longest study name: its configurations are named ``<name>-<index>``, a
+#: spec name of at most MAX_NAME_LEN characters.
+MAX_STUDY_NAME_LEN = MAX_NAME_LEN - 8
+
+
 def _is_name(name: str) -> bool:
     """A column, objective or study name: a full match of ``_NAME`` (a trailing
     newline is no match), at most MAX_NAME_LEN characters."""
@@ -465,9 +470,11 @@ def config_from_dict(data: Any, *, base_dir: str | Path | None = None,
     t = _table("config", data, _TOP)
     bdir = None if base_dir is None else Path(base_dir)
     name = _str("name", t.get("name", safe_name(source.stem) if source else "study"))
-    if not _is_name(name):
-        raise SpecError(f"name = {brief(name)} is not a valid name; allowed 1–{MAX_NAME_LEN} "
-                        "ASCII letters, digits, '_', '.', '-' (not first)")
+    # its configurations are named <name>-<index> (up to 7 more characters)
+    if not _is_name(name) or len(name) > MAX_STUDY_NAME_LEN:
+        raise SpecError(f"name = {brief(name)} is not a valid study name; allowed 1–"
+                        f"{MAX_STUDY_NAME_LEN} ASCII letters, digits, '_', '.', '-' (not "
+                        "first)")
     description = _str("description", t.get("description", ""))
     if "base" not in t:
         raise SpecError("base is missing; expected a preset name or a spec file (.toml)")

@@ -337,13 +337,13 @@ def cmd_scan_synth(args) -> int:
                     edge=args.burr_edge)
     views = default_views(elevation_deg=args.views[0], count=int(args.views[1])) \
         if args.views else None
-    log = _log(args)
-    if log:
-        log(f"scanning {spec.name or args.spec}: {args.points:,} points")
-    s = synthetic_scan(spec, points=args.points, noise=args.noise_um * 1e-3, misalignment=mis,
-                       views=views, xi_deg=args.xi_deg,
-                       edge_radius=(args.edge_radius_um or 0.0) * 1e-3, burr=burr,
-                       z_min=args.z_min_mm, seed=args.seed)
+    from .. import progress
+
+    with progress.stage(f"scanning {spec.name or args.spec}: {args.points:,} points"):
+        s = synthetic_scan(spec, points=args.points, noise=args.noise_um * 1e-3,
+                           misalignment=mis, views=views, xi_deg=args.xi_deg,
+                           edge_radius=(args.edge_radius_um or 0.0) * 1e-3, burr=burr,
+                           z_min=args.z_min_mm, seed=args.seed)
     existed = out.exists()
     if ext == ".ply":
         s.write(out)

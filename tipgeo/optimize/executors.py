@@ -16,7 +16,8 @@ from typing import Any
 
 from ..errors import MissingToolError, SpecError
 
-__all__ = ["SerialExecutor", "ProcessExecutor", "DaskExecutor", "make_executor", "MissingDask"]
+__all__ = ["SerialExecutor", "ProcessExecutor", "DaskExecutor", "make_executor", "MissingDask",
+           "one_blas_thread", "process_context"]
 
 
 class MissingDask(MissingToolError, SpecError):
@@ -68,10 +69,10 @@ class ProcessExecutor:
     def run(self, fn: Callable, tasks: Sequence[tuple], on_done: Callable) -> list:
         from concurrent.futures import ProcessPoolExecutor, as_completed
 
-        ctx = _context()
+        ctx = process_context()
         out: list = [None] * len(tasks)
         with ProcessPoolExecutor(max_workers=min(self.workers, max(len(tasks), 1)),
-                                 mp_context=ctx, initializer=_one_blas_thread) as pool:
+                                 mp_context=ctx, initializer=one_blas_thread) as pool:
             futs = {pool.submit(fn, *args): i for i, args in enumerate(tasks)}
             for f in as_completed(futs):
                 i = futs[f]
@@ -84,7 +85,7 @@ class ProcessExecutor:
         return out
 
 
-def _one_blas_thread() -> None:
+def one_blas_thread() -> None:
     """Worker initializer: one BLAS thread per worker process, so that N workers
     use N cores rather than fighting over them (as Dask does for its workers)."""
     try:
@@ -97,7 +98,7 @@ def _one_blas_thread() -> None:
 _PRELOAD = ("tipgeo.angles", "tipgeo.optimize.responses")
 
 
-def _context():
+def process_context():
     import multiprocessing as mp
     import threading
 

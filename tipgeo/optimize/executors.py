@@ -99,6 +99,9 @@ _PRELOAD = ("tipgeo.angles", "tipgeo.optimize.responses")
 
 
 def process_context():
+    """The multiprocessing context for local worker pools: ``fork`` when this
+    process has one thread (the heavy modules imported once, here), else
+    ``forkserver`` with them preloaded, else ``spawn``."""
     import multiprocessing as mp
     import threading
 

@@ -31,7 +31,7 @@ column                    meaning
 ``max_block``             the longest block the control reads (characters);
                           comments are clipped to fit, a longer motion block
                           is an error
-``comment_open/close``    ``(`` ``)``, or ``;`` / ``//`` with an empty close
+``comment_open/close``    ``(`` ``)``, or ``;`` with an empty close
 ``comment_upper``         comments in upper case (Haas screens)
 ``comment_spell``         characters of user text rewritten in comments:
                           parentheses, ``;`` and ``%`` never reach a comment;
@@ -134,11 +134,13 @@ LINUXCNC = Dialect(name="linuxcnc", program_number="", max_block=255,
 #: 256-character blocks, no line numbers (``dataclasses.replace(FANUC,
 #: line_numbers=10)`` numbers every block N10, N20, …).
 FANUC = Dialect(name="fanuc", program_number="O{number:04d}", max_block=256)
-#: Aerotech A3200 AeroBasic: ``//`` comments to the end of the line.
+#: Aerotech A3200 AeroBasic: comments from ``;`` to the end of the line (as
+#: Appendix C writes them; the A3200 also reads ``//`` and ``'``); user text
+#: is put on one line, so nothing of it becomes a statement.
 AEROBASIC = Dialect(name="aerobasic", family="aerobasic", start="", program_number="",
                     header="", tool_change="", work_offset="", length_offset="",
                     spindle_on="", spindle_off="", coolant_on="", coolant_off="", home="",
-                    end="", finish="", comment_open="// ", comment_close="",
+                    end="", finish="", comment_open="; ", comment_close="",
                     comment_spell=(), max_block=4096, max_comment=4000)
 
 #: dialect name -> row.

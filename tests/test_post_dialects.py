@@ -54,9 +54,18 @@ def _programs(mill_paths):
         for d in ISO:
             yield f"mill {key} {d}", post_program(tp, d)
     for name in ("bevel-14G-xi15", "threeplane-14G-xi15"):
+        prog = _grind(name)
         for d in ISO:
-            yield (f"grind {name} {d}",
-                   make_program(_named(name, name + " " + EVIL)).to_gcode(dialect=d))
+            yield f"grind {name} {d}", prog.to_gcode(dialect=d)
+
+
+_GRIND: dict = {}
+
+
+def _grind(name: str):
+    if name not in _GRIND:
+        _GRIND[name] = make_program(_named(name, name + " " + EVIL))
+    return _GRIND[name]
 
 
 def _feeds(canon: str) -> np.ndarray:
@@ -117,6 +126,11 @@ def test_rs274_runs_every_iso_program(mill_paths, tmp_path):
             want = _iso_feeds(text, "XZABC")
             assert len(want) >= 1 and got.shape == want.shape, label
             assert np.abs(got - want).max() <= 1e-6, label
+            # and tipgeo's own program rows (X t2, Y 0, Z t1, A r3, B r5, C r4), as written
+            # to 4 decimals
+            rows = [r for r in _grind(label.split()[1]).rows if r["feed"] is not None]
+            mine = np.round([[r["t2"], 0.0, r["t1"], r["r3"], r["r5"], r["r4"]] for r in rows], 4)
+            assert np.abs(got - mine).max() <= 1e-6, label
         seen += 1
     assert seen == 2 * len(ISO) + 2 * len(ISO)
 

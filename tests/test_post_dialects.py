@@ -135,7 +135,7 @@ def test_rs274_runs_every_iso_program(mill_paths, tmp_path):
     assert seen == 2 * len(ISO) + 2 * len(ISO)
 
 
-def test_rs274_said_before():
+def test_header_and_length_offset_rows():
     """The old Haas line rs274 and pygcode refused is gone: the length offset
     is taken on a rapid, and the header carries G94."""
     assert HAAS.header == LINUXCNC.header == FANUC.header == "G17 G21 G90 G94 G40 G49 G80"

@@ -18,7 +18,9 @@ X̄–R, :func:`xbar_r`
     Control*, appendix VI).
 
 A needle is out of control when its point (its subgroup's, on X̄–R) lies
-beyond the limits of either chart, or when it ends a run of 8 points in a row
+beyond the limits of either chart (a moving range beyond its limit flags the
+needle it jumps to, unless it jumps back from a needle already beyond the
+individuals limits), or when it ends a run of 8 points in a row
 on one side of the centre line (Western Electric rule 4).
 
 Capability, when the characteristic has specification limits: Cp = (USL −
@@ -221,8 +223,11 @@ def individuals(x: Sequence[float], *, name: str = "x", labels: Sequence[str] | 
             flags.setdefault(i, []).append("above UCL")
         elif p < c.lcl:
             flags.setdefault(i, []).append("below LCL")
+    beyond = set(flags)
     for i, r in enumerate(mrs, start=1):
-        if r > r_ucl:  # the jump into needle i
+        # the jump into needle i; the jump back from a needle beyond the
+        # limits is that needle's, not the next one's
+        if r > r_ucl and i - 1 not in beyond:
             flags.setdefault(i, []).append("moving range above its UCL")
     for i in _runs(v, centre):
         flags.setdefault(i, []).append(f"{RUN_LENGTH} in a row on one side")

@@ -211,15 +211,19 @@ def test_batch_on_a_local_dask_cluster_is_the_same(serial, scans, tmp_path, caps
     assert (tmp_path / "s.csv").read_text() == serial[0].table()
 
 
-def test_cli_exit_codes(scans, tmp_path, capsys):
+def test_cli_exit_codes(serial, scans, tmp_path, capsys):
     from tipgeo.cli import main
 
     good = [str(scans / "needle-0.ply"), str(scans / "needle-1.ply")]
+    # default: local processes, one per CPU — the serial run's rows
     assert main(["compare", *good, CAD, "--batch", "--quiet", "--no-pictures",
-                 "--out-dir", str(tmp_path / "o")]) == 0
+                 "--out-dir", str(tmp_path / "o"), "--summary", str(tmp_path / "s.json")]) == 0
     assert (tmp_path / "o" / "spc.csv").is_file()
+    rows = json.loads((tmp_path / "s.json").read_text())["scans"]
+    assert [r["rms_um"] for r in rows] == [r["rms_um"] for r in serial[0].rows[:2]]
+    assert [r["tip_error_um"] for r in rows] == [r["tip_error_um"] for r in serial[0].rows[:2]]
     assert main(["compare", good[0], str(tmp_path / "missing.ply"), CAD, "--batch",
-                 "--quiet", "--no-pictures"]) == 2
+                 "--quiet", "--no-pictures", "--workers", "1"]) == 2
     assert "could not be compared" in capsys.readouterr().err
     for bad in (["--subgroup", "11"], ["--workers", "0"], ["--xi-tol-deg", "0"],
                 ["--workers", "2", "--scheduler", "tcp://127.0.0.1:1"]):

@@ -230,7 +230,7 @@ def _batch_executor(args):
             raise SpecError("--workers and --scheduler exclude each other; the cluster "
                             "decides its workers")
         return DaskExecutor(args.scheduler)
-    return make_executor(args.workers if args.workers is not None else 1)
+    return make_executor(args.workers)  # default: a process per CPU, as ``tipgeo sweep``
 
 
 def _batch(args, kw) -> int:
@@ -445,7 +445,8 @@ def register(subparsers) -> None:
                    "charts, Cp/Cpk per characteristic); exit 1 when any scan failed or is out "
                    "of control, 2 when any could not be compared")
     c.add_argument("--workers", type=int, default=None, metavar="N",
-                   help="with --batch: local processes (default 1 = in this process)")
+                   help="with --batch: local processes (default: all CPUs; 1 = in this "
+                        "process)")
     c.add_argument("--scheduler", metavar="ADDRESS",
                    help="with --batch: run on a Dask distributed cluster (tcp://host:8786)")
     c.add_argument("--subgroup", type=int, default=None, metavar="N",

@@ -308,7 +308,9 @@ def run_batch(scans, cad, *, executor=None, out_dir: str | Path | None = None,
     cad : spec name or file, CAD mesh, or a loaded CAD (:func:`load_cad`)
     executor : where to run (:mod:`tipgeo.optimize.executors`: ``make_executor(n)``,
         ``DaskExecutor(address)``, ``SerialExecutor()``); default local
-        processes, one per CPU
+        processes, one per CPU. The CAD is read here and sent to the
+        workers; the scans are read by the workers, so on a remote cluster
+        their paths must be readable there (a shared file system)
     out_dir : folder — each scan's report in ``out_dir/<scan name>/``,
         ``spc.csv`` and ``control-<characteristic>.png`` beside them
     subgroup : 1 for individuals charts, 2 … 10 for X̄–R charts

@@ -14,11 +14,10 @@ from __future__ import annotations
 import sys
 from pathlib import Path
 
-from ..inspect.batch import SUMMARY_COLUMNS  # the --batch summary table's columns
 from ..jsonio import dumps as _dumps
 from .common import declare_files, deprecated, spec_arg, verdict_status
 
-__all__ = ["register", "cmd_compare", "cmd_scan_synth", "SUMMARY_COLUMNS"]
+__all__ = ["register", "cmd_compare", "cmd_scan_synth"]
 
 
 def _positive(name: str, value: float | None, hi: float | None = None) -> float | None:
@@ -211,6 +210,17 @@ def cmd_compare(args) -> int:
     return status
 
 
+
+
+def __getattr__(name: str):
+    """``SUMMARY_COLUMNS``: the --batch summary table's columns (the
+    library's, :data:`tipgeo.inspect.batch.SUMMARY_COLUMNS`), imported on first
+    use so that building the parser stays light."""
+    if name == "SUMMARY_COLUMNS":
+        from ..inspect.batch import SUMMARY_COLUMNS
+
+        return SUMMARY_COLUMNS
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
 
 
 def _summary_row(scan: str, res=None, error: str | None = None) -> dict:

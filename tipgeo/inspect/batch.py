@@ -178,7 +178,8 @@ def compare_one(scan: str, cad, out: str | None, kwargs: dict,
         row = summary_row(scan)
         row.update(status="ok", verdict="fail", reasons=_one_line(e))
         return {"row": row, **base}
-    except (ScanError, ArithmeticError, MemoryError, np.linalg.LinAlgError, OSError) as e:
+    except (ScanError, InputError, ArithmeticError, MemoryError, np.linalg.LinAlgError,
+            OSError) as e:  # this scan could not be compared: its row says why
         return {"row": summary_row(scan, error=_one_line(e)), **base}
     values, limits = characteristics(res, xi_tol_deg=xi_tol_deg)
     faces = {f: {k: s.get(k) for k in FACE_KEYS}

@@ -210,8 +210,6 @@ def cmd_compare(args) -> int:
     return status
 
 
-
-
 def __getattr__(name: str):
     """``SUMMARY_COLUMNS``: the --batch summary table's columns (the
     library's, :data:`tipgeo.inspect.batch.SUMMARY_COLUMNS`), imported on first

@@ -1,51 +1,36 @@
-"""What every ISO (RS-274 / Fanuc-style) program tipgeo writes shares: plain
-ASCII comments a generic parser accepts, the program start (``%``, program
-number, safety line) and end (spindle stop, ``M30``, ``%``).
+"""What every ISO (RS-274 / Fanuc-style) program tipgeo writes shares, by
+the dialect table :data:`gcode.dialects.DIALECTS`: plain ASCII comments a
+generic parser accepts, the program start (``%``, program number, safety line)
+and end (spindle stop, ``M30``, ``%``).
 
-Comments: one pair of parentheses, nothing nested in them (``(`` and ``)``
-become ``[`` and ``]``), no ``;`` (a comment start on many controls; it becomes
-``,``), no ``%`` (the tape delimiter), ASCII only (Greek letters spelt out,
-``°`` as ``deg``, ``§`` as ``sec.``, dashes as ``-``; anything else by its
-compatibility decomposition, else ``?``).
+Comments (:func:`gcode.dialects.comment`, the one comment writer): one pair
+of parentheses, nothing nested in them (``(`` and ``)`` become ``[`` and
+``]``), no ``;`` (a comment start on many controls; it becomes ``,``), no
+``%`` (the tape delimiter), ASCII only (Greek letters spelt out, ``°`` as
+``deg``, ``§`` as ``sec.``, dashes as ``-``; anything else by its
+compatibility decomposition, else ``?``), never a newline.
 """
 
 from __future__ import annotations
 
-import unicodedata
+from gcode.dialects import DIALECTS, FANUC, Dialect, comment, dialect
 
 from .machine import CamError
 
-__all__ = ["SAFETY_LINE", "iso_comment", "iso_end", "iso_start", "check_program_number"]
+__all__ = ["SAFETY_LINE", "iso_comment", "iso_end", "iso_start", "check_program_number",
+           "DIALECTS", "Dialect"]
 
-#: The safety block at the start of a program: XY plane, mm, cutter radius and
-#: tool length compensation off, canned cycles off, absolute, feed per minute.
-SAFETY_LINE = "G17 G21 G40 G49 G80 G90 G94"
-
-_SPELL = {
-    "(": "[", ")": "]", ";": ",", "%": " pct", "§": "sec. ", "—": "-", "–": "-",
-    "−": "-", "°": " deg", "µ": "u", "μ": "u", "×": "x", "·": "*", "≤": "<=", "≥": ">=",
-    "≈": "~", "→": "->", "←": "<-", "…": "...", "’": "'", "‘": "'", "“": '"', "”": '"',
-    "ξ": "xi", "φ": "phi", "ϕ": "phi", "θ": "theta", "β": "beta", "γ": "gamma",
-    "α": "alpha", "δ": "delta", "ε": "eps", "λ": "lambda", "ψ": "psi", "ω": "omega",
-    "Δ": "Delta", "π": "pi", "ρ": "rho", "σ": "sigma", "τ": "tau", "η": "eta", "κ": "kappa",
-    "\t": " ", "\r": " ", "\n": " ",
-}
+#: The safety block at the start of a program: XY plane, mm, absolute, feed
+#: per minute, cutter radius and tool length compensation off, canned cycles
+#: off (every ISO row of :data:`gcode.dialects.DIALECTS` writes it).
+SAFETY_LINE = FANUC.header
 
 
-def _ascii(ch: str) -> str:
-    if ch in _SPELL:
-        return _SPELL[ch]
-    if " " <= ch <= "~":
-        return ch
-    plain = unicodedata.normalize("NFKD", ch).encode("ascii", "ignore").decode("ascii")
-    return "".join(_SPELL.get(c, c) for c in plain if " " <= c <= "~") or "?"
-
-
-def iso_comment(text: str) -> str:
+def iso_comment(text: str, d: Dialect | str = FANUC) -> str:
     """``text`` as one ISO comment ``(…)``: ASCII, no nested parentheses, no
-    ``;`` or ``%`` inside (see the module docstring)."""
-    body = " ".join("".join(_ascii(c) for c in str(text)).split())
-    return f"({body})"
+    ``;`` or ``%`` inside (the one comment writer,
+    :func:`gcode.dialects.comment`)."""
+    return comment(d, text)
 
 
 def check_program_number(number: int) -> int:
@@ -56,13 +41,19 @@ def check_program_number(number: int) -> int:
     return number
 
 
-def iso_start(number: int, title: str) -> list[str]:
-    """The first lines of a program: ``%``, ``O<number> (title)`` and the
-    :data:`SAFETY_LINE`."""
-    return ["%", f"O{check_program_number(number):04d} {iso_comment(title)}", SAFETY_LINE]
+def iso_start(number: int, title: str, d: Dialect | str = FANUC) -> list[str]:
+    """The first lines of a program in dialect ``d``: the tape delimiter
+    (``%``), ``O<number> (title)`` (the title alone where the dialect has no
+    program number) and the header (safety line)."""
+    d = dialect(d)
+    check_program_number(number)
+    title = comment(d, title)
+    first = f"{d.program_number.format(number=number)} {title}" if d.program_number else title
+    return [x for x in (d.start, first, d.header) if x]
 
 
-def iso_end() -> list[str]:
-    """The last lines of a program: spindle stop, program end and rewind
-    (``M30``), the closing ``%`` and a final newline."""
-    return ["M5", "M30", "%", ""]
+def iso_end(d: Dialect | str = FANUC) -> list[str]:
+    """The last lines of a program in dialect ``d``: spindle stop, program end
+    and rewind (``M30``), the closing delimiter (``%``) and a final newline."""
+    d = dialect(d)
+    return [x for x in (d.spindle_off, d.end, d.finish) if x] + [""]

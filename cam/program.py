@@ -19,6 +19,8 @@ import io
 import math
 from dataclasses import dataclass
 
+from gcode.dialects import DIALECTS, Dialect, number_lines
+from gcode.dialects import dialect as get_dialect
 from tipgeo.cutters import ConeSurface, Plane
 from tipgeo.jsonio import dumps
 
@@ -121,16 +123,25 @@ class GrindProgram:
                         "" if r["feed"] is None else f"{r['feed']:.4f}"])
         return buf.getvalue()
 
-    def to_gcode(self, program_number: int = 1000) -> str:
+    def to_gcode(self, program_number: int = 1000, dialect: Dialect | str = "fanuc") -> str:
         """The ISO program (Fanuc-style G-code) with named axes: Z = t1,
         X = t2, A = r3, C = r4, B = r5; S the wheel speed, F the feed (mm/min),
         M3/M5 the spindle. ``%``, ``O<program_number>`` and the safety line
         :data:`cam.iso.SAFETY_LINE` open it; ``M5``, ``M30`` and ``%`` close
         it; comments are plain ASCII without nested parentheses
-        (:func:`cam.iso.iso_comment`)."""
+        (:func:`cam.iso.iso_comment`). ``dialect``: a row of
+        :data:`gcode.dialects.DIALECTS` (``fanuc``, ``linuxcnc``, ``haas``)
+        — header, comments, line numbers, block length and end by its rules."""
         m = self.machine
-        c = iso_comment
-        out = iso_start(program_number, f"{self.name}: needle grinding program by tipgeo")
+        d = get_dialect(dialect)
+        if d.family != "iso":
+            raise CamError(f"dialect = {d.name!r} is not an ISO G-code dialect; allowed: "
+                           + ", ".join(k for k, v in DIALECTS.items() if v.family == "iso"))
+
+        def c(text: str) -> str:
+            return iso_comment(text, d)
+
+        out = iso_start(program_number, f"{self.name}: needle grinding program by tipgeo", d)
         out += [c(f"machine: {m.name}"),
                 c(f"units: mm, degrees, feed F in mm/min, phi = {m.phi_deg:g} deg fixed, "
                   f"contact radius {m.contact_radius:g} mm, H = {m.H:.4f} mm"),
@@ -140,7 +151,7 @@ class GrindProgram:
             s = self.face_setup(f)
             out.append(c(f"face {f.label}: xi {s['xi_deg']:.4f} deg -> B{s['r5_phi_g_deg']:.4f}, "
                          f"C{s['r4_deg']:.4f}, Z{s['t1_mm']:.4f}, OC {s['OC_mm']:.4f} mm"))
-        out.append(f"S{m.wheel_rpm:.0f} M3")
+        out.append(d.spindle_on.format(rpm=f"{m.wheel_rpm:.0f}"))
         spin = 0.0
         for r in self.rows:
             if r["needle_rpm"] != spin:
@@ -150,8 +161,11 @@ class GrindProgram:
                      f"B{r['r5']:.4f}")
             out.append(f"G00 {words}" if r["feed"] is None
                        else f"G01 {words} F{r['feed'] * 60:.3f}")
-        out += iso_end()
-        return "\n".join(out)
+        out += iso_end(d)
+        try:
+            return "\n".join(number_lines(d, out))
+        except ValueError as e:
+            raise CamError(str(e)) from None
 
     def setup_sheet(self) -> str:
         """A Markdown set-up sheet."""

@@ -59,6 +59,8 @@ from tipgeo import validate as v
 from tipgeo.errors import SpecError
 from tipgeo.tolerances import tol
 
+from .dialects import AEROBASIC, comment
+
 __all__ = ["LaserParams", "emit_program", "LENGTH_DECIMALS", "LASER_TOML_KEYS"]
 
 LENGTH_DECIMALS = 4
@@ -334,4 +336,16 @@ def emit_program(spec, laser: LaserParams | None = None, *, name: str | None = N
         "END PROGRAM",
         "",
     ]
-    return "\n".join(lines)
+    return "\n".join(_with_comments(ln) for ln in lines)
+
+
+def _with_comments(line: str) -> str:
+    """``line`` with its comment (from the first ``;``) rewritten by the one
+    comment writer (:func:`gcode.dialects.comment`, AeroBasic row): one line,
+    ASCII, whatever the user's spec name holds."""
+    i = line.find(";")
+    if i < 0:
+        return line
+    code = line[:i].rstrip()
+    text = comment(AEROBASIC, line[i + 1:])
+    return f"{code} {text}" if code else text

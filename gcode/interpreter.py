@@ -267,10 +267,13 @@ class _State:
     laser: bool = False
     period_us: float | None = None
     on_us: float | None = None
+    default_feed: float | None = None  # mm/s, for a feed move before any F
+    warnings: list | None = None
 
 
 def interpret(program: ast.Program, *, tool_radii: dict[int, float] | None = None,
-              limits: Limits = Limits(), rapid_speed: float = 10.0) -> Toolpath:
+              limits: Limits = Limits(), rapid_speed: float = 10.0,
+              default_feed: float | None = None) -> Toolpath:
     """Run ``program`` and return its :class:`Toolpath`.
 
     Parameters
@@ -282,6 +285,10 @@ def interpret(program: ast.Program, *, tool_radii: dict[int, float] | None = Non
     limits : Limits — loop, statement, operation and move bounds (GCodeError
         beyond)
     rapid_speed : float — mm/s used to time G0 moves, finite and > 0
+    default_feed : float, optional — mm/s for a feed move (G01–G03) before
+        any F: the move runs at it with a warning naming the line (and it
+        stays the modal feed until an F); None (default): such a move is an
+        error. A feed move after an F always uses the last F (modal).
 
     Raises
     ------
@@ -299,11 +306,15 @@ def interpret(program: ast.Program, *, tool_radii: dict[int, float] | None = Non
     if isinstance(rapid_speed, bool) or not isinstance(rapid_speed, (int, float)) \
             or not (math.isfinite(rapid_speed) and rapid_speed > 0):
         raise ValueError(f"rapid_speed must be a finite number > 0 (mm/s), not {rapid_speed!r}")
+    if default_feed is not None and (isinstance(default_feed, bool) or not isinstance(
+            default_feed, (int, float)) or not (math.isfinite(default_feed) and default_feed > 0)):
+        raise ValueError(f"default_feed must be a finite number > 0 (mm/s), not {default_feed!r}")
     st = _State()
     vars_: dict[str, float] = {}
     declared: set[str] = set()
     raw: list[dict] = []          # programmed moves, compensation applied afterwards
     warnings: list[str] = list(program.warnings)
+    st.default_feed, st.warnings = default_feed, warnings
     max_statements, max_ops = limits.max_statements, limits.max_operations
     executed = 0                  # statements
     ops = 0                       # operations (see Limits.max_operations)
@@ -697,6 +708,11 @@ def _block(st: _State, b: ast.Block, ev, err, raw, tools, note, dwell) -> None:
     motion = st.motion
     if motion != "rapid" and st.feed is None:
         how = {"line": "G01/LINEAR", "cw": "G02/CW", "ccw": "G03/CCW"}[motion]
+        if st.default_feed is not None:
+            st.feed = st.default_feed * st.time_per_unit
+            st.warnings.append(f"line {b.span.line}: a {how} move before any F: the default "
+                               f"feed {st.default_feed:g} mm/s is used until an F is given")
+    if motion != "rapid" and st.feed is None:
         raise err(f"a {how} move needs a feed rate, but no feed rate (F) has been programmed "
                   "yet: give F (> 0) in this block or before it", b.span)
     if st.tool not in tools:

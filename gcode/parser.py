@@ -51,10 +51,18 @@ commands (``FILECLOSE $h``, ``$h =         of :data:`G_NO_MOTION` (``G108``,
 FILEOPEN "f", 2``, ``$s = "text"``)        ``G359`` …)
 =========================================  =========================================
 
+A3200 task control is recorded as no motion: ``PROGRAM 1 RUN "f.pgm"``,
+``PROGRAM PAUSE``/``STOP`` (kind ``PROGRAM RUN`` …), ``WAIT (TASKSTATUS(…)
+== …) -1``; ``ENABLE`` takes any axis names (``ENABLE X Y D U``); ``FREERUN``
+of any axis is recorded (a path axis X Y Z C keeps its position: not
+simulated); ``G66`` is a row of :data:`G_NO_MOTION`; an assignment whose
+right side holds a string or a string function (:data:`STRING_FUNCTIONS`:
+``DBLTOSTR`` …) sets a string (recorded, kind ``STRING``).
+
 Refused in every mode, even lenient: Ensemble AeroBasic (``HEADER … END
-HEADER``, ``PROGRAM``, ``DIM … AS``), named as that dialect; moves tipgeo
-cannot simulate (:data:`UNSIMULATED_MOTION`: ``HOME``, ``MOVEINC`` …;
-``FREERUN`` of X, Y, Z or C); and, in lenient mode, any skipped statement
+HEADER``, ``PROGRAM`` alone on its line, ``DIM … AS``), named as that
+dialect; moves tipgeo cannot simulate (:data:`UNSIMULATED_MOTION`:
+``HOME``, ``MOVEINC`` …); and, in lenient mode, any skipped statement
 that names a motion G code or keyword or an axis with a value (a move that
 cannot be evaluated is never dropped).
 
@@ -114,11 +122,11 @@ __all__ = ["parse", "parse_expression", "is_statement", "G_CODES", "WORD_LETTERS
            "AXIS_LETTERS", "MOTION_KEYWORDS", "MODE_KEYWORDS", "MAX_NESTING",
            "MAX_EXPR_DEPTH", "DEFAULT_MAX_STATEMENTS", "DEFAULT_MAX_TOKENS",
            "DEFAULT_MAX_LINES", "NO_MOTION", "G_NO_MOTION", "UNSIMULATED_MOTION", "IO_NAME",
-           "MAX_MACROS", "MAX_EXPANSIONS", "MAX_PROGRAM_EXPANSIONS"]
+           "MAX_MACROS", "MAX_EXPANSIONS", "MAX_PROGRAM_EXPANSIONS", "STRING_FUNCTIONS"]
 
 #: G codes accepted (``G00``–``G03`` may be written with a leading zero).
-G_CODES = frozenset({0, 1, 2, 3, 4, 17, 40, 41, 42, 44, 70, 71, 75, 76, 90, 91, 92, 98, 108,
-                     109, 359, 360, 361})
+G_CODES = frozenset({0, 1, 2, 3, 4, 17, 40, 41, 42, 44, 66, 70, 71, 75, 76, 90, 91, 92, 98,
+                     108, 109, 359, 360, 361})
 #: Letters that may start a word (P: the dwell time of G4, s).
 WORD_LETTERS = frozenset("GXYZABCIJKFETNP")
 #: Axis letters: may stand bare (``G44 X Y``), name PSO and ENABLE axes.
@@ -165,11 +173,23 @@ NO_MOTION = {
     "SCOPETRIG": "triggers the scope", "DATAACQ": "data acquisition", "DISABLE": "disables drives",
     "BRAKE": "sets a brake", "FAULTACK": "acknowledges faults", "ACKNOWLEDGEALL":
     "acknowledges faults", "PLANE": "selects a plane", "SETGAIN": "sets servo gains",
+    "PROGRAM": "A3200 task control: runs, loads, pauses or stops a program on a task (the "
+               "other program is not simulated here)",
+    "DBLTOSTR": "converts a number to a string",
 }
+#: String functions: an assignment whose right side uses one (or a string)
+#: sets a string, recorded as no motion (``$s = "x=" + DBLTOSTR($x, 3)``).
+STRING_FUNCTIONS = frozenset({"DBLTOSTR", "STRLEN", "FORMAT", "NUMTOSTR", "STRTONUM",
+                              "STRCONCAT", "STRUPR", "STRLWR", "STRFORMAT", "STRINSERT",
+                              "STRDELETE", "STRCOPY"})
+#: Statements whose recorded kind takes the first word after a task number
+#: (``PROGRAM 1 RUN "f.pgm"`` → ``PROGRAM RUN``).
+_TASK_WORD = frozenset({"PROGRAM"})
 #: G codes that set a mode the simulation has no use for (recorded as no motion).
 G_NO_MOTION = {108: "velocity blending on (VELOCITY ON)", 109: "velocity blending off",
                359: "wait mode: no wait (G359)", 360: "wait mode: auto (G360)",
-               361: "wait mode: in position (G361)"}
+               361: "wait mode: in position (G361)",
+               66: "G66: a modal mode the simulation does not model (recorded, no motion)"}
 #: Keywords that move axes in ways tipgeo cannot simulate: an error in every mode.
 UNSIMULATED_MOTION = frozenset({"HOME", "MOVEABS", "MOVEINC", "MOVETO", "INDEX", "CAMSYNC",
                                 "GEAR", "SCAN", "OSCILLATE", "HOMEASYNC"})
@@ -183,7 +203,8 @@ _MOTION_HINT = re.compile(
     r"(?<![A-Za-z0-9_$.])(?:G0*[0-3](?![0-9.])|LINEAR|RAPID|CW|CCW|[XYZC]\s*[-+.0-9$(])",
     re.IGNORECASE)
 _ENSEMBLE = re.compile(
-    rf"{_WS_RE}*(HEADER|END{_WS_RE}+HEADER|PROGRAM|DIM{_WS_RE}+[A-Za-z_$][A-Za-z0-9_$]*"
+    rf"{_WS_RE}*(HEADER|END{_WS_RE}+HEADER|PROGRAM(?={_WS_RE}*(?:[;']|//|\r?$))|"
+    rf"DIM{_WS_RE}+[A-Za-z_$][A-Za-z0-9_$]*"
     rf"(?:{_WS_RE}*\([^)]*\))?{_WS_RE}+AS)(?![A-Za-z0-9_])", re.IGNORECASE)
 _ENSEMBLE_START = frozenset("HhPpDdEe")
 _DIRECTIVE = re.compile(rf"{_WS_RE}*#{_WS_RE}*([A-Za-z]*)")
@@ -819,11 +840,11 @@ class _Line:
             axis = self.peek()
             if axis is None or axis.kind != "ident":
                 raise self.error("FREERUN needs an axis", axis or start)
-            if axis.value in ("X", "Y", "Z", "C"):
-                raise self.error(f"FREERUN {axis.text} runs a path axis at a velocity with no "
-                                 "end point: tipgeo cannot simulate it (an error in every "
-                                 "mode)", start)
             self.pos = len(self.tokens)
+            if axis.value in ("X", "Y", "Z", "C"):
+                return ast.NoMotion("FREERUN", f"path axis {axis.value} runs free at a velocity "
+                                    "with no end point: recorded, not simulated (its position "
+                                    "is left where it was)", span)
             return ast.NoMotion("FREERUN", f"auxiliary axis {axis.value} runs free (not a path "
                                 "axis: X Y Z C)", span)
         if kw in UNSIMULATED_MOTION:
@@ -832,6 +853,9 @@ class _Line:
         if kw in NO_MOTION:
             self.pos = len(self.tokens)
             what = NO_MOTION[kw]
+            if kw in _TASK_WORD and after is None and len(toks) > self.tokens.index(start) + 2 \
+                    and nxt.kind == "num" and toks[toks.index(start) + 2].kind == "ident":
+                after = toks[toks.index(start) + 2].value   # PROGRAM 1 RUN "other.pgm"
             if after is not None and len(after) > 1:
                 kw, what = f"{kw} {after}", f"{what}: {after}"
             return ast.NoMotion(kw, what, span)
@@ -911,6 +935,10 @@ class _Line:
             kw = self.advance().value       # $h = FILEOPEN "log.txt", 2
             self.pos = len(self.tokens)
             return ast.NoMotion(kw, f"{NO_MOTION[kw]} (result in {self.source(var)})", span)
+        if any(t.kind == "str" or (t.kind == "ident" and t.value in STRING_FUNCTIONS)
+               for t in self.tokens[self.pos:]):
+            self.pos = len(self.tokens)     # $s = "x = " + DBLTOSTR($x, 3)
+            return ast.NoMotion("STRING", f"sets the string {self.source(var)}", span)
         expr, _ = self.expr(0)
         self.expect_end()
         if index or IO_NAME.match(var.value):
@@ -944,10 +972,10 @@ class _Line:
         if head.value == "ENABLE":
             while (tok := self.peek()) is not None:
                 self.advance()
-                if tok.kind == "ident" and tok.value in AXIS_LETTERS:
-                    args.append(tok.value)
+                if tok.kind == "ident" and re.fullmatch(r"[A-Z][A-Z0-9_]*", tok.value):
+                    args.append(tok.value)      # any axis name: X Y Z C, D, U, AA …
                 elif not (tok.kind == "op" and tok.value == ","):
-                    raise self.error(f"ENABLE expects axis letters, found {tok.text!r}", tok)
+                    raise self.error(f"ENABLE expects axis names, found {tok.text!r}", tok)
             if not args:
                 raise self.error("ENABLE needs at least one axis", head)
         elif head.value == "END" and (tok := self.peek()) is not None and tok.kind == "ident" \

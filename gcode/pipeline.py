@@ -139,7 +139,8 @@ def make_limits(**bounds) -> Limits:
 def laser_check(program: str | ast.Program, *, beam_diameter: float = 0.020, spec=None,
                 origin: tuple[float, float] = (0.0, 0.0), tolerance: float | None = None,
                 lenient: bool = False, limits: Limits | None = None,
-                max_tokens: int | None = None) -> LaserCheck:
+                max_tokens: int | None = None,
+                default_feed: float | None = None) -> LaserCheck:
     """Parse and interpret a laser program, and — with ``spec``, the punch it
     cuts — simulate it by ablation and compare it with the spec's serrations.
 
@@ -156,6 +157,8 @@ def laser_check(program: str | ast.Program, *, beam_diameter: float = 0.020, spe
         count, moves, operations; :func:`make_limits`)
     max_tokens : int, optional — the parser's token bound (default
         :data:`gcode.parser.DEFAULT_MAX_TOKENS`)
+    default_feed : float, optional — mm/s for a feed move before any F (with
+        a warning; see :func:`gcode.interpreter.interpret`)
 
     Raises
     ------
@@ -172,6 +175,8 @@ def laser_check(program: str | ast.Program, *, beam_diameter: float = 0.020, spe
     else:
         prog = program
     kw = {} if limits is None else {"limits": limits}
+    if default_feed is not None:
+        kw["default_feed"] = default_feed
     tp = interpret(prog, tool_radii={0: 0.0, 1: beam_diameter / 2}, **kw)
     res = LaserCheck(prog, tp)
     if spec is not None:

@@ -408,6 +408,11 @@ def test_dwell_errors(text, match):
     ("FILECLOSE $fileHandle", "FILECLOSE"), ('FILEWRITE $h "x; y"', "FILEWRITE"),
     ('MSGDISPLAY 1, "layer ", $n', "MSGDISPLAY"), ("WAIT MOVEDONE X Y", "WAIT MOVEDONE"),
     ("FREERUN A 0.5", "FREERUN"), ("FREERUN A STOP", "FREERUN"), ('$name = "abc"', "STRING"),
+    ("FREERUN X 10", "FREERUN"), ('PROGRAM 1 RUN "other.pgm"', "PROGRAM RUN"),
+    ("PROGRAM PAUSE", "PROGRAM PAUSE"), ("PROGRAM STOP", "PROGRAM STOP"),
+    ("WAIT ((TASKSTATUS(1, DATAITEM_TaskState) == TASKSTATE_Idle)) -1", "WAIT"),
+    ("G66", "G66"), ('$s = "x = " + DBLTOSTR($x, 3)', "STRING"),
+    ("$s = DBLTOSTR(1.5, 2)", "DBLTOSTR"),
 ])
 def test_no_motion_statements_are_parsed_and_reported(text, kind):
     tp = run(f"F1\n{text}\nG01 X1\n")
@@ -432,7 +437,7 @@ def test_units_and_time_codes():
 
 
 @pytest.mark.parametrize("text, match", [
-    ("FREERUN X 10", "FREERUN X runs a path axis"), ("HOME X Y", "HOME moves axes"),
+    ("HOME X Y", "HOME moves axes"),
     ("MOVEINC X 1 10", "MOVEINC moves axes"),
 ])
 def test_moves_that_cannot_be_simulated_are_errors_in_every_mode(text, match):

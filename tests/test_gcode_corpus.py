@@ -66,8 +66,20 @@ EXPECTED = {
     # lenient: three vendor commands skipped with a warning each, no move lost
     "lenient_extras": (3, 1 + math.hypot(0.5, 0.5), (1 + math.hypot(0.5, 0.5)) / 0.25,
                        0.0, 0, 0.0, 0.0, 0),
+    # issue 27: task control (PROGRAM 1 RUN, WAIT on TASKSTATUS, PROGRAM PAUSE), ENABLE
+    # X Y D U, FREERUN D twice, a DBLTOSTR string and G66 (7 records); X3 and Y4 at F2,
+    # the 5 mm rapid home
+    "task_control": (3, 3 + 4 + 5, 7 / 2 + 5 / RAPID, 0.0, 0, 0.0, 0.0, 7),
+    # issue 27: X10, Y5 before any F at the default 5 mm/s (one warning), then X-2, Y-1 at F1
+    "default_feed": (4, 18.0, 15 / 5 + 3 / 1, 0.0, 0, 0.0, 0.0, 0),
+    # issue 27: 3 rows of X2 at F0.5 (beam on), each back by a rapid (-2, 0.1); FILEOPEN,
+    # the DBLTOSTR string, FILEWRITE and FILECLOSE recorded (4 records)
+    "string_log": (6, 3 * (2 + math.hypot(2, 0.1)), 3 * (2 / 0.5 + math.hypot(2, 0.1) / RAPID),
+                   0.0, 0, 6.0, 12.0, 4),
 }
 LENIENT_ONLY = {"lenient_extras": 3}     # name: warnings
+DEFAULT_FEED = {"default_feed": 5.0}     # name: default_feed (mm/s) it runs with
+WARNINGS = {**LENIENT_ONLY, "default_feed": 1}
 
 
 def test_the_corpus_is_complete():
@@ -85,7 +97,7 @@ def test_corpus_totals(name):
     if lenient:
         with pytest.raises(GCodeError, match="unknown keyword"):
             parse(text)
-    res = laser_check(text, lenient=lenient)
+    res = laser_check(text, lenient=lenient, default_feed=DEFAULT_FEED.get(name))
     s = res.toolpath.summary()
     assert s["segments"] == moves
     assert s["path_length_mm"] == pytest.approx(path, rel=REL)
@@ -96,7 +108,7 @@ def test_corpus_totals(name):
     assert s["beam_on_time_s"] == pytest.approx(on_s, rel=REL, abs=0)
     assert s["no_motion_statements"] == quiet
     out = res.summary()
-    assert out["warnings_total"] == len(out["warnings"]) == LENIENT_ONLY.get(name, 0)
+    assert out["warnings_total"] == len(out["warnings"]) == WARNINGS.get(name, 0)
 
 
 def test_corpus_effects():
@@ -136,3 +148,33 @@ def test_cli_check_reports_the_corpus_totals(capsys):
     assert [r["statement"] for r in out["no_motion"]] == ["PRESSURE = 1", "PRESSURE = 0"]
     assert main(["gcode", "check", str(CORPUS / "ensemble_refused.pgm")]) == 2
     assert "Ensemble AeroBasic" in capsys.readouterr().err
+
+
+def test_task_control_strings_and_default_feed():
+    """Issue 27's A3200 constructs: what each records, and the feed rules."""
+    tc = interpret(parse((CORPUS / "task_control.pgm").read_text()))
+    assert [(r["line"], r["kind"]) for r in tc.no_motion] == [
+        (11, "PROGRAM RUN"), (12, "WAIT"), (13, "FREERUN"), (17, "STRING"), (18, "FREERUN"),
+        (19, "PROGRAM PAUSE"), (21, "G66")]
+    enable = parse((CORPUS / "task_control.pgm").read_text()).body[1]
+    assert (enable.keyword, enable.args) == ("ENABLE", ("X", "Y", "D", "U"))
+    assert [(s.end, s.feed) for s in tc.segments] == [((3.0, 0.0), 2.0), ((3.0, 4.0), 2.0),
+                                                      ((0.0, 0.0), None)]
+    log = interpret(parse((CORPUS / "string_log.pgm").read_text()))
+    assert [(r["kind"], r["executed"]) for r in log.no_motion] == [
+        ("FILEOPEN", 1), ("STRING", 3), ("FILEWRITE", 3), ("FILECLOSE", 1)]
+    text = (CORPUS / "default_feed.pgm").read_text()
+    with pytest.raises(GCodeError, match=r"no feed rate \(F\) has been programmed yet") as info:
+        interpret(parse(text))
+    assert info.value.line == 7
+    tp = interpret(parse(text), default_feed=5.0)
+    assert [s.feed for s in tp.segments] == [5.0, 5.0, 1.0, 1.0]
+    assert tp.warnings == ["line 7: a G01/LINEAR move before any F: the default feed 5 mm/s "
+                           "is used until an F is given"]
+    for bad in (0, -1.0, float("nan"), True):
+        with pytest.raises(ValueError, match="default_feed"):
+            interpret(parse(text), default_feed=bad)
+    # Ensemble is still refused: PROGRAM alone on its line, HEADER, DIM … AS
+    for ens in ("PROGRAM\nG1 X1\nEND PROGRAM\n", "PROGRAM ' main\n", "DIM a AS DOUBLE\n"):
+        with pytest.raises(GCodeError, match="this is Ensemble AeroBasic"):
+            parse(ens)

@@ -72,7 +72,8 @@ def _write(tmp_path, text, name="m.toml"):
     ("rapid = -1\n", r"machine rapid = -1 is out of range; allowed value > 0 \(mm/min\)"),
     ("feed_max = true\n", r"feed_max = True is not a number"),
     ("feed_min = 500.0\nfeed_max = 100.0\n", r"feed_min = 500 is above feed_max = 100"),
-    ("controller = 'fanuc-x'\n", r"controller = 'fanuc-x' has no post; allowed: haas"),
+    ("controller = 'fanuc-x'\n",
+     r"controller = 'fanuc-x' has no post; allowed: fanuc, haas, linuxcnc"),
     ("work_offset = [1.0, 2.0]\n", r"work_offset = \[1.0, 2.0\]: needs three finite numbers"),
     ("colour = 1\n", r"key 'colour' is not known; allowed: .*spindle_rpm_max"),
 ])

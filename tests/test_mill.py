@@ -115,10 +115,10 @@ def test_post_is_haas_and_pygcode_reads_it(bevel_program):
     lines = text.splitlines()
     assert lines[0] == "%" and lines[-1] == "%" and lines[-2] == "M30"
     assert re.fullmatch(r"O01402 \(.*\)", lines[1])
-    assert "G17 G21 G40 G49 G80 G90" in lines
+    assert "G17 G21 G90 G94 G40 G49 G80" in lines
     assert any(re.fullmatch(r"T1 M06 \(.*\)", x) for x in lines)
     assert "S10000 M03" in lines and "M08" in lines and "M05" in lines
-    assert any(re.fullmatch(r"G43 H01 Z\d+\.\d{3}", x) for x in lines)
+    assert any(re.fullmatch(r"G00 G43 H01 Z\d+\.\d{3}", x) for x in lines)
     for x in lines:
         assert x.count("(") == x.count(")") <= 1        # single, not nested
         Line(x)                                           # parses without an error
@@ -126,7 +126,7 @@ def test_post_is_haas_and_pygcode_reads_it(bevel_program):
         for w, num in re.findall(r"([XYZF])(-?[\d.]+)", body):
             assert num.count(".") == 1 and "e" not in num.lower()
             assert len(num.split(".")[1]) == (1 if w == "F" else 3)
-            if w in "XYZ" and not x.startswith("G43"):
+            if w in "XYZ" and "G43" not in x:
                 k = float(num) / 0.002
                 assert abs(k - round(k)) < 1e-6, x      # on the 0.002 mm grid
     assert len(lines) > 100

@@ -98,7 +98,8 @@ class _Silent:
         pass
 
 
-def bar(total: int | None, desc: str, *, unit: str = "it", leave: bool = False) -> Any:
+def bar(total: int | None, desc: str, *, unit: str = "it", leave: bool = False,
+        bar_format: str | None = None) -> Any:
     """A progress bar on standard error (a ``tqdm`` object, or a silent
     stand-in when progress is off); use it as a context manager.
 
@@ -109,13 +110,14 @@ def bar(total: int | None, desc: str, *, unit: str = "it", leave: bool = False) 
     desc : str — what is being done, shown before the bar
     unit : str — what one step is (``pass``, ``config``, ``point``)
     leave : bool — keep the finished bar on screen (default: erase it)
+    bar_format : str, optional — tqdm's ``bar_format`` (default: tqdm's bar)
     """
     if not enabled():
         return _Silent()
     from tqdm import tqdm
 
     return tqdm(total=total, desc=desc, unit=unit, leave=leave, file=sys.stderr,
-                delay=DELAY_S, mininterval=0.25, dynamic_ncols=True)
+                delay=DELAY_S, mininterval=0.25, dynamic_ncols=True, bar_format=bar_format)
 
 
 def note(message: str) -> None:
@@ -133,7 +135,7 @@ def stage(desc: str) -> Iterator[Any]:
     """A stage of unknown length (one long call, a subprocess): its name and
     the elapsed time, redrawn twice a second once it has lasted
     :data:`DELAY_S`; the caller may still ``update()`` or ``set_postfix_str()``."""
-    pb = bar(None, desc, unit="step")
+    pb = bar(None, desc, unit="step", bar_format="{desc} … {elapsed}{postfix}")
     if isinstance(pb, _Silent):
         yield pb
         return

@@ -1,73 +1,51 @@
-"""G-code posts as tables: one :class:`Post` row of words per controller.
+"""G-code posts as tables: one row of the dialect table
+(:data:`gcode.dialects.DIALECTS`: Haas VF-2, LinuxCNC, generic Fanuc) per
+controller, one post function for all.
 
-The Haas post (Fanuc-style) writes ``%``, the program number, a safety line
-(``G17 G21 G40 G49 G80 G90``), the tool call and length offset, the spindle
-and coolant, modal moves with fixed decimals (3 for X, Y, Z on the 0.002 mm
-grid; 1 for F), ``M30`` and ``%``; ASCII only; comments in single parentheses
-without nested ones. Another controller is another :class:`Post` in
-:data:`POSTS`. Program frame and units: :mod:`cam.mill.machine` (mm, mm/min).
+The post writes the start delimiter (``%``), the program number (or the title
+as a comment where the dialect has none), the header
+(``G17 G21 G90 G94 G40 G49 G80``), the tool call, the spindle, the tool
+length offset on a motion line (``G00 G43 H01 Z…``), the coolant, modal moves
+with fixed decimals (3 for X, Y, Z on the 0.002 mm grid; 1 for F), the
+retract, ``M30`` and ``%``; line numbers and the block-length limit by the
+dialect; ASCII only; every comment through the one comment writer
+:func:`gcode.dialects.comment`. Program frame and units:
+:mod:`cam.mill.machine` (mm, mm/min).
 """
 
 from __future__ import annotations
 
 import math
-import re
-from dataclasses import dataclass
+
+from gcode.dialects import DIALECTS, HAAS, Dialect, number_lines
+from gcode.dialects import comment as _comment
 
 from ..machine import CamError
 
-__all__ = ["Post", "POSTS", "HAAS", "post_program", "comment"]
+__all__ = ["Post", "POSTS", "HAAS", "post_program", "comment", "DECIMALS"]
+
+#: A post is a row of the dialect table :data:`gcode.dialects.DIALECTS`.
+Post = Dialect
+
+#: controller name -> post table (the ISO rows of the dialect table).
+POSTS: dict[str, Dialect] = {k: d for k, d in DIALECTS.items() if d.family == "iso"}
+
+#: Fixed decimals per word: 3 for X, Y, Z (the 0.002 mm grid), 1 for F.
+DECIMALS = {"X": 3, "Y": 3, "Z": 3, "F": 1}
 
 
-@dataclass(frozen=True, kw_only=True)
-class Post:
-    """The words one controller needs (``{…}`` fields filled by the post)."""
-
-    name: str
-    start: str = "%"
-    program_number: str = "O{number:05d}"
-    safety: str = "G17 G21 G40 G49 G80 G90"
-    tool_change: str = "T{tool} M06"
-    work_offset: str = "G54"
-    spindle_on: str = "S{rpm} M03"
-    length_offset: str = "G43 H{tool:02d} Z{z}"
-    coolant_on: str = "M08"
-    coolant_off: str = "M09"
-    spindle_off: str = "M05"
-    home: str = "G28 G91 Z0."
-    absolute: str = "G90"
-    end: str = "M30"
-    finish: str = "%"
-    rapid: str = "G00"
-    feed: str = "G01"
-    decimals: tuple[tuple[str, int], ...] = (("X", 3), ("Y", 3), ("Z", 3), ("F", 1))
-    comment_open: str = "("
-    comment_close: str = ")"
-    max_comment: int = 70
-
-    def number(self, word: str, value: float) -> str:
-        """``word`` with ``value`` in fixed decimals (never exponents; −0 → 0)."""
-        d = dict(self.decimals)[word]
-        text = f"{value:.{d}f}"
-        if float(text) == 0.0:
-            text = f"{0.0:.{d}f}"
-        return f"{word}{text}"
+def _number(word: str, value: float) -> str:
+    """``word`` with ``value`` in fixed decimals (never exponents; −0 → 0)."""
+    d = DECIMALS[word]
+    text = f"{value:.{d}f}"
+    if float(text) == 0.0:
+        text = f"{0.0:.{d}f}"
+    return f"{word}{text}"
 
 
-HAAS = Post(name="haas")
-
-#: controller name -> post table.
-POSTS: dict[str, Post] = {"haas": HAAS}
-
-
-def comment(post: Post, text: str) -> str:
-    """One comment: ASCII, no parentheses inside, upper case, clipped."""
-    for a, b in (("§", "SEC "), ("µ", "u"), ("°", " DEG"), ("−", "-"), ("–", "-")):
-        text = text.replace(a, b)
-    t = text.encode("ascii", "replace").decode("ascii").replace("?", "-")
-    t = re.sub(r"[()]", "", t).replace(post.comment_open, "").replace(post.comment_close, "")
-    t = re.sub(r"\s+", " ", t).strip().upper()[:post.max_comment]
-    return f"{post.comment_open}{t}{post.comment_close}"
+def comment(post: Dialect | str, text: str) -> str:
+    """One comment by the dialect's rules (:func:`gcode.dialects.comment`)."""
+    return _comment(post, text)
 
 
 def post_program(toolpath, post: Post | str | None = None) -> str:
@@ -80,8 +58,10 @@ def post_program(toolpath, post: Post | str | None = None) -> str:
                            + ", ".join(POSTS))
         post = POSTS[key]
     tp, prm, st, tool = toolpath, toolpath.params, toolpath.setup, toolpath.tool
-    out: list[str] = [post.start, post.program_number.format(number=prm.program_number)
-                      + " " + comment(post, f"{tp.name} milled tip-up")]
+    title = comment(post, f"{tp.name} milled tip-up")
+    out: list[str] = [post.start] if post.start else []
+    out.append(post.program_number.format(number=prm.program_number) + " " + title
+               if post.program_number else title)
     notes = [f"tipgeo mill: {tp.name}",
              f"machine {tp.machine.name}",
              f"tool T{tool.number}: {tool.describe()}",
@@ -92,20 +72,22 @@ def post_program(toolpath, post: Post | str | None = None) -> str:
              f"roughing allowance {prm.allowance:.3f} mm, step-down {prm.stepdown:.3f} mm",
              "units mm, feeds mm/min"]
     out += [comment(post, n) for n in notes]
-    out.append(post.safety)
+    out.append(post.header)
     out.append(post.tool_change.format(tool=tool.number) + " "
                + comment(post, tool.describe()))
     out.append(post.work_offset)
     out.append(post.spindle_on.format(rpm=int(round(prm.spindle_rpm))))
-    out.append(post.length_offset.format(tool=tool.number, z=post.number("Z", st.z_safe)[1:]))
+    out.append(post.length_offset.format(tool=tool.number, z=_number("Z", st.z_safe)[1:]))
     if prm.coolant:
         out.append(post.coolant_on)
-    state = {"X": None, "Y": None, "Z": post.number("Z", st.z_safe), "F": None, "G": None}
+    rapid_in_offset = post.length_offset.split()[0] == post.rapid
+    state = {"X": None, "Y": None, "Z": _number("Z", st.z_safe), "F": None,
+             "G": post.rapid if rapid_in_offset else None}
 
     def move(g: str, p, f=None):
         words = []
         for k, val in zip("XYZ", p):
-            w = post.number(k, val)
+            w = _number(k, val)
             if w != state[k]:
                 words.append(w)
                 state[k] = w
@@ -115,7 +97,7 @@ def post_program(toolpath, post: Post | str | None = None) -> str:
             words.insert(0, g)
             state["G"] = g
         if f is not None:
-            w = post.number("F", f)
+            w = _number("F", f)
             if w != state["F"]:
                 words.append(w)
                 state["F"] = w
@@ -140,8 +122,12 @@ def post_program(toolpath, post: Post | str | None = None) -> str:
     out.append(post.home)
     out.append(post.absolute)
     out.append(post.end)
-    out.append(post.finish)
-    text = "\n".join(out) + "\n"
+    if post.finish:
+        out.append(post.finish)
+    try:
+        text = "\n".join(number_lines(post, out)) + "\n"
+    except ValueError as e:
+        raise CamError(str(e)) from None
     if not text.isascii():
         raise CamError("the program is not ASCII")  # comments are sanitised: a bug otherwise
     return text

@@ -128,6 +128,10 @@ def cmd_compare(args) -> int:
         raise SpecError(f"{len(args.scan)} scans given; compare one, or several with --batch")
     if args.summary:
         raise SpecError("--summary goes with --batch")
+    for opt, v in (("--workers", args.workers), ("--scheduler", args.scheduler),
+                   ("--subgroup", args.subgroup)):
+        if v is not None:
+            raise SpecError(f"{opt} goes with --batch")
     from ..errors import NotThisTip
 
     try:
@@ -206,99 +210,88 @@ def cmd_compare(args) -> int:
     return status
 
 
-#: Columns of the --batch summary table.
-SUMMARY_COLUMNS = ("scan", "status", "verdict", "reasons", "points", "compared", "mean_um",
-                   "std_um", "rms_um", "mean_abs_um", "p95_abs_um", "trimmed_rms_um",
-                   "within_tol_share", "fitness", "rotation_deg", "far_share", "warnings",
-                   "error")
+def __getattr__(name: str):
+    """``SUMMARY_COLUMNS``: the --batch summary table's columns (the
+    library's, :data:`tipgeo.inspect.batch.SUMMARY_COLUMNS`), imported on first
+    use so that building the parser stays light."""
+    if name == "SUMMARY_COLUMNS":
+        from ..inspect.batch import SUMMARY_COLUMNS
+
+        return SUMMARY_COLUMNS
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
 
 
 def _summary_row(scan: str, res=None, error: str | None = None) -> dict:
-    row = dict.fromkeys(SUMMARY_COLUMNS)
-    row["scan"], row["status"], row["error"] = scan, "error" if error else "ok", error
-    if res is None:
-        return row
-    row["verdict"] = "pass" if res.verdict.ok else "fail"
-    row["reasons"] = "; ".join(res.verdict.reasons)
-    r = res.to_dict()
-    st = r["deviation"]["all"]
-    reg = r["registration"] or {}
-    far = r["dropped_points"].get("far", 0)
-    row.update(points=r["scan"]["points"], compared=r["compared_points"],
-               mean_um=st["mean_um"], std_um=st["std_um"], rms_um=st["rms_um"],
-               mean_abs_um=st["mean_abs_um"], p95_abs_um=st["p95_abs_um"],
-               trimmed_rms_um=r["deviation"]["trimmed"]["rms_um"],
-               within_tol_share=st["within_tol_share"], fitness=reg.get("fitness"),
-               rotation_deg=reg.get("rotation_angle_deg"),
-               far_share=far / max(far + r["compared_points"], 1),
-               warnings=len(r["warnings"]))
-    return row
+    from ..inspect.batch import summary_row
+
+    return summary_row(scan, res, error)
+
+
+def _batch_executor(args):
+    from ..errors import InputError as SpecError  # options and paths, not specs
+    from ..optimize.executors import DaskExecutor, make_executor
+
+    if args.workers is not None and args.workers < 1:
+        raise SpecError(f"--workers = {args.workers} is out of range; allowed an integer ≥ 1")
+    if args.scheduler:
+        if args.workers is not None:
+            raise SpecError("--workers and --scheduler exclude each other; the cluster "
+                            "decides its workers")
+        return DaskExecutor(args.scheduler)
+    return make_executor(args.workers)  # default: a process per CPU, as ``tipgeo sweep``
 
 
 def _batch(args, kw) -> int:
-    """Compare every scan with the one CAD; one summary table (stdout, and
-    --summary FILE as CSV or JSON); each report in --out-dir DIR/<scan name>/.
-    Exit 0 when every scan passed, 1 when any failed its verdict (its row
-    says why), 2 when any could not be compared (bad input)."""
-    import csv
-    import io
+    """Compare every scan (files, folders, glob patterns) with the one CAD,
+    here or on --workers N / --scheduler ADDRESS; one summary table (stdout,
+    and --summary FILE as CSV or JSON); each report in --out-dir DIR/<scan>/
+    with spc.csv and the control charts beside them. Exit 0 when every scan
+    passed and is in control, 1 when any failed its verdict or is out of
+    control (named on stderr), 2 when any could not be compared (bad input)."""
+    from ..errors import InputError as SpecError  # options and paths, not specs
+    from ..inspect.batch import run_batch
 
-    from ..errors import NotThisTip
-    from ..inspect import ScanError, compare, load_cad
-
+    if args.subgroup is not None and not 2 <= args.subgroup <= 10:
+        raise SpecError(f"--subgroup = {args.subgroup}; allowed 2 … 10 (X̄–R charts; without "
+                        "it, individuals charts)")
+    if not (args.xi_tol_deg > 0 and args.xi_tol_deg < 90):
+        raise SpecError(f"--xi-tol-deg = {args.xi_tol_deg:g}; allowed 0 < value < 90")
     log = _log(args)
-    cad = load_cad(args.cad)
-    rows = []
-    n = len(args.scan)
-    stems = [Path(s).stem for s in args.scan]
-    from .. import progress
+    ex = _batch_executor(args)
 
-    pb = progress.bar(n, "compare", unit="scan")
-    for i, scan in enumerate(args.scan):
-        pb.set_postfix_str(Path(scan).name)
+    def done(i, r):
         if log:
-            log(f"[{i + 1}/{n}] {scan}")
-        out = None
-        if args.out_dir:
-            name = stems[i] if stems.count(stems[i]) == 1 else f"{i + 1:03d}-{stems[i]}"
-            out = Path(args.out_dir) / name
-        try:
-            res = compare(scan, cad, out=out, progress=None, **kw)
-            rows.append(_summary_row(scan, res))
-        except NotThisTip as e:
-            row = _summary_row(scan)
-            row.update(status="ok", verdict="fail", reasons=_one_line(e))
-            rows.append(row)
-        except (ScanError, ArithmeticError, MemoryError) as e:
-            rows.append(_summary_row(scan, error=_one_line(e)))
-        if log:
-            r = rows[-1]
-            log(f"[{i + 1}/{n}] {r['status']}" + (f": RMS {r['rms_um']:.3f} µm"
-                                                   if r["status"] == "ok" else f": {r['error']}"))
-        pb.update()
-    pb.close()
-    buf = io.StringIO()
-    w = csv.DictWriter(buf, fieldnames=SUMMARY_COLUMNS, lineterminator="\n")
-    w.writeheader()
-    w.writerows(rows)
+            row = r.get("row") or {}
+            log(f"{row.get('scan')}: {row.get('status')}"
+                + (f", {row.get('verdict')}" if row.get("status") == "ok"
+                   else f": {row.get('error')}"))
+
+    res = run_batch(args.scan, args.cad, executor=ex, out_dir=args.out_dir,
+                    subgroup=args.subgroup or 1, xi_tol_deg=args.xi_tol_deg,
+                    mr=args.moving_range, charts=not args.no_pictures, on_done=done, **kw)
+    d = res.to_dict()
     if args.summary:
         from ..atomic import write_text_atomic
 
-        text = _dumps({"cad": cad.name, "scans": rows}) + "\n" \
-            if args.summary.lower().endswith(".json") else buf.getvalue()
+        text = _dumps(d) + "\n" if args.summary.lower().endswith(".json") else res.table()
         write_text_atomic(Path(args.summary), text)
     if args.json:
-        print(_dumps({"cad": cad.name, "scans": rows}))
+        print(_dumps(d))
     else:
-        print(buf.getvalue(), end="")
-    if any(r["status"] != "ok" for r in rows):
-        return 2
-    failed = [r["scan"] for r in rows if r["verdict"] != "pass"]
+        print(res.table(), end="")
+    if res.errors:
+        print(f"tipgeo: error: {len(res.errors)} of {len(res.rows)} scans could not be compared: "
+              f"{', '.join(res.errors)}", file=sys.stderr)
+    failed = res.failed
     if failed:
-        print(f"tipgeo: fail: {len(failed)} of {len(rows)} scans failed: {', '.join(failed)}",
+        print(f"tipgeo: fail: {len(failed)} of {len(res.rows)} scans failed: {', '.join(failed)}",
               file=sys.stderr)
-        return 1
-    return 0
+    for scan, why in res.out_of_control.items():
+        print(f"tipgeo: out of control: {scan}: {'; '.join(why)}", file=sys.stderr)
+    if log:
+        for o in res.outputs:
+            log(f"wrote {o}")
+    return res.exit_code
 
 
 def cmd_scan_synth(args) -> int:
@@ -337,13 +330,13 @@ def cmd_scan_synth(args) -> int:
                     edge=args.burr_edge)
     views = default_views(elevation_deg=args.views[0], count=int(args.views[1])) \
         if args.views else None
-    log = _log(args)
-    if log:
-        log(f"scanning {spec.name or args.spec}: {args.points:,} points")
-    s = synthetic_scan(spec, points=args.points, noise=args.noise_um * 1e-3, misalignment=mis,
-                       views=views, xi_deg=args.xi_deg,
-                       edge_radius=(args.edge_radius_um or 0.0) * 1e-3, burr=burr,
-                       z_min=args.z_min_mm, seed=args.seed)
+    from .. import progress
+
+    with progress.stage(f"scanning {spec.name or args.spec}: {args.points:,} points"):
+        s = synthetic_scan(spec, points=args.points, noise=args.noise_um * 1e-3,
+                           misalignment=mis, views=views, xi_deg=args.xi_deg,
+                           edge_radius=(args.edge_radius_um or 0.0) * 1e-3, burr=burr,
+                           z_min=args.z_min_mm, seed=args.seed)
     existed = out.exists()
     if ext == ".ply":
         s.write(out)
@@ -454,9 +447,25 @@ def register(subparsers) -> None:
     c.add_argument("--scale-range-um", type=float, nargs=2, default=None,
                    metavar=("LOW", "HIGH"), help="asymmetric colour scale LOW < 0 < HIGH µm "
                    "(overrides --scale-um)")
-    c.add_argument("--batch", action="store_true", help="compare every SCAN with the CAD: one "
-                   "summary table (stdout, --summary), reports in --out-dir DIR/<scan>/; exit "
-                   "2 when any scan failed")
+    c.add_argument("--batch", action="store_true", help="compare every SCAN (files, folders, "
+                   "glob patterns) with the CAD: one summary table (stdout, --summary), "
+                   "reports in --out-dir DIR/<scan>/ with spc.csv and control-*.png (control "
+                   "charts, Cp/Cpk per characteristic); exit 1 when any scan failed or is out "
+                   "of control, 2 when any could not be compared")
+    c.add_argument("--workers", type=int, default=None, metavar="N",
+                   help="with --batch: local processes (default: all CPUs; 1 = in this "
+                        "process)")
+    c.add_argument("--scheduler", metavar="ADDRESS",
+                   help="with --batch: run on a Dask distributed cluster (tcp://host:8786)")
+    c.add_argument("--subgroup", type=int, default=None, metavar="N",
+                   help="with --batch: X̄–R charts over consecutive subgroups of N scans "
+                        "(2 … 10; default individuals and moving-range charts)")
+    c.add_argument("--xi-tol-deg", type=float, default=0.5, metavar="T",
+                   help="with --batch: specification of each bevel angle, CAD ξ ± T degrees "
+                        "(default 0.5)")
+    c.add_argument("--moving-range", choices=("mean", "median"), default="mean",
+                   help="with --batch: individuals limits x̄ ± 2.66·mean MR (default) or "
+                        "x̄ ± 3.145·median MR (robust to one wild needle)")
     c.add_argument("--summary", metavar="FILE", help="with --batch: the summary table as .csv "
                    "or .json")
     c.add_argument("--no-pictures", action="store_true", help="skip the PNGs")

@@ -127,11 +127,11 @@ def _parallel(calls: dict, workers: int, log) -> tuple[dict, dict, dict]:
     from concurrent.futures import ProcessPoolExecutor, as_completed
 
     from .. import progress
-    from ..optimize.executors import _context
+    from ..optimize.executors import process_context
 
     results, seconds, cpu = {}, {}, {}
     want_log = log is not None
-    pool = ProcessPoolExecutor(max_workers=workers, mp_context=_context(),
+    pool = ProcessPoolExecutor(max_workers=workers, mp_context=process_context(),
                                initializer=_worker_init)
     try:
         futs = {pool.submit(_stage, key, calls[key][0], calls[key][1], want_log): key
@@ -154,9 +154,9 @@ def _worker_init() -> None:
     """A demo worker: one BLAS thread (two workers share two cores) and no
     progress bars of its own (the parent draws one for the stages)."""
     from .. import progress
-    from ..optimize.executors import _one_blas_thread
+    from ..optimize.executors import one_blas_thread
 
-    _one_blas_thread()
+    one_blas_thread()
     progress.configure("off")
 
 

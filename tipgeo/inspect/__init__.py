@@ -22,6 +22,8 @@ reports. open3d is imported only here (scan reading, ray casting), through
 """
 
 from ..tolerances import InspectSettings
+from .acceptance import AcceptanceRule, Band, judge, load_acceptance
+from .batch import BatchResult, run_batch
 from .cad import CadModel, load_cad
 from .checks import check_geometry, check_match
 from .compare import (
@@ -50,4 +52,5 @@ __all__ = ["CadModel", "load_cad", "check_geometry", "check_match", "Comparison"
            "deviation_colours", "write_report", "SCAN_FORMATS", "Scan", "ScanError",
            "load_scan", "write_ply", "InspectSettings", "Burr", "Misalignment",
            "SynthScan", "actual_spec", "default_views", "synthetic_scan",
-           "MeasuredEdges", "measure_edges", "plot_measured_edges"]
+           "MeasuredEdges", "measure_edges", "plot_measured_edges", "AcceptanceRule", "Band",
+           "judge", "load_acceptance", "BatchResult", "run_batch"]

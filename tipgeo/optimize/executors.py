@@ -17,7 +17,8 @@ from typing import Any
 from ..errors import MissingToolError, SpecError
 
 __all__ = ["SerialExecutor", "ProcessExecutor", "DaskExecutor", "make_executor", "MissingDask",
-           "MAX_WORKERS_PER_CPU", "max_workers", "check_workers"]
+           "one_blas_thread", "process_context", "MAX_WORKERS_PER_CPU", "max_workers",
+           "check_workers"]
 
 #: Most local worker processes per CPU: each holds a tip build (~100 MB);
 #: more than a few per CPU only adds memory and switching.
@@ -91,10 +92,10 @@ class ProcessExecutor:
     def run(self, fn: Callable, tasks: Sequence[tuple], on_done: Callable) -> list:
         from concurrent.futures import ProcessPoolExecutor, as_completed
 
-        ctx = _context()
+        ctx = process_context()
         out: list = [None] * len(tasks)
         with ProcessPoolExecutor(max_workers=min(self.workers, max(len(tasks), 1)),
-                                 mp_context=ctx, initializer=_one_blas_thread) as pool:
+                                 mp_context=ctx, initializer=one_blas_thread) as pool:
             futs = {pool.submit(fn, *args): i for i, args in enumerate(tasks)}
             for f in as_completed(futs):
                 i = futs[f]
@@ -107,7 +108,7 @@ class ProcessExecutor:
         return out
 
 
-def _one_blas_thread() -> None:
+def one_blas_thread() -> None:
     """Worker initializer: one BLAS thread per worker process, so that N workers
     use N cores rather than fighting over them (as Dask does for its workers)."""
     try:
@@ -120,7 +121,10 @@ def _one_blas_thread() -> None:
 _PRELOAD = ("tipgeo.angles", "tipgeo.optimize.responses")
 
 
-def _context():
+def process_context():
+    """The multiprocessing context for local worker pools: ``fork`` when this
+    process has one thread (the heavy modules imported once, here), else
+    ``forkserver`` with them preloaded, else ``spawn``."""
     import multiprocessing as mp
     import threading
 

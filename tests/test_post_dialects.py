@@ -31,12 +31,12 @@ needs_rs274 = pytest.mark.skipif(
 
 
 def _named(name: str, text: str):
+    """The preset with ``text`` as its name. A spec refuses a name that is not
+    one line (issue 26), so the hostile text is put on a built spec past its
+    validation: the comment writer must hold even against such an object."""
     spec = preset(name)
-    try:
-        return dataclasses.replace(spec, name=text)
-    except TypeError:
-        spec.name = text
-        return spec
+    object.__setattr__(spec, "name", text)
+    return spec
 
 
 @pytest.fixture(scope="module")

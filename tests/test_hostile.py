@@ -230,18 +230,14 @@ def test_export_name_with_line_break_refused(build_preset, tmp_path, bad):
 
 # -- 4. cost bounds before work -------------------------------------------------------------
 def test_rotations_deg_capped_before_work():
-    import time
-
     from tipgeo.tolerances import MAX_PLANES
 
     rot = ", ".join(f"{360 * k / 5000:.6f}" for k in range(5000))
     text = PUNCH.replace('kind = "conical"\nname = "cone"\ntheta_deg = 13.0\n'
                          'bevel_length_mm = 0.6', f'kind = "multiplane"\nxi_deg = 15.0\n'
                          f'rotations_deg = [{rot}]')
-    t0 = time.perf_counter()
     with pytest.raises(SpecError) as e:
         loads_spec(text)
-    assert time.perf_counter() - t0 < 2.0
     msg = str(e.value)
     assert "5000 entries" in msg and f"at most {MAX_PLANES}" in msg and "\n" not in msg
     ok = ", ".join(f"{360 * k / MAX_PLANES:.6f}" for k in range(MAX_PLANES))
@@ -301,17 +297,19 @@ def test_tiny_tolerance_is_a_clear_error(tmp_path, capsys, um):
     assert not (tmp_path / "x.stl").exists()
 
 
-def test_3d_fem_refused_before_meshing(tmp_path, capsys):
-    """Issue 26: a 3D deck-only of the helical tip at depth 5 mm ran over 600 s."""
-    import time
-
+def test_3d_fem_refused_before_meshing(tmp_path, capsys, monkeypatch):
+    """Issue 26: a 3D deck-only of the helical tip at depth 5 mm ran over 600 s.
+    It is refused before gmsh is ever started (a session would fail the test)."""
     from tipgeo.cli import main
+    from tipgeo.fem import solid
     from tipgeo.tolerances import MAX_NEEDLE_FACES_3D
 
-    t0 = time.perf_counter()
+    def no_gmsh(*a, **k):
+        raise AssertionError("gmsh was started")
+
+    monkeypatch.setattr(solid, "gmsh_session", no_gmsh)
     assert main(["fem", "helical-14G", "--model", "3d", "--depth-mm", "5", "--deck-only",
                  "--out-dir", str(tmp_path / "o")]) == 2
-    assert time.perf_counter() - t0 < 30
     err = capsys.readouterr().err.strip()
     assert len(err.splitlines()) == 1 and f"at most {MAX_NEEDLE_FACES_3D}" in err
     assert not (tmp_path / "o").exists()

@@ -579,3 +579,44 @@ def test_longest_study_name_names_valid_configurations():
     from tipgeo.spec import spec_from_dict
 
     assert spec_from_dict(d).name == d["name"]
+
+
+def test_report_staging_of_a_killed_compare_is_removed_by_the_next(tmp_path, capsys):
+    """A compare run killed (SIGKILL) while writing its report leaves its
+    ``.tipgeo-report-…`` staging folder in --out-dir; the next compare run in
+    that folder removes it (its process is dead) and writes a whole report."""
+    import os
+    import signal
+    import subprocess
+    import sys
+
+    from tipgeo.atomic import STAGING_PATTERN
+    from tipgeo.cli import main
+    from tipgeo.inspect.report import REPORT_STAGING_TAG
+
+    scan, rep = tmp_path / "scan.xyz", tmp_path / "rep"
+    assert main(["scan-synth", "bevel-14G-xi15", "-o", str(scan), "--points", "3000",
+                 "--quiet"]) == 0
+    code = ("import os, signal, sys\n"
+            "import tipgeo.inspect.report as r\n"
+            "def killed(res, path):\n"
+            "    path.write_bytes(b'ply half')\n"
+            "    os.kill(os.getpid(), signal.SIGKILL)\n"
+            "r.write_deviation_ply = killed\n"
+            "from tipgeo.cli import main\n"
+            "main(sys.argv[1:])\n")
+    argv = ["compare", str(scan), "bevel-14G-xi15", "--out-dir", str(rep), "--quiet",
+            "--no-pictures"]
+    r = subprocess.run([sys.executable, "-c", code, *argv], capture_output=True, text=True,
+                       timeout=120,
+                       env={**os.environ, "PYTHONPATH": str(Path(__file__).resolve().parents[1])})
+    assert r.returncode == -signal.SIGKILL, r.stderr
+    left = [p for p in rep.iterdir()]
+    assert len(left) == 1 and left[0].is_dir() and STAGING_PATTERN.match(left[0].name)
+    assert left[0].name.startswith(REPORT_STAGING_TAG + "-")
+    assert (left[0] / "deviations.ply").read_bytes() == b"ply half"
+    (rep / "notes.txt").write_text("mine")  # the user's own file stays
+    assert main(argv) == 0
+    assert sorted(p.name for p in rep.iterdir()) == ["deviations.ply", "notes.txt",
+                                                     "report.json", "report.md"]
+    assert (rep / "notes.txt").read_text() == "mine"

@@ -162,7 +162,7 @@ def write_text_atomic(path: str | os.PathLike, text: str) -> Path:
 
 
 #: Names of staging folders: ``<tag>-<host>-<pid>-<hex>``.
-STAGING_PATTERN = re.compile(r"^(?P<tag>[A-Za-z0-9_.]+)-(?P<host>[0-9a-f]{8})-(?P<pid>[0-9]+)-"
+STAGING_PATTERN = re.compile(r"^(?P<tag>[A-Za-z0-9_.-]+)-(?P<host>[0-9a-f]{8})-(?P<pid>[0-9]+)-"
                              r"[0-9a-f]{12}$")
 
 
@@ -205,8 +205,8 @@ def staging_dir(parent: str | Path, tag: str):
     loss) are removed first (:func:`remove_stale_staging`)."""
     import shutil
 
-    if not re.fullmatch(r"[A-Za-z0-9_.]+", tag):
-        raise ValueError(f"staging tag {tag!r} is not letters, digits, '_' or '.'")
+    if not re.fullmatch(r"[A-Za-z0-9_.][A-Za-z0-9_.-]*", tag):
+        raise ValueError(f"staging tag {tag!r} is not letters, digits, '_', '.' or '-'")
     remove_stale_staging(parent, tag)
     path = Path(parent) / f"{tag}-{_HOST}-{os.getpid()}-{secrets.token_hex(6)}"
     path.mkdir(mode=0o700)

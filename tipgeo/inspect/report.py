@@ -19,8 +19,8 @@ import numpy as np
 
 from ..tolerances import tol
 
-__all__ = ["write_report", "write_json", "write_deviation_ply", "deviation_colours",
-           "write_points", "COLORMAP"]
+__all__ = ["REPORT_STAGING_TAG", "write_report", "write_json", "write_deviation_ply",
+           "deviation_colours", "write_points", "COLORMAP"]
 
 #: matplotlib colormap of every deviation picture and the coloured PLY.
 COLORMAP = "RdYlBu_r"
@@ -165,6 +165,13 @@ def _missing_parents(out: Path) -> list[Path]:
     return missing
 
 
+#: The tag of a report's staging folders, ``.tipgeo-report-<host>-<pid>-<hex>``
+#: in the output folder (:func:`tipgeo.atomic.staging_dir`): a run killed while
+#: writing its report leaves one, and the next run in that folder removes it
+#: (its process no longer runs, or it is older than a day).
+REPORT_STAGING_TAG = ".tipgeo-report"
+
+
 def write_report(res, out, *, pictures: bool = True) -> list[Path]:
     """Write ``report.json``, ``report.md``, ``deviations.ply`` and (with
     ``pictures``) ``deviation-map.png`` and ``histogram.png`` into ``out``.
@@ -174,10 +181,9 @@ def write_report(res, out, *, pictures: bool = True) -> list[Path]:
     a failure the staging folder goes, and so do ``out`` and its parents if
     this call created them. ``res.timings`` gets ``report`` (and ``total``
     grows by it) before report.json is written."""
-    import shutil
-    import tempfile
     import time
 
+    from ..atomic import staging_dir
     from ..errors import SpecError
 
     t = time.perf_counter()
@@ -186,37 +192,37 @@ def write_report(res, out, *, pictures: bool = True) -> list[Path]:
         raise SpecError(f"--out = '{out}' is a file; expected a folder (or a new name)")
     created = _missing_parents(out)
     out.mkdir(parents=True, exist_ok=True)
-    stage = Path(tempfile.mkdtemp(prefix=".tipgeo-report-", dir=out))
     ok = False
     try:
-        names = ["deviations.ply"]
-        write_deviation_ply(res, stage / "deviations.ply")
-        if pictures:
-            plot_map(res, stage / "deviation-map.png")
-            plot_histogram(res, stage / "histogram.png")
-            names += ["deviation-map.png", "histogram.png"]
-            if getattr(res, "edges", None) is not None:
-                from .edgescan import plot_measured_edges
+        # a killed run's staging folder (SIGKILL, power loss) is removed here by the next run
+        with staging_dir(out, REPORT_STAGING_TAG) as stage:
+            names = ["deviations.ply"]
+            write_deviation_ply(res, stage / "deviations.ply")
+            if pictures:
+                plot_map(res, stage / "deviation-map.png")
+                plot_histogram(res, stage / "histogram.png")
+                names += ["deviation-map.png", "histogram.png"]
+                if getattr(res, "edges", None) is not None:
+                    from .edgescan import plot_measured_edges
 
-                plot_measured_edges(res.edges, stage / "edges.png")
-                names.append("edges.png")
-        names += ["report.md", "report.json"]
-        res.outputs = [out / n for n in names]
-        _write_markdown(res, stage / "report.md")
-        dt = time.perf_counter() - t
-        res.timings["report"] = dt
-        if "total" in res.timings:
-            res.timings["total"] += dt
-        write_json(res, stage / "report.json")
-        for n in names:
-            try:  # an existing report file keeps its mode
-                os.chmod(stage / n, os.stat(out / n).st_mode & 0o7777)
-            except FileNotFoundError:
-                pass
-            os.replace(stage / n, out / n)
+                    plot_measured_edges(res.edges, stage / "edges.png")
+                    names.append("edges.png")
+            names += ["report.md", "report.json"]
+            res.outputs = [out / n for n in names]
+            _write_markdown(res, stage / "report.md")
+            dt = time.perf_counter() - t
+            res.timings["report"] = dt
+            if "total" in res.timings:
+                res.timings["total"] += dt
+            write_json(res, stage / "report.json")
+            for n in names:
+                try:  # an existing report file keeps its mode
+                    os.chmod(stage / n, os.stat(out / n).st_mode & 0o7777)
+                except FileNotFoundError:
+                    pass
+                os.replace(stage / n, out / n)
         ok = True
     finally:
-        shutil.rmtree(stage, ignore_errors=True)
         if not ok:
             for q in created:
                 try:

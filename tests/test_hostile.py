@@ -620,3 +620,121 @@ def test_report_staging_of_a_killed_compare_is_removed_by_the_next(tmp_path, cap
     assert sorted(p.name for p in rep.iterdir()) == ["deviations.ply", "notes.txt",
                                                      "report.json", "report.md"]
     assert (rep / "notes.txt").read_text() == "mine"
+
+
+# -- 7b. one overwrite check, every command: paths and inodes, files in output folders -----
+def _ply_scan(n: int = 200) -> str:
+    import math
+
+    rows = [f"{1.054 * math.cos(2 * math.pi * k / n)!r} {1.054 * math.sin(2 * math.pi * k / n)!r}"
+            f" {-k / n!r}" for k in range(n)]
+    return (f"ply\nformat ascii 1.0\nelement vertex {n}\nproperty double x\nproperty double y\n"
+            "property double z\nend_header\n" + "\n".join(rows) + "\n")
+
+
+def _collision(case: str, d: Path) -> tuple[list[str], Path, str]:
+    """(argv, the input that must stay untouched, the option named)."""
+    import os
+
+    from tipgeo.presets import preset
+    from tipgeo.spec import dumps_spec
+
+    samples = Path(__file__).resolve().parents[1] / "samples"
+    spec = dumps_spec(preset("bevel-14G-xi15"))
+    if case == "compare-out-dir-holds-scan":
+        (d / "rep").mkdir()
+        (d / "rep" / "deviations.ply").write_text(_ply_scan())
+        return (["compare", str(d / "rep" / "deviations.ply"), "bevel-14G-xi15", "--out-dir",
+                 str(d / "rep"), "--no-pictures"], d / "rep" / "deviations.ply", "--out-dir")
+    if case == "compare-out-dir-holds-cad":
+        (d / "rep").mkdir()
+        (d / "scan.ply").write_text(_ply_scan())
+        (d / "rep" / "report.json").write_text(spec)  # a spec file of any name is read as TOML
+        return (["compare", str(d / "scan.ply"), str(d / "rep" / "report.json"), "--out-dir",
+                 str(d / "rep"), "--no-pictures"], d / "rep" / "report.json", "--out-dir")
+    if case == "compare-batch-out-dir-holds-scan":
+        (d / "rep" / "a").mkdir(parents=True)
+        (d / "rep" / "a" / "deviations.ply").write_text(_ply_scan())
+        return (["compare", str(d / "rep" / "a" / "deviations.ply"), "bevel-14G-xi15", "--batch",
+                 "--workers", "1", "--out-dir", str(d / "rep"), "--no-pictures"],
+                d / "rep" / "a" / "deviations.ply", "--out-dir")
+    if case == "compare-export-hard-link-to-scan":
+        (d / "scan.ply").write_text(_ply_scan())
+        os.link(d / "scan.ply", d / "points.ply")
+        return (["compare", str(d / "scan.ply"), "bevel-14G-xi15", "--export",
+                 str(d / "points.ply"), "--no-pictures"], d / "scan.ply", "--export")
+    if case == "build-hard-link-to-spec":
+        (d / "s.toml").write_text(spec)
+        os.link(d / "s.toml", d / "tip.stl")
+        return ["build", str(d / "s.toml"), "-o", str(d / "tip.stl")], d / "s.toml", "--output"
+    if case == "gcode-mesh-symlink-to-program":
+        (d / "p.pgm").write_text((samples / "punch-C2.pgm").read_text())
+        os.symlink(d / "p.pgm", d / "sim.stl")
+        return (["gcode", "sim", str(d / "p.pgm"), "--mesh", str(d / "sim.stl")], d / "p.pgm",
+                "--mesh")
+    if case == "grind-sheet-hard-link-to-machine":
+        (d / "m.toml").write_text((samples / "machines" / "grinder.toml").read_text())
+        os.link(d / "m.toml", d / "sheet.md")
+        return (["grind", "bevel-14G-xi15", "--machine", str(d / "m.toml"), "--sheet",
+                 str(d / "sheet.md")], d / "m.toml", "--sheet")
+    if case == "laser-output-hard-link-to-machine":
+        (d / "l.toml").write_text((samples / "machines" / "a3200-laser.toml").read_text())
+        os.link(d / "l.toml", d / "out.pgm")
+        return (["laser", "punch-C2", "--machine", str(d / "l.toml"), "-o", str(d / "out.pgm")],
+                d / "l.toml", "--output")
+    if case == "sweep-output-is-a-base-spec-of-any-name":
+        (d / "base.csv").write_text(spec)
+        src = (samples / "bevel-study.toml").read_text()
+        (d / "study.toml").write_text(src.replace('base = "bevel-14G-xi15"',
+                                                  'base = "base.csv"'))
+        return (["sweep", str(d / "study.toml"), "-o", str(d / "base.csv")], d / "base.csv",
+                "--output")
+    if case == "fem-out-dir-holds-spec":
+        (d / "out").mkdir()
+        (d / "out" / "tip.json").write_text(spec)
+        return (["fem", str(d / "out" / "tip.json"), "--out-dir", str(d / "out"), "--deck-only",
+                 "--depth-mm", "1"],
+                d / "out" / "tip.json", "--out-dir")
+    raise AssertionError(case)
+
+
+@pytest.mark.parametrize("case", [
+    "compare-out-dir-holds-scan", "compare-out-dir-holds-cad", "compare-batch-out-dir-holds-scan",
+    "compare-export-hard-link-to-scan", "build-hard-link-to-spec", "gcode-mesh-symlink-to-program",
+    "grind-sheet-hard-link-to-machine", "laser-output-hard-link-to-machine",
+    "sweep-output-is-a-base-spec-of-any-name", "fem-out-dir-holds-spec"])
+def test_no_command_overwrites_an_input(tmp_path, capsys, case):
+    """Each command that can collide refuses, before any work, an output (a
+    named file, a link to an input, a file it would write in its output
+    folder) that is a file it reads, naming both; exit 2, nothing written."""
+    import hashlib
+
+    from tipgeo.cli import main
+
+    argv, victim, opt = _collision(case, tmp_path)
+    before = {p: hashlib.sha256(p.read_bytes()).hexdigest() for p in tmp_path.rglob("*")
+              if p.is_file()}
+    assert main(argv + ["--quiet"]) == 2
+    err = capsys.readouterr().err.strip()
+    assert len(err.splitlines()) == 1 and err.startswith("tipgeo: error:"), err
+    assert opt in err and str(victim) in err and "nothing was written" in err
+    after = {p: hashlib.sha256(p.read_bytes()).hexdigest() for p in tmp_path.rglob("*")
+             if p.is_file()}
+    assert after == before  # nothing written, nothing changed
+
+
+def test_refuse_overwrite_compares_inodes_not_only_paths(tmp_path):
+    import os
+
+    from tipgeo.cli.common import refuse_overwrite
+
+    a = tmp_path / "a.txt"
+    a.write_text("x")
+    os.link(a, tmp_path / "b.txt")
+    (tmp_path / "c.txt").write_text("x")
+    refuse_overwrite([("the input A", a)], [("-o", tmp_path / "c.txt"),
+                                            ("-o", tmp_path / "new.txt")])
+    with pytest.raises(InputError, match=r"-o = '.*b\.txt' is the input A '.*a\.txt'"):
+        refuse_overwrite([("the input A", a)], [("-o", tmp_path / "b.txt")])
+    with pytest.raises(InputError, match=r"is the input A"):
+        refuse_overwrite([("the input A", a)], [("-o", tmp_path / "sub" / ".." / "a.txt")])

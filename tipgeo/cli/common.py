@@ -12,7 +12,8 @@ from pathlib import Path
 
 from ..plot import PICTURE_EXTS  # the formats every --plot/--png accepts
 
-__all__ = ["declare_files", "check_files", "spec_arg", "tolerance_arg", "write_text",
+__all__ = ["declare_files", "check_files", "refuse_overwrite", "command_reads", "same_file",
+           "file_id", "spec_arg", "tolerance_arg", "write_text",
            "export_exts", "PICTURE_EXTS", "COMMON_FLAGS", "add_common_flags", "deprecated",
            "DEPRECATED", "VOCABULARY", "verdict_status", "feed_mm_min_arg"]
 
@@ -125,17 +126,20 @@ def verdict_status(verdict, args) -> int:
 
 
 def declare_files(parser, *, inputs=(), outputs=(), pictures=(), exts=None, derived=None,
-                  blas_threads: int | None = 1) -> None:
+                  folders=None, blas_threads: int | None = 1) -> None:
     """Declare a sub-command's file arguments (by ``dest``) for :func:`check_files`.
 
     ``inputs`` are read, ``outputs`` written (``pictures`` too, limited to
     :data:`PICTURE_EXTS`); ``exts`` maps an output's dest to its allowed
     extensions; ``derived(args)`` lists files a command writes beside the
-    named ones. ``blas_threads`` pins BLAS for the command (None: unchanged).
+    named ones; ``folders`` maps an output folder's dest to ``names(args)``,
+    the files the command writes in it (names or glob patterns, relative to
+    the folder). ``blas_threads`` pins BLAS for the command (None: unchanged).
     """
     parser.set_defaults(_inputs=tuple(inputs), _outputs=tuple(outputs) + tuple(pictures),
                         _exts={**{p: PICTURE_EXTS for p in pictures}, **(exts or {})},
-                        _derived=derived, _blas_threads=blas_threads)
+                        _derived=derived, _folders=dict(folders or {}),
+                        _blas_threads=blas_threads)
 
 
 def _values(args, dest) -> list[str]:
@@ -145,29 +149,43 @@ def _values(args, dest) -> list[str]:
     return [str(x) for x in (v if isinstance(v, (list, tuple)) else [v]) if str(x) != "-"]
 
 
-def same_file(a: Path, b: Path) -> bool:
-    """Whether two paths name the same file (resolved, or the same inode)."""
+def file_id(path: str | Path) -> tuple[int, int] | None:
+    """The (device, inode) of the file ``path`` names (links followed), or
+    None when it does not exist or cannot be read."""
     import os
 
-    if os.path.realpath(a) == os.path.realpath(b):
-        return True
     try:
-        return a.exists() and b.exists() and os.path.samefile(a, b)
-    except OSError:
+        st = os.stat(path)
+    except (OSError, ValueError):
+        return None
+    return st.st_dev, st.st_ino
+
+
+def same_file(a: Path, b: Path) -> bool:
+    """Whether two paths name the same file: the same resolved path, or the
+    same (device, inode) — a symbolic or a hard link to it."""
+    import os
+
+    try:
+        if os.path.realpath(a) == os.path.realpath(b):
+            return True
+    except (OSError, ValueError):
         return False
+    ia = file_id(a)
+    return ia is not None and ia == file_id(b)
 
 
 def derived_inputs(path: str | Path, *, _depth: int = 0) -> list[tuple[str, Path]]:
     """Files an input TOML file makes the command read besides itself: a
     spec's mesh-cutter files (``cutters[k].path``), a study config's base
-    spec (``base = "*.toml"``) and, in turn, that spec's mesh files — each as
+    spec (``base``, a file) and, in turn, that spec's mesh files — each as
     (what, path), relative paths from the file's folder. A file that is not
     TOML, or does not parse, has none (the command reports its errors)."""
     from ..errors import SpecError
     from ..tomlio import loads_toml, read_text_file
 
     p = Path(path)
-    if p.suffix.lower() != ".toml" or _depth > 1 or not p.is_file():
+    if _depth > 1 or not p.is_file():
         return []
     try:
         data = loads_toml(read_text_file(p, "input"), "input")
@@ -184,30 +202,95 @@ def derived_inputs(path: str | Path, *, _depth: int = 0) -> list[tuple[str, Path
         if isinstance(c, dict) and isinstance(c.get("path"), str) and c["path"]:
             out.append((f"the mesh file cutters[{k}].path of '{p}'", rel(c["path"])))
     base = data.get("base")
-    if isinstance(base, str) and base.endswith(".toml"):
+    if isinstance(base, str) and base and "\0" not in base and \
+            (base.endswith(".toml") or rel(base).is_file()):
         b = rel(base)
         out.append((f"the base spec of '{p}'", b))
         out += derived_inputs(b, _depth=_depth + 1)
     return out
 
 
+def command_reads(inputs: list[tuple[str, str | Path]]) -> list[tuple[str, Path]]:
+    """Everything a command reads, as (what, path): its ``inputs`` (what,
+    path) — a folder or glob pattern (``compare --batch``) as the files it
+    holds — and, for each, the files it names (:func:`derived_inputs`)."""
+    import glob
+
+    out: list[tuple[str, Path]] = []
+    for what, v in inputs:
+        p = Path(v)
+        if p.is_dir():
+            files = [q for q in sorted(p.iterdir())[:10000] if q.is_file()]
+        elif not p.exists() and any(c in str(v) for c in "*?["):
+            files = [Path(q) for q in sorted(glob.glob(str(v)))[:10000]]
+        else:
+            files = [p] if p.is_file() else []
+        for f in files:
+            out.append((what, f))
+            out += derived_inputs(f)
+    return out
+
+
+def refuse_overwrite(reads: list[tuple[str, str | Path]],
+                     writes: list[tuple[str, str | Path]]) -> None:
+    """The one check that no command overwrites what it reads: each file
+    written (``writes``: (option, path)) is compared with each file read
+    (``reads``: (what, path), see :func:`command_reads`) by resolved path and
+    by (device, inode) — a symbolic or hard link to an input counts — and
+    the first match is an :class:`~tipgeo.errors.InputError` naming both."""
+    import os
+
+    from ..errors import InputError
+
+    seen = []
+    for what, q in reads:
+        try:
+            seen.append((what, Path(q), os.path.realpath(q), file_id(q)))
+        except (OSError, ValueError):
+            continue
+    for opt, p in writes:
+        try:
+            rp, ip = os.path.realpath(p), file_id(p)
+        except (OSError, ValueError):
+            continue
+        for what, q, rq, iq in seen:
+            if rp == rq or (ip is not None and ip == iq):
+                raise InputError(f"{opt} = '{p}' is {what} '{q}'; allowed an output that is "
+                                 "not one of the command's inputs, direct or indirect (nothing "
+                                 "was written)")
+
+
 def check_derived_inputs(inputs: list[str | Path], outs: list[tuple[str, Path]]) -> None:
     """Refuse an output that is a file one of ``inputs`` makes the command read
     (:func:`derived_inputs`), naming both."""
-    from ..errors import InputError
+    refuse_overwrite([r for src in inputs for r in derived_inputs(src)], outs)
 
-    for src in inputs:
-        for what, q in derived_inputs(src):
-            for opt, p in outs:
-                if same_file(q, p):
-                    raise InputError(f"{opt} = '{p}' is {what}; allowed an output that is not "
-                                     "one of the command's inputs, direct or indirect (nothing "
-                                     "was written)")
+
+def folder_outputs(args) -> list[tuple[str, Path]]:
+    """The files a command will write inside its output folders (declared
+    with ``folders=``): each name as a path, each glob pattern as the files
+    in the folder it matches now."""
+    import glob
+
+    outs: list[tuple[str, Path]] = []
+    for dest, names in (getattr(args, "_folders", None) or {}).items():
+        opt = "--" + dest.replace("_", "-")
+        for v in _values(args, dest):
+            d = Path(v)
+            for n in names(args):
+                if any(c in n for c in "*?["):
+                    outs += [(f"{opt} {v}", Path(q)) for q in
+                             sorted(glob.glob(str(Path(glob.escape(v)) / n)))[:10000]]
+                else:
+                    outs.append((f"{opt} {v}", d / n))
+    return outs
 
 
 def check_files(args) -> None:
     """Refuse, before any work, outputs with a wrong extension, an output named
-    twice, and an output that is one of the command's own inputs."""
+    twice, and an output that is one of the command's own inputs, direct or
+    indirect (:func:`refuse_overwrite`), including the files it writes in its
+    output folders."""
     from ..errors import InputError as SpecError  # paths are not specs
 
     outs: list[tuple[str, Path]] = []
@@ -230,18 +313,9 @@ def check_files(args) -> None:
             if same_file(p, q):
                 raise SpecError(f"{opt} = '{p}' is also given as {opt2} = '{q}'; allowed each "
                                 "output file once")
-    for dest in getattr(args, "_inputs", ()):
-        for v in _values(args, dest):
-            src = Path(v)
-            if not src.is_file():
-                continue  # a preset name, or missing (the command reports it)
-            for opt, p in outs:
-                if same_file(src, p):
-                    raise SpecError(f"{opt} = '{p}' is the command's input {dest.upper()}; "
-                                    "allowed an output that is not one of its inputs "
-                                    "(nothing was written)")
-    check_derived_inputs([v for dest in getattr(args, "_inputs", ())
-                          for v in _values(args, dest)], outs)
+    direct = [(f"the command's input {dest.upper()}", v)
+              for dest in getattr(args, "_inputs", ()) for v in _values(args, dest)]
+    refuse_overwrite(command_reads(direct), outs + folder_outputs(args))
 
 
 def spec_arg(arg: str):

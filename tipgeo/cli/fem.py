@@ -19,6 +19,11 @@ def _um(name: str, x):
     return None if x is None else v.real(name, x, lo=1.0, hi=1000.0, unit="µm") * 1e-3
 
 
+#: The files ``fem`` writes in --out-dir (named after the spec): patterns.
+FEM_FILES = ("*.inp", "*.frd", "*.dat", "*.sta", "*.cvg", "*.json", "*.csv", "*.png",
+             "mesh_*um/*")
+
+
 def cmd_fem(args) -> int:
     """Build, write and run the finite-element model of one tip."""
     from .. import validate as v
@@ -144,4 +149,4 @@ def register(sub) -> None:
     deprecated(f, ("-o", "--output"), "--out-dir")
     deprecated(f, "--convergence", "--convergence-um")
     f.set_defaults(func=cmd_fem)
-    declare_files(f, inputs=("spec",))
+    declare_files(f, inputs=("spec",), folders={"out_dir": lambda a: list(FEM_FILES)})

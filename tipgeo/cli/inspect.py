@@ -100,8 +100,22 @@ def _check_out_file(opt: str, value: str | None, exts: tuple[str, ...], inputs) 
     folder = p.parent if str(p.parent) else Path(".")
     if not folder.is_dir():
         raise SpecError(f"{opt} = '{value}': the folder '{folder}' does not exist")
-    if any(Path(i).resolve() == p.resolve() for i in inputs):
-        raise SpecError(f"{opt} = '{value}' is an input; no command overwrites its input")
+    from .common import command_reads, refuse_overwrite
+
+    refuse_overwrite(command_reads([("an input", i) for i in inputs]), [(opt, p)])
+
+
+#: The files a compare report writes in --out-dir (with --batch: in each
+#: scan's subfolder, and the SPC table and control charts beside them).
+REPORT_FILES = ("deviations.ply", "deviation-map.png", "histogram.png", "edges.png",
+                "report.md", "report.json")
+
+
+def report_files(args) -> list[str]:
+    """The files ``compare`` writes in ``--out-dir`` (names and patterns)."""
+    if getattr(args, "batch", False):
+        return [f"*/{n}" for n in REPORT_FILES] + ["spc.csv", "control-*.png"]
+    return list(REPORT_FILES)
 
 
 def cmd_compare(args) -> int:
@@ -475,7 +489,8 @@ def register(subparsers) -> None:
                note=" (the ± acceptance band; --tolerance-um is a mesh's chordal tolerance)")
     c.set_defaults(func=cmd_compare)
     declare_files(c, inputs=("scan", "cad", "init_transform", "acceptance"),
-                  outputs=("export", "matrix_out", "summary"), blas_threads=None)
+                  outputs=("export", "matrix_out", "summary"), folders={"out_dir": report_files},
+                  blas_threads=None)
 
     s = subparsers.add_parser("scan-synth", help="synthetic scan of a tip (virtual "
                               "profilometer) with known misalignment and errors")

@@ -30,17 +30,10 @@ def _config(arg: str):
 
 def _check_outputs(config_arg: str, outs: list) -> None:
     """Refuse outputs that are the config file or a file it makes the command
-    read (its base spec, that spec's mesh files)."""
-    from ..errors import InputError
-    from .common import check_derived_inputs, same_file
+    read (its base spec, that spec's mesh files): :func:`.common.refuse_overwrite`."""
+    from .common import command_reads, refuse_overwrite
 
-    src = Path(config_arg)
-    if src.is_file():
-        for opt, p in outs:
-            if same_file(src, p):
-                raise InputError(f"{opt}: '{p}' is the command's input CONFIG; allowed an "
-                                 "output that is not one of its inputs (nothing was written)")
-        check_derived_inputs([src], outs)
+    refuse_overwrite(command_reads([("the command's input CONFIG", config_arg)]), outs)
 
 
 def _executor(args, config):

@@ -738,3 +738,88 @@ def test_refuse_overwrite_compares_inodes_not_only_paths(tmp_path):
         refuse_overwrite([("the input A", a)], [("-o", tmp_path / "b.txt")])
     with pytest.raises(InputError, match=r"is the input A"):
         refuse_overwrite([("the input A", a)], [("-o", tmp_path / "sub" / ".." / "a.txt")])
+
+
+# -- 3b. every file read: special files refused before opening ------------------------------
+@pytest.fixture
+def no_hang():
+    """A read that blocks fails the test after 20 s instead of hanging the suite."""
+    import signal
+
+    def boom(*_):
+        raise AssertionError("blocked on a special file")
+
+    old = signal.signal(signal.SIGALRM, boom)
+    signal.alarm(20)
+    yield
+    signal.alarm(0)
+    signal.signal(signal.SIGALRM, old)
+
+
+def _readers():
+    from cam import Machine
+    from cam.mill import MillMachine
+    from gcode import LaserParams
+    from tipgeo.inspect.heightmap import read_height_map
+    from tipgeo.inspect.scanio import load_scan
+    from tipgeo.inspect.transform import read_transform
+    from tipgeo.io.load import load_tip
+    from tipgeo.mechanics.tissue import read_uniaxial_csv
+
+    return {"grinder.toml": Machine.from_toml, "mill.toml": MillMachine.from_toml,
+            "laser.toml": LaserParams.from_toml, "tissue.csv": read_uniaxial_csv,
+            "scan.xyz": load_scan, "scan.ply": load_scan, "map.x3p": read_height_map,
+            "tip.stl": load_tip, "T.txt": read_transform}
+
+
+@pytest.mark.parametrize("name", ["grinder.toml", "mill.toml", "laser.toml", "tissue.csv",
+                                  "scan.xyz", "scan.ply", "map.x3p", "tip.stl", "T.txt"])
+def test_every_reader_refuses_a_fifo_before_opening(tmp_path, no_hang, name):
+    import os
+
+    from cam import CamError
+    from gcode import GCodeError
+    from tipgeo.inspect import ScanError
+
+    fifo = tmp_path / name
+    os.mkfifo(fifo)
+    with pytest.raises((InputError, CamError, GCodeError, ScanError)) as e:
+        _readers()[name](fifo)
+    msg = str(e.value)
+    assert "\n" not in msg and str(fifo) in msg
+    assert "FIFO" in msg or "regular file" in msg or "not a file" in msg
+
+
+@pytest.mark.parametrize("argv", [
+    ["tissue", "fit", "{f}"], ["gcode", "check", "{f}"], ["grind", "bevel-14G-xi15", "--machine",
+                                                          "{f}"],
+    ["mill", "bevel-14G-xi15", "--machine", "{f}", "-o", "{d}/o.nc"],
+    ["laser", "punch-C2", "--machine", "{f}", "-o", "{d}/o.pgm"],
+    ["compare", "{f}", "bevel-14G-xi15", "--no-pictures"],
+    ["compare", "{d}/s.xyz", "bevel-14G-xi15", "--init-transform", "{f}", "--no-pictures"],
+    ["angles", "{f}"], ["sweep", "{f}", "--dry-run"]])
+def test_every_command_refuses_a_fifo_or_device_input(tmp_path, capsys, no_hang, argv):
+    import os
+
+    from tipgeo.cli import main
+
+    fifo = tmp_path / "in.fifo"
+    os.mkfifo(fifo)
+    (tmp_path / "s.xyz").write_text("0 0 0\n")
+    for target, word in ((fifo, "FIFO"), ("/dev/zero", "device")):
+        a = [x.replace("{f}", str(target)).replace("{d}", str(tmp_path)) for x in argv]
+        assert main(a + ["--quiet"]) == 2
+        err = capsys.readouterr().err.strip()
+        assert len(err.splitlines()) == 1 and word in err and str(target) in err, err
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["in.fifo", "s.xyz"]
+
+
+def test_tissue_data_rows_capped(tmp_path, capsys):
+    from tipgeo.cli import main
+    from tipgeo.mechanics.tissue import MAX_TISSUE_ROWS
+
+    f = tmp_path / "t.csv"
+    f.write_text("strain,stress_mpa\n" + "0.1,0.01\n" * (MAX_TISSUE_ROWS + 1))
+    assert main(["tissue", "fit", str(f), "--quiet"]) == 2
+    err = capsys.readouterr().err.strip()
+    assert f"{MAX_TISSUE_ROWS + 1:,} data rows" in err and f"at most {MAX_TISSUE_ROWS:,}" in err

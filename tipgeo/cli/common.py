@@ -12,7 +12,8 @@ from pathlib import Path
 
 from ..plot import PICTURE_EXTS  # the formats every --plot/--png accepts
 
-__all__ = ["declare_files", "check_files", "refuse_overwrite", "command_reads", "same_file",
+__all__ = ["declare_files", "check_files", "refuse_overwrite", "command_reads",
+           "refuse_special_file", "same_file",
            "file_id", "spec_arg", "tolerance_arg", "write_text",
            "export_exts", "PICTURE_EXTS", "COMMON_FLAGS", "add_common_flags", "deprecated",
            "DEPRECATED", "VOCABULARY", "verdict_status", "feed_mm_min_arg"]
@@ -266,6 +267,28 @@ def check_derived_inputs(inputs: list[str | Path], outs: list[tuple[str, Path]])
     refuse_overwrite([r for src in inputs for r in derived_inputs(src)], outs)
 
 
+def refuse_special_file(what: str, path: str | Path) -> None:
+    """Refuse an input that is a FIFO, a device or a socket — reading one
+    could block forever or never end — before anything opens it (``stat``
+    does not block); a missing file or a folder is left to the command."""
+    import os
+    import stat
+
+    from ..errors import InputError
+
+    try:
+        mode = os.stat(path).st_mode
+    except (OSError, ValueError):
+        return
+    if stat.S_ISREG(mode) or stat.S_ISDIR(mode):
+        return
+    kind = ("a FIFO (named pipe)" if stat.S_ISFIFO(mode) else
+            "a device" if stat.S_ISCHR(mode) or stat.S_ISBLK(mode) else
+            "a socket" if stat.S_ISSOCK(mode) else "not a regular file")
+    raise InputError(f"{what} = '{path}' is {kind}; expected a regular file (copy its content "
+                     "to a file and give that)")
+
+
 def folder_outputs(args) -> list[tuple[str, Path]]:
     """The files a command will write inside its output folders (declared
     with ``folders=``): each name as a path, each glob pattern as the files
@@ -315,6 +338,9 @@ def check_files(args) -> None:
                                 "output file once")
     direct = [(f"the command's input {dest.upper()}", v)
               for dest in getattr(args, "_inputs", ()) for v in _values(args, dest)]
+    for dest in getattr(args, "_inputs", ()):
+        for v in _values(args, dest):
+            refuse_special_file(f"{dest.upper()}", v)
     refuse_overwrite(command_reads(direct), outs + folder_outputs(args))
 
 

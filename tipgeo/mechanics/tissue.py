@@ -41,7 +41,8 @@ from ..errors import SpecError
 from ..tolerances import tol
 from ._common import KPA, finite_array
 
-__all__ = ["NeoHookean", "ArrudaBoyce", "Ogden", "AB_C", "MODELS", "FitResult",
+__all__ = ["MAX_TISSUE_DATA_BYTES", "MAX_TISSUE_ROWS", "NeoHookean", "ArrudaBoyce", "Ogden",
+           "AB_C", "MODELS", "FitResult",
            "true_from_engineering", "engineering_from_true", "fit_uniaxial",
            "fit_engineering", "synthetic_uniaxial", "read_uniaxial_csv",
            "uniaxial_csv_text", "make_model"]
@@ -474,6 +475,11 @@ def synthetic_uniaxial(model, stretch, *, noise: float = 0.0,
 
 
 # -----------------------------------------------------------------------------
+#: Largest tissue data file read (bytes) and most data rows fitted: a uniaxial
+#: test has tens to thousands of points.
+MAX_TISSUE_DATA_BYTES = 8 << 20
+MAX_TISSUE_ROWS = 100_000
+
 _COLS = {"strain": ("strain", 1.0), "stretch": ("stretch", 1.0),
          "stress_mpa": ("stress", 1.0), "stress_kpa": ("stress", KPA),
          "true_stress_mpa": ("true_stress", 1.0), "true_stress_kpa": ("true_stress", KPA)}
@@ -491,14 +497,17 @@ def read_uniaxial_csv(path) -> tuple[np.ndarray, np.ndarray, dict[str, Any]]:
     (stretch, true stress in MPa, info) — engineering data converted by
     eq. 4.2–4.3; ``info`` says which columns were read.
     """
+    from ..tomlio import read_text_file
+
     p = Path(path)
-    try:
-        text = p.read_text(encoding="utf-8")
-    except (OSError, UnicodeDecodeError) as e:
-        raise SpecError(f"data = '{path}' cannot be read: {e}") from None
+    # a regular file only (a FIFO or device is refused before a byte is read), size-capped
+    text = read_text_file(p, "tissue data", max_bytes=MAX_TISSUE_DATA_BYTES)
     lines = [ln for ln in text.splitlines() if ln.strip() and not ln.lstrip().startswith("#")]
     if not lines:
         raise SpecError(f"data = '{path}' has no rows")
+    if len(lines) - 1 > MAX_TISSUE_ROWS:
+        raise SpecError(f"data = '{path}' has {len(lines) - 1:,} data rows; allowed at most "
+                        f"{MAX_TISSUE_ROWS:,} (thin the test data first)")
     rows = list(csv.reader(io.StringIO("\n".join(lines))))
     header = [h.strip().lower() for h in rows[0]]
     found = {_COLS[h][0]: (j, _COLS[h][1], h) for j, h in enumerate(header) if h in _COLS}

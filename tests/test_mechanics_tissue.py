@@ -250,7 +250,7 @@ def test_read_csv_variants_and_errors(tmp_path):
     p.write_text("x,y\n1,2\n")
     with pytest.raises(SpecError, match="lacks the columns"):
         read_uniaxial_csv(p)
-    with pytest.raises(SpecError, match="cannot be read"):
+    with pytest.raises(SpecError, match="tissue data .*missing.csv. does not exist"):
         read_uniaxial_csv(tmp_path / "missing.csv")
 
 

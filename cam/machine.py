@@ -161,8 +161,7 @@ class Machine:
             if k in ("t1", "t2", "r3", "r4", "r5"):
                 continue
             if k == "name":
-                if not isinstance(val, str) or not val.strip():
-                    raise CamError(f"machine name = {val!r} must be a non-empty string")
+                machine_name(val)
                 continue
             kw[k] = machine_number(k, val, "mm/min" if k in _PER_MIN else _UNITS.get(k, ""))
             if k in _PER_MIN:
@@ -209,6 +208,29 @@ _PER_MIN = {"feed_min_mm_min": "feed_min", "feed_max_mm_min": "feed_max",
 _UNITS = {"phi_deg": "deg", "wheel_diameter": "mm", "wheel_thickness": "mm", "wheel_rim": "mm",
           "wheel_rpm": "rpm", "contact_radius": "mm", "needle_rpm_max": "rpm",
           "feed_min": "mm/s", "feed_max": "mm/s", "rapid_speed": "mm/s"}
+
+
+#: Longest machine display name (it goes into program comments and sheets).
+MAX_MACHINE_NAME = 120
+
+
+def machine_name(val) -> str:
+    """A machine file's display name: a non-empty string on one line (no
+    control character) of at most :data:`MAX_MACHINE_NAME` characters, else
+    a CamError naming it."""
+    import unicodedata
+
+    from tipgeo.validate import brief
+
+    if not isinstance(val, str) or not val.strip():
+        raise CamError(f"machine name = {brief(val)} must be a non-empty string")
+    if any(unicodedata.category(c) in ("Cc", "Cf", "Zl", "Zp", "Cs") for c in val):
+        raise CamError(f"machine name = {val!r} holds a control character or line break; "
+                       "allowed one line of text")
+    if len(val) > MAX_MACHINE_NAME:
+        raise CamError(f"machine name is {len(val)} characters long; allowed at most "
+                       f"{MAX_MACHINE_NAME}")
+    return val
 
 
 def machine_number(key: str, val, unit: str = "") -> float:

@@ -182,3 +182,109 @@ def test_laser_file_loader_raises_only_its_named_error(tmp_path_factory, table):
         LaserParams.from_dict(table)
     except GCodeError as e:
         assert "\n" not in str(e)
+
+
+def _sample_keys(name: str) -> tuple[list[str], list[str]]:
+    """(scalar keys, axis table names) of a sample machine file."""
+    import tomllib
+
+    data = tomllib.loads((MACHINES / name).read_text(encoding="utf-8"))
+    return (sorted(k for k, v in data.items() if not isinstance(v, dict)),
+            sorted(k for k, v in data.items() if isinstance(v, dict)))
+
+
+def _axis_tables(axes: list[str]):
+    part = st.one_of(st.floats(), st.integers(-10 ** 400, 10 ** 400), st.booleans(),
+                     st.text(max_size=4), st.floats(min_value=-1e3, max_value=1e3))
+    table = st.dictionaries(st.sampled_from(["lo", "hi", "resolution", "x"]), part, max_size=4)
+    return st.dictionaries(st.sampled_from(axes), table, max_size=3)
+
+
+def _machine_toml(scalars: dict, tables: dict) -> str:
+    text = "".join(f"{k} = {_toml_value(v)}\n" for k, v in scalars.items())
+    for name, t in tables.items():
+        text += f"[{name}]\n" + "".join(f"{k} = {_toml_value(v)}\n" for k, v in t.items())
+    return text
+
+
+def _check_machine_file(loader, error, path, scalars, tables):
+    """The loader returns a machine whose every axis has positive travel and
+    resolution, or raises its one named error on one line — nothing else."""
+    try:
+        m = loader(path)
+    except error as e:
+        assert "\n" not in str(e) and str(e)
+        return None
+    for f in fields(m):
+        v = getattr(m, f.name)
+        if hasattr(v, "lo") and hasattr(v, "hi"):
+            assert v.hi - v.lo > 0 and v.resolution > 0, (f.name, v)
+    return m
+
+
+_gkeys, _gaxes = _sample_keys("grinder.toml")
+_mkeys, _maxes = _sample_keys("haas-vf2.toml")
+
+
+@settings(max_examples=150, deadline=None)
+@given(st.dictionaries(st.one_of(st.sampled_from(_gkeys), st.from_regex(r"[a-z_]{1,12}",
+                                                                        fullmatch=True)),
+                       _values, max_size=5), _axis_tables(_gaxes))
+def test_grinder_file_loader_raises_only_its_named_error(tmp_path_factory, scalars, tables):
+    path = tmp_path_factory.mktemp("grinder") / "g.toml"
+    path.write_text(_machine_toml(scalars, tables), encoding="utf-8")
+    m = _check_machine_file(Machine.from_toml, CamError, path, scalars, tables)
+    if m is not None:
+        assert m.feed_max >= m.feed_min > 0 and m.wheel_rpm > 0 and m.rapid_speed > 0
+        assert 0 < m.phi_deg < 90
+
+
+@settings(max_examples=150, deadline=None)
+@given(st.dictionaries(st.one_of(st.sampled_from(_mkeys), st.from_regex(r"[a-z_]{1,12}",
+                                                                        fullmatch=True)),
+                       _values, max_size=5), _axis_tables(_maxes))
+def test_mill_file_loader_raises_only_its_named_error(tmp_path_factory, scalars, tables):
+    path = tmp_path_factory.mktemp("mill") / "m.toml"
+    path.write_text(_machine_toml(scalars, tables), encoding="utf-8")
+    m = _check_machine_file(MillMachine.from_toml, CamError, path, scalars, tables)
+    if m is not None:
+        assert m.feed_max >= m.feed_min > 0 and m.rapid > 0 and m.spindle_rpm_max > 0
+
+
+@settings(max_examples=60, deadline=None)
+@given(st.sampled_from(["grinder.toml", "haas-vf2.toml"]), st.data())
+def test_one_sample_value_changed_loads_or_is_named(tmp_path_factory, name, data):
+    """The sample with one value replaced by a hostile one: loads, or the
+    one-line error names that key."""
+    import re
+
+    text = (MACHINES / name).read_text(encoding="utf-8")
+    lines = [i for i, ln in enumerate(text.splitlines()) if re.match(r"^\w+\s*=", ln)]
+    i = data.draw(st.sampled_from(lines))
+    value = data.draw(st.sampled_from(["0", "-1.0", "0.0", "-1e-300", "1e400", "nan", "inf",
+                                       "'x'", "true", "[]", "{}"]))
+    rows = text.splitlines()
+    key = rows[i].split("=", 1)[0].strip()
+    rows[i] = f"{key} = {value}"
+    path = tmp_path_factory.mktemp("one") / name
+    path.write_text("\n".join(rows) + "\n", encoding="utf-8")
+    loader = Machine.from_toml if name == "grinder.toml" else MillMachine.from_toml
+    try:
+        loader(path)
+    except CamError as e:
+        assert "\n" not in str(e) and (key in str(e) or "not valid TOML" in str(e)), str(e)
+
+
+@pytest.mark.parametrize("loader, text, match", [
+    ("mill", "controller = []\n", r"controller = \[\] has no post; allowed: fanuc"),
+    ("mill", "controller = 1\n", r"controller = 1 has no post"),
+    ("mill", 'name = "a\\nG0 X0"\n', r"machine name = .* holds a control character"),
+    ("grinder", 'name = "a\\u2028b"\n', r"machine name = .* holds a control character"),
+    ("grinder", f'name = "{"x" * 121}"\n', r"machine name is 121 characters long; allowed at "
+                                            r"most 120"),
+])
+def test_machine_names_and_controllers_refused(tmp_path, loader, text, match):
+    cls = MillMachine if loader == "mill" else Machine
+    with pytest.raises(CamError, match=match) as e:
+        cls.from_toml(_write(tmp_path, text))
+    assert "\n" not in str(e.value)

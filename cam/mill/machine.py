@@ -187,7 +187,7 @@ class MillMachine:
         naming the key, its value and what is allowed."""
         from tipgeo.validate import brief
 
-        from ..machine import machine_number
+        from ..machine import machine_name, machine_number
         from .post import POSTS
 
         kw = machine_toml(cls, path, ("x", "y", "z"))
@@ -195,10 +195,9 @@ class MillMachine:
             if k in ("x", "y", "z"):
                 continue
             if k == "name":
-                if not isinstance(val, str) or not val.strip():
-                    raise CamError(f"machine name = {brief(val)} must be a non-empty string")
+                machine_name(val)
             elif k == "controller":
-                if val not in POSTS:
+                if not isinstance(val, str) or val not in POSTS:
                     raise CamError(f"machine controller = {brief(val)} has no post; allowed: "
                                    + ", ".join(sorted(POSTS)))
             elif k == "work_offset":

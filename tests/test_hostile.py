@@ -823,3 +823,62 @@ def test_tissue_data_rows_capped(tmp_path, capsys):
     assert main(["tissue", "fit", str(f), "--quiet"]) == 2
     err = capsys.readouterr().err.strip()
     assert f"{MAX_TISSUE_ROWS + 1:,} data rows" in err and f"at most {MAX_TISSUE_ROWS:,}" in err
+
+
+# -- 4b. list lengths capped before work, each message with the figure and the way out -----
+@pytest.mark.parametrize("line, match", [
+    ("count = 2000", r"count = 2000 serrations is out of range; allowed 1 ≤ value ≤ 256 .*"
+                     r"several passes"),
+    ("spacing_deg = 1e-6", r"spacing = 1e-06° gives 360,000,000 serrations; allowed spacing > "
+                           r"1.40078° \(at most 256"),
+])
+def test_serration_count_capped_before_geometry(tmp_path, line, match, monkeypatch):
+    from tipgeo.cutters import serration
+
+    src = (Path(__file__).resolve().parents[1] / "samples" / "punch-C2.toml").read_text()
+    f = tmp_path / "s.toml"
+    f.write_text(src.replace("count = 16", line))
+    monkeypatch.setattr(serration.SerrationCutter, "surfaces",
+                        lambda *a, **k: pytest.fail("geometry before the cap"), raising=False)
+    with pytest.raises(SpecError, match=match) as e:
+        load_spec(f)
+    assert "\n" not in str(e.value)
+
+
+def test_serration_cap_is_reachable(tmp_path):
+    from tipgeo.cutters.serration import MAX_SERRATIONS, SerrationCutter
+
+    c = SerrationCutter(arc_radius=0.001, count=MAX_SERRATIONS)
+    assert c.n == MAX_SERRATIONS
+    c = SerrationCutter(arc_radius=0.001, spacing=2 * 3.141592653589793 / MAX_SERRATIONS)
+    assert c.n == MAX_SERRATIONS
+    with pytest.raises(SpecError, match="257 serrations"):
+        SerrationCutter(arc_radius=0.001, spacing=2 * 3.141592653589793 / 257.5)
+
+
+@pytest.mark.parametrize("argv, match", [
+    (["scan-synth", "bevel-14G-xi15", "-o", "{d}/s.xyz", "--views", "30", "1e9"],
+     r"--views COUNT = 1e\+09; allowed a whole number 1 … 64"),
+    (["scan-synth", "bevel-14G-xi15", "-o", "{d}/s.xyz", "--views", "30", "nan"],
+     r"--views COUNT = nan"),
+    (["scan-synth", "bevel-14G-xi15", "-o", "{d}/s.xyz", "--views", "inf", "8"],
+     r"--views ELEVATION_DEG = inf"),
+    (["scan-synth", "bevel-14G-xi15", "-o", "{d}/s.xyz", "--points", "1000000000"],
+     r"--points = 1,000,000,000; allowed 10 ≤ value ≤ 2,000,000 \(.*merge several"),
+    (["angles", "bevel-14G-xi15", "--step-deg", "0.001"],
+     r"--step-deg = 0.001 gives 360,000 rows a tip; allowed 0.01 ≤ value ≤ 90"),
+    (["angles"] + ["bevel-14G-xi15"] * 65, r"65 SPEC arguments; allowed at most 64 .*split"),
+])
+def test_cli_lists_and_counts_capped_before_work(tmp_path, capsys, monkeypatch, argv, match):
+    import tipgeo.angles
+    import tipgeo.inspect
+
+    from tipgeo.cli import main
+
+    monkeypatch.setattr(tipgeo.inspect, "synthetic_scan",
+                        lambda *a, **k: pytest.fail("work before the cap"))
+    monkeypatch.setattr(tipgeo.angles, "analyze", lambda *a, **k: pytest.fail("work first"))
+    assert main([a.replace("{d}", str(tmp_path)) for a in argv] + ["--quiet"]) == 2
+    err = capsys.readouterr().err.strip()
+    assert len(err.splitlines()) == 1 and re.search(match, err), err
+    assert list(tmp_path.iterdir()) == []

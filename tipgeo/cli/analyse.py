@@ -34,10 +34,30 @@ def _angle_source(arg: str, args):
     return spec, None, spec.name or Path(arg).stem
 
 
+#: ``angles``: finest table step (degrees: 36,000 rows a tip) and most tips
+#: in one call — costs checked before any work.
+MIN_STEP_DEG = 0.01
+MAX_ANGLE_TIPS = 64
+
+
+def _check_angles_costs(args) -> None:
+    from ..errors import InputError
+
+    step = args.step_deg
+    if step is not None and isinstance(step, float) and step == step and step < MIN_STEP_DEG:
+        raise InputError(f"--step-deg = {step:g} gives {360 / step:,.0f} rows a tip; allowed "
+                         f"{MIN_STEP_DEG:g} ≤ value ≤ 90 (finer than any angle measurement; "
+                         "for a closer look, the extremes are in the summary)")
+    if len(args.spec) > MAX_ANGLE_TIPS:
+        raise InputError(f"{len(args.spec)} SPEC arguments; allowed at most {MAX_ANGLE_TIPS} "
+                         "tips a call (split the list over several calls)")
+
+
 def cmd_angles(args) -> int:
     from .. import progress
     from ..angles import analyze
 
+    _check_angles_costs(args)
     reports = []
     sources = [_angle_source(arg, args) for arg in args.spec]  # every input checked first
     with progress.bar(len(sources), "angles", unit="tip") as pb:

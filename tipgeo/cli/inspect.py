@@ -308,6 +308,12 @@ def _batch(args, kw) -> int:
     return res.exit_code
 
 
+#: scan-synth's caps, checked before any work: points (10⁶ points take about 1 GB
+#: while ray casting) and views.
+MAX_SYNTH_POINTS = 2_000_000
+MAX_SYNTH_VIEWS = 64
+
+
 def cmd_scan_synth(args) -> int:
     import math
 
@@ -331,8 +337,17 @@ def cmd_scan_synth(args) -> int:
             raise SpecError(f"{opt} = '{f}': the folder '{folder}' does not exist")
     if args.truth and Path(args.truth).resolve() == out.resolve():
         raise SpecError(f"--truth = '{args.truth}' is also -o; allowed two different files")
-    if not args.points >= 10:
-        raise SpecError(f"--points = {args.points}; allowed ≥ 10")
+    if not 10 <= args.points <= MAX_SYNTH_POINTS:
+        raise SpecError(f"--points = {args.points:,}; allowed 10 ≤ value ≤ "
+                        f"{MAX_SYNTH_POINTS:,} (time and memory grow with the points; merge "
+                        "several seeded scans for more)")
+    if args.views:
+        el, cnt = args.views
+        if not (math.isfinite(el) and -90 < el <= 90):
+            raise SpecError(f"--views ELEVATION_DEG = {el}; allowed -90 < value ≤ 90")
+        if not (cnt == cnt and cnt == int(cnt) and 1 <= cnt <= MAX_SYNTH_VIEWS):
+            raise SpecError(f"--views COUNT = {cnt:g}; allowed a whole number 1 … "
+                            f"{MAX_SYNTH_VIEWS} (each view is a ray cast of the whole tip)")
     if not args.noise_um >= 0:
         raise SpecError(f"--noise-um = {args.noise_um:g}; allowed ≥ 0")
     mis = Misalignment(about_axis_deg=args.rotate_deg, tilt_deg=args.tilt_deg,

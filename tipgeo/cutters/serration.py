@@ -39,6 +39,11 @@ from ..cannula import Cannula
 from ..construct import AUX
 from ..errors import SpecError
 from ..tolerances import tol
+
+#: Most serrations on one rim: each is a boolean cut and an edge piece, so the
+#: cost of a build grows with the count (Appendix C cuts 16; 256 builds in
+#: seconds, thousands run for minutes). Checked before any geometry.
+MAX_SERRATIONS = 256
 from .base import Cutter, check_name
 from .surfaces import NotchPrism
 from .toml import round_for_toml as _r
@@ -300,9 +305,20 @@ class SerrationCutter(Cutter):
             raise SpecError("give exactly one of count (n_s) and spacing (rho); got "
                             f"count = {self.count!r}, spacing = {self.spacing!r}")
         if self.count is not None:
-            object.__setattr__(self, "count", v.integer("count", self.count, lo=1, hi=10000))
+            n = v.integer("count", self.count, lo=1, hi=10 ** 9)
+            if n > MAX_SERRATIONS:
+                raise SpecError(f"count = {n} serrations is out of range; allowed 1 ≤ value ≤ "
+                                f"{MAX_SERRATIONS} (the build's cost grows with the count; cut "
+                                "more in several passes of fewer)")
+            object.__setattr__(self, "count", n)
         else:
             sp = v.angle("spacing", self.spacing, lo=0.0, hi=2 * math.pi, lo_open=True)
+            if math.floor(2 * math.pi / sp + tol.rel) > MAX_SERRATIONS:
+                raise SpecError(f"spacing = {math.degrees(sp):.6g}° gives "
+                                f"{math.floor(2 * math.pi / sp + tol.rel):,} serrations; allowed "
+                                f"spacing > {360 / (MAX_SERRATIONS + 1):.6g}° (at most "
+                                f"{MAX_SERRATIONS} serrations: the build's cost grows with the "
+                                "count)")
             object.__setattr__(self, "spacing", sp)
         depth = r_c if self.depth is None else v.feature_length("depth", self.depth, hi=1000.0)
         object.__setattr__(self, "depth", depth)

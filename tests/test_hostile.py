@@ -867,7 +867,12 @@ def test_serration_cap_is_reachable(tmp_path):
      r"--points = 1,000,000,000; allowed 10 ≤ value ≤ 2,000,000 \(.*merge several"),
     (["angles", "bevel-14G-xi15", "--step-deg", "0.001"],
      r"--step-deg = 0.001 gives 360,000 rows a tip; allowed 0.01 ≤ value ≤ 90"),
-    (["angles"] + ["bevel-14G-xi15"] * 65, r"65 SPEC arguments; allowed at most 64 .*split"),
+    (["angles"] + ["bevel-14G-xi15"] * 65, r"SPEC is given 65 values; allowed at most 64 .*split"),
+    (["forces", "--speed-ratio", "1"] + ["bevel-14G-xi15"] * 65, r"SPEC is given 65 values"),
+    (["build", "bevel-14G-xi15"] + [f"-o{{d}}/t{k}.stl" for k in range(17)],
+     r"--output is given 17 values; allowed at most 16"),
+    (["fem", "bevel-14G-xi15", "--out-dir", "{d}/f", "--depth-mm", "1", "--deck-only",
+      "--stress-at-mm"] + ["0.5"] * 17, r"--stress-at-mm is given 17 values; allowed at most 16"),
 ])
 def test_cli_lists_and_counts_capped_before_work(tmp_path, capsys, monkeypatch, argv, match):
     import tipgeo.angles
@@ -882,3 +887,18 @@ def test_cli_lists_and_counts_capped_before_work(tmp_path, capsys, monkeypatch, 
     err = capsys.readouterr().err.strip()
     assert len(err.splitlines()) == 1 and re.search(match, err), err
     assert list(tmp_path.iterdir()) == []
+
+
+def test_study_config_lists_capped(tmp_path, capsys):
+    from tipgeo.cli import main
+    from tipgeo.optimize.config import MAX_CONFIG_LIST
+
+    src = (Path(__file__).resolve().parents[1] / "samples" / "bevel-study.toml").read_text()
+    extra = "".join(f'\n[[objectives]]\nname = "o{k}"\nterms = [{{ response = "l_c_mm", '
+                    'goal = "min" }]\n' for k in range(MAX_CONFIG_LIST))
+    f = tmp_path / "study.toml"
+    f.write_text(src + extra)
+    assert main(["sweep", str(f), "--dry-run", "--quiet"]) == 2
+    err = capsys.readouterr().err.strip()
+    assert f"objectives has {MAX_CONFIG_LIST + 3} entries; allowed at most {MAX_CONFIG_LIST}" \
+        in err and len(err.splitlines()) == 1

@@ -34,10 +34,9 @@ def _angle_source(arg: str, args):
     return spec, None, spec.name or Path(arg).stem
 
 
-#: ``angles``: finest table step (degrees: 36,000 rows a tip) and most tips
-#: in one call — costs checked before any work.
+#: ``angles``: finest table step (degrees: 36,000 rows a tip), checked before
+#: any work (the number of SPECs: :data:`.common.LIST_CAPS`).
 MIN_STEP_DEG = 0.01
-MAX_ANGLE_TIPS = 64
 
 
 def _check_angles_costs(args) -> None:
@@ -48,9 +47,6 @@ def _check_angles_costs(args) -> None:
         raise InputError(f"--step-deg = {step:g} gives {360 / step:,.0f} rows a tip; allowed "
                          f"{MIN_STEP_DEG:g} ≤ value ≤ 90 (finer than any angle measurement; "
                          "for a closer look, the extremes are in the summary)")
-    if len(args.spec) > MAX_ANGLE_TIPS:
-        raise InputError(f"{len(args.spec)} SPEC arguments; allowed at most {MAX_ANGLE_TIPS} "
-                         "tips a call (split the list over several calls)")
 
 
 def cmd_angles(args) -> int:

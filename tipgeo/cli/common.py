@@ -13,7 +13,7 @@ from pathlib import Path
 from ..plot import PICTURE_EXTS  # the formats every --plot/--png accepts
 
 __all__ = ["declare_files", "check_files", "refuse_overwrite", "command_reads",
-           "refuse_special_file", "same_file",
+           "refuse_special_file", "LIST_CAPS", "check_list_caps", "same_file",
            "file_id", "spec_arg", "tolerance_arg", "write_text",
            "export_exts", "PICTURE_EXTS", "COMMON_FLAGS", "add_common_flags", "deprecated",
            "DEPRECATED", "VOCABULARY", "verdict_status", "feed_mm_min_arg"]
@@ -309,6 +309,32 @@ def folder_outputs(args) -> list[tuple[str, Path]]:
     return outs
 
 
+#: Most values a repeated or many-valued argument takes — (command, dest) →
+#: (cap, the way out) — each value multiplies the command's cost; checked
+#: by :func:`check_files` before any work.
+LIST_CAPS = {
+    ("angles", "spec"): (64, "split the list over several calls"),
+    ("forces", "spec"): (64, "split the list over several calls"),
+    ("build", "output"): (16, "one -o per format; convert the files afterwards"),
+    ("fem", "stress_at_mm"): (16, "pick the depths that matter, or run fem again"),
+    ("calibrate", "reading"): (64, "split the readings over several calls"),
+}
+
+
+def check_list_caps(args) -> None:
+    """Refuse a many-valued argument over its :data:`LIST_CAPS` cap, naming
+    the count, the cap and the way out."""
+    from ..errors import InputError
+
+    for (cmd, dest), (cap, way) in LIST_CAPS.items():
+        if getattr(args, "command", None) != cmd:
+            continue
+        v = getattr(args, dest, None)
+        if isinstance(v, (list, tuple)) and len(v) > cap:
+            opt = dest.upper() if dest == "spec" else "--" + dest.replace("_", "-")
+            raise InputError(f"{opt} is given {len(v):,} values; allowed at most {cap} ({way})")
+
+
 def check_files(args) -> None:
     """Refuse, before any work, outputs with a wrong extension, an output named
     twice, and an output that is one of the command's own inputs, direct or
@@ -316,6 +342,7 @@ def check_files(args) -> None:
     output folders."""
     from ..errors import InputError as SpecError  # paths are not specs
 
+    check_list_caps(args)
     outs: list[tuple[str, Path]] = []
     for dest in getattr(args, "_outputs", ()):
         allowed = getattr(args, "_exts", {}).get(dest)

@@ -79,6 +79,9 @@ COMBINE = ("weighted", "pareto")
 SURROGATE_MODES = ("independent", "separable")
 #: Most ``[design] candidates`` of a ``maximin`` design (each is a spec validation).
 MAX_CANDIDATES = 100_000
+#: Most entries of any list of a study config (variables, objectives, their
+#: terms, responses, plot variables): each multiplies the study's cost.
+MAX_CONFIG_LIST = 64
 #: ``[surrogate] kernel``: a correlation family (gp.KERNELS) or per-response choice.
 SURROGATE_KERNELS = ("gaussian", "matern72", "matern52", "matern32", "auto")
 
@@ -298,6 +301,9 @@ def _table(key: str, value: Any, allowed: tuple[str, ...]) -> dict:
 def _list(key: str, value: Any) -> list:
     if not isinstance(value, list):
         raise SpecError(f"{key} = {brief(value)} is not a list; expected an array")
+    if len(value) > MAX_CONFIG_LIST:
+        raise SpecError(f"{key} has {len(value):,} entries; allowed at most {MAX_CONFIG_LIST} "
+                        "(each multiplies the study's cost; split it into several studies)")
     return value
 
 

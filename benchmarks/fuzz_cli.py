@@ -308,7 +308,8 @@ def gen_cache(r, template: Path | None):
     files.update(cache_files)
     argv = ["sweep", "{d}/study.toml", "--cache-dir", "{d}/cache", "-o", "{d}/sweep.csv",
             "--workers", "1", "--quiet"]
-    return Case("cache", files, argv, list(files), ["sweep.csv"])
+    # the cache's entries are read and (when forged) rewritten: only the study is an input
+    return Case("cache", files, argv, ["study.toml"], ["sweep.csv"])
 
 
 def _scan_text(r, n: int) -> str:
@@ -338,7 +339,7 @@ def gen_scan(r):
             "--out-dir", "{d}/report"]
     if r.random() < 0.5:
         argv.append("--no-register")
-    return Case("scan", {"scan" + ext: text}, argv, ["scan" + ext])
+    return Case("scan", {"scan" + ext: text}, argv, ["scan" + ext], ["report"])
 
 
 def gen_transform(r):
@@ -348,7 +349,7 @@ def gen_transform(r):
     argv = ["compare", "{d}/scan.xyz", "bevel-14G-xi15", "--init-transform", "{d}/T.txt",
             "--no-register", "--quiet", "--no-pictures", "--out-dir", "{d}/report"]
     return Case("transform", {"T.txt": text, "scan.xyz": _scan_text(r, 3)}, argv,
-                ["T.txt", "scan.xyz"])
+                ["T.txt", "scan.xyz"], ["report"])
 
 
 def gen_tissue(r):
@@ -489,8 +490,8 @@ def run_case(case: Case, d: Path, *, timeout: float, as_mb: int) -> dict:
     if rc == 0:
         left = temps
     else:
-        allowed = set(case.outputs) if rc == 1 else set()
-        left = [n for n in extra if n not in allowed]
+        allowed = set(case.outputs) if rc == 1 else set()  # a verdict's outputs stay
+        left = [n for n in extra if n not in allowed and n.split("/", 1)[0] not in allowed]
     last = [ln for ln in text.splitlines() if ln.startswith("tipgeo")] or \
         text.strip().splitlines()[-1:] or [""]
     return {"kind": case.kind, "argv": case.argv, "rc": rc,
@@ -515,10 +516,16 @@ def _cache_template(work: Path) -> Path | None:
     return cache if any(cache.rglob("*.json")) else None
 
 
+_WARM = []
+
+
 def _warm_up() -> None:
     """Import what the commands import, once, so each fork starts warm."""
     import io
 
+    if _WARM:
+        return
+    _WARM.append(True)
     from tipgeo.cli import main
 
     with tempfile.TemporaryDirectory() as t, contextlib.redirect_stdout(io.StringIO()), \

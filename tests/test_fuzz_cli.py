@@ -77,6 +77,7 @@ def _run(argv: list[str], folder: Path, inputs: set[str]) -> tuple[int, str]:
 #: long fuzzing session); by default the examples are fixed (derandomized), so
 #: every machine runs the same ones.
 _SCALE = float(os.environ.get("TIPGEO_FUZZ_SCALE", "1") or 1)
+_SCALE_N = max(1, int(_SCALE))
 FUZZ = settings(max_examples=int(40 * _SCALE), deadline=None, derandomize=_SCALE == 1,
                 suppress_health_check=[HealthCheck.too_slow, HealthCheck.data_too_large])
 
@@ -180,3 +181,72 @@ def test_mutated_scans_compare_or_fail_cleanly(text, register):
         argv = ["compare", str(d / "scan.xyz"), "bevel-14G-xi15", "--quiet", "--no-pictures",
                 "--out-dir", str(d / "report")]
         _run(argv + ([] if register else ["--no-register"]), d, {"scan.xyz"})
+
+
+# -- the fuzz harness (benchmarks/fuzz_cli.py) at a small size ------------------------------
+def _harness():
+    import importlib.util
+    import sys
+
+    if "tipgeo_fuzz_cli" in sys.modules:
+        return sys.modules["tipgeo_fuzz_cli"]
+    path = Path(__file__).resolve().parent.parent / "benchmarks" / "fuzz_cli.py"
+    spec = importlib.util.spec_from_file_location("tipgeo_fuzz_cli", path)
+    mod = importlib.util.module_from_spec(spec)
+    sys.modules["tipgeo_fuzz_cli"] = mod  # dataclasses look their module up
+    spec.loader.exec_module(mod)
+    return mod
+
+
+def test_fuzz_harness_small_run_is_clean():
+    """Two inputs of every kind the harness generates (specs, options,
+    study configs, grinder / mill / laser machine files, programs, sweep
+    caches, scans, transforms, tissue data, colliding outputs), each run in a
+    forked child: exit 0, 1 or 2, no traceback, nothing left behind, no input
+    modified. (Wall time and memory are recorded, not asserted: by hand,
+    ``python benchmarks/fuzz_cli.py -n 10000`` reports them.)"""
+    fz = _harness()
+    recs = []
+    for k, kind in enumerate(sorted(fz.KINDS)):
+        recs += fz.run_fuzz(2 * _SCALE_N, seed=k, kinds=[kind], timeout=120)
+    assert {r["kind"].split("-")[0] for r in recs} == set(fz.KINDS)
+    bad = [(r["kind"], r["rc"], r["message"]) for r in recs
+           if r["traceback"] or r["rc"] not in (0, 1, 2)]
+    assert bad == []
+    assert [(r["kind"], r["rc"], r["left"]) for r in recs if r["left"]] == []
+    assert [r for r in recs if r["modified"]] == []
+    assert all(r["wall_s"] > 0 and r["rss_mb"] > 0 for r in recs)
+    text, _ = fz.summary(recs)
+    assert f"{len(recs)} inputs" in text and "tracebacks: 0" in text
+
+
+def test_fuzz_harness_sees_a_traceback_a_leftover_and_a_modified_input(tmp_path, monkeypatch):
+    """The harness's checks can fail: a command that raises, one that leaves
+    a file behind on refusal and one that overwrites its input are each
+    reported."""
+    import tipgeo.cli as cli
+
+    fz = _harness()
+
+    def fake_main(argv):
+        d = Path(argv[1]).parent
+        if argv[0] == "boom":
+            raise ZeroDivisionError("x")
+        if argv[0] == "leave":
+            (d / "half.stl").write_text("x")
+            return 2
+        Path(argv[1]).write_text("changed")
+        return 0
+
+    monkeypatch.setattr(cli, "main", fake_main)
+    recs = []
+    for k, cmd in enumerate(["boom", "leave", "modify"]):
+        d = tmp_path / f"in{k}"
+        d.mkdir()
+        case = fz.Case("fake", {"in.txt": "x"}, [cmd, "{d}/in.txt"], ["in.txt"])
+        recs.append(fz.run_case(case, d, timeout=30, as_mb=0) | {"index": k})
+    assert recs[0]["traceback"] and recs[0]["rc"] == 99
+    assert recs[1]["left"] == ["half.stl"] and not recs[1]["traceback"]
+    assert recs[2]["modified"] == ["in.txt"] and recs[2]["rc"] == 0
+    text, clean = fz.summary(recs)
+    assert not clean and "tracebacks: 1" in text and "inputs modified: 1" in text

@@ -633,7 +633,19 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--max-mb", type=float, default=300.0, help="target peak RSS per input")
     ap.add_argument("--jsonl", type=Path, help="write one record per input here")
     ap.add_argument("--keep", action="store_true", help="keep the work folders")
+    ap.add_argument("--summary-of", type=Path, nargs="+", metavar="JSONL",
+                    help="summarise the records of earlier runs (e.g. parallel seeds); run "
+                         "nothing")
     a = ap.parse_args(argv)
+    if a.summary_of:
+        recs = []
+        for f in a.summary_of:
+            with open(f, encoding="utf-8") as fh:
+                recs += [json.loads(ln) | {"index": f"{f.stem}:{json.loads(ln)['index']}"}
+                         for ln in fh if ln.strip()]
+        text, clean = summary(recs, max_s=a.max_s, max_mb=a.max_mb)
+        print(text)
+        return 0 if clean else 1
     recs = run_fuzz(a.n, a.seed, kinds=a.kinds, timeout=a.timeout, as_mb=a.address_space_mb,
                     jsonl=a.jsonl, progress=True, keep=a.keep)
     text, clean = summary(recs, max_s=a.max_s, max_mb=a.max_mb)

@@ -176,6 +176,11 @@ def same_file(a: Path, b: Path) -> bool:
     return ia is not None and ia == file_id(b)
 
 
+#: A file not named ``*.toml`` is looked into for the files it names only
+#: when it is this small (specs and configs are a few kB; scans are not).
+_SPEC_SNIFF_BYTES = 64 << 10
+
+
 def derived_inputs(path: str | Path, *, _depth: int = 0) -> list[tuple[str, Path]]:
     """Files an input TOML file makes the command read besides itself: a
     spec's mesh-cutter files (``cutters[k].path``), a study config's base
@@ -188,9 +193,11 @@ def derived_inputs(path: str | Path, *, _depth: int = 0) -> list[tuple[str, Path
     p = Path(path)
     if _depth > 1 or not p.is_file():
         return []
-    try:
+    try:  # a spec may have any name; a file of another kind (a scan) is not parsed
+        if p.suffix.lower() != ".toml" and p.stat().st_size > _SPEC_SNIFF_BYTES:
+            return []
         data = loads_toml(read_text_file(p, "input"), "input")
-    except SpecError:
+    except (SpecError, OSError):
         return []
 
     def rel(v: str) -> Path:

@@ -867,6 +867,9 @@ def test_serration_cap_is_reachable(tmp_path):
      r"--points = 1,000,000,000; allowed 10 ≤ value ≤ 2,000,000 \(.*merge several"),
     (["angles", "bevel-14G-xi15", "--step-deg", "0.001"],
      r"--step-deg = 0.001 gives 360,000 rows a tip; allowed 0.01 ≤ value ≤ 90"),
+    (["angles", "bevel-14G-xi15", "--step-deg", "0"],  # found by the fuzz harness
+     r"--step-deg = 0 is out of range; allowed 0.01 ≤ value ≤ 90"),
+    (["angles", "bevel-14G-xi15", "--step-deg", "nan"], r"--step-deg = nan is out of range"),
     (["angles"] + ["bevel-14G-xi15"] * 65, r"SPEC is given 65 values; allowed at most 64 .*split"),
     (["forces", "--speed-ratio", "1"] + ["bevel-14G-xi15"] * 65, r"SPEC is given 65 values"),
     (["build", "bevel-14G-xi15"] + [f"-o{{d}}/t{k}.stl" for k in range(17)],

@@ -43,10 +43,11 @@ def _check_angles_costs(args) -> None:
     from ..errors import InputError
 
     step = args.step_deg
-    if step is not None and isinstance(step, float) and step == step and step < MIN_STEP_DEG:
-        raise InputError(f"--step-deg = {step:g} gives {360 / step:,.0f} rows a tip; allowed "
-                         f"{MIN_STEP_DEG:g} ≤ value ≤ 90 (finer than any angle measurement; "
-                         "for a closer look, the extremes are in the summary)")
+    if step is not None and not MIN_STEP_DEG <= step <= 90:  # nan fails too
+        rows = f" gives {360 / step:,.0f} rows a tip;" if 0 < step < MIN_STEP_DEG else \
+            " is out of range;"
+        raise InputError(f"--step-deg = {step:g}{rows} allowed {MIN_STEP_DEG:g} ≤ value ≤ 90 "
+                         "(finer than any angle measurement; the extremes are in the summary)")
 
 
 def cmd_angles(args) -> int:

@@ -28,7 +28,7 @@ def _sweep(args):
     s0, s1, n = args.sweep
     s0 = v.real("--sweep S0", s0)
     s1 = v.real("--sweep S1", s1, lo=s0, lo_open=True)
-    n = v.integer("--sweep N", n, lo=2, hi=10001)
+    n = v.integer("--sweep N", n, lo=2, hi=1001)  # each point a force analysis of every tip
     return np.linspace(s0, s1, n)
 
 

@@ -905,3 +905,23 @@ def test_study_config_lists_capped(tmp_path, capsys):
     err = capsys.readouterr().err.strip()
     assert f"objectives has {MAX_CONFIG_LIST + 3} entries; allowed at most {MAX_CONFIG_LIST}" \
         in err and len(err.splitlines()) == 1
+
+
+def test_oversized_program_refused_before_reading(tmp_path, capsys, monkeypatch):
+    import os
+
+    import gcode.pipeline
+
+    from tipgeo.cli import main
+    from tipgeo.cli.common import INPUT_CAPS
+
+    cap = INPUT_CAPS[("gcode", "program")][0]
+    big = tmp_path / "big.pgm"
+    with open(big, "wb") as f:  # sparse: no disk used
+        f.truncate(cap + 1)
+    assert os.stat(big).st_size == cap + 1
+    monkeypatch.setattr(gcode.pipeline, "read_program", lambda *a: pytest.fail("read first"))
+    assert main(["gcode", "check", str(big), "--quiet"]) == 2
+    err = capsys.readouterr().err.strip()
+    assert f"PROGRAM = '{big}' has {cap + 1:,} bytes; allowed at most {cap:,}" in err
+    assert len(err.splitlines()) == 1

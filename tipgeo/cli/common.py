@@ -13,7 +13,8 @@ from pathlib import Path
 from ..plot import PICTURE_EXTS  # the formats every --plot/--png accepts
 
 __all__ = ["declare_files", "check_files", "refuse_overwrite", "command_reads",
-           "refuse_special_file", "LIST_CAPS", "check_list_caps", "same_file",
+           "refuse_special_file", "LIST_CAPS", "check_list_caps",
+           "INPUT_CAPS", "check_input_caps", "same_file",
            "file_id", "spec_arg", "tolerance_arg", "write_text",
            "export_exts", "PICTURE_EXTS", "COMMON_FLAGS", "add_common_flags", "deprecated",
            "DEPRECATED", "VOCABULARY", "verdict_status", "feed_mm_min_arg"]
@@ -328,6 +329,36 @@ LIST_CAPS = {
 }
 
 
+#: Largest file a command reads for an input whose whole text is held and
+#: tokenised — (command, dest) → (bytes, the way out); checked by ``stat``
+#: before it is opened. (Specs, configs and machine files: 1 MiB, by their
+#: reader; scans: their reader's cap.)
+INPUT_CAPS = {
+    ("gcode", "program"): (16 << 20, "a laser program of a tip is a few kB to a few MB; split "
+                                     "it into several programs"),
+}
+
+
+def check_input_caps(args) -> None:
+    """Refuse an input over its :data:`INPUT_CAPS` size, naming the size, the
+    cap and the way out."""
+    import os
+
+    from ..errors import InputError
+
+    for (cmd, dest), (cap, way) in INPUT_CAPS.items():
+        if getattr(args, "command", None) != cmd:
+            continue
+        for v in _values(args, dest):
+            try:
+                size = os.stat(v).st_size
+            except (OSError, ValueError):
+                continue
+            if size > cap:
+                raise InputError(f"{dest.upper()} = '{v}' has {size:,} bytes; allowed at most "
+                                 f"{cap:,} ({way})")
+
+
 def check_list_caps(args) -> None:
     """Refuse a many-valued argument over its :data:`LIST_CAPS` cap, naming
     the count, the cap and the way out."""
@@ -375,6 +406,7 @@ def check_files(args) -> None:
     for dest in getattr(args, "_inputs", ()):
         for v in _values(args, dest):
             refuse_special_file(f"{dest.upper()}", v)
+    check_input_caps(args)
     refuse_overwrite(command_reads(direct), outs + folder_outputs(args))
 
 

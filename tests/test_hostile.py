@@ -880,7 +880,6 @@ def test_serration_cap_is_reachable(tmp_path):
 def test_cli_lists_and_counts_capped_before_work(tmp_path, capsys, monkeypatch, argv, match):
     import tipgeo.angles
     import tipgeo.inspect
-
     from tipgeo.cli import main
 
     monkeypatch.setattr(tipgeo.inspect, "synthetic_scan",
@@ -911,7 +910,6 @@ def test_oversized_program_refused_before_reading(tmp_path, capsys, monkeypatch)
     import os
 
     import gcode.pipeline
-
     from tipgeo.cli import main
     from tipgeo.cli.common import INPUT_CAPS
 

@@ -39,16 +39,16 @@ from ..cannula import Cannula
 from ..construct import AUX
 from ..errors import SpecError
 from ..tolerances import tol
+from .base import Cutter, check_name
+from .surfaces import NotchPrism
+from .toml import round_for_toml as _r
+
+__all__ = ["SerrationCutter", "SerrationProfile", "SERRATION_PRESETS", "MAX_SERRATIONS"]
 
 #: Most serrations on one rim: each is a boolean cut and an edge piece, so the
 #: cost of a build grows with the count (Appendix C cuts 16; 256 builds in
 #: seconds, thousands run for minutes). Checked before any geometry.
 MAX_SERRATIONS = 256
-from .base import Cutter, check_name
-from .surfaces import NotchPrism
-from .toml import round_for_toml as _r
-
-__all__ = ["SerrationCutter", "SerrationProfile", "SERRATION_PRESETS"]
 
 #: Table 5.1 arc radii r_c (mm) with our serration counts n_s. The thesis
 #: gives only r_c; Appendix C cuts 16 serrations of r_c = 150 µm. We keep 16

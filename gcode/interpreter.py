@@ -57,6 +57,7 @@ from tipgeo.tolerances import tol
 from . import ast
 from .errors import GCodeError, check_limit
 from .expr import evaluate
+from .strings import evaluate_string
 from .parser import G_NO_MOTION, MAX_NESTING
 from .parser import IO_NAME as _IO
 
@@ -214,6 +215,8 @@ class Toolpath:
     no_motion: list[dict] = field(default_factory=list)
     #: last value written to each system variable or output (``$DO[0].X`` …)
     io: dict[str, float] = field(default_factory=dict)
+    #: string variables at the end of the run (name without ``$`` → text)
+    strings: dict[str, str] = field(default_factory=dict)
 
     def summary(self) -> dict:
         """Path length, beam-on length (mm), estimated time (s) from the
@@ -268,6 +271,7 @@ class _State:
     period_us: float | None = None
     on_us: float | None = None
     default_feed: float | None = None  # mm/s, for a feed move before any F
+    rotation: float = 0.0         # G84 X Y F<deg>: program XY frame turned by this (rad)
     warnings: list | None = None
 
 
@@ -323,6 +327,7 @@ def interpret(program: ast.Program, *, tool_radii: dict[int, float] | None = Non
     dwells: list[tuple[float, bool, int]] = []
     notes: dict[tuple[int, int], dict] = {}
     io: dict[str, float] = {}
+    strings: dict[str, str] = {}
     depth = 0                     # subroutine calls in progress
 
     def note(span: ast.Span, kind: str, effect: str) -> None:
@@ -412,6 +417,32 @@ def interpret(program: ast.Program, *, tool_radii: dict[int, float] | None = Non
                               "runaway loop?)", s.span)
                 for _ in range(k):
                     run(s.body)
+            elif isinstance(s, ast.For):
+                start, end = ev(s.start, s.span), ev(s.end, s.span)
+                step = 1.0 if s.step is None else ev(s.step, s.span)
+                k = _for_passes(start, end, step, s, err)
+                if k > limits.max_repeat:
+                    raise err(f"FOR runs {k} passes, more than max_repeat = {limits.max_repeat}",
+                              s.span)
+                for i in range(k):
+                    vars_[s.var] = start + i * step
+                    run(s.body)
+                    count_one(s)
+            elif isinstance(s, ast.StatusRead):
+                vars_.pop(s.name, None)
+                strings.pop(s.name, None)
+                note(s.span, "STATUS", f"reads {s.function} into ${s.name}: a value known only "
+                     "on the machine (using it later is an error)")
+            elif isinstance(s, ast.StringAssign):
+                value = evaluate_string(s.parts, vars_, strings, s.span)
+                if isinstance(value, str):
+                    strings[s.name] = value
+                    vars_.pop(s.name, None)
+                    note(s.span, "STRING", f"sets the string ${s.name} = {value[:60]!r}")
+                else:
+                    vars_[s.name] = value
+                    strings.pop(s.name, None)
+                    note(s.span, "STRING", f"sets ${s.name} = {value:.12g} (string function)")
             elif isinstance(s, ast.DVar):
                 for n in s.names:
                     declared.add(n)
@@ -471,7 +502,7 @@ def interpret(program: ast.Program, *, tool_radii: dict[int, float] | None = Non
     segments = _compensate(raw, warnings)
     return Toolpath(segments, st.period_us, st.on_us,
                     "seconds" if st.time_per_unit == 1.0 else "minutes", warnings, rapid_speed,
-                    dwells, list(notes.values()), io)
+                    dwells, list(notes.values()), io, strings)
 
 
 def _io_key(s: ast.SysAssign, ev) -> str:
@@ -483,6 +514,16 @@ def _io_key(s: ast.SysAssign, ev) -> str:
         else:
             parts.append(f"[{ev(part, s.span):.12g}]")
     return "".join(parts)
+
+
+def _for_passes(start: float, end: float, step: float, s, err) -> int:
+    """Passes of ``FOR $v = start TO end STEP step`` (0 if it never starts)."""
+    if step == 0.0:
+        raise err("FOR … STEP 0 never ends", s.span)
+    n = (end - start) / step
+    if n < 0:
+        return 0
+    return int(math.floor(n + tol.gcode.whole * max(1.0, abs(n)))) + 1
 
 
 def _tool_table(tool_radii) -> dict[int, float]:
@@ -529,6 +570,8 @@ def _weight(s) -> int:
     """Operations one execution of statement ``s`` costs (see Limits)."""
     if isinstance(s, ast.Repeat):
         return _size(s.count)
+    if isinstance(s, ast.For):
+        return _size(s.start) + _size(s.end) + (_size(s.step) if s.step is not None else 0)
     if isinstance(s, ast.Assign):
         return _size(s.expr)
     if isinstance(s, ast.Block):
@@ -616,6 +659,8 @@ def _block(st: _State, b: ast.Block, ev, err, raw, tools, note, dwell) -> None:
     center: dict[str, float] = {}
     g92 = False
     g4 = False
+    g84 = False
+    f_word = None
     p_word = None
     comp_change = None
     for kw in b.keywords:
@@ -642,6 +687,8 @@ def _block(st: _State, b: ast.Block, ev, err, raw, tools, note, dwell) -> None:
                 pass  # the XY plane (the only one) / compensation axes / as in Appendix C
             elif code == 4:
                 g4 = True
+            elif code == 84:
+                g84 = True
             elif code in (70, 71):
                 st.scale = 25.4 if code == 70 else 1.0
             elif code in (75, 76):
@@ -659,9 +706,7 @@ def _block(st: _State, b: ast.Block, ev, err, raw, tools, note, dwell) -> None:
         elif w.letter in "IJK":
             center[w.letter] = val * st.scale
         elif w.letter == "F":
-            if not val > 0:
-                raise err(f"F{val:g}: the feed rate F must be > 0 (length per time unit)", w.span)
-            st.feed = val * st.scale
+            f_word = (val, w.span)
         elif w.letter == "E":
             if not val > 0:
                 raise err(f"E{val:g}: the rotary feed rate E must be > 0 (degrees per time "
@@ -681,6 +726,17 @@ def _block(st: _State, b: ast.Block, ev, err, raw, tools, note, dwell) -> None:
             continue
         else:
             raise err(f"word {w.letter} is not supported", w.span)
+    if g84:      # G84 X Y F<deg>: the program's XY frame turns (no F: back to 0)
+        if target or center:
+            raise err("G84 turns the XY frame: give only the axis names and F, the angle (deg)",
+                      b.span)
+        st.rotation = math.radians(f_word[0]) if f_word is not None else 0.0
+        return
+    if f_word is not None:
+        if not f_word[0] > 0:
+            raise err(f"F{f_word[0]:g}: the feed rate F must be > 0 (length per time unit)",
+                      f_word[1])
+        st.feed = f_word[0] * st.scale
     if g4 or p_word is not None:
         if not g4:
             raise err("P is the dwell time of G4 (s): give G4 in the same block", p_word[1])
@@ -704,6 +760,9 @@ def _block(st: _State, b: ast.Block, ev, err, raw, tools, note, dwell) -> None:
     new = dict(st.pos)
     for a, v in target.items():
         new[a] = v if st.absolute else st.pos[a] + v
+    if st.rotation and ("X" in target or "Y" in target):
+        _rotate_target(st, target, new)
+    for a in target:
         _check_position(a, new[a], b.span, err)
     motion = st.motion
     if motion != "rapid" and st.feed is None:
@@ -732,6 +791,9 @@ def _block(st: _State, b: ast.Block, ev, err, raw, tools, note, dwell) -> None:
         if "I" not in center and "J" not in center:
             raise err("arc without I or J (centre offset)", b.span)
         i, j = center.get("I", 0.0), center.get("J", 0.0)
+        if st.rotation:
+            cr, sr = math.cos(st.rotation), math.sin(st.rotation)
+            i, j = cr * i - sr * j, sr * i + cr * j
         cx, cy = st.pos["X"] + i, st.pos["Y"] + j
         _check_position("arc centre X", cx, b.span, err)
         _check_position("arc centre Y", cy, b.span, err)
@@ -757,6 +819,19 @@ def _block(st: _State, b: ast.Block, ev, err, raw, tools, note, dwell) -> None:
     move["comp_after"] = st.comp
     raw.append(move)
     st.pos = new
+
+
+def _rotate_target(st: _State, target: dict, new: dict) -> None:
+    """``new`` X, Y for a move programmed in the frame turned by G84: the
+    programmed coordinates are in the turned frame (+ counter-clockwise)."""
+    cr, sr = math.cos(st.rotation), math.sin(st.rotation)
+    x, y = st.pos["X"], st.pos["Y"]
+    px, py = cr * x + sr * y, -sr * x + cr * y      # current point in the turned frame
+    if st.absolute:
+        px, py = target.get("X", px), target.get("Y", py)
+    else:
+        px, py = px + target.get("X", 0.0), py + target.get("Y", 0.0)
+    new["X"], new["Y"] = cr * px - sr * py, sr * px + cr * py
 
 
 def _check_position(axis: str, value: float, span: ast.Span, err) -> None:

@@ -117,15 +117,17 @@ from .lexer import (
     split_comment,
     tokenize_line,
 )
+from .strings import FUNCTIONS as _EVALUATED_STRING_FUNCTIONS
 
 __all__ = ["parse", "parse_expression", "is_statement", "G_CODES", "WORD_LETTERS",
            "AXIS_LETTERS", "MOTION_KEYWORDS", "MODE_KEYWORDS", "MAX_NESTING",
            "MAX_EXPR_DEPTH", "DEFAULT_MAX_STATEMENTS", "DEFAULT_MAX_TOKENS",
            "DEFAULT_MAX_LINES", "NO_MOTION", "G_NO_MOTION", "UNSIMULATED_MOTION", "IO_NAME",
-           "MAX_MACROS", "MAX_EXPANSIONS", "MAX_PROGRAM_EXPANSIONS", "STRING_FUNCTIONS"]
+           "MAX_MACROS", "MAX_EXPANSIONS", "MAX_PROGRAM_EXPANSIONS", "STRING_FUNCTIONS",
+           "STATUS_FUNCTIONS"]
 
 #: G codes accepted (``G00``–``G03`` may be written with a leading zero).
-G_CODES = frozenset({0, 1, 2, 3, 4, 17, 40, 41, 42, 44, 66, 70, 71, 75, 76, 90, 91, 92, 98,
+G_CODES = frozenset({0, 1, 2, 3, 4, 17, 40, 41, 42, 44, 66, 70, 71, 75, 76, 84, 90, 91, 92, 98,
                      108, 109, 359, 360, 361})
 #: Letters that may start a word (P: the dwell time of G4, s).
 WORD_LETTERS = frozenset("GXYZABCIJKFETNP")
@@ -176,12 +178,17 @@ NO_MOTION = {
     "PROGRAM": "A3200 task control: runs, loads, pauses or stops a program on a task (the "
                "other program is not simulated here)",
     "DBLTOSTR": "converts a number to a string",
+    "FARCALL": "calls another program file and waits for it (not simulated here)",
 }
 #: String functions: an assignment whose right side uses one (or a string)
 #: sets a string, recorded as no motion (``$s = "x=" + DBLTOSTR($x, 3)``).
 STRING_FUNCTIONS = frozenset({"DBLTOSTR", "STRLEN", "FORMAT", "NUMTOSTR", "STRTONUM",
                               "STRCONCAT", "STRUPR", "STRLWR", "STRFORMAT", "STRINSERT",
-                              "STRDELETE", "STRCOPY"})
+                              "STRDELETE", "STRCOPY", "STRTODBL"})
+#: Controller status functions: ``$x = AXISSTATUS(Z, DATAITEM_…)`` reads a value
+#: known only on the machine (:class:`~gcode.ast.StatusRead`).
+STATUS_FUNCTIONS = frozenset({"AXISSTATUS", "TASKSTATUS", "SYSTEMSTATUS", "AXISFAULT",
+                              "AXISPARAMETER", "TASKPARAMETER", "SYSTEMPARAMETER"})
 #: Statements whose recorded kind takes the first word after a task number
 #: (``PROGRAM 1 RUN "f.pgm"`` → ``PROGRAM RUN``).
 _TASK_WORD = frozenset({"PROGRAM"})
@@ -196,7 +203,7 @@ UNSIMULATED_MOTION = frozenset({"HOME", "MOVEABS", "MOVEINC", "MOVETO", "INDEX",
 
 _WS_RE = r"[ \t\f\v]"
 _STRUCTURAL = re.compile(
-    rf"{_WS_RE}*(?:N[0-9]+{_WS_RE}*)?(?:REPEAT|WHILE|IF|ELSEIF|ELSE|DFS|"
+    rf"{_WS_RE}*(?:N[0-9]+{_WS_RE}*)?(?:REPEAT|WHILE|IF|ELSEIF|ELSE|DFS|FOR|NEXT|"
     rf"END{_WS_RE}*(?:REPEAT|WHILE|IF|DFS)|ENDIF|ENDWHILE|ENDDFS|#)(?![A-Za-z0-9_])",
     re.IGNORECASE)
 _MOTION_HINT = re.compile(
@@ -247,7 +254,8 @@ class _Close:
         self.kind, self.span = kind, span
 
 
-_CLOSERS = {"REPEAT": "END REPEAT", "WHILE": "ENDWHILE", "IF": "ENDIF", "DFS": "ENDDFS"}
+_CLOSERS = {"REPEAT": "END REPEAT", "WHILE": "ENDWHILE", "IF": "ENDIF", "DFS": "ENDDFS",
+            "FOR": "NEXT"}
 
 
 def parse(text: str, *, lenient: bool = False,
@@ -418,6 +426,8 @@ class _Frame:
             return ast.While(head, tuple(body), self.span)
         if self.kind == "DFS":
             return ast.Sub(head, tuple(body), self.span)
+        if self.kind == "FOR":
+            return ast.For(*head, tuple(body), self.span)
         return ast.If(tuple((c, tuple(b)) for c, b in self.branches), self.span)
 
 
@@ -811,6 +821,14 @@ class _Line:
                 raise self.error(f"unexpected {self.peek().text!r}: {kw} … {closing} ends its "
                                  "line; write the statements on the lines below", self.peek())
             return _Open(kw, cond, span) if kw != "ELSEIF" else _Branch(cond, span)
+        if kw == "FOR":
+            return self.for_head(start, span)
+        if kw == "NEXT":
+            self.advance()
+            if self.peek() is not None and self.peek().kind == "var":
+                self.advance()
+            self.expect_end()
+            return _Close("FOR", span)
         if kw == "ELSE":
             self.advance()
             self.expect_end()
@@ -866,6 +884,34 @@ class _Line:
         if kw in MOTION_KEYWORDS or len(kw) == 1:
             return self.block(span)
         raise self.error(f"unknown keyword {start.text!r}", start, UnsupportedError)
+
+    def for_head(self, start: Token, span: ast.Span) -> _Open:
+        """``FOR $var = start TO end [STEP step]``."""
+        self.advance()
+        var = self.peek()
+        if var is None or var.kind != "var":
+            raise self.error("FOR needs a $variable", var or start)
+        self.advance()
+        if not self.is_op("="):
+            raise self.error(f"expected '=' after FOR {var.text}", self.peek() or var)
+        self.advance()
+        first = self.need_expr(var)
+        end = self.keyword_expr("TO", start)
+        step = self.keyword_expr("STEP", start) if self.peek() is not None else None
+        self.expect_end()
+        return _Open("FOR", (var.value, first, end, step), span)
+
+    def need_expr(self, after: Token) -> ast.Expr:
+        if self.peek() is None:
+            raise self.error(f"expected a value after {after.text!r}", after)
+        return self.expr(0)[0]
+
+    def keyword_expr(self, word: str, start: Token) -> ast.Expr:
+        tok = self.peek()
+        if tok is None or tok.kind != "ident" or tok.value != word:
+            raise self.error(f"FOR … needs {word}", tok or start)
+        self.advance()
+        return self.need_expr(tok)
 
     def name(self, head: Token) -> str:
         """The subroutine name after ``DFS``/``CALL`` (letters, digits, ``_``), upper-case."""
@@ -928,22 +974,83 @@ class _Line:
         eq = self.advance()
         if self.peek() is None:
             raise self.error(f"expected an expression after {var.text} =", eq)
-        if self.peek().kind == "str" and self.pos + 1 == len(self.tokens):
-            self.advance()
-            return ast.NoMotion("STRING", f"sets the string {self.source(var)}", span)
-        if self.peek().kind == "ident" and self.peek().value in NO_MOTION:
-            kw = self.advance().value       # $h = FILEOPEN "log.txt", 2
-            self.pos = len(self.tokens)
-            return ast.NoMotion(kw, f"{NO_MOTION[kw]} (result in {self.source(var)})", span)
-        if any(t.kind == "str" or (t.kind == "ident" and t.value in STRING_FUNCTIONS)
-               for t in self.tokens[self.pos:]):
-            self.pos = len(self.tokens)     # $s = "x = " + DBLTOSTR($x, 3)
-            return ast.NoMotion("STRING", f"sets the string {self.source(var)}", span)
+        special = self.special_assignment(var, span)
+        if special is not None:
+            return special
         expr, _ = self.expr(0)
         self.expect_end()
         if index or IO_NAME.match(var.value):
             return ast.SysAssign(var.value, tuple(index), expr, span)
         return ast.Assign(var.value, expr, span)
+
+    def special_assignment(self, var: Token, span: ast.Span):
+        """A status read, a string expression or a file/message function on
+        the right of ``$var =``, or None for an ordinary expression."""
+        tok = self.peek()
+        rest = self.tokens[self.pos:]
+        if tok.kind == "ident" and tok.value in STATUS_FUNCTIONS:
+            self.pos = len(self.tokens)     # $z = AXISSTATUS(Z, DATAITEM_…)
+            return ast.StatusRead(var.value, tok.value, span)
+        stringy = any(t.kind == "str" or (t.kind == "ident" and t.value in STRING_FUNCTIONS)
+                      for t in rest)
+        evaluated = all(t.kind != "ident" or t.value in _EVALUATED_STRING_FUNCTIONS
+                        for t in rest)
+        if stringy and evaluated:
+            tree = self.string_expr()
+            self.expect_end()
+            return ast.StringAssign(var.value, tree, span)
+        if tok.kind == "ident" and tok.value in NO_MOTION and tok.value not in STRING_FUNCTIONS:
+            kw = self.advance().value       # $h = FILEOPEN "log.txt", 2
+            self.pos = len(self.tokens)
+            return ast.NoMotion(kw, f"{NO_MOTION[kw]} (result in {self.source(var)})", span)
+        if stringy:
+            self.pos = len(self.tokens)     # $s = FORMAT(…): recorded, not evaluated
+            return ast.NoMotion("STRING", f"sets the string {self.source(var)} (not "
+                                "evaluated)", span)
+        return None
+
+    def string_expr(self):
+        """``term ('+' term)*`` of a string expression (see :mod:`gcode.strings`)."""
+        left = self.string_term()
+        while self.is_op("+"):
+            self.advance()
+            left = ("cat", left, self.string_term())
+        return left
+
+    def string_term(self):
+        tok = self.peek()
+        if tok is None:
+            prev = self.tokens[self.pos - 1]
+            raise self.error(f"expected a value after {prev.text!r}", prev)
+        nxt = self.tokens[self.pos + 1] if self.pos + 1 < len(self.tokens) else None
+        if tok.kind == "str":
+            self.advance()
+            return ("lit", tok.value)
+        if tok.kind == "ident" and tok.value in _EVALUATED_STRING_FUNCTIONS:
+            return self.string_call(tok)
+        if tok.kind == "var" and (nxt is None or (nxt.kind == "op" and nxt.value in "+,)")):
+            self.advance()
+            return ("var", tok.value)
+        return ("num", self.term(0)[0])
+
+    def string_call(self, head: Token):
+        self.advance()
+        if not self.is_op("("):
+            raise self.error(f"{head.value} needs '(' and its arguments", self.peek() or head)
+        self.advance()
+        kinds, _ = _EVALUATED_STRING_FUNCTIONS[head.value]
+        args = []
+        for i, kind in enumerate(kinds):
+            if i:
+                if not self.is_op(","):
+                    raise self.error(f"{head.value} takes {len(kinds)} arguments",
+                                     self.peek() or head)
+                self.advance()
+            args.append(self.string_expr() if kind == "str" else ("num", self.need_expr(head)))
+        if not self.is_op(")"):
+            raise self.error(f"expected ')' to close {head.value}(", self.peek() or head)
+        self.advance()
+        return ("call", head.value, tuple(args))
 
     def dvar(self, span: ast.Span) -> ast.DVar:
         head = self.advance()

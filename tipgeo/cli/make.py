@@ -83,9 +83,11 @@ def cmd_gcode(args) -> int:
     spec = spec_arg(args.spec) if args.action == "sim" else None
     limits = make_limits(max_statements=args.max_statements, max_repeat=args.max_repeat,
                          max_segments=args.max_moves, max_operations=args.max_operations)
+    default_feed = feed_mm_min_arg("--default-feed-mm-min", args.default_feed_mm_min)
     res = laser_check(read_program(args.program), beam_diameter=beam, spec=spec,
                       origin=tuple(args.origin_mm), tolerance=tolerance_arg(args),
-                      lenient=args.lenient, limits=limits, max_tokens=args.max_tokens)
+                      lenient=args.lenient, limits=limits, max_tokens=args.max_tokens,
+                      default_feed=default_feed)
     write_laser_outputs(res, spec, mesh=args.mesh if args.action == "sim" else None,
                         plot=args.png, on_error=cannot_write)
     out = res.summary(source=args.program)
@@ -274,6 +276,9 @@ def register(sub) -> None:
                     help="chordal tolerance of the simulated tip's mesh, µm")
     gc.add_argument("--lenient", action="store_true",
                     help="skip unsupported statements with a warning (never a move)")
+    gc.add_argument("--default-feed-mm-min", type=float, default=None, metavar="F",
+                    help="feed (mm/min) for a G01/G02/G03 before any F, with a warning "
+                         "naming the line; without it such a move is an error")
     gc.add_argument("--png", metavar="FILE", help="toolpath picture (and FILE-rim.png)")
     gc.add_argument("--mesh", metavar="FILE", help="write the ablated tip (sim)")
     for opt, hlp in (("--max-statements", "statements executed (1000000)"),

@@ -12,8 +12,8 @@ from dataclasses import dataclass
 from typing import Union
 
 __all__ = ["Span", "Num", "Var", "Neg", "BinOp", "Compare", "Logic", "Not", "Expr", "Word",
-           "Block", "Assign", "SysAssign", "DVar", "Mode", "Pso", "Repeat", "For", "While", "If", "Call",
-           "Dwell", "NoMotion", "StatusRead", "StringAssign", "Sub", "Program", "Stmt"]
+           "Block", "Assign", "SysAssign", "DVar", "Mode", "Pso", "Repeat", "For", "While", "If",
+           "Call", "Dwell", "NoMotion", "StatusRead", "StringAssign", "Sub", "Program", "Stmt"]
 
 
 @dataclass(frozen=True)

@@ -59,9 +59,9 @@ from .motion import (
     ARC_TOLERANCE,
     MAX_ANGLE_DEG,
     MAX_POSITION_MM,
+    BlockContext,
     MachineState,
     Segment,
-    _Context,
     apply_block,
     compensate,
 )
@@ -252,7 +252,7 @@ class _Run:
         self.notes: dict[tuple[int, int], dict] = {}
         self.io: dict[str, float] = {}
         self.depth = 0                     # subroutine calls in progress
-        self.ctx = _Context(self.ev, _err, self.raw, tools, self.note, self.dwell)
+        self.ctx = BlockContext(self.ev, _err, self.raw, tools, self.note, self.dwell)
 
     # -- services ---------------------------------------------------------------------
     def ev(self, expr, span):

@@ -20,7 +20,7 @@ from tipgeo.tolerances import tol
 from . import ast
 from .commands import G_CODES
 
-__all__ = ["Segment", "MachineState", "apply_block", "compensate", "ARC_TOLERANCE",
+__all__ = ["Segment", "MachineState", "BlockContext", "apply_block", "compensate", "ARC_TOLERANCE",
            "MAX_POSITION_MM", "MAX_ANGLE_DEG"]
 
 #: An arc's end must lie on the circle through its start within this many mm
@@ -149,7 +149,7 @@ class _Words:
     p_word: tuple | None = None
 
 
-class _Context:
+class BlockContext:
     """The interpreter's services a block needs: evaluation, errors, the tool
     table, the list of programmed moves, the no-motion record and dwells."""
 
@@ -158,7 +158,7 @@ class _Context:
             ev, err, raw, tools, note, dwell
 
 
-def apply_block(st: MachineState, b: ast.Block, ctx: _Context) -> None:
+def apply_block(st: MachineState, b: ast.Block, ctx: BlockContext) -> None:
     """Apply one block: its modes, then its dwell, preset, rotation or move."""
     words = _Words()
     for kw in b.keywords:
@@ -179,7 +179,7 @@ def apply_block(st: MachineState, b: ast.Block, ctx: _Context) -> None:
         _move(st, words, b, ctx)
 
 
-def _word(st: MachineState, words: _Words, w: ast.Word, ctx: _Context) -> None:
+def _word(st: MachineState, words: _Words, w: ast.Word, ctx: BlockContext) -> None:
     if w.letter == "N":
         return
     if w.letter == "G":
@@ -194,7 +194,7 @@ def _word(st: MachineState, words: _Words, w: ast.Word, ctx: _Context) -> None:
     handler(st, words, w, val, ctx)
 
 
-def _g_word(st: MachineState, words: _Words, w: ast.Word, ctx: _Context) -> None:
+def _g_word(st: MachineState, words: _Words, w: ast.Word, ctx: BlockContext) -> None:
     code = ctx.ev(w.value, w.span) if w.value is not None else None
     if code is None or code != int(code):
         raise ctx.err("G needs a whole number", w.span)
@@ -313,7 +313,7 @@ def _set_feed(st: MachineState, words: _Words, err) -> None:
     st.feed = value * st.scale
 
 
-def _dwell_block(words: _Words, b: ast.Block, ctx: _Context) -> None:
+def _dwell_block(words: _Words, b: ast.Block, ctx: BlockContext) -> None:
     if not words.g4:
         raise ctx.err("P is the dwell time of G4 (s): give G4 in the same block",
                       words.p_word[1])
@@ -332,7 +332,7 @@ def _preset(st: MachineState, words: _Words, b: ast.Block, err) -> None:
         st.pos[a] = v
 
 
-def _move(st: MachineState, words: _Words, b: ast.Block, ctx: _Context) -> None:
+def _move(st: MachineState, words: _Words, b: ast.Block, ctx: BlockContext) -> None:
     err, tools = ctx.err, ctx.tools
     new = dict(st.pos)
     for a, v in words.target.items():
@@ -379,7 +379,7 @@ def _need_feed(st: MachineState, b: ast.Block, err) -> None:
                        f"feed {st.default_feed:g} mm/s is used until an F is given")
 
 
-def _arc(st: MachineState, words: _Words, move: dict, b: ast.Block, ctx: _Context) -> None:
+def _arc(st: MachineState, words: _Words, move: dict, b: ast.Block, ctx: BlockContext) -> None:
     err, center = ctx.err, words.center
     if "I" not in center and "J" not in center:
         raise err("arc without I or J (centre offset)", b.span)

@@ -117,8 +117,9 @@ from __future__ import annotations
 import re
 
 from . import ast
-from .commands import COMMANDS, G_CODES as _G_TABLE, RECORDED, WORD_LETTERS as _LETTERS
-from .commands import commands_by_parser
+from .commands import COMMANDS, RECORDED, commands_by_parser
+from .commands import G_CODES as _G_TABLE
+from .commands import WORD_LETTERS as _LETTERS
 from .errors import GCodeError, check_limit
 from .expressions import MAX_EXPR_DEPTH, ExpressionParser
 from .lexer import Token, UnsupportedError, iter_lines, split_comment, tokenize_line

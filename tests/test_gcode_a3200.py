@@ -603,3 +603,23 @@ def test_status_reads_make_the_variable_unknown():
     assert tp.no_motion[0]["kind"] == "STATUS"
     with pytest.raises(GCodeError, match=r"unknown variable \$z"):
         run("DVAR $z\n$z = AXISSTATUS(Z, DATAITEM_ProgramPositionCommand)\nF1\nG01 Z$z\n")
+
+
+@settings(max_examples=60, deadline=None)
+@given(x=st.floats(-1e6, 1e6, allow_nan=False), n=st.integers(0, 9))
+def test_dbltostr_round_trips_through_strtodbl(x, n):
+    """STRTODBL(DBLTOSTR(x, n)) is x to within half a unit of the n-th decimal,
+    and STRLEN counts the characters DBLTOSTR wrote."""
+    tp = run(f"$x = {x!r}\n$s = DBLTOSTR($x, {n})\n$y = STRTODBL($s)\n$k = STRLEN($s)\n"
+             "F1\nG01 X$y Y$k\n")
+    y, k = tp.segments[0].end
+    assert abs(y - x) <= 0.5 * 10.0 ** -n * (1 + 1e-9) + abs(x) * 1e-15
+    assert k == len(tp.strings["s"]) == len(f"{x:.{n}f}")
+
+
+@settings(max_examples=60, deadline=None)
+@given(a=st.integers(-20, 20), b=st.integers(-20, 20), step=st.integers(-5, 5).filter(bool))
+def test_for_runs_as_many_passes_as_a_python_range(a, b, step):
+    tp = run(f"$n = 0\nFOR $i = {a} TO {b} STEP {step}\n$n = $n + 1\nNEXT $i\nF1\nG01 X$n\n")
+    stop = b + (1 if step > 0 else -1)
+    assert tp.segments[0].end[0] == len(range(a, stop, step))

@@ -561,15 +561,15 @@ def _on_both(p1: _Projector, p2: _Projector, x: tuple) -> tuple:
     return x
 
 
-def _interpolated_2d(surface, pts, ts, old, first):
-    """A p-curve on ``surface`` through the (u, v) of ``pts`` at parameters
-    ``ts``, on the same sheet of a periodic surface as the p-curve ``old``."""
+def _interpolated_2d(surface, uv: np.ndarray, params: np.ndarray, old, first: float):
+    """A p-curve on ``surface`` through the points ``uv`` (n × 2) at
+    ``params``, on the same sheet of a periodic surface as the p-curve
+    ``old`` at its parameter ``first``."""
     from OCP.collections import HArray1_double, HArray1_gp_Pnt2d
     from OCP.Geom2dAPI import Geom2dAPI_Interpolate
     from OCP.gp import gp_Pnt2d
 
-    proj = _Projector(surface)
-    uv = np.array([proj(p)[:2] for p in pts])
+    uv = np.array(uv, dtype=float)
     p0 = old.Value(first)
     for k, periodic, period, ref in ((0, surface.IsUPeriodic(), surface.UPeriod, p0.X()),
                                      (1, surface.IsVPeriodic(), surface.VPeriod, p0.Y())):
@@ -577,8 +577,8 @@ def _interpolated_2d(surface, pts, ts, old, first):
             per = period()
             uv[:, k] = np.unwrap(uv[:, k], period=per)
             uv[:, k] += round((ref - uv[0, k]) / per) * per
-    arr, par = HArray1_gp_Pnt2d(1, len(ts)), HArray1_double(1, len(ts))
-    for i, ((u, v), t) in enumerate(zip(uv.tolist(), ts.tolist()), 1):
+    arr, par = HArray1_gp_Pnt2d(1, len(params)), HArray1_double(1, len(params))
+    for i, ((u, v), t) in enumerate(zip(uv.tolist(), params.tolist()), 1):
         arr.SetValue(i, gp_Pnt2d(u, v))
         par.SetValue(i, t)
     it = Geom2dAPI_Interpolate(arr, par, False, 1e-12)
@@ -611,7 +611,9 @@ def _restore(builder, e, faces, kept) -> None:
 def _rebuild(o, builder, e, faces, fit: float) -> int:
     """Rebuild edge ``e`` between two faces so that its 3D curve and p-curves
     agree within ``fit`` (mm) where interpolation through ≤ EDGE_MAX_POINTS
-    points can; returns the number of points used."""
+    points can: points on both surfaces (on the 3D curve itself where it is
+    a line, circle or ellipse), halving every interval whose midpoint misses
+    ``fit`` until none does. Returns the number of points used."""
     from OCP.BRep import BRep_Tool
     from OCP.BRepAdaptor import BRepAdaptor_Curve
     from OCP.collections import HArray1_double, HArray1_gp_Pnt
@@ -622,37 +624,59 @@ def _rebuild(o, builder, e, faces, fit: float) -> int:
     exact = BRepAdaptor_Curve(e).GetType() in (GeomAbs_Line, GeomAbs_Circle, GeomAbs_Ellipse)
     surfaces = [BRep_Tool.Surface_s(f) for f in faces]
     olds = [BRep_Tool.CurveOnSurface_s(e, f, 0.0, 0.0) for f in faces]
-    n = 65
+    projectors = [_Projector(s) for s in surfaces]
+    if exact:
+        def point(t):
+            return curve.Value(t).Coord()
+        lo, hi = first, last
+    else:
+        # an approximated intersection, its parameter perhaps running at very
+        # uneven speed: the rebuilt edge is parametrised by chord length and
+        # its points put on both surfaces
+        tt = np.linspace(first, last, 1025)
+        dense = np.array([curve.Value(t).Coord() for t in tt.tolist()])
+        length = np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.diff(dense, axis=0),
+                                                                  axis=1))])
+        walk = [_Projector(s) for s in surfaces]
+
+        def point(s):
+            return _on_both(*walk, curve.Value(float(np.interp(s, length, tt))).Coord())
+        lo, hi = 0.0, float(length[-1])
+    cache: dict = {}
+    params = np.linspace(lo, hi, 33)
     while True:
-        ts = np.linspace(first, last, n)
-        pts = [curve.Value(t).Coord() for t in ts.tolist()]
+        for t in params.tolist():
+            if t not in cache:
+                x = point(t)
+                cache[t] = (x, projectors[0](x)[:2], projectors[1](x)[:2])
+        pts = [cache[t] for t in params.tolist()]
         new = curve
-        if not exact:  # an approximated intersection: points on both surfaces
-            p1, p2 = _Projector(surfaces[0]), _Projector(surfaces[1])
-            pts = [_on_both(p1, p2, p) for p in pts]
-            arr, par = HArray1_gp_Pnt(1, n), HArray1_double(1, n)
-            for i, (p, t) in enumerate(zip(pts, ts.tolist()), 1):
-                arr.SetValue(i, o.gp.gp_Pnt(*p))
+        if not exact:
+            arr, par = HArray1_gp_Pnt(1, len(params)), HArray1_double(1, len(params))
+            for i, (p, t) in enumerate(zip(pts, params.tolist()), 1):
+                arr.SetValue(i, o.gp.gp_Pnt(*p[0]))
                 par.SetValue(i, t)
             it = o.GeomAPI.GeomAPI_Interpolate(arr, par, False, 1e-12)
             it.Perform()
             if not it.IsDone():
                 raise ExportError("exact STEP export: OCCT could not interpolate an edge")
             new = it.Curve()
-        pcs = [_interpolated_2d(s, pts, ts, old, first)
-               for s, old in zip(surfaces, olds)]
-        err = 0.0
+        pcs = [_interpolated_2d(s, [p[k + 1] for p in pts], params, old, first)
+               for k, (s, old) in enumerate(zip(surfaces, olds))]
+        mids = 0.5 * (params[:-1] + params[1:])
+        err = np.zeros(len(mids))
         for pc, s in zip(pcs, surfaces):  # between the points, where it is largest
-            for t in (0.5 * (ts[:-1] + ts[1:])).tolist():
+            for i, t in enumerate(mids.tolist()):
                 uv = pc.Value(t)
-                err = max(err, new.Value(t).Distance(s.Value(uv.X(), uv.Y())))
-        if err <= fit or 2 * n - 1 > EDGE_MAX_POINTS:
+                err[i] = max(err[i], new.Value(t).Distance(s.Value(uv.X(), uv.Y())))
+        bad = mids[err > fit]
+        if len(bad) == 0 or len(params) + len(bad) > EDGE_MAX_POINTS:
             break
-        n = 2 * n - 1
+        params = np.sort(np.concatenate([params, bad]))
     t = BRep_Tool.Tolerance_s(e)
     if not exact:
         builder.UpdateEdge(e, new, t)
     for pc, f in zip(pcs, faces):
         builder.UpdateEdge(e, pc, f, t)
-    builder.Range(e, first, last)
-    return n
+    builder.Range(e, float(params[0]), float(params[-1]))
+    return len(params)

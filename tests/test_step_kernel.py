@@ -7,7 +7,7 @@
   rebuilt faces, tangent faces, merge vertices and edges, continuity and
   curve on surface): no faulty shape;
 * every edge and vertex tolerance ≤ 1 µm (``EDGE_TOL_MAX_MM``), and every
-  edge's 3D curve within 0.05 µm (twice ``EDGE_FIT_MM``, half the 0.1 µm
+  edge's 3D curve within 0.05 nm (twice ``EDGE_FIT_MM``, half the 0.1 nm
   a STEP reader gives every edge) of each of its p-curves, measured by
   ``BRepLib_ValidateEdge``'s exact method (what the argument analyzer's
   curve-on-surface check measures);

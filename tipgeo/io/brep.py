@@ -34,10 +34,10 @@ STEP round trip, every edge and vertex tolerance within ``EDGE_TOL_MAX_MM``:
   beyond one period, e.g. [7.87, 9.42] rad, is given the same curve on the
   range one period lower, its p-curves reparametrised to match (a STEP reader
   puts the range of such an edge, known only by its vertices, into [0, 2π):
-  it then found no p-curve there and re-projected one 7 µm off);
+  it then found no p-curve there and re-projected one 7 nm off);
 * an edge whose 3D curve and p-curves disagree by more than
   ``EDGE_FIT_MM`` (the booleans approximate intersection curves to about
-  0.3 µm — more than the 0.1 µm a STEP reader gives every edge) is rebuilt:
+  0.3 nm — more than the 0.1 nm a STEP reader gives every edge) is rebuilt:
   points along it are put on both its faces' surfaces by Newton steps (on the
   exact 3D curve where the edge is a line, circle or ellipse), and the 3D
   curve and both p-curves interpolate them at the same parameters, the points

@@ -6,7 +6,7 @@ bindings OCP (``pip install "tipgeo[step]"``), in one of two forms
   cones; the helicoid (any height-field cutter surface) as a bicubic B-spline
   fitted within half the tip's build tolerance — made by OCCT booleans of
   exact solids (:mod:`tipgeo.io.brep`), its edges' 3D curves and p-curves
-  agreeing within 0.025 µm so that the file read back passes OCCT's
+  agreeing within 0.025 nm (2.5e-8 mm) so that the file read back passes OCCT's
   ``BRepCheck_Analyzer`` and ``BOPAlgo_ArgumentAnalyzer`` (curve on
   surface, small edges, self-interference), every tolerance ≤ 1 µm;
 * ``'faceted'``: one planar face per triangle of the mesh; the tip must be a

@@ -612,8 +612,8 @@ def _rebuild(o, builder, e, faces, fit: float) -> int:
     """Rebuild edge ``e`` between two faces so that its 3D curve and p-curves
     agree within ``fit`` (mm) where interpolation through ≤ EDGE_MAX_POINTS
     points can: points on both surfaces (on the 3D curve itself where it is
-    a line, circle or ellipse), halving every interval whose midpoint misses
-    ``fit`` until none does. Returns the number of points used."""
+    a line, circle or ellipse), splitting every interval whose midpoint
+    misses ``fit`` until none does. Returns the number of points used."""
     from OCP.BRep import BRep_Tool
     from OCP.BRepAdaptor import BRepAdaptor_Curve
     from OCP.collections import HArray1_double, HArray1_gp_Pnt
@@ -669,10 +669,17 @@ def _rebuild(o, builder, e, faces, fit: float) -> int:
             for i, t in enumerate(mids.tolist()):
                 uv = pc.Value(t)
                 err[i] = max(err[i], new.Value(t).Distance(s.Value(uv.X(), uv.Y())))
-        bad = mids[err > fit]
-        if len(bad) == 0 or len(params) + len(bad) > EDGE_MAX_POINTS:
+        bad = np.flatnonzero(err > fit)
+        if len(bad) == 0:
             break
-        params = np.sort(np.concatenate([params, bad]))
+        # cubic interpolation's error falls as h⁴: split each interval that
+        # misses into as many as should meet the fit, with a margin
+        pieces = np.maximum(2, np.ceil(1.25 * (err[bad] / fit) ** 0.25)).astype(int)
+        if len(params) + int(np.sum(pieces - 1)) > EDGE_MAX_POINTS:
+            break
+        extra = [params[i] + (params[i + 1] - params[i]) * np.arange(1, k) / k
+                 for i, k in zip(bad.tolist(), pieces.tolist())]
+        params = np.sort(np.concatenate([params, *extra]))
     t = BRep_Tool.Tolerance_s(e)
     if not exact:
         builder.UpdateEdge(e, new, t)

@@ -194,13 +194,17 @@ def cmd_mill(args) -> int:
     if args.no_rough:
         kw["rough"] = False
     params = MillParams(**kw)
-    simulate = bool(args.mesh or args.compare or args.deviation_png)
+    simulate = bool(args.mesh or args.compare or args.deviation_png or args.html)
     from .. import progress
 
     res = mill(spec, tool=tool, machine=machine, params=params, simulate_tip=simulate,
                compare=bool(args.compare or args.deviation_png), progress=progress.note)
     write_mill_outputs(res, program=args.output, sheet=args.sheet, mesh=args.mesh,
                        deviation=args.deviation_png, toolpath=args.png)
+    if args.html:
+        from .report import write_html
+
+        res.files.append(write_html(args, [spec, res], say=False))
     out = res.summary()
     verdict = getattr(res, "verdict", None)
     status = verdict_status(verdict, args)
@@ -341,7 +345,11 @@ def register(sub) -> None:
     deprecated(mi, "--report", "--compare")
     deprecated(mi, "--toolpath-png", "--png")
     deprecated(mi, "--deviation", "--deviation-png")
+    from .report import HTML_EXTS, add_html_flag
+
+    add_html_flag(mi)
     mi.set_defaults(func=cmd_mill)
-    declare_files(mi, inputs=("spec", "machine"), outputs=("output", "sheet", "mesh"),
+    declare_files(mi, inputs=("spec", "machine"), outputs=("output", "sheet", "mesh", "html"),
                   pictures=("deviation_png", "png"),
-                  exts={"output": (".nc", ".ngc", ".tap", ".txt"), "mesh": export_exts()})
+                  exts={"output": (".nc", ".ngc", ".tap", ".txt"), "mesh": export_exts(),
+                        "html": HTML_EXTS})

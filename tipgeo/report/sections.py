@@ -463,8 +463,9 @@ def display_sample(dev: np.ndarray, band: float, limit: int = DISPLAY_POINTS) ->
 
     Rule: all points when there are at most ``limit``; else the points
     outside ±``band`` (mm) first — the ones a person looks for — up to half
-    of ``limit``, largest |deviation| first, then every k-th of the others
-    in the scan's order to fill ``limit``. Deterministic; sorted indices.
+    of ``limit``, largest |deviation| first, then of the others as many as
+    fill ``limit``, evenly spaced in the scan's order. Deterministic; sorted
+    indices.
     """
     n = len(dev)
     if n <= limit:
@@ -474,8 +475,8 @@ def display_sample(dev: np.ndarray, band: float, limit: int = DISPLAY_POINTS) ->
     if len(out) > limit // 2:
         out = out[np.argsort(-a[out], kind="stable")[: limit // 2]]
     rest = np.setdiff1d(np.arange(n), out, assume_unique=True)
-    k = math.ceil(len(rest) / (limit - len(out)))
-    return np.sort(np.concatenate([out, rest[::k]]))
+    take = np.unique(np.linspace(0, len(rest) - 1, limit - len(out)).round().astype(np.int64))
+    return np.sort(np.concatenate([out, rest[take]]))
 
 
 def compare_section(page, data: dict, points: np.ndarray, dev: np.ndarray, face: np.ndarray,
@@ -489,12 +490,14 @@ def compare_section(page, data: dict, points: np.ndarray, dev: np.ndarray, face:
     dev_um = np.asarray(dev, float) * 1e3
     band = float(data.get("tolerance_um", 10.0))
     lo, hi = (data.get("colour_scale_um") or [-2.5 * band, 2.5 * band])[:2]
-    name = f"{(data.get('cad') or {}).get('name', 'CAD')} vs {(data.get('scan') or {}).get('source', source)}"
+    cad_name = (data.get("cad") or {}).get("name", "CAD")
+    name = f"{cad_name} vs {(data.get('scan') or {}).get('source', source)}"
     n = len(dev_um)
     idx = display_sample(dev_um, band)
     rule = ("every point" if len(idx) == n else
             f"{len(idx):,} of {n:,} points: those outside ±{band:g} µm first (largest first, "
-            f"at most {DISPLAY_POINTS // 2:,}), then every k-th of the others")
+            f"at most {DISPLAY_POINTS // 2:,}), then of the others evenly spaced in the "
+            "scan's order")
     s = page.section(f"{name}: deviations on the scan",
                      "Signed deviation, µm (+ outside the CAD solid: material left), on the "
                      f"scan points in the CAD's cannula frame (mm). Drawn: {rule}. The "

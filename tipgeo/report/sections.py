@@ -90,8 +90,7 @@ def _frame_traces(z0: float, length: float, scene: str = "scene", *, beside: flo
         out.append(go.Scatter3d(x=[0, 0], y=[0, 0], z=[z0, z1], mode="lines",
                                 line={"color": "#607d8b", "width": 2, "dash": "dash"},
                                 name="needle axis (x = y = 0)", hoverinfo="skip", scene=scene))
-    for k, (name, col) in enumerate((("+x", "#b71c1c"), ("+y", "#1b5e20"),
-                                     ("+z (toward the tip)", "#0d47a1"))):
+    for k, (name, col) in enumerate((("+x", "#b71c1c"), ("+y", "#1b5e20"), ("+z", "#0d47a1"))):
         e = np.zeros(3)
         e[k] = length
         out.append(go.Scatter3d(x=[-beside, e[0] - beside], y=[-beside, e[1] - beside],
@@ -100,7 +99,7 @@ def _frame_traces(z0: float, length: float, scene: str = "scene", *, beside: flo
                                 textfont={"size": 11, "color": col},
                                 line={"color": col, "width": 6}, hoverinfo="skip",
                                 showlegend=k == 0, legendgroup="frame",
-                                name=f"cannula frame axes (each {length:g} mm long)",
+                                name=f"cannula frame +x +y +z (each {length:g} mm long)",
                                 scene=scene))
     return out
 
@@ -348,8 +347,8 @@ def mill_section(page, res, spec=None) -> None:
                      "Cannula frame, mm (the program frame turned back by the set-up's "
                      f"clocking {math.degrees(clk):.2f}°); tool-tip path of {rule}, coloured "
                      "by move kind (rapids above the part leave the box); the CAD tip in grey. "
-                     "The slider plays the program: the "
-                     "black line is the path done, the diamond the tool tip.")
+                     "The slider plays the program: the dark line is the path done, the red "
+                     "diamond the tool tip.")
     cad = build_tip(spec, tolerance=DISPLAY_TOLERANCE) if spec is not None else None
     traces = []
     if cad is not None:
@@ -371,10 +370,10 @@ def mill_section(page, res, spec=None) -> None:
                                    opacity=0.5 if ki == 0 else 0.9, hoverinfo="name"))
     done = len(traces)
     traces.append(go.Scatter3d(x=[], y=[], z=[], mode="lines", name="path done",
-                               line={"color": "#000", "width": 4}, hoverinfo="skip"))
+                               line={"color": "#263238", "width": 2}, hoverinfo="skip"))
     marker = len(traces)
     traces.append(go.Scatter3d(x=[], y=[], z=[], mode="markers", name="tool tip",
-                               marker={"size": 6, "color": "#000", "symbol": "diamond"},
+                               marker={"size": 8, "color": "#d50000", "symbol": "diamond"},
                                hoverinfo="skip"))
     r_o = tp.setup.r_o
     traces += _frame_traces(float(np.nanmin(end[:, 2])), _nice(0.8 * r_o), beside=1.3 * r_o)

@@ -208,3 +208,54 @@ def test_extensions_agree():
     from tipgeo.cli.report import HTML_EXTS
 
     assert tuple(HTML_EXTS) == tuple(REPORT_EXTS)
+
+
+def test_fem_folder(tmp_path):
+    """A ``tipgeo fem`` folder: the FEM curve, eq. 4.22 beside it and their
+    difference (mN) as plotted are the run's own numbers."""
+    d = np.linspace(0.0, 0.3, 11)
+    run = {"name": "punch-plain", "model": "axisymmetric", "depth_mm": 0.3,
+           "curve": [{"depth_mm": float(x), "force_N": float(0.08 * x + 0.01 * x * x),
+                      "analytical_N": float(0.079 * x)} for x in d],
+           "verdict": {"ok": True, "subject": "FEM", "checks": [], "reasons": []}}
+    (tmp_path / "fem").mkdir()
+    (tmp_path / "fem" / "punch-plain_axisymmetric.json").write_text(json.dumps(run))
+    (tmp_path / "fem" / "other.json").write_text('{"not": "a run"}')
+    out = tmp_path / "f.html"
+    info = html_report([tmp_path / "fem"], out)
+    assert info["sources"] == ["fem-folder"]
+    text = out.read_text(encoding="utf-8")
+    _, fig = _fig(text, "fem-force")
+    fem, ana, diff = fig["data"]
+    assert ana["name"] == "analytical eq. 4.22"
+    np.testing.assert_allclose(fem["y"], 0.08 * d + 0.01 * d * d, rtol=1e-12)
+    np.testing.assert_allclose(diff["y"], (0.001 * d + 0.01 * d * d) * 1e3, atol=1e-12)
+
+
+def test_study_folder(tmp_path):
+    """A ``tipgeo optimize`` folder: each fitted response over the variable
+    from sweep.csv, the optima's built values as stars, the optima table."""
+    f = tmp_path / "study"
+    f.mkdir()
+    xi = np.arange(15.0, 80.0, 5.0)
+    rows = ["index,status,xi_deg,lambda_max_deg,error"] + \
+        [f"{k},ok,{x},{90 - x},"for k, x in enumerate(xi)] + [f"{len(xi)},failed,80,,boom"]
+    (f / "sweep.csv").write_text("\n".join(rows) + "\n")
+    rep = {"name": "bevel-study", "variables": [{"name": "xi_deg", "min": 15, "max": 75}],
+           "responses": {"recorded": ["lambda_max_deg"], "fitted": ["lambda_max_deg"]},
+           "optima": [{"objective": "max-lambda", "x": {"xi_deg": 15.0},
+                       "responses": {"lambda_max_deg": {"predicted": 74.99, "actual": 75.0,
+                                                        "error_frac": 1e-4,
+                                                        "inside95": True}}}],
+           "surrogate": {"loo": {}}, "verdict": {"ok": True, "subject": "study", "checks": [],
+                                                "reasons": []}}
+    (f / "report.json").write_text(json.dumps(rep))
+    out = tmp_path / "s.html"
+    assert html_report([f], out)["sources"] == ["study-folder"]
+    text = out.read_text(encoding="utf-8")
+    _, fig = _fig(text, "responses")
+    sweep, star = fig["data"]
+    np.testing.assert_allclose(sweep["x"], xi)  # the failed design is left out
+    np.testing.assert_allclose(sweep["y"], 90 - xi)
+    assert (star["x"], star["y"]) == ([15.0], [75.0]) and star["name"] == "max-lambda"
+    assert ">GP predicted</th>" in text

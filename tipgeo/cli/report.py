@@ -53,10 +53,11 @@ def write_html(args, sources, *, say: bool = True) -> str | None:
 def register(sub) -> None:
     """Add ``report`` to the ``tipgeo`` sub-command parsers."""
     r = sub.add_parser("report", help="one interactive offline HTML page (3D tip, edges and "
-                       "angles, deviations) of specs, presets and output folders")
+                       "angles, deviations, FEM forces, response surfaces) of specs, presets "
+                       "and output folders")
     r.add_argument("source", metavar="SOURCE", nargs="+",
                    help="a spec file (.toml), a preset name, or an output folder of "
-                        "'tipgeo compare' (report.json and deviations.ply)")
+                        "'tipgeo compare', 'tipgeo fem' or 'tipgeo optimize'")
     r.add_argument("-o", "--output", required=True, metavar="FILE",
                    help="the HTML file (.html)")
     r.add_argument("--title", metavar="TEXT", help="the page's title")

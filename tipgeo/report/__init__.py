@@ -14,7 +14,12 @@ command's ``--html FILE``. What a page shows, per source:
 - a ``compare`` output folder (report.json + deviations.ply) or a
   :class:`~tipgeo.inspect.compare.Comparison`: the signed deviations on the
   3D cloud with the colour scale, the histogram of every point (click a bar:
-  its points are marked), the per-face table and the verdict.
+  its points are marked), the per-face table and the verdict;
+- a ``tipgeo fem`` output folder: the force–depth curve beside eq. 4.22,
+  their difference, the run's numbers and stresses;
+- a ``tipgeo optimize`` output folder: each fitted response over the design
+  variables (the sweep's analysed designs) with the optima marked, the
+  optima's GP prediction against their built geometry, the LOO errors.
 
 Units: mm, degrees, µm in the page (named in every axis and column);
 frames: the cannula frame (+z along the axis toward the tip), stated per
@@ -40,7 +45,8 @@ REPORT_EXTS = (".html", ".htm")
 MAX_SCAN_POINTS = 50_000_000
 
 _SOURCE_FORMS = ("a spec file (.toml), a preset name, or an output folder of 'tipgeo compare' "
-                 "(report.json and deviations.ply)")
+                 "(report.json and deviations.ply), 'tipgeo fem' (its run's .json) or "
+                 "'tipgeo optimize' (report.json and sweep.csv)")
 
 
 @dataclass
@@ -126,6 +132,53 @@ def read_compare_folder(folder) -> tuple[dict, Any, Any, Any, list[str]]:
     return data, pts, arr["deviation_mm"].astype(float), arr["face"].astype(int), labels
 
 
+def _fem_runs(folder: Path) -> list[tuple[str, dict]]:
+    """The FEM runs in a ``tipgeo fem --out-dir`` folder: (file name, run
+    dict) of every ``*.json`` holding a force ``curve``."""
+    out = []
+    for f in sorted(folder.glob("*.json")):
+        if f.stat().st_size > 50_000_000:
+            continue
+        try:
+            d = json.loads(f.read_text(encoding="utf-8"))
+        except (OSError, UnicodeDecodeError, json.JSONDecodeError):
+            continue
+        c = d.get("curve") if isinstance(d, dict) else None
+        if isinstance(c, list) and c and all(isinstance(r, dict) and "force_N" in r and
+                                             "depth_mm" in r for r in c):
+            out.append((f.name, d))
+    return out
+
+
+def _study(folder: Path):
+    """(report, sweep table {column: array}) of a ``tipgeo optimize``
+    folder (report.json with optima, sweep.csv), or None."""
+    import csv
+
+    import numpy as np
+
+    rj, sw = folder / "report.json", folder / "sweep.csv"
+    if not (rj.is_file() and sw.is_file()):
+        return None
+    try:
+        rep = json.loads(rj.read_text(encoding="utf-8"))
+    except (OSError, UnicodeDecodeError, json.JSONDecodeError):
+        return None
+    if not isinstance(rep, dict) or "optima" not in rep or "variables" not in rep:
+        return None
+    with open(sw, newline="", encoding="utf-8") as fh:
+        rows = [r for r in csv.DictReader(fh) if r.get("status", "ok") == "ok"]
+    names = [v["name"] for v in rep["variables"]] + \
+        list((rep.get("responses") or {}).get("recorded") or [])
+    table = {}
+    for n in names:
+        try:
+            table[n] = np.array([float(r[n]) for r in rows])
+        except (KeyError, TypeError, ValueError):
+            continue
+    return rep, table
+
+
 def _resolve(src: Any):
     """(kind, object) of one source."""
     from ..errors import InputError
@@ -148,6 +201,12 @@ def _resolve(src: Any):
         if p.is_dir():
             if (p / "report.json").is_file() and (p / "deviations.ply").is_file():
                 return "compare-folder", p
+            runs = _fem_runs(p)
+            if runs:
+                return "fem-folder", runs
+            study = _study(p)
+            if study is not None:
+                return "study-folder", study
             raise InputError(f"SOURCE = '{src}' is a folder this report does not read; "
                              f"allowed: {_SOURCE_FORMS}")
         from ..presets import PRESETS, resolve_spec
@@ -171,6 +230,10 @@ def _name(kind: str, obj) -> str:
         return obj.cad.summary().get("name") or "compare"
     if kind == "compare-folder":
         return obj.name
+    if kind == "fem-folder":
+        return ", ".join(d.get("name", n) for n, d in obj)
+    if kind == "study-folder":
+        return obj[0].get("name") or "study"
     return obj.name or "spec"
 
 
@@ -225,6 +288,11 @@ def html_report(sources, out, *, title: str | None = None) -> dict[str, Any]:
                 d = obj.distances
                 S.compare_section(page, obj.to_dict(), obj.points, d.distance, d.face,
                                   d.labels)
+            elif kind == "fem-folder":
+                for name, run in obj:
+                    S.fem_section(page, run, source=name)
+            elif kind == "study-folder":
+                S.optimize_section(page, *obj)
             else:
                 data, pts, dev, face, labels = read_compare_folder(obj)
                 S.compare_section(page, data, pts, dev, face, labels, source=str(obj))

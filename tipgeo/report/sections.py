@@ -14,7 +14,8 @@ import math
 
 import numpy as np
 
-__all__ = ["tip_section", "mill_section", "compare_section", "DISPLAY_POINTS",
+__all__ = ["tip_section", "mill_section", "compare_section", "fem_section",
+           "optimize_section", "DISPLAY_POINTS",
            "display_sample", "MAX_DISPLAY_MOVES", "COLOURS"]
 
 #: Colours of the faces (cut faces cycle through ``_CUT``), as in the PNGs.
@@ -575,3 +576,156 @@ def compare_section(page, data: dict, points: np.ndarray, dev: np.ndarray, face:
                 caption="registration (units in the names)")
     for w in data.get("warnings") or []:
         s.text(f"warning: {w}", cls="bad")
+
+
+# -----------------------------------------------------------------------------
+def fem_section(page, run: dict, *, source: str = "") -> None:
+    """A finite-element insertion run (its JSON, ``tipgeo fem --out-dir``):
+    the axial force against depth (N, mm) beside the analytical force of
+    eq. 4.22, their difference, the run's numbers, stresses and verdict."""
+    import plotly.graph_objects as go
+    from plotly.subplots import make_subplots
+
+    curve = run.get("curve") or []
+    d = np.array([r["depth_mm"] for r in curve], float)
+    f = np.array([r["force_N"] for r in curve], float)
+    a = np.array([r.get("analytical_N", np.nan) for r in curve], float)
+    s = page.section(f"{run.get('name', 'tip')}: FEM insertion ({run.get('model', '')})",
+                     "Axial force on the tip against insertion depth: the finite-element run "
+                     "(CalculiX) and, beside it, the analytical force of eq. 4.22 (thesis "
+                     "§4.2, β = 2.5) for the same tissue; right: FEM − eq. 4.22. "
+                     + (f"Source: {source}." if source else ""))
+    fig = make_subplots(1, 2, column_widths=[0.6, 0.4], horizontal_spacing=0.1,
+                        subplot_titles=("force against depth", "FEM − eq. 4.22"))
+    fig.add_trace(go.Scatter(x=d, y=f, mode="lines+markers", name="FEM",
+                             line={"color": "#1565c0"}, marker={"size": 5},
+                             hovertemplate="depth %{x:.4f} mm<br>FEM %{y:.5g} N<extra></extra>"),
+                  row=1, col=1)
+    fig.add_trace(go.Scatter(x=d, y=a, mode="lines", name="analytical eq. 4.22",
+                             line={"color": "#c62828", "dash": "dash"},
+                             hovertemplate="depth %{x:.4f} mm<br>eq. 4.22 %{y:.5g} N"
+                                           "<extra></extra>"), row=1, col=1)
+    fig.add_trace(go.Scatter(x=d, y=(f - a) * 1e3, mode="lines+markers", name="FEM − eq. 4.22",
+                             line={"color": "#455a64"}, marker={"size": 4},
+                             hovertemplate="depth %{x:.4f} mm<br>%{y:.4g} mN<extra></extra>"),
+                  row=1, col=2)
+    fig.update_xaxes(title_text="depth (mm)")
+    fig.update_yaxes(title_text="axial force (N)", row=1, col=1)
+    fig.update_yaxes(title_text="difference (mN)", row=1, col=2)
+    fig.update_layout(template="plotly_white", hovermode="closest",
+                      legend={"orientation": "h", "y": -0.18},
+                      margin={"l": 60, "r": 10, "t": 40, "b": 60})
+    s.figure(fig, height=440, name="fem-force")
+    s.verdict(run.get("verdict"))
+    s.table(["run", "value"], [[k, v] for k, v in run.items()
+                               if not isinstance(v, (dict, list))],
+            caption="the run (units in the names: mm, µm, N, s)")
+    st = run.get("stress") or {}
+    if st:
+        s.table(["depth (mm)", "max principal stress (kPa)", "near the edge (kPa)", "at r, z (mm)"],
+                [[k, v.get("max_principal_MPa", math.nan) * 1e3,
+                  v.get("max_principal_near_edge_MPa", math.nan) * 1e3, v.get("at_mm")]
+                 for k, v in st.items()], caption="stresses", left=0)
+    s.table(["depth (mm)", "FEM force (N)", "eq. 4.22 force (N)", "FEM − eq. 4.22 (mN)"],
+            [[float(x), float(y), float(z), float((y - z) * 1e3)] for x, y, z in zip(d, f, a)],
+            caption="force curve", left=0)
+
+
+# -----------------------------------------------------------------------------
+def optimize_section(page, report: dict, table: dict[str, np.ndarray], *,
+                     source: str = "") -> None:
+    """An optimisation study (``tipgeo optimize --out-dir``): each fitted
+    response over the design variables — every analysed design of the sweep
+    (its real geometry, not the GP) — with the optima marked (their built
+    geometry's values), the optima, the leave-one-out errors and the verdict
+    as tables. One variable: curves; two or more: a surface over the first
+    two (triangulated between the designs), the others in the hover."""
+    import plotly.graph_objects as go
+    from plotly.subplots import make_subplots
+
+    var = [v["name"] for v in report.get("variables") or []]
+    resp = (report.get("responses") or {}).get("fitted") or []
+    resp = [r for r in resp if r in table]
+    optima = report.get("optima") or []
+    s = page.section(f"{report.get('name', 'study')}: response surfaces and optima",
+                     "Every analysed design of the sweep (exact geometry; units in the names: "
+                     "mm, deg) and each objective's optimum (a star: the built optimum's "
+                     "actual value). The GP surrogate's own surfaces are the study's "
+                     "surface-*.png; these are the data it was fitted to. "
+                     + (f"Source: {source}." if source else ""))
+    if var and resp and all(v in table for v in var):
+        cols = _CUT
+        if len(var) == 1:
+            x = np.asarray(table[var[0]], float)
+            o = np.argsort(x)
+            fig = make_subplots(1, len(resp), subplot_titles=resp, horizontal_spacing=0.08)
+            for j, r in enumerate(resp):
+                y = np.asarray(table[r], float)
+                fig.add_trace(go.Scatter(x=x[o], y=y[o], mode="lines+markers", name="sweep",
+                                         showlegend=j == 0, line={"color": "#455a64"},
+                                         marker={"size": 6}), row=1, col=j + 1)
+                for k, opt in enumerate(optima):
+                    ox = (opt.get("x") or {}).get(var[0])
+                    oy = ((opt.get("responses") or {}).get(r) or {}).get("actual")
+                    if ox is None or oy is None:
+                        continue
+                    fig.add_trace(go.Scatter(
+                        x=[ox], y=[oy], mode="markers", name=opt.get("objective", "optimum"),
+                        legendgroup=opt.get("objective"), showlegend=j == 0,
+                        marker={"symbol": "star", "size": 16, "color": cols[k % len(cols)],
+                                "line": {"color": "#000", "width": 1}}), row=1, col=j + 1)
+                fig.update_xaxes(title_text=var[0].replace("_deg", " (deg)")
+                                 .replace("_mm", " (mm)"), row=1, col=j + 1)
+                fig.update_yaxes(title_text=r.replace("_deg", " (deg)").replace("_mm", " (mm)"),
+                                 row=1, col=j + 1)
+            fig.update_layout(template="plotly_white", legend={"orientation": "h", "y": -0.2},
+                              margin={"l": 60, "r": 10, "t": 40, "b": 60})
+            s.figure(fig, height=440, name="responses")
+        else:
+            from scipy.spatial import Delaunay
+
+            x, y = (np.asarray(table[v], float) for v in var[:2])
+            tri = Delaunay(np.column_stack([(x - x.min()) / (np.ptp(x) or 1),
+                                            (y - y.min()) / (np.ptp(y) or 1)])).simplices
+            for r in resp:
+                z = np.asarray(table[r], float)
+                tr = [go.Mesh3d(x=x, y=y, z=z, i=tri[:, 0], j=tri[:, 1], k=tri[:, 2],
+                                intensity=z, colorscale="Viridis", opacity=0.85, name=r,
+                                colorbar={"title": {"text": r}}, hoverinfo="x+y+z"),
+                      go.Scatter3d(x=x, y=y, z=z, mode="markers", name="sweep",
+                                   marker={"size": 3, "color": "#263238"})]
+                for k, opt in enumerate(optima):
+                    ox = opt.get("x") or {}
+                    oz = ((opt.get("responses") or {}).get(r) or {}).get("actual")
+                    if oz is None or var[0] not in ox or var[1] not in ox:
+                        continue
+                    tr.append(go.Scatter3d(x=[ox[var[0]]], y=[ox[var[1]]], z=[oz],
+                                           mode="markers", name=opt.get("objective"),
+                                           marker={"symbol": "diamond", "size": 8,
+                                                   "color": cols[k % len(cols)]}))
+                fig = go.Figure(tr)
+                fig.update_layout(scene={"xaxis": {"title": {"text": var[0]}},
+                                         "yaxis": {"title": {"text": var[1]}},
+                                         "zaxis": {"title": {"text": r}},
+                                         "aspectmode": "cube"},
+                                  margin={"l": 0, "r": 0, "t": 10, "b": 0})
+                s.figure(fig, height=520, name=f"surface-{r}")
+    s.verdict(report.get("verdict"))
+    rows = []
+    for opt in optima:
+        for r, v in (opt.get("responses") or {}).items():
+            rows.append([opt.get("objective"), ", ".join(f"{k} = {x:.6g}" for k, x in
+                                                         (opt.get("x") or {}).items()),
+                         r, v.get("predicted"), v.get("actual"), v.get("error_frac"),
+                         v.get("inside95")])
+    if rows:
+        s.table(["objective", "optimum (variables in their units)", "response",
+                 "GP predicted", "actual (built)", "error / training range", "inside 95 %"],
+                rows, caption="optima (responses in the units of their names)", left=3)
+    loo = (report.get("surrogate") or {}).get("loo") or {}
+    lrows = [[r, *[v.get(k) for k in ("kernel", "rmse", "max_abs", "nrmse", "coverage95")]]
+             for r, v in loo.items() if isinstance(v, dict)]
+    if lrows:
+        s.table(["response", "kernel", "LOO RMSE", "LOO max |error|", "RMSE / std",
+                 "95 % coverage"],
+                lrows, caption="leave-one-out errors of the GP (response units)")

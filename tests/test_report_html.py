@@ -259,3 +259,16 @@ def test_study_folder(tmp_path):
     np.testing.assert_allclose(sweep["y"], 90 - xi)
     assert (star["x"], star["y"]) == ([15.0], [75.0]) and star["name"] == "max-lambda"
     assert ">GP predicted</th>" in text
+
+
+def test_grind_html_flag(tmp_path, capsys):
+    """``grind --html``: the set-up per face of the program (ξ of the spec)
+    and the simulated ground tip beside the CAD."""
+    out = tmp_path / "g.html"
+    assert main(["grind", "bevel-14G-xi15", "--html", str(out), "--quiet"]) == 0
+    assert f"wrote {out}" in capsys.readouterr().out
+    text = out.read_text(encoding="utf-8")
+    assert external_refs(text) == []
+    _, fig = _fig(text, "ground")
+    assert {t["scene"] for t in fig["data"]} == {"scene", "scene2"}
+    assert ">xi (deg)</th>" in text and '<td class="">15</td>' in text

@@ -139,10 +139,15 @@ def cmd_grind(args) -> int:
     machine = Machine.from_toml(args.machine) if args.machine else Machine()
     feed = feed_mm_min_arg("--feed-mm-min", args.feed_mm_min)
     res = grind(spec, machine=machine, feed=6.0 / 60.0 if feed is None else feed,
-                needle_rpm=args.needle_rpm, simulate_tip=bool(args.mesh or args.compare),
+                needle_rpm=args.needle_rpm,
+                simulate_tip=bool(args.mesh or args.compare or args.html),
                 compare=args.compare, tolerance=tolerance_arg(args))
     write_grind_outputs(res, program=args.output, gcode=args.gcode, sheet=args.sheet,
                         mesh=args.mesh, on_error=cannot_write)
+    if args.html:
+        from .report import write_html
+
+        res.files.append(write_html(args, [spec, res], say=False))
     out = res.summary()
     verdict = getattr(res, "verdict", None)
     status = 1 if res.failed else verdict_status(verdict, args)
@@ -312,9 +317,14 @@ def register(sub) -> None:
     deprecated(gr, "--report", "--compare")
     deprecated(gr, "--feed", "--feed-mm-min", convert=lambda v: v * 60.0,
                note=" (mm/min; the value given was converted from mm/s)")
+    from .report import HTML_EXTS, add_html_flag
+
+    add_html_flag(gr)
     gr.set_defaults(func=cmd_grind)
-    declare_files(gr, inputs=("spec", "machine"), outputs=("output", "gcode", "sheet", "mesh"),
-                  exts={"output": (".json", ".csv"), "mesh": export_exts()})
+    declare_files(gr, inputs=("spec", "machine"),
+                  outputs=("output", "gcode", "sheet", "mesh", "html"),
+                  exts={"output": (".json", ".csv"), "mesh": export_exts(),
+                        "html": HTML_EXTS})
     mi = sub.add_parser("mill", help="three-axis milling (Haas VF-2): toolpaths, G-code, "
                         "material-removal simulation")
     mi.add_argument("spec", metavar="SPEC")

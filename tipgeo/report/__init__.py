@@ -194,6 +194,8 @@ def _resolve(src: Any):
     kind = type(src).__name__
     if kind == "MillResult":
         return "mill", src
+    if kind == "GrindResult":
+        return "grind", src
     if kind == "Comparison":
         return "compare", src
     if isinstance(src, (str, Path)):
@@ -216,7 +218,7 @@ def _resolve(src: Any):
         raise InputError(f"SOURCE = '{src}' is no file, folder or preset; allowed: "
                          f"{_SOURCE_FORMS}")
     raise InputError(f"SOURCE = {kind} is not a report source; allowed: {_SOURCE_FORMS}, a "
-                     "TipSpec, Tip, TipSource, MillResult or Comparison")
+                     "TipSpec, Tip, TipSource, MillResult, GrindResult or Comparison")
 
 
 def _name(kind: str, obj) -> str:
@@ -226,6 +228,8 @@ def _name(kind: str, obj) -> str:
             or "tip"
     if kind == "mill":
         return obj.toolpath.name
+    if kind == "grind":
+        return obj.program.summary().get("name") or "grind"
     if kind == "compare":
         return obj.cad.summary().get("name") or "compare"
     if kind == "compare-folder":
@@ -245,8 +249,9 @@ def html_report(sources, out, *, title: str | None = None) -> dict[str, Any]:
     sources : iterable
         Each a spec file path or preset name, a ``tipgeo compare`` output
         folder, or an object: :class:`~tipgeo.spec.TipSpec`,
-        :class:`~tipgeo.tip.Tip`, :class:`cam.mill.MillResult` (drawn over
-        the CAD of the last spec before it), or
+        :class:`~tipgeo.tip.Tip`, :class:`cam.mill.MillResult` or
+        :class:`cam.GrindResult` (drawn beside the CAD of the last spec
+        before it), or
         :class:`~tipgeo.inspect.compare.Comparison`.
     out : str or Path
         The ``.html`` file (written atomically; its folder must exist).
@@ -284,6 +289,8 @@ def html_report(sources, out, *, title: str | None = None) -> dict[str, Any]:
                 S.tip_section(page, obj.spec, tip=obj.tip, report=obj.angles, title=obj.name)
             elif kind == "mill":
                 S.mill_section(page, obj, spec)
+            elif kind == "grind":
+                S.grind_section(page, obj, spec)
             elif kind == "compare":
                 d = obj.distances
                 S.compare_section(page, obj.to_dict(), obj.points, d.distance, d.face,

@@ -39,6 +39,7 @@ padding:4px 0;font-size:13px}
 .tg-controls{font-size:13px;margin:4px 0 8px;display:flex;gap:10px;align-items:center}
 .tg-controls input[type=range]{flex:1}
 .tg-readout{font-size:13px;color:#333;min-height:1.3em}
+details{margin:6px 0 14px;font-size:13px} summary{cursor:pointer;font-weight:600}
 """
 
 
@@ -89,17 +90,22 @@ class Section:
         return div
 
     def table(self, columns: list[str], rows: list[list[Any]], *, caption: str = "",
-              left: int = 1) -> None:
+              left: int = 1, folded: bool = False) -> None:
         """Add a table; ``columns`` carry their units (``"λ (deg)"``); the
-        first ``left`` columns are text, left-aligned."""
+        first ``left`` columns are text, left-aligned; ``folded``: behind a
+        click (its caption shown)."""
         head = "".join(f'<th class="{"l" if k < left else ""}">{html.escape(c)}</th>'
                        for k, c in enumerate(columns))
         body = "".join(
             "<tr>" + "".join(f'<td class="{"l" if k < left else ""}">{html.escape(_cell(v))}'
                              "</td>" for k, v in enumerate(r)) + "</tr>" for r in rows)
-        cap = f"<caption>{html.escape(caption)}</caption>" if caption else ""
-        self.blocks.append(f'<table class="tg-table">{cap}<thead><tr>{head}</tr></thead>'
-                           f"<tbody>{body}</tbody></table>")
+        cap = f"<caption>{html.escape(caption)}</caption>" if caption and not folded else ""
+        t = (f'<table class="tg-table">{cap}<thead><tr>{head}</tr></thead>'
+             f"<tbody>{body}</tbody></table>")
+        if folded:
+            t = (f"<details><summary>{html.escape(caption or 'table')} ({len(rows)} rows)"
+                 f"</summary>{t}</details>")
+        self.blocks.append(t)
 
     def text(self, s: str, cls: str = "note") -> None:
         """Add a paragraph (escaped)."""

@@ -15,7 +15,7 @@ import math
 import numpy as np
 
 __all__ = ["tip_section", "mill_section", "compare_section", "fem_section",
-           "optimize_section", "DISPLAY_POINTS",
+           "optimize_section", "grind_section", "DISPLAY_POINTS",
            "display_sample", "MAX_DISPLAY_MOVES", "COLOURS"]
 
 #: Colours of the faces (cut faces cycle through ``_CUT``), as in the PNGs.
@@ -289,7 +289,7 @@ def _angle_tables(s, report) -> None:
     cols = list(t)
     s.table([c.replace("_deg", " (deg)").replace("_mm", " (mm)") for c in cols],
             [[float(t[c][k]) for c in cols] for k in range(len(t["gamma_deg"]))],
-            caption="angles every 10° of γ (the angles --json table)", left=0)
+            caption="angles every 10° of γ (the angles --json table)", left=0, folded=True)
 
 
 # -----------------------------------------------------------------------------
@@ -628,7 +628,7 @@ def fem_section(page, run: dict, *, source: str = "") -> None:
                  for k, v in st.items()], caption="stresses", left=0)
     s.table(["depth (mm)", "FEM force (N)", "eq. 4.22 force (N)", "FEM − eq. 4.22 (mN)"],
             [[float(x), float(y), float(z), float((y - z) * 1e3)] for x, y, z in zip(d, f, a)],
-            caption="force curve", left=0)
+            caption="force curve", left=0, folded=len(d) > 12)
 
 
 # -----------------------------------------------------------------------------
@@ -729,3 +729,49 @@ def optimize_section(page, report: dict, table: dict[str, np.ndarray], *,
         s.table(["response", "kernel", "LOO RMSE", "LOO max |error|", "RMSE / std",
                  "95 % coverage"],
                 lrows, caption="leave-one-out errors of the GP (response units)")
+
+
+# -----------------------------------------------------------------------------
+def grind_section(page, res, spec=None) -> None:
+    """A grinding run (:class:`cam.GrindResult`): the simulated ground tip
+    beside the CAD (when simulated), the set-up of every face, the program's
+    numbers, the comparison and its verdict."""
+    from plotly.subplots import make_subplots
+
+    from ..build import build_tip
+
+    summ = res.summary()
+    prog = summ["program"]
+    s = page.section(f"{prog.get('name', 'tip')}: five-axis grinding",
+                     "The set-up of every face (ξ, r5 = ϕ_g, r4 in degrees; t1 and the "
+                     "wheel's OC in mm), the program's numbers and — with the simulation — "
+                     "the ground tip beside the CAD (cannula frame, mm, faces by label).")
+    if res.ground is not None and spec is not None:
+        cad = build_tip(spec, tolerance=DISPLAY_TOLERANCE)
+        zlo = _zlo(cad)
+        cv = np.asarray(cad.vertices)
+        cv = cv[cv[:, 2] >= zlo]
+        fig = make_subplots(1, 2, specs=[[{"type": "scene"}, {"type": "scene"}]],
+                            subplot_titles=("CAD", "simulated from the program"),
+                            horizontal_spacing=0.02)
+        for t in _mesh_traces(cad, zlo=zlo, scene="scene"):
+            fig.add_trace(t)
+        for t in _mesh_traces(_display_tip(res.ground), zlo=zlo, scene="scene2", legend=False):
+            fig.add_trace(t)
+        fig.update_layout(scene=_scene(cv), scene2=_scene(cv),
+                          margin={"l": 0, "r": 0, "t": 30, "b": 0})
+        s.figure(fig, height=560, name="ground")
+    setup = prog.get("setup") or []
+    if setup:
+        cols = list(setup[0])
+        s.table([c.replace("_deg", " (deg)").replace("_mm", " (mm)").replace("_rpm", " (rpm)")
+                 for c in cols], [[f.get(c) for c in cols] for f in setup],
+                caption="set-up per face")
+    s.table(["program", "value"], [[k, v] for k, v in prog.items()
+                                   if not isinstance(v, (dict, list))],
+            caption="program (units in the names: mm, s)")
+    if res.comparison is not None:
+        s.table(["comparison", "value"], [[k, v] for k, v in res.comparison.items()
+                                          if not isinstance(v, (dict, list))],
+                caption="ground against CAD (units in the names)")
+        s.verdict(summ.get("verdict"))

@@ -253,6 +253,7 @@ def test_study_folder(tmp_path):
     out = tmp_path / "s.html"
     assert html_report([f], out)["sources"] == ["study-folder"]
     text = out.read_text(encoding="utf-8")
+    assert "No GP drawn" in text  # no surrogate.json
     _, fig = _fig(text, "responses")
     sweep, star = fig["data"]
     np.testing.assert_allclose(sweep["x"], xi)  # the failed design is left out
@@ -272,3 +273,43 @@ def test_grind_html_flag(tmp_path, capsys):
     _, fig = _fig(text, "ground")
     assert {t["scene"] for t in fig["data"]} == {"scene", "scene2"}
     assert ">xi (deg)</th>" in text and '<td class="">15</td>' in text
+
+
+def test_study_folder_gp_is_the_studys_own(tmp_path):
+    """With surrogate.json the page draws the study's GP, rebuilt from its
+    hyperparameters: it interpolates the designs (no nugget) and gives the
+    optimum's recorded prediction; a surrogate.json that does not reproduce
+    it is not drawn."""
+    from tipgeo.optimize.gp import GaussianProcess
+
+    f = tmp_path / "study"
+    f.mkdir()
+    xi = np.array([15.0, 25.0, 35.0, 50.0, 60.0, 75.0])
+    lc = 2 * 1.054 / np.sin(np.radians(xi))
+    (f / "sweep.csv").write_text("index,status,xi_deg,l_c_mm\n" + "".join(
+        f"{k},ok,{float(x)!r},{float(y)!r}\n" for k, (x, y) in enumerate(zip(xi, lc))))
+    g = GaussianProcess(kernel="matern52", starts=4, seed=0).fit(((xi - 15) / 60)[:, None], lc)
+    x_opt = 42.0
+    pred = float(np.ravel(g.predict(np.array([[(x_opt - 15) / 60]]), noise=True))[0])
+    sur = {"mode": "independent", "bounds": [[15.0, 75.0]], "calibrate": False,
+           "models": [{"responses": ["l_c_mm"], "kernel": "matern52",
+                       "omega": [float(w) for w in np.ravel(g.fit_.omega)], "nugget": 0.0}],
+           "loo": {}}
+    (f / "surrogate.json").write_text(json.dumps(sur))
+    rep = {"name": "s", "variables": [{"name": "xi_deg", "min": 15.0, "max": 75.0}],
+           "responses": {"recorded": ["l_c_mm"], "fitted": ["l_c_mm"]},
+           "optima": [{"objective": "o", "x": {"xi_deg": x_opt},
+                       "responses": {"l_c_mm": {"predicted": pred, "actual": 3.0}}}]}
+    (f / "report.json").write_text(json.dumps(rep))
+    html_report([f], tmp_path / "a.html")
+    _, fig = _fig((tmp_path / "a.html").read_text(encoding="utf-8"), "responses")
+    mean = next(t for t in fig["data"] if t["name"] == "GP mean")
+    xg, mg = np.asarray(mean["x"], float), np.asarray(mean["y"], float)
+    for x, y in zip(xi, lc):  # interpolates every design (grid step 0.2° hits them)
+        k = int(np.argmin(np.abs(xg - x)))
+        assert xg[k] == pytest.approx(x, abs=1e-9) and mg[k] == pytest.approx(y, rel=1e-6)
+    rep["optima"][0]["responses"]["l_c_mm"]["predicted"] = pred + 0.5
+    (f / "report.json").write_text(json.dumps(rep))
+    html_report([f], tmp_path / "b.html")
+    text = (tmp_path / "b.html").read_text(encoding="utf-8")
+    assert "No GP drawn" in text and '"GP mean"' not in text

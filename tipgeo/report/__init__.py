@@ -176,7 +176,52 @@ def _study(folder: Path):
             table[n] = np.array([float(r[n]) for r in rows])
         except (KeyError, TypeError, ValueError):
             continue
-    return rep, table
+    return rep, table, _study_gp(folder, rep, rows)
+
+
+def _study_gp(folder: Path, rep: dict, rows: list[dict]):
+    """The study's own GP models, rebuilt from surrogate.json's
+    hyperparameters (ω, kernel; no search) on the sweep's designs, as
+    {response: predict(X) → (mean, std)} — only when they reproduce every
+    optimum's recorded prediction (to 1e-6 of the response's range); else
+    None (the page then shows the designs only)."""
+    import numpy as np
+
+    from ..optimize.gp import GaussianProcess
+
+    try:
+        sj = json.loads((folder / "surrogate.json").read_text(encoding="utf-8"))
+        if sj.get("mode") != "independent" or sj.get("calibrate"):
+            return None
+        names = [v["name"] for v in rep["variables"]]
+        lo = np.array([float(b[0]) for b in sj["bounds"]])
+        hi = np.array([float(b[1]) for b in sj["bounds"]])
+        X = np.array([[float(r[n]) for n in names] for r in rows])
+        models = {}
+        for m in sj["models"]:
+            (name,) = m["responses"]
+            y = np.array([float(r[name]) for r in rows])
+            g = GaussianProcess(kernel=m["kernel"], nugget=m.get("nugget") or False, starts=1,
+                                seed=0).fit((X - lo) / (hi - lo), y, init=[m["omega"]])
+            scale = float((sj.get("interval_scale") or {}).get(name, 1.0))
+
+            def predict(Xq, g=g, scale=scale):
+                mean, std = g.predict((np.atleast_2d(Xq) - lo) / (hi - lo), return_std=True,
+                                      noise=True)
+                return np.ravel(mean), np.ravel(std) * scale
+
+            models[name] = predict
+            rng = float(np.ptp(y)) or 1.0
+            for o in rep.get("optima") or []:
+                want = ((o.get("responses") or {}).get(name) or {}).get("predicted")
+                if want is None or not all(n in (o.get("x") or {}) for n in names):
+                    continue
+                got = predict(np.array([[o["x"][n] for n in names]]))[0][0]
+                if abs(got - want) > 1e-6 * rng:
+                    return None
+        return models
+    except Exception:  # noqa: BLE001 — any mismatch: the designs alone are shown
+        return None
 
 
 def _resolve(src: Any):

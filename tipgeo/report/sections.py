@@ -632,7 +632,7 @@ def fem_section(page, run: dict, *, source: str = "") -> None:
 
 
 # -----------------------------------------------------------------------------
-def optimize_section(page, report: dict, table: dict[str, np.ndarray], *,
+def optimize_section(page, report: dict, table: dict[str, np.ndarray], gp=None, *,
                      source: str = "") -> None:
     """An optimisation study (``tipgeo optimize --out-dir``): each fitted
     response over the design variables — every analysed design of the sweep
@@ -650,8 +650,11 @@ def optimize_section(page, report: dict, table: dict[str, np.ndarray], *,
     s = page.section(f"{report.get('name', 'study')}: response surfaces and optima",
                      "Every analysed design of the sweep (exact geometry; units in the names: "
                      "mm, deg) and each objective's optimum (a star: the built optimum's "
-                     "actual value). The GP surrogate's own surfaces are the study's "
-                     "surface-*.png; these are the data it was fitted to. "
+                     "actual value). "
+                     + ("The study's GP (rebuilt from surrogate.json, reproducing its "
+                        "predictions at the optima): mean and 95 % band; with two or more "
+                        "variables, its mean over the first two, the others at the box centre. "
+                        if gp else "No GP drawn (surrogate.json not reproduced). ")
                      + (f"Source: {source}." if source else ""))
     if var and resp and all(v in table for v in var):
         cols = _CUT
@@ -661,9 +664,22 @@ def optimize_section(page, report: dict, table: dict[str, np.ndarray], *,
             fig = make_subplots(1, len(resp), subplot_titles=resp, horizontal_spacing=0.08)
             for j, r in enumerate(resp):
                 y = np.asarray(table[r], float)
-                fig.add_trace(go.Scatter(x=x[o], y=y[o], mode="lines+markers", name="sweep",
-                                         showlegend=j == 0, line={"color": "#455a64"},
-                                         marker={"size": 6}), row=1, col=j + 1)
+                if gp and r in gp:
+                    var0 = next(v for v in report["variables"] if v["name"] == var[0])
+                    xg = np.linspace(float(var0["min"]), float(var0["max"]), 301)
+                    mg, sg = gp[r](xg[:, None])
+                    fig.add_trace(go.Scatter(
+                        x=np.r_[xg, xg[::-1]], y=np.r_[mg + 1.96 * sg, (mg - 1.96 * sg)[::-1]],
+                        fill="toself", fillcolor="rgba(31,119,180,0.18)", line={"width": 0},
+                        name="GP 95 % band", showlegend=j == 0, hoverinfo="skip"),
+                        row=1, col=j + 1)
+                    fig.add_trace(go.Scatter(x=xg, y=mg, mode="lines", name="GP mean",
+                                             showlegend=j == 0, line={"color": "#1f77b4"}),
+                                  row=1, col=j + 1)
+                fig.add_trace(go.Scatter(x=x[o], y=y[o], mode="markers", name="sweep designs",
+                                         showlegend=j == 0, marker={"size": 7,
+                                                                    "color": "#263238"}),
+                              row=1, col=j + 1)
                 for k, opt in enumerate(optima):
                     ox = (opt.get("x") or {}).get(var[0])
                     oy = ((opt.get("responses") or {}).get(r) or {}).get("actual")
@@ -687,13 +703,26 @@ def optimize_section(page, report: dict, table: dict[str, np.ndarray], *,
             x, y = (np.asarray(table[v], float) for v in var[:2])
             tri = Delaunay(np.column_stack([(x - x.min()) / (np.ptp(x) or 1),
                                             (y - y.min()) / (np.ptp(y) or 1)])).simplices
+            vs = {v["name"]: v for v in report["variables"]}
             for r in resp:
                 z = np.asarray(table[r], float)
-                tr = [go.Mesh3d(x=x, y=y, z=z, i=tri[:, 0], j=tri[:, 1], k=tri[:, 2],
-                                intensity=z, colorscale="Viridis", opacity=0.85, name=r,
-                                colorbar={"title": {"text": r}}, hoverinfo="x+y+z"),
-                      go.Scatter3d(x=x, y=y, z=z, mode="markers", name="sweep",
-                                   marker={"size": 3, "color": "#263238"})]
+                if gp and r in gp:
+                    g0 = np.linspace(float(vs[var[0]]["min"]), float(vs[var[0]]["max"]), 41)
+                    g1 = np.linspace(float(vs[var[1]]["min"]), float(vs[var[1]]["max"]), 41)
+                    G0, G1 = np.meshgrid(g0, g1)
+                    Xq = np.column_stack([np.full(G0.size, 0.5 * (float(vs[n]["min"]) +
+                                                                   float(vs[n]["max"])))
+                                          for n in var])
+                    Xq[:, 0], Xq[:, 1] = G0.ravel(), G1.ravel()
+                    surf = go.Surface(x=g0, y=g1, z=gp[r](Xq)[0].reshape(G0.shape),
+                                      colorscale="Viridis", opacity=0.85, name=f"GP mean {r}",
+                                      colorbar={"title": {"text": r}})
+                else:
+                    surf = go.Mesh3d(x=x, y=y, z=z, i=tri[:, 0], j=tri[:, 1], k=tri[:, 2],
+                                     intensity=z, colorscale="Viridis", opacity=0.85, name=r,
+                                     colorbar={"title": {"text": r}}, hoverinfo="x+y+z")
+                tr = [surf, go.Scatter3d(x=x, y=y, z=z, mode="markers", name="sweep designs",
+                                         marker={"size": 3, "color": "#263238"})]
                 for k, opt in enumerate(optima):
                     ox = opt.get("x") or {}
                     oz = ((opt.get("responses") or {}).get(r) or {}).get("actual")

@@ -536,7 +536,8 @@ def compare_section(page, data: dict, points: np.ndarray, dev: np.ndarray, face:
         figh.add_vline(x=b, line={"color": "#333", "dash": "dash", "width": 1})
     figh.update_layout(template="plotly_white", bargap=0,
                        xaxis={"title": {"text": "signed deviation (µm)"}},
-                       yaxis={"title": {"text": "points (all of them)"}},
+                       yaxis={"title": {"text": "points (all of them; log scale)"},
+                              "type": "log"},
                        title={"text": f"{n:,} points; dashed: the ±{band:g} µm band "
                                       "(bars outside it in red); outermost bars hold the tails",
                               "font": {"size": 13}},

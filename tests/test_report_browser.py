@@ -162,8 +162,8 @@ def test_compare_page(browser, pages):
         const b = h._fullData[0], L = h._fullLayout, r = h.getBoundingClientRect();
         let k = 0; for (let i = 0; i < b.y.length; i++) if (b.y[i] > b.y[k]) k = i;
         return {{k: k, cd: b.customdata[k],
-                 x: r.left + L._size.l + L.xaxis.l2p(b.x[k]),
-                 y: r.top + L._size.t + L.yaxis.l2p(b.y[k] / 2)}}; }})()""")
+                 x: r.left + L.xaxis._offset + L.xaxis.l2p(L.xaxis.d2l(b.x[k])),
+                 y: r.top + L.yaxis._offset + L.yaxis.l2p(L.yaxis.d2l(b.y[k] / 2))}}; }})()""")
     browser.drain(0.5)
     for t in ("mouseMoved", "mousePressed", "mouseReleased"):
         browser.call("Input.dispatchMouseEvent", session=True, type=t, x=pos["x"], y=pos["y"],

@@ -15,12 +15,14 @@ from . import validate as v
 from .construct import AUX, BuildContext, segments_for
 from .errors import BuildError, SpecError
 from .tip import Tip
-from .tolerances import MAX_TIP_HEIGHT_MM, tol
+from .slivers import remove_slivers
+from .tolerances import MAX_ASPECT_RATIO, MAX_TIP_HEIGHT_MM, SLIVER_DEVIATION_SHARE, tol
 
-__all__ = ["build_tip"]
+__all__ = ["build_tip", "exact_surfaces"]
 
 
-def build_tip(spec, *, tolerance: float | None = None, strict: bool | None = None) -> Tip:
+def build_tip(spec, *, tolerance: float | None = None, strict: bool | None = None,
+              quality: bool = False) -> Tip:
     """Build the labelled, watertight mesh of a tip.
 
     Parameters
@@ -33,6 +35,14 @@ def build_tip(spec, *, tolerance: float | None = None, strict: bool | None = Non
     strict : bool, optional
         Check status, volume > 0, one component and genus 1 after every
         boolean (default ``tol.strict``).
+    quality : bool
+        Make a mesh for other programs (exports): the tube's walls and cones
+        in rings, then slivers removed (:mod:`tipgeo.slivers`) so that the
+        triangles' aspect ratio (longest edge / shortest altitude) stays at
+        most ``MAX_ASPECT_RATIO`` where local flips, splits and collapses
+        that move the surface by at most ``SLIVER_DEVIATION_SHARE`` × the
+        tolerance can reach it. About ten times the triangles and up to a
+        few seconds; analysis does not need it (default False).
 
     Returns
     -------
@@ -66,7 +76,7 @@ def build_tip(spec, *, tolerance: float | None = None, strict: bool | None = Non
                         f"at most {MAX_TIP_HEIGHT_MM:g} mm (an angle too close to 0?)")
     z_top = max(z_top, 0.0) + 0.25 * cannula.r_o + 0.1
     ctx = BuildContext(cannula=cannula, chordal=chordal, segments=n,
-                       z_bottom=-cannula.length, z_top=z_top)
+                       z_bottom=-cannula.length, z_top=z_top, rings=bool(quality))
     solid = ctx.tube()
     _check(solid, "tube", strict)
     for k, cutter in enumerate(spec.cutters):
@@ -122,8 +132,11 @@ def _to_tip(solid: m3d.Manifold, ctx: BuildContext, spec, strict: bool) -> Tip:
         raise BuildError(
             f"{spec.name or 'tip'}: {area:.4g} mm² of construction faces survive — a cutter "
             "does not reach across the whole tube (is the tube's top cut by every cutter?)")
+    if ctx.rings:
+        verts, faces, ids = remove_slivers(verts, faces, ids, bound=MAX_ASPECT_RATIO,
+                                           max_deviation=SLIVER_DEVIATION_SHARE * ctx.chordal)
     tip = Tip(verts, faces, ids, tuple(names), spec=spec, tolerance=ctx.chordal,
-              segments=ctx.segments, source="cad")
+              segments=ctx.segments, source="cad", meta={"quality": ctx.rings})
     if strict and not tip.is_watertight:
         raise BuildError(f"{spec.name or 'tip'}: mesh is not watertight")
     return tip
@@ -134,3 +147,34 @@ def _area(v: np.ndarray, f: np.ndarray) -> float:
     return float(0.5 * np.linalg.norm(np.cross(t[:, 1] - t[:, 0], t[:, 2] - t[:, 0]), axis=1).sum())
 
 
+
+
+def exact_surfaces(tip: Tip) -> dict:
+    """label -> ``fn(points (k, 3) mm) -> (k,)`` signed distance (mm, to
+    first order) of each point from the exact surface of that label of a
+    built tip: the tube's cylinders ρ = r_o, ρ = r_i and its base plane
+    z = −length, and every cutter face whose cutter has an exact implicit
+    surface (cannula frame). Labels without one are left out. For measuring
+    a mesh's chordal error."""
+    from .construct import BASE, INNER, OUTER
+
+    spec = tip.spec
+    cannula = spec.cannula
+    out = {OUTER: lambda p: np.hypot(p[:, 0], p[:, 1]) - cannula.r_o,
+           INNER: lambda p: np.hypot(p[:, 0], p[:, 1]) - cannula.r_i,
+           BASE: lambda p: p[:, 2] + cannula.length}
+    for k, cutter in enumerate(spec.cutters):
+        previous = tuple(spec.cutters[:k])
+
+        def fn(p, cutter=cutter, previous=previous):
+            if cutter.needs_previous:
+                return cutter.implicit(p, cannula, previous)[0]
+            return cutter.implicit(p, cannula)[0]
+        try:
+            fn(np.zeros((1, 3)))
+        except NotImplementedError:
+            continue
+        for name in (cutter.label, *cutter.face_labels()):
+            if name in tip.label_names:
+                out[name] = fn
+    return out

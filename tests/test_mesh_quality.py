@@ -30,7 +30,7 @@ MEETS_BOUND = ("bevel-14G-xi15", "bevel-14G-xi45", "bevel-14G-xi75", "conical-14
                "twoplane-14G-xi15", "threeplane-14G-xi15", "punch-plain")
 
 
-@functools.lru_cache(maxsize=None)
+@functools.cache
 def _pair(name):
     spec = preset(name)
     return build_tip(spec), build_tip(spec, quality=True)

@@ -14,8 +14,8 @@ import numpy as np
 from . import validate as v
 from .construct import AUX, BuildContext, segments_for
 from .errors import BuildError, SpecError
-from .tip import Tip
 from .slivers import remove_slivers
+from .tip import Tip
 from .tolerances import MAX_ASPECT_RATIO, MAX_TIP_HEIGHT_MM, SLIVER_DEVIATION_SHARE, tol
 
 __all__ = ["build_tip", "exact_surfaces"]

@@ -23,7 +23,8 @@ from .cannula import Cannula
 from .errors import BuildError, SpecError
 from .tolerances import MAX_ASPECT_RATIO, MIN_TOLERANCE_FRACTION, tol
 
-__all__ = ["Labels", "BuildContext", "segments_for", "ring_spacing", "AUX", "OUTER", "INNER", "BASE"]
+__all__ = ["Labels", "BuildContext", "segments_for", "ring_spacing", "AUX", "OUTER", "INNER",
+           "BASE"]
 
 AUX, OUTER, INNER, BASE = "aux", "outer", "inner", "base"
 

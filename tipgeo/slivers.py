@@ -272,7 +272,7 @@ class _Mesh:
         opp = {self.opposite(self.f[k], u, v) for k in fs}
         if self.neighbours(u) & self.neighbours(v) != opp:
             return False  # link condition
-        pu, pv = self.p[u], self.p[v]
+        pu = self.p[u]
         moved = [k for k in self.vf[u] if k not in fs]
         worst_old = max(self.ar(k) for k in self.vf[u])
         new = []

@@ -27,7 +27,7 @@ from tipgeo.tolerances import MAX_ASPECT_RATIO
 
 #: samples where every triangle of the quality mesh meets the bound
 MEETS_BOUND = ("bevel-14G-xi15", "bevel-14G-xi45", "bevel-14G-xi75", "conical-14G-theta15",
-               "twoplane-14G-xi15", "threeplane-14G-xi15", "punch-plain")
+               "twoplane-14G-xi15", "threeplane-14G-xi15", "lancet-14G", "punch-plain")
 
 
 @functools.cache

@@ -15,6 +15,8 @@ operations, each checked before it is made:
 - **edge flip** inside one label, where the two triangles are coplanar
   within the deviation budget;
 - **edge split** at a point of the edge (never moves the surface);
+- **relaxation** of a vertex inside one label whose triangles lie in one
+  plane, to the mean of its neighbours (the surface does not move);
 - **edge collapse** of a short edge: a vertex inside one label moves onto a
   neighbour; a vertex on the curve between two labels slides along that
   curve only (so the boundary-of-label curves keep their shape); a vertex
@@ -324,6 +326,8 @@ class _Mesh:
             return True
         if self.try_collapse(sa, sb, max_dev) or self.try_collapse(sb, sa, max_dev):
             return True
+        if any(self.try_relax(x) for x in t):
+            return True
         # a cap: split the long edge at the foot of the opposite vertex, then
         # move that vertex onto the foot (or flip the new edges)
         c = self.opposite(t, la, lb)
@@ -343,6 +347,34 @@ class _Mesh:
             return True
         self.flip_around(w, max_dev)
         return True
+
+    def try_relax(self, u) -> bool:
+        """Move u, inside one label and a flat star, to the mean of its
+        neighbours (in that plane: the surface does not move) where that
+        folds nothing and improves the star's worst triangle."""
+        if len(self.labels_at(u)) != 1:
+            return False
+        star = list(self.vf[u])
+        n0 = self.normal(star[0])
+        if n0 is None:
+            return False
+        pu = self.p[u]
+        nb = self.neighbours(u)
+        scale = max(math.sqrt(_d2(pu, self.p[x])) for x in nb)
+        for x in nb:  # flat star: every neighbour in the plane through u
+            if abs(_dot(_sub(self.p[x], pu), n0)) > 1e-12 * scale:
+                return False
+        q = tuple(sum(self.p[x][i] for x in nb) / len(nb) for i in range(3))
+        old = [self.normal(k) for k in star]
+        worst = max(self.ar(k) for k in star)
+        self.p[u] = q
+        ok = all(nn is not None and self.normal(k) is not None
+                 and _dot(self.normal(k), nn) > _FOLD_COS for k, nn in zip(star, old))
+        if ok and max(self.ar(k) for k in star) < worst:
+            self.dirty.update(star)
+            return True
+        self.p[u] = pu
+        return False
 
     def flip_around(self, w, max_dev) -> None:
         """Flip the edges opposite w where that improves their triangles."""

@@ -10,6 +10,12 @@ exact surfaces at corners, edge midpoints and centroids, and has far fewer
 triangles above the bound. Samples whose every triangle meets the bound are
 listed in ``MEETS_BOUND``; open3d's self-intersection check (O(n²): run on
 the cut region of several samples) finds none.
+
+Known defect (not done): on helical-14G (2 pairs), punch-C2 and punch-C3 (1
+pair each) open3d finds crossing triangles in the quality mesh (none in the
+plain one); the pass's deviation checks do not catch a fold across a cone or
+tube crease there. A checked re-run around the pairs removed them but made
+the helical build take 90 s, so it is not shipped.
 """
 
 from __future__ import annotations
@@ -79,8 +85,14 @@ def test_quality_mesh_has_few_slivers(name):
         assert ar.max() <= MAX_ASPECT_RATIO
 
 
+_KNOWN_CROSSING = pytest.mark.xfail(
+    strict=True, reason="known defect: the sliver pass makes one pair of cone triangles "
+    "cross on this sample (open3d, float64); see the module docstring")
+
+
 @pytest.mark.parametrize("name", ["bevel-14G-xi75", "lancet-14G", "conical-14G-theta15",
-                                  "threeplane-14G-xi15", "punch-C1"])
+                                  "threeplane-14G-xi15", "punch-C1",
+                                  pytest.param("punch-C3", marks=_KNOWN_CROSSING)])
 def test_no_self_intersections_open3d(name):
     # open3d's check is O(n²): it runs on the cut region (every triangle
     # from 0.2 mm below the lowest cut vertex up), where the booleans and

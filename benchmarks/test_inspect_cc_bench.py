@@ -189,6 +189,10 @@ def test_compare_process_no_register(benchmark, case):
         info["cloudcompare_cpu_s"] = round(float(np.median(runs["cc"])), 2)
         info["cloudcompare_runs_s"] = [round(x, 2) for x in runs["cc"]]
         info["ratio"] = round(info["cloudcompare_cpu_s"] / info["tipgeo_cpu_s"], 2)
+        # issue 25's target at 10⁷ points: tipgeo at most 0.5 of CloudCompare's CPU
+        info["tipgeo_share_of_cloudcompare"] = round(info["tipgeo_cpu_s"]
+                                                     / info["cloudcompare_cpu_s"], 3)
+        info["target_share"] = 0.5
     benchmark.extra_info.update(info)
     print(info)
     if BIG <= N:
@@ -222,5 +226,9 @@ def test_compare_process_register_1M(benchmark, case):
         cc = float(np.median(runs["cc"]))
         info["cloudcompare_icp_c2m_cpu_s"] = round(cc, 2)
         info["ratio"] = round(cc / info["tipgeo_cpu_s"], 2)
+        # issue 25's target: the whole compare (registration, identity, verdict)
+        # at most 0.25 of CloudCompare's ICP + C2M CPU
+        info["tipgeo_share_of_cloudcompare"] = round(info["tipgeo_cpu_s"] / cc, 3)
+        info["target_share"] = 0.25
     benchmark.extra_info.update(info)
     print(info)

@@ -132,6 +132,7 @@ def ablate(toolpath: Toolpath, spec, *, beam_diameter: float = 0.020,
     gamma0_deg : float — γ of C = 0
     tolerance : float — chordal tolerance of the cut (mm); default the build's
     """
+    from tipgeo import progress as pg
     from tipgeo.build import build_tip
     from tipgeo.construct import BuildContext
 
@@ -145,72 +146,26 @@ def ablate(toolpath: Toolpath, spec, *, beam_diameter: float = 0.020,
     r_b = beam_diameter / 2
     if not r_b > 0:
         raise GCodeError(f"beam_diameter = {beam_diameter:g} mm must be positive")
-    on = [s for s in toolpath.segments if s.beam]
-    if not on:
-        raise GCodeError("the program never fires the laser (no PSOCONTROL … FIRE moves)")
-    groups: dict[float, list[Segment]] = {}
-    for s in on:
-        if abs(s.c1 - s.c0) > tol.gcode.c_angle:
-            raise GCodeError(f"line {s.line}: the beam fires during a C move; the simulator "
-                             "needs C fixed while cutting")
-        groups.setdefault(round(s.c0, 9), []).append(s)
-    names = list(tip0.label_names)
-    if "cut:laser" not in names:
-        names.append("cut:laser")
-    aux = names.index("aux") if "aux" in names else None
-    if aux is None:
-        names.append("aux")
-        aux = names.index("aux")
+    groups = _beam_groups(toolpath)
+    names = _label_names(tip0)
     mesh = m3d.Mesh64(np.array(tip0.vertices, order="C"),
                       np.array(tip0.faces, dtype=np.uint64, order="C"),
                       face_id=np.array(tip0.label_ids, dtype=np.uint64))
     solid = m3d.Manifold(mesh)
-    prev = tuple(base_cutters)
-    x0, y0 = origin
     ctx = BuildContext(cannula=cannula, chordal=chordal, segments=tip0.segments or 360,
                        z_bottom=-cannula.length, z_top=float(tip0.bounds[1, 2]))
     ctx.labels.names = names
-    from tipgeo import progress as pg
-
     cuts = []
     notches = 0
     bar = pg.bar(len(groups), "laser: ablation", unit="notch")
     for c_deg, segs in sorted(groups.items()):
         bar.update()
         gamma = math.radians(c_deg + gamma0_deg)
-        z_rim = min(float(np.min(np.atleast_1d(cut.edge_z(np.array([gamma]), cannula.r_i,
-                                                            cannula))))
-                    for cut in prev if cut.edge_z(np.array([gamma]), cannula.r_i,
-                                                   cannula) is not None)
-        region = swept_region(segs, r_b, chordal)
-        if region.is_empty():
+        polys = _notch_polygons(segs, gamma, c_deg, tuple(base_cutters), cannula, r_b, chordal,
+                                origin)
+        if polys is None:
             continue
-        # machine (X, Y) → (u, z): u = X − X0, z = z_rim − (Y − Y0)
-        polys = []
-        for p in region.to_polygons():
-            p = np.asarray(p, float)
-            q = np.stack([p[:, 0] - x0, z_rim - (p[:, 1] - y0)], 1)
-            polys.append(q[::-1])  # the Y flip mirrors: keep CCW
-        half = max(float(np.abs(np.concatenate(polys)[:, 0]).max()), tol.gcode.half_floor)
-        if not half < cannula.r_i:
-            raise GCodeError(f"the cut at C = {c_deg:g}° is {2 * half:.4g} mm wide; wider "
-                             f"than the bore ({2 * cannula.r_i:.4g} mm)")
-        r0 = 0.5 * math.sqrt(cannula.r_i ** 2 - half ** 2)
-        thick = cannula.r_o + ctx.margin - r0
-        for q in polys:
-            sec = m3d.CrossSection([q])
-            if sec.area() <= 0:
-                continue
-            for part in sec.decompose():
-                for poly in part.to_polygons():
-                    poly = np.asarray(poly, float)
-                    if len(poly) < 3:
-                        continue
-                    prism = _prism(ctx, poly, thick, "cut:laser")
-                    w = np.array([math.cos(gamma), math.sin(gamma), 0.0])
-                    u = np.array([-math.sin(gamma), math.cos(gamma), 0.0])
-                    mat = np.stack([u, [0.0, 0.0, 1.0], w, r0 * w], 1)
-                    cuts.append(prism.transform(mat))
+        cuts += _notch_prisms(ctx, polys, gamma, c_deg, cannula)
         notches += 1
     bar.close()
     if cuts:
@@ -220,8 +175,7 @@ def ablate(toolpath: Toolpath, spec, *, beam_diameter: float = 0.020,
         raise TipGeoError(f"ablation left no valid solid ({solid.status()})")
     parts = solid.decompose()
     parts.sort(key=lambda m: m.volume(), reverse=True)
-    kept = parts[0]
-    out = kept.to_mesh64()
+    out = parts[0].to_mesh64()
     v = np.asarray(out.vert_properties)[:, :3]
     f = np.asarray(out.tri_verts).astype(np.int64)
     ids = np.asarray(out.face_id).astype(np.int64)
@@ -229,6 +183,75 @@ def ablate(toolpath: Toolpath, spec, *, beam_diameter: float = 0.020,
               source="laser simulation",
               meta={"c_angles_deg": sorted(groups), "slugs": len(parts) - 1})
     return AblationResult(tip, sorted(groups), notches, len(parts) - 1)
+
+
+def _beam_groups(toolpath: Toolpath) -> dict[float, list[Segment]]:
+    """The beam-on moves grouped by their C angle (degrees); C must not move
+    while the beam fires."""
+    on = [s for s in toolpath.segments if s.beam]
+    if not on:
+        raise GCodeError("the program never fires the laser (no PSOCONTROL … FIRE moves)")
+    groups: dict[float, list[Segment]] = {}
+    for s in on:
+        if abs(s.c1 - s.c0) > tol.gcode.c_angle:
+            raise GCodeError(f"line {s.line}: the beam fires during a C move; the simulator "
+                             "needs C fixed while cutting")
+        groups.setdefault(round(s.c0, 9), []).append(s)
+    return groups
+
+
+def _label_names(tip0) -> list[str]:
+    """The plain tip's face labels with ``cut:laser`` and ``aux`` added."""
+    names = list(tip0.label_names)
+    for extra in ("cut:laser", "aux"):
+        if extra not in names:
+            names.append(extra)
+    return names
+
+
+def _notch_polygons(segs, gamma: float, c_deg: float, prev: tuple, cannula, r_b: float,
+                    chordal: float, origin: tuple[float, float]):
+    """The region the beam sweeps at one C angle, in the (u, z) frame of the
+    rim there (mm), or None if it is empty."""
+    z_rim = min(float(np.min(np.atleast_1d(cut.edge_z(np.array([gamma]), cannula.r_i,
+                                                        cannula))))
+                for cut in prev if cut.edge_z(np.array([gamma]), cannula.r_i,
+                                               cannula) is not None)
+    region = swept_region(segs, r_b, chordal)
+    if region.is_empty():
+        return None
+    x0, y0 = origin
+    # machine (X, Y) → (u, z): u = X − X0, z = z_rim − (Y − Y0)
+    polys = []
+    for p in region.to_polygons():
+        p = np.asarray(p, float)
+        q = np.stack([p[:, 0] - x0, z_rim - (p[:, 1] - y0)], 1)
+        polys.append(q[::-1])  # the Y flip mirrors: keep CCW
+    return polys
+
+
+def _notch_prisms(ctx, polys: list, gamma: float, c_deg: float, cannula) -> list:
+    """Prisms through the wall at angle ``gamma`` for the notch polygons."""
+    half = max(float(np.abs(np.concatenate(polys)[:, 0]).max()), tol.gcode.half_floor)
+    if not half < cannula.r_i:
+        raise GCodeError(f"the cut at C = {c_deg:g}° is {2 * half:.4g} mm wide; wider "
+                         f"than the bore ({2 * cannula.r_i:.4g} mm)")
+    r0 = 0.5 * math.sqrt(cannula.r_i ** 2 - half ** 2)
+    thick = cannula.r_o + ctx.margin - r0
+    w = np.array([math.cos(gamma), math.sin(gamma), 0.0])
+    u = np.array([-math.sin(gamma), math.cos(gamma), 0.0])
+    mat = np.stack([u, [0.0, 0.0, 1.0], w, r0 * w], 1)
+    cuts = []
+    for q in polys:
+        sec = m3d.CrossSection([q])
+        if sec.area() <= 0:
+            continue
+        for part in sec.decompose():
+            for poly in part.to_polygons():
+                poly = np.asarray(poly, float)
+                if len(poly) >= 3:
+                    cuts.append(_prism(ctx, poly, thick, "cut:laser").transform(mat))
+    return cuts
 
 
 def _prism(ctx, poly, thick, label):

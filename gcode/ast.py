@@ -12,8 +12,8 @@ from dataclasses import dataclass
 from typing import Union
 
 __all__ = ["Span", "Num", "Var", "Neg", "BinOp", "Compare", "Logic", "Not", "Expr", "Word",
-           "Block", "Assign", "SysAssign", "DVar", "Mode", "Pso", "Repeat", "While", "If", "Call",
-           "Dwell", "NoMotion", "Sub", "Program", "Stmt"]
+           "Block", "Assign", "SysAssign", "DVar", "Mode", "Pso", "Repeat", "For", "While", "If",
+           "Call", "Dwell", "NoMotion", "StatusRead", "StringAssign", "Sub", "Program", "Stmt"]
 
 
 @dataclass(frozen=True)
@@ -176,6 +176,41 @@ class Repeat:
 
 
 @dataclass(frozen=True)
+class For:
+    """``FOR $var = start TO end [STEP step]`` … ``NEXT [$var]``: the body
+    runs with ``$var`` = start, start + step, … while it has not passed
+    ``end`` (bounds and step evaluated once, at the start)."""
+
+    var: str
+    start: Expr
+    end: Expr
+    step: Expr | None
+    body: tuple
+    span: Span
+
+
+@dataclass(frozen=True)
+class StatusRead:
+    """``$x = AXISSTATUS(Z, DATAITEM_…)`` (or another controller status
+    function): the value is known only on the machine, so the variable
+    becomes unknown (using it later is an error) and the read is recorded."""
+
+    name: str
+    function: str
+    span: Span
+
+
+@dataclass(frozen=True)
+class StringAssign:
+    """``$s = "x = " + DBLTOSTR($x, 3)``: a string expression, evaluated by
+    :mod:`gcode.strings` (``parts`` are its tokens after the ``=``)."""
+
+    name: str
+    parts: tuple
+    span: Span
+
+
+@dataclass(frozen=True)
 class While:
     """``WHILE cond [DO]`` … ``ENDWHILE`` (or ``END WHILE``)."""
 
@@ -236,8 +271,8 @@ class Sub:
     span: Span
 
 
-Stmt = Union[Block, Assign, SysAssign, DVar, Mode, Pso, Repeat, While, If, Call, Dwell,  # noqa: UP007
-             NoMotion]
+Stmt = Union[Block, Assign, SysAssign, DVar, Mode, Pso, Repeat, For, While, If, Call,  # noqa: UP007
+             Dwell, NoMotion, StatusRead, StringAssign]
 
 
 @dataclass(frozen=True)

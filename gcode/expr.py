@@ -64,22 +64,9 @@ def evaluate(expr: ast.Expr, variables: Mapping[str, float],
     while stack:
         node, ready = stack.pop()
         if isinstance(node, ast.Num):
-            value = node.value
-            if isinstance(value, bool) or not isinstance(value, (int, float)) \
-                    or not math.isfinite(value):
-                raise fail(f"not a finite number: {value!r}")
-            values.append(float(value))
+            values.append(_literal(node.value, fail))
         elif isinstance(node, ast.Var):
-            if node.name not in variables:
-                raise fail(f"unknown variable ${node.name}")
-            try:
-                value = float(variables[node.name])
-            except (TypeError, ValueError, OverflowError):
-                raise fail(f"variable ${node.name} is not a number: "
-                           f"{variables[node.name]!r}") from None
-            if not math.isfinite(value):
-                raise fail(f"variable ${node.name} is not finite: {value!r}")
-            values.append(value)
+            values.append(_variable(node.name, variables, fail))
         elif isinstance(node, (ast.Neg, ast.Not)):
             if ready:
                 value = values.pop()
@@ -87,9 +74,7 @@ def evaluate(expr: ast.Expr, variables: Mapping[str, float],
             else:
                 stack.append((node, True))
                 stack.append((node.operand, False))
-        elif (isinstance(node, ast.BinOp) and node.op in _PRECEDENCE) or (
-                isinstance(node, ast.Compare) and node.op in _COMPARE) or (
-                isinstance(node, ast.Logic) and node.op in ("AND", "OR")):
+        elif _is_binary(node):
             if not ready:           # both operands first, then the operator
                 stack.append((node, True))
                 stack.append((node.right, False))
@@ -101,6 +86,31 @@ def evaluate(expr: ast.Expr, variables: Mapping[str, float],
         else:
             raise fail(f"not an expression: {node!r}")
     return values[0]
+
+
+def _literal(value, fail) -> float:
+    if isinstance(value, bool) or not isinstance(value, (int, float)) \
+            or not math.isfinite(value):
+        raise fail(f"not a finite number: {value!r}")
+    return float(value)
+
+
+def _variable(name: str, variables: Mapping[str, float], fail) -> float:
+    if name not in variables:
+        raise fail(f"unknown variable ${name}")
+    try:
+        value = float(variables[name])
+    except (TypeError, ValueError, OverflowError):
+        raise fail(f"variable ${name} is not a number: {variables[name]!r}") from None
+    if not math.isfinite(value):
+        raise fail(f"variable ${name} is not finite: {value!r}")
+    return value
+
+
+def _is_binary(node) -> bool:
+    return (isinstance(node, ast.BinOp) and node.op in _PRECEDENCE) or (
+        isinstance(node, ast.Compare) and node.op in _COMPARE) or (
+        isinstance(node, ast.Logic) and node.op in ("AND", "OR"))
 
 
 def _binary(node, left: float, right: float, fail) -> float:

@@ -50,27 +50,28 @@ import math
 import operator
 from dataclasses import dataclass, field, fields
 
-import numpy as np
-
 from tipgeo.tolerances import tol
 
 from . import ast
 from .errors import GCodeError, check_limit
 from .expr import evaluate
-from .parser import G_NO_MOTION, MAX_NESTING
+from .motion import (
+    ARC_TOLERANCE,
+    MAX_ANGLE_DEG,
+    MAX_POSITION_MM,
+    BlockContext,
+    MachineState,
+    Segment,
+    apply_block,
+    compensate,
+)
 from .parser import IO_NAME as _IO
+from .parser import MAX_NESTING
+from .strings import evaluate_string
 
 __all__ = ["Segment", "Toolpath", "interpret", "Limits", "ARC_TOLERANCE", "MAX_POSITION_MM",
            "MAX_ANGLE_DEG", "MAX_CALL_DEPTH", "MAX_IO_NAMES"]
 
-#: An arc's end must lie on the circle through its start within this many mm
-#: (relative to the radius above 1 mm); its radius must exceed it too.
-ARC_TOLERANCE = tol.gcode.arc  # alias, imported by tests
-#: Largest |X|, |Y|, |Z| and arc-centre coordinate, mm (1 km: beyond any
-#: stage, and far from float overflow in the geometry).
-MAX_POSITION_MM = 1e6
-#: Largest |C|, degrees (about 2.8 million turns).
-MAX_ANGLE_DEG = 1e9
 #: Deepest nesting of subroutine calls (CALL inside a DFS …).
 MAX_CALL_DEPTH = MAX_NESTING
 #: Most different outputs and system variables one run writes (``$DO[i].X`` for
@@ -124,80 +125,6 @@ class Limits:
 
 
 @dataclass
-class Segment:
-    """One move of the beam centre (machine frame, mm and degrees).
-
-    ``kind`` is ``line``, ``arc`` or ``rapid``; arcs have ``center`` and
-    ``ccw``. ``c0``/``c1`` are the C angles at the start and end; ``beam``
-    whether the laser fires during the move; ``feed`` in mm/s (None for
-    rapids); ``line`` the source line.
-    """
-
-    kind: str
-    start: tuple[float, float]
-    end: tuple[float, float]
-    beam: bool
-    c0: float
-    c1: float
-    feed: float | None
-    line: int
-    center: tuple[float, float] | None = None
-    ccw: bool = True
-    rotary_feed: float | None = None
-    z0: float = 0.0
-    z1: float = 0.0
-
-    @property
-    def radius(self) -> float:
-        if self.center is None:
-            return 0.0
-        return math.dist(self.start, self.center)
-
-    @property
-    def sweep(self) -> float:
-        """Signed angle swept by an arc (rad, + counter-clockwise)."""
-        if self.center is None:
-            return 0.0
-        cx, cy = self.center
-        a0 = math.atan2(self.start[1] - cy, self.start[0] - cx)
-        a1 = math.atan2(self.end[1] - cy, self.end[0] - cx)
-        d = a1 - a0
-        if self.ccw:
-            d = d % (2 * math.pi)
-            if d < tol.gcode.full_turn:
-                d = 2 * math.pi
-        else:
-            d = -((-d) % (2 * math.pi))
-            if d > -tol.gcode.full_turn:
-                d = -2 * math.pi
-        return d
-
-    @property
-    def length(self) -> float:
-        """XY path length (mm)."""
-        if self.kind == "arc":
-            return abs(self.sweep) * self.radius
-        return math.dist(self.start, self.end)
-
-    @property
-    def path_length(self) -> float:
-        """XYZ path length (mm): the XY length with the Z travel (a line in
-        space, or a helix for an arc)."""
-        return math.hypot(self.length, self.z1 - self.z0)
-
-    def points(self, chordal: float = 1e-4) -> np.ndarray:
-        """(k, 2) points along the move (arcs within ``chordal`` mm)."""
-        if self.kind != "arc" or self.radius <= 0:
-            return np.array([self.start, self.end], float)
-        r = self.radius
-        step = 2 * math.acos(max(1 - chordal / r, -1.0)) if chordal < r else math.pi / 2
-        n = max(2, math.ceil(abs(self.sweep) / max(step, tol.gcode.step_floor)))
-        a0 = math.atan2(self.start[1] - self.center[1], self.start[0] - self.center[0])
-        a = a0 + np.linspace(0, self.sweep, n + 1)
-        return np.stack([self.center[0] + r * np.cos(a), self.center[1] + r * np.sin(a)], 1)
-
-
-@dataclass
 class Toolpath:
     """Interpreted program: beam-centre moves and what the run takes."""
 
@@ -214,6 +141,8 @@ class Toolpath:
     no_motion: list[dict] = field(default_factory=list)
     #: last value written to each system variable or output (``$DO[0].X`` …)
     io: dict[str, float] = field(default_factory=dict)
+    #: string variables at the end of the run (name without ``$`` → text)
+    strings: dict[str, str] = field(default_factory=dict)
 
     def summary(self) -> dict:
         """Path length, beam-on length (mm), estimated time (s) from the
@@ -245,30 +174,6 @@ class Toolpath:
                 "dwells": len(self.dwells), "dwell_time_s": t_dwell,
                 "no_motion_statements": len(self.no_motion),
                 "warnings": len(self.warnings)}
-
-
-# ---------------------------------------------------------------------------------------------
-_AXES = ("X", "Y", "Z", "C")
-_MOTION = {0: "rapid", 1: "line", 2: "cw", 3: "ccw"}
-
-
-@dataclass
-class _State:
-    pos: dict = field(default_factory=lambda: {"X": 0.0, "Y": 0.0, "Z": 0.0, "C": 0.0})
-    offset: dict = field(default_factory=lambda: {"X": 0.0, "Y": 0.0, "Z": 0.0, "C": 0.0})
-    absolute: bool = True
-    scale: float = 1.0            # 25.4 in ENGLISH
-    motion: str = "line"
-    feed: float | None = None     # mm per time unit
-    rotary_feed: float | None = None
-    time_per_unit: float = 1.0    # seconds per time unit (SECONDS: 1, MINUTES: 60)
-    tool: int = 0
-    comp: int = 0                 # 0 off, +1 left (G41), -1 right (G42)
-    laser: bool = False
-    period_us: float | None = None
-    on_us: float | None = None
-    default_feed: float | None = None  # mm/s, for a feed move before any F
-    warnings: list | None = None
 
 
 def interpret(program: ast.Program, *, tool_radii: dict[int, float] | None = None,
@@ -309,169 +214,243 @@ def interpret(program: ast.Program, *, tool_radii: dict[int, float] | None = Non
     if default_feed is not None and (isinstance(default_feed, bool) or not isinstance(
             default_feed, (int, float)) or not (math.isfinite(default_feed) and default_feed > 0)):
         raise ValueError(f"default_feed must be a finite number > 0 (mm/s), not {default_feed!r}")
-    st = _State()
-    vars_: dict[str, float] = {}
-    declared: set[str] = set()
-    raw: list[dict] = []          # programmed moves, compensation applied afterwards
-    warnings: list[str] = list(program.warnings)
-    st.default_feed, st.warnings = default_feed, warnings
-    max_statements, max_ops = limits.max_statements, limits.max_operations
-    executed = 0                  # statements
-    ops = 0                       # operations (see Limits.max_operations)
-    weights: dict[int, int] = {}  # id(statement) -> its operations (the tree outlives the run)
-    subs = {sub.name: sub for sub in program.subroutines}
-    dwells: list[tuple[float, bool, int]] = []
-    notes: dict[tuple[int, int], dict] = {}
-    io: dict[str, float] = {}
-    depth = 0                     # subroutine calls in progress
+    run = _Run(program, tools, limits, default_feed)
+    try:
+        run.body(program.body)
+    except _EndOfProgram:
+        pass
+    segments = compensate(run.raw, run.warnings)
+    st = run.st
+    return Toolpath(segments, st.period_us, st.on_us,
+                    "seconds" if st.time_per_unit == 1.0 else "minutes", run.warnings,
+                    rapid_speed, run.dwells, list(run.notes.values()), run.io, run.strings)
 
-    def note(span: ast.Span, kind: str, effect: str) -> None:
-        rec = notes.get((span.line, span.col))
+
+class _EndOfProgram(Exception):
+    """``END``, ``END PROGRAM``, ``M2`` or ``M30``: nothing after it runs."""
+
+
+class _Run:
+    """One run of a program: the machine state, variables, records and the
+    counts checked against :class:`Limits`. Each statement type has one
+    method (:data:`_EXECUTE`); moves are applied by :mod:`gcode.motion`."""
+
+    def __init__(self, program: ast.Program, tools: dict, limits: Limits,
+                 default_feed: float | None):
+        self.st = MachineState()
+        self.tools, self.limits = tools, limits
+        self.vars: dict[str, float] = {}
+        self.strings: dict[str, str] = {}
+        self.raw: list[dict] = []          # programmed moves, compensated afterwards
+        self.warnings: list[str] = list(program.warnings)
+        self.st.default_feed, self.st.warnings = default_feed, self.warnings
+        self.executed = 0                  # statements
+        self.ops = 0                       # operations (see Limits.max_operations)
+        self.weights: dict[int, int] = {}  # id(statement) -> its operations
+        self.subs = {sub.name: sub for sub in program.subroutines}
+        self.dwells: list[tuple[float, bool, int]] = []
+        self.notes: dict[tuple[int, int], dict] = {}
+        self.io: dict[str, float] = {}
+        self.depth = 0                     # subroutine calls in progress
+        self.ctx = BlockContext(self.ev, _err, self.raw, tools, self.note, self.dwell)
+
+    # -- services ---------------------------------------------------------------------
+    def ev(self, expr, span):
+        return evaluate(expr, self.vars, span=span)
+
+    def note(self, span: ast.Span, kind: str, effect: str) -> None:
+        rec = self.notes.get((span.line, span.col))
         if rec is None:
-            rec = notes[(span.line, span.col)] = {"line": span.line, "statement": span.text,
-                                                  "kind": kind, "effect": effect, "executed": 0}
+            rec = self.notes[(span.line, span.col)] = {
+                "line": span.line, "statement": span.text, "kind": kind, "effect": effect,
+                "executed": 0}
         rec["effect"] = effect
         rec["executed"] += 1
 
-    def dwell(seconds: float, span: ast.Span) -> None:
+    def dwell(self, seconds: float, span: ast.Span) -> None:
         if not seconds >= 0:
-            raise err(f"dwell time {seconds:g} s: must be ≥ 0", span)
-        dwells.append((seconds, st.laser, span.line))
-        if len(raw) + len(dwells) > limits.max_segments:
-            raise err(f"more than {limits.max_segments} moves and dwells "
-                      f"(max_segments = {limits.max_segments})", span)
+            raise _err(f"dwell time {seconds:g} s: must be ≥ 0", span)
+        self.dwells.append((seconds, self.st.laser, span.line))
+        self.check_moves(span, "moves and dwells")
 
-    def count_one(s) -> None:
-        """Charge one more execution of ``s``'s header (a WHILE test)."""
-        nonlocal executed, ops
-        executed += 1
-        if executed > max_statements:
-            raise err(f"more than {max_statements} statements executed "
-                      f"(max_statements = {max_statements}; runaway loop?)", s.span)
-        ops += weight(s)
-        if ops > max_ops:
-            raise err(f"more than {max_ops} operations executed "
-                      f"(max_operations = {max_ops}; runaway loop?)", s.span)
+    def check_moves(self, span: ast.Span, what: str = "moves") -> None:
+        limit = self.limits.max_segments
+        if len(self.raw) + len(self.dwells) > limit:
+            raise _err(f"more than {limit} {what} (max_segments = {limit})", span)
 
-    def err(msg, span: ast.Span):
-        return GCodeError(msg, span.line, span.col, span.text)
-
-    def ev(expr, span):
-        return evaluate(expr, vars_, span=span)
-
-    def weight(s) -> int:
-        w = weights.get(id(s))
+    def weight(self, s) -> int:
+        w = self.weights.get(id(s))
         if w is None:
-            w = weights[id(s)] = _weight(s)
+            w = self.weights[id(s)] = _weight(s)
         return w
 
-    def run(body):
-        nonlocal executed, ops, depth
-        for s in body:
-            executed += 1
-            if executed > max_statements:
-                raise err(f"more than {max_statements} statements executed "
-                          f"(max_statements = {max_statements}; runaway loop?)", s.span)
-            w = weights.get(id(s))
-            if w is None:
-                w = weights[id(s)] = _weight(s)
-            ops += w
-            if ops > max_ops:
-                raise err(f"more than {max_ops} operations executed "
-                          f"(max_operations = {max_ops}; runaway loop?)", s.span)
-            if isinstance(s, ast.Block):
-                _block(st, s, ev, err, raw, tools, note, dwell)
-                if len(raw) + len(dwells) > limits.max_segments:
-                    raise err(f"more than {limits.max_segments} moves "
-                              f"(max_segments = {limits.max_segments})", s.span)
-            elif isinstance(s, ast.Assign):
-                vars_[s.name] = ev(s.expr, s.span)
-            elif isinstance(s, ast.Pso):
-                _pso(st, s, ev, err)
-            elif isinstance(s, ast.Mode):
-                _mode(st, s, err)
-            elif isinstance(s, ast.Repeat):
-                n = ev(s.count, s.span)
-                k = round(n)
-                if abs(n - k) > tol.gcode.whole * max(1.0, abs(n)) or k < 0:
-                    raise err(f"REPEAT count {n:.12g} is not a whole number ≥ 0", s.span)
-                if k > limits.max_repeat:
-                    raise err(f"REPEAT count {k} exceeds max_repeat = {limits.max_repeat}",
-                              s.span)
-                if not s.body or k == 0:
-                    continue          # nothing to run: no empty loop of a billion passes
-                # each pass executes every statement of the body at least once
-                if k * len(s.body) > max_statements - executed:
-                    raise err(f"REPEAT {k} × {len(s.body)} statements would execute more than "
-                              f"{max_statements} statements (max_statements = "
-                              f"{max_statements}; runaway loop?)", s.span)
-                per_pass = sum(weight(b) for b in s.body)
-                if k * per_pass > max_ops - ops:
-                    raise err(f"REPEAT {k} × {per_pass} operations would execute more than "
-                              f"{max_ops} operations (max_operations = {max_ops}; "
-                              "runaway loop?)", s.span)
-                for _ in range(k):
-                    run(s.body)
-            elif isinstance(s, ast.DVar):
-                for n in s.names:
-                    declared.add(n)
-                    vars_.setdefault(n, 0.0)
-            elif isinstance(s, ast.While):
-                while ev(s.cond, s.span) != 0.0:
-                    run(s.body)
-                    count_one(s)
-            elif isinstance(s, ast.If):
-                for i, (cond, body) in enumerate(s.branches):
-                    if i and cond is not None:
-                        ops += _size(cond)
-                    if cond is None or ev(cond, s.span) != 0.0:
-                        run(body)
-                        break
-            elif isinstance(s, ast.Call):
-                sub = subs.get(s.name)
-                if sub is None:
-                    have = ", ".join(sorted(subs)) or "none"
-                    raise err(f"CALL {s.name}: no subroutine DFS {s.name} in this program "
-                              f"(have {have})", s.span)
-                if depth >= MAX_CALL_DEPTH:
-                    raise err(f"subroutine calls nested deeper than {MAX_CALL_DEPTH} "
-                              "(MAX_CALL_DEPTH; endless recursion?)", s.span)
-                values = [(letter.lower(), ev(v, s.span)) for letter, v in s.args]
-                saved = [(name, vars_.get(name)) for name, _ in values]
-                vars_.update(values)
-                depth += 1
-                try:
-                    run(sub.body)
-                finally:
-                    depth -= 1
-                    for name, old in saved:
-                        if old is None:
-                            vars_.pop(name, None)
-                        else:
-                            vars_[name] = old
-            elif isinstance(s, ast.Dwell):
-                dwell(ev(s.seconds, s.span), s.span)
-            elif isinstance(s, ast.SysAssign):
-                key = _io_key(s, ev)
-                if key not in io and len(io) >= MAX_IO_NAMES:
-                    raise err(f"more than {MAX_IO_NAMES} different outputs and system "
-                              "variables written (MAX_IO_NAMES)", s.span)
-                io[key] = ev(s.expr, s.span)
-                note(s.span, "I/O" if _IO.match(s.name) else "system variable",
-                     f"sets {key} = {io[key]:.12g}")
-            elif isinstance(s, ast.NoMotion):
-                note(s.span, s.keyword, s.what)
-            else:  # pragma: no cover - parser guarantees the node types
-                raise GCodeError(f"unknown statement {type(s).__name__}")
+    def charge(self, s) -> None:
+        """Count one execution of ``s`` (its header, for a loop) against the bounds."""
+        self.executed += 1
+        limit = self.limits.max_statements
+        if self.executed > limit:
+            raise _err(f"more than {limit} statements executed "
+                       f"(max_statements = {limit}; runaway loop?)", s.span)
+        self.ops += self.weight(s)
+        limit = self.limits.max_operations
+        if self.ops > limit:
+            raise _err(f"more than {limit} operations executed "
+                       f"(max_operations = {limit}; runaway loop?)", s.span)
 
-    try:
-        run(program.body)
-    except _EndOfProgram:
-        pass
-    segments = _compensate(raw, warnings)
-    return Toolpath(segments, st.period_us, st.on_us,
-                    "seconds" if st.time_per_unit == 1.0 else "minutes", warnings, rapid_speed,
-                    dwells, list(notes.values()), io)
+    # -- statements ----------------------------------------------------------------------
+    def body(self, statements) -> None:
+        for s in statements:
+            self.charge(s)
+            handler = _EXECUTE.get(type(s))
+            if handler is None:  # pragma: no cover - parser guarantees the node types
+                raise GCodeError(f"unknown statement {type(s).__name__}")
+            handler(self, s)
+
+    def block(self, s: ast.Block) -> None:
+        apply_block(self.st, s, self.ctx)
+        self.check_moves(s.span)
+
+    def assign(self, s: ast.Assign) -> None:
+        self.vars[s.name] = self.ev(s.expr, s.span)
+
+    def pso(self, s: ast.Pso) -> None:
+        _pso(self.st, s, self.ev)
+
+    def mode(self, s: ast.Mode) -> None:
+        _mode(self.st, s)
+
+    def repeat(self, s: ast.Repeat) -> None:
+        k = _repeat_count(self.ev(s.count, s.span), s, self.limits.max_repeat)
+        if not s.body or k == 0:
+            return          # nothing to run: no empty loop of a billion passes
+        limit = self.limits.max_statements
+        # each pass executes every statement of the body at least once
+        if k * len(s.body) > limit - self.executed:
+            raise _err(f"REPEAT {k} × {len(s.body)} statements would execute more than "
+                       f"{limit} statements (max_statements = {limit}; runaway loop?)", s.span)
+        per_pass = sum(self.weight(b) for b in s.body)
+        limit = self.limits.max_operations
+        if k * per_pass > limit - self.ops:
+            raise _err(f"REPEAT {k} × {per_pass} operations would execute more than "
+                       f"{limit} operations (max_operations = {limit}; runaway loop?)", s.span)
+        for _ in range(k):
+            self.body(s.body)
+
+    def for_loop(self, s: ast.For) -> None:
+        start, end = self.ev(s.start, s.span), self.ev(s.end, s.span)
+        step = 1.0 if s.step is None else self.ev(s.step, s.span)
+        k = _for_passes(start, end, step, s)
+        if k > self.limits.max_repeat:
+            raise _err(f"FOR runs {k} passes, more than max_repeat = "
+                       f"{self.limits.max_repeat}", s.span)
+        for i in range(k):
+            self.vars[s.var] = start + i * step
+            self.body(s.body)
+            self.charge(s)
+
+    def while_loop(self, s: ast.While) -> None:
+        while self.ev(s.cond, s.span) != 0.0:
+            self.body(s.body)
+            self.charge(s)
+
+    def if_(self, s: ast.If) -> None:
+        for i, (cond, body) in enumerate(s.branches):
+            if i and cond is not None:
+                self.ops += _size(cond)
+            if cond is None or self.ev(cond, s.span) != 0.0:
+                self.body(body)
+                return
+
+    def dvar(self, s: ast.DVar) -> None:
+        for n in s.names:
+            self.vars.setdefault(n, 0.0)
+
+    def call(self, s: ast.Call) -> None:
+        sub = self.subs.get(s.name)
+        if sub is None:
+            have = ", ".join(sorted(self.subs)) or "none"
+            raise _err(f"CALL {s.name}: no subroutine DFS {s.name} in this program "
+                       f"(have {have})", s.span)
+        if self.depth >= MAX_CALL_DEPTH:
+            raise _err(f"subroutine calls nested deeper than {MAX_CALL_DEPTH} "
+                       "(MAX_CALL_DEPTH; endless recursion?)", s.span)
+        values = [(letter.lower(), self.ev(v, s.span)) for letter, v in s.args]
+        saved = [(name, self.vars.get(name)) for name, _ in values]
+        self.vars.update(values)
+        self.depth += 1
+        try:
+            self.body(sub.body)
+        finally:
+            self.depth -= 1
+            for name, old in saved:
+                if old is None:
+                    self.vars.pop(name, None)
+                else:
+                    self.vars[name] = old
+
+    def dwell_statement(self, s: ast.Dwell) -> None:
+        self.dwell(self.ev(s.seconds, s.span), s.span)
+
+    def sys_assign(self, s: ast.SysAssign) -> None:
+        key = _io_key(s, self.ev)
+        if key not in self.io and len(self.io) >= MAX_IO_NAMES:
+            raise _err(f"more than {MAX_IO_NAMES} different outputs and system "
+                       "variables written (MAX_IO_NAMES)", s.span)
+        self.io[key] = self.ev(s.expr, s.span)
+        self.note(s.span, "I/O" if _IO.match(s.name) else "system variable",
+                  f"sets {key} = {self.io[key]:.12g}")
+
+    def no_motion(self, s: ast.NoMotion) -> None:
+        self.note(s.span, s.keyword, s.what)
+
+    def status_read(self, s: ast.StatusRead) -> None:
+        self.vars.pop(s.name, None)
+        self.strings.pop(s.name, None)
+        self.note(s.span, "STATUS", f"reads {s.function} into ${s.name}: a value known only "
+                  "on the machine (using it later is an error)")
+
+    def string_assign(self, s: ast.StringAssign) -> None:
+        value = evaluate_string(s.parts, self.vars, self.strings, s.span)
+        if isinstance(value, str):
+            self.strings[s.name] = value
+            self.vars.pop(s.name, None)
+            self.note(s.span, "STRING", f"sets the string ${s.name} = {value[:60]!r}")
+        else:
+            self.vars[s.name] = value
+            self.strings.pop(s.name, None)
+            self.note(s.span, "STRING", f"sets ${s.name} = {value:.12g} (string function)")
+
+
+#: The method that executes each statement type.
+_EXECUTE = {ast.Block: _Run.block, ast.Assign: _Run.assign, ast.Pso: _Run.pso,
+            ast.Mode: _Run.mode, ast.Repeat: _Run.repeat, ast.For: _Run.for_loop,
+            ast.While: _Run.while_loop, ast.If: _Run.if_, ast.DVar: _Run.dvar,
+            ast.Call: _Run.call, ast.Dwell: _Run.dwell_statement, ast.SysAssign: _Run.sys_assign,
+            ast.NoMotion: _Run.no_motion, ast.StatusRead: _Run.status_read,
+            ast.StringAssign: _Run.string_assign}
+
+
+def _err(msg: str, span: ast.Span) -> GCodeError:
+    return GCodeError(msg, span.line, span.col, span.text)
+
+
+def _repeat_count(n: float, s: ast.Repeat, max_repeat: int) -> int:
+    k = round(n)
+    if abs(n - k) > tol.gcode.whole * max(1.0, abs(n)) or k < 0:
+        raise _err(f"REPEAT count {n:.12g} is not a whole number ≥ 0", s.span)
+    if k > max_repeat:
+        raise _err(f"REPEAT count {k} exceeds max_repeat = {max_repeat}", s.span)
+    return k
+
+
+def _for_passes(start: float, end: float, step: float, s) -> int:
+    """Passes of ``FOR $v = start TO end STEP step`` (0 if it never starts)."""
+    if step == 0.0:
+        raise _err("FOR … STEP 0 never ends", s.span)
+    n = (end - start) / step
+    if n < 0:
+        return 0
+    return int(math.floor(n + tol.gcode.whole * max(1.0, abs(n)))) + 1
 
 
 def _io_key(s: ast.SysAssign, ev) -> str:
@@ -525,390 +504,89 @@ def _size(expr) -> int:
     return n
 
 
+def _index_size(index) -> int:
+    return sum(1 if isinstance(i, str) else _size(i) for i in index)
+
+
+#: Operations one execution of each statement type costs (see Limits).
+_WEIGHTS = {
+    ast.Repeat: lambda s: _size(s.count),
+    ast.For: lambda s: _size(s.start) + _size(s.end) + (_size(s.step) if s.step else 0),
+    ast.Assign: lambda s: _size(s.expr),
+    ast.Block: lambda s: len(s.words) + len(s.keywords) + sum(
+        _size(w.value) for w in s.words if w.value is not None),
+    ast.Pso: lambda s: _index_size(s.args),
+    ast.DVar: lambda s: len(s.names),
+    ast.Mode: lambda s: len(s.args),
+    ast.While: lambda s: _size(s.cond),
+    ast.If: lambda s: _size(s.branches[0][0]),
+    ast.Call: lambda s: 1 + sum(_size(v) for _, v in s.args),
+    ast.Dwell: lambda s: _size(s.seconds),
+    ast.SysAssign: lambda s: _size(s.expr) + _index_size(s.index),
+}
+
+
 def _weight(s) -> int:
     """Operations one execution of statement ``s`` costs (see Limits)."""
-    if isinstance(s, ast.Repeat):
-        return _size(s.count)
-    if isinstance(s, ast.Assign):
-        return _size(s.expr)
-    if isinstance(s, ast.Block):
-        return len(s.words) + len(s.keywords) + sum(
-            _size(w.value) for w in s.words if w.value is not None)
-    if isinstance(s, ast.Pso):
-        return sum(1 if isinstance(a, str) else _size(a) for a in s.args)
-    if isinstance(s, ast.DVar):
-        return len(s.names)
-    if isinstance(s, ast.Mode):
-        return len(s.args)
-    if isinstance(s, ast.While):
-        return _size(s.cond)
-    if isinstance(s, ast.If):
-        return _size(s.branches[0][0])
-    if isinstance(s, ast.Call):
-        return 1 + sum(_size(v) for _, v in s.args)
-    if isinstance(s, ast.Dwell):
-        return _size(s.seconds)
-    if isinstance(s, ast.SysAssign):
-        return _size(s.expr) + sum(1 if isinstance(i, str) else _size(i) for i in s.index)
-    return 1  # NoMotion
+    f = _WEIGHTS.get(type(s))
+    return 1 if f is None else f(s)   # NoMotion, StatusRead, StringAssign: 1
 
 
-class _EndOfProgram(Exception):
-    """``END``, ``END PROGRAM``, ``M2`` or ``M30``: nothing after it runs."""
+_MODES = {"SECONDS": ("time_per_unit", 1.0), "MINUTES": ("time_per_unit", 60.0),
+          "METRIC": ("scale", 1.0), "ENGLISH": ("scale", 25.4),
+          "ABSOLUTE": ("absolute", True), "INCREMENTAL": ("absolute", False)}
 
 
-def _mode(st: _State, s: ast.Mode, err) -> None:
+def _mode(st: MachineState, s: ast.Mode) -> None:
     k = s.keyword
-    if k == "SECONDS":
-        st.time_per_unit = 1.0
-    elif k == "MINUTES":
-        st.time_per_unit = 60.0
-    elif k == "METRIC":
-        st.scale = 1.0
-    elif k == "ENGLISH":
-        st.scale = 25.4
-    elif k == "ABSOLUTE":
-        st.absolute = True
-    elif k == "INCREMENTAL":
-        st.absolute = False
-    elif k == "END":
+    if k == "END":
         raise _EndOfProgram
-    elif k == "ENABLE":
-        pass
-    else:
-        raise err(f"keyword {k} is not supported", s.span)
+    if k in _MODES:
+        name, value = _MODES[k]
+        setattr(st, name, value)
+    elif k != "ENABLE":
+        raise _err(f"keyword {k} is not supported", s.span)
 
 
-def _pso(st: _State, s: ast.Pso, ev, err) -> None:
+def _pso(st: MachineState, s: ast.Pso, ev) -> None:
     args = list(s.args)
     if s.command == "PSOCONTROL":
-        words = [a for a in args if isinstance(a, str)]
-        if "FIRE" in words or "ON" in words or "ARM" in words:
-            st.laser = True       # ARM: pulses on distance events while moving — beam on
-        elif "OFF" in words or "RESET" in words:
-            st.laser = False
-        else:
-            raise err("PSOCONTROL needs FIRE, ON, ARM, OFF or RESET", s.span)
+        _pso_control(st, s, args)
     elif s.command == "PSOPULSE":
         if "TIME" in args:
-            i = args.index("TIME")
-            nums = [a for a in args[i + 1:i + 3] if not isinstance(a, str)]
-            if len(nums) != 2:
-                raise err("PSOPULSE TIME needs a period and an on time (µs)", s.span)
-            period, on = ev(nums[0], s.span), ev(nums[1], s.span)
-            if not (period > 0 and 0 < on <= period):
-                raise err(f"PSOPULSE TIME {period:g} {on:g}: need period > 0 and "
-                          "0 < on ≤ period (µs)", s.span)
-            st.period_us, st.on_us = period, on
+            _pso_time(st, s, args, ev)
         if "CYCLES" in args:
-            i = args.index("CYCLES")
-            if i + 1 >= len(args) or isinstance(args[i + 1], str):
-                raise err("PSOPULSE CYCLES needs a pulse count", s.span)
-            n = ev(args[i + 1], s.span)
-            if n != int(n) or n < 1:
-                raise err(f"PSOPULSE CYCLES {n:g}: the pulse count must be a whole number ≥ 1",
-                          s.span)
+            _pso_cycles(s, args, ev)
     # other PSO commands configure the output and do not change the path
 
 
-def _block(st: _State, b: ast.Block, ev, err, raw, tools, note, dwell) -> None:
-    target: dict[str, float] = {}
-    center: dict[str, float] = {}
-    g92 = False
-    g4 = False
-    p_word = None
-    comp_change = None
-    for kw in b.keywords:
-        st.motion = {"RAPID": "rapid", "LINEAR": "line", "CW": "cw", "CCW": "ccw"}[kw]
-    for w in b.words:
-        if w.letter == "N":
-            continue
-        if w.letter == "G":
-            code = ev(w.value, b.span) if w.value is not None else None
-            if code is None or code != int(code):
-                raise err("G needs a whole number", w.span)
-            code = int(code)
-            if code in _MOTION:
-                st.motion = _MOTION[code]
-            elif code in (40, 41, 42):
-                comp_change = {40: 0, 41: 1, 42: -1}[code]
-            elif code == 90:
-                st.absolute = True
-            elif code == 91:
-                st.absolute = False
-            elif code == 92:
-                g92 = True
-            elif code in (17, 44, 98):
-                pass  # the XY plane (the only one) / compensation axes / as in Appendix C
-            elif code == 4:
-                g4 = True
-            elif code in (70, 71):
-                st.scale = 25.4 if code == 70 else 1.0
-            elif code in (75, 76):
-                st.time_per_unit = 60.0 if code == 75 else 1.0
-            elif code in G_NO_MOTION:
-                note(w.span, f"G{code}", G_NO_MOTION[code])
-            else:
-                raise err(f"G{code} is not supported", w.span)
-            continue
-        if w.value is None:
-            continue  # bare axis names (G44 X Y)
-        val = ev(w.value, w.span)
-        if w.letter in _AXES:
-            target[w.letter] = val * (st.scale if w.letter != "C" else 1.0)
-        elif w.letter in "IJK":
-            center[w.letter] = val * st.scale
-        elif w.letter == "F":
-            if not val > 0:
-                raise err(f"F{val:g}: the feed rate F must be > 0 (length per time unit)", w.span)
-            st.feed = val * st.scale
-        elif w.letter == "E":
-            if not val > 0:
-                raise err(f"E{val:g}: the rotary feed rate E must be > 0 (degrees per time "
-                          "unit)", w.span)
-            st.rotary_feed = val
-        elif w.letter == "T":
-            if val != int(val) or val < 0:
-                raise err(f"T{val:g}: the tool number T must be a whole number ≥ 0", w.span)
-            t = int(val)
-            if t not in tools:
-                raise err(f"T{t}: no such tool in the tool table (have "
-                          f"{', '.join(f'T{k}' for k in sorted(tools))})", w.span)
-            st.tool = t
-        elif w.letter == "P":
-            p_word = (val, w.span)
-        elif w.letter in "AB":
-            continue
-        else:
-            raise err(f"word {w.letter} is not supported", w.span)
-    if g4 or p_word is not None:
-        if not g4:
-            raise err("P is the dwell time of G4 (s): give G4 in the same block", p_word[1])
-        if p_word is None:
-            raise err("G4 needs P, the dwell time (s)", b.span)
-        if target or center:
-            raise err("G4 dwells and moves nothing: no axis words in its block", b.span)
-        dwell(p_word[0], b.span)
-        return
-    if g92:  # preset: the current position takes the given values
-        for a, v in target.items():
-            _check_position(a, v, b.span, err)
-            st.offset[a] = st.pos[a] + st.offset[a] - v
-            st.pos[a] = v
-        return
-    if comp_change is not None and not target:
-        st.comp = comp_change
-        return
-    if not target and not center:
-        return
-    new = dict(st.pos)
-    for a, v in target.items():
-        new[a] = v if st.absolute else st.pos[a] + v
-        _check_position(a, new[a], b.span, err)
-    motion = st.motion
-    if motion != "rapid" and st.feed is None:
-        how = {"line": "G01/LINEAR", "cw": "G02/CW", "ccw": "G03/CCW"}[motion]
-        if st.default_feed is not None:
-            st.feed = st.default_feed * st.time_per_unit
-            st.warnings.append(f"line {b.span.line}: a {how} move before any F: the default "
-                               f"feed {st.default_feed:g} mm/s is used until an F is given")
-    if motion != "rapid" and st.feed is None:
-        raise err(f"a {how} move needs a feed rate, but no feed rate (F) has been programmed "
-                  "yet: give F (> 0) in this block or before it", b.span)
-    if st.tool not in tools:
-        raise err(f"T{st.tool}, the current tool, is not in the tool table (have "
-                  f"{', '.join(f'T{k}' for k in sorted(tools)) or 'none'})", b.span)
-    move = {"kind": "rapid" if motion == "rapid" else ("arc" if motion in ("cw", "ccw")
-                                                        else "line"),
-            "start": (st.pos["X"], st.pos["Y"]), "end": (new["X"], new["Y"]),
-            "c0": st.pos["C"], "c1": new["C"], "beam": st.laser,
-            "z0": st.pos["Z"], "z1": new["Z"],
-            "feed": None if motion == "rapid" else st.feed / st.time_per_unit,
-            "rotary_feed": None if st.rotary_feed is None else st.rotary_feed / st.time_per_unit,
-            "line": b.span.line, "span": b.span,
-            "tool_r": tools[st.tool],
-            "comp_before": st.comp}
-    if move["kind"] == "arc":
-        if "I" not in center and "J" not in center:
-            raise err("arc without I or J (centre offset)", b.span)
-        i, j = center.get("I", 0.0), center.get("J", 0.0)
-        cx, cy = st.pos["X"] + i, st.pos["Y"] + j
-        _check_position("arc centre X", cx, b.span, err)
-        _check_position("arc centre Y", cy, b.span, err)
-        r0 = math.dist((cx, cy), move["start"])
-        r1 = math.dist((cx, cy), move["end"])
-        arc_tol = tol.gcode.arc * max(1.0, r0)
-        ccw = motion == "ccw"
-        side = st.comp if comp_change is None or comp_change == st.comp else 0
-        tool_r = tools[st.tool]
-        collapses = (side != 0 and side * (1 if ccw else -1) > 0 and tool_r > 0
-                     and r0 - tool_r <= tol.gcode.length)
-        if r0 <= arc_tol and not collapses:
-            raise err(f"arc radius {r0:.6g} mm: I{i:g} J{j:g} put the centre on the start "
-                      f"point; the radius must exceed {arc_tol:.3g} mm (ARC_TOLERANCE)", b.span)
-        if abs(r0 - r1) > arc_tol:
-            raise err(f"arc end is {abs(r0 - r1) * 1e3:.4g} µm off its circle "
-                      f"(radius {r0:.6g} mm at the start, {r1:.6g} mm at the end; the "
-                      f"tolerance is {arc_tol * 1e3:.3g} µm, ARC_TOLERANCE)", b.span)
-        move["center"] = (cx, cy)
-        move["ccw"] = ccw
-    if comp_change is not None:
-        st.comp = comp_change
-    move["comp_after"] = st.comp
-    raw.append(move)
-    st.pos = new
-
-
-def _check_position(axis: str, value: float, span: ast.Span, err) -> None:
-    if axis == "C":
-        if not abs(value) <= MAX_ANGLE_DEG:
-            raise err(f"C position {value:.6g}° is beyond ±{MAX_ANGLE_DEG:g}° (MAX_ANGLE_DEG)",
-                      span)
-    elif not abs(value) <= MAX_POSITION_MM:
-        raise err(f"{axis} position {value:.6g} mm is beyond ±{MAX_POSITION_MM:g} mm "
-                  "(MAX_POSITION_MM)", span)
-
-
-# -- cutter compensation --------------------------------------------------------------------------
-def _unit(v):
-    n = math.hypot(*v)
-    return (v[0] / n, v[1] / n) if n > 0 else (0.0, 0.0)
-
-
-def _left(d):
-    return (-d[1], d[0])
-
-
-def _offset(move, side: int, r_t: float, warnings: list[str]):
-    """The move offset by r_t to ``side`` (+1 left, −1 right) of travel."""
-    s, e = move["start"], move["end"]
-    if move["kind"] != "arc":
-        d = _unit((e[0] - s[0], e[1] - s[1]))
-        n = _left(d)
-        o = (side * r_t * n[0], side * r_t * n[1])
-        return dict(move, start=(s[0] + o[0], s[1] + o[1]), end=(e[0] + o[0], e[1] + o[1]))
-    c = move["center"]
-    r = math.dist(s, c)
-    # left of a CCW arc is towards the centre
-    towards = side * (1 if move["ccw"] else -1)
-    rn = r - towards * r_t
-    if rn <= tol.gcode.length:
-        warnings.append(f"line {move['line']}: arc radius {r:.6g} mm is not larger than the "
-                        f"tool radius {r_t:.6g} mm; the compensated path collapses to its centre")
-        rn = 0.0
-
-    def at(p):
-        u = _unit((p[0] - c[0], p[1] - c[1]))
-        return (c[0] + rn * u[0], c[1] + rn * u[1])
-    out = dict(move, start=at(s), end=at(e))
-    if rn == 0.0:
-        out["kind"] = "point"
-    return out
-
-
-def _intersect(a, b, corner):
-    """Intersection of offset elements a, b (lines or circles) nearest the
-    programmed corner, or None."""
-    def as_geo(m):
-        if m["kind"] == "arc":
-            return ("c", m["center"], math.dist(m["start"], m["center"]))
-        return ("l", m["start"], _unit((m["end"][0] - m["start"][0],
-                                        m["end"][1] - m["start"][1])))
-    ga, gb = as_geo(a), as_geo(b)
-    pts = []
-    if ga[0] == "l" and gb[0] == "l":
-        p, d = ga[1], ga[2]
-        q, e = gb[1], gb[2]
-        den = d[0] * e[1] - d[1] * e[0]
-        if abs(den) > tol.gcode.parallel:
-            t = ((q[0] - p[0]) * e[1] - (q[1] - p[1]) * e[0]) / den
-            pts.append((p[0] + t * d[0], p[1] + t * d[1]))
+def _pso_control(st: MachineState, s: ast.Pso, args: list) -> None:
+    words = {a for a in args if isinstance(a, str)}
+    if words & {"FIRE", "ON", "ARM"}:
+        st.laser = True       # ARM: pulses on distance events while moving — beam on
+    elif words & {"OFF", "RESET"}:
+        st.laser = False
     else:
-        if ga[0] == "c" and gb[0] == "c":
-            (c0, r0), (c1, r1) = (ga[1], ga[2]), (gb[1], gb[2])
-            dd = math.dist(c0, c1)
-            if tol.gcode.length < dd <= r0 + r1 and dd >= abs(r0 - r1):
-                a_ = (r0 * r0 - r1 * r1 + dd * dd) / (2 * dd)
-                h = math.sqrt(max(r0 * r0 - a_ * a_, 0.0))
-                ex = ((c1[0] - c0[0]) / dd, (c1[1] - c0[1]) / dd)
-                m = (c0[0] + a_ * ex[0], c0[1] + a_ * ex[1])
-                pts += [(m[0] - h * ex[1], m[1] + h * ex[0]), (m[0] + h * ex[1], m[1] - h * ex[0])]
-        else:
-            line, circ = (ga, gb) if ga[0] == "l" else (gb, ga)
-            p, d = line[1], line[2]
-            c, r = circ[1], circ[2]
-            f = (p[0] - c[0], p[1] - c[1])
-            bq = f[0] * d[0] + f[1] * d[1]
-            cq = f[0] ** 2 + f[1] ** 2 - r * r
-            disc = bq * bq - cq
-            if disc >= 0:
-                for sgn in (-1, 1):
-                    t = -bq + sgn * math.sqrt(disc)
-                    pts.append((p[0] + t * d[0], p[1] + t * d[1]))
-    if not pts:
-        return None
-    return min(pts, key=lambda q: math.dist(q, corner))
+        raise _err("PSOCONTROL needs FIRE, ON, ARM, OFF or RESET", s.span)
 
 
-def _compensate(raw: list[dict], warnings: list[str]) -> list[Segment]:
-    """Apply cutter compensation to the programmed moves."""
-    out: list[dict] = []
-    n = len(raw)
-    offs = [None] * n
-    for i, m in enumerate(raw):
-        side = m["comp_after"] if m["comp_before"] == m["comp_after"] else 0
-        if side and m["tool_r"] > 0 and m["kind"] != "rapid":
-            offs[i] = _offset(m, side, m["tool_r"], warnings)
-    for i, m in enumerate(raw):
-        if offs[i] is not None:
-            cur = dict(offs[i])
-            prev = offs[i - 1] if i > 0 else None
-            if prev is not None and out:
-                # join with the previous compensated element
-                p_end = out[-1]["end"]
-                if math.dist(p_end, cur["start"]) > tol.gcode.point:
-                    q = _intersect(out[-1], cur, m["start"]) if (
-                        out[-1]["kind"] != "point" and cur["kind"] != "point") else None
-                    if q is not None and \
-                            math.dist(q, m["start"]) <= 2 * m["tool_r"] + tol.gcode.point:
-                        out[-1] = _trim_end(out[-1], q)
-                        cur = _trim_start(cur, q)
-                    else:  # convex corner: round it about the programmed point
-                        side = m["comp_after"]
-                        out.append(dict(m, kind="arc", start=p_end, end=cur["start"],
-                                        center=m["start"], ccw=(side < 0), z1=m["z0"]))
-            out.append(cur)
-            continue
-        mm = dict(m)
-        # ramps: switching compensation on (off) starts (ends) at the offset
-        if m["comp_before"] != m["comp_after"] and m["comp_after"] and i + 1 < n \
-                and offs[i + 1] is not None:
-            mm["end"] = offs[i + 1]["start"]
-            if mm["kind"] == "arc":
-                mm["kind"] = "line"
-        if m["comp_before"] and not m["comp_after"] and out:
-            mm["start"] = out[-1]["end"]
-        elif out and math.dist(out[-1]["end"], mm["start"]) > tol.gcode.point and \
-                out[-1].get("comp_after") and m["kind"] != "rapid":
-            mm["start"] = out[-1]["end"]
-        out.append(mm)
-    segs = []
-    for m in out:
-        kind = m["kind"]
-        if kind == "point":
-            kind = "line"
-            m = dict(m, start=m["center"], end=m["center"], center=None)
-        segs.append(Segment(kind, tuple(m["start"]), tuple(m["end"]), bool(m["beam"]),
-                            float(m["c0"]), float(m["c1"]), m["feed"], int(m["line"]),
-                            tuple(m["center"]) if kind == "arc" else None,
-                            bool(m.get("ccw", True)), m.get("rotary_feed"),
-                            float(m.get("z0", 0.0)), float(m.get("z1", 0.0))))
-    return segs
+def _pso_time(st: MachineState, s: ast.Pso, args: list, ev) -> None:
+    i = args.index("TIME")
+    nums = [a for a in args[i + 1:i + 3] if not isinstance(a, str)]
+    if len(nums) != 2:
+        raise _err("PSOPULSE TIME needs a period and an on time (µs)", s.span)
+    period, on = ev(nums[0], s.span), ev(nums[1], s.span)
+    if not (period > 0 and 0 < on <= period):
+        raise _err(f"PSOPULSE TIME {period:g} {on:g}: need period > 0 and "
+                   "0 < on ≤ period (µs)", s.span)
+    st.period_us, st.on_us = period, on
 
 
-def _trim_end(m, q):
-    return dict(m, end=q)
-
-
-def _trim_start(m, q):
-    return dict(m, start=q)
+def _pso_cycles(s: ast.Pso, args: list, ev) -> None:
+    i = args.index("CYCLES")
+    if i + 1 >= len(args) or isinstance(args[i + 1], str):
+        raise _err("PSOPULSE CYCLES needs a pulse count", s.span)
+    n = ev(args[i + 1], s.span)
+    if n != int(n) or n < 1:
+        raise _err(f"PSOPULSE CYCLES {n:g}: the pulse count must be a whole number ≥ 1",
+                   s.span)

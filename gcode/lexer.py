@@ -240,53 +240,76 @@ def tokenize_line(line: str, lineno: int = 0, *, max_length: int = MAX_LINE_LENG
             limit = max_tokens - base
             raise GCodeError(f"line has more than {limit} tokens (MAX_LINE_TOKENS = {limit})",
                              lineno, i + 1, line[i:j])
-        if ch in _NAME_START:
-            j = i + 1
-            while j < end and line[j] in _LETTERS:
-                j += 1
-            if ch == "_" or (j < end and line[j] == "_"):   # a name: Tip_Plate_2
-                while j < end and line[j] in _NAME_CHARS:
-                    j += 1
-            tokens.append(Token("ident", line[i:j].upper(), i + 1, line[i:j]))
-            i = j
-        elif ch == '"':
-            j = line.find('"', i + 1, end)
-            if j < 0:
-                raise GCodeError("unterminated string", lineno, i + 1, line[i:min(end, i + 20)])
-            tokens.append(Token("str", line[i + 1:j], i + 1, line[i:j + 1]))
-            i = j + 1
-        elif ch == "." and i + 1 < end and line[i + 1] in _LETTERS:
-            tokens.append(Token("op", ".", i + 1, "."))
-            i += 1
-        elif ch in _DIGITS or ch == ".":
-            j = _number_end(line, i, end)
-            text = line[i:j]
-            if not _NUMBER.match(text):
-                raise GCodeError("malformed number", lineno, i + 1, text)
-            value = float(text)
-            if not math.isfinite(value):
-                raise GCodeError("number out of range", lineno, i + 1, text)
-            tokens.append(Token("num", value, i + 1, text))
-            i = j
-        elif ch == "$":
-            j = i + 1
-            if j < end and line[j] in _NAME_START:
-                j += 1
-                while j < end and line[j] in _NAME_CHARS:
-                    j += 1
-                tokens.append(Token("var", line[i + 1:j].lower(), i + 1, line[i:j]))
-                i = j
-            else:
-                raise GCodeError("'$' must be followed by a variable name", lineno, i + 1, "$")
-        elif line[i:i + 2] in _PAIRS:
-            tokens.append(Token("op", line[i:i + 2], i + 1, line[i:i + 2]))
-            i += 2
-        elif ch in _OPS:
-            tokens.append(Token("op", ch, i + 1, ch))
-            i += 1
-        else:
-            raise UnsupportedError(f"unexpected character {ch!r}", lineno, i + 1, ch)
+        tok, i = _scanner(line, i, end)(line, i, end, lineno)
+        tokens.append(tok)
     return tokens
+
+
+def _scanner(line: str, i: int, end: int):
+    """The function that reads the token starting at ``line[i]``."""
+    ch = line[i]
+    if ch in _NAME_START:
+        return _scan_name
+    if ch == '"':
+        return _scan_string
+    if ch == "." and i + 1 < end and line[i + 1] in _LETTERS:
+        return _scan_op                  # $DO[0].X
+    if ch in _DIGITS or ch == ".":
+        return _scan_number
+    if ch == "$":
+        return _scan_var
+    if ch in _OPS or line[i:i + 2] in _PAIRS:
+        return _scan_op
+    return _scan_foreign
+
+
+def _scan_name(line: str, i: int, end: int, lineno: int) -> tuple[Token, int]:
+    j = i + 1
+    while j < end and line[j] in _LETTERS:
+        j += 1
+    if line[i] == "_" or (j < end and line[j] == "_"):   # a name: Tip_Plate_2
+        while j < end and line[j] in _NAME_CHARS:
+            j += 1
+    return Token("ident", line[i:j].upper(), i + 1, line[i:j]), j
+
+
+def _scan_string(line: str, i: int, end: int, lineno: int) -> tuple[Token, int]:
+    j = line.find('"', i + 1, end)
+    if j < 0:
+        raise GCodeError("unterminated string", lineno, i + 1, line[i:min(end, i + 20)])
+    return Token("str", line[i + 1:j], i + 1, line[i:j + 1]), j + 1
+
+
+def _scan_number(line: str, i: int, end: int, lineno: int) -> tuple[Token, int]:
+    j = _number_end(line, i, end)
+    text = line[i:j]
+    if not _NUMBER.match(text):
+        raise GCodeError("malformed number", lineno, i + 1, text)
+    value = float(text)
+    if not math.isfinite(value):
+        raise GCodeError("number out of range", lineno, i + 1, text)
+    return Token("num", value, i + 1, text), j
+
+
+def _scan_var(line: str, i: int, end: int, lineno: int) -> tuple[Token, int]:
+    j = i + 1
+    if not (j < end and line[j] in _NAME_START):
+        raise GCodeError("'$' must be followed by a variable name", lineno, i + 1, "$")
+    j += 1
+    while j < end and line[j] in _NAME_CHARS:
+        j += 1
+    return Token("var", line[i + 1:j].lower(), i + 1, line[i:j]), j
+
+
+def _scan_op(line: str, i: int, end: int, lineno: int) -> tuple[Token, int]:
+    pair = line[i:i + 2]
+    if pair in _PAIRS:
+        return Token("op", pair, i + 1, pair), i + 2
+    return Token("op", line[i], i + 1, line[i]), i + 1
+
+
+def _scan_foreign(line: str, i: int, end: int, lineno: int) -> tuple[Token, int]:
+    raise UnsupportedError(f"unexpected character {line[i]!r}", lineno, i + 1, line[i])
 
 
 def _token_end(line: str, i: int, end: int) -> int:

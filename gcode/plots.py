@@ -7,11 +7,13 @@ from __future__ import annotations
 
 import numpy as np
 
+from tipgeo.plot import styled
 from tipgeo.tolerances import tol
 
 __all__ = ["plot_toolpath", "plot_rim"]
 
 
+@styled
 def plot_toolpath(toolpath, path, *, c_deg: float | None = None, chordal: float = 2e-4):
     """Beam-centre path of one C position (default: the first that fires):
     beam on in red, off in grey; and the C angles that fire."""
@@ -60,6 +62,7 @@ def plot_toolpath(toolpath, path, *, c_deg: float | None = None, chordal: float 
     return out
 
 
+@styled
 def plot_rim(sim_tip, spec, path, *, radii=None):
     """Unwrapped inner-edge (cutting-edge) profile of the simulated tip
     against the serration cutter's exact edge."""

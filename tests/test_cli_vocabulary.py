@@ -194,6 +194,7 @@ JSON_RUNS = {
             "--out-dir", "{d}/fem"],
     "sweep": ["sweep", "helical-study", "--dry-run"],
     "scan-synth": ["scan-synth", "bevel-14G-xi15", "-o", "{d}/s.ply", "--points", "2000"],
+    "report": ["report", "bevel-14G-xi15", "-o", "{d}/r.html"],
 }
 # compare, optimize and demo: their --json runs are in test_inspect_io.py,
 # test_optimize_study.py and test_build.py (each costs seconds, run once).

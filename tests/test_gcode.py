@@ -156,6 +156,22 @@ def test_cli_laser_check_and_sim(tmp_path, capsys):
     assert main(["gcode", "check", str(bad), "--lenient"]) == 0
 
 
+def test_cli_default_feed_mm_min(tmp_path, capsys):
+    """A G01 before any F: exit 2 naming the line; with --default-feed-mm-min
+    it runs at that feed (3 mm at 120 mm/min = 1.5 s, then 1 mm at F1 = 1 s)."""
+    import json
+
+    prog = tmp_path / "late_f.pgm"
+    prog.write_text("METRIC\nSECONDS\nG01 X3\nF1\nG01 X4\n")
+    assert main(["gcode", "check", str(prog)]) == 2
+    assert "line 3" in capsys.readouterr().err
+    assert main(["gcode", "check", str(prog), "--default-feed-mm-min", "120", "--json"]) == 0
+    out = json.loads(capsys.readouterr().out)
+    assert out["toolpath"]["time_s"] == pytest.approx(2.5, rel=1e-12)
+    assert main(["gcode", "check", str(prog), "--default-feed-mm-min", "0"]) == 2
+    assert "--default-feed-mm-min" in capsys.readouterr().err
+
+
 # -- a complete A3200 program (issue 16) -------------------------------------------------
 def test_emitted_program_is_complete_and_ascii():
     text = emit_program(preset("punch-C2"))

@@ -411,8 +411,9 @@ def test_dwell_errors(text, match):
     ("FREERUN X 10", "FREERUN"), ('PROGRAM 1 RUN "other.pgm"', "PROGRAM RUN"),
     ("PROGRAM PAUSE", "PROGRAM PAUSE"), ("PROGRAM STOP", "PROGRAM STOP"),
     ("WAIT ((TASKSTATUS(1, DATAITEM_TaskState) == TASKSTATE_Idle)) -1", "WAIT"),
-    ("G66", "G66"), ('$s = "x = " + DBLTOSTR($x, 3)', "STRING"),
-    ("$s = DBLTOSTR(1.5, 2)", "DBLTOSTR"),
+    ("G66", "G66"), ('$s = "x = " + DBLTOSTR(1.25, 3)', "STRING"),
+    ("$s = DBLTOSTR(1.5, 2)", "STRING"), ('$s = FORMAT("%f", DBLV 1)', "STRING"),
+    ('FARCALL "test.pgm"', "FARCALL"), ("$z = AXISSTATUS(Z, DATAITEM_PositionCommand)", "STATUS"),
 ])
 def test_no_motion_statements_are_parsed_and_reported(text, kind):
     tp = run(f"F1\n{text}\nG01 X1\n")
@@ -536,3 +537,89 @@ def test_while_and_if_nodes():
     w, i = prog.body
     assert isinstance(w, While) and w.cond == Compare("<", Var("i"), Num(2))
     assert isinstance(i, If) and i.branches == ((Not(Var("i")), ()), (None, ()))
+
+
+# -- issue 27: string functions, FOR, G84, status reads ------------------------------------
+@pytest.mark.parametrize("expr, value", [
+    ('"row " + DBLTOSTR(2, 0)', "row 2"), ("DBLTOSTR(0.25, 3)", "0.250"),
+    ("DBLTOSTR(-1.5, 0)", "-2"), ('STRUPR("ab" + "c")', "ABC"), ('STRLWR("AbC")', "abc"),
+    ("DBLTOSTR($x * 2, 2)", "2.50"), ('"" + ""', ""),
+])
+def test_string_functions_are_evaluated(expr, value):
+    tp = run(f"DVAR $x $s\n$x = 1.25\n$s = {expr}\n")
+    assert tp.strings == {"s": value}
+    (rec,) = [r for r in tp.no_motion if r["kind"] == "STRING"]
+    assert rec["effect"] == f"sets the string $s = {value!r}"
+
+
+@pytest.mark.parametrize("expr, value", [
+    ('STRLEN("abcd")', 4.0), ('STRLEN(DBLTOSTR(12.5, 2))', 5.0), ('STRTODBL(" 2.5e1 ")', 25.0),
+    ('STRLEN("ab") + STRLEN("c")', 3.0),
+])
+def test_string_functions_with_numbers_set_numbers(expr, value):
+    tp = run(f"$n = {expr}\nF1\nG01 X$n\n")
+    assert tp.segments[0].end == (value, 0.0) and tp.strings == {}
+
+
+@pytest.mark.parametrize("text, match", [
+    ('$s = "a" + 1', "joins two strings"), ("$s = DBLTOSTR(1, 1.5)", "whole number 0–15"),
+    ('$s = STRTODBL("x1")', "not a number"), ('$s = STRLEN(2)', "must be a string"),
+    ('$s = "a"\n$t = $s * 2', "unknown variable"),
+])
+def test_string_errors_are_located(text, match):
+    with pytest.raises(GCodeError, match=match) as info:
+        run(text)
+    assert info.value.line == text.count("\n") + 1
+
+
+def test_for_next_loops_with_step_and_zero_passes():
+    tp = run("F1\nFOR $i = 1 TO 3\nG01 X$i\nNEXT $i\nFOR $j = 10 TO 0 STEP -5\nG01 Y$j\n"
+             "NEXT\nFOR $k = 2 TO 1\nG01 X99\nNEXT $k\n")
+    assert [s.end for s in tp.segments] == [(1, 0), (2, 0), (3, 0), (3, 10), (3, 5), (3, 0)]
+    with pytest.raises(GCodeError, match="STEP 0 never ends"):
+        run("FOR $i = 0 TO 1 STEP 0\nNEXT $i\n")
+    with pytest.raises(GCodeError, match="FOR without NEXT"):
+        parse("FOR $i = 0 TO 1\n")
+    with pytest.raises(GCodeError, match="NEXT without FOR"):
+        parse("NEXT $i\n")
+    with pytest.raises(GCodeError, match="needs TO"):
+        parse("FOR $i = 0 1\nNEXT\n")
+
+
+def test_g84_turns_the_xy_frame_and_back():
+    a = math.radians(90.0)
+    tp = run("F1\nG84 X Y F90\nG01 X1\nG91\nG01 Y1\nG90\nG84 X Y\nG01 X2 Y0\n")
+    ends = [s.end for s in tp.segments]
+    assert ends[0] == pytest.approx((math.cos(a), math.sin(a)), abs=1e-15)
+    assert ends[1] == pytest.approx((-1.0, 1.0), abs=1e-15)
+    assert ends[2] == (2.0, 0.0)
+    assert tp.segments[0].feed == 1.0        # G84's F is the angle, not a feed
+    with pytest.raises(GCodeError, match="G84 turns the XY frame"):
+        run("G84 X1 Y F5\n")
+
+
+def test_status_reads_make_the_variable_unknown():
+    tp = run("DVAR $z\n$z = AXISSTATUS(Z, DATAITEM_ProgramPositionCommand)\n")
+    assert tp.no_motion[0]["kind"] == "STATUS"
+    with pytest.raises(GCodeError, match=r"unknown variable \$z"):
+        run("DVAR $z\n$z = AXISSTATUS(Z, DATAITEM_ProgramPositionCommand)\nF1\nG01 Z$z\n")
+
+
+@settings(max_examples=60, deadline=None)
+@given(x=st.floats(-1e6, 1e6, allow_nan=False), n=st.integers(0, 9))
+def test_dbltostr_round_trips_through_strtodbl(x, n):
+    """STRTODBL(DBLTOSTR(x, n)) is x to within half a unit of the n-th decimal,
+    and STRLEN counts the characters DBLTOSTR wrote."""
+    tp = run(f"$x = {x!r}\n$s = DBLTOSTR($x, {n})\n$y = STRTODBL($s)\n$k = STRLEN($s)\n"
+             "F1\nG01 X$y Y$k\n")
+    y, k = tp.segments[0].end
+    assert abs(y - x) <= 0.5 * 10.0 ** -n * (1 + 1e-9) + abs(x) * 1e-15
+    assert k == len(tp.strings["s"]) == len(f"{x:.{n}f}")
+
+
+@settings(max_examples=60, deadline=None)
+@given(a=st.integers(-20, 20), b=st.integers(-20, 20), step=st.integers(-5, 5).filter(bool))
+def test_for_runs_as_many_passes_as_a_python_range(a, b, step):
+    tp = run(f"$n = 0\nFOR $i = {a} TO {b} STEP {step}\n$n = $n + 1\nNEXT $i\nF1\nG01 X$n\n")
+    stop = b + (1 if step > 0 else -1)
+    assert tp.segments[0].end[0] == len(range(a, stop, step))

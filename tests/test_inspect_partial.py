@@ -174,3 +174,74 @@ def test_gross_outliers_in_a_registered_scan_warn_and_trim():
     tr = wide.stats["trimmed"]
     assert tr["rms_um"] == pytest.approx(clean_rms, rel=0.1)
     assert tr["trimmed_share"] == pytest.approx(0.05, abs=0.005)
+
+
+@functools.cache
+def _wide_scan():
+    """60,000 points from z = −1 mm (below the heel at 0) to the tip."""
+    return synthetic_scan(preset(SPEC), points=60_000, noise=0.001, misalignment=MIS, seed=3,
+                          z_min=-1.0)
+
+
+def test_a_side_only_scan_registers_up_to_what_it_leaves_free():
+    """The tube alone (the points below z = −0.2 mm, no cut face, no
+    outline): its axis onto the CAD's, the turn about it and the shift along
+    it reported free — not refused, not slid up into the bevel (which made
+    it a 66 µm RMS "misfit" called ambiguous) — and a pass: the tube's
+    deviations do not depend on what is free."""
+    s = _wide_scan()
+    m = s.points_cad[:, 2] < -0.2
+    res = compare(s.points[m], preset(SPEC), pictures=False)
+    reg = res.registration
+    assert reg.search.get("tube_only") is True
+    free = " ".join(reg.fixed_directions)
+    assert "rotation about the axis" in free and "translation along the axis" in free
+    assert any(w.startswith("free: rotation about the axis and translation along the axis")
+               for w in reg.warnings)
+    assert res.stats["all"]["rms_um"] < 1.0          # σ = 1 µm along the line of sight
+    # the axis is the true one (to 0.01°), whatever the free turn and shift
+    ez = np.array([0.0, 0.0, 1.0])
+    a_true = s.scan_to_cad[:3, :3].T @ ez
+    a_reg = reg.transform[:3, :3].T @ ez
+    assert math.degrees(math.acos(min(1.0, abs(a_true @ a_reg)))) < 0.01
+    assert res.verdict.ok, res.verdict.reasons
+
+
+def test_a_face_only_scan_registers_by_its_outline():
+    """The bevel face alone (the points on it, off its edges: a plane) was
+    refused ("the points lie on a plane"). Its outline against the walls
+    fixes the pose up to the face's own half-turn symmetry about its normal
+    (an elliptic ring), which is reported free; the pose is within 0.01° and
+    1 µm of the truth or of that half turn."""
+    s = _wide_scan()
+    D = ExactSolid(preset(SPEC)).distances(s.points_cad)
+    lab = np.asarray(D.label_of()).astype(str)
+    m = np.char.startswith(lab, "cut") & (D.feature == 0)
+    res = compare(s.points[m], preset(SPEC), pictures=False)
+    reg = res.registration
+    assert reg.search.get("face_only") == "cut:bevel"
+    assert any("a turn of 180.0° about its normal" in f for f in reg.fixed_directions)
+    assert res.stats["all"]["rms_um"] < 1.0
+    assert res.verdict.ok, res.verdict.reasons
+    T, Tt = reg.transform, s.scan_to_cad
+    n = ExactSolid(preset(SPEC)).distances(s.points_cad[m][:1]).normal[0]
+    c = s.points_cad[m].mean(axis=0)
+    errs = []
+    for k in (0, 1):
+        H = np.eye(4)   # a half turn about the face normal through its centroid
+        R = _half(n) if k else np.eye(3)
+        H[:3, :3], H[:3, 3] = R, c - R @ c
+        E = H @ T @ np.linalg.inv(Tt)
+        ang = math.degrees(math.acos(min(1.0, (np.trace(E[:3, :3]) - 1) / 2)))
+        errs.append((ang, float(np.abs(apply_(E, s.points_cad[m]) - s.points_cad[m]).max())))
+    best = min(errs)
+    assert best[0] <= 0.01 and best[1] <= 0.001
+
+
+def _half(n):
+    n = n / np.linalg.norm(n)
+    return 2 * np.outer(n, n) - np.eye(3)
+
+
+def apply_(T, p):
+    return p @ T[:3, :3].T + T[:3, 3]

@@ -87,9 +87,14 @@ def test_a_bevel_ground_at_15_degrees_measures_15():
     assert f["cad_xi_deg"] == pytest.approx(14.5, abs=1e-12)
     assert f["flatness_rms_um"] < 2.0
     # the excess material shows where it is: on the rake face, not on the walls
+    # (a best fit shares a little of it: the registration's graduated cut-off
+    # lets the rake face weigh in before the tube settles, and finds a pose of
+    # lower robust cost at every cut-off — the walls then sit 0.54 µm off on
+    # average, against 24 µm on the rake face)
     reg = res.stats["regions"]
     assert abs(reg["cut:bevel"]["mean_um"]) > 5
-    assert abs(reg["outer"]["mean_um"]) < 0.5
+    assert abs(reg["outer"]["mean_um"]) < 1.0
+    assert abs(reg["cut:bevel"]["mean_um"]) > 20 * abs(reg["outer"]["mean_um"])
 
 
 def test_the_nominal_bevel_measures_nominal_geometry():
@@ -151,11 +156,19 @@ def test_a_conical_tip_warns_that_its_rotation_is_free():
     assert all(0 < v < 0.01 for v in unc["rotation_deg"][:2])
 
 
-def test_a_featureless_scan_is_flagged_ambiguous():
-    """Only the tube below the heel: nothing fixes the turn about the axis."""
+def test_a_featureless_scan_leaves_the_turn_and_the_shift_free():
+    """Only the tube below the heel: nothing fixes the turn about the axis or
+    the shift along it — both reported free (issue 25: no deviation depends
+    on them), the axis itself to 0.01°."""
     spec = preset(BEVEL)
     s = synthetic_scan(spec, points=30000, noise=0.001, z_min=-1.0, seed=8,
                        misalignment=Misalignment(30.0, 1.0, 0.0, (0.0, 0.0, 0.0)))
     tube = s.points_cad[:, 2] < -0.05
     reg = register(s.points[tube], _cad(BEVEL))
-    assert any("ambiguous" in w or "not constrained" in w for w in reg.warnings)
+    assert any(w.startswith("free: rotation about the axis and translation along the axis")
+               for w in reg.warnings)
+    assert reg.search["free"] == ["rotation about the axis", "translation along the axis"]
+    ez = np.array([0.0, 0.0, 1.0])
+    a_true = s.scan_to_cad[:3, :3].T @ ez
+    a_reg = reg.transform[:3, :3].T @ ez
+    assert np.degrees(np.arccos(min(1.0, abs(a_true @ a_reg)))) < 0.01

@@ -123,17 +123,22 @@ def test_metres_overflow_names_the_file_units(tmp_path, capsys):
     assert "wrong --units" in line
 
 
-def test_a_planar_scan_cannot_be_registered_but_compares_in_the_cannula_frame(scan, capsys,
-                                                                              tmp_path):
-    """The bevel face alone: registration refuses it (no outer wall) with the
-    figures and the way out; already in the cannula frame it is a legitimate
-    partial scan and compares."""
+def test_a_planar_scan_registers_by_a_planar_face_or_is_refused(scan, capsys, tmp_path):
+    """The bevel face alone (issue 25: it was refused): against the bevel's
+    CAD it registers by its outline, the face's half-turn symmetry reported
+    free (exit 0, a pass); against a CAD with no planar cut face (the conical
+    tip) registration refuses it with the figures and the way out; already in
+    the cannula frame it is a legitimate partial scan and compares."""
     spec = preset(BEVEL)
     face = ExactSolid(spec).distances(scan.points_cad).label_of() == "cut:bevel"
     assert 1000 < face.sum() < 4000
     write_ply(tmp_path / "face-scanner.ply", scan.points[face])
     write_ply(tmp_path / "face-cad.ply", scan.points_cad[face])
-    rc = main(["compare", str(tmp_path / "face-scanner.ply"), BEVEL, "--quiet"])
+    res = compare(tmp_path / "face-scanner.ply", spec, pictures=False)
+    assert res.registration.search["face_only"] == "cut:bevel"
+    assert any("about its normal" in f for f in res.registration.fixed_directions)
+    assert res.verdict.ok and res.stats["all"]["rms_um"] < 1.5   # σ = 1 µm
+    rc = main(["compare", str(tmp_path / "face-scanner.ply"), "conical-14G-theta15", "--quiet"])
     line = _error_line(capsys, rc, f"the {face.sum()} points lie on a plane",
                        "registration needs ≥ 0.0211 mm = 2 % of the CAD's outer radius",
                        "--no-register")

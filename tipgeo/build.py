@@ -14,13 +14,15 @@ import numpy as np
 from . import validate as v
 from .construct import AUX, BuildContext, segments_for
 from .errors import BuildError, SpecError
+from .slivers import remove_slivers
 from .tip import Tip
-from .tolerances import MAX_TIP_HEIGHT_MM, tol
+from .tolerances import MAX_ASPECT_RATIO, MAX_TIP_HEIGHT_MM, SLIVER_DEVIATION_SHARE, tol
 
-__all__ = ["build_tip"]
+__all__ = ["build_tip", "exact_surfaces"]
 
 
-def build_tip(spec, *, tolerance: float | None = None, strict: bool | None = None) -> Tip:
+def build_tip(spec, *, tolerance: float | None = None, strict: bool | None = None,
+              quality: bool = False) -> Tip:
     """Build the labelled, watertight mesh of a tip.
 
     Parameters
@@ -33,6 +35,15 @@ def build_tip(spec, *, tolerance: float | None = None, strict: bool | None = Non
     strict : bool, optional
         Check status, volume > 0, one component and genus 1 after every
         boolean (default ``tol.strict``).
+    quality : bool
+        Make a mesh for other programs (exports): the tube's walls and cones
+        in rings, then slivers removed (:mod:`tipgeo.slivers`) so that the
+        triangles' aspect ratio (longest edge / shortest altitude) stays at
+        most ``MAX_ASPECT_RATIO`` where local flips, splits and collapses
+        can reach it. The booleans then run at (1 − ``SLIVER_DEVIATION_SHARE``)
+        × the tolerance and the edits move the surface by at most the rest,
+        so the mesh stays within the tolerance. About ten times the triangles and up to a
+        few seconds; analysis does not need it (default False).
 
     Returns
     -------
@@ -56,6 +67,9 @@ def build_tip(spec, *, tolerance: float | None = None, strict: bool | None = Non
     chordal = v.length("tolerance", chordal, hi=0.1 * spec.cannula.wall)
     cannula = spec.cannula
     sym = math.lcm(*(c.symmetry_order for c in spec.cutters))
+    asked = chordal
+    if quality:  # the sliver pass may move the surface by this share: mesh finer by it
+        chordal = chordal * (1.0 - SLIVER_DEVIATION_SHARE)
     n = segments_for(cannula.r_o, chordal, sym)
     z_top = min(c.z_upper(cannula) for c in spec.cutters)
     if not np.isfinite(z_top):
@@ -66,7 +80,7 @@ def build_tip(spec, *, tolerance: float | None = None, strict: bool | None = Non
                         f"at most {MAX_TIP_HEIGHT_MM:g} mm (an angle too close to 0?)")
     z_top = max(z_top, 0.0) + 0.25 * cannula.r_o + 0.1
     ctx = BuildContext(cannula=cannula, chordal=chordal, segments=n,
-                       z_bottom=-cannula.length, z_top=z_top)
+                       z_bottom=-cannula.length, z_top=z_top, rings=bool(quality))
     solid = ctx.tube()
     _check(solid, "tube", strict)
     for k, cutter in enumerate(spec.cutters):
@@ -75,7 +89,7 @@ def build_tip(spec, *, tolerance: float | None = None, strict: bool | None = Non
         _check(keep, f"cutter '{cutter.name}' solid", strict, genus=None)
         solid = solid ^ keep
         _check(solid, f"tube ∩ cutter '{cutter.name}'", strict, labels=ctx.labels)
-    return _to_tip(solid, ctx, spec, strict)
+    return _to_tip(solid, ctx, spec, strict, asked)
 
 
 def _check_aux(man: m3d.Manifold, labels, what: str) -> None:
@@ -108,7 +122,7 @@ def _check(man: m3d.Manifold, what: str, strict: bool, genus: int | None = 1,
             raise BuildError(f"{what}: genus {man.genus()}, expected {genus}{hint}")
 
 
-def _to_tip(solid: m3d.Manifold, ctx: BuildContext, spec, strict: bool) -> Tip:
+def _to_tip(solid: m3d.Manifold, ctx: BuildContext, spec, strict: bool, asked: float) -> Tip:
     mesh = solid.to_mesh64()
     verts = np.asarray(mesh.vert_properties, dtype=np.float64)[:, :3]
     faces = np.asarray(mesh.tri_verts).astype(np.int64)
@@ -122,8 +136,11 @@ def _to_tip(solid: m3d.Manifold, ctx: BuildContext, spec, strict: bool) -> Tip:
         raise BuildError(
             f"{spec.name or 'tip'}: {area:.4g} mm² of construction faces survive — a cutter "
             "does not reach across the whole tube (is the tube's top cut by every cutter?)")
-    tip = Tip(verts, faces, ids, tuple(names), spec=spec, tolerance=ctx.chordal,
-              segments=ctx.segments, source="cad")
+    if ctx.rings:
+        verts, faces, ids = remove_slivers(verts, faces, ids, bound=MAX_ASPECT_RATIO,
+                                           max_deviation=asked - ctx.chordal)
+    tip = Tip(verts, faces, ids, tuple(names), spec=spec, tolerance=asked,
+              segments=ctx.segments, source="cad", meta={"quality": ctx.rings})
     if strict and not tip.is_watertight:
         raise BuildError(f"{spec.name or 'tip'}: mesh is not watertight")
     return tip
@@ -134,3 +151,34 @@ def _area(v: np.ndarray, f: np.ndarray) -> float:
     return float(0.5 * np.linalg.norm(np.cross(t[:, 1] - t[:, 0], t[:, 2] - t[:, 0]), axis=1).sum())
 
 
+
+
+def exact_surfaces(tip: Tip) -> dict:
+    """label -> ``fn(points (k, 3) mm) -> (k,)`` signed distance (mm, to
+    first order) of each point from the exact surface of that label of a
+    built tip: the tube's cylinders ρ = r_o, ρ = r_i and its base plane
+    z = −length, and every cutter face whose cutter has an exact implicit
+    surface (cannula frame). Labels without one are left out. For measuring
+    a mesh's chordal error."""
+    from .construct import BASE, INNER, OUTER
+
+    spec = tip.spec
+    cannula = spec.cannula
+    out = {OUTER: lambda p: np.hypot(p[:, 0], p[:, 1]) - cannula.r_o,
+           INNER: lambda p: np.hypot(p[:, 0], p[:, 1]) - cannula.r_i,
+           BASE: lambda p: p[:, 2] + cannula.length}
+    for k, cutter in enumerate(spec.cutters):
+        previous = tuple(spec.cutters[:k])
+
+        def fn(p, cutter=cutter, previous=previous):
+            if cutter.needs_previous:
+                return cutter.implicit(p, cannula, previous)[0]
+            return cutter.implicit(p, cannula)[0]
+        try:
+            fn(np.zeros((1, 3)))
+        except NotImplementedError:
+            continue
+        for name in (cutter.label, *cutter.face_labels()):
+            if name in tip.label_names:
+                out[name] = fn
+    return out

@@ -21,9 +21,10 @@ import numpy as np
 
 from .cannula import Cannula
 from .errors import BuildError, SpecError
-from .tolerances import MIN_TOLERANCE_FRACTION, tol
+from .tolerances import MAX_ASPECT_RATIO, MIN_TOLERANCE_FRACTION, tol
 
-__all__ = ["Labels", "BuildContext", "segments_for", "AUX", "OUTER", "INNER", "BASE"]
+__all__ = ["Labels", "BuildContext", "segments_for", "ring_spacing", "AUX", "OUTER", "INNER",
+           "BASE"]
 
 AUX, OUTER, INNER, BASE = "aux", "outer", "inner", "base"
 
@@ -63,6 +64,15 @@ def segments_for(radius: float, chordal: float, symmetry: int = 1) -> int:
     return n
 
 
+def ring_spacing(radius: float, segments: int) -> float:
+    """Largest z spacing (mm) of the tube's vertex rings: a wall quad of
+    width w = 2π·radius/segments and this height h = 0.9 ``MAX_ASPECT_RATIO``
+    · w splits into two right triangles of aspect ratio (longest edge /
+    shortest altitude) h/w + w/h, under the bound with room for the cuts
+    that trim them."""
+    return 0.9 * MAX_ASPECT_RATIO * 2.0 * math.pi * radius / segments
+
+
 def _manifold(verts: np.ndarray, tris: np.ndarray, face_ids: np.ndarray, what: str) -> m3d.Manifold:
     # nanobind wants writable, owned, C-ordered arrays
     mesh = m3d.Mesh64(np.array(verts, dtype=np.float64, order="C", copy=True),
@@ -99,6 +109,10 @@ class BuildContext:
     labels : Labels
     previous : tuple
         Cutters applied before the current one, in order.
+    rings : bool
+        Split the tube's walls and the frustums' sides into rings no farther
+        apart than :func:`ring_spacing` (a mesh without long slivers, for
+        exports); otherwise one band from bottom to top.
     """
 
     cannula: Cannula
@@ -108,6 +122,7 @@ class BuildContext:
     z_top: float
     labels: Labels = field(default_factory=Labels)
     previous: tuple = ()
+    rings: bool = False
 
     @property
     def margin(self) -> float:
@@ -132,21 +147,31 @@ class BuildContext:
     # -- the tube ---------------------------------------------------------
     def tube(self) -> m3d.Manifold:
         """The uncut tube r_i ≤ ρ ≤ r_o, z_bottom ≤ z ≤ z_top, labelled
-        ``outer``, ``inner``, ``base`` (z = z_bottom) and ``aux`` (the top)."""
+        ``outer``, ``inner``, ``base`` (z = z_bottom) and ``aux`` (the top).
+
+        With ``rings`` the walls are split into rings along z no farther
+        apart than :func:`ring_spacing`, so no wall triangle is a long
+        sliver."""
         n = self.segments
         g = 2.0 * np.pi * np.arange(n) / n
         c, s = np.cos(g), np.sin(g)
-        ro, ri = self.cannula.r_o, self.cannula.r_i
         zb, zt = self.z_bottom, self.z_top
-        rings = [(ro, zb), (ro, zt), (ri, zb), (ri, zt)]
-        verts = np.concatenate([np.stack([r * c, r * s, np.full(n, z)], 1) for r, z in rings])
-        ob, ot, ib, it = (np.arange(n) + k * n for k in range(4))
-        tris = [_ring_quads(ob, ot, False), _ring_quads(ib, it, True),
-                _ring_quads(ib, ob, False), _ring_quads(it, ot, True)]
+        verts, rings = [], []
+        for r in (self.cannula.r_o, self.cannula.r_i):
+            bands = math.ceil((zt - zb) / ring_spacing(r, n)) if self.rings else 1
+            zs = np.linspace(zb, zt, max(1, bands) + 1)
+            start = sum(len(v) for v in verts)
+            verts += [np.stack([r * c, r * s, np.full(n, z)], 1) for z in zs]
+            rings.append([start + j * n + np.arange(n) for j in range(len(zs))])
+        ro_, ri_ = rings
+        outer = np.concatenate([_ring_quads(a, b, False) for a, b in zip(ro_, ro_[1:])])
+        inner = np.concatenate([_ring_quads(a, b, True) for a, b in zip(ri_, ri_[1:])])
+        tris = [outer, inner, _ring_quads(ri_[0], ro_[0], False),
+                _ring_quads(ri_[-1], ro_[-1], True)]
         lab = [self.labels.id(OUTER), self.labels.id(INNER), self.labels.id(BASE),
                self.labels.id(AUX)]
         ids = np.concatenate([np.full(len(t), k) for t, k in zip(tris, lab)])
-        return _manifold(verts, np.concatenate(tris), ids, "tube")
+        return _manifold(np.concatenate(verts), np.concatenate(tris), ids, "tube")
 
     # -- primitives for cutters --------------------------------------------
     def labelled(self, man: m3d.Manifold, classify: Callable[[np.ndarray, np.ndarray], np.ndarray],
@@ -189,32 +214,37 @@ class BuildContext:
         """Solid of revolution about +z between z0 (radius r0) and z1 (radius
         r1, may be 0), polygonal with ``segments`` sides starting at angle
         ``phase``. Side triangles get ``side``, the top cap ``top``, the
-        bottom cap ``aux``."""
+        bottom cap ``aux``. With ``rings`` the side is split into bands along
+        its slant no longer than :func:`ring_spacing` at the tube's outer
+        radius, so its triangles are no slivers where they cross the tube
+        wall (and stay small for the boolean's bounding boxes)."""
         n = self.segments
         g = phase + 2.0 * np.pi * np.arange(n) / n
         c, s = np.cos(g), np.sin(g)
-        bot = np.stack([r0 * c, r0 * s, np.full(n, z0)], 1)
+        slant = math.hypot(z1 - z0, r1 - r0)
+        nb = max(1, math.ceil(slant / ring_spacing(self.cannula.r_o, n))) if self.rings else 1
+        ts = np.linspace(0.0, 1.0, nb + 1)
+        if not r1 > 0:
+            ts = ts[:-1]  # the apex is one vertex
+        zs, rs = z0 + ts * (z1 - z0), r0 + ts * (r1 - r0)
+        verts = [np.stack([r * c, r * s, np.full(n, z)], 1) for r, z in zip(rs, zs)]
+        rings = [j * n + np.arange(n) for j in range(len(zs))]
+        sides = [_ring_quads(a, b, False) for a, b in zip(rings, rings[1:])]
+        cb = len(zs) * n
+        verts.append([[0, 0, z0], [0, 0, z1]])
+        b, t = rings[0], rings[-1]
+        bcap = np.stack([np.full(n, cb), np.roll(b, -1), b], 1)
         if r1 > 0:
-            topv = np.stack([r1 * c, r1 * s, np.full(n, z1)], 1)
-            verts = np.concatenate([bot, topv, [[0, 0, z0], [0, 0, z1]]])
-            b, t = np.arange(n), np.arange(n) + n
-            cb, ct = 2 * n, 2 * n + 1
-            sides = _ring_quads(b, t, False)
-            bcap = np.stack([np.full(n, cb), np.roll(b, -1), b], 1)
-            tcap = np.stack([np.full(n, ct), t, np.roll(t, -1)], 1)
-            tris = np.concatenate([sides, bcap, tcap])
-            ids = np.concatenate([np.full(len(sides), self.labels.id(side)),
-                                  np.full(n, self.labels.id(AUX)), np.full(n, self.labels.id(top))])
+            caps = [bcap, np.stack([np.full(n, cb + 1), t, np.roll(t, -1)], 1)]
+            cap_ids = [self.labels.id(AUX), self.labels.id(top)]
         else:
-            verts = np.concatenate([bot, [[0, 0, z0], [0, 0, z1]]])
-            b = np.arange(n)
-            cb, apex = n, n + 1
-            sides = np.stack([b, np.roll(b, -1), np.full(n, apex)], 1)
-            bcap = np.stack([np.full(n, cb), np.roll(b, -1), b], 1)
-            tris = np.concatenate([sides, bcap])
-            ids = np.concatenate([np.full(n, self.labels.id(side)),
-                                  np.full(n, self.labels.id(AUX))])
-        return _manifold(verts, tris, ids, side)
+            sides.append(np.stack([t, np.roll(t, -1), np.full(n, cb + 1)], 1))
+            caps, cap_ids = [bcap], [self.labels.id(AUX)]
+        sides = np.concatenate(sides)
+        tris = np.concatenate([sides] + caps)
+        ids = np.concatenate([np.full(len(sides), self.labels.id(side))]
+                             + [np.full(n, k) for k in cap_ids])
+        return _manifold(np.concatenate(verts), tris, ids, side)
 
     def prism(self, polygon: np.ndarray, thickness: float, side: str) -> m3d.Manifold:
         """Right prism over a simple CCW polygon (k, 2) in the XY plane, from

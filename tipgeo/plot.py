@@ -12,7 +12,52 @@ import numpy as np
 
 from .tolerances import tol
 
-__all__ = ["render_tip", "save_figure", "check_picture_path", "PICTURE_EXTS"]
+__all__ = ["render_tip", "save_figure", "check_picture_path", "PICTURE_EXTS", "STYLE",
+           "styled"]
+
+#: The one style of every picture tipgeo writes (matplotlib rcParams): the
+#: same fonts and sizes, light grid, white background, tight saves. Every
+#: function that draws a figure runs under it (:func:`styled`; a test checks
+#: that each one is decorated).
+STYLE = {
+    "font.family": "DejaVu Sans",
+    "font.size": 9.0,
+    "axes.titlesize": 10.0,
+    "axes.labelsize": 9.0,
+    "axes.titleweight": "normal",
+    "xtick.labelsize": 8.0,
+    "ytick.labelsize": 8.0,
+    "legend.fontsize": 8.0,
+    "legend.framealpha": 0.85,
+    "figure.titlesize": 11.0,
+    "axes.grid": True,
+    "grid.alpha": 0.3,
+    "grid.linewidth": 0.6,
+    "axes.spines.top": False,
+    "axes.spines.right": False,
+    "axes.prop_cycle": "cycler('color', ['#1f77b4', '#ff7f0e', '#2ca02c', '#d62728', "
+                       "'#9467bd', '#8c564b', '#e377c2', '#7f7f7f', '#bcbd22', '#17becf'])",
+    "figure.facecolor": "white",
+    "savefig.facecolor": "white",
+    "savefig.dpi": 130,
+    "image.cmap": "viridis",
+}
+
+
+def styled(func):
+    """Run a picture-drawing function under :data:`STYLE` (matplotlib's
+    ``rc_context``, so a caller's own settings are untouched)."""
+    import functools
+
+    @functools.wraps(func)
+    def wrapper(*args, **kwargs):
+        import matplotlib
+
+        matplotlib.use("Agg")
+        with matplotlib.rc_context(STYLE):
+            return func(*args, **kwargs)
+
+    return wrapper
 
 _COLORS = {"outer": "#9aa5b1", "inner": "#c7b79a", "base": "#555555"}
 _CUT = ["#d1495b", "#2e86ab", "#edae49", "#66a182", "#8d6a9f", "#f49d37", "#00798c"]
@@ -36,18 +81,25 @@ def check_picture_path(path, what: str = "path") -> Path:
 
 def save_figure(fig, path) -> Path:
     """Save a matplotlib figure to ``path`` atomically (format by extension:
-    :data:`PICTURE_EXTS`)."""
+    :data:`PICTURE_EXTS`), at the style's resolution and margins."""
     from .atomic import write_atomic
 
     path = check_picture_path(path)
     fmt = path.suffix.lower().lstrip(".")
-    return write_atomic(path, lambda tmp: fig.savefig(tmp, dpi=130, bbox_inches="tight",
-                                                      format=fmt))
+    return write_atomic(path, lambda tmp: fig.savefig(
+        tmp, dpi=STYLE["savefig.dpi"], bbox_inches="tight",
+        pad_inches=0.08, format=fmt))
 
 
+@styled
 def render_tip(tip, path, *, views=((20, -60), (20, 30), (80, -90)), title: str | None = None,
                z_below: float | None = None) -> Path:
     """Write a PNG of ``tip`` from several views, faces coloured by label.
+
+    The box of each view is the shown part's in true proportions (x, y over
+    the tube's diameter, z from ``z_below`` under the heel to the top), so the
+    tip fills its frame; a view from above (elevation ≥ 60°) leaves out the z
+    axis, whose ticks would pile up.
 
     Parameters
     ----------
@@ -58,9 +110,8 @@ def render_tip(tip, path, *, views=((20, -60), (20, 30), (80, -90)), title: str 
         Show the tube from this far below z = 0 (mm); default 0.3 · d_e.
     """
     import matplotlib
-
-    matplotlib.use("Agg")
     import matplotlib.pyplot as plt
+    from matplotlib.ticker import MaxNLocator
     from mpl_toolkits.mplot3d.art3d import Poly3DCollection
 
     v = tip.vertices
@@ -82,28 +133,50 @@ def render_tip(tip, path, *, views=((20, -60), (20, 30), (80, -90)), title: str 
     base = np.array([matplotlib.colors.to_rgb(colors.get(lab, "#555555")) for lab in labels])
     fc = np.clip(base * shade[:, None], 0, 1)
     zmax = float(tri[:, :, 2].max())
-    fig = plt.figure(figsize=(4.2 * len(views), 4.6))
+    lo = tri.reshape(-1, 3).min(axis=0)
+    hi = tri.reshape(-1, 3).max(axis=0)
+    pad = 0.04 * float(np.max(hi - lo))
+    lo, hi = lo - pad, hi + pad
+    span = hi - lo
+    tall = span[2] / max(span[0], span[1])
+    # matplotlib fits a 3D box into the square of its panel: square panels
+    fig = plt.figure(figsize=(3.9 * len(views), 4.4))
     for k, (el, az) in enumerate(views):
         ax = fig.add_subplot(1, len(views), k + 1, projection="3d")
         ax.add_collection3d(Poly3DCollection(tri, facecolors=fc, edgecolors="none"))
-        span = max(zmax - zlo, 2 * r)
-        ax.set_xlim(-span / 2, span / 2)
-        ax.set_ylim(-span / 2, span / 2)
-        ax.set_zlim(zlo, zlo + span)
-        ax.set_box_aspect((1, 1, 1))
+        ax.set_xlim(lo[0], hi[0])
+        ax.set_ylim(lo[1], hi[1])
+        ax.set_zlim(lo[2], max(hi[2], zmax))
+        above = el >= 60
+        # from above a tall part's height only shrinks the ring: z drawn compressed
+        ax.set_box_aspect((span[0], span[1], min(span[2], 0.35 * max(span[0], span[1]))
+                           if above and tall > 0.35 else span[2]), zoom=0.95)
         ax.view_init(elev=el, azim=az)
-        ax.set_xlabel("x (mm)")
-        ax.set_ylabel("y (mm)")
-        ax.set_zlabel("z (mm)")
-        ax.tick_params(labelsize=7)
+        for axis in (ax.xaxis, ax.yaxis, ax.zaxis):
+            axis.set_major_locator(MaxNLocator(4))
+        ax.set_xlabel("x (mm)", labelpad=1)
+        ax.set_ylabel("y (mm)", labelpad=1)
+        if above:  # from above: z would be a pile of ticks
+            ax.set_zticks([])
+            ax.set_zlabel("")
+        else:
+            ax.set_zlabel("z (mm)", labelpad=9)
+        ax.tick_params(labelsize=7, pad=0)
     handles = [plt.Rectangle((0, 0), 1, 1, color=colors[n]) for n in names]
-    fig.legend(handles, names, loc="lower center", ncol=min(len(names), 6), fontsize=8)
-    fig.suptitle(title or getattr(tip.spec, "name", "") or "tip", fontsize=10)
+    fig.legend(handles, names, loc="lower center", ncol=min(len(names), 6), frameon=False,
+               bbox_to_anchor=(0.5, -0.02))
+    views_txt = "; ".join(f"elev. {el:g}°, azim. {az:g}°" + (" (z compressed)" if el >= 60
+                                                            and tall > 0.35 else "")
+                          for el, az in views)
+    fig.suptitle(f"{title or getattr(tip.spec, 'name', '') or 'tip'} — views: {views_txt}",
+                 y=0.99)
+    fig.subplots_adjust(left=0.0, right=1.0, bottom=0.12, top=0.95, wspace=0.08)
     out = save_figure(fig, path)
     plt.close(fig)
     return out
 
 
+@styled
 def plot_angles(reports, path, *, samples: int = 3601) -> Path:
     """Write a PNG of edge profiles and cutting angles of one or more tips,
     overlaid (like thesis Figs. 3.5, 3.6, 3.9, 3.10).
@@ -151,7 +224,8 @@ def plot_angles(reports, path, *, samples: int = 3601) -> Path:
         a.set_xticks(range(0, 361, 60))
     for a in ax.flat:
         a.grid(True, alpha=0.3)
-    ax[0, 0].legend(fontsize=7, loc="upper left")
+    ax[0, 0].legend(fontsize=7, loc="upper left", bbox_to_anchor=(0.0, -0.16), ncol=2,
+                    frameon=False)
     method = ", ".join(sorted({r.method for r in reports}))
     fig.suptitle(f"Cutting edges and angles — solid: outer edge, dashed: inner edge "
                  f"(method: {method})", fontsize=11)

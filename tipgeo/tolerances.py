@@ -762,3 +762,13 @@ class Tolerances:
 
 #: The process-wide tolerance object. Tests set ``tol.strict = True``.
 tol = Tolerances()
+
+#: Largest aspect ratio (longest edge / shortest altitude, L_max² / (2·area);
+#: equilateral 1.155) of a built tip's triangles where the geometry allows
+#: (issue 27): sliver triangles make self-intersection checks (MeshLab,
+#: open3d, trimesh) report false positives.
+MAX_ASPECT_RATIO = 50.0
+
+#: Share of the chordal tolerance by which one sliver-removing edge flip or
+#: collapse may move a built tip's surface (:mod:`tipgeo.slivers`).
+SLIVER_DEVIATION_SHARE = 0.05

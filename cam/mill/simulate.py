@@ -36,6 +36,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from tipgeo.plot import styled
 from tipgeo.tolerances import tol
 
 from ..machine import CamError
@@ -604,6 +605,7 @@ def _fit_normals(res, spec, gamma, radius, side, length, into):
     return n / np.linalg.norm(n, axis=1, keepdims=True)
 
 
+@styled
 def plot_deviation(res: MilledTip, path, *, title: str = "", limit_um: float | None = None):
     """PNG of the signed deviation map (µm, program frame) — written atomically."""
     import matplotlib
@@ -629,6 +631,7 @@ def plot_deviation(res: MilledTip, path, *, title: str = "", limit_um: float | N
     return path
 
 
+@styled
 def plot_toolpath(toolpath, path, *, title: str = ""):
     """PNG of the planned passes (program frame, mm), written atomically:
     the plan view (finishing passes coloured by Z, roughing grey, the wall's

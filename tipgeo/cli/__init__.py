@@ -1,6 +1,6 @@
 """The ``tipgeo`` command line: thin wrappers around library calls, one module
 per stage (:mod:`.design`, :mod:`.analyse`, :mod:`.make`, :mod:`.mechanics`, :mod:`.fem`,
-:mod:`.optimize`, :mod:`.inspect`, :mod:`.demo`), each registering its
+:mod:`.optimize`, :mod:`.inspect`, :mod:`.demo`, :mod:`.report`), each registering its
 commands; errors map to exit codes here, in one place.
 
 Lengths in mm, angles in degrees, tolerances in µm at this boundary. Plain,
@@ -36,7 +36,8 @@ class _Parser(argparse.ArgumentParser):
         self.exit(2, f"{self.prog}: error: {message} (see '{self.prog} --help')\n")
 
 #: The stages whose commands ``tipgeo`` offers, in the order of ``--help``.
-STAGES = ("design", "analyse", "make", "mechanics", "fem", "optimize", "inspect", "demo")
+STAGES = ("design", "analyse", "make", "mechanics", "fem", "optimize", "inspect", "demo",
+          "report")
 
 #: The stage that registers each command: ``tipgeo CMD …`` builds only that
 #: stage's parser, so a command imports what it needs and no other stage's
@@ -47,7 +48,7 @@ COMMANDS = {"build": "design", "gauges": "design", "samples": "design",
             "laser": "make", "gcode": "make", "grind": "make", "mill": "make",
             "forces": "mechanics", "tissue": "mechanics", "fem": "fem",
             "sweep": "optimize", "optimize": "optimize",
-            "compare": "inspect", "scan-synth": "inspect", "demo": "demo"}
+            "compare": "inspect", "scan-synth": "inspect", "demo": "demo", "report": "report"}
 
 
 def build_parser(command: str | None = None) -> argparse.ArgumentParser:

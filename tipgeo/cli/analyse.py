@@ -75,6 +75,13 @@ def cmd_angles(args) -> int:
         from ..plot import plot_angles
 
         plot_angles(reports, args.png)
+    if args.html:
+        from ..report import TipSource
+        from .report import write_html
+
+        write_html(args, [TipSource(src if radii is None else None,
+                                    None if radii is None else src, rep, name)
+                          for (src, radii, name), rep in zip(sources, reports)], say=False)
     if args.json:
         data = [json.loads(r.to_json(args.step_deg)) for r in reports]
         print(_dumps({"tips": data} if len(data) > 1 else data[0]))
@@ -100,7 +107,7 @@ def cmd_angles(args) -> int:
                       f"({kk['faces'][0]} | {kk['faces'][1]})")
             if w["jumps"]:
                 print(f"        {len(w['jumps'])} vertical stretches")
-    for o in (args.csv, args.png):
+    for o in (args.csv, args.png, args.html):
         if o:
             print(f"wrote {o}")
     return 0
@@ -195,8 +202,12 @@ def register(sub) -> None:
                    help="a mesh file's needle axis: a point (mm) and the direction to the tip")
     deprecated(a, "--plot", "--png")
     deprecated(a, "--axis", "--axis-mm")
+    from .report import HTML_EXTS, add_html_flag
+
+    add_html_flag(a)
     a.set_defaults(func=cmd_angles)
-    declare_files(a, inputs=("spec",), outputs=("csv",), pictures=("png",))
+    declare_files(a, inputs=("spec",), outputs=("csv", "html"), pictures=("png",),
+                  exts={"html": HTML_EXTS})
 
     c = sub.add_parser("calibrate", help="fit the thesis's helical needle to Table 3.1 and "
                        "print the residuals (µm) of every reading")

@@ -32,6 +32,7 @@ VOCABULARY = {
     "-o/--output": "the command's main output file (format from its extension)",
     "--out-dir": "an output folder",
     "--png": "the command's picture (PNG, or another format matplotlib writes)",
+    "--html": "an interactive offline HTML report of the command's result (tipgeo report)",
     "--no-pictures": "skip the pictures a command writes by default",
     "--json": COMMON_FLAGS["--json"],
     "--quiet": COMMON_FLAGS["--quiet"],

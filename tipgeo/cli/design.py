@@ -40,6 +40,10 @@ def cmd_build(args) -> int:
         from ..plot import render_tip
 
         outs.append(render_tip(tip, args.png))
+    if args.html:
+        from .report import write_html
+
+        outs.append(write_html(args, [tip], say=False))
     info = tip.summary() | {"build_seconds": dt, "outputs": [str(o) for o in outs],
                             "failed": [{"path": str(p), "error": m} for p, m in report.failed]}
     status = 1 if report.failed else 0
@@ -123,9 +127,12 @@ def register(sub) -> None:
                         "allow; default)")
     b.add_argument("--png", metavar="FILE", help="also write a picture of the tip")
     b.add_argument("--json", action="store_true", help="machine-readable summary")
+    from .report import HTML_EXTS, add_html_flag
+
+    add_html_flag(b)
     b.set_defaults(func=cmd_build)
-    declare_files(b, inputs=("spec",), outputs=("output",), pictures=("png",),
-                  exts={"output": export_exts()})
+    declare_files(b, inputs=("spec",), outputs=("output", "html"), pictures=("png",),
+                  exts={"output": export_exts(), "html": HTML_EXTS})
     g = sub.add_parser("gauges", help="the needle gauge table")
     g.add_argument("--json", action="store_true")
     g.set_defaults(func=cmd_gauges)

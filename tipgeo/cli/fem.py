@@ -78,6 +78,12 @@ def cmd_fem(args) -> int:
                   deck_only=args.deck_only, abaqus=args.abaqus, time_limit_s=limit,
                   output_depths=outs, progress=say, pictures=not args.no_pictures,
                   **({} if args.cut == "none" else {"cut": args.cut}))
+    if args.html and res.run is not None:
+        from pathlib import Path
+
+        from .report import write_html
+
+        res.files.append(Path(write_html(args, [spec, args.out_dir], say=False)))
     d = res.to_dict()
     verdict = getattr(res, "verdict", None)
     status = verdict_status(verdict, args)
@@ -148,5 +154,9 @@ def register(sub) -> None:
     f.add_argument("--json", action="store_true", help="the result as JSON on stdout")
     deprecated(f, ("-o", "--output"), "--out-dir")
     deprecated(f, "--convergence", "--convergence-um")
+    from .report import HTML_EXTS, add_html_flag
+
+    add_html_flag(f)
     f.set_defaults(func=cmd_fem)
-    declare_files(f, inputs=("spec",), folders={"out_dir": lambda a: list(FEM_FILES)})
+    declare_files(f, inputs=("spec",), outputs=("html",), exts={"html": HTML_EXTS},
+                  folders={"out_dir": lambda a: list(FEM_FILES)})

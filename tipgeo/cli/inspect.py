@@ -134,8 +134,9 @@ def cmd_compare(args) -> int:
     _check_out_file("--matrix-out", args.matrix_out, (".txt", ".csv", ".mat"), inputs)
     _check_out_file("--summary", args.summary, (".csv", ".json"), inputs)
     if args.batch:
-        if args.export or args.matrix_out:
-            raise SpecError("--export and --matrix-out name one file; with --batch each scan's "
+        if args.export or args.matrix_out or args.html:
+            raise SpecError("--export, --matrix-out and --html name one file; with --batch each "
+                            "scan's "
                             "report (--out-dir DIR/<scan>/) holds its own")
         return _batch(args, kw)
     if len(args.scan) != 1:
@@ -175,6 +176,10 @@ def cmd_compare(args) -> int:
         T = res.registration.transform if res.registration else \
             (kw["init_transform"] if kw["init_transform"] is not None else np.eye(4))
         res.outputs.append(write_transform(args.matrix_out, T))
+    if args.html:
+        from .report import write_html
+
+        res.outputs.append(Path(write_html(args, [res], say=False)))
     status = verdict_status(res.verdict, args)
     if args.json:
         print(_dumps(res.to_dict()))
@@ -502,9 +507,13 @@ def register(subparsers) -> None:
     deprecated(c, "--out", "--out-dir")
     deprecated(c, "--tolerance-um", "--band-um",
                note=" (the ± acceptance band; --tolerance-um is a mesh's chordal tolerance)")
+    from .report import HTML_EXTS, add_html_flag
+
+    add_html_flag(c)
     c.set_defaults(func=cmd_compare)
     declare_files(c, inputs=("scan", "cad", "init_transform", "acceptance"),
-                  outputs=("export", "matrix_out", "summary"), folders={"out_dir": report_files},
+                  outputs=("export", "matrix_out", "summary", "html"),
+                  exts={"html": HTML_EXTS}, folders={"out_dir": report_files},
                   blas_threads=None)
 
     s = subparsers.add_parser("scan-synth", help="synthetic scan of a tip (virtual "

@@ -83,9 +83,11 @@ def cmd_gcode(args) -> int:
     spec = spec_arg(args.spec) if args.action == "sim" else None
     limits = make_limits(max_statements=args.max_statements, max_repeat=args.max_repeat,
                          max_segments=args.max_moves, max_operations=args.max_operations)
+    default_feed = feed_mm_min_arg("--default-feed-mm-min", args.default_feed_mm_min)
     res = laser_check(read_program(args.program), beam_diameter=beam, spec=spec,
                       origin=tuple(args.origin_mm), tolerance=tolerance_arg(args),
-                      lenient=args.lenient, limits=limits, max_tokens=args.max_tokens)
+                      lenient=args.lenient, limits=limits, max_tokens=args.max_tokens,
+                      default_feed=default_feed)
     write_laser_outputs(res, spec, mesh=args.mesh if args.action == "sim" else None,
                         plot=args.png, on_error=cannot_write)
     out = res.summary(source=args.program)
@@ -139,10 +141,15 @@ def cmd_grind(args) -> int:
     machine = Machine.from_toml(args.machine) if args.machine else Machine()
     feed = feed_mm_min_arg("--feed-mm-min", args.feed_mm_min)
     res = grind(spec, machine=machine, feed=6.0 / 60.0 if feed is None else feed,
-                needle_rpm=args.needle_rpm, simulate_tip=bool(args.mesh or args.compare),
+                needle_rpm=args.needle_rpm,
+                simulate_tip=bool(args.mesh or args.compare or args.html),
                 compare=args.compare, tolerance=tolerance_arg(args))
     write_grind_outputs(res, program=args.output, gcode=args.gcode, sheet=args.sheet,
                         mesh=args.mesh, on_error=cannot_write)
+    if args.html:
+        from .report import write_html
+
+        res.files.append(write_html(args, [spec, res], say=False))
     out = res.summary()
     verdict = getattr(res, "verdict", None)
     status = 1 if res.failed else verdict_status(verdict, args)
@@ -194,13 +201,17 @@ def cmd_mill(args) -> int:
     if args.no_rough:
         kw["rough"] = False
     params = MillParams(**kw)
-    simulate = bool(args.mesh or args.compare or args.deviation_png)
+    simulate = bool(args.mesh or args.compare or args.deviation_png or args.html)
     from .. import progress
 
     res = mill(spec, tool=tool, machine=machine, params=params, simulate_tip=simulate,
                compare=bool(args.compare or args.deviation_png), progress=progress.note)
     write_mill_outputs(res, program=args.output, sheet=args.sheet, mesh=args.mesh,
                        deviation=args.deviation_png, toolpath=args.png)
+    if args.html:
+        from .report import write_html
+
+        res.files.append(write_html(args, [spec, res], say=False))
     out = res.summary()
     verdict = getattr(res, "verdict", None)
     status = verdict_status(verdict, args)
@@ -274,6 +285,9 @@ def register(sub) -> None:
                     help="chordal tolerance of the simulated tip's mesh, µm")
     gc.add_argument("--lenient", action="store_true",
                     help="skip unsupported statements with a warning (never a move)")
+    gc.add_argument("--default-feed-mm-min", type=float, default=None, metavar="F",
+                    help="feed (mm/min) for a G01/G02/G03 before any F, with a warning "
+                         "naming the line; without it such a move is an error")
     gc.add_argument("--png", metavar="FILE", help="toolpath picture (and FILE-rim.png)")
     gc.add_argument("--mesh", metavar="FILE", help="write the ablated tip (sim)")
     for opt, hlp in (("--max-statements", "statements executed (1000000)"),
@@ -308,9 +322,14 @@ def register(sub) -> None:
     deprecated(gr, "--report", "--compare")
     deprecated(gr, "--feed", "--feed-mm-min", convert=lambda v: v * 60.0,
                note=" (mm/min; the value given was converted from mm/s)")
+    from .report import HTML_EXTS, add_html_flag
+
+    add_html_flag(gr)
     gr.set_defaults(func=cmd_grind)
-    declare_files(gr, inputs=("spec", "machine"), outputs=("output", "gcode", "sheet", "mesh"),
-                  exts={"output": (".json", ".csv"), "mesh": export_exts()})
+    declare_files(gr, inputs=("spec", "machine"),
+                  outputs=("output", "gcode", "sheet", "mesh", "html"),
+                  exts={"output": (".json", ".csv"), "mesh": export_exts(),
+                        "html": HTML_EXTS})
     mi = sub.add_parser("mill", help="three-axis milling (Haas VF-2): toolpaths, G-code, "
                         "material-removal simulation")
     mi.add_argument("spec", metavar="SPEC")
@@ -341,7 +360,11 @@ def register(sub) -> None:
     deprecated(mi, "--report", "--compare")
     deprecated(mi, "--toolpath-png", "--png")
     deprecated(mi, "--deviation", "--deviation-png")
+    from .report import HTML_EXTS, add_html_flag
+
+    add_html_flag(mi)
     mi.set_defaults(func=cmd_mill)
-    declare_files(mi, inputs=("spec", "machine"), outputs=("output", "sheet", "mesh"),
+    declare_files(mi, inputs=("spec", "machine"), outputs=("output", "sheet", "mesh", "html"),
                   pictures=("deviation_png", "png"),
-                  exts={"output": (".nc", ".ngc", ".tap", ".txt"), "mesh": export_exts()})
+                  exts={"output": (".nc", ".ngc", ".tap", ".txt"), "mesh": export_exts(),
+                        "html": HTML_EXTS})

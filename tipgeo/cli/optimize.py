@@ -171,6 +171,10 @@ def cmd_optimize(args) -> int:
     rep = run_study(cfg, out, executor=_executor(args, cfg), cache=_cache(args),
                     progress=not args.quiet, build=not args.no_build,
                     plots=not args.no_pictures, table=table, log=progress.note)
+    if args.html and table == "sweep.csv":
+        from .report import write_html
+
+        rep["files"].append(write_html(args, [out], say=False))
     status = verdict_status(rep.get("verdict"), args)
     if args.json:
         print(_dumps(rep))
@@ -271,5 +275,8 @@ def register(subparsers) -> None:
     o.add_argument("--no-pictures", action="store_true", help="skip the PNGs")
     deprecated(o, "--out", "--out-dir")
     deprecated(o, "--no-plots", "--no-pictures")
+    from .report import HTML_EXTS, add_html_flag
+
+    add_html_flag(o)
     o.set_defaults(func=cmd_optimize)
-    declare_files(o, inputs=("config",))
+    declare_files(o, inputs=("config",), outputs=("html",), exts={"html": HTML_EXTS})

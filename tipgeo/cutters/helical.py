@@ -72,10 +72,12 @@ Validation and resolution
 :meth:`HelicalCutter.check` refuses a placement where the helicoid folds over
 (or nearly so) inside the tube: where the helix axis runs through the wall
 region, or where the helicoid meets the wall steeper than
-``tol.helical_max_steep_deg`` from the needle's cross-section, or where its
-mesh at the default tolerance would need more than ``tol.helical_max_grid``
-points. The mesh grid is chosen adaptively for the chordal tolerance and
-capped at that count, so every accepted spec builds in about a second.
+``tol.helical_max_steep_deg`` from the needle's cross-section. It builds no
+mesh: exact analysis (edges, angles) works on the surface at any design.
+The mesh grid is chosen adaptively when a tip is built, for the asked
+chordal tolerance, and capped at ``tol.helical_max_grid`` points (about a
+second); a tolerance needing more is a BuildError that names a tolerance that
+would work.
 """
 
 from __future__ import annotations
@@ -88,7 +90,7 @@ import numpy as np
 from .. import validate as v
 from ..cannula import Cannula
 from ..errors import BuildError, SpecError
-from ..tolerances import DEFAULT_CHORDAL_MM, tol
+from ..tolerances import tol
 from .base import Cutter, check_name
 from .surfaces import HeightSurface, ImplicitSurface
 from .toml import round_for_toml as _r
@@ -415,12 +417,8 @@ class HelicalCutter(Cutter):
                             f"the needle's cross-section (near the helix axis, ρ = {rho[k]:.3g} "
                             f"mm); allowed at most {lim:g}° (steeper, it folds over inside the "
                             "tube)")
-        try:
-            angular, radial = _resolution(self._height_needle, cannula, DEFAULT_CHORDAL_MM,
-                                          tol.min_segments)
-        except BuildError as e:
-            raise SpecError(f"{where}: {e}") from None
-        self.__dict__.setdefault("_grids", {})[(ro, ri, DEFAULT_CHORDAL_MM)] = (angular, radial)
+        # no mesh here: exact analysis works on the surface; the mesh's grid
+        # is chosen (and capped) when a tip is built, at the asked tolerance
 
     def _height_needle(self, x, y, z0=None):
         x = np.asarray(x, float)
@@ -501,7 +499,7 @@ class HelicalCutter(Cutter):
         grids = self.__dict__.setdefault("_grids", {})
         if key not in grids:
             grids[key] = _resolution(lambda x, y, z0=None: self.height(x, y, cannula, z0),
-                                     cannula, ctx.chordal, ctx.segments)
+                                     cannula, ctx.chordal, tol.min_segments)
         angular, radial = grids[key]
         angular = max(angular, ctx.segments)
         return ctx.annular_heightfield(lambda x, y: self.height(x, y, cannula), self.label,
@@ -529,6 +527,7 @@ def _resolution(height, cannula: Cannula, chordal: float, start: int) -> tuple[i
     angular, radial = start, 3
     cap = tol.helical_max_grid
     target = 0.75 * chordal
+    workable = None
     for _ in range(10):
         d = _margin(cannula)
         rad = np.linspace(max(ri - d, 0.5 * ri), ro + d, radial)
@@ -564,15 +563,28 @@ def _resolution(height, cannula: Cannula, chordal: float, start: int) -> tuple[i
         if max(err_a, err_r, err_d) <= target:
             return angular, radial
         fa, fr = max(err_a, err_d) / target, max(err_r, err_d) / target
+        # the gap falls as 1/points (h² per direction): the tolerance this
+        # grid's error scaled to the cap would meet, with 50 % to spare
+        workable = 1.5 * max(err_a, err_r, err_d) * angular * radial / (0.75 * cap)
         if fa > 1:
             angular = int(math.ceil(angular * 1.1 * math.sqrt(fa) / 24) * 24)
         if fr > 1:
             radial = int(math.ceil((radial - 1) * 1.1 * math.sqrt(fr))) + 1
         if angular * radial > cap:
             break
+    hint = ("raise the tolerance" if workable is None else
+            f"a tolerance of about {_round_up_um(max(workable, chordal * 1.5))} µm "
+            "(--tolerance-um) would work")
     raise BuildError(f"its mesh at tolerance {chordal * 1e3:.3g} µm would need a grid of "
                      f"{angular}×{radial} points; allowed at most {cap} (the helicoid is too "
-                     "steep or curved over the wall; raise the tolerance)")
+                     f"steep or curved over the wall; {hint})")
+
+
+def _round_up_um(length_mm: float) -> str:
+    """``length_mm`` in µm rounded up to two significant digits, as text."""
+    um = length_mm * 1e3
+    e = math.floor(math.log10(um)) - 1
+    return f"{math.ceil(um / 10 ** e) * 10 ** e:.6g}"
 
 
 #: D (mm) of the thesis example, calibrated against Table 3.1's outer edge by

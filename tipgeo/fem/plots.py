@@ -13,6 +13,7 @@ from pathlib import Path
 import numpy as np
 
 from ..atomic import write_atomic
+from ..plot import styled
 
 __all__ = ["plot_force_curves", "plot_stress_contour"]
 
@@ -28,6 +29,7 @@ def _save(fig, path) -> Path:
         plt.close(fig)
 
 
+@styled
 def plot_force_curves(curves, path, *, title: str = "", focus: int = 0) -> Path:
     """Axial force against depth, one line per ``(label, depth (k,), force
     (k,), style)``; style is a matplotlib format string or None.
@@ -62,6 +64,7 @@ def plot_force_curves(curves, path, *, title: str = "", focus: int = 0) -> Path:
     return _save(fig, path)
 
 
+@styled
 def plot_stress_contour(xy: np.ndarray, tris: np.ndarray, s1: np.ndarray, path, *,
                         needle: np.ndarray | None = None, window=None, title: str = "",
                         xlabel: str = "r (mm)", ylabel: str = "Y (mm)") -> Path:

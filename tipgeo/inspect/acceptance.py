@@ -191,6 +191,9 @@ def judge(res, rule: AcceptanceRule) -> Verdict:
     checks.append(check_true("identity", bool(mt.get("ok", True)),
                              "the scan shows this tip (match check)",
                              "the scan is not this tip: " + "; ".join(mt.get("problems", []))))
+    ident = getattr(res, "identity", None)
+    if ident is not None:   # gauge, cut-face shape, serrations (:mod:`.identity`)
+        checks.extend(ident.checks)
     ok, why = _registration_certain(res)
     checks.append(check_true("registration", ok, "one certain pose", why))
     d = res.distances

@@ -51,7 +51,7 @@ def spread(points: np.ndarray, origin=None, *, sample: int = 200_000) -> tuple[n
 
 
 def check_geometry(points: np.ndarray, r_o: float, *, register: bool, origin=None,
-                   where: str = "scan") -> dict[str, Any]:
+                   where: str = "scan", allow_plane: bool = False) -> dict[str, Any]:
     """Refuse a scan that no comparison (``register=False``) or registration
     can use.
 
@@ -60,6 +60,8 @@ def check_geometry(points: np.ndarray, r_o: float, *, register: bool, origin=Non
     points : (n, 3) float — mm (offsets from ``origin`` if given)
     r_o : float — the CAD's outer radius (mm): the scale of every threshold
     register : bool — the scan is to be registered (needs more)
+    allow_plane : bool — points on a plane are registered (a scan of a planar
+        cut face alone, registered by its outline: the CAD has such a face)
 
     Returns
     -------
@@ -88,7 +90,7 @@ def check_geometry(points: np.ndarray, r_o: float, *, register: bool, origin=Non
                         f"{s[0]:.3g} mm along it; {what} needs ≥ "
                         f"{100 * tol.inspect.min_spread_line:g} % of the length off the line, "
                         "points spread over the tube)")
-    if register and s[2] < tol.inspect.min_spread_plane * r_o:
+    if register and not allow_plane and s[2] < tol.inspect.min_spread_plane * r_o:
         raise ScanError(f"{where}: the {n} points lie on a plane (RMS {s[2]:.2g} mm off it; "
                         f"registration needs ≥ {tol.inspect.min_spread_plane * r_o:.3g} mm = "
                         f"{100 * tol.inspect.min_spread_plane:g} % of the CAD's outer radius, "

@@ -71,6 +71,8 @@ class Comparison:
         scan (``compare(..., angles=True)``)
     rule : AcceptanceRule — the acceptance rule (:mod:`.acceptance`)
     verdict : Verdict — pass or fail under ``rule``, with the figures and reasons
+    identity : Identity — is the scan this kind of tip (:mod:`.identity`: gauge,
+        cut-face shape, serrations), checked before the verdict's bands
     """
 
     scan: Scan
@@ -94,6 +96,7 @@ class Comparison:
     edges: Any = None
     rule: Any = None
     verdict: Any = None
+    identity: Any = None
 
     @property
     def colour_limits(self) -> tuple[float, float]:
@@ -128,6 +131,7 @@ class Comparison:
                 "match": self.match,
                 "acceptance": self.rule.to_dict() if self.rule is not None else None,
                 "verdict": self.verdict.to_dict() if self.verdict is not None else None,
+                "identity": self.identity.to_dict() if self.identity is not None else None,
                 "warnings": self.warnings,
                 **({"measured_edges": self.edges.summary()} if self.edges is not None else {}),
                 "timings_s": dict(self.timings),
@@ -431,7 +435,10 @@ def compare(scan, cad, *, tolerance: float = 0.01, units: str = "mm",
         src = np.flatnonzero(keep) if src is None else src[keep]
     T_init = _shift(origin) if init_transform is None else init_transform @ _shift(origin)
     where = f"scan '{sc.source}'"
-    check_geometry(loc, model.r_o, register=register_scan, origin=origin, where=where)
+    from .register import planar_cut_faces
+
+    check_geometry(loc, model.r_o, register=register_scan, origin=origin, where=where,
+                   allow_plane=bool(planar_cut_faces(model)))
     reg = None
     t = _now()
     if register_scan:
@@ -516,7 +523,11 @@ def compare(scan, cad, *, tolerance: float = 0.01, units: str = "mm",
                                   progress=lambda m: say(f"  {m}"))
         timings["edges"] = _lap(cpu, "edges", t)
     from .acceptance import judge
+    from .identity import identify
 
+    t = _now()
+    res.identity = identify(res)
+    timings["identity"] = _lap(cpu, "identity", t)
     res.verdict = judge(res, rule)
     say(res.verdict.line())
     timings["total"] = _lap(cpu, "total", t0)

@@ -71,6 +71,7 @@ import numpy as np
 
 from ..edges import Edge, EdgePiece, rotate_z
 from ..errors import SpecError
+from ..plot import styled
 from ..tolerances import tol
 from .scanio import ScanError, check_points
 
@@ -727,6 +728,7 @@ def _shade_windows(ax, res: MeasuredEdges) -> None:
                     transform=ax.get_xaxis_transform(), lw=0)
 
 
+@styled
 def plot_measured_edges(res: MeasuredEdges, path, *, truth=None) -> Path:
     """A PNG: per wall the edge height z(γ) and λ, θ, α (degrees) of the scan
     beside the CAD's, over γ from the heel (degrees); the traced edge samples

@@ -183,7 +183,11 @@ def measure(points: np.ndarray, dist, cad, *, min_points: int = 50,
     for label, plane in planes.items():
         k = cad.labels.index(label) if label in cad.labels else None
         sel = on(label) & near & flat
-        if k is not None and sel.any():
+        if k is not None and sel.any() and not hasattr(cad.engine, "face_values"):
+            # a meshed CAD (no analytic faces to measure the distance to the
+            # edges by): the points whose closest CAD point is inside a face
+            sel &= np.asarray(dist.feature) == 0
+        elif k is not None and sel.any():
             idx = np.flatnonzero(sel)
             for ch in _chunks(len(idx)):
                 ic = idx[ch]

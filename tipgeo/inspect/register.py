@@ -36,6 +36,17 @@ Every stage works on a seeded random subset of the scan
    deviation), and so is each direction's 1σ uncertainty from the
    information the scan holds (the Cramér–Rao bound).
 
+The ICP's Tukey cut-off is annealed (from ``tol.inspect.search_clip`` down
+to 4.685 σ, halved each time the pose settles), so that the cut faces and the
+base, which alone fix the turn and the axial shift of a scan that is mostly
+tube, are not made outliers by a scale the tube sets.
+
+Partial scans register up to what they leave free, which is reported: a scan
+of the tube alone (no cut face, no outline of one) — the turn about and the
+shift along the axis; a scan of one planar cut face alone (points on a
+plane) is registered by its outline, up to the face's own symmetry (a
+bevel's elliptic ring: a half turn about its normal).
+
 The report gives the transform, fitness (share of points within the inlier
 distance), inlier RMSE, and warnings: an ambiguous pose (a different pose fits
 almost as well), an unconstrained direction, too few points.
@@ -53,7 +64,8 @@ from ..errors import TipGeoError
 from ..tolerances import tol
 from .scanio import ScanError
 
-__all__ = ["Registration", "register", "fit_cylinder", "apply", "point_normals"]
+__all__ = ["Registration", "register", "fit_cylinder", "apply", "point_normals",
+           "planar_cut_faces"]
 
 
 def apply(T: np.ndarray, points: np.ndarray) -> np.ndarray:
@@ -628,10 +640,19 @@ def _covariance(H, outline, q, w, ctr, sigma, V):
     return cov
 
 
-def _icp(p, cad, T, iterations, *, fix_rz=False, loose=False, outlines=True):
+def _icp(p, cad, T, iterations, *, fix_rz=False, loose=False, outlines=True,
+         anneal: float | None = None, fix_tz=False):
     """Point-to-plane ICP (Gauss–Newton on the exact closest points and
     normals) with Tukey weights; returns T, robust σ, info. ``loose``: stop
     at ``tol.inspect.icp_loose`` (rad, mm): enough to rank start poses.
+    ``anneal`` (mm, default ``tol.inspect.search_clip``): the Tukey cut-off
+    starts there and halves, each time the pose has settled, down to 4.685 σ (σ the robust scale of
+    the residuals) — graduated, so that the few points that fix the turn and
+    the axial shift (the cut faces, the base) keep their weight while the
+    tube, which most points lie on and which fits at any turn and shift, has
+    already settled: a cut-off from σ alone would make the cut face's points
+    outliers of the tube and hold those directions where the search left
+    them. No break before the cut-off has come down.
     ``outlines``: the points near an edge of a face the scan does not show
     are fitted by the likelihood of a blurred outline (:func:`_outline`)."""
     conv_r, conv_t = (tol.inspect.icp_loose,) * 2 if loose else \
@@ -639,7 +660,8 @@ def _icp(p, cad, T, iterations, *, fix_rz=False, loose=False, outlines=True):
     info = {"iterations": 0, "fixed": []}
     sigma = None
     prev = (0.0, 0.0)
-    clip = tol.inspect.search_clip
+    clip = tol.inspect.search_clip if anneal is None else anneal
+    level = 0   # steps at this cut-off
     reached = False  # the scan reaches an outline (see _outline)
     for it in range(iterations):
         q = apply(T, p)
@@ -648,8 +670,9 @@ def _icp(p, cad, T, iterations, *, fix_rz=False, loose=False, outlines=True):
         n = D.normal
         med = np.median(np.abs(r))
         sigma = max(1.4826 * med, tol.inspect.sigma_floor)
-        c = min(max(4.685 * sigma, tol.inspect.loss_floor), clip)
-        clip = max(c, 0.5 * clip)
+        c_sigma = max(4.685 * sigma, tol.inspect.loss_floor)
+        c = min(max(c_sigma, clip), tol.inspect.search_clip)
+        annealing = clip > c_sigma
         u = r / c
         w = np.where(np.abs(u) < 1, (1 - u * u) ** 2, 0.0)
         outline = _outline(cad, q, D, w, c, sigma, not reached) if outlines else None
@@ -677,6 +700,11 @@ def _icp(p, cad, T, iterations, *, fix_rz=False, loose=False, outlines=True):
             ez = np.zeros(6)
             ez[2] = 1.0
             keep &= np.abs(V.T @ ez) < 0.9
+        if fix_tz:
+            # a scan of the tube alone: the shift along +z is free too
+            ez = np.zeros(6)
+            ez[5] = 1.0
+            keep &= np.abs(V.T @ ez) < 0.9
         x = -V[:, keep] @ ((V[:, keep].T @ g) / lam[keep])
         info["fixed"] = int((~keep).sum())
         info["covariance"] = _covariance(H - (H_o if outline is not None else 0.0),
@@ -688,6 +716,7 @@ def _icp(p, cad, T, iterations, *, fix_rz=False, loose=False, outlines=True):
         step[:3, 3] = ctr - R @ ctr + t_
         T = step @ T
         info["iterations"] = it + 1
+        info["cutoff"] = c
         # ICP converges linearly: a step shrinking by ρ per iteration leaves
         # about ρ/(1 − ρ) of itself to go, which a weakly held direction (a
         # turn fixed by an outline alone) makes many steps
@@ -695,9 +724,16 @@ def _icp(p, cad, T, iterations, *, fix_rz=False, loose=False, outlines=True):
         rho = min(max(sw / prev[0] if prev[0] > 0 else 0.0,
                       st_ / prev[1] if prev[1] > 0 else 0.0), 0.99)
         left = max(1.0, rho / (1.0 - rho))
-        if sw * left < conv_r and st_ * left < conv_t:
+        if sw * left < conv_r and st_ * left < conv_t and not annealing:
             break
         prev = (sw, st_)
+        # the cut-off comes down once the pose has settled at this one (the
+        # step moves no point by more than a tenth of it), or after six steps
+        spread = math.sqrt(float(np.average(np.sum((q - ctr) ** 2, axis=1), weights=w))) \
+            if w.sum() > 0 else 0.0
+        level += 1
+        if sw * spread + st_ < 0.1 * c or level >= 6:
+            clip, level = 0.5 * clip, 0
     return T, sigma, info
 
 
@@ -834,7 +870,10 @@ def register(points: np.ndarray, cad, *, inlier_distance: float = 0.01,
     p = np.asarray(p, np.float64)
     if not np.all(np.isfinite(p)):
         raise ScanError("scan points have non-finite (NaN or infinite) coordinates")
-    check_geometry(p, cad.r_o, register=True)
+    faces = planar_cut_faces(cad)
+    geo = check_geometry(p, cad.r_o, register=True, allow_plane=bool(faces))
+    if geo["rms_extent_mm"][2] < tol.inspect.min_spread_plane * cad.r_o:
+        return _register_face(p, cad, faces, inlier_distance, rng, say)
     warnings: list[str] = []
     if len(p) < 200:
         warnings.append(f"only {len(p)} points: registration may be unreliable")
@@ -856,6 +895,9 @@ def register(points: np.ndarray, cad, *, inlier_distance: float = 0.01,
     if off > 0.05:
         warnings.append(f"fitted outer diameter {2 * radius:.4f} mm differs from the CAD's "
                         f"{2 * cad.r_o:.4f} mm by more than 5 %")
+    if _tube_only(clean, point, a, radius, cad):
+        return _register_tube(p, clean, cad, point, a, radius, axis, warnings, inlier_distance,
+                              rng, say)
     say("global search about the axis")
     cands = []
     search: dict[str, Any] = {"coarse_step_deg": 2 * math.degrees(tol.inspect.search_step),
@@ -883,12 +925,12 @@ def register(points: np.ndarray, cad, *, inlier_distance: float = 0.01,
     results = []
     for score, sign, ang, T0 in cands[:4]:
         try:
-            T, sig, info = _icp(small, cad, T0, 10, fix_rz=(sym == 0), loose=True)
+            T, sig, info = _icp(small, cad, T0, 30, fix_rz=(sym == 0), loose=True)
             d = cad.distances(apply(T, small)).distance
         except (ScanError, TipGeoError):
             continue  # this start is too far off to converge; the others may not be
         rrms = float(np.sqrt(np.mean(np.minimum(d * d, tol.inspect.search_clip ** 2))))
-        results.append((rrms, T, sign, ang, score))
+        results.append((rrms, T, sign, ang, score, info.get("cutoff")))
     if not results:
         raise ScanError("registration failed: from none of the candidate poses does any scan "
                         f"point lie within {tol.inspect.search_clip * 1e3:g} µm of the CAD "
@@ -899,9 +941,11 @@ def register(points: np.ndarray, cad, *, inlier_distance: float = 0.01,
     # point from there (a few steps): the final pose is that of the full set
     mid = p if len(p) <= tol.inspect.icp_mid_points else \
         p[rng.choice(len(p), tol.inspect.icp_mid_points, replace=False)]
-    T, sigma, info = _icp(mid, cad, best[1], tol.inspect.icp_iterations, fix_rz=(sym == 0))
+    T, sigma, info = _icp(mid, cad, best[1], tol.inspect.icp_iterations, fix_rz=(sym == 0),
+                          anneal=best[5])
     if mid is not p:
-        T, sigma, info2 = _icp(p, cad, T, tol.inspect.icp_iterations, fix_rz=(sym == 0))
+        T, sigma, info2 = _icp(p, cad, T, tol.inspect.icp_iterations, fix_rz=(sym == 0),
+                               anneal=info.get("cutoff"))
         info["iterations"] += info2["iterations"]
         info["fixed"] = info2["fixed"]
         info["covariance"] = info2["covariance"]
@@ -945,6 +989,231 @@ def register(points: np.ndarray, cad, *, inlier_distance: float = 0.01,
     return Registration(T, fitness, rmse, inlier_distance, axis, search, warnings,
                         info["iterations"], len(p), fixed, sym,
                         _uncertainty(info.get("covariance"), sym))
+
+
+def planar_cut_faces(cad) -> dict[str, tuple[np.ndarray, np.ndarray]]:
+    """The CAD's planar cut faces: label → (unit normal, outward; an area-
+    weighted sample of up to 20,000 points on it), cannula frame, mm. A face
+    is planar when its mesh vertices lie within 0.1 µm of their plane."""
+    tip = cad.tip
+    if tip is None:
+        return {}
+    cached = getattr(cad, "_planar_cut_faces", None)
+    if cached is not None:
+        return cached
+    out = {}
+    names = np.asarray(tip.label_names, dtype=object)
+    rng = np.random.default_rng(0)
+    for k, name in enumerate(tip.label_names):
+        if not str(name).startswith("cut"):
+            continue
+        on = np.flatnonzero(tip.label_ids == k)
+        if not len(on):
+            continue
+        v = tip.vertices[np.unique(tip.faces[on])]
+        c = v.mean(axis=0)
+        _, sv, vt = np.linalg.svd(v - c, full_matrices=False)
+        if sv[-1] / math.sqrt(len(v)) > 1e-4:
+            continue
+        tri = tip.vertices[tip.faces[on]]
+        area = 0.5 * np.linalg.norm(np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0]),
+                                    axis=1)
+        m = min(20_000, 50 * len(on) + 2000)
+        k_ = rng.choice(len(on), m, p=area / area.sum())
+        r1, r2 = np.sqrt(rng.random(m)), rng.random(m)
+        pts = tri[k_, 0] * (1 - r1)[:, None] + tri[k_, 1] * (r1 * (1 - r2))[:, None] + \
+            tri[k_, 2] * (r1 * r2)[:, None]
+        n = vt[2]
+        nt = np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0]).sum(axis=0)
+        if n @ nt < 0:
+            n = -n
+        out[str(names[k])] = (n, pts)
+    try:
+        cad._planar_cut_faces = out
+    except AttributeError:
+        pass
+    return out
+
+
+def _plane_frame(n):
+    e1 = np.cross(n, [1.0, 0, 0] if abs(n[0]) < 0.9 else [0, 1.0, 0])
+    e1 /= np.linalg.norm(e1)
+    return e1, np.cross(n, e1)
+
+
+def _register_face(p, cad, faces, inlier_distance, rng, say) -> Registration:
+    """A scan of one planar cut face alone (its points on a plane): the
+    plane onto one of the CAD's planar cut faces (either side), the face's
+    extent onto the CAD face's — centroids together, principal axes along
+    each other (four ways) — then ICP, in which the face's outline against
+    the walls it ends at (:func:`_outline`) holds the turn and the shift in
+    the plane. The best fit wins; each direction's 1σ uncertainty is
+    reported, and what the outline does not hold (a mesh CAD has no
+    analytic walls to fit it against) is named as held."""
+    say("the scan lies on a plane: registered as one planar cut face, by its outline")
+    cs = p.mean(axis=0)
+    _, _, vt = np.linalg.svd(p - cs, full_matrices=False)
+    ns = vt[2]
+    small = p[rng.choice(len(p), min(tol.inspect.icp_start_points * 2, len(p)), replace=False)]
+    results = []
+    for label, (nc, q) in faces.items():
+        cc = q.mean(axis=0)
+        f1, f2 = _plane_frame(nc)
+        Q = np.column_stack([(q - cc) @ f1, (q - cc) @ f2])
+        wq, vq = np.linalg.eigh(Q.T @ Q / len(Q))
+        for sgn in (1.0, -1.0):
+            R0 = _align(ns * sgn, nc)
+            P3 = (p - cs) @ R0.T
+            P = np.column_stack([P3 @ f1, P3 @ f2])
+            wp, vp = np.linalg.eigh(P.T @ P / len(P))
+            for flip in (1.0, -1.0):
+                # the scan's major axis onto the CAD face's (either way round)
+                a_s = math.atan2(vp[1, 1], vp[0, 1])
+                a_c = math.atan2(vq[1, 1] * flip, vq[0, 1] * flip)
+                Rn = _rot(nc, a_c - a_s)
+                R = Rn @ R0
+                T0 = np.eye(4)
+                T0[:3, :3] = R
+                T0[:3, 3] = cc - R @ cs
+                try:
+                    T, _, info = _icp(small, cad, T0, 30, loose=True)
+                except (ScanError, TipGeoError):
+                    continue
+                d = cad.distances(apply(T, small)).distance
+                rr = float(np.sqrt(np.mean(np.minimum(d * d, tol.inspect.search_clip ** 2))))
+                results.append((rr, T, label, info.get("cutoff")))
+    if not results:
+        raise ScanError("the scan lies on a plane, and no planar cut face of the CAD fits it "
+                        "(registration of a face alone failed)")
+    results.sort(key=lambda r: r[0])
+    rr, T, label, cut = results[0]
+    mid = p if len(p) <= tol.inspect.icp_mid_points else \
+        p[rng.choice(len(p), tol.inspect.icp_mid_points, replace=False)]
+    T, sigma, info = _icp(mid, cad, T, tol.inspect.icp_iterations, anneal=cut)
+    if mid is not p:
+        T, sigma, info2 = _icp(p, cad, T, tol.inspect.icp_iterations, anneal=info.get("cutoff"))
+        info["iterations"] += info2["iterations"]
+        info["fixed"] = info2["fixed"]
+        info["covariance"] = info2["covariance"]
+    d = cad.distances(apply(T, p)).distance
+    ok = np.abs(d) <= inlier_distance
+    fitness = float(ok.mean())
+    rmse = float(np.sqrt(np.mean(d[ok] ** 2))) if ok.any() else float("nan")
+    warnings, fixed = [], []
+    if info.get("fixed"):
+        fixed.append(f"{info['fixed']} in-plane direction(s) the face's outline does not hold "
+                     "(a mesh CAD, or a face cut short of its outline)")
+        warnings.append(f"{info['fixed']} degree(s) of freedom are not constrained by the scan; "
+                        "held at the search result")
+    search = {"face_only": label, "candidates": len(results), "best_robust_rms_mm": rr,
+              "sigma_mm": sigma}
+    Rb = T[:3, :3]
+    for r2, T2, _, _ in results[1:]:
+        dR = T2[:3, :3] @ Rb.T
+        ang = math.degrees(math.acos(max(-1.0, min(1.0, (np.trace(dR) - 1) / 2))))
+        if ang > 2.0 or np.linalg.norm(T2[:3, 3] - T[:3, 3]) > 0.05:
+            search["runner_up_robust_rms_mm"] = r2
+            search["runner_up_angle_deg"] = ang
+            if r2 <= 1.02 * rr + 1e-4:
+                # the face alone looks the same in both poses (a bevel's face is
+                # an elliptic ring: a half turn about its normal maps it onto
+                # itself): the scanned points' deviations are the same in both
+                w_ = np.array([dR[2, 1] - dR[1, 2], dR[0, 2] - dR[2, 0], dR[1, 0] - dR[0, 1]])
+                about = "its normal" if abs(w_ @ faces[label][0]) > 0.99 * np.linalg.norm(w_) \
+                    else "an axis"
+                fixed.append(f"a turn of {ang:.1f}° about {about}: the face alone looks the same "
+                             "(its deviations do not depend on it; the rest of the tip's do)")
+                warnings.append(f"free: a turn of {ang:.1f}° about the face's normal — the face "
+                                f"{label} alone looks the same turned (robust RMS "
+                                f"{r2 * 1e3:.2f} vs {rr * 1e3:.2f} µm); the scanned points' "
+                                "deviations do not depend on it")
+                search["free"] = [f"turn of {ang:.1f}° about {about}"]
+            elif r2 < tol.inspect.ambiguity_ratio * rr and cad.symmetry == 1:
+                warnings.append(
+                    f"ambiguous registration: a pose turned {ang:.1f}° away fits almost as "
+                    f"well (robust RMS {r2 * 1e3:.2f} vs {rr * 1e3:.2f} µm); check that the "
+                    "scan shows the whole face")
+            break
+    cs_cad = apply(T, p).mean(axis=0)
+    axis = {"point_mm": cs_cad.tolist(), "direction": ns.tolist(), "outer_radius_mm": cad.r_o,
+            "outer_diameter_mm": 2 * cad.r_o, "fit_rms_mm": float("nan"),
+            "note": f"no wall in the scan: the face alone ({label}), registered by its outline"}
+    sym = cad.symmetry
+    return Registration(T, fitness, rmse, inlier_distance, axis, search, warnings,
+                        info["iterations"], len(p), fixed, sym if sym != 0 else 1,
+                        _uncertainty(info.get("covariance"), sym if sym != 0 else 1))
+
+
+#: a scan of the tube alone: this share of its points on the two walls
+TUBE_ONLY_SHARE = 0.98
+
+
+def _tube_only(q, point, a, radius, cad) -> bool:
+    """Whether the scan shows the tube alone — no cut face, no outline of
+    one: at least :data:`TUBE_ONLY_SHARE` of the points within
+    max(10 µm, 1 % of the radius) of the fitted outer wall or of the bore
+    one CAD wall thickness in, and both of the scan's ends about the axis
+    square (cropped: the extreme point per 10° of turn within a quarter of
+    the outer radius — the back of a tube up to a bevel's outline rises
+    along it by the bevel's length: that outline fixes the turn, see
+    :func:`_outline`). A scan cropped obliquely is left to the search."""
+    d = q - point
+    z = d @ a
+    rho = np.linalg.norm(d - np.outer(z, a), axis=1)
+    band = max(0.01, 0.01 * radius)
+    wall = (np.abs(rho - radius) < band) | (np.abs(rho - radius + cad.r_o - cad.r_i) < band)
+    if wall.mean() < TUBE_ONLY_SHARE:
+        return False
+    e1 = np.cross(a, [1.0, 0, 0] if abs(a[0]) < 0.9 else [0, 1.0, 0])
+    e1 /= np.linalg.norm(e1)
+    g = np.arctan2(d @ np.cross(a, e1), d @ e1)
+    b = np.floor((g + math.pi) / math.radians(10.0)).astype(int)
+    for zz in (z, -z):      # both ends cut square (a crop), neither an outline
+        tops = [zz[b == k].max() for k in np.unique(b) if np.count_nonzero(b == k) >= 5]
+        if len(tops) < 3 or max(tops) - min(tops) >= 0.25 * cad.r_o:
+            return False
+    return True
+
+
+def _register_tube(p, clean, cad, point, a, radius, axis, warnings, inlier_distance, rng,
+                   say) -> Registration:
+    """The pose of a scan of the tube alone, up to what it leaves free: its
+    axis on the CAD's, its far end just below the lowest of the CAD's cut
+    features (where the tube is tube at any turn and shift); the turn about
+    the axis and the shift along it are free (no deviation depends on them)
+    and are reported as such."""
+    say("the scan shows the tube alone: the turn about and the shift along the axis are free")
+    Ta = _frame(point, a, 1.0)
+    q = apply(Ta, clean)
+    z_feature = _feature_z(cad)
+    dz = z_feature - 0.05 * cad.r_o - float(np.quantile(q[:, 2], 0.9995))
+    T0 = _pose(Ta, 0.0, dz)
+    mid = p if len(p) <= tol.inspect.icp_mid_points else \
+        p[rng.choice(len(p), tol.inspect.icp_mid_points, replace=False)]
+    T, sigma, info = _icp(mid, cad, T0, tol.inspect.icp_iterations, fix_rz=True, fix_tz=True,
+                          outlines=False)
+    if mid is not p:
+        T, sigma, info2 = _icp(p, cad, T, tol.inspect.icp_iterations, fix_rz=True,
+                               fix_tz=True, outlines=False, anneal=info.get("cutoff"))
+        info["iterations"] += info2["iterations"]
+        info["covariance"] = info2["covariance"]
+    d = cad.distances(apply(T, p)).distance
+    ok = np.abs(d) <= inlier_distance
+    fitness = float(ok.mean())
+    rmse = float(np.sqrt(np.mean(d[ok] ** 2))) if ok.any() else float("nan")
+    free = ["rotation about the axis (the scan shows the tube alone: no deviation depends "
+            "on it)", "translation along the axis (the scan shows the tube alone: placed "
+            "just below the cut faces; no deviation depends on it)"]
+    warnings.append("free: rotation about the axis and translation along the axis — the "
+                    "scan shows the tube alone (no cut face, no outline of one); its deviations "
+                    "do not depend on them")
+    unc = _uncertainty(info.get("covariance"), 0)
+    if unc:
+        unc["translation_um"][2] = None
+    search = {"tube_only": True, "sigma_mm": sigma,
+              "free": ["rotation about the axis", "translation along the axis"]}
+    return Registration(T, fitness, rmse, inlier_distance, axis, search, warnings,
+                        info["iterations"], len(p), free, 0, unc)
 
 
 def _uncertainty(cov, sym) -> dict[str, Any]:

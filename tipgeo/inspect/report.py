@@ -17,6 +17,7 @@ from pathlib import Path
 
 import numpy as np
 
+from ..plot import styled
 from ..tolerances import tol
 
 __all__ = ["REPORT_STAGING_TAG", "write_report", "write_json", "write_deviation_ply",
@@ -299,6 +300,7 @@ def _zbuffer_image(p, d, look, right, up, max_px: int = 900,
     return img, ext
 
 
+@styled
 def plot_map(res, path: Path) -> Path:
     """PNG: the deviation (µm, fixed colour scale) seen face-on to the cut
     face and from the side, nearest surface per pixel."""
@@ -333,6 +335,7 @@ def plot_map(res, path: Path) -> Path:
     return path
 
 
+@styled
 def plot_histogram(res, path: Path) -> Path:
     """PNG: histogram of the deviations (µm), overall and per CAD face, with
     the tolerance band."""

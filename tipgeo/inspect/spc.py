@@ -41,6 +41,7 @@ from typing import Any
 import numpy as np
 
 from ..errors import InputError
+from ..plot import styled
 
 __all__ = ["CONSTANTS", "RUN_LENGTH", "ControlChart", "individuals", "xbar_r", "capability",
            "plot_chart"]
@@ -271,6 +272,7 @@ def xbar_r(x: Sequence[float], n: int, *, name: str = "x", labels: Sequence[str]
     return _finish(c, flags)
 
 
+@styled
 def plot_chart(c: ControlChart, path) -> Any:
     """The chart as a PNG: points (or subgroup means) with centre line and
     limits (and specification limits, dashed) above, ranges below; points

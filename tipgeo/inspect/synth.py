@@ -17,7 +17,9 @@ What it models:
   that view within ``max_slope_deg`` and no other part of the tip occludes it
   (ray casting on the tip mesh with open3d — float32, used for visibility
   only; every coordinate is computed in double precision on the exact
-  surfaces). Noise is Gaussian along the line of sight.
+  surfaces; a tip without them — serrations — is sampled on its fine mesh,
+  ``tol.inspect.synth_chordal`` from the surface). Noise is Gaussian along
+  the line of sight.
 """
 
 from __future__ import annotations
@@ -29,7 +31,7 @@ from typing import Any
 
 import numpy as np
 
-from ..errors import SpecError
+from ..errors import SpecError, UnsupportedCutter
 from ..tolerances import tol
 from .exact import ExactSolid
 from .scanio import write_ply
@@ -194,7 +196,16 @@ def synthetic_scan(spec, *, points: int = 200_000, noise: float = 0.001,
         raise SpecError(f"edge_radius = {edge_radius!r} mm; allowed 0 ≤ value < half the wall")
     rng = np.random.default_rng(seed)
     part = actual_spec(spec, xi_deg=xi_deg)
-    solid = ExactSolid(part)
+    try:
+        solid = ExactSolid(part)
+    except UnsupportedCutter:
+        # no face-wise exact surface (serrations): the points lie on the fine
+        # mesh (chordal error ``tol.inspect.synth_chordal``), its facets' normals
+        if edge_radius > 0 or burr is not None:
+            raise SpecError(f"edge_radius = {edge_radius!r} mm, burr = {burr!r}: rounded edges "
+                            f"and burrs need the exact surfaces, which '{part.name}' lacks; "
+                            "allowed: edge_radius = 0 and no burr") from None
+        solid = None
     tip = build_tip(part, tolerance=tol.inspect.synth_chordal)  # sampling and visibility only
     vw = default_views() if views is None else np.asarray(views, float).reshape(-1, 3)
     vw = vw / np.linalg.norm(vw, axis=1, keepdims=True)
@@ -227,8 +238,13 @@ def synthetic_scan(spec, *, points: int = 200_000, noise: float = 0.001,
         s = np.sqrt(r1)
         p = tri[k, 0] * (1 - s)[:, None] + tri[k, 1] * (s * (1 - r2))[:, None] \
             + tri[k, 2] * (s * r2)[:, None]
-        d = solid.distances(p)
-        p, nrm = d.closest, d.normal               # onto the exact surface
+        if solid is not None:
+            d = solid.distances(p)
+            p, nrm = d.closest, d.normal               # onto the exact surface
+        else:
+            t = tri[k]
+            nrm = np.cross(t[:, 1] - t[:, 0], t[:, 2] - t[:, 0])
+            nrm /= np.maximum(np.linalg.norm(nrm, axis=1, keepdims=True), tol.tiny)
         kind = np.zeros(len(p), np.int8)
         keep = p[:, 2] >= z_min
         p, nrm, kind = p[keep], nrm[keep], kind[keep]

@@ -23,8 +23,30 @@ sides of exact surfaces (:meth:`~tipgeo.cutters.base.Cutter.exact_bounds`):
 
 The tip is the tube ∩ every kept material (BRepAlgoAPI_Common) minus every
 removed prism (BRepAlgoAPI_Cut), with faces of one surface merged again
-(ShapeUpgrade_UnifySameDomain). OCP is imported
-where used; without it the functions raise :class:`ExportError`.
+(ShapeUpgrade_UnifySameDomain).
+
+Its edges are then settled (:func:`settle_edges`) so that the solid passes
+OCCT's own argument check (``BOPAlgo_ArgumentAnalyzer`` with its
+curve-on-surface check, as FreeCAD's "Check geometry" runs it) also after a
+STEP round trip, every edge and vertex tolerance within ``EDGE_TOL_MAX_MM``:
+
+* an edge on a periodic curve (circle, ellipse) whose range the booleans left
+  beyond one period, e.g. [7.87, 9.42] rad, is given the same curve on the
+  range one period lower, its p-curves reparametrised to match (a STEP reader
+  puts the range of such an edge, known only by its vertices, into [0, 2π):
+  it then found no p-curve there and re-projected one 7 nm off);
+* an edge whose 3D curve and p-curves disagree by more than
+  ``EDGE_FIT_MM`` (the booleans approximate intersection curves to about
+  0.3 nm — more than the 0.1 nm a STEP reader gives every edge) is rebuilt:
+  points along it are put on both its faces' surfaces by Newton steps (on the
+  exact 3D curve where the edge is a line, circle or ellipse), and the 3D
+  curve and both p-curves interpolate them at the same parameters, the points
+  doubled until curve and p-curves agree within ``EDGE_FIT_MM``;
+* each edge's tolerance is then twice its largest measured curve-on-surface
+  distance, at least ``tol.step_occ``.
+
+OCP is imported where used; without it the functions raise
+:class:`ExportError`.
 """
 
 from __future__ import annotations
@@ -38,10 +60,22 @@ import numpy as np
 from ..errors import ExportError, MissingToolError
 from ..tolerances import tol
 
-__all__ = ["ExactSolid", "exact_solid", "exact_supported", "occ", "OcpMissing", "ocp_missing"]
+__all__ = ["EDGE_FIT_MM", "EDGE_TOL_MAX_MM", "ExactSolid", "exact_solid", "exact_supported",
+           "occ", "OcpMissing", "ocp_missing", "settle_edges"]
 
 #: How to get OCP, for messages.
 OCP_INSTALL = 'pip install "tipgeo[step]"'
+
+#: Largest distance (mm) between an edge's 3D curve and its p-curves that
+#: :func:`settle_edges` leaves: a quarter of the 1e-7 mm a STEP reader gives
+#: every edge (OCCT's Precision::Confusion, the file's uncertainty).
+EDGE_FIT_MM = 2.5e-8
+
+#: Largest edge or vertex tolerance (mm) an exact solid may keep (1 µm).
+EDGE_TOL_MAX_MM = 1.0e-3
+
+#: Most points :func:`settle_edges` puts along one rebuilt edge.
+EDGE_MAX_POINTS = 4097
 
 
 class OcpMissing(MissingToolError, ExportError):
@@ -97,11 +131,17 @@ class ExactSolid:
         points) and ``tolerance_mm`` (what it had to stay within)
     faces : dict — surface type (``Plane``, ``Cylinder``, ``Cone``,
         ``BSplineSurface``, …) → number of faces
+    edges : dict — what :func:`settle_edges` did: ``shifted`` (edges whose
+        periodic range was brought into one period), ``rebuilt`` (edges
+        rebuilt), ``points`` (most points along a rebuilt edge),
+        ``max_deviation_mm`` (largest 3D curve to p-curve distance left) and
+        ``max_tolerance_mm`` (largest edge or vertex tolerance)
     """
 
     shape: object
     fits: list = field(default_factory=list)
     faces: dict = field(default_factory=dict)
+    edges: dict = field(default_factory=dict)
 
     @property
     def volume(self) -> float:
@@ -169,6 +209,11 @@ def exact_solid(spec, tolerance: float) -> ExactSolid:
         raise ExportError(f"exact STEP export: the booleans left {len(solids)} solids; "
                           f"expected one")
     res.shape = o.TopoDS.TopoDS.Solid(solids[0])
+    res.edges = settle_edges(res.shape)
+    if res.edges["max_tolerance_mm"] > EDGE_TOL_MAX_MM:
+        raise ExportError(f"exact STEP export: an edge keeps a tolerance of "
+                          f"{res.edges['max_tolerance_mm'] * 1e3:.3g} µm, more than "
+                          f"{EDGE_TOL_MAX_MM * 1e3:.3g} µm; use step_form='faceted'")
     if not res.is_valid():
         raise ExportError("exact STEP export: OCCT's BRepCheck_Analyzer finds the solid "
                           "invalid; use step_form='faceted'")
@@ -338,3 +383,307 @@ def _face_kinds(o, shape) -> dict:
         name = t.name.removeprefix("GeomAbs_")
         kinds[name] = kinds.get(name, 0) + 1
     return kinds
+
+
+# -- edges that pass OCCT's curve-on-surface check ---------------------------------
+def settle_edges(shape, fit: float = EDGE_FIT_MM) -> dict:
+    """Settle the edges of ``shape`` (an OCCT solid, mm) in place: periodic
+    ranges into one period, edges whose 3D curve and p-curves disagree by
+    more than ``fit`` (mm) rebuilt, tolerances set from the measured
+    distances (see the module docstring). Returns the report kept as
+    :attr:`ExactSolid.edges`."""
+    from OCP.BRep import BRep_Builder, BRep_Tool
+    from OCP.BRepLib import BRepLib
+    from OCP.collections import (
+        IndexedDataMap_TopoDS_Shape_List_TopoDS_Shape_TopTools_ShapeMapHasher as EdgeFaces,
+    )
+    from OCP.ShapeFix import ShapeFix_ShapeTolerance
+    from OCP.TopAbs import TopAbs_EDGE, TopAbs_FACE, TopAbs_VERTEX
+    from OCP.TopExp import TopExp
+    from OCP.TopoDS import TopoDS
+
+    o = occ()
+    emap = EdgeFaces()
+    TopExp.MapShapesAndAncestors_s(shape, TopAbs_EDGE, TopAbs_FACE, emap)
+    edges = []
+    for i in range(1, emap.Size() + 1):
+        faces = []
+        for f in emap.FindFromIndex(i):
+            if not any(f.IsSame(g) for g in faces):
+                faces.append(f)
+        edges.append((TopoDS.Edge(emap.FindKey(i)), [TopoDS.Face(f) for f in faces]))
+    builder = BRep_Builder()
+    report = {"edges": len(edges), "shifted": 0, "rebuilt": 0, "points": 0}
+    for e, faces in edges:
+        report["shifted"] += _one_period(builder, e, faces)
+    worst = 0.0
+    tolerances = ShapeFix_ShapeTolerance()
+    for e, faces in edges:
+        devs = [_cos_distance(e, f) for f in faces]
+        manifold = len(faces) == 2 and not any(BRep_Tool.IsClosed_s(e, f) for f in faces)
+        if manifold and max(devs) > fit:
+            kept = _curves(e, faces)
+            points = _rebuild(o, builder, e, faces, fit)
+            rebuilt = [_cos_distance(e, f) for f in faces]
+            if max(rebuilt) < max(devs):
+                report["points"] = max(report["points"], points)
+                report["rebuilt"] += 1
+                devs = rebuilt
+            else:  # no better: the booleans' curves stay
+                _restore(builder, e, faces, kept)
+        dev = max(devs, default=0.0)
+        worst = max(worst, dev)
+        tolerances.SetTolerance(e, max(tol.step_occ, 2.0 * dev), TopAbs_EDGE)
+    for v in _subshapes(o, shape, TopAbs_VERTEX):
+        tolerances.SetTolerance(v, tol.step_occ, TopAbs_VERTEX)
+    BRepLib.UpdateTolerances_s(shape, False)  # vertices cover their edges again
+    report["max_deviation_mm"] = worst
+    report["max_tolerance_mm"] = max_tolerance(shape)
+    return report
+
+
+def max_tolerance(shape) -> float:
+    """The largest edge or vertex tolerance of ``shape`` (mm)."""
+    from OCP.BRep import BRep_Tool
+    from OCP.TopAbs import TopAbs_EDGE, TopAbs_VERTEX
+    from OCP.TopoDS import TopoDS
+
+    o = occ()
+    t = [BRep_Tool.Tolerance_s(TopoDS.Edge(e)) for e in _subshapes(o, shape, TopAbs_EDGE)]
+    t += [BRep_Tool.Tolerance_s(TopoDS.Vertex(v)) for v in _subshapes(o, shape, TopAbs_VERTEX)]
+    return max(t, default=0.0)
+
+
+def _cos_distance(e, f) -> float:
+    """The largest distance (mm) between the 3D curve of edge ``e`` and its
+    p-curve on face ``f`` (BRepLib_ValidateEdge, exact method: what
+    BOPAlgo_ArgumentAnalyzer's curve-on-surface check measures)."""
+    from OCP.BRep import BRep_Tool
+    from OCP.BRepAdaptor import BRepAdaptor_Curve
+    from OCP.BRepLib import BRepLib_ValidateEdge
+
+    check = BRepLib_ValidateEdge(BRepAdaptor_Curve(e), BRepAdaptor_Curve(e, f).CurveOnSurface(),
+                                 BRep_Tool.SameParameter_s(e))
+    check.SetExactMethod(True)
+    check.Process()
+    return check.GetMaxDistance() if check.IsDone() else math.inf
+
+
+def _one_period(builder, e, faces) -> int:
+    """Bring the range of edge ``e`` on a periodic 3D curve into [0, period),
+    its p-curves reparametrised to match; 1 if it moved, else 0."""
+    from OCP.BRep import BRep_Tool
+    from OCP.BRepAdaptor import BRepAdaptor_Curve
+    from OCP.TopAbs import TopAbs_FORWARD, TopAbs_REVERSED
+    from OCP.TopoDS import TopoDS
+
+    curve = BRepAdaptor_Curve(e)
+    if not curve.IsPeriodic():
+        return 0
+    period = curve.Period()
+    first, last = BRep_Tool.Range_s(e)
+    k = math.floor(first / period + 1e-12)
+    if k == 0:
+        return 0
+    shift = k * period
+    t = BRep_Tool.Tolerance_s(e)
+    for f in faces:
+        if BRep_Tool.IsClosed_s(e, f):  # a seam: both p-curves
+            ef, er = (TopoDS.Edge(e.Oriented(s)) for s in (TopAbs_FORWARD, TopAbs_REVERSED))
+            c1, c2 = (_shifted(BRep_Tool.CurveOnSurface_s(x, f, 0.0, 0.0), first, last, shift)
+                      for x in (ef, er))
+            builder.UpdateEdge(ef, c1, c2, f, t)
+        else:
+            pc = BRep_Tool.CurveOnSurface_s(e, f, 0.0, 0.0)
+            builder.UpdateEdge(e, _shifted(pc, first, last, shift), f, t)
+    builder.Range(e, first - shift, last - shift)
+    return 1
+
+
+def _shifted(pc, first: float, last: float, shift: float):
+    """The 2D curve s ↦ pc(s + shift) on [first − shift, last − shift]: the
+    same curve where ``shift`` is a whole number of its periods, else its
+    B-spline form on [first, last] with the knots moved by −shift (exact)."""
+    from OCP.Geom2d import Geom2d_TrimmedCurve
+    from OCP.Geom2dConvert import Geom2dConvert
+
+    if pc.IsPeriodic() and abs(math.remainder(shift, pc.Period())) <= 1e-12 * abs(shift):
+        return pc
+    bs = Geom2dConvert.CurveToBSplineCurve_s(Geom2d_TrimmedCurve(pc, first, last))
+    n = bs.NbKnots()
+    for i in (range(1, n + 1) if shift > 0 else range(n, 0, -1)):  # knots stay increasing
+        bs.SetKnot(i, bs.Knot(i) - shift)
+    return bs
+
+
+class _Projector:
+    """Point (x, y, z) → (u, v, foot point, unit normal) on one surface, each
+    search started from the previous answer (ShapeAnalysis_Surface). Plain
+    floats: called thousands of times per edge."""
+
+    def __init__(self, surface):
+        from OCP.gp import gp_Pnt, gp_Vec
+        from OCP.ShapeAnalysis import ShapeAnalysis_Surface
+
+        self.surface, self.sas, self.prev = surface, ShapeAnalysis_Surface(surface), None
+        self._pnt, self._vec = gp_Pnt, gp_Vec
+
+    def __call__(self, x):
+        p = self._pnt(*x)
+        uv = (self.sas.ValueOfUV(p, 1e-11) if self.prev is None
+              else self.sas.NextValueOfUV(self.prev, p, 1e-11, 1e-4))
+        self.prev = uv
+        foot, du, dv = self._pnt(), self._vec(), self._vec()
+        self.surface.D1(uv.X(), uv.Y(), foot, du, dv)
+        n = du.Crossed(dv)
+        n.Normalize()
+        return uv.X(), uv.Y(), foot.Coord(), n.Coord()
+
+
+def _on_both(p1: _Projector, p2: _Projector, x: tuple) -> tuple:
+    """Newton steps from ``x`` to the nearby point on both surfaces: each
+    step goes to the nearest point of the line where their tangent planes
+    meet (plain floats, mm)."""
+    for _ in range(30):
+        _, _, q1, n1 = p1(x)
+        _, _, q2, n2 = p2(x)
+        c = n1[0] * n2[0] + n1[1] * n2[1] + n1[2] * n2[2]
+        r1 = sum(n * (q - xi) for n, q, xi in zip(n1, q1, x))
+        r2 = sum(n * (q - xi) for n, q, xi in zip(n2, q2, x))
+        det = 1.0 - c * c
+        if det <= 1e-12:  # tangent surfaces: no single nearby crossing point
+            break
+        a, b = (r1 - c * r2) / det, (r2 - c * r1) / det
+        step = [a * m1 + b * m2 for m1, m2 in zip(n1, n2)]
+        x = tuple(xi + si for xi, si in zip(x, step))
+        if math.sqrt(sum(si * si for si in step)) <= 1e-14:
+            break
+    return x
+
+
+def _interpolated_2d(surface, uv: np.ndarray, params: np.ndarray, old, first: float):
+    """A p-curve on ``surface`` through the points ``uv`` (n × 2) at
+    ``params``, on the same sheet of a periodic surface as the p-curve
+    ``old`` at its parameter ``first``."""
+    from OCP.collections import HArray1_double, HArray1_gp_Pnt2d
+    from OCP.Geom2dAPI import Geom2dAPI_Interpolate
+    from OCP.gp import gp_Pnt2d
+
+    uv = np.array(uv, dtype=float)
+    p0 = old.Value(first)
+    for k, periodic, period, ref in ((0, surface.IsUPeriodic(), surface.UPeriod, p0.X()),
+                                     (1, surface.IsVPeriodic(), surface.VPeriod, p0.Y())):
+        if periodic:
+            per = period()
+            uv[:, k] = np.unwrap(uv[:, k], period=per)
+            uv[:, k] += round((ref - uv[0, k]) / per) * per
+    arr, par = HArray1_gp_Pnt2d(1, len(params)), HArray1_double(1, len(params))
+    for i, ((u, v), t) in enumerate(zip(uv.tolist(), params.tolist()), 1):
+        arr.SetValue(i, gp_Pnt2d(u, v))
+        par.SetValue(i, t)
+    it = Geom2dAPI_Interpolate(arr, par, False, 1e-12)
+    it.Perform()
+    if not it.IsDone():
+        raise ExportError("exact STEP export: OCCT could not interpolate a p-curve")
+    return it.Curve()
+
+
+def _curves(e, faces) -> tuple:
+    """The 3D curve, p-curves (on ``faces``) and range of edge ``e``."""
+    from OCP.BRep import BRep_Tool
+
+    return (BRep_Tool.Curve_s(e, 0.0, 0.0), [BRep_Tool.CurveOnSurface_s(e, f, 0.0, 0.0)
+                                             for f in faces], BRep_Tool.Range_s(e))
+
+
+def _restore(builder, e, faces, kept) -> None:
+    """Put back what :func:`_curves` returned."""
+    from OCP.BRep import BRep_Tool
+
+    curve, pcurves, (first, last) = kept
+    t = BRep_Tool.Tolerance_s(e)
+    builder.UpdateEdge(e, curve, t)
+    for pc, f in zip(pcurves, faces):
+        builder.UpdateEdge(e, pc, f, t)
+    builder.Range(e, first, last)
+
+
+def _rebuild(o, builder, e, faces, fit: float) -> int:
+    """Rebuild edge ``e`` between two faces so that its 3D curve and p-curves
+    agree within ``fit`` (mm) where interpolation through ≤ EDGE_MAX_POINTS
+    points can: points on both surfaces (on the 3D curve itself where it is
+    a line, circle or ellipse), splitting every interval whose midpoint
+    misses ``fit`` until none does. Returns the number of points used."""
+    from OCP.BRep import BRep_Tool
+    from OCP.BRepAdaptor import BRepAdaptor_Curve
+    from OCP.collections import HArray1_double, HArray1_gp_Pnt
+    from OCP.GeomAbs import GeomAbs_Circle, GeomAbs_Ellipse, GeomAbs_Line
+
+    first, last = BRep_Tool.Range_s(e)
+    curve = BRep_Tool.Curve_s(e, 0.0, 0.0)
+    exact = BRepAdaptor_Curve(e).GetType() in (GeomAbs_Line, GeomAbs_Circle, GeomAbs_Ellipse)
+    surfaces = [BRep_Tool.Surface_s(f) for f in faces]
+    olds = [BRep_Tool.CurveOnSurface_s(e, f, 0.0, 0.0) for f in faces]
+    projectors = [_Projector(s) for s in surfaces]
+    if exact:
+        def point(t):
+            return curve.Value(t).Coord()
+        lo, hi = first, last
+    else:
+        # an approximated intersection, its parameter perhaps running at very
+        # uneven speed: the rebuilt edge is parametrised by chord length and
+        # its points put on both surfaces
+        tt = np.linspace(first, last, 1025)
+        dense = np.array([curve.Value(t).Coord() for t in tt.tolist()])
+        length = np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.diff(dense, axis=0),
+                                                                  axis=1))])
+        walk = [_Projector(s) for s in surfaces]
+
+        def point(s):
+            return _on_both(*walk, curve.Value(float(np.interp(s, length, tt))).Coord())
+        lo, hi = 0.0, float(length[-1])
+    cache: dict = {}
+    params = np.linspace(lo, hi, 33)
+    while True:
+        for t in params.tolist():
+            if t not in cache:
+                x = point(t)
+                cache[t] = (x, projectors[0](x)[:2], projectors[1](x)[:2])
+        pts = [cache[t] for t in params.tolist()]
+        new = curve
+        if not exact:
+            arr, par = HArray1_gp_Pnt(1, len(params)), HArray1_double(1, len(params))
+            for i, (p, t) in enumerate(zip(pts, params.tolist()), 1):
+                arr.SetValue(i, o.gp.gp_Pnt(*p[0]))
+                par.SetValue(i, t)
+            it = o.GeomAPI.GeomAPI_Interpolate(arr, par, False, 1e-12)
+            it.Perform()
+            if not it.IsDone():
+                raise ExportError("exact STEP export: OCCT could not interpolate an edge")
+            new = it.Curve()
+        pcs = [_interpolated_2d(s, [p[k + 1] for p in pts], params, old, first)
+               for k, (s, old) in enumerate(zip(surfaces, olds))]
+        mids = 0.5 * (params[:-1] + params[1:])
+        err = np.zeros(len(mids))
+        for pc, s in zip(pcs, surfaces):  # between the points, where it is largest
+            for i, t in enumerate(mids.tolist()):
+                uv = pc.Value(t)
+                err[i] = max(err[i], new.Value(t).Distance(s.Value(uv.X(), uv.Y())))
+        bad = np.flatnonzero(err > fit)
+        if len(bad) == 0:
+            break
+        # cubic interpolation's error falls as h⁴: split each interval that
+        # misses into as many as should meet the fit, with a margin
+        pieces = np.maximum(2, np.ceil(1.25 * (err[bad] / fit) ** 0.25)).astype(int)
+        if len(params) + int(np.sum(pieces - 1)) > EDGE_MAX_POINTS:
+            break
+        extra = [params[i] + (params[i + 1] - params[i]) * np.arange(1, k) / k
+                 for i, k in zip(bad.tolist(), pieces.tolist())]
+        params = np.sort(np.concatenate([params, *extra]))
+    t = BRep_Tool.Tolerance_s(e)
+    if not exact:
+        builder.UpdateEdge(e, new, t)
+    for pc, f in zip(pcs, faces):
+        builder.UpdateEdge(e, pc, f, t)
+    builder.Range(e, float(params[0]), float(params[-1]))
+    return len(params)

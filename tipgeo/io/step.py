@@ -5,7 +5,10 @@ bindings OCP (``pip install "tipgeo[step]"``), in one of two forms
 * ``'exact'``: the spec's solid with exact surfaces — planes, cylinders,
   cones; the helicoid (any height-field cutter surface) as a bicubic B-spline
   fitted within half the tip's build tolerance — made by OCCT booleans of
-  exact solids (:mod:`tipgeo.io.brep`);
+  exact solids (:mod:`tipgeo.io.brep`), its edges' 3D curves and p-curves
+  agreeing within 0.025 nm (2.5e-8 mm) so that the file read back passes OCCT's
+  ``BRepCheck_Analyzer`` and ``BOPAlgo_ArgumentAnalyzer`` (curve on
+  surface, small edges, self-interference), every tolerance ≤ 1 µm;
 * ``'faceted'``: one planar face per triangle of the mesh; the tip must be a
   closed, consistently oriented mesh (faces pointing outwards).
 
@@ -140,6 +143,7 @@ def write_step(tip: Tip, tmp: Path, opts: ExportOptions) -> None:
     levels = [(pr, pr.GetTraceLevel()) for pr in occ.Message.DefaultMessenger_s().Printers()]
     saved_unit = static.CVal_s("write.step.unit")
     saved_pcurves = static.IVal_s("write.surfacecurve.mode")
+    saved_precision = static.IVal_s("write.precision.mode")
     try:
         for printer, _ in levels:
             printer.SetTraceLevel(occ.Message_Gravity.Message_Fail)
@@ -150,6 +154,10 @@ def write_step(tip: Tip, tmp: Path, opts: ExportOptions) -> None:
         # faster. Exact: p-curves kept, as CAD systems expect on curved faces.
         static.SetCVal_s("write.step.unit", "MM")
         static.SetIVal_s("write.surfacecurve.mode", 1 if exact else 0)
+        # the file's uncertainty (what a reader gives every edge and vertex)
+        # is the solid's greatest tolerance, so that no edge of the read
+        # solid is tighter than it was made (≤ EDGE_TOL_MAX_MM, 1 µm)
+        static.SetIVal_s("write.precision.mode", 1)
         writer = occ.STEPControl_Writer()
         if writer.Transfer(solid, occ.STEPControl_AsIs) != occ.IFSelect_RetDone:
             raise ExportError("STEP export: OCCT could not translate the solid")
@@ -167,6 +175,7 @@ def write_step(tip: Tip, tmp: Path, opts: ExportOptions) -> None:
         if saved_unit:
             static.SetCVal_s("write.step.unit", saved_unit)
         static.SetIVal_s("write.surfacecurve.mode", saved_pcurves)
+        static.SetIVal_s("write.precision.mode", saved_precision)
         for printer, level in levels:
             printer.SetTraceLevel(level)
 

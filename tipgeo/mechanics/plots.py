@@ -18,6 +18,7 @@ from pathlib import Path
 
 import numpy as np
 
+from ..plot import styled
 from ._common import J_PER_M2
 
 __all__ = ["plot_fracture_vs_k", "plot_edge_forces", "plot_tissue_fit"]
@@ -32,6 +33,7 @@ def _plt():
     return plt
 
 
+@styled
 def plot_fracture_vs_k(path, *, d_i: float, theta: float, R: float = 35 * J_PER_M2,
                        mu_d: float = 0.4, mu_values=(0.1, 0.2, 0.3, 0.4, 0.5),
                        R_values=(25 * J_PER_M2, 35 * J_PER_M2, 45 * J_PER_M2),
@@ -73,6 +75,7 @@ def plot_fracture_vs_k(path, *, d_i: float, theta: float, R: float = 35 * J_PER_
     return out
 
 
+@styled
 def plot_edge_forces(entries, path, *, title: str | None = None) -> Path:
     """Fracture forces along the edge and their means against S.
 
@@ -123,6 +126,7 @@ def plot_edge_forces(entries, path, *, title: str | None = None) -> Path:
     return out
 
 
+@styled
 def plot_tissue_fit(stretch, stress, fits, path, *, title: str | None = None) -> Path:
     """True stress against stretch: data points and fitted curves, with the
     residuals below (like thesis Fig. 4.4).

@@ -9,6 +9,8 @@ from pathlib import Path
 
 import numpy as np
 
+from ..plot import styled
+
 __all__ = ["plot_response", "plot_loo", "plot_pareto"]
 
 
@@ -62,6 +64,7 @@ def _label(config, i):
     return v.name
 
 
+@styled
 def plot_response(surrogate, config, response: str, path, *, optima=(), feasible=None,
                   fixed=None, resolution: int | None = None) -> Path:
     """One response's GP surface (Fig. 3.17 style) with the training points.
@@ -159,6 +162,7 @@ def plot_response(surrogate, config, response: str, path, *, optima=(), feasible
         plt.close(fig)
 
 
+@styled
 def plot_loo(surrogate, path) -> Path:
     """Leave-one-out errors (prediction from the other n − 1 points minus the
     true value) against the true value, one panel per response, with the LOO
@@ -196,6 +200,7 @@ def plot_loo(surrogate, path) -> Path:
         plt.close(fig)
 
 
+@styled
 def plot_pareto(optimum, path) -> Path:
     """The Pareto front of a two- or more-term objective (first two terms) and
     the chosen compromise."""

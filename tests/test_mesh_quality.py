@@ -1,0 +1,150 @@
+"""Meshes without slivers (issue 27 item 4): ``build_tip(spec, quality=True)``.
+
+Aspect ratio = longest edge / shortest altitude (L_max² / (2·area));
+equilateral 1.155. Bound: ``MAX_ASPECT_RATIO`` (50).
+
+For every sample tip the quality mesh is watertight, carries the same labels
+as the plain build, encloses the same volume (both are within the chordal
+tolerance of the same exact solid), stays within the chordal tolerance of the
+exact surfaces at corners, edge midpoints and centroids, and has far fewer
+triangles above the bound. Samples whose every triangle meets the bound are
+listed in ``MEETS_BOUND``; open3d's self-intersection check (O(n²): run on
+the cut region of several samples) finds none.
+
+Known defect (not done): on helical-14G (2 pairs), punch-C2 and punch-C3 (1
+pair each) open3d finds crossing triangles in the quality mesh (none in the
+plain one); the pass's deviation checks do not catch a fold across a cone or
+tube crease there. A checked re-run around the pairs removed them but made
+the helical build take 90 s, so it is not shipped.
+"""
+
+from __future__ import annotations
+
+import functools
+
+import numpy as np
+import pytest
+
+from tipgeo.build import build_tip, exact_surfaces
+from tipgeo.construct import ring_spacing
+from tipgeo.presets import preset, preset_names
+from tipgeo.slivers import aspect_ratios, remove_slivers
+from tipgeo.tolerances import MAX_ASPECT_RATIO
+
+#: samples where every triangle of the quality mesh meets the bound
+MEETS_BOUND = ("bevel-14G-xi15", "bevel-14G-xi45", "bevel-14G-xi75", "conical-14G-theta15",
+               "twoplane-14G-xi15", "threeplane-14G-xi15", "lancet-14G", "punch-plain")
+
+
+@functools.cache
+def _pair(name):
+    spec = preset(name)
+    return build_tip(spec), build_tip(spec, quality=True)
+
+
+def _chord_error(tip) -> float:
+    """Largest |distance| from the exact surface of its label over the
+    corners, edge midpoints and centroids of every triangle with one."""
+    exact = exact_surfaces(tip)
+    t = tip.triangles
+    pts = np.concatenate([t, 0.5 * (t + np.roll(t, 1, axis=1)), t.mean(1, keepdims=True)], 1)
+    worst = 0.0
+    labels = tip.labels
+    for name, fn in exact.items():
+        m = labels == name
+        if m.any():
+            worst = max(worst, float(np.abs(fn(pts[m].reshape(-1, 3))).max()))
+    return worst
+
+
+@pytest.mark.parametrize("name", preset_names())
+def test_quality_mesh_keeps_solid_labels_and_tolerance(name):
+    plain, good = _pair(name)
+    assert good.is_watertight and good.genus == 1
+    assert good.present_labels() == plain.present_labels()
+    # both within the tolerance of one exact solid: |ΔV| ≤ tolerance × area
+    assert abs(good.volume - plain.volume) <= plain.tolerance * plain.area
+    assert abs(good.volume - plain.volume) <= 1e-6 * plain.volume
+    for label in plain.present_labels():  # each face keeps its area
+        a0 = plain.face_areas[plain.mask(label)].sum()
+        a1 = good.face_areas[good.mask(label)].sum()
+        assert abs(a1 - a0) <= 1e-5 * a0 + plain.tolerance * 1.0, label
+    assert good.tolerance == plain.tolerance
+    assert _chord_error(plain) <= plain.tolerance * (1 + 1e-9)
+    assert _chord_error(good) <= good.tolerance * (1 + 1e-9)
+
+
+@pytest.mark.parametrize("name", preset_names())
+def test_quality_mesh_has_few_slivers(name):
+    plain, good = _pair(name)
+    before = int((aspect_ratios(plain.vertices, plain.faces) > MAX_ASPECT_RATIO).sum())
+    ar = aspect_ratios(good.vertices, good.faces)
+    after = int((ar > MAX_ASPECT_RATIO).sum())
+    assert after <= 0.1 * before
+    if name in MEETS_BOUND:
+        assert ar.max() <= MAX_ASPECT_RATIO
+
+
+_KNOWN_CROSSING = pytest.mark.xfail(
+    strict=True, reason="known defect: the sliver pass makes one pair of cone triangles "
+    "cross on this sample (open3d, float64); see the module docstring")
+
+
+@pytest.mark.parametrize("name", ["bevel-14G-xi75", "lancet-14G", "conical-14G-theta15",
+                                  "threeplane-14G-xi15", "punch-C1",
+                                  pytest.param("punch-C3", marks=_KNOWN_CROSSING)])
+def test_no_self_intersections_open3d(name):
+    # open3d's check is O(n²): it runs on the cut region (every triangle
+    # from 0.2 mm below the lowest cut vertex up), where the booleans and
+    # the sliver pass work; below lie the tube's untouched rings
+    from tipgeo._open3d import import_open3d
+
+    o3d = import_open3d()
+    _, good = _pair(name)
+    cut = np.array([n.startswith("cut:") for n in good.labels])
+    z0 = good.vertices[np.unique(good.faces[cut])][:, 2].min() - 0.2
+    keep = good.triangles[:, :, 2].min(axis=1) >= z0
+    f = good.faces[keep]
+    used, inv = np.unique(f, return_inverse=True)
+    mesh = o3d.geometry.TriangleMesh(o3d.utility.Vector3dVector(good.vertices[used]),
+                                     o3d.utility.Vector3iVector(inv.reshape(-1, 3)
+                                                                .astype(np.int32)))
+    assert len(f) > 0.05 * len(good.faces)
+    assert not mesh.is_self_intersecting()
+
+
+def test_ring_spacing_bounds_wall_triangles():
+    # a wall quad w × h splits into right triangles of aspect h/w + w/h
+    r, n = 0.8, 336
+    w = 2 * np.pi * r / n
+    h = ring_spacing(r, n)
+    assert h / w == pytest.approx(0.9 * MAX_ASPECT_RATIO, rel=1e-12)
+    assert h / w + w / h < MAX_ASPECT_RATIO
+
+
+def test_remove_slivers_strip_is_exact():
+    # a flat square split into needles along one diagonal fan: flips and
+    # splits in the plane keep every point on it, the area and the boundary
+    k = 40
+    xs = np.linspace(0, 1, k + 1)
+    verts = np.array([[0.0, 0.0, 0.0]] + [[1.0, x, 0.0] for x in xs] + [[0.0, 1.0, 0.0]])
+    faces = np.array([[0, i + 1, i + 2] for i in range(k)] + [[0, k + 1, k + 2]])
+    # close it as a double-sided sheet: a watertight "pillow" of two layers
+    back = faces[:, ::-1] + len(verts)
+    v2 = np.concatenate([verts, verts + [0, 0, -1e-3]])
+    # join the two layers along the boundary: quads on the square's rim
+    rim = [0, *range(1, k + 2), k + 2]
+    sides = []
+    for a, b in zip(rim, rim[1:] + rim[:1]):
+        sides += [[b, a, a + len(verts)], [b, a + len(verts), b + len(verts)]]
+    f2 = np.concatenate([faces, back, np.array(sides)])
+    lab = np.r_[np.zeros(len(faces)), np.ones(len(back)), np.full(len(sides), 2)].astype(int)
+    before = aspect_ratios(v2, f2)[lab == 0].max()
+    v, f, lab2 = remove_slivers(v2, f2, lab, bound=MAX_ASPECT_RATIO, max_deviation=1e-12)
+    top = f[lab2 == 0]
+    assert before > MAX_ASPECT_RATIO
+    assert aspect_ratios(v, top).max() < before
+    assert np.allclose(v[np.unique(top)][:, 2], 0.0, atol=1e-15)
+    t = v[top]
+    area = 0.5 * np.linalg.norm(np.cross(t[:, 1] - t[:, 0], t[:, 2] - t[:, 0]), axis=1).sum()
+    assert area == pytest.approx(1.0, rel=1e-12)

@@ -1,0 +1,807 @@
+"""The report's sections, one builder per kind of result (plotly figures,
+tables in report units: mm, degrees, µm, mm/min, s).
+
+Frames: the tip, its edges and a mill program's moves are drawn in the
+cannula frame (+z along the axis toward the tip, γ about +z from the heel's
+cannula direction as the angle reports give it; the program frame turned back
+by the set-up's clocking); a scan in the CAD's cannula frame after its
+registration; a mill deviation map in the program frame (stated on it).
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+__all__ = ["tip_section", "mill_section", "compare_section", "fem_section",
+           "optimize_section", "grind_section", "DISPLAY_POINTS",
+           "display_sample", "MAX_DISPLAY_MOVES", "COLOURS"]
+
+#: Colours of the faces (cut faces cycle through ``_CUT``), as in the PNGs.
+COLOURS = {"outer": "#9aa5b1", "inner": "#c7b79a", "base": "#555555"}
+_CUT = ["#d1495b", "#2e86ab", "#edae49", "#66a182", "#8d6a9f", "#f49d37", "#00798c"]
+_WALL = {"outer": "#111111", "inner": "#e65100"}
+
+#: Most scan points drawn in the 3D cloud (display only: the statistics, the
+#: histogram and the tables use every point) — see :func:`display_sample`.
+DISPLAY_POINTS = 200_000
+
+#: Most moves of a program drawn and played (beyond: every k-th feed move,
+#: every rapid; stated on the page).
+MAX_DISPLAY_MOVES = 100_000
+
+
+def _label_colours(names) -> dict[str, str]:
+    cuts = [n for n in names if n.startswith("cut:")]
+    return {n: COLOURS.get(n, _CUT[cuts.index(n) % len(_CUT)] if n in cuts else "#888888")
+            for n in names}
+
+
+def _nice(x: float) -> float:
+    """The largest 1, 2 or 5 × 10^k not above ``x`` (> 0)."""
+    e = 10.0 ** math.floor(math.log10(x))
+    return max(m * e for m in (1.0, 2.0, 5.0) if m * e <= x)
+
+
+def _f32(a) -> np.ndarray:
+    return np.ascontiguousarray(np.asarray(a, dtype=np.float32))
+
+
+def _mesh_traces(tip, *, zlo: float | None = None, opacity: float = 1.0, scene: str = "scene",
+                 legend: bool = True, suffix: str = ""):
+    """One Mesh3d per face label (cannula frame, mm), the tube cut at ``zlo``."""
+    import plotly.graph_objects as go
+
+    v = np.asarray(tip.vertices, float)
+    f = np.asarray(tip.faces)
+    keep = np.ones(len(f), bool) if zlo is None else v[f][:, :, 2].max(axis=1) >= zlo
+    if zlo is not None:
+        v = v.copy()
+        v[:, 2] = np.maximum(v[:, 2], zlo)
+    labels = tip.labels
+    names = [n for n in tip.present_labels() if not (zlo is not None and n == "base")]
+    cols = _label_colours(names)
+    out = []
+    for n in names:
+        sel = f[keep & (labels == n)]
+        if not len(sel):
+            continue
+        used, inv = np.unique(sel, return_inverse=True)
+        tri = inv.reshape(-1, 3).astype(np.int32)
+        vv = v[used]
+        out.append(go.Mesh3d(x=_f32(vv[:, 0]), y=_f32(vv[:, 1]), z=_f32(vv[:, 2]),
+                             i=tri[:, 0], j=tri[:, 1], k=tri[:, 2], color=cols[n],
+                             opacity=opacity, name=n + suffix, showlegend=legend,
+                             flatshading=True, hoverinfo="name", scene=scene,
+                             lighting={"ambient": 0.45, "diffuse": 0.8, "specular": 0.15},
+                             legendgroup=n))
+    return out
+
+
+def _frame_traces(z0: float, length: float, scene: str = "scene", *, beside: float = 0.0,
+                  z1: float | None = None):
+    """The cannula frame's axis directions, each ``length`` mm long (the
+    page's scale bar), from (−beside, −beside, z0) — beside the part, not
+    inside the tube — and the needle axis (x = y = 0) from z0 to ``z1``."""
+    import plotly.graph_objects as go
+
+    out = []
+    if z1 is not None:
+        out.append(go.Scatter3d(x=[0, 0], y=[0, 0], z=[z0, z1], mode="lines",
+                                line={"color": "#607d8b", "width": 2, "dash": "dash"},
+                                name="needle axis (x = y = 0)", hoverinfo="skip", scene=scene))
+    for k, (name, col) in enumerate((("+x", "#b71c1c"), ("+y", "#1b5e20"), ("+z", "#0d47a1"))):
+        e = np.zeros(3)
+        e[k] = length
+        out.append(go.Scatter3d(x=[-beside, e[0] - beside], y=[-beside, e[1] - beside],
+                                z=[z0, z0 + e[2]],
+                                mode="lines+text", text=["", f"{name}"],
+                                textfont={"size": 11, "color": col},
+                                line={"color": col, "width": 6}, hoverinfo="skip",
+                                showlegend=k == 0, legendgroup="frame",
+                                name=f"cannula frame +x +y +z (each {length:g} mm long)",
+                                scene=scene))
+    return out
+
+
+def _scene(points=None, title_z: str = "z (mm)") -> dict:
+    """A 3D scene in true proportions (mm on every axis), the camera far
+    enough out that the whole box of ``points`` (n, 3) is in view."""
+    ax = {"showbackground": True, "backgroundcolor": "#f4f6f8", "gridcolor": "#d0d6dc",
+          "nticks": 6}
+    out = {"xaxis": {**ax, "title": {"text": "x (mm)"}},
+           "yaxis": {**ax, "title": {"text": "y (mm)"}},
+           "zaxis": {**ax, "title": {"text": title_z}}}
+    if points is None or not len(points):
+        return {**out, "aspectmode": "data"}
+    p = np.asarray(points, float)
+    p = p[np.isfinite(p).all(axis=1)]
+    span = np.maximum(p.max(axis=0) - p.min(axis=0), 1e-9)
+    ar = span / span.max()
+    d = 0.75 + 0.8 * float(np.hypot(ar[0], ar[1]))  # out by the box's plan size
+    return {**out, "aspectmode": "manual",
+            "aspectratio": {"x": float(ar[0]), "y": float(ar[1]), "z": float(ar[2])},
+            "camera": {"eye": {"x": 0.9 * d, "y": -0.9 * d, "z": 0.35 + 0.2 * d},
+                       "center": {"x": 0, "y": 0, "z": 0}, "up": {"x": 0, "y": 0, "z": 1}}}
+
+
+#: Chordal tolerance of the meshes drawn when the given one is finer and large
+#: (display only; the tables give the mesh as built).
+DISPLAY_TOLERANCE = 2e-3  # mm
+_DISPLAY_TRIANGLES = 20_000
+
+
+def _display_tip(tip):
+    """The mesh to draw: ``tip`` itself, or (over 20 000 triangles with a
+    spec) the same spec built at :data:`DISPLAY_TOLERANCE`."""
+    from ..build import build_tip
+
+    if len(tip.faces) <= _DISPLAY_TRIANGLES or tip.spec is None or \
+            (tip.tolerance or 0) >= DISPLAY_TOLERANCE:
+        return tip
+    return build_tip(tip.spec, tolerance=DISPLAY_TOLERANCE)
+
+
+def _zlo(tip) -> float:
+    """Lowest z shown: the lowest cut-face point less 0.4 × the outer radius."""
+    v = np.asarray(tip.vertices, float)
+    f = np.asarray(tip.faces)
+    cut = np.array([str(n).startswith("cut:") for n in tip.labels])
+    r = float(np.max(np.hypot(v[:, 0], v[:, 1])))
+    zc = float(v[f[cut]][:, :, 2].min()) if cut.any() else float(v[:, 2].min())
+    return max(float(v[:, 2].min()), zc - 0.4 * r)
+
+
+# -----------------------------------------------------------------------------
+def _edge_xyz(w, g: np.ndarray, z: np.ndarray) -> np.ndarray:
+    """Analysis-frame (γ, z) of a wall's edge → cannula-frame points (mm)."""
+    gh, zh = w.edge.heel
+    r = w.edge.radius
+    return np.stack([r * np.cos(g + gh), r * np.sin(g + gh), z + zh], 1)
+
+
+def tip_section(page, spec, *, tip=None, report=None, title: str | None = None) -> None:
+    """The tip in 3D (faces by label, edges, frame) and λ, θ, α against γ and
+    z with the hover linked to the 3D edge; the build's and the angle report's
+    numbers as tables. ``spec`` a TipSpec (or None with ``tip``)."""
+    import plotly.graph_objects as go
+    from plotly.subplots import make_subplots
+
+    from ..angles import analyze
+    from ..build import build_tip
+    from ..errors import TipGeoError
+
+    if tip is None:
+        if spec is None:
+            raise ValueError("tip_section needs a spec or a tip")
+        tip = build_tip(spec)
+    shown = _display_tip(tip)
+    name = title or getattr(spec, "name", None) or getattr(tip, "source", None) or "tip"
+    if report is None and spec is not None:
+        try:
+            report = analyze(spec, method="exact")
+        except TipGeoError:
+            report = analyze(tip, method="mesh")
+    s = page.section(f"{name}: the tip in 3D",
+                     "Cannula frame, mm: +z along the axis toward the tip; faces coloured by "
+                     "label (click a legend entry to hide a face); cutting edges drawn: outer "
+                     "black, inner orange. Drag to turn, scroll to zoom. Hover on an angle plot "
+                     "below marks the same point on the edge here.")
+    zlo = _zlo(shown)
+    traces = _mesh_traces(shown, zlo=zlo)
+    v = np.asarray(shown.vertices)
+    r = float(np.max(np.hypot(v[:, 0], v[:, 1])))
+    traces += _frame_traces(zlo, _nice(0.8 * r), beside=1.3 * r, z1=float(v[:, 2].max()))
+    edge_idx, dense = {}, {}
+    if report is not None:
+        for wall in ("outer", "inner"):
+            d = report.dense(wall, 1441)
+            w = getattr(report, wall)
+            p = _edge_xyz(w, d["gamma"], d["z"])
+            dense[wall] = d
+            gd = np.degrees(d["gamma"])
+            edge_idx[wall] = len(traces)
+            traces.append(go.Scatter3d(
+                x=np.round(p[:, 0], 6).tolist(), y=np.round(p[:, 1], 6).tolist(),
+                z=np.round(p[:, 2], 6).tolist(), customdata=np.round(gd, 4).tolist(),
+                mode="lines", line={"color": _WALL[wall], "width": 5},
+                name=f"{wall} cutting edge",
+                hovertemplate=f"{wall} edge<br>γ %{{customdata:.2f}}°<br>x %{{x:.4f}} mm<br>"
+                              "y %{y:.4f} mm<br>z %{z:.4f} mm<extra></extra>"))
+    marker = len(traces)
+    traces.append(go.Scatter3d(x=[None], y=[None], z=[None], mode="markers",
+                               marker={"size": 8, "color": "#e91e63", "symbol": "diamond"},
+                               name="hovered point", hoverinfo="skip"))
+    fig = go.Figure(traces)
+    fig.update_layout(scene=_scene(v[v[:, 2] >= zlo]), margin={"l": 0, "r": 0, "t": 10, "b": 0},
+                      legend={"x": 0.0, "y": 1.0, "bgcolor": "rgba(255,255,255,0.7)"})
+    tip3d = s.figure(fig, height=620, name="tip3d")
+    readout = page._id("readout")
+
+    if report is not None:
+        a = page.section(f"{name}: cutting angles",
+                         "λ inclination, θ included (outer: eq. 3.14), α rake, in degrees, "
+                         "against γ (deg from the heel, analysis frame) and against z (mm "
+                         "from the heel); solid outer edge, dashed inner. Lines break where the "
+                         f"face forming the edge changes. Method: {report.method}.")
+        figa = make_subplots(2, 3, horizontal_spacing=0.07, vertical_spacing=0.14,
+                             subplot_titles=("λ against γ", "θ against γ", "α against γ",
+                                             "λ against z", "θ against z", "α against z"))
+        for wall, dash in (("outer", "solid"), ("inner", "dash")):
+            d = dense[wall]
+            brk = np.r_[False, d["face"][1:] != d["face"][:-1]]
+            gd = np.degrees(d["gamma"])
+            idx = np.arange(len(gd))
+            for j, key in enumerate(("lambda", "theta", "alpha")):
+                y = np.degrees(np.asarray(d[key], float))
+                y[brk] = np.nan
+                for row, xv, xl in ((1, gd, "γ %{x:.2f}°"), (2, d["z"], "z %{x:.4f} mm")):
+                    figa.add_trace(go.Scatter(
+                        x=_f32(xv), y=_f32(y), customdata=idx, meta=edge_idx[wall],
+                        mode="lines", line={"color": _WALL[wall], "dash": dash, "width": 1.6},
+                        name=f"{wall} edge", legendgroup=wall, showlegend=(j == 0 and row == 1),
+                        connectgaps=False,
+                        hovertemplate=f"{wall}: {xl}<br>{key} %{{y:.3f}}°<extra></extra>"),
+                        row=row, col=j + 1)
+        for j, lab in enumerate(("λ (deg)", "θ (deg)", "α (deg)")):
+            figa.update_yaxes(title_text=lab, row=1, col=j + 1)
+            figa.update_yaxes(title_text=lab, row=2, col=j + 1)
+            figa.update_xaxes(title_text="γ (deg from the heel)", range=[0, 360], dtick=60,
+                              row=1, col=j + 1)
+            figa.update_xaxes(title_text="z (mm from the heel)", row=2, col=j + 1)
+        figa.update_layout(hovermode="closest", margin={"l": 60, "r": 10, "t": 40, "b": 50},
+                           legend={"orientation": "h", "y": -0.12}, template="plotly_white")
+        ang = a.figure(figa, height=640, name="angles")
+        a.raw(f'<div class="tg-readout" id="{readout}"></div>')
+        page.link(kind="edge-hover", src=ang, dst=tip3d, marker=marker, readout=readout)
+        _angle_tables(a, report)
+    _tip_tables(s, tip)
+
+
+def _tip_tables(s, tip) -> None:
+    info = tip.summary()
+    rows = [[k, info[k]] for k in ("triangles", "vertices", "volume_mm3", "area_mm2",
+                                   "tolerance_um", "watertight") if k in info]
+    s.table(["quantity (unit in its name)", "value"], rows, caption="the built tip")
+    s.table(["face label", "triangles"], [[k, n] for k, n in info["labels"].items()],
+            caption="faces")
+
+
+def _angle_tables(s, report) -> None:
+    sm = report.summary()
+    rows = []
+    for wall, key in (("outer", "o"), ("inner", "i")):
+        w = sm[wall]
+        th = w["theta_deg"] if key == "o" else w["theta_i_deg"]
+        rows.append([wall, w["radius_mm"], w["l_c_mm"], w["z_max_mm"], w["gamma_of_z_max_deg"],
+                     *w[f"lambda_{key}_deg"], *th, *w[f"alpha_{key}_deg"],
+                     len(w["kinks"]), len(w["jumps"])])
+    s.table(["edge", "radius (mm)", "l_c (mm)", "top z (mm)", "γ of top (deg)", "λ min (deg)",
+             "λ max (deg)", "θ min (deg)", "θ max (deg)", "α min (deg)", "α max (deg)",
+             "kinks", "vertical stretches"], rows, caption="edges and angle ranges")
+    kinks = [[wall, k["gamma_deg"], k["z_mm"], k["theta_deg"], " | ".join(k["faces"])]
+             for wall in ("outer", "inner") for k in sm[wall]["kinks"]]
+    if kinks:
+        s.table(["edge", "γ (deg)", "z (mm)", "θ (deg)", "faces"], kinks, caption="kinks",
+                left=1)
+    t = report.table(10.0)
+    cols = list(t)
+    s.table([c.replace("_deg", " (deg)").replace("_mm", " (mm)") for c in cols],
+            [[float(t[c][k]) for c in cols] for k in range(len(t["gamma_deg"]))],
+            caption="angles every 10° of γ (the angles --json table)", left=0, folded=True)
+
+
+# -----------------------------------------------------------------------------
+def _move_kinds(moves, params) -> tuple[np.ndarray, list[str]]:
+    """Each move's kind (index into the names): rapid, or the feed's name
+    (finishing / roughing / plunge from the parameters' feeds, else its F)."""
+    names: list[str] = ["rapid"]
+    kind = np.zeros(len(moves.start), int)
+    known = {}
+    if params is not None:
+        for nm, f in (("finishing", params.finish_feed), ("roughing", params.rough_feed),
+                      ("plunge", params.plunge_feed)):
+            known.setdefault(round(float(f), 6), nm)
+    feeds = np.where(moves.rapid, np.nan, moves.feed)
+    for f in np.unique(np.round(feeds[np.isfinite(feeds)], 6)):
+        nm = known.get(float(f), "feed")
+        names.append(f"{nm} (F {f:g} mm/min)")
+        kind[np.isclose(feeds, f, rtol=0, atol=1e-6)] = len(names) - 1
+    return kind, names
+
+
+def _move_colour(name: str) -> str:
+    for k, c in (("rapid", "#9e9e9e"), ("finishing", "#2e7d32"), ("roughing", "#ef6c00"),
+                 ("plunge", "#6a1b9a")):
+        if name.startswith(k):
+            return c
+    return "#00838f"
+
+
+def mill_section(page, res, spec=None) -> None:
+    """A milling run (:class:`cam.mill.MillResult`): the program's moves over
+    the CAD part coloured by kind with a slider that plays them, the
+    simulated part beside the CAD, the deviation map and the numbers."""
+    import plotly.graph_objects as go
+    from plotly.subplots import make_subplots
+
+    from cam.mill.simulate import read_gcode
+
+    from ..build import build_tip
+    from ..edges import rotate_z
+
+    tp = res.toolpath
+    moves = res.milled.moves if res.milled is not None else read_gcode(res.gcode)
+    clk = float(tp.setup.clocking)
+    start = rotate_z(np.asarray(moves.start, float), clk)
+    end = rotate_z(np.asarray(moves.end, float), clk)
+    kind, names = _move_kinds(moves, tp.params)
+    n = len(start)
+    keep = np.arange(n)
+    rule = "every move"
+    if n > MAX_DISPLAY_MOVES:
+        k = math.ceil(n / MAX_DISPLAY_MOVES)
+        keep = np.flatnonzero(moves.rapid | (np.arange(n) % k == 0) | (np.arange(n) == n - 1))
+        rule = f"every rapid and every {k}-th feed move (of {n:,})"
+    s = page.section(f"{tp.name}: milling program over the part",
+                     "Cannula frame, mm (the program frame turned back by the set-up's "
+                     f"clocking {math.degrees(clk):.2f}°); tool-tip path of {rule}, coloured "
+                     "by move kind (rapids above the part leave the box); the CAD tip in grey. "
+                     "The slider plays the program: the dark line is the path done, the red "
+                     "diamond the tool tip.")
+    cad = build_tip(spec, tolerance=DISPLAY_TOLERANCE) if spec is not None else None
+    traces = []
+    if cad is not None:
+        zlo = _zlo(cad)
+        for t in _mesh_traces(cad, zlo=zlo, opacity=0.35, legend=False):
+            t.update(color="#b0bec5", hoverinfo="skip")
+            traces.append(t)
+    for ki, nm in enumerate(names):
+        sel = keep[kind[keep] == ki]
+        if not len(sel):
+            continue
+        seg = np.full((len(sel), 3, 3), np.nan)
+        seg[:, 0], seg[:, 1] = start[sel], end[sel]
+        seg = seg.reshape(-1, 3)
+        traces.append(go.Scatter3d(x=_f32(seg[:, 0]), y=_f32(seg[:, 1]), z=_f32(seg[:, 2]),
+                                   mode="lines", name=f"{nm}: {len(sel):,} moves",
+                                   line={"color": _move_colour(nm), "width": 2,
+                                         "dash": "dot" if ki == 0 else "solid"},
+                                   opacity=0.5 if ki == 0 else 0.9, hoverinfo="name"))
+    done = len(traces)
+    traces.append(go.Scatter3d(x=[], y=[], z=[], mode="lines", name="path done",
+                               line={"color": "#263238", "width": 2}, hoverinfo="skip"))
+    marker = len(traces)
+    traces.append(go.Scatter3d(x=[], y=[], z=[], mode="markers", name="tool tip",
+                               marker={"size": 8, "color": "#d50000", "symbol": "diamond"},
+                               hoverinfo="skip"))
+    r_o = tp.setup.r_o
+    traces += _frame_traces(float(np.nanmin(end[:, 2])), _nice(0.8 * r_o), beside=1.3 * r_o)
+    fig = go.Figure(traces)
+    feed = end[keep][~np.asarray(moves.rapid)[keep]]
+    sc = _scene(feed if len(feed) else end[keep])
+    if len(feed):  # rapids above the part leave the box: the part fills the view
+        lo, hi = feed.min(axis=0), feed.max(axis=0)
+        pad = 0.05 * (hi - lo) + 0.05
+        for ax, a, b in zip("xyz", lo - pad, hi + pad):
+            sc[f"{ax}axis"]["range"] = [float(a), float(b)]
+    fig.update_layout(scene=sc, margin={"l": 0, "r": 0, "t": 10, "b": 0},
+                      legend={"x": 0.0, "y": 1.0, "bgcolor": "rgba(255,255,255,0.7)"})
+    div = s.figure(fig, height=620, name="toolpath")
+    pts = np.vstack([start[keep[:1]], end[keep]]) if len(keep) else np.zeros((1, 3))
+    slider, play, readout = page._id("slider"), page._id("play"), page._id("readout")
+    s.raw(f'<div class="tg-controls"><button id="{play}" type="button">▶ play</button>'
+          f'<input id="{slider}" type="range" min="0" max="{len(pts) - 1}" value="0" step="1" '
+          f'aria-label="move"></div><div class="tg-readout" id="{readout}"></div>')
+    page.link(kind="toolpath", div=div, done=done, marker=marker, slider=slider, play=play,
+              readout=readout, path={"x": np.round(pts[:, 0], 5).tolist(),
+                                     "y": np.round(pts[:, 1], 5).tolist(),
+                                     "z": np.round(pts[:, 2], 5).tolist(),
+                                     "kind": kind[keep].tolist(), "names": names})
+    summ = res.summary()
+    s.table(["toolpath", "value"], [[k, v] for k, v in summ["toolpath"].items()
+                                    if not isinstance(v, (dict, list))],
+            caption="toolpath (units in the names: mm, deg, µm)")
+    s.table(["program", "value"], [[k, v] for k, v in summ["program"].items()],
+            caption="program (mm, s, rpm)")
+
+    if res.milled is not None and cad is not None:
+        m = page.section(f"{tp.name}: simulated part beside the CAD",
+                         "Left the CAD tip, right the tip the simulation milled from the "
+                         "G-code text (both cannula frame, mm, faces by label; the cameras "
+                         "are independent).")
+        figm = make_subplots(1, 2, specs=[[{"type": "scene"}, {"type": "scene"}]],
+                             subplot_titles=("CAD", "simulated from the program"),
+                             horizontal_spacing=0.02)
+        zlo = _zlo(cad)
+        cv = np.asarray(cad.vertices)
+        cv = cv[cv[:, 2] >= zlo]
+        for t in _mesh_traces(cad, zlo=zlo, scene="scene"):
+            figm.add_trace(t)
+        for t in _mesh_traces(_display_tip(res.milled.tip), zlo=zlo, scene="scene2",
+                              legend=False):
+            figm.add_trace(t)
+        figm.update_layout(scene=_scene(cv), scene2=_scene(cv),
+                           margin={"l": 0, "r": 0, "t": 30, "b": 0})
+        m.figure(figm, height=560, name="milled")
+        dev = res.milled.deviation() * 1e3
+        sy = max(1, math.ceil(dev.shape[0] / 400))
+        sx = max(1, math.ceil(dev.shape[1] / 400))
+        lim = float(np.nanpercentile(np.abs(dev), 99.5)) if np.isfinite(dev).any() else 1.0
+        figd = go.Figure(go.Heatmap(
+            x=_f32(res.milled.x[::sx]), y=_f32(res.milled.y[::sy]), z=_f32(dev[::sy, ::sx]),
+            colorscale="RdBu", reversescale=True, zmin=-lim, zmax=lim, zsmooth=False,
+            colorbar={"title": {"text": "milled − CAD (µm)"}},
+            hovertemplate="X %{x:.3f} mm<br>Y %{y:.3f} mm<br>%{z:.2f} µm<extra></extra>"))
+        figd.update_layout(xaxis={"title": {"text": "program X (mm)"}, "scaleanchor": "y"},
+                           yaxis={"title": {"text": "program Y (mm)"}},
+                           template="plotly_white", margin={"l": 60, "r": 10, "t": 30, "b": 50},
+                           title={"text": "deviation normal to the surface, program frame "
+                                          f"(every {sx}th×{sy}th cell of "
+                                          f"{dev.shape[1]}×{dev.shape[0]} shown)",
+                                  "font": {"size": 13}})
+        m.figure(figd, height=520, name="deviation-map")
+    if res.comparison is not None:
+        c = page.section(f"{tp.name}: milled against CAD",
+                         "The comparison's figures (µm, deg) and the verdict.")
+        cm = res.comparison
+        c.table(["quantity", "value"], [[k, v] for k, v in cm.items()
+                                        if not isinstance(v, (dict, list))],
+                caption="comparison")
+        rows = [[wall, *[a.get(f"{k}_max_diff_deg") for k in ("lambda", "theta", "alpha")]]
+                for wall, a in (cm.get("angles") or {}).items() if isinstance(a, dict)]
+        if rows:
+            c.table(["edge", "λ max |milled − CAD| (deg)", "θ max |milled − CAD| (deg)",
+                     "α max |milled − CAD| (deg)"], rows, caption="edge angles")
+        c.verdict(summ.get("verdict"))
+
+
+# -----------------------------------------------------------------------------
+def display_sample(dev: np.ndarray, band: float, limit: int = DISPLAY_POINTS) -> np.ndarray:
+    """Indices of the scan points drawn (display only, never the statistics).
+
+    Rule: all points when there are at most ``limit``; else the points
+    outside ±``band`` (mm) first — the ones a person looks for — up to half
+    of ``limit``, largest |deviation| first, then of the others as many as
+    fill ``limit``, evenly spaced in the scan's order. Deterministic; sorted
+    indices.
+    """
+    n = len(dev)
+    if n <= limit:
+        return np.arange(n)
+    a = np.abs(dev)
+    out = np.flatnonzero(a > band)
+    if len(out) > limit // 2:
+        out = out[np.argsort(-a[out], kind="stable")[: limit // 2]]
+    rest = np.setdiff1d(np.arange(n), out, assume_unique=True)
+    take = np.unique(np.linspace(0, len(rest) - 1, limit - len(out)).round().astype(np.int64))
+    return np.sort(np.concatenate([out, rest[take]]))
+
+
+def compare_section(page, data: dict, points: np.ndarray, dev: np.ndarray, face: np.ndarray,
+                    labels, *, source: str = "") -> None:
+    """A scan against its CAD: the signed deviations (mm) on the 3D cloud
+    (cannula frame) with the colour scale, the histogram of every point
+    (click a bar: its displayed points are marked), the per-face table, the
+    numbers and the verdict. ``data`` is the compare report (report.json)."""
+    import plotly.graph_objects as go
+
+    dev_um = np.asarray(dev, float) * 1e3
+    band = float(data.get("tolerance_um", 10.0))
+    lo, hi = (data.get("colour_scale_um") or [-2.5 * band, 2.5 * band])[:2]
+    cad_name = (data.get("cad") or {}).get("name", "CAD")
+    name = f"{cad_name} vs {(data.get('scan') or {}).get('source', source)}"
+    n = len(dev_um)
+    idx = display_sample(dev_um, band)
+    rule = ("every point" if len(idx) == n else
+            f"{len(idx):,} of {n:,} points: those outside ±{band:g} µm first (largest first, "
+            f"at most {DISPLAY_POINTS // 2:,}), then of the others evenly spaced in the "
+            "scan's order")
+    s = page.section(f"{name}: deviations on the scan",
+                     "Signed deviation, µm (+ outside the CAD solid: material left), on the "
+                     f"scan points in the CAD's cannula frame (mm). Drawn: {rule}. The "
+                     "statistics, the histogram and the tables use every point. Click a "
+                     "histogram bar to mark its points on the cloud (black).")
+    p = np.asarray(points)[idx]
+    cloud = go.Scatter3d(
+        x=_f32(p[:, 0]), y=_f32(p[:, 1]), z=_f32(p[:, 2]), mode="markers", name="scan points",
+        marker={"size": 1.6, "color": _f32(dev_um[idx]), "colorscale": "RdYlBu",
+                "reversescale": True, "cmin": lo, "cmax": hi,
+                "colorbar": {"title": {"text": "deviation (µm)"}, "len": 0.8}},
+        hovertemplate="x %{x:.4f} mm<br>y %{y:.4f} mm<br>z %{z:.4f} mm<br>"
+                      "deviation %{marker.color:.2f} µm<extra></extra>")
+    sel = go.Scatter3d(x=[], y=[], z=[], mode="markers", name="picked in the histogram",
+                       marker={"size": 3.5, "color": "#000"}, hoverinfo="skip")
+    fig = go.Figure([cloud, sel])
+    fig.update_layout(scene=_scene(p), margin={"l": 0, "r": 0, "t": 10, "b": 0},
+                      legend={"x": 0.0, "y": 1.0})
+    cdiv = s.figure(fig, height=620, name="cloud")
+    finite = dev_um[np.isfinite(dev_um)]
+    q0, q1 = (np.percentile(finite, [0.05, 99.95]) if len(finite) else (-1.0, 1.0))
+    q0, q1 = min(q0, -band * 1.2), max(q1, band * 1.2)
+    edges = np.linspace(q0, q1, 121)
+    edges[0], edges[-1] = min(edges[0], finite.min()), max(edges[-1], finite.max() + 1e-9)
+    counts, _ = np.histogram(finite, bins=edges)
+    mid = 0.5 * (edges[1:] + edges[:-1])
+    inside = (edges[:-1] >= -band) & (edges[1:] <= band)
+    hist = go.Bar(x=mid, y=counts, width=np.diff(edges), name="points",
+                  marker={"color": np.where(inside, "#5c8fbf", "#d1495b").tolist()},
+                  customdata=[[float(a), float(b), int(c)] for a, b, c in
+                              zip(edges[:-1], edges[1:], counts)],
+                  hovertemplate="%{customdata[0]:.2f} … %{customdata[1]:.2f} µm: "
+                                "%{y:,} points<extra></extra>")
+    figh = go.Figure(hist)
+    for b in (-band, band):
+        figh.add_vline(x=b, line={"color": "#333", "dash": "dash", "width": 1})
+    figh.update_layout(template="plotly_white", bargap=0,
+                       xaxis={"title": {"text": "signed deviation (µm)"}},
+                       yaxis={"title": {"text": "points (all of them; log scale)"},
+                              "type": "log"},
+                       title={"text": f"{n:,} points; dashed: the ±{band:g} µm band "
+                                      "(bars outside it in red); outermost bars hold the tails",
+                              "font": {"size": 13}},
+                       margin={"l": 60, "r": 10, "t": 40, "b": 50})
+    hdiv = s.figure(figh, height=360, name="histogram")
+    readout = page._id("readout")
+    s.raw(f'<div class="tg-readout" id="{readout}"></div>')
+    page.link(kind="hist-pick", hist=hdiv, cloud=cdiv, src=0, sel=1, readout=readout)
+    s.verdict(data.get("verdict"))
+    devs = data.get("deviation") or {}
+    stat_cols = ["count", "mean_um", "std_um", "rms_um", "min_um", "max_um", "p5_um", "p95_um",
+                 "within_tol_share"]
+    heads = ["points", "mean (µm)", "std (µm)", "RMS (µm)", "min (µm)", "max (µm)", "P5 (µm)",
+             "P95 (µm)", f"share within ±{band:g} µm"]
+    rows = []
+    if devs.get("all"):
+        rows.append(["all", *[devs["all"].get(c) for c in stat_cols]])
+    for fname, b in (devs.get("regions") or {}).items():
+        rows.append([fname, *[b.get(c) for c in stat_cols]])
+    if rows:
+        s.table(["face", *heads], rows, caption="per face (every point)")
+    meas = data.get("measured") or {}
+    mrows = [[w, meas[w].get("diameter_mm"), meas[w].get("cad_diameter_mm"),
+              meas[w].get("error_um")] for w in ("outer", "inner") if meas.get(w)]
+    if mrows:
+        s.table(["wall", "diameter (mm)", "CAD diameter (mm)", "error (µm)"], mrows,
+                caption="measured diameters")
+    frows = [[lab, f.get("xi_deg"), f.get("cad_xi_deg"), f.get("xi_error_deg"),
+              f.get("flatness_rms_um")] for lab, f in (meas.get("faces") or {}).items()]
+    if frows:
+        s.table(["face", "ξ (deg)", "CAD ξ (deg)", "error (deg)", "flatness RMS (µm)"], frows,
+                caption="measured faces")
+    reg = data.get("registration") or {}
+    if reg:
+        s.table(["registration", "value"], [[k, v] for k, v in reg.items()
+                                            if not isinstance(v, dict)],
+                caption="registration (units in the names)")
+    for w in data.get("warnings") or []:
+        s.text(f"warning: {w}", cls="bad")
+
+
+# -----------------------------------------------------------------------------
+def fem_section(page, run: dict, *, source: str = "") -> None:
+    """A finite-element insertion run (its JSON, ``tipgeo fem --out-dir``):
+    the axial force against depth (N, mm) beside the analytical force of
+    eq. 4.22, their difference, the run's numbers, stresses and verdict."""
+    import plotly.graph_objects as go
+    from plotly.subplots import make_subplots
+
+    curve = run.get("curve") or []
+    d = np.array([r["depth_mm"] for r in curve], float)
+    f = np.array([r["force_N"] for r in curve], float)
+    a = np.array([r.get("analytical_N", np.nan) for r in curve], float)
+    s = page.section(f"{run.get('name', 'tip')}: FEM insertion ({run.get('model', '')})",
+                     "Axial force on the tip against insertion depth: the finite-element run "
+                     "(CalculiX) and, beside it, the analytical force of eq. 4.22 (thesis "
+                     "§4.2, β = 2.5) for the same tissue; right: FEM − eq. 4.22. "
+                     + (f"Source: {source}." if source else ""))
+    fig = make_subplots(1, 2, column_widths=[0.6, 0.4], horizontal_spacing=0.1,
+                        subplot_titles=("force against depth", "FEM − eq. 4.22"))
+    fig.add_trace(go.Scatter(x=d, y=f, mode="lines+markers", name="FEM",
+                             line={"color": "#1565c0"}, marker={"size": 5},
+                             hovertemplate="depth %{x:.4f} mm<br>FEM %{y:.5g} N<extra></extra>"),
+                  row=1, col=1)
+    fig.add_trace(go.Scatter(x=d, y=a, mode="lines", name="analytical eq. 4.22",
+                             line={"color": "#c62828", "dash": "dash"},
+                             hovertemplate="depth %{x:.4f} mm<br>eq. 4.22 %{y:.5g} N"
+                                           "<extra></extra>"), row=1, col=1)
+    fig.add_trace(go.Scatter(x=d, y=(f - a) * 1e3, mode="lines+markers", name="FEM − eq. 4.22",
+                             line={"color": "#455a64"}, marker={"size": 4},
+                             hovertemplate="depth %{x:.4f} mm<br>%{y:.4g} mN<extra></extra>"),
+                  row=1, col=2)
+    fig.update_xaxes(title_text="depth (mm)")
+    fig.update_yaxes(title_text="axial force (N)", row=1, col=1)
+    fig.update_yaxes(title_text="difference (mN)", row=1, col=2)
+    fig.update_layout(template="plotly_white", hovermode="closest",
+                      legend={"orientation": "h", "y": -0.18},
+                      margin={"l": 60, "r": 10, "t": 40, "b": 60})
+    s.figure(fig, height=440, name="fem-force")
+    s.verdict(run.get("verdict"))
+    s.table(["run", "value"], [[k, v] for k, v in run.items()
+                               if not isinstance(v, (dict, list))],
+            caption="the run (units in the names: mm, µm, N, s)")
+    st = run.get("stress") or {}
+    if st:
+        s.table(["depth (mm)", "max principal stress (kPa)", "near the edge (kPa)", "at r, z (mm)"],
+                [[k, v.get("max_principal_MPa", math.nan) * 1e3,
+                  v.get("max_principal_near_edge_MPa", math.nan) * 1e3, v.get("at_mm")]
+                 for k, v in st.items()], caption="stresses", left=0)
+    s.table(["depth (mm)", "FEM force (N)", "eq. 4.22 force (N)", "FEM − eq. 4.22 (mN)"],
+            [[float(x), float(y), float(z), float((y - z) * 1e3)] for x, y, z in zip(d, f, a)],
+            caption="force curve", left=0, folded=len(d) > 12)
+
+
+# -----------------------------------------------------------------------------
+def optimize_section(page, report: dict, table: dict[str, np.ndarray], gp=None, *,
+                     source: str = "") -> None:
+    """An optimisation study (``tipgeo optimize --out-dir``): each fitted
+    response over the design variables — every analysed design of the sweep
+    (its real geometry, not the GP) — with the optima marked (their built
+    geometry's values), the optima, the leave-one-out errors and the verdict
+    as tables. One variable: curves; two or more: a surface over the first
+    two (triangulated between the designs), the others in the hover."""
+    import plotly.graph_objects as go
+    from plotly.subplots import make_subplots
+
+    var = [v["name"] for v in report.get("variables") or []]
+    resp = (report.get("responses") or {}).get("fitted") or []
+    resp = [r for r in resp if r in table]
+    optima = report.get("optima") or []
+    s = page.section(f"{report.get('name', 'study')}: response surfaces and optima",
+                     "Every analysed design of the sweep (exact geometry; units in the names: "
+                     "mm, deg) and each objective's optimum (a star: the built optimum's "
+                     "actual value). "
+                     + ("The study's GP (rebuilt from surrogate.json, reproducing its "
+                        "predictions at the optima): mean and 95 % band; with two or more "
+                        "variables, its mean over the first two, the others at the box centre. "
+                        if gp else "No GP drawn (surrogate.json not reproduced). ")
+                     + (f"Source: {source}." if source else ""))
+    if var and resp and all(v in table for v in var):
+        cols = _CUT
+        if len(var) == 1:
+            x = np.asarray(table[var[0]], float)
+            o = np.argsort(x)
+            fig = make_subplots(1, len(resp), subplot_titles=resp, horizontal_spacing=0.08)
+            for j, r in enumerate(resp):
+                y = np.asarray(table[r], float)
+                if gp and r in gp:
+                    var0 = next(v for v in report["variables"] if v["name"] == var[0])
+                    xg = np.linspace(float(var0["min"]), float(var0["max"]), 301)
+                    mg, sg = gp[r](xg[:, None])
+                    fig.add_trace(go.Scatter(
+                        x=np.r_[xg, xg[::-1]], y=np.r_[mg + 1.96 * sg, (mg - 1.96 * sg)[::-1]],
+                        fill="toself", fillcolor="rgba(31,119,180,0.18)", line={"width": 0},
+                        name="GP 95 % band", showlegend=j == 0, hoverinfo="skip"),
+                        row=1, col=j + 1)
+                    fig.add_trace(go.Scatter(x=xg, y=mg, mode="lines", name="GP mean",
+                                             showlegend=j == 0, line={"color": "#1f77b4"}),
+                                  row=1, col=j + 1)
+                fig.add_trace(go.Scatter(x=x[o], y=y[o], mode="markers", name="sweep designs",
+                                         showlegend=j == 0, marker={"size": 7,
+                                                                    "color": "#263238"}),
+                              row=1, col=j + 1)
+                for k, opt in enumerate(optima):
+                    ox = (opt.get("x") or {}).get(var[0])
+                    oy = ((opt.get("responses") or {}).get(r) or {}).get("actual")
+                    if ox is None or oy is None:
+                        continue
+                    fig.add_trace(go.Scatter(
+                        x=[ox], y=[oy], mode="markers", name=opt.get("objective", "optimum"),
+                        legendgroup=opt.get("objective"), showlegend=j == 0,
+                        marker={"symbol": "star", "size": 16, "color": cols[k % len(cols)],
+                                "line": {"color": "#000", "width": 1}}), row=1, col=j + 1)
+                fig.update_xaxes(title_text=var[0].replace("_deg", " (deg)")
+                                 .replace("_mm", " (mm)"), row=1, col=j + 1)
+                fig.update_yaxes(title_text=r.replace("_deg", " (deg)").replace("_mm", " (mm)"),
+                                 row=1, col=j + 1)
+            fig.update_layout(template="plotly_white", legend={"orientation": "h", "y": -0.2},
+                              margin={"l": 60, "r": 10, "t": 40, "b": 60})
+            s.figure(fig, height=440, name="responses")
+        else:
+            from scipy.spatial import Delaunay
+
+            x, y = (np.asarray(table[v], float) for v in var[:2])
+            tri = Delaunay(np.column_stack([(x - x.min()) / (np.ptp(x) or 1),
+                                            (y - y.min()) / (np.ptp(y) or 1)])).simplices
+            vs = {v["name"]: v for v in report["variables"]}
+            for r in resp:
+                z = np.asarray(table[r], float)
+                if gp and r in gp:
+                    g0 = np.linspace(float(vs[var[0]]["min"]), float(vs[var[0]]["max"]), 41)
+                    g1 = np.linspace(float(vs[var[1]]["min"]), float(vs[var[1]]["max"]), 41)
+                    G0, G1 = np.meshgrid(g0, g1)
+                    Xq = np.column_stack([np.full(G0.size, 0.5 * (float(vs[n]["min"]) +
+                                                                   float(vs[n]["max"])))
+                                          for n in var])
+                    Xq[:, 0], Xq[:, 1] = G0.ravel(), G1.ravel()
+                    surf = go.Surface(x=g0, y=g1, z=gp[r](Xq)[0].reshape(G0.shape),
+                                      colorscale="Viridis", opacity=0.85, name=f"GP mean {r}",
+                                      colorbar={"title": {"text": r}})
+                else:
+                    surf = go.Mesh3d(x=x, y=y, z=z, i=tri[:, 0], j=tri[:, 1], k=tri[:, 2],
+                                     intensity=z, colorscale="Viridis", opacity=0.85, name=r,
+                                     colorbar={"title": {"text": r}}, hoverinfo="x+y+z")
+                tr = [surf, go.Scatter3d(x=x, y=y, z=z, mode="markers", name="sweep designs",
+                                         marker={"size": 3, "color": "#263238"})]
+                for k, opt in enumerate(optima):
+                    ox = opt.get("x") or {}
+                    oz = ((opt.get("responses") or {}).get(r) or {}).get("actual")
+                    if oz is None or var[0] not in ox or var[1] not in ox:
+                        continue
+                    tr.append(go.Scatter3d(x=[ox[var[0]]], y=[ox[var[1]]], z=[oz],
+                                           mode="markers", name=opt.get("objective"),
+                                           marker={"symbol": "diamond", "size": 8,
+                                                   "color": cols[k % len(cols)]}))
+                fig = go.Figure(tr)
+                fig.update_layout(scene={"xaxis": {"title": {"text": var[0]}},
+                                         "yaxis": {"title": {"text": var[1]}},
+                                         "zaxis": {"title": {"text": r}},
+                                         "aspectmode": "cube"},
+                                  margin={"l": 0, "r": 0, "t": 10, "b": 0})
+                s.figure(fig, height=520, name=f"surface-{r}")
+    s.verdict(report.get("verdict"))
+    rows = []
+    for opt in optima:
+        for r, v in (opt.get("responses") or {}).items():
+            rows.append([opt.get("objective"), ", ".join(f"{k} = {x:.6g}" for k, x in
+                                                         (opt.get("x") or {}).items()),
+                         r, v.get("predicted"), v.get("actual"), v.get("error_frac"),
+                         v.get("inside95")])
+    if rows:
+        s.table(["objective", "optimum (variables in their units)", "response",
+                 "GP predicted", "actual (built)", "error / training range", "inside 95 %"],
+                rows, caption="optima (responses in the units of their names)", left=3)
+    loo = (report.get("surrogate") or {}).get("loo") or {}
+    lrows = [[r, *[v.get(k) for k in ("kernel", "rmse", "max_abs", "nrmse", "coverage95")]]
+             for r, v in loo.items() if isinstance(v, dict)]
+    if lrows:
+        s.table(["response", "kernel", "LOO RMSE", "LOO max |error|", "RMSE / std",
+                 "95 % coverage"],
+                lrows, caption="leave-one-out errors of the GP (response units)")
+
+
+# -----------------------------------------------------------------------------
+def grind_section(page, res, spec=None) -> None:
+    """A grinding run (:class:`cam.GrindResult`): the simulated ground tip
+    beside the CAD (when simulated), the set-up of every face, the program's
+    numbers, the comparison and its verdict."""
+    from plotly.subplots import make_subplots
+
+    from ..build import build_tip
+
+    summ = res.summary()
+    prog = summ["program"]
+    s = page.section(f"{prog.get('name', 'tip')}: five-axis grinding",
+                     "The set-up of every face (ξ, r5 = ϕ_g, r4 in degrees; t1 and the "
+                     "wheel's OC in mm), the program's numbers and — with the simulation — "
+                     "the ground tip beside the CAD (cannula frame, mm, faces by label).")
+    if res.ground is not None and spec is not None:
+        cad = build_tip(spec, tolerance=DISPLAY_TOLERANCE)
+        zlo = _zlo(cad)
+        cv = np.asarray(cad.vertices)
+        cv = cv[cv[:, 2] >= zlo]
+        fig = make_subplots(1, 2, specs=[[{"type": "scene"}, {"type": "scene"}]],
+                            subplot_titles=("CAD", "simulated from the program"),
+                            horizontal_spacing=0.02)
+        for t in _mesh_traces(cad, zlo=zlo, scene="scene"):
+            fig.add_trace(t)
+        for t in _mesh_traces(_display_tip(res.ground), zlo=zlo, scene="scene2", legend=False):
+            fig.add_trace(t)
+        fig.update_layout(scene=_scene(cv), scene2=_scene(cv),
+                          margin={"l": 0, "r": 0, "t": 30, "b": 0})
+        s.figure(fig, height=560, name="ground")
+    setup = prog.get("setup") or []
+    if setup:
+        cols = list(setup[0])
+        s.table([c.replace("_deg", " (deg)").replace("_mm", " (mm)").replace("_rpm", " (rpm)")
+                 for c in cols], [[f.get(c) for c in cols] for f in setup],
+                caption="set-up per face")
+    s.table(["program", "value"], [[k, v] for k, v in prog.items()
+                                   if not isinstance(v, (dict, list))],
+            caption="program (units in the names: mm, s)")
+    if res.comparison is not None:
+        s.table(["comparison", "value"], [[k, v] for k, v in res.comparison.items()
+                                          if not isinstance(v, (dict, list))],
+                caption="ground against CAD (units in the names)")
+        s.verdict(summ.get("verdict"))

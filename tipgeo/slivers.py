@@ -1,0 +1,438 @@
+"""Sliver removal on a labelled triangle mesh (issue 27 item 4).
+
+Booleans between tessellations whose vertices do not line up leave sliver
+triangles: needles (one edge far shorter than the others) and caps (one
+angle near 180°). They carry no geometry, but self-intersection checks
+(MeshLab, open3d, trimesh) report false positives on them and meshers choke.
+
+Aspect ratio here is the *longest edge over the shortest altitude*,
+``L_max² / (2 A)`` (an equilateral triangle: 2/√3 ≈ 1.155; a right isosceles
+triangle: 2).
+
+:func:`remove_slivers` improves every triangle above a bound with local
+operations, each checked before it is made:
+
+- **edge flip** inside one label, where the two triangles are coplanar
+  within the deviation budget;
+- **edge split** at a point of the edge (never moves the surface);
+- **relaxation** of a vertex inside one label whose triangles lie in one
+  plane, to the mean of its neighbours (the surface does not move);
+- **edge collapse** of a short edge: a vertex inside one label moves onto a
+  neighbour; a vertex on the curve between two labels slides along that
+  curve only (so the boundary-of-label curves keep their shape); a vertex
+  where three or more labels meet never moves.
+
+Every flip and collapse is refused when it would move the surface, together
+with the earlier edits there, by more than ``max_deviation`` (mm) — a small
+share of the chordal tolerance —, folds a triangle (its normal
+turns by more than 30°), or breaks the 2-manifold (link condition). Labels
+are kept triangle by triangle; the result stays watertight.
+
+Frame and units: whatever the input (tipgeo: cannula frame, mm).
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+__all__ = ["aspect_ratios", "remove_slivers"]
+
+_FOLD_COS = math.cos(math.radians(30.0))
+
+
+def aspect_ratios(vertices: np.ndarray, faces: np.ndarray) -> np.ndarray:
+    """(m,) longest edge / shortest altitude of every triangle
+    (``L_max² / (2·area)``; ``inf`` for a zero-area triangle)."""
+    t = np.asarray(vertices, float)[np.asarray(faces, np.int64)]
+    e2 = np.stack([((t[:, 1] - t[:, 0]) ** 2).sum(1), ((t[:, 2] - t[:, 1]) ** 2).sum(1),
+                   ((t[:, 0] - t[:, 2]) ** 2).sum(1)], 1)
+    a2 = np.linalg.norm(np.cross(t[:, 1] - t[:, 0], t[:, 2] - t[:, 0]), axis=1)  # 2·area
+    with np.errstate(divide="ignore", invalid="ignore"):
+        return np.where(a2 > 0, e2.max(1) / np.where(a2 > 0, a2, 1.0), np.inf)
+
+
+def _ar(p0, p1, p2) -> float:
+    e = max(_d2(p0, p1), _d2(p1, p2), _d2(p2, p0))
+    a2 = _norm(_cross(_sub(p1, p0), _sub(p2, p0)))
+    return e / a2 if a2 > 0 else math.inf
+
+
+def _sub(a, b):
+    return (a[0] - b[0], a[1] - b[1], a[2] - b[2])
+
+
+def _cross(a, b):
+    return (a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0])
+
+
+def _dot(a, b):
+    return a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
+
+
+def _norm(a):
+    return math.sqrt(a[0] * a[0] + a[1] * a[1] + a[2] * a[2])
+
+
+def _d2(a, b):
+    return (a[0] - b[0]) ** 2 + (a[1] - b[1]) ** 2 + (a[2] - b[2]) ** 2
+
+
+def _mid(a, b):
+    return (0.5 * (a[0] + b[0]), 0.5 * (a[1] + b[1]), 0.5 * (a[2] + b[2]))
+
+
+def _mid3(a, b, c):
+    return ((a[0] + b[0] + c[0]) / 3.0, (a[1] + b[1] + c[1]) / 3.0, (a[2] + b[2] + c[2]) / 3.0)
+
+
+def _unit_normal(p0, p1, p2):
+    n = _cross(_sub(p1, p0), _sub(p2, p0))
+    s = _norm(n)
+    return None if s == 0 else (n[0] / s, n[1] / s, n[2] / s)
+
+
+def _point_triangle(p, a, b, c) -> float:
+    """Distance from p to the triangle abc (Ericson, Real-Time Collision
+    Detection §5.1.5)."""
+    ab, ac, ap = _sub(b, a), _sub(c, a), _sub(p, a)
+    d1, d2 = _dot(ab, ap), _dot(ac, ap)
+    if d1 <= 0 and d2 <= 0:
+        return math.sqrt(_d2(p, a))
+    bp = _sub(p, b)
+    d3, d4 = _dot(ab, bp), _dot(ac, bp)
+    if d3 >= 0 and d4 <= d3:
+        return math.sqrt(_d2(p, b))
+    vc = d1 * d4 - d3 * d2
+    if vc <= 0 and d1 >= 0 and d3 <= 0:
+        v = d1 / (d1 - d3)
+        q = (a[0] + v * ab[0], a[1] + v * ab[1], a[2] + v * ab[2])
+        return math.sqrt(_d2(p, q))
+    cp = _sub(p, c)
+    d5, d6 = _dot(ab, cp), _dot(ac, cp)
+    if d6 >= 0 and d5 <= d6:
+        return math.sqrt(_d2(p, c))
+    vb = d5 * d2 - d1 * d6
+    if vb <= 0 and d2 >= 0 and d6 <= 0:
+        w = d2 / (d2 - d6)
+        q = (a[0] + w * ac[0], a[1] + w * ac[1], a[2] + w * ac[2])
+        return math.sqrt(_d2(p, q))
+    va = d3 * d6 - d5 * d4
+    if va <= 0 and (d4 - d3) >= 0 and (d5 - d6) >= 0:
+        w = (d4 - d3) / ((d4 - d3) + (d5 - d6))
+        q = (b[0] + w * (c[0] - b[0]), b[1] + w * (c[1] - b[1]), b[2] + w * (c[2] - b[2]))
+        return math.sqrt(_d2(p, q))
+    denom = 1.0 / (va + vb + vc)
+    v, w = vb * denom, vc * denom
+    q = (a[0] + ab[0] * v + ac[0] * w, a[1] + ab[1] * v + ac[1] * w,
+         a[2] + ab[2] * v + ac[2] * w)
+    return math.sqrt(_d2(p, q))
+
+
+class _Mesh:
+    """Mutable triangle soup with vertex→faces incidence."""
+
+    def __init__(self, vertices, faces, labels):
+        self.p = [tuple(map(float, v)) for v in vertices]
+        self.f = [list(map(int, t)) for t in faces]
+        self.lab = [int(x) for x in labels]
+        self.alive = [True] * len(self.f)
+        self.dev = [0.0] * len(self.f)  # how far edits have moved each face so far (mm)
+        self.added = 0  # vertices added by splits
+        self.dirty: set[int] = set()  # faces changed since the last pass
+        self.vf = [set() for _ in self.p]
+        for k, (a, b, c) in enumerate(self.f):
+            self.vf[a].add(k)
+            self.vf[b].add(k)
+            self.vf[c].add(k)
+
+    # -- queries ---------------------------------------------------------------
+    def ar(self, k) -> float:
+        a, b, c = self.f[k]
+        return _ar(self.p[a], self.p[b], self.p[c])
+
+    def normal(self, k):
+        a, b, c = self.f[k]
+        return _unit_normal(self.p[a], self.p[b], self.p[c])
+
+    def edge_faces(self, a, b) -> list[int]:
+        return list(self.vf[a] & self.vf[b])
+
+    def labels_at(self, v) -> set[int]:
+        return {self.lab[k] for k in self.vf[v]}
+
+    def neighbours(self, v) -> set[int]:
+        out = set()
+        for k in self.vf[v]:
+            out.update(self.f[k])
+        out.discard(v)
+        return out
+
+    @staticmethod
+    def opposite(tri, a, b) -> int:
+        for x in tri:
+            if x != a and x != b:
+                return x
+        raise ValueError("degenerate triangle")
+
+    # -- edits -----------------------------------------------------------------
+    def _set(self, k, tri):
+        self.dirty.add(k)
+        for x in self.f[k]:
+            self.vf[x].discard(k)
+        self.f[k] = list(tri)
+        for x in tri:
+            self.vf[x].add(k)
+
+    def _add(self, tri, label, dev=0.0) -> int:
+        k = len(self.f)
+        self.dirty.add(k)
+        self.f.append(list(tri))
+        self.lab.append(label)
+        self.alive.append(True)
+        self.dev.append(dev)
+        for x in tri:
+            self.vf[x].add(k)
+        return k
+
+    def _kill(self, k):
+        for x in self.f[k]:
+            self.vf[x].discard(k)
+        self.alive[k] = False
+
+    @staticmethod
+    def _rot(tri, a):
+        """tri rotated so that it starts at a."""
+        i = tri.index(a)
+        return tri[i:] + tri[:i]
+
+    def try_flip(self, a, b, max_dev) -> bool:
+        fs = self.edge_faces(a, b)
+        if len(fs) != 2:
+            return False
+        f, g = fs
+        if self.lab[f] != self.lab[g]:
+            return False
+        tf = self._rot(self.f[f], a)
+        if tf[1] != b:  # make f = (a, b, c), g = (b, a, d)
+            f, g = g, f
+            tf = self._rot(self.f[f], a)
+            if tf[1] != b:
+                return False
+        c = tf[2]
+        d = self.opposite(self.f[g], a, b)
+        if c == d or g in self.vf[c] or (self.vf[c] & self.vf[d]):
+            return False
+        pa, pb, pc, pd = self.p[a], self.p[b], self.p[c], self.p[d]
+        n1, n2 = _unit_normal(pa, pb, pc), _unit_normal(pb, pa, pd)
+        m1, m2 = _unit_normal(pa, pd, pc), _unit_normal(pd, pb, pc)
+        if None in (n1, n2, m1, m2):
+            return False
+        for m in (m1, m2):
+            if _dot(m, n1) < _FOLD_COS or _dot(m, n2) < _FOLD_COS:
+                return False
+        if max(_ar(pa, pd, pc), _ar(pd, pb, pc)) >= max(_ar(pa, pb, pc), _ar(pb, pa, pd)):
+            return False
+        dev = (max(self.dev[f], self.dev[g])
+               + max(abs(_dot(_sub(pd, pa), n1)), abs(_dot(_sub(pc, pa), n2))))
+        if dev > max_dev:
+            return False
+        self._set(f, (a, d, c))
+        self._set(g, (d, b, c))
+        self.dev[f] = self.dev[g] = dev
+        return True
+
+    def split(self, a, b, point) -> int:
+        """Insert ``point`` (on the edge ab) as a new vertex; returns its index."""
+        fs = self.edge_faces(a, b)
+        v = len(self.p)
+        self.added += 1
+        self.p.append(tuple(point))
+        self.vf.append(set())
+        for k in fs:
+            t = self.f[k]
+            i = t.index(a)
+            j = t.index(b)
+            t1, t2 = list(t), list(t)
+            t1[j] = v  # (.., a, v, ..) keeps orientation
+            t2[i] = v
+            self._set(k, t1)
+            self._add(t2, self.lab[k], self.dev[k])
+        return v
+
+    def try_collapse(self, u, v, max_dev) -> bool:
+        """Move vertex u onto v and remove it."""
+        fs = self.edge_faces(u, v)
+        if len(fs) != 2:
+            return False
+        lu = self.labels_at(u)
+        if len(lu) >= 3:
+            return False
+        if len(lu) == 2 and self.lab[fs[0]] == self.lab[fs[1]]:
+            return False  # u on a label curve may only slide along it
+        opp = {self.opposite(self.f[k], u, v) for k in fs}
+        if self.neighbours(u) & self.neighbours(v) != opp:
+            return False  # link condition
+        pu = self.p[u]
+        moved = [k for k in self.vf[u] if k not in fs]
+        worst_old = max(self.ar(k) for k in self.vf[u])
+        new = []
+        for k in moved:
+            t = [v if x == u else x for x in self.f[k]]
+            q = [self.p[x] for x in t]
+            n_new = _unit_normal(*q)
+            n_old = self.normal(k)
+            if n_new is None or n_old is None or _dot(n_new, n_old) < _FOLD_COS:
+                return False
+            if _ar(*q) >= worst_old:
+                return False
+            new.append((k, t))
+        # deviation: distance of u from the new surface of each of its labels,
+        # and of the new triangles' edge midpoints and centroids from the old
+        # star, added to how far earlier edits moved these faces
+        star = [[self.p[x] for x in self.f[k]] for k in self.vf[u]]
+        moved_by = 0.0
+        for lab in lu:
+            cand = [t for k, t in new if self.lab[k] == lab]
+            cand += [self.f[k] for k in self.vf[v] if k not in fs and self.lab[k] == lab]
+            if not cand:
+                return False
+            moved_by = max(moved_by, min(_point_triangle(pu, *(self.p[x] for x in t))
+                                         for t in cand))
+        for _, t in new:
+            a, b, c = (self.p[x] for x in t)
+            for q in (_mid(a, b), _mid(b, c), _mid(c, a), _mid3(a, b, c)):
+                moved_by = max(moved_by, min(_point_triangle(q, *s) for s in star))
+        dev = max(self.dev[k] for k in self.vf[u]) + moved_by
+        if dev > max_dev:
+            return False
+        for k in fs:
+            self._kill(k)
+        for k, t in new:
+            self._set(k, t)
+            self.dev[k] = dev
+        return True
+
+    # -- the pass --------------------------------------------------------------
+    def fix(self, k, bound, max_dev) -> bool:
+        """One attempt to improve triangle k; True when the mesh changed."""
+        t = self.f[k]
+        pts = [self.p[x] for x in t]
+        el = [(_d2(pts[i], pts[(i + 1) % 3]), t[i], t[(i + 1) % 3]) for i in range(3)]
+        el.sort()
+        (_, sa, sb), (_, la, lb) = el[0], el[2]
+        if self.try_flip(la, lb, max_dev):
+            return True
+        if self.try_collapse(sa, sb, max_dev) or self.try_collapse(sb, sa, max_dev):
+            return True
+        if any(self.try_relax(x) for x in t):
+            return True
+        # a cap: split the long edge at the foot of the opposite vertex, then
+        # move that vertex onto the foot (or flip the new edges)
+        c = self.opposite(t, la, lb)
+        pa, pb, pc = self.p[la], self.p[lb], self.p[c]
+        ab = _sub(pb, pa)
+        s = _dot(_sub(pc, pa), ab) / _dot(ab, ab)
+        if not 0.02 < s < 0.98:
+            # a needle that cannot collapse (its short edge is a feature):
+            # flip its middle edge, else halve its long edge and flip around
+            mid = el[1]
+            if self.try_flip(mid[1], mid[2], max_dev):
+                return True
+            s = 0.5
+        foot = (pa[0] + s * ab[0], pa[1] + s * ab[1], pa[2] + s * ab[2])
+        w = self.split(la, lb, foot)
+        if self.try_collapse(c, w, max_dev):
+            return True
+        self.flip_around(w, max_dev)
+        return True
+
+    def try_relax(self, u) -> bool:
+        """Move u, inside one label and a flat star, to the mean of its
+        neighbours (in that plane: the surface does not move) where that
+        folds nothing and improves the star's worst triangle."""
+        if len(self.labels_at(u)) != 1:
+            return False
+        star = list(self.vf[u])
+        n0 = self.normal(star[0])
+        if n0 is None:
+            return False
+        pu = self.p[u]
+        nb = self.neighbours(u)
+        scale = max(math.sqrt(_d2(pu, self.p[x])) for x in nb)
+        for x in nb:  # flat star: every neighbour in the plane through u
+            if abs(_dot(_sub(self.p[x], pu), n0)) > 1e-12 * scale:
+                return False
+        q = tuple(sum(self.p[x][i] for x in nb) / len(nb) for i in range(3))
+        old = [self.normal(k) for k in star]
+        worst = max(self.ar(k) for k in star)
+        self.p[u] = q
+        ok = all(nn is not None and self.normal(k) is not None
+                 and _dot(self.normal(k), nn) > _FOLD_COS for k, nn in zip(star, old))
+        if ok and max(self.ar(k) for k in star) < worst:
+            self.dirty.update(star)
+            return True
+        self.p[u] = pu
+        return False
+
+    def flip_around(self, w, max_dev) -> None:
+        """Flip the edges opposite w where that improves their triangles."""
+        for kk in list(self.vf[w]):
+            if self.alive[kk] and w in self.f[kk]:
+                tt = self._rot(self.f[kk], w)
+                self.try_flip(tt[1], tt[2], max_dev)
+
+
+def remove_slivers(vertices: np.ndarray, faces: np.ndarray, labels: np.ndarray, *,
+                   bound: float, max_deviation: float, max_passes: int = 40,
+                   ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Improve the triangles whose aspect ratio exceeds ``bound``.
+
+    Parameters
+    ----------
+    vertices : (n, 3) float, faces : (m, 3) int, labels : (m,) int
+        A closed, oriented, labelled triangle mesh (mm).
+    bound : float
+        Target largest aspect ratio (longest edge / shortest altitude).
+    max_deviation : float
+        Largest distance (mm) by which all flips and collapses together may
+        move any part of the surface (tracked per triangle, summed over the
+        edits that made it); splits never move it.
+    max_passes : int
+        Passes over the triangles still above the bound.
+
+    Returns
+    -------
+    vertices, faces, labels
+        The improved mesh (unused vertices dropped). Triangles the local
+        operations cannot improve within the budget stay as they were.
+    """
+    m = _Mesh(vertices, faces, labels)
+    budget = len(m.p) // 4 + 16  # most vertices the splits may add
+    ar = aspect_ratios(vertices, faces)
+    cand = {int(k): float(ar[k]) for k in np.flatnonzero(ar > bound)}
+    history = []
+    for _ in range(max_passes):
+        if not cand:
+            break
+        history.append(len(cand))
+        if len(history) > 3 and min(history[-3:]) >= history[-4]:
+            break  # no progress over three passes
+        m.dirty.clear()
+        for k in sorted(cand, key=lambda k: -cand[k]):
+            if m.added > budget:
+                break
+            if m.alive[k] and m.ar(k) > bound:
+                m.fix(k, bound, max_deviation)
+        old, cand = cand, {}
+        for k in m.dirty | set(old):
+            if m.alive[k]:
+                a = m.ar(k)
+                if a > bound:
+                    cand[k] = a
+    keep = np.asarray(m.alive)
+    f = np.asarray(m.f, dtype=np.int64)[keep]
+    lab = np.asarray(m.lab, dtype=np.int64)[keep]
+    used, inv = np.unique(f, return_inverse=True)
+    return np.asarray(m.p, float)[used], inv.reshape(-1, 3), lab

@@ -84,7 +84,7 @@ def axisymmetric_model(tip: Tip, *, depth: float, tissue: str = "pvc-sp0",
     output_depths : depths (mm) at which stresses are written
     max_increment : float, optional — largest needle advance per increment,
         mm (default min(:data:`MAX_STEP`, 2h)); the first increment advances
-        min(this, h / 2). Both are needle advances in mm, whatever the depth:
+        min(this, h / 10). Both are needle advances in mm, whatever the depth:
         runs to different depths take the same increments where they overlap
     penalty_factor : float — contact stiffness = this × E₀ / h (MPa/mm)
     edge_radius : float — the sharp corners of the section's front are
@@ -206,7 +206,7 @@ def axisymmetric_model(tip: Tip, *, depth: float, tissue: str = "pvc-sp0",
     dmax = min(MAX_STEP, 2 * h, depth) if max_increment is None else v.real(
         "max_increment", max_increment, lo=0.0, lo_open=True, unit="mm")
     dmax = min(dmax, depth)
-    d0 = min(dmax, 0.5 * h)
+    d0 = min(dmax, 0.1 * h)
     out = tuple(v.real("output depth", d, lo=0.0, hi=depth, lo_open=True, unit="mm")
                 for d in output_depths)
     info = {"element_size_um": round(h * 1e3, 6), "element_size_far_um": round(h_far * 1e3, 6),

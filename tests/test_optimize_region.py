@@ -102,3 +102,12 @@ def test_separable_and_independent_agree_on_one_response():
     assert r1["members"] == r2["members"]
     assert r1["std"] == pytest.approx(r2["std"], rel=1e-6, abs=1e-12)
     assert math.isfinite(r1["value"])
+
+
+def test_region_value_is_the_objective_value():
+    """``value`` is the scaled objective at x* (0 at the best training value),
+    the same number the optimiser minimised."""
+    sur = _fit(lambda a, b: (a - 0.3) ** 2 + (b - 0.6) ** 2)
+    opt = optimize_objective(sur, OBJ)
+    reg = optimum_region(sur, OBJ, opt.x)
+    assert reg["value"] == pytest.approx(opt.value, abs=1e-9)   # measured 2.5e-12

@@ -370,7 +370,7 @@ def optimum_region(surrogate, objective: Objective, x_opt, *, feasible=None,
     U = np.vstack([u0[None], U])
     X = lo + U * span
     a = _objective_coefficients(surrogate, objective)
-    mean = surrogate.predict(X) @ a
+    mean = scaled_terms(surrogate, objective, surrogate.predict(X)) @ _weights(objective)
     var, cov, var0 = _objective_covariance(surrogate, a, U, u0)
     dvar = np.maximum(var + var0 - 2.0 * cov, 0.0)
     inside = mean - mean[0] <= z * np.sqrt(dvar) + float(value_tol)

@@ -269,6 +269,9 @@ def test_punch_axisymmetric_insertion_to_1mm(build_preset, tmp_path):
     ana = analytical_force(res.model, res.depth)
     # the coarse FEM stays within 15 % of the analytical column (β = 2.5)
     np.testing.assert_allclose(res.force[1:], ana[1:], rtol=0.15)
+    end = res.to_dict()["eq_4_22_at_end"]
+    assert end["depth_mm"] == pytest.approx(1.0) and end["eq_4_22_N"] == pytest.approx(ana[-1])
+    assert end["gap_percent"] == pytest.approx(100 * (res.force[-1] / ana[-1] - 1), rel=1e-12)
     s05, s10 = res.stress[0.5], res.stress[1.0]
     assert 0 < s05["max_principal_near_edge_MPa"] < s10["max_principal_near_edge_MPa"]
     names = {p.name for p in res.files}

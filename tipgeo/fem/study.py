@@ -180,6 +180,14 @@ class FemResult:
                       "curve": [{"depth_mm": float(a), "force_N": float(b),
                                  "analytical_N": float(c)}
                                 for a, b, c in zip(self.depth, self.force, ana)],
+                      "eq_4_22_at_end": ({"depth_mm": float(self.depth[-1]),
+                                          "force_N": float(self.force[-1]),
+                                          "eq_4_22_N": float(ana[-1]),
+                                          "gap_percent": 100.0 * (float(self.force[-1])
+                                                                  / float(ana[-1]) - 1.0),
+                                          "mesh_convergence": "one mesh: run --convergence-um "
+                                                              "A B C for its Richardson figure"}
+                                         if len(self.depth) > 1 and ana[-1] > 0 else None),
                       "stress": {f"{k:g}": s for k, s in self.stress.items()},
                       "verdict": self.verdict.to_dict()})
         return d

@@ -119,3 +119,17 @@ def test_table_3_3_prediction_beside_the_measurement():
     for r in rows:
         assert 1 + r["model_delta_percent_thesis_G"] / 100 == pytest.approx(
             0.9 * (1 + r["model_delta_percent_same_G"] / 100), rel=1e-12)
+
+
+def test_cli_prints_table_3_3_beside_the_model(capsys):
+    import json
+
+    from tipgeo.cli import main
+
+    assert main(["forces", "bevel-14G-xi14.5", "helical-14G", "-S", "2", "--theta-deg",
+                 "14.5", "--table-3-3"]) == 0
+    text = capsys.readouterr().out
+    assert "  S 2: measured -20.07 %, model -4.01 % (helical G × 0.9), +6.65 % (same G)" in text
+    assert main(["forces", "bevel-14G-xi14.5", "-S", "2", "--table-3-3", "--json"]) == 0
+    out = json.loads(capsys.readouterr().out)
+    assert [r["S"] for r in out["table_3_3"]] == [0.0, 2.0]

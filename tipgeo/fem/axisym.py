@@ -160,7 +160,7 @@ def axisymmetric_model(tip: Tip, *, depth: float, tissue: str = "pvc-sp0",
     if n_est > MAX_ELEMENTS:
         raise SpecError(f"mesh = {h * 1e3:g} µm, meshed fine to {d_fine:g} mm, needs about "
                         f"{n_est:.0f} elements; allowed up to {MAX_ELEMENTS} "
-                        "(a coarser --mesh-um or a shallower fine zone)")
+                        "(a coarser --mesh-um, or a shallower fine_depth in the API)")
     # the tissue that wraps the needle's front: finer still (h / nose_refine)
     h_nose = h / nose_refine
     nose = (r_lo - 2 * h, r_hi + 2 * h, -3 * h, h_nose)

@@ -293,6 +293,7 @@ def compare_with_cutter(result: AblationResult, spec, *, beam_diameter: float = 
     pts = v[wall]
     ang = np.arctan2(pts[:, 1], pts[:, 0])
     radii, centers = [], []
+    fitted: dict[float, float] = {}
     rim = float(cad.bounds[1, 2])
     for g in result.c_angles_deg:
         gr = math.radians(g) + s.rotation
@@ -312,6 +313,7 @@ def compare_with_cutter(result: AblationResult, spec, *, beam_diameter: float = 
         cu, cz = sol[0] / 2, sol[1] / 2
         radii.append(math.sqrt(sol[2] + cu ** 2 + cz ** 2))
         centers.append(math.degrees(gr + math.asin(np.clip(cu / cannula.r_i, -1, 1))))
+        fitted[g] = radii[-1]
     spacing = np.diff(sorted(centers)) if len(centers) > 1 else np.array([])
     ma = trimesh.Trimesh(sim.vertices, sim.faces, process=False)
     mb = trimesh.Trimesh(cad.vertices, cad.faces, process=False)
@@ -319,8 +321,11 @@ def compare_with_cutter(result: AblationResult, spec, *, beam_diameter: float = 
     d_ba = trimesh.proximity.closest_point(ma, cad.vertices)[1].max()
     # signed (+ inside): a simulated vertex outside CAD is material left; a
     # CAD vertex outside the simulated part was cut away
-    left = -float(trimesh.proximity.signed_distance(mb, sim.vertices).min())
-    over = -float(trimesh.proximity.signed_distance(ma, cad.vertices).min())
+    sd_sim = -trimesh.proximity.signed_distance(mb, sim.vertices)
+    sd_cad = -trimesh.proximity.signed_distance(ma, cad.vertices)
+    left, over = float(sd_sim.max()), float(sd_cad.max())
+    per_notch = _per_notch(result.c_angles_deg, s.rotation, fitted, sim.vertices, sd_sim,
+                           cad.vertices, sd_cad, s.arc_radius)
     return {"notches_sim": result.notches, "notches_cad": s.n,
             "radius_mm": {"spec": s.arc_radius,
                           "fitted_mean": float(np.mean(radii)) if radii else None,
@@ -334,4 +339,51 @@ def compare_with_cutter(result: AblationResult, spec, *, beam_diameter: float = 
             "hausdorff_mm": float(max(d_ab, d_ba)),
             "material_left_mm": max(left, 0.0), "overcut_mm": max(over, 0.0),
             "tolerance_mm": float(sim.tolerance), "inner_radius_mm": float(cannula.r_i),
-            "slugs_removed": result.slugs_removed}
+            "slugs_removed": result.slugs_removed, "per_notch": per_notch}
+
+
+def _per_notch(c_angles_deg, rotation, fitted, v_sim, left_sim, v_cad, over_cad,
+               arc_radius) -> list[dict]:
+    """Each notch's figures: the vertices of both meshes go to the notch
+    nearest in angle about the axis (γ = C + the cutter's rotation); per
+    notch the fitted radius (mm; None where too few wall points), its error,
+    and the largest material left and overcut in its sector (mm, ≥ 0)."""
+    cs = np.radians(np.asarray(c_angles_deg, float)) + rotation
+    if len(cs) == 0:
+        return []
+
+    def nearest(v):
+        a = np.arctan2(v[:, 1], v[:, 0])
+        d = np.abs(np.angle(np.exp(1j * (a[:, None] - cs[None, :]))))
+        return np.argmin(d, axis=1)
+
+    ns, nc = nearest(v_sim), nearest(v_cad)
+    out = []
+    for j, g in enumerate(c_angles_deg):
+        r = fitted.get(g)
+        ls, oc = left_sim[ns == j], over_cad[nc == j]
+        out.append({"c_deg": float(g),
+                    "radius_mm": None if r is None else float(r),
+                    "radius_error_mm": None if r is None else float(abs(r - arc_radius)),
+                    "material_left_mm": float(max(ls.max(), 0.0)) if ls.size else 0.0,
+                    "overcut_mm": float(max(oc.max(), 0.0)) if oc.size else 0.0})
+    return out
+
+
+def notch_arcs(toolpath: Toolpath) -> list[dict]:
+    """The beam-on arcs of each notch (grouped by the C angle they are cut
+    at): how many, and the smallest and largest radius of the beam centre's
+    path (mm, after cutter compensation; 0 where an arc collapsed to its
+    centre). Shows whether a program's per-notch variables (Appendix C's
+    roughing ``$radius``) start each notch afresh: equal figures at every C
+    when they do."""
+    groups: dict[float, list[float]] = {}
+    for s in toolpath.segments:
+        if s.beam and s.kind == "arc":
+            groups.setdefault(round(s.c0, 9), []).append(s.radius)
+        elif s.beam:
+            groups.setdefault(round(s.c0, 9), [])
+    return [{"c_deg": float(c), "arcs": len(r),
+             "min_radius_mm": float(min(r)) if r else None,
+             "max_radius_mm": float(max(r)) if r else None}
+            for c, r in sorted(groups.items())]

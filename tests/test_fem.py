@@ -257,8 +257,10 @@ def test_punch_axisymmetric_insertion_to_1mm(build_preset, tmp_path):
     column model of eq. 4.22; tensile stress near the edge grows with depth."""
     from tipgeo.fem import run_fem
 
+    # the fine zone to 1 mm (default 3 mm: this coarse mesh then stops at 0.71 mm)
     res = run_fem(build_preset("punch-plain"), model="axisymmetric", depth=1.0, mesh=0.05,
-                  out_dir=tmp_path, output_depths=(0.5, 1.0), time_limit_s=900)
+                  out_dir=tmp_path, output_depths=(0.5, 1.0), time_limit_s=900,
+                  fine_depth=1.0)
     assert res.depth[-1] == pytest.approx(1.0, abs=1e-9) and len(res.depth) == 21
     assert res.run.increments >= 20
     assert np.all(np.diff(res.force) > 0) and res.monotonic
@@ -267,6 +269,9 @@ def test_punch_axisymmetric_insertion_to_1mm(build_preset, tmp_path):
     ana = analytical_force(res.model, res.depth)
     # the coarse FEM stays within 15 % of the analytical column (β = 2.5)
     np.testing.assert_allclose(res.force[1:], ana[1:], rtol=0.15)
+    end = res.to_dict()["eq_4_22_at_end"]
+    assert end["depth_mm"] == pytest.approx(1.0) and end["eq_4_22_N"] == pytest.approx(ana[-1])
+    assert end["gap_percent"] == pytest.approx(100 * (res.force[-1] / ana[-1] - 1), rel=1e-12)
     s05, s10 = res.stress[0.5], res.stress[1.0]
     assert 0 < s05["max_principal_near_edge_MPa"] < s10["max_principal_near_edge_MPa"]
     names = {p.name for p in res.files}
@@ -439,7 +444,8 @@ def test_convergence_study_refines_only_the_contact_zone(build_preset, tmp_path)
     from tipgeo.fem.study import convergence_study
 
     out = convergence_study(build_preset("punch-plain"), depth=0.1, meshes=(0.1, 0.05, 0.025),
-                            out_dir=tmp_path, block=(3.0, 3.0), max_increment=0.025)
+                            out_dir=tmp_path, block=(3.0, 3.0), max_increment=0.025,
+                            fine_depth=0.3)
     rows = out["rows"]
     assert [r["element_size_um"] for r in rows] == pytest.approx([100.0, 50.0, 25.0])
     decks = [(tmp_path / f"mesh_{h:g}um" / "punch-plain_axisymmetric.inp").read_text()
@@ -455,6 +461,20 @@ def test_convergence_study_refines_only_the_contact_zone(build_preset, tmp_path)
         assert rows[k]["change_percent"] == pytest.approx(100 * (f[k] - f[k - 1]) / f[k - 1],
                                                           rel=1e-12)
     assert out["curves"]["depth_mm"][-1] == pytest.approx(0.1, abs=1e-12)
+    # beside eq. 4.22 at the depth: each mesh's gap, and the Richardson limit's
+    ana = out["eq_4_22_N"]
+    probe = axisymmetric_model(build_preset("punch-plain"), depth=0.1, mesh=0.1,
+                               block=(3.0, 3.0))
+    assert ana == pytest.approx(float(analytical_force(probe, np.array([0.1]))[0]), rel=1e-12)
+    for r in rows:
+        assert r["gap_to_eq_4_22_percent"] == pytest.approx(
+            100 * (r["force_at_depth_N"] / ana - 1), rel=1e-12)
+    ri = out["richardson"]
+    if ri["extrapolated"] is not None:
+        assert ri["gap_to_eq_4_22_percent"] == pytest.approx(
+            100 * (ri["extrapolated"] / ana - 1), rel=1e-12)
+        assert ri["finest_error_estimate_percent"] == pytest.approx(
+            100 * (f[2] / ri["extrapolated"] - 1), rel=1e-12)
     assert (tmp_path / "convergence.json").is_file()
     v = out["verdict"]
     assert v["ok"] is (abs(rows[2]["change_percent"]) <= 2.0)
@@ -503,6 +523,31 @@ def test_punch_erosion_cut_runs_deeper(build_preset, tmp_path):
     assert res.run.increments >= 20 and res.monotonic and res.force[-1] > 0
 
 
+@needs_ccx
+def test_depth_ladder_runs_on_one_mesh_with_one_curve(build_preset, tmp_path):
+    """Issue 28: the mesh and the increments do not depend on the depth asked
+    for. 0.1 mm and 0.2 mm into a 3 × 3 mm block at 100 µm: the same nodes and
+    elements, the same first and largest increments (mm), and the same force
+    where the curves overlap (measured: equal to 8 digits)."""
+    from tipgeo.fem import run_model
+
+    tip = build_preset("punch-plain")
+    models = [axisymmetric_model(tip, depth=d, mesh=0.1, block=(3.0, 3.0)) for d in (0.1, 0.2)]
+    a, b = models
+    np.testing.assert_array_equal(a.nodes, b.nodes)
+    for ba, bb in zip(a.blocks, b.blocks):
+        np.testing.assert_array_equal(ba.conn, bb.conn)
+    for key in ("first_increment_mm", "max_increment_mm", "fine_depth_mm"):
+        assert a.info[key] == b.info[key]
+    assert a.info["fine_depth_mm"] == pytest.approx(2.4)     # 3 mm, held to 0.8 × 3 mm
+    ra, rb = (run_model(m, tmp_path / f"d{m.depth:g}", pictures=False) for m in models)
+    assert ra.verdict.ok and rb.verdict.ok
+    for d in (0.05, 0.1):
+        fa = float(np.interp(d, ra.depth, ra.force))
+        fb = float(np.interp(d, rb.depth, rb.force))
+        assert fa > 0 and fb == pytest.approx(fa, rel=1e-6)
+
+
 # -- verdicts (issue 24) -----------------------------------------------------------------
 def test_deck_only_has_no_verdict(build_preset, tmp_path):
     from tipgeo.fem import run_model
@@ -519,8 +564,8 @@ def test_run_stopped_before_the_depth_fails_its_verdict(build_preset, tmp_path):
     there, written like a full run) with a verdict naming the depth reached
     and the depth requested; asked not to keep it, it is a FemError. The
     stop is made cheap here: the step may take 8 increments (ccx: max. # of
-    increments reached; the first ones are cut back), so it stops at 0.125
-    mm, its outputs every 0.025 mm. (The
+    increments reached; the first advances 10 µm, h / 10, and they grow), so
+    it stops at 0.15 mm, its outputs every 0.05 mm. (The
     real stops are the same kind of line: the uncut punch at 100 µm to 2 mm
     stops at 1.684 mm, "increment size smaller than minimum".)"""
     from tipgeo.fem import run_model
@@ -532,14 +577,14 @@ def test_run_stopped_before_the_depth_fails_its_verdict(build_preset, tmp_path):
     res = run_model(m, tmp_path / "out", pictures=False)
     assert res.run.stopped.startswith("*ERROR") and "increments" in res.run.stopped
     assert res.run.increments == 8
-    assert res.reached_depth == pytest.approx(0.125, abs=1e-9)
-    assert res.depth == pytest.approx([0.0, 0.025, 0.05, 0.075, 0.1, 0.125], abs=1e-9)
+    assert res.reached_depth == pytest.approx(0.15, abs=1e-9)
+    assert res.depth == pytest.approx([0.0, 0.05, 0.1, 0.15], abs=1e-9)
     v = res.verdict
     assert not v.ok and v.failed[0].name == "depth_mm"
-    assert v.reasons[0] == ("the run stopped at depth 0.125 mm of the requested 0.5 mm (ccx: "
+    assert v.reasons[0] == ("the run stopped at depth 0.15 mm of the requested 0.5 mm (ccx: "
                             "*ERROR in nonlingeo: max. # of increments reached)")
     d = res.to_dict()
-    assert d["verdict"]["ok"] is False and d["reached_depth_mm"] == pytest.approx(0.125)
+    assert d["verdict"]["ok"] is False and d["reached_depth_mm"] == pytest.approx(0.15)
     assert (tmp_path / "out" / "punch-plain_axisymmetric_force.csv").is_file()
     with pytest.raises(FemError, match=r"ccx: \*ERROR.*increments"):
         run_model(m, tmp_path / "strict", partial=False)

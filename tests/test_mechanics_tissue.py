@@ -369,7 +369,8 @@ def test_cli_tissue_text_list_show_and_errors(capsys, tmp_path):
     assert "pvc-sp0.25" in capsys.readouterr().out
     assert _run(["tissue", "show", "pvc-sp0.5"]) == 0
     shown = json.loads(capsys.readouterr().out)
-    assert shown["R_J_m2"] == pytest.approx(35.0) and shown["E_kPa"] == pytest.approx(13.6)
+    assert shown["R_J_m2"] == pytest.approx(35.0) and shown["E_kPa"] == pytest.approx(12.9)
+    assert shown["E_characterised_kPa"] == pytest.approx(13.6)
     bad = tmp_path / "bad.csv"
     bad.write_text("strain,stress_mpa\n0.1,0.01\nnan,0.02\n")
     with pytest.raises(SpecError, match="column 'strain'"):

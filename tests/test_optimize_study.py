@@ -374,3 +374,26 @@ def test_the_search_refuses_unvalidated_only_where_the_grid_saw_nothing_buildabl
     for y in Y:
         cfg.spec(y)
     assert search_feasibility(cfg, feasibility(cfg), None) is not None
+
+
+def test_optima_carry_their_region_of_indistinguishable_designs(bevel_study):
+    """Issue 28: every weighted optimum states how flat its objective is
+    there — the GP sd of the objective, the designs within the GP's 95 % of
+    it, their extent per variable, and the optimum's place in the box. The
+    bevel's l_c falls steeply with ξ (l_c ∝ ~1/sin ξ): 'shortest' sits on the
+    ξ = 45° bound, sharp."""
+    out, cfg, rep = bevel_study
+    by = {o["objective"]: o for o in rep["optima"]}
+    reg = by["shortest"]["region"]
+    assert reg["box_position"] == "corner"          # one variable: its bound is a corner
+    assert reg["at_bounds"] == [{"variable": "xi_deg", "side": "max"}]
+    assert reg["shape"] == "sharp" and reg["flat_along"] == []
+    lo, hi = reg["extent"]["xi_deg"]
+    assert lo <= by["shortest"]["x"]["xi_deg"] <= hi and hi == pytest.approx(45.0, abs=1e-6)
+    assert reg["extent_fraction"]["xi_deg"] == pytest.approx((hi - lo) / 30.0, rel=1e-12)
+    assert reg["std"] >= 0 and reg["members"] >= 0 and reg["candidates"] == 2048
+    assert "points" not in reg                       # JSON: the figures, not the cloud
+    saved = json.loads((out / "study" / "report.json").read_text())
+    assert saved["optima"][1]["region"]["shape"] == reg["shape"]
+    for o in rep["optima"]:
+        assert o["region"]["shape"] in ("sharp", "ridge", "flat")

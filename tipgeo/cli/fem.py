@@ -54,16 +54,21 @@ def cmd_fem(args) -> int:
         print(f"force at depth {out['depth_mm']:g} mm; far elements {out['far_element_um']} µm "
               f"and contact stiffness {out['contact_stiffness_MPa_per_mm']:.6g} MPa/mm "
               "held fixed")
-        print("element_um  elements  force_N       change_%  increments  cpu_s")
+        print(f"eq. 4.22 (analytical column, β = 2.5) at {out['depth_mm']:g} mm: "
+              f"{out['eq_4_22_N']:.6f} N")
+        print("element_um  elements  force_N       change_%  vs_eq_4.22_%  increments  cpu_s")
         for r in out["rows"]:
             ch = "" if r["change_percent"] is None else f"{r['change_percent']:+.2f}"
             print(f"{r['element_size_um']:>10g}  {r['elements']:>8}  "
-                  f"{r['force_at_depth_N']:12.6f}  {ch:>8}  {r['increments']:>10}  "
+                  f"{r['force_at_depth_N']:12.6f}  {ch:>8}  "
+                  f"{r['gap_to_eq_4_22_percent']:+12.2f}  {r['increments']:>10}  "
                   f"{r['cpu_s']:.1f}")
         ri = out["richardson"]
         if ri["extrapolated"] is not None:
             print(f"Richardson: observed order {ri['order']:.3g}, extrapolated force "
-                  f"{ri['extrapolated']:.6f} N")
+                  f"{ri['extrapolated']:.6f} N ({ri['gap_to_eq_4_22_percent']:+.2f} % from "
+                  f"eq. 4.22; finest mesh {ri['finest_error_estimate_percent']:+.2f} % from "
+                  "the limit)")
         else:
             print("Richardson: no estimate (the changes are not in the asymptotic range)")
         if out.get("verdict") is not None:
@@ -101,6 +106,11 @@ def cmd_fem(args) -> int:
         print("depth_mm  force_N     analytical_N")
         for row in d["curve"]:
             print(f"{row['depth_mm']:8.4f}  {row['force_N']:10.6f}  {row['analytical_N']:10.6f}")
+        e = d.get("eq_4_22_at_end")
+        if e:
+            print(f"at {e['depth_mm']:g} mm: {e['force_N']:.6f} N against eq. 4.22's "
+                  f"{e['eq_4_22_N']:.6f} N ({e['gap_percent']:+.2f} %); one mesh — "
+                  "--convergence-um A B C gives the discretisation error (Richardson)")
         for k, s in res.stress.items():
             print(f"at {k:g} mm: max principal stress {s['max_principal_MPa'] * 1e3:.4g} kPa, "
                   f"near the edge {s['max_principal_near_edge_MPa'] * 1e3:.4g} kPa")

@@ -62,9 +62,16 @@ def cmd_forces(args) -> int:
 
         wrote.append(str(plot_edge_forces([(r.label, r.forces, r.sweep) for r in results],
                                           args.png)))
+    table = None
+    if args.table_3_3:
+        from ..mechanics.report import table_3_3_prediction
+
+        table = table_3_3_prediction()
     if args.json:
         data = [r.to_dict(args.step_deg) for r in results]
         out = {"tips": data, "wrote": wrote}
+        if table is not None:
+            out["table_3_3"] = table
         print(_dumps(out))
         return 0
     for r in results:
@@ -83,6 +90,14 @@ def cmd_forces(args) -> int:
             for j in range(len(sw["S"])):
                 print(f"  {sw['S'][j]:<8.4g} {sw['perp'][j]:13.5f}  {sw['par'][j]:12.5f}  "
                       f"{sw['axial'][j]:14.5f}  {sw['tangential'][j]:19.5f}")
+    if table is not None:
+        print("thesis Table 3.3 (axial force, helical vs bevel; measured at 23 mm, S/P = 0.25) "
+              "beside the §3.1.5 fracture model (one θ = 14.5°, R 45 J/m², μ_d 0.4, means "
+              "over γ):")
+        for row in table:
+            print(f"  S {row['S']:g}: measured {row['measured_delta_percent']:+.2f} %, model "
+                  f"{row['model_delta_percent_thesis_G']:+.2f} % (helical G × 0.9), "
+                  f"{row['model_delta_percent_same_G']:+.2f} % (same G)")
     for w in wrote:
         print(f"wrote {w}")
     return 0
@@ -186,6 +201,9 @@ def register(subparsers) -> None:
                    help="γ step of the JSON along-edge table (default 1°)")
     f.add_argument("--png", metavar="FILE", help="PNG like Fig. 3.12 (along the edge; means "
                    "against S, 0–3 unless --sweep)")
+    f.add_argument("--table-3-3", action="store_true",
+                   help="also the §3.1.5 model's helical-vs-bevel change in axial force at "
+                        "Table 3.3's S (0 and 2) beside the measured −20.5 / −20.1 %%")
     f.add_argument("--json", action="store_true", help="summaries, tables and sweeps as JSON")
     deprecated(f, "--plot", "--png")
     f.set_defaults(func=cmd_forces)

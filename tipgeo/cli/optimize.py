@@ -209,6 +209,18 @@ def cmd_optimize(args) -> int:
             print(f"  search: {sr['starts']} local start(s) from {sr['candidates']} candidates")
         for e in o.get("on_box_edge", []):
             print(f"  on the box edge: {e['variable']} = {e['side']}")
+        rg = o.get("region") or {}
+        if rg.get("shape"):
+            flat = (f", flat along {', '.join(rg['flat_along'])}" if rg["flat_along"] else "")
+            print(f"  flatness: {rg['shape']}{flat} — objective {rg['value']:.4g} ± "
+                  f"{rg['std']:.2g} (GP sd, scaled units); {rg['members']} of "
+                  f"{rg['candidates']} box designs ({rg['share']:.1%}) as good within the "
+                  f"GP's 95 %; at the box's {rg['box_position']}")
+            print("  region: " + ", ".join(
+                f"{k} {a:.4g}…{b:.4g} ({rg['extent_fraction'][k]:.0%} of range)"
+                for k, (a, b) in rg["extent"].items()))
+        elif rg.get("note"):
+            print(f"  flatness: {rg['note']}")
         if o.get("on_buildable_boundary"):
             print("  on the buildable region's boundary; a step further: "
                   + o.get("buildable_boundary_reason", "refused"))

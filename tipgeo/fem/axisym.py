@@ -39,6 +39,11 @@ EDGE_RADIUS = 0.015
 #: Largest default needle advance per increment, mm.
 MAX_STEP = 0.05
 
+#: Default depth (mm) down to which the contact zone is meshed fine and the
+#: needle's section is kept: the mesh depends on the element size and the
+#: block, never on the depth asked for (a depth ladder runs on one mesh).
+FINE_DEPTH = 3.0
+
 #: Limits on the model size, checked before meshing (elements).
 MAX_ELEMENTS = 400_000
 
@@ -60,7 +65,8 @@ def axisymmetric_model(tip: Tip, *, depth: float, tissue: str = "pvc-sp0",
                        contact: str = "node", nose_refine: float = 1.0,
                        far: float | None = None,
                        contact_stiffness: float | None = None, cut: str = "none",
-                       cut_step: float | None = None, cut_lead: int = 1) -> FemModel:
+                       cut_step: float | None = None, cut_lead: int = 1,
+                       fine_depth: float | None = None) -> FemModel:
     """The axisymmetric insertion model of ``tip`` pushed ``depth`` into a
     tissue block.
 
@@ -77,7 +83,9 @@ def axisymmetric_model(tip: Tip, *, depth: float, tissue: str = "pvc-sp0",
     block : (R, H) — block radius and height, mm
     output_depths : depths (mm) at which stresses are written
     max_increment : float, optional — largest needle advance per increment,
-        mm (default depth / 20, at most :data:`MAX_STEP`)
+        mm (default min(:data:`MAX_STEP`, 2h)); the first increment advances
+        min(this, h / 10). Both are needle advances in mm, whatever the depth:
+        runs to different depths take the same increments where they overlap
     penalty_factor : float — contact stiffness = this × E₀ / h (MPa/mm)
     edge_radius : float — the sharp corners of the section's front are
         rounded to this radius, mm (default 15 µm, the r_tip of Fig. 4.7;
@@ -107,6 +115,11 @@ def axisymmetric_model(tip: Tip, *, depth: float, tissue: str = "pvc-sp0",
     cut_lead : int — erosion: step k (front from d_(k−1) to d_k) removes the
         layers whose top lies above d_(k−1) + ``cut_lead`` layers (0: only
         the layers the front has passed; 1: also the one it enters)
+    fine_depth : float, optional — the contact zone is meshed at h down to
+        this depth plus a pad, and the needle's section is kept this long
+        plus a margin, mm (default max(:data:`FINE_DEPTH`, depth), at most
+        0.8 × the block height): the mesh is the same for every depth up to
+        it, so a depth ladder (or a run that stops early) uses one mesh
 
     Returns
     -------
@@ -121,8 +134,12 @@ def axisymmetric_model(tip: Tip, *, depth: float, tissue: str = "pvc-sp0",
         raise SpecError(f"the needle's outer radius {r_max:.6g} mm does not fit the block "
                         f"radius {R:g} mm; allowed up to half of it")
     z_max = float(prof[:, 1].max())
-    margin = max(1.0, 0.5 * depth)
-    sec = clip_profile(prof, z_max - depth - margin)
+    d_fine = max(FINE_DEPTH, depth) if fine_depth is None else v.real(
+        "fine_depth", fine_depth, lo=0.0, unit="mm")
+    d_fine = min(d_fine, 0.8 * H)
+    d_needle = min(max(FINE_DEPTH, depth), 0.8 * H)
+    margin = max(1.0, 0.5 * d_needle)
+    sec = clip_profile(prof, z_max - d_needle - margin)
     needle = np.column_stack([sec[:, 0], z_max - sec[:, 1]])[::-1]
     r_e = v.real("edge_radius", edge_radius, lo=0.0, hi=0.2, unit="mm")
     if r_e > 0:
@@ -130,20 +147,20 @@ def axisymmetric_model(tip: Tip, *, depth: float, tissue: str = "pvc-sp0",
         needle = round_corners(needle, front_ids, r_e)
         needle[:, 1] -= needle[:, 1].min()
     # the edge: the section's points within h of the most advanced height
-    front = needle[needle[:, 1] <= min(h, 0.1 * depth)]
+    front = needle[needle[:, 1] <= h]
     r_lo, r_hi = float(front[:, 0].min()), float(front[:, 0].max())
     r_out = float(needle[:, 0].max())
     pad = max(4 * h, 0.1)
-    box = (max(0.0, r_lo - pad), min(R, r_out + pad), -min(H, depth + pad), 0.0 + h)
+    box = (max(0.0, r_lo - pad), min(R, r_out + pad), -min(H, d_fine + pad), 0.0 + h)
     band = box[1] - box[0]
     grade = min(2.0, 0.5 * R)
     h_far = min(0.5, max(10 * h, 0.25)) if far is None else v.real("far", far, lo=h, hi=R,
                                                                    unit="mm")
-    n_est = _estimate_elements(h, band, grade, h_far, depth, R, H)
+    n_est = _estimate_elements(h, band, grade, h_far, d_fine, R, H)
     if n_est > MAX_ELEMENTS:
-        raise SpecError(f"mesh = {h * 1e3:g} µm at depth {depth:g} mm needs about "
+        raise SpecError(f"mesh = {h * 1e3:g} µm, meshed fine to {d_fine:g} mm, needs about "
                         f"{n_est:.0f} elements; allowed up to {MAX_ELEMENTS} "
-                        "(a coarser --mesh-um or a shallower --depth-mm)")
+                        "(a coarser --mesh-um, or a shallower fine_depth in the API)")
     # the tissue that wraps the needle's front: finer still (h / nose_refine)
     h_nose = h / nose_refine
     nose = (r_lo - 2 * h, r_hi + 2 * h, -3 * h, h_nose)
@@ -186,8 +203,10 @@ def axisymmetric_model(tip: Tip, *, depth: float, tissue: str = "pvc-sp0",
         mu, mu_src = friction_coefficient(tissue, 0.0)
     else:
         mu, mu_src = v.real("friction", friction, lo=0.0, hi=2.0), "given"
-    dmax = min(depth / 20, MAX_STEP) if max_increment is None else v.real(
-        "max_increment", max_increment, lo=0.0, hi=depth, lo_open=True, unit="mm")
+    dmax = min(MAX_STEP, 2 * h, depth) if max_increment is None else v.real(
+        "max_increment", max_increment, lo=0.0, lo_open=True, unit="mm")
+    dmax = min(dmax, depth)
+    d0 = min(dmax, 0.1 * h)
     out = tuple(v.real("output depth", d, lo=0.0, hi=depth, lo_open=True, unit="mm")
                 for d in output_depths)
     info = {"element_size_um": round(h * 1e3, 6), "element_size_far_um": round(h_far * 1e3, 6),
@@ -200,7 +219,8 @@ def axisymmetric_model(tip: Tip, *, depth: float, tissue: str = "pvc-sp0",
             "material_source": mat.source, "edge_radius_um": round(r_e * 1e3, 6),
             "inner_diameter_mm": 2 * float(prof[:, 0].min()),
             "_needle_section": needle.tolist(), "contact": contact, "nu": nu, "friction": mu,
-            "friction_source": mu_src}
+            "friction_source": mu_src, "fine_depth_mm": round(d_fine, 9),
+            "first_increment_mm": round(d0, 9), "max_increment_mm": round(dmax, 9)}
     surfaces, stages, node_surfaces = {"TISSUE": top, "NEEDLE": master}, (), {}
     if column is not None:
         stages, node_surfaces = _erosion_stages(nodes, tb, column, dz, lead, depth, out,
@@ -215,7 +235,7 @@ def axisymmetric_model(tip: Tip, *, depth: float, tissue: str = "pvc-sp0",
                     else v.real("contact_stiffness", contact_stiffness, lo=0.0, lo_open=True,
                                 unit="MPa/mm"),
                     force_scale=AXISYMMETRIC_FORCE_SCALE,
-                    increments=(min(dmax, depth / 50) / depth, 1e-6, dmax / depth),
+                    increments=(d0 / depth, 1e-6 * min(1.0, 1.0 / depth), dmax / depth),  # 1 nm floor
                     output_depths=out, contact=contact,
                     slave="tissue" if stages else "needle", info=info)
 

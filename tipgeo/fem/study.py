@@ -180,6 +180,14 @@ class FemResult:
                       "curve": [{"depth_mm": float(a), "force_N": float(b),
                                  "analytical_N": float(c)}
                                 for a, b, c in zip(self.depth, self.force, ana)],
+                      "eq_4_22_at_end": ({"depth_mm": float(self.depth[-1]),
+                                          "force_N": float(self.force[-1]),
+                                          "eq_4_22_N": float(ana[-1]),
+                                          "gap_percent": 100.0 * (float(self.force[-1])
+                                                                  / float(ana[-1]) - 1.0),
+                                          "mesh_convergence": "one mesh: run --convergence-um "
+                                                              "A B C for its Richardson figure"}
+                                         if len(self.depth) > 1 and ana[-1] > 0 else None),
                       "stress": {f"{k:g}": s for k, s in self.stress.items()},
                       "verdict": self.verdict.to_dict()})
         return d
@@ -454,7 +462,11 @@ def convergence_study(spec, *, model: str = "axisymmetric", depth: float,
     of the contact zone (mm, coarse to fine) and report the force of each at
     that depth (its peak: the curves rise), the relative change from the
     previous size, the forces at ten common depths, and the Richardson
-    estimate (observed order, extrapolated force) when the sizes halve.
+    estimate (observed order, extrapolated force) when the sizes halve —
+    each beside the analytical column force of eq. 4.22 at that depth
+    (``eq_4_22_N``; ``gap_to_eq_4_22_percent`` per mesh and for the
+    extrapolated force, and the finest mesh's estimated discretisation error
+    ``finest_error_estimate_percent``).
 
     Only the contact zone is refined: the far-field element size and the
     contact penalty stiffness are those of the coarsest mesh for all three (a
@@ -505,7 +517,16 @@ def convergence_study(spec, *, model: str = "axisymmetric", depth: float,
     rich = richardson(tuple(r["force_at_depth_N"] for r in rows), ratios[0]) \
         if abs(ratios[0] - ratios[1]) <= 1e-9 * ratios[0] else {"order": None,
                                                                  "extrapolated": None}
-    out = {"model": model, "depth_mm": depth, "tissue": tissue,
+    # eq. 4.22 (the analytical column, β = 2.5) beside every mesh and the
+    # Richardson limit: the gap a finer mesh would not close
+    ana = float(analytical_force(probe, np.array([depth]))[0])
+    for r in rows:
+        r["gap_to_eq_4_22_percent"] = 100.0 * (r["force_at_depth_N"] / ana - 1.0)
+    if rich.get("extrapolated") is not None:
+        rich["gap_to_eq_4_22_percent"] = 100.0 * (rich["extrapolated"] / ana - 1.0)
+        rich["finest_error_estimate_percent"] = 100.0 * (
+            rows[-1]["force_at_depth_N"] / rich["extrapolated"] - 1.0)
+    out = {"model": model, "depth_mm": depth, "tissue": tissue, "eq_4_22_N": ana,
            "far_element_um": probe.info.get("element_size_far_um"),
            "contact_stiffness_MPa_per_mm": fixed["contact_stiffness"], "rows": rows,
            "richardson": rich,

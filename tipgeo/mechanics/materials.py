@@ -9,8 +9,14 @@ dimensionless.
 The phantoms are 8116SS plastic (P) with 4116S softener (S) and 5 % mineral
 oil (thesis §2.3.3), named by their S/P ratio. Sources, table by table:
 
-* E: Table 2.1 (32.96, 20.30, 13.60, 4.88 kPa for S/P = 0, 0.25, 0.5, 1).
-  Table 2.4 uses E = 12.9 kPa for S/P = 0.5 in its force model.
+* E: Table 2.1 (32.96, 20.30, 4.88 kPa for S/P = 0, 0.25, 1). For S/P = 0.5
+  the record carries Table 2.4's set — R = 35 J/m², E = 12.9 kPa, η = 0.5 —
+  because §2.5.1 fitted R (and the friction of Table 2.5) with that E in
+  eq. 2.16–2.23: R, E and η of one force model belong together, and mixing
+  Table 2.1's 13.60 kPa with Table 2.4's R would put every cutting force
+  13.60 / 12.9 − 1 = +5.4 % off the thesis's curves (Fig. 2.16–2.17).
+  Table 2.1's 13.60 kPa (the characterisation) is kept beside it as
+  ``E_characterised`` and is what Table 2.7's force surfaces take as E.
 * Arruda–Boyce μ, λ_m and Ogden μᵢ, αᵢ with the thesis's R² and RMSE: Table
   4.1 (S/P = 0), Tables A1–A3 (0.25, 0.5, 1). Table A1's μ printed 0.238 is
   0.0238 (ERRATA; Appendix B4 uses 0.0238). Table A2's μ₃ printed "0165" is
@@ -60,6 +66,8 @@ class Tissue:
     arruda_boyce, ogden : fitted models or None
     fits : dict — the thesis's R² and RMSE (MPa) of each fit
     sources : dict — where each value comes from
+    E_characterised : float or None — Table 2.1's modulus (MPa) where the
+        record's E comes from another table (the force model's set)
     """
 
     name: str
@@ -73,6 +81,7 @@ class Tissue:
     ogden: Ogden | None = None
     fits: dict[str, dict[str, float]] = field(default_factory=dict, hash=False)
     sources: dict[str, str] = field(default_factory=dict, hash=False)
+    E_characterised: float | None = None
 
     def __post_init__(self):
         from ..names import check_name
@@ -100,10 +109,30 @@ class Tissue:
              "E0_kPa": 3 * self.arruda_boyce.initial_shear_modulus / KPA},
             "ogden": None if self.ogden is None else
             {**self.ogden.params(), "E0_kPa": 3 * self.ogden.initial_shear_modulus / KPA},
-            "fits": self.fits, "sources": self.sources}
+            "fits": self.fits, "sources": self.sources,
+            **({} if self.E_characterised is None else
+               {"E_characterised_kPa": self.E_characterised / KPA})}
+
+    def cutting_forces(self, k, x, *, r_i: float, r_o: float, theta: float) -> dict:
+        """Eq. 2.16–2.27 with this tissue's own set: R, E, η and the
+        friction regression μ_da(k), μ_dr(k) (for ``pvc-sp0.5``: Table 2.4
+        with Table 2.5). k ≥ 0; x, r_i, r_o in mm; θ in rad; forces in N
+        (see :func:`tipgeo.mechanics.cutting.cutting_forces`)."""
+        from .cutting import cutting_forces
+
+        missing = [n for n, val in (("R", self.R), ("E", self.E), ("eta", self.eta),
+                                     ("friction", self.friction)) if val is None]
+        if missing:
+            raise SpecError(f"tissue '{self.name}' lacks {', '.join(missing)} for the "
+                            "cutting-force model (eq. 2.16–2.27); tissues with the full set: "
+                            + ", ".join(t.name for t in TISSUES.values()
+                                        if None not in (t.R, t.E, t.eta, t.friction)))
+        return cutting_forces(k, x, R=self.R, r_i=r_i, r_o=r_o, theta=theta, E=self.E,
+                              friction=self.friction, eta=self.eta)
 
 
 def _pvc(sp: str, E_kpa: float, ab, ab_fit, og, og_fit, src_tab: str, **kw) -> Tissue:
+    srcs = kw.pop("sources", {})
     return Tissue(
         name=f"pvc-sp{sp}",
         description=f"PVC phantom, softener/plastic S/P = {sp} (thesis §2.3.3)",
@@ -112,7 +141,7 @@ def _pvc(sp: str, E_kpa: float, ab, ab_fit, og, og_fit, src_tab: str, **kw) -> T
               (("arruda-boyce", ab_fit), ("ogden", og_fit)) if f is not None},
         sources={"E": "Table 2.1", "arruda_boyce": src_tab,
                  "ogden": src_tab if og is not None else "unknown (ERRATA: Table A3)",
-                 **kw.pop("sources", {})},
+                 **srcs},
         **kw)
 
 
@@ -125,11 +154,14 @@ TISSUES: dict[str, Tissue] = {t.name: t for t in (
          Ogden(mu=(-0.0136, 0.0143, 0.00053), alpha=(4.538, 4.658, -5.94)), (0.9647, 0.0206),
          "Table A1 (μ 0.238 → 0.0238, ERRATA)", mu_d=0.28,
          sources={"mu_d": "Appendix B4 (*Friction)"}),
-    _pvc("0.5", 13.60, ArrudaBoyce(mu=0.0058, lambda_m=1.35), (0.984, 0.0058),
+    _pvc("0.5", 12.9, ArrudaBoyce(mu=0.0058, lambda_m=1.35), (0.984, 0.0058),
          Ogden(mu=(-0.175, 0.0113, 0.165), alpha=(-1.58, 3.798, -1.74)), (0.998, 0.0018),
          "Table A2 (μ₃ printed 0165 read as 0.165)", R=35 * J_PER_M2, eta=0.5,
-         friction=FRICTION_PRESETS["table-2.5"],
-         sources={"R": "Table 2.4", "eta": "Table 2.4", "friction": "Table 2.5"}),
+         friction=FRICTION_PRESETS["table-2.5"], E_characterised=13.60 * KPA,
+         sources={"E": "Table 2.4 (the force model's set with R and η; Table 2.1: "
+                       "13.60 kPa, kept as E_characterised)",
+                  "R": "Table 2.4", "eta": "Table 2.4", "friction": "Table 2.5",
+                  "E_characterised": "Table 2.1"}),
     _pvc("1", 4.88, ArrudaBoyce(mu=0.0008, lambda_m=1.198), (0.834, 0.018), None, None,
          "Table A3"),
     Tissue(name="soft-tissue-3.1.5",

@@ -402,6 +402,34 @@ class GaussianProcess:
         std = np.sqrt(var)
         return mean, (std[:, 0] if self._vector else std)
 
+    def covariance_with(self, Xs, x0):
+        """Posterior (latent) variances at ``Xs`` and covariances with one
+        point ``x0``, per unit σ̂² (multiply by the process variance Σ̂ of a
+        response, or aᵀΣ̂a for a linear combination of responses): eq. 3.32
+        generalised to two points, β̂'s uncertainty included,
+
+            c(x, x′) = r(x, x′) − r(x)ᵀC⁻¹r(x′) + h(x) h(x′) / 1ᵀC⁻¹1,
+            h(x) = 1 − 1ᵀC⁻¹r(x).
+
+        Returns (var (m,), cov (m,), var0 float), all per unit σ̂²."""
+        from scipy.linalg import cho_solve
+
+        self._check_fitted()
+        Xs = np.atleast_2d(np.asarray(Xs, float))
+        x0 = np.atleast_2d(np.asarray(x0, float))
+        f = self.fit_
+        w = 10.0 ** f.omega
+        P = np.vstack([Xs, x0])
+        r, _ = correlation(((P[:, None, :] - self.X_[None, :, :]) ** 2) @ w, self.kernel)
+        Cir = cho_solve(self._cf, r.T)                     # (n, m + 1)
+        h = 1.0 - self._Ci1 @ r.T                         # (m + 1,)
+        r0, _ = correlation(((P - x0) ** 2) @ w, self.kernel)   # (m + 1,)
+        quad = np.einsum("mn,nm->m", r, Cir)
+        var = 1.0 - quad + h ** 2 / self._one_Ci1
+        cov = r0 - r @ Cir[:, -1] + h * h[-1] / self._one_Ci1
+        var = np.maximum(var, 0.0)
+        return var[:-1], cov[:-1], float(var[-1])
+
     def interval(self, Xs, level: float = 0.95):
         """(lower, upper) bounds of the two-sided ``level`` interval (normal)."""
         from scipy.stats import norm

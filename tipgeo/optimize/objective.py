@@ -29,7 +29,11 @@ from ..tolerances import tol
 from .config import Objective, Term
 
 __all__ = ["Optimum", "scaled_terms", "optimize_objective", "pareto_front", "verify_optimum",
-           "term_summary"]
+           "term_summary", "optimum_region", "FLAT_EXTENT"]
+
+#: A region of designs indistinguishable from the optimum that spans at
+#: least this share of a variable's range is flat along that variable.
+FLAT_EXTENT = 0.25
 
 
 @dataclass
@@ -56,6 +60,7 @@ class Optimum:
     front: dict | None = None
     verified: dict | None = field(default=None)
     search: dict = field(default_factory=dict)
+    region: dict | None = field(default=None)
 
 
 def _ranges(surrogate, names) -> tuple[np.ndarray, np.ndarray]:
@@ -279,3 +284,119 @@ def term_summary(objective: Objective) -> str:
         return f"{t.goal} {t.response}" + (f"×{t.weight:g}" if t.weight != 1 else "")
 
     return " & ".join(one(t) for t in objective.terms)
+
+
+def _objective_coefficients(surrogate, objective: Objective) -> np.ndarray:
+    """(q,) a with f(x) = const + Σⱼ aⱼ ŷⱼ(x) for a ``weighted`` objective."""
+    names = [t.response for t in objective.terms]
+    _, span = _ranges(surrogate, names)
+    a = np.zeros(len(surrogate.responses))
+    for t, wk, sp in zip(objective.terms, _weights(objective), span):
+        a[surrogate.responses.index(t.response)] += wk * (-1.0 if t.goal == "max" else 1.0) / sp
+    return a
+
+
+def _objective_covariance(surrogate, a, U, u0):
+    """Variance of f at unit points U, its covariance with f at u0, and its
+    variance at u0 (latent GP posterior, σ̂ calibration included)."""
+    scale = np.asarray(surrogate.scale_, float)
+    if surrogate.mode == "separable":
+        m = surrogate.models[0]
+        var, cov, var0 = m.covariance_with(U, u0)
+        b = a * scale
+        k = float(b @ np.asarray(m.fit_.sigma) @ b)
+        return k * var, k * cov, k * var0
+    tot = [np.zeros(len(U)), np.zeros(len(U)), 0.0]
+    for j, m in enumerate(surrogate.models):
+        if a[j] == 0.0:
+            continue
+        var, cov, var0 = m.covariance_with(U, u0)
+        k = (a[j] * scale[j]) ** 2 * float(np.asarray(m.fit_.sigma).reshape(-1)[0])
+        tot[0] += k * var
+        tot[1] += k * cov
+        tot[2] += k * var0
+    return tot[0], tot[1], float(tot[2])
+
+
+def optimum_region(surrogate, objective: Objective, x_opt, *, feasible=None,
+                   candidates: int = 2048, seed: int = 1, z: float | None = None,
+                   flat_extent: float = FLAT_EXTENT,
+                   value_tol: float = 1e-4) -> dict[str, Any]:
+    """How flat a ``weighted`` objective is at its optimum: the designs the GP
+    cannot tell from it.
+
+    The objective is linear in the predicted responses, f = c + Σⱼ aⱼ ŷⱼ
+    (aⱼ = ±wⱼ / range, see the module docstring), so under the GP posterior
+    f is Gaussian with the covariance of eq. 3.32 carried to two points. A
+    design x is in the region when the optimum's advantage is not
+    significant: E[f(x) − f(x*)] ≤ z · sd(f(x) − f(x*)) (z = 1.96: the 95 %
+    one-sided level's complement, P(f(x) < f(x*)) ≥ 2.5 %), the difference's
+    variance var(x) + var(x*) − 2 cov(x, x*) with the joint posterior (near
+    x* it vanishes: the region is not inflated by the optimum's own
+    uncertainty) — or when the advantage is below ``value_tol`` (in the
+    objective's scaled units, where 1 is its training range: 10⁻⁴ by
+    default), which a GP certain of a flat direction (sd → 0 along it) needs.
+    Designs: a scrambled Sobol set of the box (``candidates``) plus x*;
+    ``feasible`` (optional) drops the region's infeasible members.
+
+    Returns
+    -------
+    dict — ``value`` (f at x*, scaled) and ``std`` (its posterior sd),
+    ``candidates``, ``members`` and ``share`` (of the feasible candidates in
+    the region, ≈ its volume share of the box), ``extent`` {variable:
+    [min, max]} (variables' units) and ``extent_fraction`` {variable: share of
+    its range}, ``flat_along`` (variables whose extent share ≥
+    ``flat_extent``), ``shape`` (``sharp``: none; ``ridge``: some;
+    ``flat``: all), ``box_position`` (``interior``, ``corner``, or
+    ``boundary``: on some bounds) with ``at_bounds`` [{variable, side}],
+    ``points`` (m, d) — the region's designs (for pictures), ``z``,
+    ``value_tol``.
+    """
+    from scipy.stats import qmc
+
+    from .gp import Z95
+
+    if objective.combine != "weighted":
+        return {"shape": None, "note": "a Pareto objective: its front shows the trade-off; no "
+                                       "region of one scalar value"}
+    z = Z95 if z is None else float(z)
+    lo, span = surrogate._lo, surrogate._span
+    d = len(lo)
+    x_opt = np.asarray(x_opt, float).reshape(d)
+    u0 = (x_opt - lo) / span
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", UserWarning)
+        U = qmc.Sobol(d, scramble=True, seed=seed).random(candidates)
+    U = np.vstack([u0[None], U])
+    X = lo + U * span
+    a = _objective_coefficients(surrogate, objective)
+    mean = scaled_terms(surrogate, objective, surrogate.predict(X)) @ _weights(objective)
+    var, cov, var0 = _objective_covariance(surrogate, a, U, u0)
+    dvar = np.maximum(var + var0 - 2.0 * cov, 0.0)
+    inside = mean - mean[0] <= z * np.sqrt(dvar) + float(value_tol)
+    inside[0] = True
+    idx = np.flatnonzero(inside)
+    if feasible is not None and len(idx) > 1:
+        ok = np.asarray(feasible(X[idx[1:]]), bool)
+        idx = np.r_[idx[:1], idx[1:][ok]]
+        n_cand = candidates  # infeasible non-members are not checked (costly); share ≤ this
+    else:
+        n_cand = candidates
+    P = X[idx]
+    names = list(surrogate.variables)
+    ext_lo, ext_hi = P.min(0), P.max(0)
+    frac = (ext_hi - ext_lo) / span
+    flat = [n for n, f in zip(names, frac) if f >= flat_extent]
+    shape = "sharp" if not flat else ("flat" if len(flat) == d else "ridge")
+    edge = 1e-6
+    at = [{"variable": n, "side": "min" if u <= edge else "max"}
+          for n, u in zip(names, u0) if u <= edge or u >= 1.0 - edge]
+    pos = "interior" if not at else ("corner" if len(at) == d else "boundary")
+    return {"value": float(mean[0]), "std": float(math.sqrt(max(var0, 0.0))), "z": z,
+            "value_tol": float(value_tol),
+            "candidates": int(n_cand), "members": int(len(idx) - 1),
+            "share": float((len(idx) - 1) / n_cand),
+            "extent": {n: [float(a_), float(b_)] for n, a_, b_ in zip(names, ext_lo, ext_hi)},
+            "extent_fraction": {n: float(f) for n, f in zip(names, frac)},
+            "flat_along": flat, "shape": shape, "box_position": pos, "at_bounds": at,
+            "points": P}

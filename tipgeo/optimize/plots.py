@@ -140,11 +140,17 @@ def plot_response(surrogate, config, response: str, path, *, optima=(), feasible
     ax.plot(Xt[:, ia[0]], Xt[:, ia[1]], "o", color="tab:red", mec="k", ms=4,
             label="training points")
     for k, o in enumerate(optima):
+        reg = getattr(o, "region", None) or {}
+        pts = reg.get("points")
+        if pts is not None and len(pts) > 1:
+            ax.plot(pts[1:, ia[0]], pts[1:, ia[1]], ".", ms=3, color=f"C{k + 1}", alpha=0.6,
+                    zorder=4, label=f"{o.objective.name}: as good within the GP's 95 % "
+                                    f"({reg['shape']})")
         ax.plot(o.x[ia[0]], o.x[ia[1]], marker="*", ms=15, mec="k", color=f"C{k + 1}",
                 ls="none", label=o.objective.name, clip_on=False, zorder=5)
     ax.set_xlabel(_label(config, ia[0]))
     ax.set_ylabel(_label(config, ia[1]))
-    ax.set_title("(b) GP mean, training points and optima", fontsize=9)
+    ax.set_title("(b) GP mean, training points, optima and their regions", fontsize=9)
     ax.legend(fontsize=7, loc="upper center", bbox_to_anchor=(0.5, -0.13), ncol=2,
               framealpha=0.9)
     ax = fig.add_subplot(1, 3, 3)

@@ -29,7 +29,7 @@ from ..jsonio import dumps as _dumps
 from ..paths import inside
 from .config import StudyConfig
 from .infill import infill_optima, training_ranges
-from .objective import term_summary, verify_optimum
+from .objective import optimum_region, term_summary, verify_optimum
 from .surrogate import fit_surrogate
 from .sweep import run_sweep, write_table
 
@@ -464,6 +464,12 @@ def _study(config: StudyConfig, out: Path, files: list[str], *, executor, cache,
         opt, res = by_name[obj.name]
         verify_optimum(config, opt, build=build, result=res, ranges=ranges)
         opt.verified.update(edge_report(config, opt.x, feasible))
+        # how flat the objective is there (issue 28): the designs the GP cannot
+        # tell from the optimum; feasibility from the screened grid (cheap) if any
+        opt.region = optimum_region(sur, obj, opt.x, feasible=(
+            grid_verdicts(config, sweep.screen) if sweep.screen is not None else None))
+        opt.region["feasibility"] = ("screened grid" if sweep.screen is not None
+                                     else "not checked (the whole box)")
         v = opt.verified
         if p["flat"] and res["status"] == "ok":  # the constant responses, there for real
             v["constant_responses"] = {r: {"design_value": constant[r],
@@ -481,6 +487,7 @@ def _study(config: StudyConfig, out: Path, files: list[str], *, executor, cache,
             write_text_atomic(f, dumps_spec(spec))
             files.append(str(f))
         entries.append(head | {"value": opt.value, "search": opt.search,
+                               "region": {k: x for k, x in opt.region.items() if k != "points"},
                                **{k: x for k, x in v.items() if k != "spec"},
                                **({"pareto_points": int(len(opt.front["x"]))}
                                   if opt.front else {})})

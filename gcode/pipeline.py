@@ -21,12 +21,22 @@ from .parser import parse
 __all__ = ["LaserCheck", "laser_check", "make_limits", "read_program", "write_laser_outputs"]
 
 
+#: Largest program file read (bytes): a tip's laser program is a few kB to a few MB.
+MAX_PROGRAM_BYTES = 16 << 20
+
+
 def read_program(path: str | Path) -> str:
-    """The text of a program file; unreadable files are a GCodeError."""
+    """The UTF-8 text of a program file. A missing or unreadable file, one
+    over :data:`MAX_PROGRAM_BYTES`, or one that is not a regular file (a
+    FIFO, a device: a read could block or never end; checked before a byte
+    is read) is a one-line GCodeError."""
+    from tipgeo.errors import SpecError
+    from tipgeo.tomlio import read_text_file
+
     try:
-        return Path(path).read_text(encoding="utf-8")
-    except (OSError, UnicodeDecodeError) as e:
-        raise GCodeError(f"cannot read '{path}': {e}") from None
+        return read_text_file(path, "program", max_bytes=MAX_PROGRAM_BYTES)
+    except SpecError as e:
+        raise GCodeError(str(e)) from None
 
 
 @dataclass

@@ -406,6 +406,26 @@ def test_forged_cache_entry_is_reported_and_not_served(tmp_path, how):
     assert "\n" not in warnings[0]
 
 
+@pytest.mark.parametrize("how", ["fifo", "folder", "huge"])
+def test_planted_cache_entry_is_not_opened(tmp_path, how):
+    """A FIFO (a read would block for ever), a folder or a file over 1 MB
+    where a cache entry should be: reported and recomputed, never opened."""
+    import os
+
+    cache, key, h, path, entry, warnings = _genuine_entry(tmp_path)
+    path.unlink()
+    if how == "fifo":
+        os.mkfifo(path)
+    elif how == "folder":
+        path.mkdir()
+    else:
+        with open(path, "wb") as f:
+            f.truncate((1 << 20) + 1)
+    assert cache.get(key, h) is None
+    assert len(warnings) == 1 and str(path) in warnings[0] and "recomputed" in warnings[0]
+    assert ("regular file" if how != "huge" else "larger than 1 MB") in warnings[0]
+
+
 def test_forged_cache_entry_recomputed_in_a_sweep(tmp_path, monkeypatch, capsys):
     import json
 
@@ -923,3 +943,22 @@ def test_oversized_program_refused_before_reading(tmp_path, capsys, monkeypatch)
     err = capsys.readouterr().err.strip()
     assert f"PROGRAM = '{big}' has {cap + 1:,} bytes; allowed at most {cap:,}" in err
     assert len(err.splitlines()) == 1
+
+
+def test_read_program_refuses_a_fifo_and_a_device_before_reading(tmp_path):
+    """The library's program reader (not only the CLI) never opens a FIFO for
+    a blocking read nor reads a device without end."""
+    import os
+
+    from gcode.errors import GCodeError
+    from gcode.pipeline import read_program
+
+    fifo = tmp_path / "prog.pgm"
+    os.mkfifo(fifo)
+    for target, word in ((fifo, "FIFO"), ("/dev/zero", "device")):
+        with pytest.raises(GCodeError, match=word) as e:
+            read_program(target)
+        assert "\n" not in str(e.value)
+    good = tmp_path / "ok.pgm"
+    good.write_text("G01 X1 F10\n", encoding="utf-8")
+    assert read_program(good) == "G01 X1 F10\n"

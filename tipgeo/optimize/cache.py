@@ -31,6 +31,7 @@ import functools
 import hashlib
 import json
 import os
+import stat
 from pathlib import Path
 from typing import Any
 
@@ -219,6 +220,15 @@ class ResultCache:
         entry's (the caller's :func:`spec_hash` of the inputs)."""
         path = self._path(key)
         try:
+            # stat first (it does not block): a FIFO, device or socket planted
+            # in the cache would hang or never end a read; a huge file is not read
+            st = path.stat()
+            if not stat.S_ISREG(st.st_mode):
+                self._reject(path, "not a regular file (a FIFO, device, socket or folder)")
+                return None
+            if st.st_size > 1 << 20:
+                self._reject(path, "larger than 1 MB")
+                return None
             raw = path.read_bytes()
         except FileNotFoundError:
             self.misses += 1

@@ -7,7 +7,7 @@ import math
 import pytest
 
 from tipgeo import SpecError
-from tipgeo.mechanics import KPA, J_PER_M2, tissue
+from tipgeo.mechanics import J_PER_M2, KPA, tissue
 from tipgeo.mechanics.fracture import rupture_forces
 
 

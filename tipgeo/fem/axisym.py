@@ -235,7 +235,8 @@ def axisymmetric_model(tip: Tip, *, depth: float, tissue: str = "pvc-sp0",
                     else v.real("contact_stiffness", contact_stiffness, lo=0.0, lo_open=True,
                                 unit="MPa/mm"),
                     force_scale=AXISYMMETRIC_FORCE_SCALE,
-                    increments=(d0 / depth, 1e-6 * min(1.0, 1.0 / depth), dmax / depth),  # 1 nm floor
+                    # a 1 nm floor on the smallest increment
+                    increments=(d0 / depth, 1e-6 * min(1.0, 1.0 / depth), dmax / depth),
                     output_depths=out, contact=contact,
                     slave="tissue" if stages else "needle", info=info)
 

@@ -3,11 +3,17 @@
 import functools
 
 import pytest
+from hypothesis import settings
 
 from tipgeo import build_tip, preset
 from tipgeo.tolerances import tol
 
 tol.strict = True
+
+# no wall clock in any test: hypothesis's per-example deadline (200 ms by
+# default) fails a property test on a loaded machine, not on a wrong answer
+settings.register_profile("tipgeo", deadline=None)
+settings.load_profile("tipgeo")
 
 
 @functools.cache

@@ -216,25 +216,34 @@ terms = [{ response = "l_c_mm", goal = "min" }, { response = "theta_min_deg", go
 """
 
 
-def test_shipped_study_loo_intervals_hold_90_to_98_percent():
+def test_shipped_study_loo_intervals_are_calibrated():
     """Issue 13: the shipped study's GP (25 maximin points; Matérn 5/2, θ_max
-    Matérn 7/2) puts 90–98 % of the leave-one-out points inside their 95 %
-    intervals — 23 or 24 of 25 — for every response with a signal. Measured
-    23, 24, 23, 23, 23 for l_c, λ_max, θ_min, θ_max, α_max; the nearest |z| to
-    1.96 is 2.02 (θ_max), 3 % away. λ_min ≈ 1e-7° and α_min ≈ 0.01° are
-    round-off-level (NRMSE ≈ 1: their values differ between CPUs), so their
-    coverage is not a property of the model (23 and 24 here)."""
+    Matérn 7/2) has leave-one-out 95 % intervals that hold — at most 3 of the
+    25 points outside (coverage ≥ 0.88) — and are not much too wide: the RMS
+    of the standardised LOO residuals z = r/s is within [0.5, 1.5] (1 for a
+    calibrated model), for every response with a signal. An upper bound on
+    the coverage alone would fail a calibrated model often (25 of 25 inside
+    has probability 0.28 at 95 %). Measured since issue 28's helical design
+    space (the box's φ edge now builds): coverage 1.0 for all five, RMS z
+    0.69 (l_c), 0.81 (λ_max), 0.81 (θ_min), 0.80 (θ_max), 0.81 (α_max),
+    largest |z| 1.92. λ_min ≈ 1e-7° and α_min ≈ 0.01° are round-off-level
+    (NRMSE ≈ 1: their values differ between CPUs), so their coverage is not
+    a property of the model."""
     from tipgeo.optimize import fit_surrogate, run_sweep
     from tipgeo.optimize.presets import study_preset
 
     cfg = study_preset("helical-study")
     sweep = run_sweep(cfg, executor=SerialExecutor(), cache=False, progress=False)
     assert int(sweep.ok.sum()) == 25  # all admissible, none failed
-    loo = fit_surrogate(sweep).loo()
+    gp = fit_surrogate(sweep)
+    loo = gp.loo()
     assert loo["theta_max_deg"]["kernel"] == "matern72"
     for name in ("l_c_mm", "lambda_max_deg", "theta_min_deg", "theta_max_deg",
                  "alpha_max_deg"):
-        assert 0.90 <= loo[name]["coverage95"] <= 0.98, (name, loo[name]["coverage95"])
+        j = gp.responses.index(name)
+        z = gp.loo_residuals_[:, j] / gp.loo_std_[:, j]
+        assert loo[name]["coverage95"] >= 0.88, (name, loo[name]["coverage95"])
+        assert 0.5 <= float(np.sqrt(np.mean(z ** 2))) <= 1.5, (name, z)
         assert loo[name]["nrmse"] < 0.05, (name, loo[name]["nrmse"])
 
 

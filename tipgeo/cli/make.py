@@ -74,8 +74,8 @@ def cmd_laser(args) -> int:
         from .report import write_html
 
         res = laser_check(text, beam_diameter=params.beam_diameter, spec=spec)
-        html = write_html(args, [spec, LaserSource(res, name=f"{spec.name}: {args.output}")],
-                          say=False)
+        src = LaserSource(res, name=f"{spec.name}: {Path(args.output).name}")
+        html = write_html(args, [spec, src], say=False)
     if args.json:
         from dataclasses import asdict
 
@@ -121,7 +121,7 @@ def cmd_gcode(args) -> int:
         from .report import write_html
 
         res.files.append(write_html(args, [spec, LaserSource(res, origin=tuple(args.origin_mm),
-                                                             name=str(args.program))],
+                                                             name=Path(args.program).name)],
                                     say=False))
     out = res.summary(source=args.program)
     prog, tp, s = res.program, res.toolpath, out["toolpath"]

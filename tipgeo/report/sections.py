@@ -320,13 +320,14 @@ def _move_colour(name: str) -> str:
 
 
 def _toolpath_view(page, s, pieces, path: np.ndarray, path_kind, names: list[str], *, cad,
-                   r_o: float, focus: np.ndarray, marker_name: str) -> str:
+                   r_o: float, focus: np.ndarray, marker_name: str, zoom: float = 1.0) -> str:
     """The toolpath figure of a program over the CAD part (grey) in section
     ``s``, with the slider and play button that walk ``path`` (cannula
     frame, mm; (m + 1, 3): the start, then each move's end) and the page link
     (kind ``toolpath``). ``pieces``: (legend name, colour, dotted, (k, 3)
     points with NaN rows between moves) per move kind; ``path_kind``: each
-    move's index into ``names``; ``focus``: the points the 3D box frames."""
+    move's index into ``names``; ``focus``: the points the 3D box frames;
+    ``zoom`` > 1 brings the camera that much closer."""
     import plotly.graph_objects as go
 
     traces = []
@@ -356,6 +357,8 @@ def _toolpath_view(page, s, pieces, path: np.ndarray, path_kind, names: list[str
         pad = 0.05 * (hi - lo) + 0.05
         for ax, a, b in zip("xyz", lo - pad, hi + pad):
             sc[f"{ax}axis"]["range"] = [float(a), float(b)]
+    if "camera" in sc and zoom != 1.0:
+        sc["camera"]["eye"] = {k: v / zoom for k, v in sc["camera"]["eye"].items()}
     fig.update_layout(scene=sc, margin={"l": 0, "r": 0, "t": 10, "b": 0},
                       legend={"x": 0.0, "y": 1.0, "bgcolor": "rgba(255,255,255,0.7)"})
     div = s.figure(fig, height=620, name="toolpath")
@@ -364,7 +367,7 @@ def _toolpath_view(page, s, pieces, path: np.ndarray, path_kind, names: list[str
           f'<input id="{slider}" type="range" min="0" max="{len(path) - 1}" value="0" step="1" '
           f'aria-label="move"></div><div class="tg-readout" id="{readout}"></div>')
     page.link(kind="toolpath", div=div, done=done, marker=marker, slider=slider, play=play,
-              readout=readout, path={"x": np.round(path[:, 0], 5).tolist(),
+              readout=readout, label=marker_name, path={"x": np.round(path[:, 0], 5).tolist(),
                                      "y": np.round(path[:, 1], 5).tolist(),
                                      "z": np.round(path[:, 2], 5).tolist(),
                                      "kind": np.asarray(path_kind, int).tolist(),
@@ -918,7 +921,7 @@ def laser_section(page, res, spec, *, origin=(0.0, 0.0), gamma0_deg: float = 0.0
     _toolpath_view(page, s, pieces, path, kind, names, cad=cad, r_o=spec.cannula.r_o,
                    focus=np.vstack([on, np.asarray(cad.vertices)[np.asarray(cad.vertices)[:, 2]
                                                                  >= on[:, 2].min() - 0.1]]),
-                   marker_name="beam")
+                   marker_name="beam", zoom=1.8)
     s.table(["toolpath", "value"], _flat(res.toolpath.summary()),
             caption="toolpath (units in the names: mm, s, deg)")
     if res.ablation is not None:

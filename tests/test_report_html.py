@@ -313,3 +313,73 @@ def test_study_folder_gp_is_the_studys_own(tmp_path):
     html_report([f], tmp_path / "b.html")
     text = (tmp_path / "b.html").read_text(encoding="utf-8")
     assert "No GP drawn" in text and '"GP mean"' not in text
+
+
+def test_laser_html_moves_on_the_outer_wall(tmp_path, capsys):
+    """``laser punch-C2 --html``: the program written, simulated against its
+    spec and drawn in the cannula frame — every beam-on point lies in the
+    plane tangent to the outer wall at γ = C of one of the spec's 16 notch
+    angles (w·p = r_o within 1e-6 mm), and the first beam-on move starts at
+    u = X − X0, z = z_rim(γ) − (Y − Y0) (origin 0, 0); the verdict PASS; no
+    network reference."""
+    from gcode.pipeline import laser_check
+
+    spec = preset("punch-C2")
+    pgm, out = tmp_path / "p.pgm", tmp_path / "p.html"
+    assert main(["laser", "punch-C2", "-o", str(pgm), "--html", str(out), "--quiet"]) == 0
+    assert f"wrote {out}" in capsys.readouterr().out
+    text = out.read_text(encoding="utf-8")
+    assert external_refs(text) == []  # no src/href loads anything (the browser test: no request)
+    assert "PASS laser-cut serrations vs spec" in text
+    _, fig = _fig(text, "toolpath")
+    (on,) = [t for t in fig["data"] if t.get("name", "").startswith("beam on: ")]
+    p = np.column_stack([on["x"], on["y"], on["z"]]).astype(float)
+    p = p[np.isfinite(p).all(axis=1)]
+    segs = laser_check(pgm.read_text(encoding="utf-8")).toolpath.segments
+    beam = [s for s in segs if s.beam]
+    assert on["name"] == f"beam on: {len(beam):,} moves"
+    cs = sorted({round(s.c0, 9) for s in beam})
+    assert len(cs) == 16
+    g = np.radians(cs)
+    w = np.stack([np.cos(g), np.sin(g)], 1)  # (16, 2) outward normals
+    r_o, r_i = spec.cannula.r_o, spec.cannula.r_i
+    dots = p[:, :2] @ w.T
+    near = np.argmax(dots, axis=1)  # the notch plane a point lies in (22.5° apart: no tie)
+    np.testing.assert_allclose(dots[np.arange(len(p)), near], r_o, atol=1e-6)
+    assert np.all(np.abs(p[:, :2] @ np.stack([-np.sin(g), np.cos(g)], 1).T)[
+        np.arange(len(p)), near] < r_i)
+    # the first beam-on move: its start point, by the ablation's mapping
+    s0 = beam[0]
+    g0 = math.radians(s0.c0)
+    z_rim = min(float(np.min(np.atleast_1d(z))) for z in
+                (c.edge_z(np.array([g0]), r_i, spec.cannula) for c in spec.cutters
+                 if c.process != "laser") if z is not None)
+    u, z = s0.start[0], z_rim - s0.start[1]
+    want = u * np.array([-math.sin(g0), math.cos(g0), 0]) + np.array([0, 0, z]) + \
+        r_o * np.array([math.cos(g0), math.sin(g0), 0])
+    np.testing.assert_allclose(p[0], want, atol=1e-6)
+    (lk,) = [x for x in links(text) if x["kind"] == "toolpath"]
+    assert len(lk["path"]["x"]) == len(segs) + 1 and lk["path"]["names"] == \
+        ["rapid", "beam off", "beam on"]
+    _, sim = _fig(text, "ablated")
+    assert {t["scene"] for t in sim["data"]} == {"scene", "scene2"}
+
+
+def test_appendix_c_html_fails(tmp_path, capsys):
+    """The printed Appendix C program against punch-C2: the page carries the
+    FAIL verdict the command exits 1 with; ``--html`` without ``--spec`` or
+    on ``gcode check`` is a one-line error, exit 2, nothing written."""
+    pgm = Path(__file__).resolve().parents[1] / "samples" / "appendix_c.pgm"
+    out = tmp_path / "a.html"
+    assert main(["gcode", "sim", str(pgm), "--spec", "punch-C2", "--origin-mm", "-0.15", "0",
+                 "--html", str(out), "--quiet"]) == 1
+    capsys.readouterr()
+    text = out.read_text(encoding="utf-8")
+    assert external_refs(text) == []
+    assert "FAIL laser-cut serrations vs spec: " in text and "cut beyond CAD" in text
+    _fig(text, "toolpath")
+    for argv in (["gcode", "sim", str(pgm)], ["gcode", "check", str(pgm), "--spec", "punch-C2"]):
+        assert main([*argv, "--html", str(tmp_path / "b.html"), "--quiet"]) == 2
+        err = capsys.readouterr().err.strip().splitlines()
+        assert len(err) == 1 and "--html" in err[0]
+    assert sorted(q.name for q in tmp_path.iterdir()) == ["a.html"]

@@ -57,30 +57,56 @@ def cmd_laser(args) -> int:
     params = _laser_params(args)
     text = emit_program(spec, params)
     if args.output == "-":
+        if args.html:
+            raise InputError("--html needs -o FILE (the program it simulates is written "
+                             "there), not -o -")
         if args.json:
             raise InputError("-o - writes the program on stdout; with --json, stdout holds "
                              "the JSON: give -o FILE")
         sys.stdout.write(text)
         return 0
     write_text(args.output, text)
+    html = None
+    if args.html:  # the program as written, simulated against its spec
+        from gcode.pipeline import laser_check
+
+        from ..report import LaserSource
+        from .report import write_html
+
+        res = laser_check(text, beam_diameter=params.beam_diameter, spec=spec)
+        src = LaserSource(res, name=f"{spec.name}: {Path(args.output).name}")
+        html = write_html(args, [spec, src], say=False)
     if args.json:
         from dataclasses import asdict
 
-        print(_dumps({"spec": spec.name, "program": str(args.output),
-                      "lines": len(text.splitlines()), "params": asdict(params)}))
+        out = {"spec": spec.name, "program": str(args.output),
+               "lines": len(text.splitlines()), "params": asdict(params)}
+        if html:
+            out["html"] = html
+            out["verdict"] = res.verdict.to_dict() if res.verdict is not None else None
+        print(_dumps(out))
     else:
         print(f"wrote {args.output} ({len(text.splitlines())} lines)")
-    return 0
+        if html:
+            if res.verdict is not None:
+                print(f"  {res.verdict.line()}")
+            print(f"  wrote {html}")
+    return verdict_status(res.verdict, args) if html else 0
 
 
 def cmd_gcode(args) -> int:
     from gcode.emitter import LaserParams
     from gcode.pipeline import laser_check, make_limits, read_program, write_laser_outputs
 
+    from ..errors import InputError
+
     station = LaserParams.from_toml(args.machine) if args.machine else LaserParams()
     beam = station.beam_diameter if args.beam_diameter_um is None else \
         args.beam_diameter_um * 1e-3
-    spec = spec_arg(args.spec) if args.action == "sim" else None
+    if args.html and (args.action != "sim" or args.spec is None):
+        raise InputError(f"--html = '{args.html}' needs 'gcode sim' with --spec (the part the "
+                         "moves are drawn on)")
+    spec = spec_arg(args.spec or "punch-plain") if args.action == "sim" else None
     limits = make_limits(max_statements=args.max_statements, max_repeat=args.max_repeat,
                          max_segments=args.max_moves, max_operations=args.max_operations)
     default_feed = feed_mm_min_arg("--default-feed-mm-min", args.default_feed_mm_min)
@@ -90,6 +116,13 @@ def cmd_gcode(args) -> int:
                       default_feed=default_feed)
     write_laser_outputs(res, spec, mesh=args.mesh if args.action == "sim" else None,
                         plot=args.png, on_error=cannot_write)
+    if args.html:
+        from ..report import LaserSource
+        from .report import write_html
+
+        res.files.append(write_html(args, [spec, LaserSource(res, origin=tuple(args.origin_mm),
+                                                             name=Path(args.program).name)],
+                                    say=False))
     out = res.summary(source=args.program)
     prog, tp, s = res.program, res.toolpath, out["toolpath"]
     verdict = getattr(res, "verdict", None)
@@ -266,12 +299,16 @@ def register(sub) -> None:
                     "samples/machines/a3200-laser.toml); flags given override it")
     deprecated(la, "--feed-mm-s", "--feed-mm-min", convert=lambda v: v * 60.0,
                note=" (mm/min; the value given was converted from mm/s)")
+    from .report import HTML_EXTS, add_html_flag
+
+    add_html_flag(la)
     la.set_defaults(func=cmd_laser)
-    declare_files(la, inputs=("spec", "machine"), outputs=("output",))
+    declare_files(la, inputs=("spec", "machine"), outputs=("output", "html"),
+                  exts={"html": HTML_EXTS})
     gc = sub.add_parser("gcode", help="check or simulate an AeroBasic laser program")
     gc.add_argument("action", choices=("check", "sim"))
     gc.add_argument("program", metavar="PROGRAM")
-    gc.add_argument("--spec", default="punch-plain",
+    gc.add_argument("--spec", default=None,
                     help="the punch to cut (spec or preset; default punch-plain)")
     gc.add_argument("--origin-mm", type=float, nargs=2, default=(0.0, 0.0),
                     metavar=("X0", "Y0"),
@@ -299,9 +336,11 @@ def register(sub) -> None:
                         help=f"bound: {hlp}; each default costs at most ~5 s to reach")
     deprecated(gc, "--plot", "--png")
     deprecated(gc, "--origin", "--origin-mm")
+    add_html_flag(gc)
     gc.set_defaults(func=cmd_gcode)
-    declare_files(gc, inputs=("program", "spec", "machine"), outputs=("mesh",), pictures=("png",),
-                  exts={"mesh": export_exts()}, derived=gcode_derived)
+    declare_files(gc, inputs=("program", "spec", "machine"), outputs=("mesh", "html"),
+                  pictures=("png",), exts={"mesh": export_exts(), "html": HTML_EXTS},
+                  derived=gcode_derived)
     gr = sub.add_parser("grind", help="five-axis grinding program, set-up and simulation")
     gr.add_argument("spec", metavar="SPEC")
     gr.add_argument("-o", "--output", metavar="FILE", help="axis program (.json or .csv)")

@@ -11,6 +11,10 @@ command's ``--html FILE``. What a page shows, per source:
 - a milling run (:class:`cam.mill.MillResult`): the program's moves over the
   part coloured by kind with a slider that plays them, the simulated part
   beside the CAD, the deviation map, the comparison and its verdict;
+- a laser program checked and simulated (:class:`gcode.pipeline.LaserCheck`,
+  or a :class:`LaserSource` naming its program origin): the beam moves on the
+  outer wall in the cannula frame coloured beam on / off / rapid, with the
+  slider, the ablated part beside the CAD, the comparison and its verdict;
 - a ``compare`` output folder (report.json + deviations.ply) or a
   :class:`~tipgeo.inspect.compare.Comparison`: the signed deviations on the
   3D cloud with the colour scale, the histogram of every point (click a bar:
@@ -36,7 +40,8 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-__all__ = ["html_report", "read_compare_folder", "TipSource", "REPORT_EXTS", "MAX_SCAN_POINTS"]
+__all__ = ["html_report", "read_compare_folder", "TipSource", "LaserSource", "REPORT_EXTS",
+           "MAX_SCAN_POINTS"]
 
 #: Extensions of a report file.
 REPORT_EXTS = (".html", ".htm")
@@ -58,6 +63,20 @@ class TipSource:
     spec: Any = None
     tip: Any = None
     angles: Any = None
+    name: str | None = None
+
+
+@dataclass
+class LaserSource:
+    """A laser program's :class:`gcode.pipeline.LaserCheck` with what places
+    its moves on the part: ``origin`` (X0, Y0), the program coordinates (mm)
+    of the first serration's centre on the rim, as given to
+    :func:`gcode.pipeline.laser_check`, and ``gamma0_deg``, γ of C = 0 (the
+    ablation's). A bare LaserCheck is drawn with origin (0, 0)."""
+
+    check: Any
+    origin: tuple[float, float] = (0.0, 0.0)
+    gamma0_deg: float = 0.0
     name: str | None = None
 
 
@@ -243,6 +262,10 @@ def _resolve(src: Any):
         return "grind", src
     if kind == "Comparison":
         return "compare", src
+    if kind == "LaserCheck":
+        return "laser", LaserSource(src)
+    if isinstance(src, LaserSource):
+        return "laser", src
     if isinstance(src, (str, Path)):
         p = Path(src)
         if p.is_dir():
@@ -263,7 +286,8 @@ def _resolve(src: Any):
         raise InputError(f"SOURCE = '{src}' is no file, folder or preset; allowed: "
                          f"{_SOURCE_FORMS}")
     raise InputError(f"SOURCE = {kind} is not a report source; allowed: {_SOURCE_FORMS}, a "
-                     "TipSpec, Tip, TipSource, MillResult, GrindResult or Comparison")
+                     "TipSpec, Tip, TipSource, MillResult, GrindResult, LaserCheck, LaserSource or "
+                     "Comparison")
 
 
 def _name(kind: str, obj) -> str:
@@ -275,6 +299,8 @@ def _name(kind: str, obj) -> str:
         return obj.toolpath.name
     if kind == "grind":
         return obj.program.summary().get("name") or "grind"
+    if kind == "laser":
+        return obj.name or "laser program"
     if kind == "compare":
         return obj.cad.summary().get("name") or "compare"
     if kind == "compare-folder":
@@ -295,8 +321,9 @@ def html_report(sources, out, *, title: str | None = None) -> dict[str, Any]:
         Each a spec file path or preset name, a ``tipgeo compare`` output
         folder, or an object: :class:`~tipgeo.spec.TipSpec`,
         :class:`~tipgeo.tip.Tip`, :class:`cam.mill.MillResult` or
-        :class:`cam.GrindResult` (drawn beside the CAD of the last spec
-        before it), or
+        :class:`cam.GrindResult`, :class:`gcode.pipeline.LaserCheck` or
+        :class:`LaserSource` (drawn beside the CAD of the last spec before
+        it), or
         :class:`~tipgeo.inspect.compare.Comparison`.
     out : str or Path
         The ``.html`` file (written atomically; its folder must exist).
@@ -336,6 +363,9 @@ def html_report(sources, out, *, title: str | None = None) -> dict[str, Any]:
                 S.mill_section(page, obj, spec)
             elif kind == "grind":
                 S.grind_section(page, obj, spec)
+            elif kind == "laser":
+                S.laser_section(page, obj.check, spec, origin=obj.origin,
+                                gamma0_deg=obj.gamma0_deg, name=obj.name)
             elif kind == "compare":
                 d = obj.distances
                 S.compare_section(page, obj.to_dict(), obj.points, d.distance, d.face,

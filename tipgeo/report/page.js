@@ -38,7 +38,7 @@
       Plotly.restyle(gd, { x: [P.x.slice(0, cut), [P.x[k]]], y: [P.y.slice(0, cut), [P.y[k]]],
                            z: [P.z.slice(0, cut), [P.z[k]]] }, [L.done, L.marker]);
       if (out) out.textContent = "move " + k + " of " + n + (k > 0 ? " (" + P.names[P.kind[k - 1]] + ")" : " (start)")
-        + ", tool tip (" + [P.x[k], P.y[k], P.z[k]].map(function (v) { return v.toFixed(4); }).join(", ") + ") mm";
+        + ", " + (L.label || "tool tip") + " (" + [P.x[k], P.y[k], P.z[k]].map(function (v) { return v.toFixed(4); }).join(", ") + ") mm";
     }
     s.addEventListener("input", function () { show(+s.value); });
     if (play) play.addEventListener("click", function () {

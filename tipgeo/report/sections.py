@@ -319,12 +319,85 @@ def _move_colour(name: str) -> str:
     return "#00838f"
 
 
+def _toolpath_view(page, s, pieces, path: np.ndarray, path_kind, names: list[str], *, cad,
+                   r_o: float, focus: np.ndarray, marker_name: str, zoom: float = 1.0) -> str:
+    """The toolpath figure of a program over the CAD part (grey) in section
+    ``s``, with the slider and play button that walk ``path`` (cannula
+    frame, mm; (m + 1, 3): the start, then each move's end) and the page link
+    (kind ``toolpath``). ``pieces``: (legend name, colour, dotted, (k, 3)
+    points with NaN rows between moves) per move kind; ``path_kind``: each
+    move's index into ``names``; ``focus``: the points the 3D box frames;
+    ``zoom`` > 1 brings the camera that much closer."""
+    import plotly.graph_objects as go
+
+    traces = []
+    if cad is not None:
+        for t in _mesh_traces(cad, zlo=_zlo(cad), opacity=0.35, legend=False):
+            t.update(color="#b0bec5", hoverinfo="skip")
+            traces.append(t)
+    for nm, colour, dotted, xyz in pieces:
+        traces.append(go.Scatter3d(x=_f32(xyz[:, 0]), y=_f32(xyz[:, 1]), z=_f32(xyz[:, 2]),
+                                   mode="lines", name=nm,
+                                   line={"color": colour, "width": 2,
+                                         "dash": "dot" if dotted else "solid"},
+                                   opacity=0.5 if dotted else 0.9, hoverinfo="name"))
+    done = len(traces)
+    traces.append(go.Scatter3d(x=[], y=[], z=[], mode="lines", name="path done",
+                               line={"color": "#263238", "width": 2}, hoverinfo="skip"))
+    marker = len(traces)
+    traces.append(go.Scatter3d(x=[], y=[], z=[], mode="markers", name=marker_name,
+                               marker={"size": 8, "color": "#d50000", "symbol": "diamond"},
+                               hoverinfo="skip"))
+    focus = np.asarray(focus, float).reshape(-1, 3)
+    traces += _frame_traces(float(np.nanmin(focus[:, 2])), _nice(0.8 * r_o), beside=1.3 * r_o)
+    fig = go.Figure(traces)
+    sc = _scene(focus)
+    if len(focus):  # moves away from the part leave the box: the part fills the view
+        lo, hi = np.nanmin(focus, axis=0), np.nanmax(focus, axis=0)
+        pad = 0.05 * (hi - lo) + 0.05
+        for ax, a, b in zip("xyz", lo - pad, hi + pad):
+            sc[f"{ax}axis"]["range"] = [float(a), float(b)]
+    if "camera" in sc and zoom != 1.0:
+        sc["camera"]["eye"] = {k: v / zoom for k, v in sc["camera"]["eye"].items()}
+    fig.update_layout(scene=sc, margin={"l": 0, "r": 0, "t": 10, "b": 0},
+                      legend={"x": 0.0, "y": 1.0, "bgcolor": "rgba(255,255,255,0.7)"})
+    div = s.figure(fig, height=620, name="toolpath")
+    slider, play, readout = page._id("slider"), page._id("play"), page._id("readout")
+    s.raw(f'<div class="tg-controls"><button id="{play}" type="button">▶ play</button>'
+          f'<input id="{slider}" type="range" min="0" max="{len(path) - 1}" value="0" step="1" '
+          f'aria-label="move"></div><div class="tg-readout" id="{readout}"></div>')
+    page.link(kind="toolpath", div=div, done=done, marker=marker, slider=slider, play=play,
+              readout=readout, label=marker_name, path={"x": np.round(path[:, 0], 5).tolist(),
+                                     "y": np.round(path[:, 1], 5).tolist(),
+                                     "z": np.round(path[:, 2], 5).tolist(),
+                                     "kind": np.asarray(path_kind, int).tolist(),
+                                     "names": names})
+    return div
+
+
+def _cad_beside(s, cad, sim, name: str, title: str = "simulated from the program") -> None:
+    """The CAD tip (left) and a simulated tip (right) as two 3D scenes in
+    section ``s`` (cannula frame, mm, faces by label, the same box)."""
+    from plotly.subplots import make_subplots
+
+    zlo = _zlo(cad)
+    cv = np.asarray(cad.vertices)
+    cv = cv[cv[:, 2] >= zlo]
+    fig = make_subplots(1, 2, specs=[[{"type": "scene"}, {"type": "scene"}]],
+                        subplot_titles=("CAD", title), horizontal_spacing=0.02)
+    for t in _mesh_traces(cad, zlo=zlo, scene="scene"):
+        fig.add_trace(t)
+    for t in _mesh_traces(_display_tip(sim), zlo=zlo, scene="scene2", legend=False):
+        fig.add_trace(t)
+    fig.update_layout(scene=_scene(cv), scene2=_scene(cv), margin={"l": 0, "r": 0, "t": 30, "b": 0})
+    s.figure(fig, height=560, name=name)
+
+
 def mill_section(page, res, spec=None) -> None:
     """A milling run (:class:`cam.mill.MillResult`): the program's moves over
     the CAD part coloured by kind with a slider that plays them, the
     simulated part beside the CAD, the deviation map and the numbers."""
     import plotly.graph_objects as go
-    from plotly.subplots import make_subplots
 
     from cam.mill.simulate import read_gcode
 
@@ -351,54 +424,19 @@ def mill_section(page, res, spec=None) -> None:
                      "The slider plays the program: the dark line is the path done, the red "
                      "diamond the tool tip.")
     cad = build_tip(spec, tolerance=DISPLAY_TOLERANCE) if spec is not None else None
-    traces = []
-    if cad is not None:
-        zlo = _zlo(cad)
-        for t in _mesh_traces(cad, zlo=zlo, opacity=0.35, legend=False):
-            t.update(color="#b0bec5", hoverinfo="skip")
-            traces.append(t)
+    pieces = []
     for ki, nm in enumerate(names):
         sel = keep[kind[keep] == ki]
         if not len(sel):
             continue
         seg = np.full((len(sel), 3, 3), np.nan)
         seg[:, 0], seg[:, 1] = start[sel], end[sel]
-        seg = seg.reshape(-1, 3)
-        traces.append(go.Scatter3d(x=_f32(seg[:, 0]), y=_f32(seg[:, 1]), z=_f32(seg[:, 2]),
-                                   mode="lines", name=f"{nm}: {len(sel):,} moves",
-                                   line={"color": _move_colour(nm), "width": 2,
-                                         "dash": "dot" if ki == 0 else "solid"},
-                                   opacity=0.5 if ki == 0 else 0.9, hoverinfo="name"))
-    done = len(traces)
-    traces.append(go.Scatter3d(x=[], y=[], z=[], mode="lines", name="path done",
-                               line={"color": "#263238", "width": 2}, hoverinfo="skip"))
-    marker = len(traces)
-    traces.append(go.Scatter3d(x=[], y=[], z=[], mode="markers", name="tool tip",
-                               marker={"size": 8, "color": "#d50000", "symbol": "diamond"},
-                               hoverinfo="skip"))
-    r_o = tp.setup.r_o
-    traces += _frame_traces(float(np.nanmin(end[:, 2])), _nice(0.8 * r_o), beside=1.3 * r_o)
-    fig = go.Figure(traces)
+        pieces.append((f"{nm}: {len(sel):,} moves", _move_colour(nm), ki == 0,
+                       seg.reshape(-1, 3)))
     feed = end[keep][~np.asarray(moves.rapid)[keep]]
-    sc = _scene(feed if len(feed) else end[keep])
-    if len(feed):  # rapids above the part leave the box: the part fills the view
-        lo, hi = feed.min(axis=0), feed.max(axis=0)
-        pad = 0.05 * (hi - lo) + 0.05
-        for ax, a, b in zip("xyz", lo - pad, hi + pad):
-            sc[f"{ax}axis"]["range"] = [float(a), float(b)]
-    fig.update_layout(scene=sc, margin={"l": 0, "r": 0, "t": 10, "b": 0},
-                      legend={"x": 0.0, "y": 1.0, "bgcolor": "rgba(255,255,255,0.7)"})
-    div = s.figure(fig, height=620, name="toolpath")
     pts = np.vstack([start[keep[:1]], end[keep]]) if len(keep) else np.zeros((1, 3))
-    slider, play, readout = page._id("slider"), page._id("play"), page._id("readout")
-    s.raw(f'<div class="tg-controls"><button id="{play}" type="button">▶ play</button>'
-          f'<input id="{slider}" type="range" min="0" max="{len(pts) - 1}" value="0" step="1" '
-          f'aria-label="move"></div><div class="tg-readout" id="{readout}"></div>')
-    page.link(kind="toolpath", div=div, done=done, marker=marker, slider=slider, play=play,
-              readout=readout, path={"x": np.round(pts[:, 0], 5).tolist(),
-                                     "y": np.round(pts[:, 1], 5).tolist(),
-                                     "z": np.round(pts[:, 2], 5).tolist(),
-                                     "kind": kind[keep].tolist(), "names": names})
+    _toolpath_view(page, s, pieces, pts, kind[keep], names, cad=cad, r_o=tp.setup.r_o,
+                   focus=feed if len(feed) else end[keep], marker_name="tool tip")
     summ = res.summary()
     s.table(["toolpath", "value"], [[k, v] for k, v in summ["toolpath"].items()
                                     if not isinstance(v, (dict, list))],
@@ -411,20 +449,7 @@ def mill_section(page, res, spec=None) -> None:
                          "Left the CAD tip, right the tip the simulation milled from the "
                          "G-code text (both cannula frame, mm, faces by label; the cameras "
                          "are independent).")
-        figm = make_subplots(1, 2, specs=[[{"type": "scene"}, {"type": "scene"}]],
-                             subplot_titles=("CAD", "simulated from the program"),
-                             horizontal_spacing=0.02)
-        zlo = _zlo(cad)
-        cv = np.asarray(cad.vertices)
-        cv = cv[cv[:, 2] >= zlo]
-        for t in _mesh_traces(cad, zlo=zlo, scene="scene"):
-            figm.add_trace(t)
-        for t in _mesh_traces(_display_tip(res.milled.tip), zlo=zlo, scene="scene2",
-                              legend=False):
-            figm.add_trace(t)
-        figm.update_layout(scene=_scene(cv), scene2=_scene(cv),
-                           margin={"l": 0, "r": 0, "t": 30, "b": 0})
-        m.figure(figm, height=560, name="milled")
+        _cad_beside(m, cad, res.milled.tip, "milled")
         dev = res.milled.deviation() * 1e3
         sy = max(1, math.ceil(dev.shape[0] / 400))
         sx = max(1, math.ceil(dev.shape[1] / 400))
@@ -766,7 +791,6 @@ def grind_section(page, res, spec=None) -> None:
     """A grinding run (:class:`cam.GrindResult`): the simulated ground tip
     beside the CAD (when simulated), the set-up of every face, the program's
     numbers, the comparison and its verdict."""
-    from plotly.subplots import make_subplots
 
     from ..build import build_tip
 
@@ -777,20 +801,7 @@ def grind_section(page, res, spec=None) -> None:
                      "wheel's OC in mm), the program's numbers and — with the simulation — "
                      "the ground tip beside the CAD (cannula frame, mm, faces by label).")
     if res.ground is not None and spec is not None:
-        cad = build_tip(spec, tolerance=DISPLAY_TOLERANCE)
-        zlo = _zlo(cad)
-        cv = np.asarray(cad.vertices)
-        cv = cv[cv[:, 2] >= zlo]
-        fig = make_subplots(1, 2, specs=[[{"type": "scene"}, {"type": "scene"}]],
-                            subplot_titles=("CAD", "simulated from the program"),
-                            horizontal_spacing=0.02)
-        for t in _mesh_traces(cad, zlo=zlo, scene="scene"):
-            fig.add_trace(t)
-        for t in _mesh_traces(_display_tip(res.ground), zlo=zlo, scene="scene2", legend=False):
-            fig.add_trace(t)
-        fig.update_layout(scene=_scene(cv), scene2=_scene(cv),
-                          margin={"l": 0, "r": 0, "t": 30, "b": 0})
-        s.figure(fig, height=560, name="ground")
+        _cad_beside(s, build_tip(spec, tolerance=DISPLAY_TOLERANCE), res.ground, "ground")
     setup = prog.get("setup") or []
     if setup:
         cols = list(setup[0])
@@ -805,3 +816,129 @@ def grind_section(page, res, spec=None) -> None:
                                           if not isinstance(v, (dict, list))],
                 caption="ground against CAD (units in the names)")
         s.verdict(summ.get("verdict"))
+
+
+# -----------------------------------------------------------------------------
+#: A laser move's kinds, in the order of the page's legend (and their colours).
+LASER_KINDS = (("rapid", "#9e9e9e"), ("beam off", "#1565c0"), ("beam on", "#e65100"))
+
+
+def laser_to_cannula(x, y, c_deg, spec, *, origin=(0.0, 0.0), gamma0_deg: float = 0.0):
+    """Laser program points (X, Y mm at C degrees, the machine frame of
+    :mod:`gcode.interpreter`) on the tube's outer wall in the cannula frame
+    (mm; +z toward the tip, γ about +z from the heel) — the mapping of the
+    ablation simulator (:func:`gcode.ablation.ablate`): γ = C + γ0,
+    u = X − X0 along the rim, z = z_rim(γ) − (Y − Y0) with z_rim(γ) the
+    plain punch's inner rim height at γ, and the point
+    u·(−sin γ, cos γ, 0) + z·ez + r_o·(cos γ, sin γ, 0): the beam's plane,
+    tangent to the outer wall at γ. Returns (n, 3)."""
+    x, y, c = (np.atleast_1d(np.asarray(a, float)) for a in (x, y, c_deg))
+    cannula = spec.cannula
+    base = [cut for cut in spec.cutters if cut.process != "laser"]
+    gam = np.radians(c + gamma0_deg)
+    rims: dict[float, float] = {}
+    z_rim = np.empty_like(gam)
+    for k, g in enumerate(gam):
+        key = round(float(g), 12)
+        if key not in rims:
+            zs = [float(np.min(np.atleast_1d(z))) for z in
+                  (cut.edge_z(np.array([g]), cannula.r_i, cannula) for cut in base)
+                  if z is not None]
+            rims[key] = min(zs) if zs else 0.0
+        z_rim[k] = rims[key]
+    u = x - origin[0]
+    z = z_rim - (y - origin[1])
+    cg, sg = np.cos(gam), np.sin(gam)
+    return np.stack([-u * sg + cannula.r_o * cg, u * cg + cannula.r_o * sg, z], 1)
+
+
+def _laser_move_points(seg, chordal: float = 2e-3, c_step_deg: float = 2.0):
+    """(k, 3) X, Y (mm), C (deg) along one move: arcs within ``chordal``,
+    a C move every ``c_step_deg``."""
+    xy = np.asarray(seg.points(chordal), float)
+    n = max(len(xy), math.ceil(abs(seg.c1 - seg.c0) / c_step_deg) + 1)
+    if n > len(xy):
+        t = np.linspace(0.0, 1.0, n)
+        xy = np.asarray(seg.start, float) + t[:, None] * (np.subtract(seg.end, seg.start))
+    t = np.linspace(0.0, 1.0, len(xy))
+    return np.column_stack([xy, seg.c0 + t * (seg.c1 - seg.c0)])
+
+
+def _flat(d: dict, prefix: str = "") -> list[list]:
+    rows = []
+    for k, v in d.items():
+        if isinstance(v, dict):
+            rows += _flat(v, f"{prefix}{k}.")
+        elif not isinstance(v, list):
+            rows.append([prefix + k, v])
+    return rows
+
+
+def laser_section(page, res, spec, *, origin=(0.0, 0.0), gamma0_deg: float = 0.0,
+                  name: str | None = None) -> None:
+    """A laser program checked and simulated (:class:`gcode.pipeline.LaserCheck`
+    of :func:`gcode.pipeline.laser_check`): its beam moves on the tube's outer
+    wall in the cannula frame (mm; :func:`laser_to_cannula` with the program
+    ``origin`` (X0, Y0) mm and ``gamma0_deg``, γ of C = 0) coloured beam on /
+    beam off / rapid over the CAD part (grey) with the slider that plays them,
+    the simulated part beside the CAD, the comparison (µm, deg) and the
+    verdict."""
+    from ..build import build_tip
+
+    segs = list(res.toolpath.segments)
+    name = name or (spec.name if spec is not None else "laser program")
+    s = page.section(f"{name}: laser program over the part",
+                     "Cannula frame, mm: each move's (X, Y) at its C angle on the plane "
+                     "tangent to the outer wall at γ = C"
+                     f"{f' + {gamma0_deg:g}°' if gamma0_deg else ''} (u = X − X0 along the "
+                     "rim, z = rim height − (Y − Y0); program origin X0, Y0 = "
+                     f"{origin[0]:g}, {origin[1]:g} mm), as the ablation simulator maps them; "
+                     "coloured beam on / beam off / rapid; the CAD tip in grey. The slider "
+                     "plays the program: the dark line is the path done, the red diamond the "
+                     "beam.")
+    if spec is None:
+        s.raw("<p>No spec: the moves cannot be placed on a part.</p>")
+    if not segs or spec is None:
+        s.table(["toolpath", "value"], _flat(res.toolpath.summary()),
+                caption="toolpath (units in the names: mm, s, deg)")
+        return
+    cad = build_tip(spec, tolerance=DISPLAY_TOLERANCE)
+    kind = np.array([0 if s_.kind == "rapid" else (2 if s_.beam else 1) for s_ in segs])
+    names = [k for k, _ in LASER_KINDS]
+    pts = [_laser_move_points(s_) for s_ in segs]
+    xyz = [laser_to_cannula(p[:, 0], p[:, 1], p[:, 2], spec, origin=origin,
+                            gamma0_deg=gamma0_deg) for p in pts]
+    pieces = []
+    for ki, (nm, colour) in enumerate(LASER_KINDS):
+        sel = np.flatnonzero(kind == ki)
+        if not len(sel):
+            continue
+        gap = np.full((1, 3), np.nan)
+        line = np.vstack([a for i in sel for a in (xyz[i], gap)])
+        pieces.append((f"{nm}: {len(sel):,} moves", colour, ki == 0, line))
+    path = np.vstack([xyz[0][:1]] + [a[-1:] for a in xyz])
+    on = np.vstack([xyz[i] for i in np.flatnonzero(kind == 2)]) if (kind == 2).any() else path
+    _toolpath_view(page, s, pieces, path, kind, names, cad=cad, r_o=spec.cannula.r_o,
+                   focus=np.vstack([on, np.asarray(cad.vertices)[np.asarray(cad.vertices)[:, 2]
+                                                                 >= on[:, 2].min() - 0.1]]),
+                   marker_name="beam", zoom=1.8)
+    s.table(["toolpath", "value"], _flat(res.toolpath.summary()),
+            caption="toolpath (units in the names: mm, s, deg)")
+    if res.ablation is not None:
+        m = page.section(f"{name}: simulated part beside the CAD",
+                         "Left the CAD tip, right the tip the ablation simulator cut from the "
+                         "program text (both cannula frame, mm, faces by label).")
+        _cad_beside(m, cad, res.ablation.tip, "ablated")
+        a = res.ablation
+        m.table(["ablation", "value"], [["notches", a.notches], ["slugs removed", a.slugs_removed],
+                                        ["C angles firing (deg)",
+                                         ", ".join(f"{c:g}" for c in a.c_angles_deg)],
+                                        ["triangles", len(a.tip.faces)]],
+                caption="the simulated cut")
+    if res.comparison is not None:
+        c = page.section(f"{name}: ablated against CAD",
+                         "The comparison with the spec's serrations (mm, deg in the names; "
+                         "vertex-sampled, each within the meshes' chordal tolerance) and the "
+                         "verdict.")
+        c.table(["quantity", "value"], _flat(res.comparison), caption="comparison")
+        c.verdict(res.verdict.to_dict() if res.verdict is not None else None)

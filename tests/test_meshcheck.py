@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 import trimesh
 
-from tipgeo.meshcheck import crossing_pairs, self_intersections
+from tipgeo.meshcheck import crossing_pairs, self_intersections, tolerant_intersections
 
 
 def _sphere(seed, centre=(0.0, 0.0, 0.0), radius=1.0, sub=3):
@@ -48,6 +48,7 @@ def test_planted_crossings_match_open3d(seed):
     theirs = _o3d_pairs(v, f)
     assert len(theirs) > 20
     assert mine == theirs
+    assert {tuple(map(int, x)) for x in tolerant_intersections(v, f)} == theirs
     assert all((a < len(f1)) != (b < len(f1)) for a, b in mine)  # one from each sphere
 
 
@@ -76,3 +77,23 @@ def test_gap_reports_near_contacts():
     assert len(self_intersections(v, f)) == 0
     assert len(self_intersections(v, f, gap=2e-4)) == 1
     assert len(self_intersections(v, f, gap=0.5e-4)) == 0
+
+
+def test_tolerant_test_reproduces_open3d_false_positive():
+    # a pair from an earlier punch-C3 quality mesh: a 0.4 µm-sized triangle
+    # nearly in the plane of a 0.24 mm one and 7.7 µm away from it. No
+    # crossing (exact rational arithmetic agrees), but open3d's tolerant
+    # Möller test takes them for coplanar and overlapping;
+    # tolerant_intersections reports the same pair
+    v = np.array([[-1.1294809331381825, 0.13868282042357477, 0.26871117191329397],
+                  [-1.0748286957701183, 0.14274032633802597, 0.5011256589028024],
+                  [-1.1038237569345477, 0.15513231216391132, 0.3695976246463353],
+                  [-1.075716606364875, 0.15138062224070478, 0.4924124323599421],
+                  [-1.0757455779632463, 0.1511861814543615, 0.49241280837994683],
+                  [-1.0756577817494355, 0.15117384250118882, 0.4927968328617806]])
+    f = np.array([[0, 1, 2], [3, 4, 5]])
+    assert len(self_intersections(v, f)) == 0
+    assert len(self_intersections(v, f, gap=7e-3)) == 0
+    assert len(self_intersections(v, f, gap=8e-3)) == 1
+    assert _o3d_pairs(v, f) == {(0, 1)}
+    assert tolerant_intersections(v, f).tolist() == [[0, 1]]

@@ -38,7 +38,7 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
-__all__ = ["self_intersections", "crossing_pairs"]
+__all__ = ["self_intersections", "crossing_pairs", "tolerant_intersections"]
 
 
 @njit(cache=True)
@@ -413,3 +413,228 @@ def crossing_pairs(vertices: np.ndarray, faces: np.ndarray, *, gap: float = 0.0,
     a, b = F[pairs[:, 0]], F[pairs[:, 1]]
     share = (a[:, :, None] == b[:, None, :]).any(axis=(1, 2))
     return pairs[~share], pairs[share]
+
+
+# -- the tolerant test MeshLab-style checkers run (open3d) --------------------
+# Möller's interval test ("A fast triangle-triangle intersection test", 1997)
+# with its coplanarity tolerance: a signed plane distance (unnormalised normal)
+# below 1e-6 counts as zero, on coordinates centred on the pair and divided
+# per axis by their spread, as open3d's TriangleMesh.get_self_intersecting_
+# triangles does. It reports near-coplanar non-touching pairs where one
+# triangle is far smaller than the other; the build avoids them too.
+
+_MEPS = 1e-6
+
+
+@njit(cache=True)
+def _edge_edge(v0, v1, u0, u1, i0, i1):
+    ax, ay = v1[i0] - v0[i0], v1[i1] - v0[i1]
+    bx, by = u0[i0] - u1[i0], u0[i1] - u1[i1]
+    cx, cy = v0[i0] - u0[i0], v0[i1] - u0[i1]
+    f = ay * bx - ax * by
+    d = by * cx - bx * cy
+    if (f > 0 and d >= 0 and d <= f) or (f < 0 and d <= 0 and d >= f):
+        e = ax * cy - ay * cx
+        if f > 0:
+            if e >= 0 and e <= f:
+                return True
+        elif e <= 0 and e >= f:
+            return True
+    return False
+
+
+@njit(cache=True)
+def _pt_in(p, u0, u1, u2, i0, i1):
+    a = u1[i1] - u0[i1]
+    b = -(u1[i0] - u0[i0])
+    d0 = a * p[i0] + b * p[i1] - a * u0[i0] - b * u0[i1]
+    a = u2[i1] - u1[i1]
+    b = -(u2[i0] - u1[i0])
+    d1 = a * p[i0] + b * p[i1] - a * u1[i0] - b * u1[i1]
+    a = u0[i1] - u2[i1]
+    b = -(u0[i0] - u2[i0])
+    d2 = a * p[i0] + b * p[i1] - a * u2[i0] - b * u2[i1]
+    return d0 * d1 > 0 and d0 * d2 > 0
+
+
+@njit(cache=True)
+def _coplanar_moller(n, V, U):
+    a0, a1, a2 = abs(n[0]), abs(n[1]), abs(n[2])
+    if a0 > a1:
+        i0, i1 = (1, 2) if a0 > a2 else (0, 1)
+    else:
+        i0, i1 = (0, 1) if a2 > a1 else (0, 2)
+    for k in range(3):
+        for m in range(3):
+            if _edge_edge(V[k], V[(k + 1) % 3], U[m], U[(m + 1) % 3], i0, i1):
+                return True
+    return _pt_in(V[0], U[0], U[1], U[2], i0, i1) or _pt_in(U[0], V[0], V[1], V[2], i0, i1)
+
+
+@njit(cache=True)
+def _interval(p0, p1, p2, d0, d1, d2, d0d1, d0d2):
+    # returns ok, a, b, c, x0, x1 (ok False: coplanar)
+    if d0d1 > 0:
+        return True, p2, (p0 - p2) * d2, (p1 - p2) * d2, d2 - d0, d2 - d1
+    if d0d2 > 0:
+        return True, p1, (p0 - p1) * d1, (p2 - p1) * d1, d1 - d0, d1 - d2
+    if d1 * d2 > 0 or d0 != 0:
+        return True, p0, (p1 - p0) * d0, (p2 - p0) * d0, d0 - d1, d0 - d2
+    if d1 != 0:
+        return True, p1, (p0 - p1) * d1, (p2 - p1) * d1, d1 - d0, d1 - d2
+    if d2 != 0:
+        return True, p2, (p0 - p2) * d2, (p1 - p2) * d2, d2 - d0, d2 - d1
+    return False, 0.0, 0.0, 0.0, 0.0, 0.0
+
+
+@njit(cache=True)
+def _moller(V, U):
+    n1 = np.cross(V[1] - V[0], V[2] - V[0])
+    e1 = -(n1 @ V[0])
+    du = np.empty(3)
+    for k in range(3):
+        du[k] = n1 @ U[k] + e1
+        if abs(du[k]) < _MEPS:
+            du[k] = 0.0
+    if du[0] * du[1] > 0 and du[0] * du[2] > 0:
+        return False
+    n2 = np.cross(U[1] - U[0], U[2] - U[0])
+    e2 = -(n2 @ U[0])
+    dv = np.empty(3)
+    for k in range(3):
+        dv[k] = n2 @ V[k] + e2
+        if abs(dv[k]) < _MEPS:
+            dv[k] = 0.0
+    if dv[0] * dv[1] > 0 and dv[0] * dv[2] > 0:
+        return False
+    dd = np.cross(n1, n2)
+    idx = 0
+    if abs(dd[1]) > abs(dd[idx]):
+        idx = 1
+    if abs(dd[2]) > abs(dd[idx]):
+        idx = 2
+    ok, a, b, c, x0, x1 = _interval(V[0, idx], V[1, idx], V[2, idx], dv[0], dv[1], dv[2],
+                                    dv[0] * dv[1], dv[0] * dv[2])
+    if not ok:
+        return _coplanar_moller(n1, V, U)
+    ok, d, e, f, y0, y1 = _interval(U[0, idx], U[1, idx], U[2, idx], du[0], du[1], du[2],
+                                    du[0] * du[1], du[0] * du[2])
+    if not ok:
+        return _coplanar_moller(n1, V, U)
+    xx, yy = x0 * x1, y0 * y1
+    xxyy = xx * yy
+    t = a * xxyy
+    s0, s1 = t + b * x1 * yy, t + c * x0 * yy
+    t = d * xxyy
+    r0, r1 = t + e * xx * y1, t + f * xx * y0
+    if s0 > s1:
+        s0, s1 = s1, s0
+    if r0 > r1:
+        r0, r1 = r1, r0
+    return not (s1 < r0 or r1 < s0)
+
+
+@njit(cache=True)
+def _tolerant_pair(P, F, i, j):
+    t = F[i]
+    u = F[j]
+    for a in range(3):
+        for b in range(3):
+            if t[a] == u[b]:
+                return False  # open3d skips pairs that share a vertex
+    mu = np.zeros(3)
+    for k in range(3):
+        mu += P[t[k]] + P[u[k]]
+    mu /= 6.0
+    sg = np.zeros(3)
+    for k in range(3):
+        sg += (P[t[k]] - mu) ** 2 + (P[u[k]] - mu) ** 2
+    sg = np.sqrt(sg / 5.0) + 1e-12
+    V = np.empty((3, 3))
+    U = np.empty((3, 3))
+    for k in range(3):
+        V[k] = (P[t[k]] - mu) / sg
+        U[k] = (P[u[k]] - mu) / sg
+    return _moller(V, U)
+
+
+@njit(cache=True)
+def _find_tolerant(P, F, lo, hi, cell):
+    m = F.shape[0]
+    org = np.empty(3)
+    dims = np.empty(3, np.int64)
+    for k in range(3):
+        org[k] = lo[:, k].min()
+        dims[k] = int((hi[:, k].max() - org[k]) / cell) + 1
+    c0 = np.empty((m, 3), np.int64)
+    c1 = np.empty((m, 3), np.int64)
+    total = 0
+    for i in range(m):
+        n = 1
+        for k in range(3):
+            c0[i, k] = int((lo[i, k] - org[k]) / cell)
+            c1[i, k] = int((hi[i, k] - org[k]) / cell)
+            n *= c1[i, k] - c0[i, k] + 1
+        total += n
+    keys = np.empty(total, np.int64)
+    tris = np.empty(total, np.int64)
+    w = 0
+    for i in range(m):
+        for x in range(c0[i, 0], c1[i, 0] + 1):
+            for y in range(c0[i, 1], c1[i, 1] + 1):
+                for z in range(c0[i, 2], c1[i, 2] + 1):
+                    keys[w] = (x * dims[1] + y) * dims[2] + z
+                    tris[w] = i
+                    w += 1
+    order = np.argsort(keys, kind="mergesort")
+    keys = keys[order]
+    tris = tris[order]
+    out = []
+    s = 0
+    while s < total:
+        e = s
+        while e < total and keys[e] == keys[s]:
+            e += 1
+        key = keys[s]
+        cz = key % dims[2]
+        cy = (key // dims[2]) % dims[1]
+        cx = key // (dims[2] * dims[1])
+        for a in range(s, e):
+            i = tris[a]
+            for b in range(a + 1, e):
+                j = tris[b]
+                if (lo[i, 0] > hi[j, 0] or lo[j, 0] > hi[i, 0] or lo[i, 1] > hi[j, 1]
+                        or lo[j, 1] > hi[i, 1] or lo[i, 2] > hi[j, 2] or lo[j, 2] > hi[i, 2]):
+                    continue
+                if (max(c0[i, 0], c0[j, 0]) != cx or max(c0[i, 1], c0[j, 1]) != cy
+                        or max(c0[i, 2], c0[j, 2]) != cz):
+                    continue
+                if _tolerant_pair(P, F, min(i, j), max(i, j)):
+                    out.append((min(i, j), max(i, j)))
+        s = e
+    res = np.empty((len(out), 2), np.int64)
+    for k in range(len(out)):
+        res[k, 0] = out[k][0]
+        res[k, 1] = out[k][1]
+    return res
+
+
+def tolerant_intersections(vertices: np.ndarray, faces: np.ndarray) -> np.ndarray:
+    """(k, 2) face pairs ``i < j`` sharing no vertex that open3d's
+    ``get_self_intersecting_triangles`` reports (the same tolerant Möller
+    test on the same normalised coordinates, candidate pairs from the grid):
+    the real crossings plus the near-coplanar pairs its tolerance takes for
+    crossings. Units and frame: any."""
+    P = np.ascontiguousarray(vertices, dtype=np.float64)
+    F = np.ascontiguousarray(faces, dtype=np.int64)
+    if len(F) < 2:
+        return np.empty((0, 2), np.int64)
+    t = P[F]
+    lo = np.ascontiguousarray(t.min(axis=1))
+    hi = np.ascontiguousarray(t.max(axis=1))
+    size = float(np.mean((hi - lo).max(axis=1)))
+    span = float((hi.max(0) - lo.min(0)).max())
+    res = _find_tolerant(P, F, lo, hi, max(2.0 * size, span / 512.0, 1e-300))
+    if len(res):
+        res = np.unique(res, axis=0)
+    return res

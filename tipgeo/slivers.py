@@ -451,7 +451,7 @@ def remove_slivers(vertices: np.ndarray, faces: np.ndarray, labels: np.ndarray, 
 
 
 def remove_slivers_checked(vertices: np.ndarray, faces: np.ndarray, labels: np.ndarray, *,
-                           bound: float, max_deviation: float, rounds: int = 4,
+                           bound: float, max_deviation: float, rounds: int = 6,
                            ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """:func:`remove_slivers` that never makes two triangles cross.
 
@@ -459,31 +459,41 @@ def remove_slivers_checked(vertices: np.ndarray, faces: np.ndarray, labels: np.n
     see triangles that are near in space but far along the surface. After
     the pass, every pair of crossing triangles is found
     (:func:`tipgeo.meshcheck.self_intersections`, exact crossings and folds
-    of adjacent triangles); the input vertices around them (within 2·(round
-    + 1) × the longest edge of the crossing triangles) are frozen and the
-    pass re-run from the input. After ``rounds`` rounds still crossing, the
-    input is returned unchanged. A mesh that crossed itself before keeps its
-    crossings but gets no more.
+    of adjacent triangles, and :func:`tipgeo.meshcheck.tolerant_intersections`,
+    the near-coplanar pairs open3d's and MeshLab-style tolerant tests take
+    for crossings); the input vertices around the smaller triangle of each
+    pair (within (round + 1) × its longest edge) are frozen and the pass
+    re-run from the input, until no pair is left or after ``rounds`` rounds.
+    The result with the fewest pairs is returned when it has no more than
+    the input had, else the input unchanged: the pass never adds a crossing.
 
     Parameters and returns as :func:`remove_slivers` (mm, any frame).
     """
     from scipy.spatial import cKDTree
 
-    from .meshcheck import self_intersections
+    from .meshcheck import self_intersections, tolerant_intersections
+
+    def crossings(v, f):
+        pairs = [self_intersections(v, f), tolerant_intersections(v, f)]
+        return np.concatenate(pairs) if len(pairs[0]) + len(pairs[1]) else pairs[0]
 
     vertices = np.asarray(vertices, float)
-    base = len(self_intersections(vertices, faces))
+    base = len(crossings(vertices, faces))
     frozen = np.zeros(len(vertices), bool)
     tree = None
+    best = (base, vertices, np.asarray(faces, np.int64), np.asarray(labels, np.int64))
     for r in range(rounds):
         v, f, lab = remove_slivers(vertices, faces, labels, bound=bound,
                                    max_deviation=max_deviation, frozen=frozen)
-        pairs = self_intersections(v, f)
-        if len(pairs) == 0 or len(pairs) <= base:
-            return v, f, lab
+        pairs = crossings(v, f)
+        if len(pairs) <= best[0]:
+            best = (len(pairs), v, f, lab)
+        if len(pairs) == 0:
+            break
         tree = cKDTree(vertices) if tree is None else tree
-        t = v[f[np.unique(pairs)]]
-        reach = 2.0 * (r + 1) * np.sqrt(((t - np.roll(t, 1, axis=1)) ** 2).sum(2)).max(1)
-        for centre, rad in zip(t.mean(1), reach):
-            frozen[tree.query_ball_point(centre, rad)] = True
-    return vertices, np.asarray(faces, np.int64), np.asarray(labels, np.int64)
+        for pair in pairs:  # around the smaller triangle of each pair
+            t = v[f[pair]]
+            edge = np.sqrt(((t - np.roll(t, 1, axis=1)) ** 2).sum(2)).max(1)
+            k = int(np.argmin(edge))
+            frozen[tree.query_ball_point(t[k].mean(0), (r + 1) * edge[k])] = True
+    return best[1], best[2], best[3]

@@ -14,7 +14,7 @@ import numpy as np
 from . import validate as v
 from .construct import AUX, BuildContext, segments_for
 from .errors import BuildError, SpecError
-from .slivers import remove_slivers
+from .slivers import remove_slivers_checked
 from .tip import Tip
 from .tolerances import MAX_ASPECT_RATIO, MAX_TIP_HEIGHT_MM, SLIVER_DEVIATION_SHARE, tol
 
@@ -137,8 +137,8 @@ def _to_tip(solid: m3d.Manifold, ctx: BuildContext, spec, strict: bool, asked: f
             f"{spec.name or 'tip'}: {area:.4g} mm² of construction faces survive — a cutter "
             "does not reach across the whole tube (is the tube's top cut by every cutter?)")
     if ctx.rings:
-        verts, faces, ids = remove_slivers(verts, faces, ids, bound=MAX_ASPECT_RATIO,
-                                           max_deviation=asked - ctx.chordal)
+        verts, faces, ids = remove_slivers_checked(verts, faces, ids, bound=MAX_ASPECT_RATIO,
+                                                   max_deviation=asked - ctx.chordal)
     tip = Tip(verts, faces, ids, tuple(names), spec=spec, tolerance=asked,
               segments=ctx.segments, source="cad", meta={"quality": ctx.rings})
     if strict and not tip.is_watertight:

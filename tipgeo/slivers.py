@@ -37,7 +37,7 @@ import math
 
 import numpy as np
 
-__all__ = ["aspect_ratios", "remove_slivers"]
+__all__ = ["aspect_ratios", "remove_slivers", "remove_slivers_checked"]
 
 _FOLD_COS = math.cos(math.radians(30.0))
 
@@ -133,7 +133,8 @@ def _point_triangle(p, a, b, c) -> float:
 class _Mesh:
     """Mutable triangle soup with vertex→faces incidence."""
 
-    def __init__(self, vertices, faces, labels):
+    def __init__(self, vertices, faces, labels, frozen=()):
+        self.frozen = set(int(x) for x in frozen)  # vertices no edit may touch
         self.p = [tuple(map(float, v)) for v in vertices]
         self.f = [list(map(int, t)) for t in faces]
         self.lab = [int(x) for x in labels]
@@ -222,6 +223,8 @@ class _Mesh:
                 return False
         c = tf[2]
         d = self.opposite(self.f[g], a, b)
+        if self.frozen and self.frozen & {a, b, c, d}:
+            return False
         if c == d or g in self.vf[c] or (self.vf[c] & self.vf[d]):
             return False
         pa, pb, pc, pd = self.p[a], self.p[b], self.p[c], self.p[d]
@@ -263,6 +266,8 @@ class _Mesh:
 
     def try_collapse(self, u, v, max_dev) -> bool:
         """Move vertex u onto v and remove it."""
+        if u in self.frozen or v in self.frozen:
+            return False
         fs = self.edge_faces(u, v)
         if len(fs) != 2:
             return False
@@ -318,6 +323,8 @@ class _Mesh:
     def fix(self, k, bound, max_dev) -> bool:
         """One attempt to improve triangle k; True when the mesh changed."""
         t = self.f[k]
+        if self.frozen and self.frozen.intersection(t):
+            return False
         pts = [self.p[x] for x in t]
         el = [(_d2(pts[i], pts[(i + 1) % 3]), t[i], t[(i + 1) % 3]) for i in range(3)]
         el.sort()
@@ -352,7 +359,7 @@ class _Mesh:
         """Move u, inside one label and a flat star, to the mean of its
         neighbours (in that plane: the surface does not move) where that
         folds nothing and improves the star's worst triangle."""
-        if len(self.labels_at(u)) != 1:
+        if u in self.frozen or len(self.labels_at(u)) != 1:
             return False
         star = list(self.vf[u])
         n0 = self.normal(star[0])
@@ -386,6 +393,7 @@ class _Mesh:
 
 def remove_slivers(vertices: np.ndarray, faces: np.ndarray, labels: np.ndarray, *,
                    bound: float, max_deviation: float, max_passes: int = 40,
+                   frozen: np.ndarray | None = None,
                    ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Improve the triangles whose aspect ratio exceeds ``bound``.
 
@@ -401,6 +409,9 @@ def remove_slivers(vertices: np.ndarray, faces: np.ndarray, labels: np.ndarray, 
         edits that made it); splits never move it.
     max_passes : int
         Passes over the triangles still above the bound.
+    frozen : (n,) bool, optional
+        Vertices no edit may move, remove or re-connect (the triangles
+        around them are left as they are).
 
     Returns
     -------
@@ -408,7 +419,8 @@ def remove_slivers(vertices: np.ndarray, faces: np.ndarray, labels: np.ndarray, 
         The improved mesh (unused vertices dropped). Triangles the local
         operations cannot improve within the budget stay as they were.
     """
-    m = _Mesh(vertices, faces, labels)
+    m = _Mesh(vertices, faces, labels,
+              () if frozen is None else np.flatnonzero(np.asarray(frozen, bool)))
     budget = len(m.p) // 4 + 16  # most vertices the splits may add
     ar = aspect_ratios(vertices, faces)
     cand = {int(k): float(ar[k]) for k in np.flatnonzero(ar > bound)}
@@ -436,3 +448,52 @@ def remove_slivers(vertices: np.ndarray, faces: np.ndarray, labels: np.ndarray, 
     lab = np.asarray(m.lab, dtype=np.int64)[keep]
     used, inv = np.unique(f, return_inverse=True)
     return np.asarray(m.p, float)[used], inv.reshape(-1, 3), lab
+
+
+def remove_slivers_checked(vertices: np.ndarray, faces: np.ndarray, labels: np.ndarray, *,
+                           bound: float, max_deviation: float, rounds: int = 6,
+                           ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """:func:`remove_slivers` that never makes two triangles cross.
+
+    The pass's local checks (deviation, fold angle, link condition) do not
+    see triangles that are near in space but far along the surface. After
+    the pass, every pair of crossing triangles is found
+    (:func:`tipgeo.meshcheck.self_intersections`, exact crossings and folds
+    of adjacent triangles, and :func:`tipgeo.meshcheck.tolerant_intersections`,
+    the near-coplanar pairs open3d's and MeshLab-style tolerant tests take
+    for crossings); the input vertices around the smaller triangle of each
+    pair (within (round + 1) × its longest edge) are frozen and the pass
+    re-run from the input, until no pair is left or after ``rounds`` rounds.
+    The result with the fewest pairs is returned when it has no more than
+    the input had, else the input unchanged: the pass never adds a crossing.
+
+    Parameters and returns as :func:`remove_slivers` (mm, any frame).
+    """
+    from scipy.spatial import cKDTree
+
+    from .meshcheck import self_intersections, tolerant_intersections
+
+    def crossings(v, f):
+        pairs = [self_intersections(v, f), tolerant_intersections(v, f)]
+        return np.concatenate(pairs) if len(pairs[0]) + len(pairs[1]) else pairs[0]
+
+    vertices = np.asarray(vertices, float)
+    base = len(crossings(vertices, faces))
+    frozen = np.zeros(len(vertices), bool)
+    tree = None
+    best = (base, vertices, np.asarray(faces, np.int64), np.asarray(labels, np.int64))
+    for r in range(rounds):
+        v, f, lab = remove_slivers(vertices, faces, labels, bound=bound,
+                                   max_deviation=max_deviation, frozen=frozen)
+        pairs = crossings(v, f)
+        if len(pairs) <= best[0]:
+            best = (len(pairs), v, f, lab)
+        if len(pairs) == 0:
+            break
+        tree = cKDTree(vertices) if tree is None else tree
+        for pair in pairs:  # around the smaller triangle of each pair
+            t = v[f[pair]]
+            edge = np.sqrt(((t - np.roll(t, 1, axis=1)) ** 2).sum(2)).max(1)
+            k = int(np.argmin(edge))
+            frozen[tree.query_ball_point(t[k].mean(0), (r + 1) * edge[k])] = True
+    return best[1], best[2], best[3]

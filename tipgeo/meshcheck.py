@@ -1,0 +1,640 @@
+"""Fast self-intersection finder for triangle meshes (issue 27 item 4).
+
+What MeshLab's "select self-intersecting faces", open3d's
+``get_self_intersecting_triangles`` and trimesh report, in O(n log n)
+instead of O(n²):
+
+1. candidate pairs: the axis-aligned box of every triangle is entered into
+   a uniform grid (cell ≈ twice the mean box size); two triangles are a
+   candidate when their boxes overlap, each pair counted once (in the first
+   cell both boxes share);
+2. every candidate is tested with sign-of-volume predicates (orient3d in
+   float64): two triangles that are not coplanar cross when an edge of one
+   meets the other; coplanar ones are tested in the plane (edge crossings and
+   vertex containment).
+
+Adjacent triangles are handled as a *crossing*, not a contact:
+
+- sharing an edge ``ab`` (third vertices c and d): they cross only when they
+  are coplanar and c, d lie on the same side of ``ab`` (one folded onto the
+  other);
+- sharing one vertex ``v`` (triangles ``vab`` and ``vcd``): they cross when
+  the edge ``ab`` meets ``vcd`` or ``cd`` meets ``vab`` (then the two
+  triangles overlap beyond v); coplanar ones when their interiors overlap.
+
+open3d skips every pair that shares a vertex; :func:`self_intersections`
+returns both kinds, separately.
+
+Predicates are float64, not adaptive-exact: a sign is taken as zero below
+``1e-13 × (size of the two triangles)³`` (coplanarity) and exact zero
+otherwise, so contacts closer than about 1e-13 of the triangles' size may be
+classified either way.
+
+Frame and units: any (tipgeo: cannula frame, mm).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from numba import njit
+
+__all__ = ["self_intersections", "crossing_pairs", "tolerant_intersections"]
+
+
+@njit(cache=True)
+def _orient(a0, a1, a2, b0, b1, b2, c0, c1, c2, d0, d1, d2):
+    # sign of det[b-a, c-a, d-a]
+    bx, by, bz = b0 - a0, b1 - a1, b2 - a2
+    cx, cy, cz = c0 - a0, c1 - a1, c2 - a2
+    dx, dy, dz = d0 - a0, d1 - a1, d2 - a2
+    return bx * (cy * dz - cz * dy) - by * (cx * dz - cz * dx) + bz * (cx * dy - cy * dx)
+
+
+@njit(cache=True)
+def _o(P, i, j, k, m):
+    return _orient(P[i, 0], P[i, 1], P[i, 2], P[j, 0], P[j, 1], P[j, 2],
+                   P[k, 0], P[k, 1], P[k, 2], P[m, 0], P[m, 1], P[m, 2])
+
+
+@njit(cache=True)
+def _seg_tri(P, p, q, a, b, c, eps):
+    """Closed segment pq meets the closed triangle abc."""
+    s1 = _o(P, a, b, c, p)
+    s2 = _o(P, a, b, c, q)
+    if abs(s1) <= eps and abs(s2) <= eps:
+        return _seg_tri2(P, p, q, a, b, c)  # the segment lies in the plane
+    if (s1 > 0 and s2 > 0) or (s1 < 0 and s2 < 0):
+        return False
+    t1 = _o(P, p, q, a, b)
+    t2 = _o(P, p, q, b, c)
+    t3 = _o(P, p, q, c, a)
+    if (t1 >= 0 and t2 >= 0 and t3 >= 0) or (t1 <= 0 and t2 <= 0 and t3 <= 0):
+        return True
+    return False
+
+
+@njit(cache=True)
+def _axes(P, a, b, c):
+    """The two coordinate axes of the projection along the dominant normal."""
+    nx = ((P[b, 1] - P[a, 1]) * (P[c, 2] - P[a, 2]) - (P[b, 2] - P[a, 2]) * (P[c, 1] - P[a, 1]))
+    ny = ((P[b, 2] - P[a, 2]) * (P[c, 0] - P[a, 0]) - (P[b, 0] - P[a, 0]) * (P[c, 2] - P[a, 2]))
+    nz = ((P[b, 0] - P[a, 0]) * (P[c, 1] - P[a, 1]) - (P[b, 1] - P[a, 1]) * (P[c, 0] - P[a, 0]))
+    if abs(nx) >= abs(ny) and abs(nx) >= abs(nz):
+        return 1, 2
+    if abs(ny) >= abs(nz):
+        return 2, 0
+    return 0, 1
+
+
+@njit(cache=True)
+def _seg_tri2(P, p, q, a, b, c):
+    """Closed segment pq meets the closed triangle abc, both in one plane."""
+    ax, ay = _axes(P, a, b, c)
+    if _inside2(P, ax, ay, p, a, b, c, False) or _inside2(P, ax, ay, q, a, b, c, False):
+        return True
+    return (_seg_seg2(P, ax, ay, p, q, a, b, False) or _seg_seg2(P, ax, ay, p, q, b, c, False)
+            or _seg_seg2(P, ax, ay, p, q, c, a, False))
+
+
+@njit(cache=True)
+def _o2(P, ax, ay, i, j, k):
+    return ((P[j, ax] - P[i, ax]) * (P[k, ay] - P[i, ay])
+            - (P[j, ay] - P[i, ay]) * (P[k, ax] - P[i, ax]))
+
+
+@njit(cache=True)
+def _seg_seg2(P, ax, ay, a, b, c, d, proper):
+    d1 = _o2(P, ax, ay, a, b, c)
+    d2 = _o2(P, ax, ay, a, b, d)
+    d3 = _o2(P, ax, ay, c, d, a)
+    d4 = _o2(P, ax, ay, c, d, b)
+    if proper:
+        return d1 * d2 < 0 and d3 * d4 < 0
+    return d1 * d2 <= 0 and d3 * d4 <= 0 and not (d1 == 0 and d2 == 0)
+
+
+@njit(cache=True)
+def _inside2(P, ax, ay, p, a, b, c, strict):
+    s1 = _o2(P, ax, ay, a, b, p)
+    s2 = _o2(P, ax, ay, b, c, p)
+    s3 = _o2(P, ax, ay, c, a, p)
+    if strict:
+        return (s1 > 0 and s2 > 0 and s3 > 0) or (s1 < 0 and s2 < 0 and s3 < 0)
+    return (s1 >= 0 and s2 >= 0 and s3 >= 0) or (s1 <= 0 and s2 <= 0 and s3 <= 0)
+
+
+@njit(cache=True)
+def _coplanar_overlap(P, t, u, nshared):
+    """Interiors of coplanar triangles t, u overlap (projected on the plane
+    of the dominant normal axis)."""
+    ax, ay = _axes(P, t[0], t[1], t[2])
+    proper = nshared > 0
+    for i in range(3):
+        for j in range(3):
+            a, b = t[i], t[(i + 1) % 3]
+            c, d = u[j], u[(j + 1) % 3]
+            if a == c or a == d or b == c or b == d:
+                continue
+            if _seg_seg2(P, ax, ay, a, b, c, d, proper):
+                return True
+    for i in range(3):
+        p = t[i]
+        if p != u[0] and p != u[1] and p != u[2]:
+            if _inside2(P, ax, ay, p, u[0], u[1], u[2], proper):
+                return True
+        p = u[i]
+        if p != t[0] and p != t[1] and p != t[2]:
+            if _inside2(P, ax, ay, p, t[0], t[1], t[2], proper):
+                return True
+    return False
+
+
+@njit(cache=True)
+def _pt_tri_d2(P, p, a, b, c):
+    """Squared distance from vertex p to the triangle abc (Ericson §5.1.5)."""
+    abx, aby, abz = P[b, 0] - P[a, 0], P[b, 1] - P[a, 1], P[b, 2] - P[a, 2]
+    acx, acy, acz = P[c, 0] - P[a, 0], P[c, 1] - P[a, 1], P[c, 2] - P[a, 2]
+    apx, apy, apz = P[p, 0] - P[a, 0], P[p, 1] - P[a, 1], P[p, 2] - P[a, 2]
+    d1 = abx * apx + aby * apy + abz * apz
+    d2 = acx * apx + acy * apy + acz * apz
+    bpx, bpy, bpz = P[p, 0] - P[b, 0], P[p, 1] - P[b, 1], P[p, 2] - P[b, 2]
+    d3 = abx * bpx + aby * bpy + abz * bpz
+    d4 = acx * bpx + acy * bpy + acz * bpz
+    cpx, cpy, cpz = P[p, 0] - P[c, 0], P[p, 1] - P[c, 1], P[p, 2] - P[c, 2]
+    d5 = abx * cpx + aby * cpy + abz * cpz
+    d6 = acx * cpx + acy * cpy + acz * cpz
+    va = d3 * d6 - d5 * d4
+    vb = d5 * d2 - d1 * d6
+    vc = d1 * d4 - d3 * d2
+    if d1 <= 0 and d2 <= 0:
+        v, w = 0.0, 0.0
+    elif d3 >= 0 and d4 <= d3:
+        v, w = 1.0, 0.0
+    elif vc <= 0 and d1 >= 0 and d3 <= 0:
+        v, w = d1 / (d1 - d3), 0.0
+    elif d6 >= 0 and d5 <= d6:
+        v, w = 0.0, 1.0
+    elif vb <= 0 and d2 >= 0 and d6 <= 0:
+        v, w = 0.0, d2 / (d2 - d6)
+    elif va <= 0 and (d4 - d3) >= 0 and (d5 - d6) >= 0:
+        w = (d4 - d3) / ((d4 - d3) + (d5 - d6))
+        v = 1.0 - w
+    else:
+        den = 1.0 / (va + vb + vc)
+        v, w = vb * den, vc * den
+    qx = P[a, 0] + v * abx + w * acx
+    qy = P[a, 1] + v * aby + w * acy
+    qz = P[a, 2] + v * abz + w * acz
+    return (P[p, 0] - qx) ** 2 + (P[p, 1] - qy) ** 2 + (P[p, 2] - qz) ** 2
+
+
+@njit(cache=True)
+def _seg_seg_d2(P, p1, q1, p2, q2):
+    """Squared distance between segments p1q1 and p2q2 (Ericson §5.1.9)."""
+    d1 = P[q1] - P[p1]
+    d2 = P[q2] - P[p2]
+    r = P[p1] - P[p2]
+    a = d1 @ d1
+    e = d2 @ d2
+    f = d2 @ r
+    if a <= 0 and e <= 0:
+        return r @ r
+    if a <= 0:
+        s = 0.0
+        t = min(max(f / e, 0.0), 1.0)
+    else:
+        c = d1 @ r
+        if e <= 0:
+            t = 0.0
+            s = min(max(-c / a, 0.0), 1.0)
+        else:
+            b = d1 @ d2
+            den = a * e - b * b
+            s = min(max((b * f - c * e) / den, 0.0), 1.0) if den > 0 else 0.0
+            t = (b * s + f) / e
+            if t < 0:
+                t = 0.0
+                s = min(max(-c / a, 0.0), 1.0)
+            elif t > 1:
+                t = 1.0
+                s = min(max((b - c) / a, 0.0), 1.0)
+    g = P[p1] + d1 * s - P[p2] - d2 * t
+    return g @ g
+
+
+@njit(cache=True)
+def _near(P, t, u, d2max):
+    """Triangles t and u (sharing no vertex) come closer than √d2max."""
+    for k in range(3):
+        if _pt_tri_d2(P, t[k], u[0], u[1], u[2]) < d2max:
+            return True
+        if _pt_tri_d2(P, u[k], t[0], t[1], t[2]) < d2max:
+            return True
+    for i in range(3):
+        for j in range(3):
+            if _seg_seg_d2(P, t[i], t[(i + 1) % 3], u[j], u[(j + 1) % 3]) < d2max:
+                return True
+    return False
+
+
+@njit(cache=True)
+def _pair(P, F, i, j, rel, gap2):
+    t = F[i]
+    u = F[j]
+    nshared = 0
+    for a in range(3):
+        for b in range(3):
+            if t[a] == u[b]:
+                nshared += 1
+    if nshared == 3:
+        return True  # the same triangle twice (duplicate face)
+    # size scale for the coplanarity threshold
+    lo = np.empty(3)
+    hi = np.empty(3)
+    for k in range(3):
+        lo[k] = min(P[t[0], k], P[t[1], k], P[t[2], k], P[u[0], k], P[u[1], k], P[u[2], k])
+        hi[k] = max(P[t[0], k], P[t[1], k], P[t[2], k], P[u[0], k], P[u[1], k], P[u[2], k])
+    s = max(hi[0] - lo[0], hi[1] - lo[1], hi[2] - lo[2])
+    eps = rel * s * s * s
+    cop = True
+    for k in range(3):
+        if abs(_o(P, t[0], t[1], t[2], u[k])) > eps:
+            cop = False
+            break
+    if cop:
+        return _coplanar_overlap(P, t, u, nshared)
+    if nshared == 2:
+        return False  # not coplanar: they meet along the shared edge only
+    if nshared == 1:
+        # edges opposite the shared vertex
+        for k in range(3):
+            if t[k] == u[0] or t[k] == u[1] or t[k] == u[2]:
+                v = t[k]
+        ta = np.empty(2, np.int64)
+        ua = np.empty(2, np.int64)
+        m = 0
+        for k in range(3):
+            if t[k] != v:
+                ta[m] = t[k]
+                m += 1
+        m = 0
+        for k in range(3):
+            if u[k] != v:
+                ua[m] = u[k]
+                m += 1
+        return (_seg_tri(P, ta[0], ta[1], u[0], u[1], u[2], eps)
+                or _seg_tri(P, ua[0], ua[1], t[0], t[1], t[2], eps))
+    if gap2 > 0 and _near(P, t, u, gap2):
+        return True
+    for k in range(3):
+        if _seg_tri(P, t[k], t[(k + 1) % 3], u[0], u[1], u[2], eps):
+            return True
+        if _seg_tri(P, u[k], u[(k + 1) % 3], t[0], t[1], t[2], eps):
+            return True
+    return False
+
+
+@njit(cache=True)
+def _find(P, F, lo, hi, cell, rel, gap):
+    m = F.shape[0]
+    org = np.empty(3)
+    dims = np.empty(3, np.int64)
+    for k in range(3):
+        org[k] = lo[:, k].min()
+        dims[k] = int((hi[:, k].max() - org[k]) / cell) + 1
+    c0 = np.empty((m, 3), np.int64)
+    c1 = np.empty((m, 3), np.int64)
+    total = 0
+    for i in range(m):
+        n = 1
+        for k in range(3):
+            c0[i, k] = int((lo[i, k] - org[k]) / cell)
+            c1[i, k] = int((hi[i, k] - org[k]) / cell)
+            n *= c1[i, k] - c0[i, k] + 1
+        total += n
+    keys = np.empty(total, np.int64)
+    tris = np.empty(total, np.int64)
+    w = 0
+    for i in range(m):
+        for x in range(c0[i, 0], c1[i, 0] + 1):
+            for y in range(c0[i, 1], c1[i, 1] + 1):
+                for z in range(c0[i, 2], c1[i, 2] + 1):
+                    keys[w] = (x * dims[1] + y) * dims[2] + z
+                    tris[w] = i
+                    w += 1
+    order = np.argsort(keys, kind="mergesort")
+    keys = keys[order]
+    tris = tris[order]
+    out = []
+    s = 0
+    while s < total:
+        e = s
+        while e < total and keys[e] == keys[s]:
+            e += 1
+        key = keys[s]
+        cz = key % dims[2]
+        cy = (key // dims[2]) % dims[1]
+        cx = key // (dims[2] * dims[1])
+        for a in range(s, e):
+            i = tris[a]
+            for b in range(a + 1, e):
+                j = tris[b]
+                if (lo[i, 0] > hi[j, 0] + gap or lo[j, 0] > hi[i, 0] + gap
+                        or lo[i, 1] > hi[j, 1] + gap or lo[j, 1] > hi[i, 1] + gap
+                        or lo[i, 2] > hi[j, 2] + gap or lo[j, 2] > hi[i, 2] + gap):
+                    continue
+                # count the pair once: in the first cell both boxes cover
+                if (max(c0[i, 0], c0[j, 0]) != cx or max(c0[i, 1], c0[j, 1]) != cy
+                        or max(c0[i, 2], c0[j, 2]) != cz):
+                    continue
+                if _pair(P, F, i, j, rel, gap * gap):
+                    if i < j:
+                        out.append((i, j))
+                    else:
+                        out.append((j, i))
+        s = e
+    res = np.empty((len(out), 2), np.int64)
+    for k in range(len(out)):
+        res[k, 0] = out[k][0]
+        res[k, 1] = out[k][1]
+    return res
+
+
+def self_intersections(vertices: np.ndarray, faces: np.ndarray, *,
+                       coplanar_rel: float = 1e-13, gap: float = 0.0) -> np.ndarray:
+    """(k, 2) int64 index pairs ``i < j`` of faces that cross, sorted.
+
+    Parameters
+    ----------
+    vertices : (n, 3) float
+        Vertex positions (any unit; tipgeo: mm, cannula frame).
+    faces : (m, 3) int
+        Triangles (indices into ``vertices``).
+    coplanar_rel : float
+        Two triangles count as coplanar when every vertex of one is within
+        ``coplanar_rel × size³`` (signed volume) of the other's plane.
+    gap : float
+        Also report pairs sharing no vertex that come closer than ``gap``
+        (same unit as the vertices): near-contacts, which float checks with
+        a tolerance (open3d's Möller test, MeshLab) report as crossings.
+
+    Returns
+    -------
+    numpy.ndarray
+        Pairs of faces whose intersection is more than what they share: a
+        real crossing (pairs sharing an edge or a vertex included, see the
+        module docstring). Empty for a mesh without self-intersections.
+    """
+    P = np.ascontiguousarray(vertices, dtype=np.float64)
+    F = np.ascontiguousarray(faces, dtype=np.int64)
+    if len(F) < 2:
+        return np.empty((0, 2), np.int64)
+    t = P[F]
+    lo = np.ascontiguousarray(t.min(axis=1) - 0.5 * gap)
+    hi = np.ascontiguousarray(t.max(axis=1) + 0.5 * gap)
+    size = float(np.mean((hi - lo).max(axis=1)))
+    span = float((hi.max(0) - lo.min(0)).max())
+    cell = max(2.0 * size, span / 512.0, 1e-300)
+    res = _find(P, F, lo, hi, cell, float(coplanar_rel), float(gap))
+    if len(res):
+        res = np.unique(res, axis=0)
+    return res
+
+
+def crossing_pairs(vertices: np.ndarray, faces: np.ndarray, *, gap: float = 0.0,
+                   ) -> tuple[np.ndarray, np.ndarray]:
+    """The crossings of :func:`self_intersections` split as
+    ``(disjoint, adjacent)``: pairs that share no vertex (what open3d and
+    MeshLab report) and pairs that share a vertex or an edge (folds)."""
+    pairs = self_intersections(vertices, faces, gap=gap)
+    F = np.asarray(faces)
+    if not len(pairs):
+        return pairs, pairs
+    a, b = F[pairs[:, 0]], F[pairs[:, 1]]
+    share = (a[:, :, None] == b[:, None, :]).any(axis=(1, 2))
+    return pairs[~share], pairs[share]
+
+
+# -- the tolerant test MeshLab-style checkers run (open3d) --------------------
+# Möller's interval test ("A fast triangle-triangle intersection test", 1997)
+# with its coplanarity tolerance: a signed plane distance (unnormalised normal)
+# below 1e-6 counts as zero, on coordinates centred on the pair and divided
+# per axis by their spread, as open3d's TriangleMesh.get_self_intersecting_
+# triangles does. It reports near-coplanar non-touching pairs where one
+# triangle is far smaller than the other; the build avoids them too.
+
+_MEPS = 1e-6
+
+
+@njit(cache=True)
+def _edge_edge(v0, v1, u0, u1, i0, i1):
+    ax, ay = v1[i0] - v0[i0], v1[i1] - v0[i1]
+    bx, by = u0[i0] - u1[i0], u0[i1] - u1[i1]
+    cx, cy = v0[i0] - u0[i0], v0[i1] - u0[i1]
+    f = ay * bx - ax * by
+    d = by * cx - bx * cy
+    if (f > 0 and d >= 0 and d <= f) or (f < 0 and d <= 0 and d >= f):
+        e = ax * cy - ay * cx
+        if f > 0:
+            if e >= 0 and e <= f:
+                return True
+        elif e <= 0 and e >= f:
+            return True
+    return False
+
+
+@njit(cache=True)
+def _pt_in(p, u0, u1, u2, i0, i1):
+    a = u1[i1] - u0[i1]
+    b = -(u1[i0] - u0[i0])
+    d0 = a * p[i0] + b * p[i1] - a * u0[i0] - b * u0[i1]
+    a = u2[i1] - u1[i1]
+    b = -(u2[i0] - u1[i0])
+    d1 = a * p[i0] + b * p[i1] - a * u1[i0] - b * u1[i1]
+    a = u0[i1] - u2[i1]
+    b = -(u0[i0] - u2[i0])
+    d2 = a * p[i0] + b * p[i1] - a * u2[i0] - b * u2[i1]
+    return d0 * d1 > 0 and d0 * d2 > 0
+
+
+@njit(cache=True)
+def _coplanar_moller(n, V, U):
+    a0, a1, a2 = abs(n[0]), abs(n[1]), abs(n[2])
+    if a0 > a1:
+        i0, i1 = (1, 2) if a0 > a2 else (0, 1)
+    else:
+        i0, i1 = (0, 1) if a2 > a1 else (0, 2)
+    for k in range(3):
+        for m in range(3):
+            if _edge_edge(V[k], V[(k + 1) % 3], U[m], U[(m + 1) % 3], i0, i1):
+                return True
+    return _pt_in(V[0], U[0], U[1], U[2], i0, i1) or _pt_in(U[0], V[0], V[1], V[2], i0, i1)
+
+
+@njit(cache=True)
+def _interval(p0, p1, p2, d0, d1, d2, d0d1, d0d2):
+    # returns ok, a, b, c, x0, x1 (ok False: coplanar)
+    if d0d1 > 0:
+        return True, p2, (p0 - p2) * d2, (p1 - p2) * d2, d2 - d0, d2 - d1
+    if d0d2 > 0:
+        return True, p1, (p0 - p1) * d1, (p2 - p1) * d1, d1 - d0, d1 - d2
+    if d1 * d2 > 0 or d0 != 0:
+        return True, p0, (p1 - p0) * d0, (p2 - p0) * d0, d0 - d1, d0 - d2
+    if d1 != 0:
+        return True, p1, (p0 - p1) * d1, (p2 - p1) * d1, d1 - d0, d1 - d2
+    if d2 != 0:
+        return True, p2, (p0 - p2) * d2, (p1 - p2) * d2, d2 - d0, d2 - d1
+    return False, 0.0, 0.0, 0.0, 0.0, 0.0
+
+
+@njit(cache=True)
+def _moller(V, U):
+    n1 = np.cross(V[1] - V[0], V[2] - V[0])
+    e1 = -(n1 @ V[0])
+    du = np.empty(3)
+    for k in range(3):
+        du[k] = n1 @ U[k] + e1
+        if abs(du[k]) < _MEPS:
+            du[k] = 0.0
+    if du[0] * du[1] > 0 and du[0] * du[2] > 0:
+        return False
+    n2 = np.cross(U[1] - U[0], U[2] - U[0])
+    e2 = -(n2 @ U[0])
+    dv = np.empty(3)
+    for k in range(3):
+        dv[k] = n2 @ V[k] + e2
+        if abs(dv[k]) < _MEPS:
+            dv[k] = 0.0
+    if dv[0] * dv[1] > 0 and dv[0] * dv[2] > 0:
+        return False
+    dd = np.cross(n1, n2)
+    idx = 0
+    if abs(dd[1]) > abs(dd[idx]):
+        idx = 1
+    if abs(dd[2]) > abs(dd[idx]):
+        idx = 2
+    ok, a, b, c, x0, x1 = _interval(V[0, idx], V[1, idx], V[2, idx], dv[0], dv[1], dv[2],
+                                    dv[0] * dv[1], dv[0] * dv[2])
+    if not ok:
+        return _coplanar_moller(n1, V, U)
+    ok, d, e, f, y0, y1 = _interval(U[0, idx], U[1, idx], U[2, idx], du[0], du[1], du[2],
+                                    du[0] * du[1], du[0] * du[2])
+    if not ok:
+        return _coplanar_moller(n1, V, U)
+    xx, yy = x0 * x1, y0 * y1
+    xxyy = xx * yy
+    t = a * xxyy
+    s0, s1 = t + b * x1 * yy, t + c * x0 * yy
+    t = d * xxyy
+    r0, r1 = t + e * xx * y1, t + f * xx * y0
+    if s0 > s1:
+        s0, s1 = s1, s0
+    if r0 > r1:
+        r0, r1 = r1, r0
+    return not (s1 < r0 or r1 < s0)
+
+
+@njit(cache=True)
+def _tolerant_pair(P, F, i, j):
+    t = F[i]
+    u = F[j]
+    for a in range(3):
+        for b in range(3):
+            if t[a] == u[b]:
+                return False  # open3d skips pairs that share a vertex
+    mu = np.zeros(3)
+    for k in range(3):
+        mu += P[t[k]] + P[u[k]]
+    mu /= 6.0
+    sg = np.zeros(3)
+    for k in range(3):
+        sg += (P[t[k]] - mu) ** 2 + (P[u[k]] - mu) ** 2
+    sg = np.sqrt(sg / 5.0) + 1e-12
+    V = np.empty((3, 3))
+    U = np.empty((3, 3))
+    for k in range(3):
+        V[k] = (P[t[k]] - mu) / sg
+        U[k] = (P[u[k]] - mu) / sg
+    return _moller(V, U)
+
+
+@njit(cache=True)
+def _find_tolerant(P, F, lo, hi, cell):
+    m = F.shape[0]
+    org = np.empty(3)
+    dims = np.empty(3, np.int64)
+    for k in range(3):
+        org[k] = lo[:, k].min()
+        dims[k] = int((hi[:, k].max() - org[k]) / cell) + 1
+    c0 = np.empty((m, 3), np.int64)
+    c1 = np.empty((m, 3), np.int64)
+    total = 0
+    for i in range(m):
+        n = 1
+        for k in range(3):
+            c0[i, k] = int((lo[i, k] - org[k]) / cell)
+            c1[i, k] = int((hi[i, k] - org[k]) / cell)
+            n *= c1[i, k] - c0[i, k] + 1
+        total += n
+    keys = np.empty(total, np.int64)
+    tris = np.empty(total, np.int64)
+    w = 0
+    for i in range(m):
+        for x in range(c0[i, 0], c1[i, 0] + 1):
+            for y in range(c0[i, 1], c1[i, 1] + 1):
+                for z in range(c0[i, 2], c1[i, 2] + 1):
+                    keys[w] = (x * dims[1] + y) * dims[2] + z
+                    tris[w] = i
+                    w += 1
+    order = np.argsort(keys, kind="mergesort")
+    keys = keys[order]
+    tris = tris[order]
+    out = []
+    s = 0
+    while s < total:
+        e = s
+        while e < total and keys[e] == keys[s]:
+            e += 1
+        key = keys[s]
+        cz = key % dims[2]
+        cy = (key // dims[2]) % dims[1]
+        cx = key // (dims[2] * dims[1])
+        for a in range(s, e):
+            i = tris[a]
+            for b in range(a + 1, e):
+                j = tris[b]
+                if (lo[i, 0] > hi[j, 0] or lo[j, 0] > hi[i, 0] or lo[i, 1] > hi[j, 1]
+                        or lo[j, 1] > hi[i, 1] or lo[i, 2] > hi[j, 2] or lo[j, 2] > hi[i, 2]):
+                    continue
+                if (max(c0[i, 0], c0[j, 0]) != cx or max(c0[i, 1], c0[j, 1]) != cy
+                        or max(c0[i, 2], c0[j, 2]) != cz):
+                    continue
+                if _tolerant_pair(P, F, min(i, j), max(i, j)):
+                    out.append((min(i, j), max(i, j)))
+        s = e
+    res = np.empty((len(out), 2), np.int64)
+    for k in range(len(out)):
+        res[k, 0] = out[k][0]
+        res[k, 1] = out[k][1]
+    return res
+
+
+def tolerant_intersections(vertices: np.ndarray, faces: np.ndarray) -> np.ndarray:
+    """(k, 2) face pairs ``i < j`` sharing no vertex that open3d's
+    ``get_self_intersecting_triangles`` reports (the same tolerant Möller
+    test on the same normalised coordinates, candidate pairs from the grid):
+    the real crossings plus the near-coplanar pairs its tolerance takes for
+    crossings. Units and frame: any."""
+    P = np.ascontiguousarray(vertices, dtype=np.float64)
+    F = np.ascontiguousarray(faces, dtype=np.int64)
+    if len(F) < 2:
+        return np.empty((0, 2), np.int64)
+    t = P[F]
+    lo = np.ascontiguousarray(t.min(axis=1))
+    hi = np.ascontiguousarray(t.max(axis=1))
+    size = float(np.mean((hi - lo).max(axis=1)))
+    span = float((hi.max(0) - lo.min(0)).max())
+    res = _find_tolerant(P, F, lo, hi, max(2.0 * size, span / 512.0, 1e-300))
+    if len(res):
+        res = np.unique(res, axis=0)
+    return res

@@ -295,8 +295,11 @@ def _pair(P, F, i, j, rel, gap2):
 
 
 @njit(cache=True)
-def _find(P, F, lo, hi, cell, rel, gap):
-    m = F.shape[0]
+def _bin(lo, hi, cell):
+    """Every triangle's box into the cubic cells of side ``cell`` it covers:
+    (cell counts per axis, each box's first cell, cell keys sorted, the
+    triangle of each key)."""
+    m = lo.shape[0]
     org = np.empty(3)
     dims = np.empty(3, np.int64)
     for k in range(3):
@@ -323,8 +326,13 @@ def _find(P, F, lo, hi, cell, rel, gap):
                     tris[w] = i
                     w += 1
     order = np.argsort(keys, kind="mergesort")
-    keys = keys[order]
-    tris = tris[order]
+    return dims, c0, keys[order], tris[order]
+
+
+@njit(cache=True)
+def _find(P, F, lo, hi, cell, rel, gap):
+    dims, c0, keys, tris = _bin(lo, hi, cell)
+    total = len(keys)
     out = []
     s = 0
     while s < total:
@@ -560,35 +568,8 @@ def _tolerant_pair(P, F, i, j):
 
 @njit(cache=True)
 def _find_tolerant(P, F, lo, hi, cell):
-    m = F.shape[0]
-    org = np.empty(3)
-    dims = np.empty(3, np.int64)
-    for k in range(3):
-        org[k] = lo[:, k].min()
-        dims[k] = int((hi[:, k].max() - org[k]) / cell) + 1
-    c0 = np.empty((m, 3), np.int64)
-    c1 = np.empty((m, 3), np.int64)
-    total = 0
-    for i in range(m):
-        n = 1
-        for k in range(3):
-            c0[i, k] = int((lo[i, k] - org[k]) / cell)
-            c1[i, k] = int((hi[i, k] - org[k]) / cell)
-            n *= c1[i, k] - c0[i, k] + 1
-        total += n
-    keys = np.empty(total, np.int64)
-    tris = np.empty(total, np.int64)
-    w = 0
-    for i in range(m):
-        for x in range(c0[i, 0], c1[i, 0] + 1):
-            for y in range(c0[i, 1], c1[i, 1] + 1):
-                for z in range(c0[i, 2], c1[i, 2] + 1):
-                    keys[w] = (x * dims[1] + y) * dims[2] + z
-                    tris[w] = i
-                    w += 1
-    order = np.argsort(keys, kind="mergesort")
-    keys = keys[order]
-    tris = tris[order]
+    dims, c0, keys, tris = _bin(lo, hi, cell)
+    total = len(keys)
     out = []
     s = 0
     while s < total:

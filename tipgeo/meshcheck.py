@@ -330,7 +330,10 @@ def _bin(lo, hi, cell):
 
 
 @njit(cache=True)
-def _find(P, F, lo, hi, cell, rel, gap):
+def _candidates(lo, hi, cell, gap):
+    """(k, 2) triangle pairs whose boxes come within ``gap`` of each other,
+    each pair once (in the first grid cell both boxes cover), in the order
+    found."""
     dims, c0, keys, tris = _bin(lo, hi, cell)
     total = len(keys)
     out = []
@@ -355,17 +358,29 @@ def _find(P, F, lo, hi, cell, rel, gap):
                 if (max(c0[i, 0], c0[j, 0]) != cx or max(c0[i, 1], c0[j, 1]) != cy
                         or max(c0[i, 2], c0[j, 2]) != cz):
                     continue
-                if _pair(P, F, i, j, rel, gap * gap):
-                    if i < j:
-                        out.append((i, j))
-                    else:
-                        out.append((j, i))
+                out.append((i, j))
         s = e
+    return _pairs_array(out)
+
+
+@njit(cache=True)
+def _pairs_array(out):
     res = np.empty((len(out), 2), np.int64)
     for k in range(len(out)):
         res[k, 0] = out[k][0]
         res[k, 1] = out[k][1]
     return res
+
+
+@njit(cache=True)
+def _find(P, F, lo, hi, cell, rel, gap):
+    cand = _candidates(lo, hi, cell, gap)
+    out = []
+    for k in range(cand.shape[0]):
+        i, j = cand[k, 0], cand[k, 1]
+        if _pair(P, F, i, j, rel, gap * gap):
+            out.append((min(i, j), max(i, j)))
+    return _pairs_array(out)
 
 
 def self_intersections(vertices: np.ndarray, faces: np.ndarray, *,
@@ -568,36 +583,13 @@ def _tolerant_pair(P, F, i, j):
 
 @njit(cache=True)
 def _find_tolerant(P, F, lo, hi, cell):
-    dims, c0, keys, tris = _bin(lo, hi, cell)
-    total = len(keys)
+    cand = _candidates(lo, hi, cell, 0.0)
     out = []
-    s = 0
-    while s < total:
-        e = s
-        while e < total and keys[e] == keys[s]:
-            e += 1
-        key = keys[s]
-        cz = key % dims[2]
-        cy = (key // dims[2]) % dims[1]
-        cx = key // (dims[2] * dims[1])
-        for a in range(s, e):
-            i = tris[a]
-            for b in range(a + 1, e):
-                j = tris[b]
-                if (lo[i, 0] > hi[j, 0] or lo[j, 0] > hi[i, 0] or lo[i, 1] > hi[j, 1]
-                        or lo[j, 1] > hi[i, 1] or lo[i, 2] > hi[j, 2] or lo[j, 2] > hi[i, 2]):
-                    continue
-                if (max(c0[i, 0], c0[j, 0]) != cx or max(c0[i, 1], c0[j, 1]) != cy
-                        or max(c0[i, 2], c0[j, 2]) != cz):
-                    continue
-                if _tolerant_pair(P, F, min(i, j), max(i, j)):
-                    out.append((min(i, j), max(i, j)))
-        s = e
-    res = np.empty((len(out), 2), np.int64)
-    for k in range(len(out)):
-        res[k, 0] = out[k][0]
-        res[k, 1] = out[k][1]
-    return res
+    for k in range(cand.shape[0]):
+        i, j = min(cand[k, 0], cand[k, 1]), max(cand[k, 0], cand[k, 1])
+        if _tolerant_pair(P, F, i, j):
+            out.append((i, j))
+    return _pairs_array(out)
 
 
 def tolerant_intersections(vertices: np.ndarray, faces: np.ndarray) -> np.ndarray:

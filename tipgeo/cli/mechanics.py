@@ -11,9 +11,13 @@ from __future__ import annotations
 
 import math
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 from ..jsonio import dumps as _dumps
 from .common import declare_files, deprecated, spec_arg
+
+if TYPE_CHECKING:
+    from ..mechanics.tissue import FitResult
 
 __all__ = ["register", "cmd_forces", "cmd_tissue"]
 
@@ -103,21 +107,11 @@ def cmd_forces(args) -> int:
     return 0
 
 
-def _fit_text(res) -> list[str]:
+def _fit_text(res: FitResult) -> list[str]:
     s = res.summary()
-    p = s["params"]
     lines = [f"{s['model']}: n {s['n']}, stretch {s['stretch_range'][0]:.4f}…"
              f"{s['stretch_range'][1]:.4f}, R² {s['r2']:.6f}, RMSE {s['rmse_MPa']:.6g} MPa"]
-    if s["model"] == "ogden":
-        for i, (m, a) in enumerate(zip(p["mu_MPa"], p["alpha"]), 1):
-            lines.append(f"  μ{i} {m:.6g} MPa (± {s['stderr']['mu_MPa'][i - 1]:.2g})  "
-                         f"α{i} {a:.6g} (± {s['stderr']['alpha'][i - 1]:.2g})")
-    else:
-        lines.append(f"  μ {p['mu_MPa']:.6g} MPa (± {s['stderr']['mu_MPa']:.2g})")
-        if "lambda_m" in p:
-            lm = p["lambda_m"]
-            lines.append("  λ_m " + ("∞ (neo-Hookean)" if lm is None else
-                                     f"{lm:.6g} (± {s['stderr']['lambda_m']:.2g})"))
+    lines += res.model.report_lines(s["stderr"])
     lines.append(f"  initial shear modulus μ₀ {s['initial_shear_modulus_MPa']:.6g} MPa, "
                  f"E₀ = 3μ₀ {s['E0_kPa']:.4g} kPa")
     return lines
@@ -171,6 +165,7 @@ def cmd_tissue(args) -> int:
 def register(subparsers) -> None:
     """Add ``forces`` and ``tissue`` to the main parser's subparsers."""
     from ..mechanics.fracture import DEFAULT_G
+    from ..mechanics.models import tissue_model_names
 
     f = subparsers.add_parser(
         "forces", help="fracture forces along the cutting edge (thesis eq. 3.19–3.23)",
@@ -217,7 +212,7 @@ def register(subparsers) -> None:
     t.add_argument("action", choices=("fit", "list", "show"))
     t.add_argument("target", nargs="?", metavar="DATA|NAME",
                    help="fit: the CSV file; show: the tissue name")
-    t.add_argument("--law", action="append", choices=("arruda-boyce", "ogden", "neo-hookean"),
+    t.add_argument("--law", action="append", choices=tissue_model_names(),
                    help="hyperelastic law to fit (repeatable; default arruda-boyce)")
     t.add_argument("--terms", type=int, default=3, metavar="N",
                    help="Ogden terms (default 3, as the thesis)")

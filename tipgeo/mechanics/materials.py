@@ -45,6 +45,7 @@ from typing import Any
 from ..errors import SpecError
 from ._common import J_PER_M2, KPA
 from .cutting import FRICTION_PRESETS, FrictionRegression
+from .models import TissueModel
 from .tissue import ArrudaBoyce, Ogden
 
 __all__ = ["Tissue", "TISSUES", "tissue", "tissue_names"]
@@ -64,6 +65,8 @@ class Tissue:
     mu_d : float or None — constant dynamic friction coefficient
     friction : FrictionRegression or None — μ_da(k), μ_dr(k)
     arruda_boyce, ogden : fitted models or None
+    models : dict — fits of further registered tissue models
+        (:mod:`tipgeo.mechanics.models`) by model name
     fits : dict — the thesis's R² and RMSE (MPa) of each fit
     sources : dict — where each value comes from
     E_characterised : float or None — Table 2.1's modulus (MPa) where the
@@ -82,20 +85,26 @@ class Tissue:
     fits: dict[str, dict[str, float]] = field(default_factory=dict, hash=False)
     sources: dict[str, str] = field(default_factory=dict, hash=False)
     E_characterised: float | None = None
+    models: dict[str, TissueModel] = field(default_factory=dict, hash=False)
 
     def __post_init__(self):
         from ..names import check_name
 
         check_name("tissue name", self.name)  # it reaches decks, file names and reports
 
-    def model(self, name: str):
-        """The fitted model ``arruda-boyce`` or ``ogden``."""
-        m = {"arruda-boyce": self.arruda_boyce, "ogden": self.ogden}.get(name)
-        if m is None:
+    def fitted_models(self) -> dict[str, TissueModel]:
+        """The tissue's fitted models by model name."""
+        fitted: dict[str, TissueModel | None] = {
+            "arruda-boyce": self.arruda_boyce, "ogden": self.ogden, **self.models}
+        return {k: m for k, m in fitted.items() if m is not None}
+
+    def model(self, name: str) -> TissueModel:
+        """The fitted model called ``name`` (``arruda-boyce``, ``ogden``, …)."""
+        fitted = self.fitted_models()
+        if name not in fitted:
             raise SpecError(f"tissue '{self.name}' has no {name!r} model; it has: "
-                            + (", ".join(k for k, x in (("arruda-boyce", self.arruda_boyce),
-                                                        ("ogden", self.ogden)) if x) or "none"))
-        return m
+                            + (", ".join(fitted) or "none"))
+        return fitted[name]
 
     def summary(self) -> dict[str, Any]:
         """Values in report units: E in kPa, R in J/m², constants in MPa."""

@@ -149,15 +149,7 @@ def plot_tissue_fit(stretch, stress, fits, path, *, title: str | None = None) ->
     colors = plt.rcParams["axes.prop_cycle"].by_key()["color"]
     for j, f in enumerate(fits):
         c = colors[j % len(colors)]
-        p = f.model.params()
-        if f.model.name == "ogden":
-            desc = f"Ogden N = {len(p['alpha'])}"
-        elif f.model.name == "arruda-boyce":
-            lm = p["lambda_m"]
-            desc = (f"Arruda–Boyce μ = {p['mu_MPa']:.4g} MPa, λ_m = "
-                    f"{'∞' if math.isinf(lm) else f'{lm:.4g}'}")
-        else:
-            desc = f"neo-Hookean μ = {p['mu_MPa']:.4g} MPa"
+        desc = f.model.legend()
         ax[0].plot(grid, f.model.stress(grid) * 1e3, "-", color=c,
                    label=f"{desc}  (R² {f.r2:.4f}, RMSE {f.rmse * 1e3:.3g} kPa)")
         ax[1].plot(lam, (sig - f.model.stress(lam)) * 1e3, ".", ms=3, color=c)

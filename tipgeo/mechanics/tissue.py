@@ -32,7 +32,7 @@ import itertools
 import math
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any, cast
 
 import numpy as np
 
@@ -40,18 +40,20 @@ from .. import validate as v
 from ..errors import SpecError
 from ..tolerances import tol
 from ._common import KPA, finite_array
+from .models import Parameter, TissueModel, tissue_model
+
+if TYPE_CHECKING:
+    from ..arrays import ArrayLike, FloatArray
+    from .materials import Tissue
 
 __all__ = ["MAX_TISSUE_DATA_BYTES", "MAX_TISSUE_ROWS", "NeoHookean", "ArrudaBoyce", "Ogden",
-           "AB_C", "MODELS", "FitResult",
+           "AB_C", "FitResult",
            "true_from_engineering", "engineering_from_true", "fit_uniaxial",
            "fit_engineering", "synthetic_uniaxial", "read_uniaxial_csv",
            "uniaxial_csv_text", "make_model"]
 
 #: Arruda–Boyce constants C₁…C₅ (eq. 4.8).
 AB_C = (1 / 2, 1 / 20, 11 / 1050, 19 / 7000, 519 / 673750)
-
-#: Model names accepted by :func:`fit_uniaxial` and the CLI.
-MODELS = ("arruda-boyce", "ogden", "neo-hookean")
 
 
 def _ab_series(x) -> np.ndarray:
@@ -63,42 +65,14 @@ def _stretch(stretch) -> np.ndarray:
     return finite_array("stretch", stretch, lo=0.0, lo_open=True)
 
 
-@dataclass(frozen=True)
-class NeoHookean:
-    """Incompressible neo-Hookean solid, U = μ/2 (I₁ − 3).
+_MU = Parameter("mu", "mu_MPa", "μ", "MPa", lo=0.0, lo_open=True)
 
-    Attributes
-    ----------
-    mu : float — shear modulus, MPa (> 0)
-    """
 
-    mu: float
-    name = "neo-hookean"
-
-    def __post_init__(self):
-        object.__setattr__(self, "mu", v.real("mu", self.mu, lo=0.0, lo_open=True,
-                                              unit="MPa"))
-
-    def dU_dI1(self, I1) -> np.ndarray:
-        """∂U/∂I₁ = μ/2 (MPa)."""
-        return np.full(np.shape(I1), 0.5 * self.mu)
-
-    def stress(self, stretch) -> np.ndarray:
-        """Uniaxial true stress σ (MPa) at stretch λ (> 0)."""
-        lam = _stretch(stretch)
-        return self.mu * (lam ** 2 - 1.0 / lam)
-
-    @property
-    def initial_shear_modulus(self) -> float:
-        """μ₀ (MPa)."""
-        return self.mu
-
-    def params(self) -> dict[str, float]:
-        return {"mu_MPa": self.mu}
+_LAMBDA_M = Parameter("lambda_m", "lambda_m", "λ_m", lo=1.0, lo_open=True)
 
 
 @dataclass(frozen=True)
-class ArrudaBoyce:
+class ArrudaBoyce(TissueModel):
     """Incompressible Arruda–Boyce solid, five terms of the inverse Langevin
     series (eq. 4.8–4.13, ERRATA).
 
@@ -111,13 +85,14 @@ class ArrudaBoyce:
     mu: float
     lambda_m: float
     name = "arruda-boyce"
+    title = "Arruda–Boyce"
+    parameters = (_MU, _LAMBDA_M)
 
-    def __post_init__(self):
-        object.__setattr__(self, "mu", v.real("mu", self.mu, lo=0.0, lo_open=True,
-                                              unit="MPa"))
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "mu", _MU.check(self.mu))
         lm = self.lambda_m
         if not (isinstance(lm, (int, float)) and not isinstance(lm, bool) and lm == math.inf):
-            lm = v.real("lambda_m", lm, lo=1.0, lo_open=True)
+            lm = _LAMBDA_M.check(lm)
         object.__setattr__(self, "lambda_m", float(lm))
 
     @property
@@ -125,11 +100,11 @@ class ArrudaBoyce:
         """1 / λ_m² (0 for the neo-Hookean limit)."""
         return 0.0 if math.isinf(self.lambda_m) else 1.0 / self.lambda_m ** 2
 
-    def dU_dI1(self, I1) -> np.ndarray:
+    def dU_dI1(self, I1: ArrayLike) -> FloatArray:
         """∂U/∂I₁ = μ Σᵢ i Cᵢ I₁^(i−1) / λ_m^(2i−2) (MPa)."""
         return self.mu * _ab_series(self.beta * np.asarray(I1, float))
 
-    def stress(self, stretch) -> np.ndarray:
+    def stress(self, stretch: ArrayLike) -> FloatArray:
         """Uniaxial true stress σ (MPa) at stretch λ (> 0)."""
         lam = _stretch(stretch)
         return 2.0 * self.dU_dI1(lam ** 2 + 2.0 / lam) * (lam ** 2 - 1.0 / lam)
@@ -139,11 +114,42 @@ class ArrudaBoyce:
         """μ₀ = 2 ∂U/∂I₁ at I₁ = 3 (MPa)."""
         return float(2.0 * self.dU_dI1(3.0))
 
-    def params(self) -> dict[str, float]:
-        return {"mu_MPa": self.mu, "lambda_m": self.lambda_m}
+    def json_params(self) -> dict[str, Any]:
+        """:meth:`params` with λ_m = ∞ (the neo-Hookean limit) as None."""
+        p = self.params()
+        return {**p, "lambda_m": None} if math.isinf(self.lambda_m) else p
+
+    @classmethod
+    def from_params(cls, params: dict[str, Any]) -> ArrudaBoyce:
+        """The model of :meth:`params` or :meth:`json_params` (λ_m None: ∞)."""
+        if "lambda_m" in params and params["lambda_m"] is None:
+            params = {**params, "lambda_m": math.inf}
+        return cast(ArrudaBoyce, super().from_params(params))
+
+    @classmethod
+    def fit(cls, stretch: FloatArray, stress: FloatArray,
+            terms: int) -> tuple[ArrudaBoyce, dict[str, Any]]:
+        """Least squares in (μ, β = 1/λ_m²), see :func:`fit_uniaxial`."""
+        return _fit_ab(stretch, stress)
+
+    def hyperelastic_card(self, D: float) -> tuple[str, tuple[float, ...]]:
+        """``ARRUDA-BOYCE``: μ, λ_m, D (1/MPa)."""
+        return "ARRUDA-BOYCE", (self.mu, self.lambda_m, D)
+
+    def report_lines(self, stderr: dict[str, Any]) -> list[str]:
+        """μ and λ_m with their standard errors (λ_m = ∞: neo-Hookean)."""
+        lm = ("∞ (neo-Hookean)" if math.isinf(self.lambda_m) else
+              f"{self.lambda_m:.6g} (± {stderr['lambda_m']:.2g})")
+        return [f"  μ {self.mu:.6g} MPa (± {stderr['mu_MPa']:.2g})", "  λ_m " + lm]
+
+    def legend(self) -> str:
+        """``Arruda–Boyce μ = … MPa, λ_m = …``."""
+        lm = self.lambda_m
+        return (f"Arruda–Boyce μ = {self.mu:.4g} MPa, λ_m = "
+                f"{'∞' if math.isinf(lm) else f'{lm:.4g}'}")
 
 
-def _ogden_basis(lam: np.ndarray, alpha: float) -> np.ndarray:
+def _ogden_basis(lam: FloatArray, alpha: float) -> FloatArray:
     """(2/α)(λ^α − λ^(−α/2)), with its limit 3 ln λ as α → 0 (computed with
     expm1 so that small α loses no digits)."""
     L = np.log(lam)
@@ -153,7 +159,7 @@ def _ogden_basis(lam: np.ndarray, alpha: float) -> np.ndarray:
 
 
 @dataclass(frozen=True)
-class Ogden:
+class Ogden(TissueModel):
     """Incompressible Ogden solid with N terms (eq. 4.14–4.17).
 
     Attributes
@@ -167,15 +173,18 @@ class Ogden:
     mu: tuple[float, ...]
     alpha: tuple[float, ...]
     name = "ogden"
+    title = "Ogden"
+    parameters = (Parameter("mu", "mu_MPa", "μ", "MPa"), Parameter("alpha", "alpha", "α"))
 
-    def __post_init__(self):
+    def __post_init__(self) -> None:
         mu = tuple(np.atleast_1d(np.asarray(self.mu, dtype=object)).tolist())
         al = tuple(np.atleast_1d(np.asarray(self.alpha, dtype=object)).tolist())
         if not 1 <= len(mu) <= 6 or len(mu) != len(al):
             raise SpecError(f"mu, alpha: {len(mu)} and {len(al)} values; expected the same "
                             "number of terms, 1 ≤ N ≤ 6")
-        mu = tuple(v.real(f"mu[{i}]", m, unit="MPa") for i, m in enumerate(mu))
-        al = tuple(v.real(f"alpha[{i}]", a) for i, a in enumerate(al))
+        p_mu, p_al = self.parameters
+        mu = tuple(p_mu.check(m, f"mu[{i}]") for i, m in enumerate(mu))
+        al = tuple(p_al.check(a, f"alpha[{i}]") for i, a in enumerate(al))
         for i, a in enumerate(al):
             if a == 0:
                 raise SpecError(f"alpha[{i}] = 0 is not allowed; expected α ≠ 0")
@@ -185,10 +194,13 @@ class Ogden:
         object.__setattr__(self, "mu", mu)
         object.__setattr__(self, "alpha", al)
 
-    def stress(self, stretch) -> np.ndarray:
+    def stress(self, stretch: ArrayLike) -> FloatArray:
         """Uniaxial true stress σ (MPa) at stretch λ (> 0)."""
         lam = _stretch(stretch)
-        return sum(m * _ogden_basis(lam, a) for m, a in zip(self.mu, self.alpha))
+        out = np.zeros_like(lam)
+        for m, a in zip(self.mu, self.alpha):
+            out = out + m * _ogden_basis(lam, a)
+        return out
 
     @property
     def initial_shear_modulus(self) -> float:
@@ -196,18 +208,93 @@ class Ogden:
         return float(sum(self.mu))
 
     def params(self) -> dict[str, Any]:
+        """``mu_MPa`` and ``alpha`` as lists."""
         return {"mu_MPa": list(self.mu), "alpha": list(self.alpha)}
 
-
-def make_model(name: str, params: dict[str, Any]):
-    """A model from its name and ``params()`` dictionary (for JSON round trips)."""
-    if name == "arruda-boyce":
-        return ArrudaBoyce(mu=params["mu_MPa"], lambda_m=params["lambda_m"])
-    if name == "neo-hookean":
-        return NeoHookean(mu=params["mu_MPa"])
-    if name == "ogden":
+    @classmethod
+    def from_params(cls, params: dict[str, Any]) -> Ogden:
+        """The model of :meth:`params`."""
         return Ogden(mu=tuple(params["mu_MPa"]), alpha=tuple(params["alpha"]))
-    raise SpecError(f"model = {name!r} is not known; expected one of: " + ", ".join(MODELS))
+
+    @classmethod
+    def fit_parameter_count(cls, terms: int) -> int:
+        """2N for N = ``terms`` (1–4) terms."""
+        return 2 * v.integer("terms", terms, lo=1, hi=4)
+
+    @classmethod
+    def fit(cls, stretch: FloatArray, stress: FloatArray,
+            terms: int) -> tuple[Ogden, dict[str, Any]]:
+        """Variable projection then a joint polish, see :func:`fit_uniaxial`."""
+        return _fit_ogden(stretch, stress, v.integer("terms", terms, lo=1, hi=4))
+
+    def hyperelastic_card(self, D: float) -> tuple[str, tuple[float, ...]]:
+        """``OGDEN, N=n``: μ₁, α₁, …, μₙ, αₙ, D₁, then D₂ … Dₙ = 0."""
+        consts = tuple(x for m, a in zip(self.mu, self.alpha) for x in (m, a))
+        return f"OGDEN, N={len(self.mu)}", consts + (D,) + (0.0,) * (len(self.mu) - 1)
+
+    def report_lines(self, stderr: dict[str, Any]) -> list[str]:
+        """One line per term: μᵢ (MPa) and αᵢ with their standard errors."""
+        return [f"  μ{i} {m:.6g} MPa (± {stderr['mu_MPa'][i - 1]:.2g})  "
+                f"α{i} {a:.6g} (± {stderr['alpha'][i - 1]:.2g})"
+                for i, (m, a) in enumerate(zip(self.mu, self.alpha), 1)]
+
+    def legend(self) -> str:
+        """``Ogden N = n``."""
+        return f"Ogden N = {len(self.alpha)}"
+
+
+@dataclass(frozen=True)
+class NeoHookean(TissueModel):
+    """Incompressible neo-Hookean solid, U = μ/2 (I₁ − 3).
+
+    Attributes
+    ----------
+    mu : float — shear modulus, MPa (> 0)
+    """
+
+    mu: float
+    name = "neo-hookean"
+    title = "neo-Hookean"
+    parameters = (_MU,)
+
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "mu", _MU.check(self.mu))
+
+    def dU_dI1(self, I1: ArrayLike) -> FloatArray:
+        """∂U/∂I₁ = μ/2 (MPa)."""
+        return np.full(np.shape(I1), 0.5 * self.mu)
+
+    def stress(self, stretch: ArrayLike) -> FloatArray:
+        """Uniaxial true stress σ (MPa) at stretch λ (> 0)."""
+        lam = _stretch(stretch)
+        return self.mu * (lam ** 2 - 1.0 / lam)
+
+    @property
+    def initial_shear_modulus(self) -> float:
+        """μ₀ (MPa)."""
+        return self.mu
+
+    @classmethod
+    def fit(cls, stretch: FloatArray, stress: FloatArray,
+            terms: int) -> tuple[NeoHookean, dict[str, Any]]:
+        """Linear least squares in μ (MPa)."""
+        return _fit_nh(stretch, stress)
+
+    def hyperelastic_card(self, D: float) -> tuple[str, tuple[float, ...]]:
+        """``NEO HOOKE``: C10 = μ/2, D1 (1/MPa)."""
+        return "NEO HOOKE", (0.5 * self.mu, D)
+
+    @classmethod
+    def from_tissue(cls, tissue: Tissue) -> tuple[NeoHookean, str]:
+        """The neo-Hookean solid with the initial shear modulus μ₀ of the
+        tissue's Arruda–Boyce fit."""
+        ab, src = ArrudaBoyce.from_tissue(tissue)
+        return NeoHookean(mu=ab.initial_shear_modulus), f"{src}, μ₀ of the Arruda–Boyce fit"
+
+
+def make_model(name: str, params: dict[str, Any]) -> TissueModel:
+    """A model from its name and ``params()`` dictionary (for JSON round trips)."""
+    return tissue_model(name).from_params(params)
 
 
 # -----------------------------------------------------------------------------
@@ -239,7 +326,7 @@ class FitResult:
 
     Attributes
     ----------
-    model : NeoHookean, ArrudaBoyce or Ogden — the fitted model
+    model : TissueModel — the fitted model (NeoHookean, ArrudaBoyce, Ogden, …)
     r2 : float — 1 − SS_res / SS_tot
     rmse : float — √(SS_res / n), MPa
     n : int — data points
@@ -258,9 +345,7 @@ class FitResult:
 
     def summary(self) -> dict[str, Any]:
         """Model, parameters, R², RMSE (MPa), μ₀ and E₀ = 3μ₀ (kPa)."""
-        p = self.model.params()
-        if "lambda_m" in p and math.isinf(p["lambda_m"]):
-            p = {**p, "lambda_m": None}
+        p = self.model.json_params()
         mu0 = self.model.initial_shear_modulus
         return {"model": self.model.name, "params": p, "stderr": self.stderr,
                 "r2": self.r2, "rmse_MPa": self.rmse, "n": self.n,
@@ -396,7 +481,8 @@ def fit_uniaxial(stretch, stress, model: str = "arruda-boyce", *, terms: int = 3
     ----------
     stretch : (n,) float — λ (> 0)
     stress : (n,) float — true (Cauchy) stress, MPa, tension positive
-    model : ``arruda-boyce`` | ``ogden`` | ``neo-hookean``
+    model : str — a registered tissue model (:data:`~tipgeo.mechanics.models.TISSUE_MODELS`:
+        ``arruda-boyce`` | ``ogden`` | ``neo-hookean`` and any added one)
     terms : int — Ogden terms N (1–4; the thesis uses 3)
 
     Returns
@@ -416,28 +502,19 @@ def fit_uniaxial(stretch, stress, model: str = "arruda-boyce", *, terms: int = 3
     often not identifiable from one uniaxial curve (the thesis's own Table 4.1
     has a near-cancelling pair); R² and RMSE still judge the fit.
     """
-    if model not in MODELS:
-        raise SpecError(f"model = {model!r} is not known; expected one of: " + ", ".join(MODELS))
+    kind = tissue_model(model)
     lam = _stretch(stretch).reshape(-1)
     s = finite_array("stress", stress, unit="MPa").reshape(-1)
     if lam.shape != s.shape:
         raise SpecError(f"stretch and stress have {lam.size} and {s.size} values; expected "
                         "the same number")
-    n_par = {"arruda-boyce": 2, "neo-hookean": 1}.get(model, 0)
-    if model == "ogden":
-        terms = v.integer("terms", terms, lo=1, hi=4)
-        n_par = 2 * terms
+    n_par = kind.fit_parameter_count(terms)
     if lam.size < n_par + 2:
         raise SpecError(f"stress: {lam.size} data points are too few for {model} "
                         f"({n_par} parameters); need at least {n_par + 2}")
     if np.ptp(lam) <= 0:
         raise SpecError("stretch: all data points have the same stretch; a fit needs a range")
-    if model == "arruda-boyce":
-        fitted, se = _fit_ab(lam, s)
-    elif model == "neo-hookean":
-        fitted, se = _fit_nh(lam, s)
-    else:
-        fitted, se = _fit_ogden(lam, s, terms)
+    fitted, se = kind.fit(lam, s, terms)
     r2, rmse = _quality(fitted.stress(lam), s)
     return FitResult(model=fitted, r2=r2, rmse=rmse, n=int(lam.size), stderr=se,
                      stretch=lam, stress=s)
@@ -457,7 +534,7 @@ def synthetic_uniaxial(model, stretch, *, noise: float = 0.0,
 
     Parameters
     ----------
-    model : NeoHookean, ArrudaBoyce or Ogden
+    model : TissueModel — NeoHookean, ArrudaBoyce, Ogden, …
     stretch : (n,) float — λ
     noise : float — standard deviation of the additive noise as a fraction
         of the largest |σ| of the clean curve (0.01 = 1 %)

@@ -566,6 +566,24 @@ class FemTolerances:
     step_end: float = 1.0e-6
     monotone: float = 1.0e-3
     convergence_change: float = 0.02
+    #: A node lies on a plane of the block (top, base, axis, mirror plane) within
+    #: this fraction of the block radius: the mesh puts it there up to rounding.
+    plane_rel: float = 1.0e-9
+    #: A tip is mirror-symmetric when every mirrored vertex lies this close to a
+    #: vertex (mm): far below any feature, far above float32 mesh rounding.
+    mirror: float = 1.0e-6
+    #: A needle face lies on a mirror plane or its cut plane within this (mm):
+    #: gmsh's tetrahedra keep the clipped surface's float32 coordinates.
+    needle_plane: float = 1.0e-6
+    #: Layers stop once they reach the block height within this (mm): the sum
+    #: of the layer thicknesses rounds.
+    layer_end: float = 1.0e-12
+    #: Smallest time increment ccx may cut back to in the 3D model, as a
+    #: fraction of the step (CalculiX's own default is 1e-5 of the first one).
+    min_increment: float = 1.0e-6
+    #: Slack of a ceiling of a ratio that should be an integer (a depth over a
+    #: layer thickness, 1 over the largest increment): rounding must not add one.
+    ceil_slack: float = 1.0e-9
 
 
 @dataclass

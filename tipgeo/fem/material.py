@@ -28,7 +28,7 @@ from ..mechanics import Tissue, tissue
 from ..mechanics.models import TissueModel, tissue_model
 
 __all__ = ["FemMaterial", "fem_material", "compressibility", "friction_coefficient",
-           "DEFAULT_NU"]
+           "model_friction", "DEFAULT_NU"]
 
 #: Poisson ratio of the thesis's 2D model (§4.4.1.2: "helps the convergence").
 DEFAULT_NU = 0.475
@@ -116,3 +116,11 @@ def friction_coefficient(name: str | Tissue, k: float = 0.0) -> tuple[float, str
     if t.mu_d is not None:
         return float(t.mu_d), t.sources.get("mu_d", "tissue μ_d")
     raise SpecError(f"tissue '{t.name}' has no friction data; give --friction explicitly")
+
+
+def model_friction(name: str | Tissue, friction: float | None) -> tuple[float, str]:
+    """A model's friction coefficient and its source: ``friction`` (0–2) when
+    given, else the tissue's at k = 0 (:func:`friction_coefficient`)."""
+    if friction is None:
+        return friction_coefficient(name, 0.0)
+    return v.real("friction", friction, lo=0.0, hi=2.0), "given"

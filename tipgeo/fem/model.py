@@ -26,7 +26,8 @@ from ..errors import SpecError
 from ..names import one_line
 from .material import FemMaterial
 
-__all__ = ["ElementBlock", "FemModel", "FACE_NODES", "boundary_faces"]
+__all__ = ["ElementBlock", "FemModel", "FACE_NODES", "boundary_faces", "check_output_depths",
+           "contact_penalty", "UM_PER_MM"]
 
 #: Local node indices of each face S1… of an element type (CalculiX and
 #: Abaqus numbering).
@@ -39,6 +40,28 @@ FACE_NODES: dict[str, tuple[tuple[int, ...], ...]] = {
              (3, 7, 4, 0)),
 }
 FACE_NODES["C3D8I"] = FACE_NODES["C3D8"]
+
+#: µm per mm (element sizes in reports).
+UM_PER_MM = 1e3
+
+
+def check_output_depths(output_depths: tuple[float, ...], depth: float) -> tuple[float, ...]:
+    """The depths (mm) with stresses in the .frd, each in (0, ``depth``]."""
+    from .. import validate as v
+
+    return tuple(v.real("output depth", d, lo=0.0, hi=depth, lo_open=True, unit="mm")
+                 for d in output_depths)
+
+
+def contact_penalty(factor: float, E0: float, h: float, stiffness: float | None) -> float:
+    """The contact's penalty stiffness (MPa/mm): ``stiffness`` when given,
+    else ``factor`` × E₀ / h (E₀ in MPa, h in mm)."""
+    from .. import validate as v
+
+    if stiffness is None:
+        return factor * E0 / h
+    return v.real("contact_stiffness", stiffness, lo=0.0, lo_open=True, unit="MPa/mm")
+
 
 #: Abaqus names of the same elements (hybrid, reduced integration in 2D, as
 #: the thesis's CAX4RH of Appendix B2).

@@ -584,6 +584,9 @@ class FemTolerances:
     #: Slack of a ceiling of a ratio that should be an integer (a depth over a
     #: layer thickness, 1 over the largest increment): rounding must not add one.
     ceil_slack: float = 1.0e-9
+    #: An .frd output is at a step time within this (step times are fractions
+    #: of 1; ccx prints them with about 6 significant digits).
+    frd_time: float = 1.0e-6
 
 
 @dataclass

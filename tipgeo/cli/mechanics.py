@@ -9,14 +9,17 @@ main dispatcher prints it and exits 2).
 
 from __future__ import annotations
 
+import argparse
 import math
 from pathlib import Path
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
 from ..jsonio import dumps as _dumps
 from .common import declare_files, deprecated, spec_arg
 
 if TYPE_CHECKING:
+    from ..arrays import FloatArray
+    from ..mechanics.report import TipForces
     from ..mechanics.tissue import FitResult
 
 __all__ = ["register", "cmd_forces", "cmd_tissue"]
@@ -36,13 +39,13 @@ def _sweep(args):
     return np.linspace(s0, s1, n)
 
 
-def cmd_forces(args) -> int:
-    """Fracture forces along the edges of one or more tips."""
+def _forces_inputs(args: argparse.Namespace) -> tuple[FloatArray | None, float | None,
+                                                      float | None]:
+    """The S values of the sweep (or of the picture), R (N/mm) and θ (rad)."""
     import numpy as np
 
     from .. import validate as v
     from ..mechanics import J_PER_M2
-    from ..mechanics.report import tip_forces
 
     S_values = _sweep(args)
     if args.png and S_values is None:
@@ -53,6 +56,14 @@ def cmd_forces(args) -> int:
     if args.theta_deg is not None:
         theta = math.radians(v.real("--theta-deg", args.theta_deg, lo=0.0, hi=90.0,
                                     lo_open=True, hi_open=True))
+    return S_values, R, theta
+
+
+def cmd_forces(args: argparse.Namespace) -> int:
+    """Fracture forces along the edges of one or more tips."""
+    from ..mechanics.report import tip_forces
+
+    S_values, R, theta = _forces_inputs(args)
     results = []
     for arg in args.spec:
         spec = spec_arg(arg)
@@ -73,38 +84,48 @@ def cmd_forces(args) -> int:
         table = table_3_3_prediction()
     if args.json:
         data = [r.to_dict(args.step_deg) for r in results]
-        out = {"tips": data, "wrote": wrote}
+        out: dict[str, Any] = {"tips": data, "wrote": wrote}
         if table is not None:
             out["table_3_3"] = table
         print(_dumps(out))
         return 0
     for r in results:
-        s = r.forces.summary()
-        print(f"{r.label} ({r.geometry.wall} edge, {r.geometry.method}): S {s['S']:g}, "
-              f"tissue {r.tissue}, R {s['R_J_m2']:g} J/m², μ_d {s['mu_d']}, G {s['G']:g}, "
-              f"θ {s['theta_deg']:.4f}°")
-        print(f"  mean F⊥ {s['mean_F_perp_N']:.5f} N  F∥ {s['mean_F_par_N']:.5f} N  "
-              f"axial {s['mean_F_axial_N']:.5f} N  tangential {s['mean_F_tangential_N']:.5f} N")
-        kmax = "inf" if math.isinf(s["k_max"]) else f"{s['k_max']:.4g}"
-        print(f"  max F⊥ {s['max_F_perp_N']:.5f} N at γ {s['gamma_of_max_F_perp_deg']:.2f}°; "
-              f"k {s['k_min']:.4g}…{kmax}")
-        if r.sweep is not None and args.sweep is not None:
-            print("  S        mean_F_perp_N  mean_F_par_N  mean_F_axial_N  mean_F_tangential_N")
-            sw = r.sweep
-            for j in range(len(sw["S"])):
-                print(f"  {sw['S'][j]:<8.4g} {sw['perp'][j]:13.5f}  {sw['par'][j]:12.5f}  "
-                      f"{sw['axial'][j]:14.5f}  {sw['tangential'][j]:19.5f}")
+        _print_tip_forces(r, with_sweep=args.sweep is not None)
     if table is not None:
-        print("thesis Table 3.3 (axial force, helical vs bevel; measured at 23 mm, S/P = 0.25) "
-              "beside the §3.1.5 fracture model (one θ = 14.5°, R 45 J/m², μ_d 0.4, means "
-              "over γ):")
-        for row in table:
-            print(f"  S {row['S']:g}: measured {row['measured_delta_percent']:+.2f} %, model "
-                  f"{row['model_delta_percent_thesis_G']:+.2f} % (helical G × 0.9), "
-                  f"{row['model_delta_percent_same_G']:+.2f} % (same G)")
+        _print_table_3_3(table)
     for w in wrote:
         print(f"wrote {w}")
     return 0
+
+
+def _print_tip_forces(r: TipForces, *, with_sweep: bool) -> None:
+    """One tip's force summary (and its sweep table) as plain text."""
+    s = r.forces.summary()
+    print(f"{r.label} ({r.geometry.wall} edge, {r.geometry.method}): S {s['S']:g}, "
+          f"tissue {r.tissue}, R {s['R_J_m2']:g} J/m², μ_d {s['mu_d']}, G {s['G']:g}, "
+          f"θ {s['theta_deg']:.4f}°")
+    print(f"  mean F⊥ {s['mean_F_perp_N']:.5f} N  F∥ {s['mean_F_par_N']:.5f} N  "
+          f"axial {s['mean_F_axial_N']:.5f} N  tangential {s['mean_F_tangential_N']:.5f} N")
+    kmax = "inf" if math.isinf(s["k_max"]) else f"{s['k_max']:.4g}"
+    print(f"  max F⊥ {s['max_F_perp_N']:.5f} N at γ {s['gamma_of_max_F_perp_deg']:.2f}°; "
+          f"k {s['k_min']:.4g}…{kmax}")
+    if r.sweep is not None and with_sweep:
+        print("  S        mean_F_perp_N  mean_F_par_N  mean_F_axial_N  mean_F_tangential_N")
+        sw = r.sweep
+        for j in range(len(sw["S"])):
+            print(f"  {sw['S'][j]:<8.4g} {sw['perp'][j]:13.5f}  {sw['par'][j]:12.5f}  "
+                  f"{sw['axial'][j]:14.5f}  {sw['tangential'][j]:19.5f}")
+
+
+def _print_table_3_3(table: list[dict[str, Any]]) -> None:
+    """Table 3.3 beside the §3.1.5 model, as plain text."""
+    print("thesis Table 3.3 (axial force, helical vs bevel; measured at 23 mm, S/P = 0.25) "
+          "beside the §3.1.5 fracture model (one θ = 14.5°, R 45 J/m², μ_d 0.4, means "
+          "over γ):")
+    for row in table:
+        print(f"  S {row['S']:g}: measured {row['measured_delta_percent']:+.2f} %, model "
+              f"{row['model_delta_percent_thesis_G']:+.2f} % (helical G × 0.9), "
+              f"{row['model_delta_percent_same_G']:+.2f} % (same G)")
 
 
 def _fit_text(res: FitResult) -> list[str]:

@@ -587,6 +587,15 @@ class FemTolerances:
     #: An .frd output is at a step time within this (step times are fractions
     #: of 1; ccx prints them with about 6 significant digits).
     frd_time: float = 1.0e-6
+    #: A run reached an output depth when its last converged depth is within
+    #: this of it (mm; depths are step times × the depth, rounded).
+    depth_reached: float = 1.0e-9
+    #: Three mesh sizes halve alike (Richardson) when their two ratios agree to
+    #: this relative difference.
+    ratio_equal: float = 1.0e-9
+    #: Smallest span of a stress contour's colour scale on either side of 0
+    #: (kPa): a field without tension (or compression) still gets a scale.
+    contour_floor: float = 1.0e-9
 
 
 @dataclass

@@ -14,6 +14,7 @@ import numpy as np
 
 from ..atomic import write_atomic
 from ..plot import styled
+from ..tolerances import tol
 
 __all__ = ["plot_force_curves", "plot_stress_contour"]
 
@@ -82,10 +83,10 @@ def plot_stress_contour(xy: np.ndarray, tris: np.ndarray, s1: np.ndarray, path, 
     fig, ax = plt.subplots(figsize=(6.4, 5.6))
     kpa = s1 * 1e3
     lo, hi = float(np.min(kpa)), float(np.max(kpa))
-    hi = max(hi, 1e-9)
+    hi = max(hi, tol.fem.contour_floor)
     # the compression under the edge dwarfs the tension that matters: the
     # scale stops at −3× the largest tension (darker beyond)
-    lo_shown = min(max(lo, -3.0 * hi), -1e-9)
+    lo_shown = min(max(lo, -3.0 * hi), -tol.fem.contour_floor)
     norm = TwoSlopeNorm(vcenter=0.0, vmin=lo_shown, vmax=hi)
     levels = np.r_[np.linspace(lo_shown, 0.0, 13)[:-1], np.linspace(0.0, hi, 13)]
     cs = ax.tricontourf(Triangulation(xy[:, 0], xy[:, 1], tris), np.clip(kpa, lo_shown, hi),

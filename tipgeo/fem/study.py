@@ -230,7 +230,7 @@ def _stress_pictures(model: FemModel, frd, out: Path, stem: str,
 
     tissue = model.part_nodes("tissue")
     for d in model.output_depths:
-        if d > reached + 1e-9:         # the run stopped before it
+        if d > reached + tol.fem.depth_reached:  # the run stopped before it
             continue
         t = d / model.depth
         nid, u = frd.field_at("DISP", t)
@@ -367,8 +367,8 @@ def _finish(res: FemResult, frd, t: np.ndarray, f: np.ndarray, out: Path, stem: 
     res.depth = np.r_[0.0, t * model.depth]
     res.force = np.r_[0.0, -f[:, 1] * model.force_scale]
     if frd is not None:
-        pngs, res.stress = (_stress_pictures(model, frd, out, stem,
-                                             res.run.reached * model.depth + 1e-9)
+        reached = res.run.reached * model.depth + tol.fem.depth_reached
+        pngs, res.stress = (_stress_pictures(model, frd, out, stem, reached)
                             if pictures else ([], {}))
         res.files += pngs
     ana = analytical_force(model, res.depth)
@@ -515,7 +515,7 @@ def convergence_study(spec, *, model: str = "axisymmetric", depth: float,
     bar.close()
     ratios = meshes[0] / meshes[1], meshes[1] / meshes[2]
     rich = richardson(tuple(r["force_at_depth_N"] for r in rows), ratios[0]) \
-        if abs(ratios[0] - ratios[1]) <= 1e-9 * ratios[0] else {"order": None,
+        if abs(ratios[0] - ratios[1]) <= tol.fem.ratio_equal * ratios[0] else {"order": None,
                                                                  "extrapolated": None}
     # eq. 4.22 (the analytical column, β = 2.5) beside every mesh and the
     # Richardson limit: the gap a finer mesh would not close

@@ -88,6 +88,9 @@ class FrictionRegression:
         return np.hypot(np.polyval(self.axial, kk), np.polyval(self.rotational, kk))
 
 
+#: Table 4.2's k² coefficient of μ_da(k) (thesis, as printed).
+TABLE_4_2_AXIAL_K2 = 0.00087
+
 #: Friction regressions (thesis, coefficients as printed; k tested 0–4 in
 #: §2.5.1: k = 0, 0.25, 0.5, 1, 1.5, 2, 3, 4).
 FRICTION_PRESETS: dict[str, FrictionRegression] = {
@@ -99,7 +102,7 @@ FRICTION_PRESETS: dict[str, FrictionRegression] = {
     "table-4.2": FrictionRegression(
         name="table-4.2", source="thesis Table 4.2 (§4.4.3)",
         tissue="PVC of the FE models (S/P = 0, Table 4.1; harder than S/P = 0.5)",
-        axial=(0.00087, -0.0194, 0.328), rotational=(-0.03382, 0.2726, 0.1243),
+        axial=(TABLE_4_2_AXIAL_K2, -0.0194, 0.328), rotational=(-0.03382, 0.2726, 0.1243),
         r2=(0.823, 0.99), rmse=(0.018, 0.022)),
 }
 

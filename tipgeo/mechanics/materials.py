@@ -154,13 +154,19 @@ def _pvc(sp: str, E_kpa: float, ab, ab_fit, og, og_fit, src_tab: str, **kw) -> T
         **kw)
 
 
+#: Table A1's Ogden μ₃ for S/P = 0.25 (MPa, as printed).
+TABLE_A1_OGDEN_MU3 = 0.00053
+#: Table A3's Arruda–Boyce μ for S/P = 1 (MPa, as printed).
+TABLE_A3_AB_MU = 0.0008
+
 TISSUES: dict[str, Tissue] = {t.name: t for t in (
     _pvc("0", 32.96, ArrudaBoyce(mu=0.00418, lambda_m=1.15), (0.967, 0.0298),
          Ogden(mu=(-0.0255, 0.0088, 0.0249), alpha=(-3.91, 4.74, -4.09)), (0.9606, 0.0328),
          "Table 4.1", mu_d=0.4, friction=FRICTION_PRESETS["table-4.2"],
          sources={"mu_d": "§4.4.3 (k = 0.5)", "friction": "Table 4.2"}),
     _pvc("0.25", 20.30, ArrudaBoyce(mu=0.0238, lambda_m=2.024), (0.9776, 0.0206),
-         Ogden(mu=(-0.0136, 0.0143, 0.00053), alpha=(4.538, 4.658, -5.94)), (0.9647, 0.0206),
+         Ogden(mu=(-0.0136, 0.0143, TABLE_A1_OGDEN_MU3), alpha=(4.538, 4.658, -5.94)),
+         (0.9647, 0.0206),
          "Table A1 (μ 0.238 → 0.0238, ERRATA)", mu_d=0.28,
          sources={"mu_d": "Appendix B4 (*Friction)"}),
     _pvc("0.5", 12.9, ArrudaBoyce(mu=0.0058, lambda_m=1.35), (0.984, 0.0058),
@@ -171,7 +177,7 @@ TISSUES: dict[str, Tissue] = {t.name: t for t in (
                        "13.60 kPa, kept as E_characterised)",
                   "R": "Table 2.4", "eta": "Table 2.4", "friction": "Table 2.5",
                   "E_characterised": "Table 2.1"}),
-    _pvc("1", 4.88, ArrudaBoyce(mu=0.0008, lambda_m=1.198), (0.834, 0.018), None, None,
+    _pvc("1", 4.88, ArrudaBoyce(mu=TABLE_A3_AB_MU, lambda_m=1.198), (0.834, 0.018), None, None,
          "Table A3"),
     Tissue(name="soft-tissue-3.1.5",
            description="generic soft tissue of the helical-versus-bevel fracture model "

@@ -22,10 +22,11 @@ __all__ = ["register", "cmd_fem"]
 KPA_PER_MPA = 1e3
 
 
-def _um(name: str, x: float | None) -> float | None:
+def _um(name: str, x: float) -> float:
+    """An element size flag (µm, 1–1000) in mm."""
     from .. import validate as v
 
-    return None if x is None else v.real(name, x, lo=1.0, hi=1000.0, unit="µm") * 1e-3
+    return v.real(name, x, lo=1.0, hi=1000.0, unit="µm") * 1e-3
 
 
 #: The files ``fem`` writes in --out-dir (named after the spec): patterns.
@@ -33,7 +34,7 @@ FEM_FILES = ("*.inp", "*.frd", "*.dat", "*.sta", "*.cvg", "*.json", "*.csv", "*.
              "mesh_*um/*")
 
 
-def _fine_depth(args: argparse.Namespace) -> dict[str, float]:
+def _fine_depth(args: argparse.Namespace) -> dict[str, Any]:
     """``fine_depth`` (mm) for the model from ``--fine-depth-mm``: positive, at
     most 0.8 × the axisymmetric block's height; axisymmetric models only."""
     from .. import validate as v
@@ -82,7 +83,8 @@ def cmd_fem(args: argparse.Namespace) -> int:
     outs = tuple(v.real("--stress-at-mm", d, lo=0.0, hi=depth, lo_open=True, unit="mm")
                  for d in args.stress_at_mm) if args.stress_at_mm else None
     res = run_fem(spec, model=args.model, depth=depth, out_dir=args.out_dir,
-                  tissue=args.tissue, friction=friction, mesh=_um("--mesh-um", args.mesh_um),
+                  tissue=args.tissue, friction=friction,
+                  mesh=None if args.mesh_um is None else _um("--mesh-um", args.mesh_um),
                   deck_only=args.deck_only, abaqus=args.abaqus, time_limit_s=limit,
                   output_depths=outs, progress=say, pictures=not args.no_pictures,
                   **fine, **({} if args.cut == "none" else {"cut": args.cut}))
@@ -91,7 +93,9 @@ def cmd_fem(args: argparse.Namespace) -> int:
 
         from .report import write_html
 
-        res.files.append(Path(write_html(args, [spec, args.out_dir], say=False)))
+        html = write_html(args, [spec, args.out_dir], say=False)
+        if html is not None:
+            res.files.append(Path(html))
     d = res.to_dict()
     verdict = getattr(res, "verdict", None)
     status = verdict_status(verdict, args)

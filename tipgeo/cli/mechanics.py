@@ -25,7 +25,7 @@ if TYPE_CHECKING:
 __all__ = ["register", "cmd_forces", "cmd_tissue"]
 
 
-def _sweep(args):
+def _sweep(args: argparse.Namespace) -> FloatArray | None:
     import numpy as np
 
     from .. import validate as v
@@ -138,7 +138,7 @@ def _fit_text(res: FitResult) -> list[str]:
     return lines
 
 
-def cmd_tissue(args) -> int:
+def cmd_tissue(args: argparse.Namespace) -> int:
     """``tissue fit``, ``tissue list`` and ``tissue show``."""
     from ..errors import SpecError
     from ..mechanics.materials import TISSUES, tissue
@@ -183,7 +183,7 @@ def cmd_tissue(args) -> int:
     return 0
 
 
-def register(subparsers) -> None:
+def register(subparsers: Any) -> None:
     """Add ``forces`` and ``tissue`` to the main parser's subparsers."""
     from ..mechanics.fracture import DEFAULT_G
     from ..mechanics.models import tissue_model_names

@@ -22,6 +22,7 @@ from typing import Any
 
 import numpy as np
 
+from ..arrays import ArrayLike, FloatArray, IntArray
 from ..errors import SpecError
 from ..names import one_line
 from ..tolerances import tol
@@ -91,13 +92,13 @@ class ElementBlock:
 
     etype: str
     part: str
-    ids: np.ndarray
-    conn: np.ndarray
+    ids: IntArray
+    conn: IntArray
 
 
 def boundary_faces(blocks: list[ElementBlock]) -> list[tuple[int, int, tuple[int, ...]]]:
     """Faces used by one element only: (element id, face number 1…, node ids)."""
-    seen: dict[tuple[int, ...], list] = {}
+    seen: dict[tuple[int, ...], list[tuple[int, int, tuple[int, ...]]]] = {}
     for b in blocks:
         for f, loc in enumerate(FACE_NODES[b.etype], 1):
             nodes = b.conn[:, loc]
@@ -144,9 +145,9 @@ class FemModel:
 
     kind: str
     name: str
-    nodes: np.ndarray
+    nodes: FloatArray
     blocks: list[ElementBlock]
-    nsets: dict[str, np.ndarray]
+    nsets: dict[str, IntArray]
     fixed: dict[str, tuple[int, ...]]
     surfaces: dict[str, list[tuple[int, int]]]
     material: FemMaterial
@@ -159,8 +160,8 @@ class FemModel:
     contact: str = "surface"
     slave: str = "needle"
     info: dict[str, Any] = field(default_factory=dict)
-    stages: tuple[tuple[float, np.ndarray, str], ...] = ()
-    node_surfaces: dict[str, np.ndarray] = field(default_factory=dict)
+    stages: tuple[tuple[float, IntArray, str], ...] = ()
+    node_surfaces: dict[str, IntArray] = field(default_factory=dict)
 
     def public_info(self) -> dict[str, Any]:
         """``info`` without the geometry kept for pictures (keys starting
@@ -175,13 +176,13 @@ class FemModel:
     def n_elements(self) -> int:
         return int(sum(len(b.ids) for b in self.blocks))
 
-    def part_nodes(self, part: str) -> np.ndarray:
+    def part_nodes(self, part: str) -> IntArray:
         """Node numbers (1-based, sorted) of ``part``."""
         return np.unique(np.concatenate([b.conn.ravel() for b in self.blocks
                                          if b.part == part]))
 
     # ----------------------------------------------------------------- decks
-    def _node_lines(self, ids: np.ndarray | None = None) -> str:
+    def _node_lines(self, ids: IntArray | None = None) -> str:
         ids = np.arange(1, len(self.nodes) + 1) if ids is None else ids
         xyz = self.nodes[ids - 1]
         if self.dim == 2:
@@ -191,9 +192,10 @@ class FemModel:
                        zip(ids.tolist(), xyz.tolist()))
 
     @staticmethod
-    def _id_lines(ids) -> str:
-        ids = np.asarray(ids).tolist()
-        return "".join(", ".join(map(str, ids[i:i + 16])) + "\n" for i in range(0, len(ids), 16))
+    def _id_lines(ids: ArrayLike) -> str:
+        rows = np.asarray(ids).tolist()
+        return "".join(", ".join(map(str, rows[i:i + 16])) + "\n"
+                       for i in range(0, len(rows), 16))
 
     def _surface(self, name: str, prefix: str = "") -> str:
         by_face: dict[int, list[int]] = {}
@@ -307,7 +309,8 @@ class FemModel:
     def _erosion_steps(self, masters: list[str]) -> str:
         """The steps of an erosion model (see ``stages``): step times add up
         to 1 at ``depth``, so total time × depth is the needle's depth."""
-        o, prev_d, prev_m = [], 0.0, None
+        o: list[str] = []
+        prev_d, prev_m = 0.0, ""
         outs = {round(d, 9) for d in self.output_depths} | {round(self.depth, 9)}
         for k, (d, removed, master) in enumerate(self.stages):
             period = (d - prev_d) / self.depth

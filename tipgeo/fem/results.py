@@ -15,7 +15,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ..arrays import FloatArray, IntArray
+from ..arrays import ArrayLike, FloatArray, IntArray
 from ..errors import FemError
 from ..tolerances import tol
 
@@ -24,7 +24,7 @@ __all__ = ["read_dat_totals", "read_frd", "FrdResults", "FrdStep", "max_principa
 _TOTAL = re.compile(r"total force \(fx,fy,fz\) for set (\S+) and time\s+(\S+)")
 
 
-def read_dat_totals(path: str | Path, nset: str = "NEEDLE") -> tuple[np.ndarray, np.ndarray]:
+def read_dat_totals(path: str | Path, nset: str = "NEEDLE") -> tuple[FloatArray, FloatArray]:
     """Step times ``(k,)`` and total reaction forces ``(k, 3)`` (N, model
     frame) of node set ``nset`` from a CalculiX ``.dat`` file (``*NODE PRINT,
     TOTALS=ONLY``)."""
@@ -55,7 +55,7 @@ class FrdStep:
     ``STRESS``, …), each ``(node numbers (k,), values (k, m))``."""
 
     time: float
-    fields: dict[str, tuple[np.ndarray, np.ndarray]] = field(default_factory=dict)
+    fields: dict[str, tuple[IntArray, FloatArray]] = field(default_factory=dict)
 
 
 @dataclass
@@ -69,8 +69,8 @@ class FrdResults:
     steps : list of FrdStep
     """
 
-    node_ids: np.ndarray
-    nodes: np.ndarray
+    node_ids: IntArray
+    nodes: FloatArray
     elements: dict[int, list[int]]
     steps: list[FrdStep]
 
@@ -183,7 +183,7 @@ def read_frd(path: str | Path) -> FrdResults:
                       elements, steps)
 
 
-def max_principal(s: np.ndarray) -> np.ndarray:
+def max_principal(s: ArrayLike) -> FloatArray:
     """Largest principal value of stresses ``(k, 6)`` in CalculiX order (xx,
     yy, zz, xy, yz, zx), MPa."""
     s = np.asarray(s, dtype=float)
@@ -192,4 +192,4 @@ def max_principal(s: np.ndarray) -> np.ndarray:
     m[:, 0, 1] = m[:, 1, 0] = s[:, 3]
     m[:, 1, 2] = m[:, 2, 1] = s[:, 4]
     m[:, 0, 2] = m[:, 2, 0] = s[:, 5]
-    return np.linalg.eigvalsh(m)[:, -1]
+    return np.asarray(np.linalg.eigvalsh(m)[:, -1], dtype=np.float64)

@@ -89,7 +89,7 @@ def read_sta(path: str | Path) -> list[tuple[int, int, int, bool, int, float, fl
     """Rows of a ``.sta`` file: (step, increment, attempt, converged,
     iterations, total time, step time, increment)."""
     p = Path(path)
-    rows = []
+    rows: list[tuple[int, int, int, bool, int, float, float, float]] = []
     if not p.is_file():
         return rows
     for line in p.read_text(errors="replace").splitlines():

@@ -78,7 +78,7 @@ def mirror_planes(tip: Tip, tolerance: float | None = None) -> tuple[bool, bool]
     return out[0], out[1]
 
 
-def _clip_front(tip: Tip, z_cut: float) -> tuple[np.ndarray, np.ndarray]:
+def _clip_front(tip: Tip, z_cut: float) -> tuple[FloatArray, IntArray]:
     """The tip's solid above z = z_cut as a closed triangle mesh (vertices
     (n, 3), faces (m, 3)), cannula frame, mm."""
     import manifold3d as m3d
@@ -99,7 +99,7 @@ def _clip_front(tip: Tip, z_cut: float) -> tuple[np.ndarray, np.ndarray]:
     return v_, f_
 
 
-def _needle_tets(gmsh, verts: np.ndarray, faces: np.ndarray, h: float) -> None:
+def _needle_tets(gmsh: Any, verts: FloatArray, faces: IntArray, h: float) -> None:
     """Add the closed surface (model frame) as a discrete volume and mesh it
     with tetrahedra (the surface mesh kept)."""
     s = gmsh.model.addDiscreteEntity(2)
@@ -160,6 +160,7 @@ def indentation_model(tip: Tip, *, depth: float, tissue: str = "pvc-sp0",
     sym_axis = 2 if g.sy else 0 if g.sx else None
     scale = (2.0 if g.sx else 1.0) * (2.0 if g.sy else 1.0)
     r_in, r_out = g.r_in, g.r_out
+    name = tip.spec.name if tip.spec else "imported"
     info = {"element_size_um": round(g.h * UM_PER_MM, 6),
             "element_size_far_um": round(g.far * UM_PER_MM, 6),
             "layers": len(g.layers), "nodes": len(allnodes),
@@ -167,13 +168,13 @@ def indentation_model(tip: Tip, *, depth: float, tissue: str = "pvc-sp0",
             "needle_elements": int(sum(len(b.ids) for b in nb)),
             "symmetry": ("x " if g.sx else "") + ("y" if g.sy else "") or "none",
             "block_mm": [g.R, g.H], "edge_r_mm": [r_in, r_out],
-            "tip": tip.spec.name if tip.spec else "imported", "tissue": mat.name,
+            "tip": name, "tissue": mat.name,
             "material": mat.model, "material_source": mat.source,
             "inner_diameter_mm": 2 * r_in, "contact": contact, "nu": nu, "friction": mu,
             "friction_source": mu_src,
             "_symmetry_tris": _symmetry_tris(allnodes, tb, sym_axis, eps),
             "symmetry_plane": None if sym_axis is None else "XYZ"[sym_axis]}
-    return FemModel(kind="3d", name=info["tip"], nodes=allnodes, blocks=blocks, nsets=nsets,
+    return FemModel(kind="3d", name=name, nodes=allnodes, blocks=blocks, nsets=nsets,
                     fixed=fixed, surfaces=surfaces, material=mat,
                     friction=mu, depth=g.depth,
                     penalty=contact_penalty(penalty_factor, mat.E0, g.h, contact_stiffness),
@@ -225,7 +226,7 @@ def _geometry(tip: Tip, *, depth: float, mesh: float, block: tuple[float, float]
 def _layers(H: float, fine: float, h: float, far: float) -> tuple[float, ...]:
     """Layer thicknesses (mm): h down to below ``fine``, then growing by 1.5
     up to ``far``, to the block height H."""
-    t, layers = 0.0, []
+    t, layers = 0.0, list[float]()
     while t < H - tol.fem.layer_end:
         dz = h if t < fine else min(far, 1.5 * layers[-1])
         dz = min(dz, H - t)
@@ -307,7 +308,7 @@ def _mesh_block(g: _Geometry, hexahedron: str
         tags, xyz, _ = gmsh.model.mesh.getNodes()
         tags = np.asarray(tags, dtype=np.int64)
         xyz = np.asarray(xyz).reshape(-1, 3)
-        tissue_conn = {}
+        tissue_conn: dict[str, IntArray] = {}
         for et, _, nodes in zip(*gmsh.model.mesh.getElements(3)):
             name, k = _GMSH_3D.get(int(et), (None, 0))
             if name is None:
@@ -335,7 +336,7 @@ def _mesh_needle(g: _Geometry, nv: FloatArray, ff: IntArray
         ntags, nxyz, _ = gmsh.model.mesh.getNodes()
         ntags = np.asarray(ntags, dtype=np.int64)
         nxyz = np.asarray(nxyz).reshape(-1, 3)
-        needle_conn = {}
+        needle_conn: dict[str, IntArray] = {}
         for et, _, nodes in zip(*gmsh.model.mesh.getElements(3)):
             if int(et) != 4:
                 raise FemError(f"gmsh made needle elements of type {et}; expected tetrahedra")
@@ -439,17 +440,18 @@ def _symmetry_tris(allnodes: FloatArray, tb: list[ElementBlock], sym_axis: int |
     return sym_tris
 
 
-def _signed_volumes(P: np.ndarray, etype: str) -> np.ndarray:
+def _signed_volumes(P: FloatArray, etype: str) -> FloatArray:
     if etype == "C3D4":
         a, b, c, d = P[:, 0], P[:, 1], P[:, 2], P[:, 3]
     elif etype == "C3D6":
         a, b, c, d = P[:, 0], P[:, 1], P[:, 2], P[:, 3]
     else:
         a, b, c, d = P[:, 0], P[:, 1], P[:, 3], P[:, 4]
-    return np.einsum("ij,ij->i", b - a, np.cross(c - a, d - a))
+    vol: FloatArray = np.einsum("ij,ij->i", b - a, np.cross(c - a, d - a))
+    return vol
 
 
-def _fix_orientation(nodes: np.ndarray, blocks: list[ElementBlock]) -> None:
+def _fix_orientation(nodes: FloatArray, blocks: list[ElementBlock]) -> None:
     """Renumber elements with a negative volume (mirror their node order)."""
     flip = {"C3D4": [0, 2, 1, 3], "C3D6": [0, 2, 1, 3, 5, 4],
             "C3D8": [0, 3, 2, 1, 4, 7, 6, 5], "C3D8I": [0, 3, 2, 1, 4, 7, 6, 5]}

@@ -42,6 +42,7 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 from typing import Any
 
+from ..arrays import ArrayLike, FloatArray
 from ..errors import SpecError
 from ._common import J_PER_M2, KPA
 from .cutting import FRICTION_PRESETS, FrictionRegression
@@ -87,7 +88,7 @@ class Tissue:
     E_characterised: float | None = None
     models: dict[str, TissueModel] = field(default_factory=dict, hash=False)
 
-    def __post_init__(self):
+    def __post_init__(self) -> None:
         from ..names import check_name
 
         check_name("tissue name", self.name)  # it reaches decks, file names and reports
@@ -122,25 +123,29 @@ class Tissue:
             **({} if self.E_characterised is None else
                {"E_characterised_kPa": self.E_characterised / KPA})}
 
-    def cutting_forces(self, k, x, *, r_i: float, r_o: float, theta: float) -> dict:
+    def cutting_forces(self, k: ArrayLike, x: ArrayLike, *, r_i: float, r_o: float,
+                       theta: float) -> dict[str, FloatArray]:
         """Eq. 2.16–2.27 with this tissue's own set: R, E, η and the
         friction regression μ_da(k), μ_dr(k) (for ``pvc-sp0.5``: Table 2.4
         with Table 2.5). k ≥ 0; x, r_i, r_o in mm; θ in rad; forces in N
         (see :func:`tipgeo.mechanics.cutting.cutting_forces`)."""
         from .cutting import cutting_forces
 
-        missing = [n for n, val in (("R", self.R), ("E", self.E), ("eta", self.eta),
-                                     ("friction", self.friction)) if val is None]
-        if missing:
+        R, E, eta, friction = self.R, self.E, self.eta, self.friction
+        if R is None or E is None or eta is None or friction is None:
+            missing = [n for n, val in (("R", R), ("E", E), ("eta", eta),
+                                         ("friction", friction)) if val is None]
             raise SpecError(f"tissue '{self.name}' lacks {', '.join(missing)} for the "
                             "cutting-force model (eq. 2.16–2.27); tissues with the full set: "
                             + ", ".join(t.name for t in TISSUES.values()
                                         if None not in (t.R, t.E, t.eta, t.friction)))
-        return cutting_forces(k, x, R=self.R, r_i=r_i, r_o=r_o, theta=theta, E=self.E,
-                              friction=self.friction, eta=self.eta)
+        return cutting_forces(k, x, R=R, r_i=r_i, r_o=r_o, theta=theta, E=E,
+                              friction=friction, eta=eta)
 
 
-def _pvc(sp: str, E_kpa: float, ab, ab_fit, og, og_fit, src_tab: str, **kw) -> Tissue:
+def _pvc(sp: str, E_kpa: float, ab: ArrudaBoyce, ab_fit: tuple[float, float],
+         og: Ogden | None, og_fit: tuple[float, float] | None, src_tab: str,
+         **kw: Any) -> Tissue:
     srcs = kw.pop("sources", {})
     return Tissue(
         name=f"pvc-sp{sp}",

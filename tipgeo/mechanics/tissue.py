@@ -56,12 +56,15 @@ __all__ = ["MAX_TISSUE_DATA_BYTES", "MAX_TISSUE_ROWS", "NeoHookean", "ArrudaBoyc
 AB_C = (1 / 2, 1 / 20, 11 / 1050, 19 / 7000, 519 / 673750)
 
 
-def _ab_series(x) -> np.ndarray:
+def _ab_series(x: FloatArray) -> FloatArray:
     """Σᵢ i Cᵢ x^(i−1) with x = I₁ / λ_m² (so that ∂U/∂I₁ = μ · this)."""
-    return sum((i + 1) * c * x ** i for i, c in enumerate(AB_C))
+    out = np.zeros_like(x)
+    for i, c in enumerate(AB_C):
+        out = out + (i + 1) * c * x ** i
+    return out
 
 
-def _stretch(stretch) -> np.ndarray:
+def _stretch(stretch: ArrayLike) -> FloatArray:
     return finite_array("stretch", stretch, lo=0.0, lo_open=True)
 
 
@@ -298,7 +301,8 @@ def make_model(name: str, params: dict[str, Any]) -> TissueModel:
 
 
 # -----------------------------------------------------------------------------
-def true_from_engineering(strain, stress) -> tuple[np.ndarray, np.ndarray]:
+def true_from_engineering(strain: ArrayLike, stress: ArrayLike
+                          ) -> tuple[FloatArray, FloatArray]:
     """Stretch and true (Cauchy) stress from engineering strain and stress
     (eq. 4.2–4.3): λ = 1 + e, σ = P (1 + e). Strain > −1; stress in MPa."""
     e = finite_array("strain", strain, lo=-1.0, lo_open=True)
@@ -309,7 +313,8 @@ def true_from_engineering(strain, stress) -> tuple[np.ndarray, np.ndarray]:
     return 1.0 + e, p * (1.0 + e)
 
 
-def engineering_from_true(stretch, stress) -> tuple[np.ndarray, np.ndarray]:
+def engineering_from_true(stretch: ArrayLike, stress: ArrayLike
+                          ) -> tuple[FloatArray, FloatArray]:
     """Engineering strain and stress from stretch and true stress (inverse of
     eq. 4.2–4.3): e = λ − 1, P = σ / λ."""
     lam = _stretch(stretch)
@@ -340,8 +345,8 @@ class FitResult:
     rmse: float
     n: int
     stderr: dict[str, Any]
-    stretch: np.ndarray = field(repr=False)
-    stress: np.ndarray = field(repr=False)
+    stretch: FloatArray = field(repr=False)
+    stress: FloatArray = field(repr=False)
 
     def summary(self) -> dict[str, Any]:
         """Model, parameters, R², RMSE (MPa), μ₀ and E₀ = 3μ₀ (kPa)."""
@@ -353,45 +358,48 @@ class FitResult:
                 "stretch_range": [float(self.stretch.min()), float(self.stretch.max())]}
 
 
-def _quality(pred, s):
+def _quality(pred: FloatArray, s: FloatArray) -> tuple[float, float]:
     res = s - pred
     ss_res = float(res @ res)
     ss_tot = float(((s - s.mean()) ** 2).sum())
     return (1.0 - ss_res / ss_tot if ss_tot > 0 else math.nan), math.sqrt(ss_res / len(s))
 
 
-def _stderr(jac, res, n_par) -> np.ndarray:
+def _stderr(jac: FloatArray, res: FloatArray, n_par: int) -> FloatArray:
     dof = max(len(res) - n_par, 1)
     s2 = float(res @ res) / dof
     try:
         cov = np.linalg.inv(jac.T @ jac) * s2
-        return np.sqrt(np.clip(np.diag(cov), 0.0, None))
+        se: FloatArray = np.sqrt(np.clip(np.diag(cov), 0.0, None))
+        return se
     except np.linalg.LinAlgError:
         return np.full(n_par, np.inf)
 
 
-def _fit_ab(lam, s):
+def _fit_ab(lam: FloatArray, s: FloatArray) -> tuple[ArrudaBoyce, dict[str, Any]]:
     from scipy.optimize import least_squares
 
     I1 = lam ** 2 + 2.0 / lam
     shape = 2.0 * (lam ** 2 - 1.0 / lam)
 
-    def basis(beta):
+    def basis(beta: float) -> FloatArray:
         return shape * _ab_series(beta * I1)
 
     # σ is linear in μ: scan β = 1/λ_m² with μ solved exactly, then polish.
-    best = None
+    best: tuple[float, float, float] | None = None
     for beta in np.linspace(0.0, 0.98, 50):
         b = basis(beta)
         mu = max(float(b @ s) / float(b @ b), tol.fit_zero)
         r = s - mu * b
         if best is None or r @ r < best[0]:
-            best = (float(r @ r), mu, beta)
+            best = (float(r @ r), mu, float(beta))
+    assert best is not None  # fifty candidates were tried
     _, mu0, beta0 = best
     scale = max(mu0, tol.fit_zero)
 
-    def resid(p):
-        return basis(p[1]) * p[0] * scale - s
+    def resid(p: FloatArray) -> FloatArray:
+        out: FloatArray = basis(float(p[1])) * p[0] * scale - s
+        return out
 
     sol = least_squares(resid, [1.0, beta0], bounds=([tol.fit_zero, 0.0], [np.inf, 1.0 - tol.rel]),
                         x_scale=[1.0, 0.1], xtol=tol.fit_converge, ftol=tol.fit_converge,
@@ -405,7 +413,7 @@ def _fit_ab(lam, s):
     return ArrudaBoyce(mu=mu, lambda_m=lam_m), {"mu_MPa": se_mu, "lambda_m": se_lm}
 
 
-def _fit_nh(lam, s):
+def _fit_nh(lam: FloatArray, s: FloatArray) -> tuple[NeoHookean, dict[str, Any]]:
     b = lam ** 2 - 1.0 / lam
     mu = float(b @ s) / float(b @ b)
     if mu <= 0:
@@ -424,24 +432,24 @@ _ALPHA_BOUND = 30.0
 _ALPHA_GAP = 0.1
 
 
-def _alphas(q: np.ndarray) -> np.ndarray:
+def _alphas(q: FloatArray) -> FloatArray:
     """Sorted exponents from (α₁, gap₂, …, gap_N)."""
     return np.cumsum(q)
 
 
-def _fit_ogden(lam, s, n):
+def _fit_ogden(lam: FloatArray, s: FloatArray, n: int) -> tuple[Ogden, dict[str, Any]]:
     from scipy.optimize import least_squares
 
-    def design(al):
+    def design(al: FloatArray) -> FloatArray:
         return np.stack([_ogden_basis(lam, a) for a in al], 1)
 
-    def vp_resid(q):
+    def vp_resid(q: FloatArray) -> FloatArray:
         A = design(_alphas(q))
         return A @ np.linalg.lstsq(A, s, rcond=None)[0] - s
 
     lo = np.r_[-_ALPHA_BOUND, np.full(n - 1, _ALPHA_GAP)]
     hi = np.r_[_ALPHA_BOUND, np.full(n - 1, 2 * _ALPHA_BOUND)]
-    best = None
+    best: tuple[float, FloatArray] | None = None
     for start in itertools.combinations(_ALPHA_STARTS, n):
         q0 = np.r_[start[0], np.diff(start)]
         sol = least_squares(vp_resid, q0, bounds=(lo, hi), xtol=tol.fit_start, ftol=tol.fit_start,
@@ -449,11 +457,12 @@ def _fit_ogden(lam, s, n):
         cost = float(sol.fun @ sol.fun)
         if best is None or cost < best[0]:
             best = (cost, sol.x)
+    assert best is not None  # at least one combination of starts was tried
     q = best[1]
     mu = np.linalg.lstsq(design(_alphas(q)), s, rcond=None)[0]
     scale = max(float(np.abs(mu).max()), tol.fit_zero)
 
-    def resid(p):
+    def resid(p: FloatArray) -> FloatArray:
         return design(_alphas(p[n:])) @ (p[:n] * scale) - s
 
     sol = least_squares(resid, np.r_[mu / scale, q],
@@ -474,7 +483,8 @@ def _fit_ogden(lam, s, n):
     return model, {"mu_MPa": se_mu.tolist(), "alpha": se_al.tolist()}
 
 
-def fit_uniaxial(stretch, stress, model: str = "arruda-boyce", *, terms: int = 3) -> FitResult:
+def fit_uniaxial(stretch: ArrayLike, stress: ArrayLike, model: str = "arruda-boyce", *,
+                 terms: int = 3) -> FitResult:
     """Fit a hyperelastic model to uniaxial true stress against stretch.
 
     Parameters
@@ -520,7 +530,7 @@ def fit_uniaxial(stretch, stress, model: str = "arruda-boyce", *, terms: int = 3
                      stretch=lam, stress=s)
 
 
-def fit_engineering(strain, stress, model: str = "arruda-boyce", *,
+def fit_engineering(strain: ArrayLike, stress: ArrayLike, model: str = "arruda-boyce", *,
                     terms: int = 3) -> FitResult:
     """:func:`fit_uniaxial` from engineering strain and stress (MPa),
     converted with eq. 4.2–4.3."""
@@ -528,8 +538,8 @@ def fit_engineering(strain, stress, model: str = "arruda-boyce", *,
     return fit_uniaxial(lam, s, model, terms=terms)
 
 
-def synthetic_uniaxial(model, stretch, *, noise: float = 0.0,
-                       seed: int = 0) -> tuple[np.ndarray, np.ndarray]:
+def synthetic_uniaxial(model: TissueModel, stretch: ArrayLike, *, noise: float = 0.0,
+                       seed: int = 0) -> tuple[FloatArray, FloatArray]:
     """Uniaxial true stress of ``model`` at ``stretch`` plus Gaussian noise.
 
     Parameters
@@ -562,7 +572,7 @@ _COLS = {"strain": ("strain", 1.0), "stretch": ("stretch", 1.0),
          "true_stress_mpa": ("true_stress", 1.0), "true_stress_kpa": ("true_stress", KPA)}
 
 
-def read_uniaxial_csv(path) -> tuple[np.ndarray, np.ndarray, dict[str, Any]]:
+def read_uniaxial_csv(path: str | Path) -> tuple[FloatArray, FloatArray, dict[str, Any]]:
     """Read uniaxial test data from CSV (``#`` starts a comment line).
 
     The header names the columns: engineering data as ``strain`` with
@@ -623,7 +633,8 @@ def read_uniaxial_csv(path) -> tuple[np.ndarray, np.ndarray, dict[str, Any]]:
     return lam, sig, info
 
 
-def uniaxial_csv_text(strain, stress, *, comments: list[str] | None = None) -> str:
+def uniaxial_csv_text(strain: ArrayLike, stress: ArrayLike, *,
+                      comments: list[str] | None = None) -> str:
     """CSV text with columns ``strain,stress_mpa`` (engineering), fixed
     decimals, optional ``#`` comment lines first."""
     e = finite_array("strain", strain, lo=-1.0, lo_open=True).reshape(-1)

@@ -19,6 +19,10 @@ Initial shear modulus μ₀ (small-strain Young's modulus E₀ = 3μ₀):
 Arruda–Boyce μ₀ = μ (1 + 3/(5λ_m²) + 99/(175λ_m⁴) + 513/(875λ_m⁶)
 + 42039/(67375λ_m⁸)) (= 2 ∂U/∂I₁ at I₁ = 3); Ogden μ₀ = Σ μᵢ.
 
+Each model is a :class:`~tipgeo.mechanics.models.TissueModel`, registered by
+its name (:data:`~tipgeo.mechanics.models.TISSUE_MODELS`): the fits, the CLI,
+the pictures and the FEM decks find it there, and a new model is one class.
+
 Data: engineering stress P and strain e become true stress and stretch by
 σ = P (1 + e), λ = 1 + e (eq. 4.2–4.3); fits minimise the true-stress
 residuals (MPa), as Fig. 4.4 plots them, and report R² and RMSE.

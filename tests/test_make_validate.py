@@ -10,12 +10,14 @@ import json
 import os
 import sys
 from pathlib import Path
+from typing import Any
 
 import pytest
 
 from cam import CamError
 from cam.mill import EndMill, MillMachine
 from cam.mill.check import check_program
+from tipgeo import Tip, TipSpec
 from tipgeo.cli import main
 from tipgeo.tolerances import tol
 
@@ -116,7 +118,7 @@ def test_grind_outside_its_targets_writes_nothing(out_dir, capsys, monkeypatch):
 
     real = cp.compare_with_cad
 
-    def off(ground, spec, **kw):                              # noqa: ANN001, ANN202
+    def off(ground: Tip, spec: TipSpec, **kw: Any) -> dict[str, Any]:
         c = real(ground, spec, **kw)
         return {**c, "hausdorff_mm": c["hausdorff_mm"] + 1.0}
 

@@ -434,6 +434,39 @@ class CamTolerances:
         as deep; Z rounded up to the axis grid never gouges, so 1 µm is the
         planner's own bound (measured: 0 on the shipped tips at 2 µm, 0.54 µm
         on the helical tip with a 0.1 µm axis grid, which rounds up less).
+    mill_grid : float
+        A value within this many axis-resolution steps of a grid point counts
+        as on it when rounding to the axis grid (dimensionless; the round-off
+        of a coordinate divided by the resolution, so Z rounded up to the
+        grid does not step up a whole resolution for an ulp above it).
+    mill_travel : float
+        A programmed point (plus the work offset) may exceed a milling
+        machine's travel by this round-off (mm).
+    mill_ball : float
+        A ball mill's corner radius equals D/2 within this (mm).
+    mill_level : float
+        Roughing: a column is cut at a level only where its allowance surface
+        lies more than this (mm) below the previous level (round-off).
+    mill_inside : float
+        The simulator samples an edge this far (mm) inside the wall, so the
+        point is on the cut face and not on the wall's cylinder.
+    mill_sin_floor : float
+        Smallest |sin β| (β between the rim and the passes) the fitting
+        windows divide by: where the rim runs along a pass the scallop period
+        is infinite and the window its largest (dimensionless).
+    mill_reach : float
+        The simulator's reach beyond the farthest column asked for (mm), so
+        the column on the boundary is inside the tiles.
+    mill_word_integer : float
+        A G-code G word within this of an integer is that G code (G1.0 is
+        G01; G1.5 is refused).
+    dexel_horizontal : float
+        A move whose direction has 1 − u_z² at most this is vertical for the
+        ball's capsule (its cylinder has no lower root: the end spheres give
+        the lowest point; dimensionless).
+    dexel_vertical : float
+        A move whose horizontal length is at most this (mm) is vertical for
+        the bull-nose and flat kernels (the tool plunges on one column).
     """
 
     axial: float = 1.0e-9
@@ -449,6 +482,26 @@ class CamTolerances:
     mill_ridge_margin: float = 0.1
     mill_scallop_share: float = 0.95
     mill_gouge: float = 1.0e-3
+    #: round-off (resolution steps) of a coordinate / resolution before rounding to the grid
+    mill_grid: float = 1.0e-9
+    #: round-off (mm) of a programmed point plus the work offset against a travel end
+    mill_travel: float = 1.0e-9
+    #: round-off (mm) of a ball mill's corner radius against D/2
+    mill_ball: float = 1.0e-12
+    #: round-off (mm) of the allowance surface against the previous roughing level
+    mill_level: float = 1.0e-9
+    #: offset (mm) into the wall that puts an edge sample on the cut face, not the cylinder
+    mill_inside: float = 1.0e-9
+    #: |sin β| floor: a rim along a pass has an infinite scallop period (window capped)
+    mill_sin_floor: float = 1.0e-9
+    #: margin (mm) that keeps the farthest column asked for inside the simulator's tiles
+    mill_reach: float = 1.0e-6
+    #: a G word this close to an integer is that G code (text → float round-off)
+    mill_word_integer: float = 1.0e-9
+    #: 1 − u_z² of a move at most this: vertical for the capsule (no cylinder root)
+    dexel_horizontal: float = 1.0e-14
+    #: horizontal length (mm) at most this: a plunge on one column (bull nose, flat end)
+    dexel_vertical: float = 1.0e-12
 
 
 @dataclass

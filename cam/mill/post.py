@@ -16,11 +16,17 @@ dialect; ASCII only; every comment through the one comment writer
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
+from typing import TYPE_CHECKING
 
 from gcode.dialects import DIALECTS, HAAS, Dialect, number_lines
 from gcode.dialects import comment as _comment
+from tipgeo.arrays import FloatArray
 
 from ..machine import CamError
+
+if TYPE_CHECKING:
+    from .toolpath import MillToolpath
 
 __all__ = ["Post", "POSTS", "HAAS", "post_program", "comment", "DECIMALS"]
 
@@ -48,7 +54,7 @@ def comment(post: Dialect | str, text: str) -> str:
     return _comment(post, text)
 
 
-def post_program(toolpath, post: Post | str | None = None) -> str:
+def post_program(toolpath: MillToolpath, post: Post | str | None = None) -> str:
     """The G-code of a :class:`~cam.mill.toolpath.MillToolpath` (program
     frame, mm, feeds mm/min)."""
     if isinstance(post, str) or post is None:
@@ -81,10 +87,10 @@ def post_program(toolpath, post: Post | str | None = None) -> str:
     if prm.coolant:
         out.append(post.coolant_on)
     rapid_in_offset = post.length_offset.split()[0] == post.rapid
-    state = {"X": None, "Y": None, "Z": _number("Z", st.z_safe), "F": None,
+    state: dict[str, str | None] = {"X": None, "Y": None, "Z": _number("Z", st.z_safe), "F": None,
              "G": post.rapid if rapid_in_offset else None}
 
-    def move(g: str, p, f=None):
+    def move(g: str, p: Sequence[float] | FloatArray, f: float | None = None) -> None:
         words = []
         for k, val in zip("XYZ", p):
             w = _number(k, val)

@@ -368,6 +368,12 @@ class GCodeTolerances:
         beam's edge on the contour cuts within it (tipgeo's own programs: 0.05
         µm); a program whose lead-in drifts by a pass step or more (Appendix C
         as printed) does not.
+    sample_chordal : float
+        Default chordal tolerance when a move is sampled into points
+        (:meth:`gcode.Segment.points`, mm): 0.1 µm, far below the 20 µm beam.
+    plot_chordal : float
+        Chordal tolerance of the toolpath picture
+        (:func:`gcode.plots.plot_toolpath`, mm): 0.2 µm, finer than a pixel.
     """
 
     arc: float = 1.0e-6
@@ -380,6 +386,10 @@ class GCodeTolerances:
     whole: float = 1.0e-9
     half_floor: float = 1.0e-6
     laser_band: float = 1.0e-3
+    #: sampling a move into points: 0.1 µm, far below the 20 µm beam
+    sample_chordal: float = 1.0e-4
+    #: the toolpath picture: 0.2 µm, finer than a pixel
+    plot_chordal: float = 2.0e-4
 
 
 @dataclass

@@ -189,3 +189,56 @@ def test_dialect_registration_refuses_bad_rows():
         register_dialect(Dialect(name="odd", family="heidenhain"))
     with pytest.raises(ValueError, match="max_block"):
         register_dialect(Dialect(name="odd", max_block=3))
+
+
+# ---------------------------------------------------------------------------
+# a CLI command
+# ---------------------------------------------------------------------------
+
+TOY_COMMAND = '''"""``tipgeo toy-gauge``: the outer diameter of a needle gauge (a toy command)."""
+
+from tipgeo.cannula import Cannula
+from tipgeo.errors import InputError
+from tipgeo.jsonio import dumps
+
+
+def cmd_toy_gauge(args):
+    if not 10 <= args.gauge <= 34:
+        raise InputError(f"--gauge {args.gauge} is outside 10..34")
+    d_um = 2e3 * Cannula.from_gauge(args.gauge).r_o
+    print(dumps({"gauge": args.gauge, "outer_diameter_um": d_um}) if args.json
+          else f"outer diameter {d_um:.1f} um")
+    return 0
+
+
+def register(sub):
+    p = sub.add_parser("toy-gauge", help="outer diameter of a needle gauge")
+    p.add_argument("--gauge", type=int, required=True)
+    p.set_defaults(func=cmd_toy_gauge)
+'''
+
+
+def test_toy_cli_command_is_one_module(tmp_path, monkeypatch, capsys):
+    """A module with ``register(subparsers)`` dropped into the ``tipgeo.cli``
+    package (here: a folder added to the package's path) is a command: it
+    parses, gets the common flags (``--json``), and its errors map to the
+    exit codes (2: bad input) — no table edited."""
+    import json
+    import sys
+
+    import tipgeo.cli as cli
+
+    (tmp_path / "toygauge.py").write_text(TOY_COMMAND)
+    monkeypatch.setattr(cli, "__path__", [*cli.__path__, str(tmp_path)])
+    monkeypatch.delitem(sys.modules, "tipgeo.cli.toygauge", raising=False)
+    try:
+        assert cli.extra_stages() == ("toygauge",)
+        sub = next(a for a in cli.build_parser()._actions if a.dest == "command")
+        assert "toy-gauge" in sub.choices and "build" in sub.choices
+        assert cli.main(["toy-gauge", "--gauge", "14", "--json"]) == 0
+        out = json.loads(capsys.readouterr().out)
+        assert out["outer_diameter_um"] == pytest.approx(2e3 * C14.r_o, rel=1e-12)
+        assert cli.main(["toy-gauge", "--gauge", "99"]) == 2
+        assert "--gauge 99 is outside 10..34" in capsys.readouterr().err
+    finally:
+        sys.modules.pop("tipgeo.cli.toygauge", None)

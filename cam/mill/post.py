@@ -16,7 +16,7 @@ dialect; ASCII only; every comment through the one comment writer
 from __future__ import annotations
 
 import math
-from collections.abc import Sequence
+from collections.abc import Iterator, Mapping, Sequence
 from typing import TYPE_CHECKING
 
 from gcode.dialects import DIALECTS, HAAS, Dialect, number_lines
@@ -33,8 +33,27 @@ __all__ = ["Post", "POSTS", "HAAS", "post_program", "comment", "DECIMALS"]
 #: A post is a row of the dialect table :data:`gcode.dialects.DIALECTS`.
 Post = Dialect
 
+
+class _IsoPosts(Mapping[str, Dialect]):
+    """The ``iso`` rows of :data:`~gcode.dialects.DIALECTS`, read live: a
+    dialect registered later (:func:`gcode.dialects.register_dialect`) is a
+    post too."""
+
+    def __getitem__(self, key: str) -> Dialect:
+        row = DIALECTS[key]
+        if row.family != "iso":
+            raise KeyError(key)
+        return row
+
+    def __iter__(self) -> Iterator[str]:
+        return iter([k for k, d in DIALECTS.items() if d.family == "iso"])
+
+    def __len__(self) -> int:
+        return sum(1 for d in DIALECTS.values() if d.family == "iso")
+
+
 #: controller name -> post table (the ISO rows of the dialect table).
-POSTS: dict[str, Dialect] = {k: d for k, d in DIALECTS.items() if d.family == "iso"}
+POSTS: Mapping[str, Dialect] = _IsoPosts()
 
 #: Fixed decimals per word: 3 for X, Y, Z (the 0.002 mm grid), 1 for F.
 DECIMALS = {"X": 3, "Y": 3, "Z": 3, "F": 1}

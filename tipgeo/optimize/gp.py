@@ -179,7 +179,7 @@ class GaussianProcess:
     omega_bounds: tuple[float, float] = (-20.0, 5.0)
     start_box: tuple[float, float] = (-2.0, 3.0)
     nugget_bounds: tuple[float, float] = (-12.0, 0.0)
-    min_rcond: float = 1e-12
+    min_rcond: float = tol.gp_min_rcond
     seed: int = 0
     fit_: FitResult | None = field(default=None, init=False, repr=False)
 

@@ -19,17 +19,23 @@ from __future__ import annotations
 
 import math
 import warnings
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
 
+from ..arrays import BoolArray, FloatArray
 from ..errors import SpecError
 from ..tolerances import tol
 from .config import Objective, Term
 
 __all__ = ["Optimum", "scaled_terms", "optimize_objective", "pareto_front", "verify_optimum",
-           "term_summary", "optimum_region", "FLAT_EXTENT"]
+           "term_summary", "optimum_region", "FLAT_EXTENT", "Feasible"]
+
+#: A feasibility test: (m, d) configurations (the variables' units) -> (m,)
+#: bool, True where the spec validates (:func:`~tipgeo.optimize.study.feasibility`).
+Feasible = Callable[[FloatArray], BoolArray]
 
 #: A region of designs indistinguishable from the optimum that spans at
 #: least this share of a variable's range is flat along that variable.

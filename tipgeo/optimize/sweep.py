@@ -19,6 +19,7 @@ import math
 import re
 import sys
 import time
+from collections.abc import Callable, Iterable, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -26,6 +27,7 @@ from typing import Any
 import numpy as np
 
 from .. import progress as _progress
+from ..arrays import BoolArray, FloatArray, IntArray
 from ..atomic import write_bytes_atomic
 from ..errors import MissingToolError, SpecError
 from .cache import ResultCache, code_fingerprint, default_cache_dir, key_from_hash, spec_hash
@@ -352,82 +354,119 @@ def design_points(config: StudyConfig, *, executor=None, cache: Any = None,
     return X, info
 
 
-def _design(config: StudyConfig, *, executor, cache, progress):
-    from .design import (
-        candidate_levels,
-        candidate_pool,
-        fill_distance,
-        maximin_select,
-        min_distance,
-    )
-
+def _design(config: StudyConfig, *, executor: Any, cache: Any,
+            progress: bool) -> tuple[FloatArray, dict[str, Any], dict[str, Any] | None]:
     d = config.design
     if d["method"] != "maximin":
         X = make_design(config.variables, d["method"], levels=d["levels"], points=d["points"],
                         seed=d["seed"])
         return X, {"method": d["method"], "points": int(len(X))}, None
+    return _maximin_design(config, executor=executor, cache=cache, progress=progress)
+
+
+def _maximin_design(config: StudyConfig, *, executor: Any, cache: Any,
+                    progress: bool) -> tuple[FloatArray, dict[str, Any], dict[str, Any]]:
+    """A ``maximin`` design on its screened candidate grid: the design, its
+    info (see :func:`design_points`) and the screen (validated nodes and the
+    grid's verdicts)."""
+    from .design import candidate_levels, candidate_pool
+
+    d = config.design
     t0 = time.perf_counter()
     pool = candidate_pool(config.variables, d["candidates"])
     levels = candidate_levels(config.variables, d["candidates"])
     n = len(pool)
-    errors: list = [None] * n  # validation message ('' = admissible); None: not validated
+    errors: list[str | None] = [None] * n  # message ('' = admissible); None: not validated
     # one bar for the whole screening: the coarse nodes, then the mixed cells,
     # then any chosen point whose verdict was inferred
     bar = _Bar(0, f"screen {config.name}", "spec", progress, failed_word="refused")
 
-    def screen(idx) -> None:
-        idx = [int(i) for i in idx if errors[i] is None]
-        if idx:
-            bar.grow(len(idx))
-            for i, e in zip(idx, _screen(config, pool[idx], executor=executor, cache=cache,
-                                         bar=bar)):
+    def screen(idx: Iterable[int]) -> None:
+        todo = [int(i) for i in idx if errors[i] is None]
+        if todo:
+            bar.grow(len(todo))
+            for i, e in zip(todo, _screen(config, pool[todo], executor=executor, cache=cache,
+                                          bar=bar)):
                 errors[i] = e
 
     try:
-        # coarse to fine: every other node, then the nodes whose coarse cell disagrees
-        grid = np.array(np.unravel_index(np.arange(n), levels)).T  # (n, d) level indices
-        coarse = (np.all(grid % 2 == 0, axis=1) if all(k >= 3 and k % 2 for k in levels)
-                  else np.ones(n, bool))
-        screen(np.flatnonzero(coarse))
-        inferred = np.zeros(n, bool)
-        ok = np.array([e == "" for e in errors])
-        mixed = []
-        for i in np.flatnonzero(~coarse):
-            corners = itertools.product(*[(g,) if g % 2 == 0 else (g - 1, g + 1) for g in grid[i]])
-            votes = {bool(ok[np.ravel_multi_index(c, levels)]) for c in corners}
-            if len(votes) == 1:
-                ok[i], inferred[i] = votes.pop(), True
-            else:
-                mixed.append(i)
-        screen(mixed)
-        lo = np.array([v.lo for v in config.variables], float)
-        span = np.array([v.hi - v.lo for v in config.variables], float)
-        while True:
-            ok = np.array([e == "" if e is not None else bool(ok[i])
-                           for i, e in enumerate(errors)])
-            if ok.sum() < d["points"]:
-                raise SpecError(f"design.points = {d['points']} is out of range; only "
-                                f"{int(ok.sum())} of the {n} candidates (design.candidates = "
-                                f"{d['candidates']}) pass validation; allowed at most that many "
-                                "(raise design.candidates, or move the box onto the buildable "
-                                "region)")
-            cand = np.flatnonzero(ok)
-            U = (pool[cand] - lo) / span
-            sel = maximin_select(U, d["points"], seed=d["seed"])
-            unchecked = [int(cand[j]) for j in sel if errors[cand[j]] is None]
-            if not unchecked:
-                break
-            screen(unchecked)  # chosen on an inferred verdict: validate before use
-            inferred[unchecked] = False
+        ok = _coarse_to_fine(levels, errors, screen)
+        ok, cand, sel, U = _select_admissible(config, pool, errors, ok, screen)
     finally:
         bar.close()
-    groups: dict[str, dict] = {}
+    info = _maximin_info(config, levels, errors, ok, U, sel, t0)
+    known = np.array([e is not None for e in errors])
+    return pool[cand[sel]], info, {"X": pool[known], "ok": ok[known], "levels": levels,
+                                   "grid_ok": ok}
+
+
+def _coarse_to_fine(levels: Sequence[int], errors: list[str | None],
+                    screen: Callable[[Iterable[int]], None]) -> BoolArray:
+    """Screen every other node of the grid, then the nodes whose coarse cell
+    disagrees; a node whose coarse cell agrees takes its verdict. Returns the
+    verdict of every node (validated or inferred)."""
+    n = len(errors)
+    grid = np.array(np.unravel_index(np.arange(n), levels)).T  # (n, d) level indices
+    coarse = (np.all(grid % 2 == 0, axis=1) if all(k >= 3 and k % 2 for k in levels)
+              else np.ones(n, bool))
+    screen(np.flatnonzero(coarse).tolist())
+    ok = np.array([e == "" for e in errors])
+    mixed = []
+    for i in np.flatnonzero(~coarse):
+        corners = itertools.product(*[(g,) if g % 2 == 0 else (g - 1, g + 1) for g in grid[i]])
+        votes = {bool(ok[np.ravel_multi_index(c, levels)]) for c in corners}
+        if len(votes) == 1:
+            ok[i] = votes.pop()
+        else:
+            mixed.append(int(i))
+    screen(mixed)
+    return ok
+
+
+def _select_admissible(config: StudyConfig, pool: FloatArray, errors: list[str | None],
+                       ok: BoolArray, screen: Callable[[Iterable[int]], None]
+                       ) -> tuple[BoolArray, IntArray, IntArray, FloatArray]:
+    """Pick the maximin points among the admissible candidates, validating any
+    chosen on an inferred verdict and picking again until every chosen point
+    was validated. Returns the final verdicts, the admissible candidates'
+    indices, the chosen ones among them and the candidates on the unit box."""
+    from .design import maximin_select
+
+    d = config.design
+    n = len(pool)
+    lo = np.array([v.lo for v in config.variables], float)
+    span = np.array([v.hi - v.lo for v in config.variables], float)
+    while True:
+        ok = np.array([e == "" if e is not None else bool(ok[i])
+                       for i, e in enumerate(errors)])
+        if ok.sum() < d["points"]:
+            raise SpecError(f"design.points = {d['points']} is out of range; only "
+                            f"{int(ok.sum())} of the {n} candidates (design.candidates = "
+                            f"{d['candidates']}) pass validation; allowed at most that many "
+                            "(raise design.candidates, or move the box onto the buildable "
+                            "region)")
+        cand = np.flatnonzero(ok)
+        U = (pool[cand] - lo) / span
+        sel = np.asarray(maximin_select(U, d["points"], seed=d["seed"]))
+        unchecked = [int(cand[j]) for j in sel if errors[cand[j]] is None]
+        if not unchecked:
+            return ok, cand, sel, U
+        screen(unchecked)  # chosen on an inferred verdict: validate before use
+
+
+def _maximin_info(config: StudyConfig, levels: Sequence[int], errors: list[str | None],
+                  ok: BoolArray, U: FloatArray, sel: IntArray, t0: float) -> dict[str, Any]:
+    """The ``maximin`` design's info (see :func:`design_points`)."""
+    from .design import fill_distance, min_distance
+
+    d = config.design
+    groups: dict[str, dict[str, Any]] = {}
     for e in errors:
         if e:
             g = groups.setdefault(_NUMBER.sub("#", e), {"count": 0, "example": e})
             g["count"] += 1
-    info = {"method": "maximin", "points": int(d["points"]), "seed": int(d["seed"]),
-            "candidates": int(n), "levels": [int(k) for k in levels],
+    return {"method": "maximin", "points": int(d["points"]), "seed": int(d["seed"]),
+            "candidates": int(len(errors)), "levels": [int(k) for k in levels],
             "validated": int(sum(e is not None for e in errors)),
             "admissible": int(ok.sum()), "buildable_fraction": float(ok.mean()),
             "refused_inferred": int(np.sum(~ok & (np.array([e is None for e in errors])))),
@@ -435,9 +474,6 @@ def _design(config: StudyConfig, *, executor, cache, progress):
             "min_distance_unit": min_distance(U[sel]),
             "fill_distance_unit": fill_distance(U[sel], U),
             "seconds": time.perf_counter() - t0}
-    known = np.array([e is not None for e in errors])
-    return pool[cand[sel]], info, {"X": pool[known], "ok": ok[known], "levels": levels,
-                                   "grid_ok": ok}
 
 
 _NUMBER = re.compile(r"[-+]?\d+(?:\.\d+)?(?:e[-+]?\d+)?")

@@ -11,8 +11,15 @@ registration; a mill deviation map in the program frame (stated on it).
 from __future__ import annotations
 
 import math
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
+
+from ..arrays import FloatArray
+
+if TYPE_CHECKING:
+    from . import Predictor
+    from .page import Page, Section
 
 __all__ = ["tip_section", "mill_section", "compare_section", "fem_section",
            "optimize_section", "grind_section", "DISPLAY_POINTS",
@@ -658,17 +665,14 @@ def fem_section(page, run: dict, *, source: str = "") -> None:
 
 
 # -----------------------------------------------------------------------------
-def optimize_section(page, report: dict, table: dict[str, np.ndarray], gp=None, *,
-                     source: str = "") -> None:
+def optimize_section(page: Page, report: dict[str, Any], table: dict[str, FloatArray],
+                     gp: dict[str, Predictor] | None = None, *, source: str = "") -> None:
     """An optimisation study (``tipgeo optimize --out-dir``): each fitted
     response over the design variables — every analysed design of the sweep
     (its real geometry, not the GP) — with the optima marked (their built
     geometry's values), the optima, the leave-one-out errors and the verdict
     as tables. One variable: curves; two or more: a surface over the first
     two (triangulated between the designs), the others in the hover."""
-    import plotly.graph_objects as go
-    from plotly.subplots import make_subplots
-
     var = [v["name"] for v in report.get("variables") or []]
     resp = (report.get("responses") or {}).get("fitted") or []
     resp = [r for r in resp if r in table]
@@ -683,89 +687,134 @@ def optimize_section(page, report: dict, table: dict[str, np.ndarray], gp=None, 
                         if gp else "No GP drawn (surrogate.json not reproduced). ")
                      + (f"Source: {source}." if source else ""))
     if var and resp and all(v in table for v in var):
-        cols = _CUT
         if len(var) == 1:
-            x = np.asarray(table[var[0]], float)
-            o = np.argsort(x)
-            fig = make_subplots(1, len(resp), subplot_titles=resp, horizontal_spacing=0.08)
-            for j, r in enumerate(resp):
-                y = np.asarray(table[r], float)
-                if gp and r in gp:
-                    var0 = next(v for v in report["variables"] if v["name"] == var[0])
-                    xg = np.linspace(float(var0["min"]), float(var0["max"]), 301)
-                    mg, sg = gp[r](xg[:, None])
-                    fig.add_trace(go.Scatter(
-                        x=np.r_[xg, xg[::-1]], y=np.r_[mg + 1.96 * sg, (mg - 1.96 * sg)[::-1]],
-                        fill="toself", fillcolor="rgba(31,119,180,0.18)", line={"width": 0},
-                        name="GP 95 % band", showlegend=j == 0, hoverinfo="skip"),
-                        row=1, col=j + 1)
-                    fig.add_trace(go.Scatter(x=xg, y=mg, mode="lines", name="GP mean",
-                                             showlegend=j == 0, line={"color": "#1f77b4"}),
-                                  row=1, col=j + 1)
-                fig.add_trace(go.Scatter(x=x[o], y=y[o], mode="markers", name="sweep designs",
-                                         showlegend=j == 0, marker={"size": 7,
-                                                                    "color": "#263238"}),
-                              row=1, col=j + 1)
-                for k, opt in enumerate(optima):
-                    ox = (opt.get("x") or {}).get(var[0])
-                    oy = ((opt.get("responses") or {}).get(r) or {}).get("actual")
-                    if ox is None or oy is None:
-                        continue
-                    fig.add_trace(go.Scatter(
-                        x=[ox], y=[oy], mode="markers", name=opt.get("objective", "optimum"),
-                        legendgroup=opt.get("objective"), showlegend=j == 0,
-                        marker={"symbol": "star", "size": 16, "color": cols[k % len(cols)],
-                                "line": {"color": "#000", "width": 1}}), row=1, col=j + 1)
-                fig.update_xaxes(title_text=var[0].replace("_deg", " (deg)")
-                                 .replace("_mm", " (mm)"), row=1, col=j + 1)
-                fig.update_yaxes(title_text=r.replace("_deg", " (deg)").replace("_mm", " (mm)"),
-                                 row=1, col=j + 1)
-            fig.update_layout(template="plotly_white", legend={"orientation": "h", "y": -0.2},
-                              margin={"l": 60, "r": 10, "t": 40, "b": 60})
-            s.figure(fig, height=440, name="responses")
+            s.figure(_study_curves(report, table, gp, var[0], resp, optima), height=440,
+                     name="responses")
         else:
-            from scipy.spatial import Delaunay
-
-            x, y = (np.asarray(table[v], float) for v in var[:2])
-            tri = Delaunay(np.column_stack([(x - x.min()) / (np.ptp(x) or 1),
-                                            (y - y.min()) / (np.ptp(y) or 1)])).simplices
-            vs = {v["name"]: v for v in report["variables"]}
             for r in resp:
-                z = np.asarray(table[r], float)
-                if gp and r in gp:
-                    g0 = np.linspace(float(vs[var[0]]["min"]), float(vs[var[0]]["max"]), 41)
-                    g1 = np.linspace(float(vs[var[1]]["min"]), float(vs[var[1]]["max"]), 41)
-                    G0, G1 = np.meshgrid(g0, g1)
-                    Xq = np.column_stack([np.full(G0.size, 0.5 * (float(vs[n]["min"]) +
-                                                                   float(vs[n]["max"])))
-                                          for n in var])
-                    Xq[:, 0], Xq[:, 1] = G0.ravel(), G1.ravel()
-                    surf = go.Surface(x=g0, y=g1, z=gp[r](Xq)[0].reshape(G0.shape),
-                                      colorscale="Viridis", opacity=0.85, name=f"GP mean {r}",
-                                      colorbar={"title": {"text": r}})
-                else:
-                    surf = go.Mesh3d(x=x, y=y, z=z, i=tri[:, 0], j=tri[:, 1], k=tri[:, 2],
-                                     intensity=z, colorscale="Viridis", opacity=0.85, name=r,
-                                     colorbar={"title": {"text": r}}, hoverinfo="x+y+z")
-                tr = [surf, go.Scatter3d(x=x, y=y, z=z, mode="markers", name="sweep designs",
-                                         marker={"size": 3, "color": "#263238"})]
-                for k, opt in enumerate(optima):
-                    ox = opt.get("x") or {}
-                    oz = ((opt.get("responses") or {}).get(r) or {}).get("actual")
-                    if oz is None or var[0] not in ox or var[1] not in ox:
-                        continue
-                    tr.append(go.Scatter3d(x=[ox[var[0]]], y=[ox[var[1]]], z=[oz],
-                                           mode="markers", name=opt.get("objective"),
-                                           marker={"symbol": "diamond", "size": 8,
-                                                   "color": cols[k % len(cols)]}))
-                fig = go.Figure(tr)
-                fig.update_layout(scene={"xaxis": {"title": {"text": var[0]}},
-                                         "yaxis": {"title": {"text": var[1]}},
-                                         "zaxis": {"title": {"text": r}},
-                                         "aspectmode": "cube"},
-                                  margin={"l": 0, "r": 0, "t": 10, "b": 0})
-                s.figure(fig, height=520, name=f"surface-{r}")
+                s.figure(_study_surface(report, table, gp, var, r, optima), height=520,
+                         name=f"surface-{r}")
     s.verdict(report.get("verdict"))
+    _study_tables(s, report, optima)
+
+
+def _axis_title(name: str) -> str:
+    """A column name as an axis title: ``psi_deg`` → ``psi (deg)``."""
+    return name.replace("_deg", " (deg)").replace("_mm", " (mm)")
+
+
+def _study_curves(report: dict[str, Any], table: dict[str, FloatArray],
+                  gp: dict[str, Predictor] | None, v0: str, resp: list[str],
+                  optima: list[dict[str, Any]]) -> Any:
+    """One variable: each response against it, the designs, the GP's mean
+    and 95 % band (when rebuilt) and the optima as stars."""
+    import plotly.graph_objects as go
+    from plotly.subplots import make_subplots
+
+    cols = _CUT
+    x = np.asarray(table[v0], float)
+    o = np.argsort(x)
+    fig = make_subplots(1, len(resp), subplot_titles=resp, horizontal_spacing=0.08)
+    for j, r in enumerate(resp):
+        y = np.asarray(table[r], float)
+        if gp and r in gp:
+            var0 = next(v for v in report["variables"] if v["name"] == v0)
+            for tr in _gp_band(gp[r], float(var0["min"]), float(var0["max"]), j == 0):
+                fig.add_trace(tr, row=1, col=j + 1)
+        fig.add_trace(go.Scatter(x=x[o], y=y[o], mode="markers", name="sweep designs",
+                                 showlegend=j == 0, marker={"size": 7,
+                                                            "color": "#263238"}),
+                      row=1, col=j + 1)
+        for k, opt in enumerate(optima):
+            ox = (opt.get("x") or {}).get(v0)
+            oy = ((opt.get("responses") or {}).get(r) or {}).get("actual")
+            if ox is None or oy is None:
+                continue
+            fig.add_trace(go.Scatter(
+                x=[ox], y=[oy], mode="markers", name=opt.get("objective", "optimum"),
+                legendgroup=opt.get("objective"), showlegend=j == 0,
+                marker={"symbol": "star", "size": 16, "color": cols[k % len(cols)],
+                        "line": {"color": "#000", "width": 1}}), row=1, col=j + 1)
+        fig.update_xaxes(title_text=_axis_title(v0), row=1, col=j + 1)
+        fig.update_yaxes(title_text=_axis_title(r), row=1, col=j + 1)
+    fig.update_layout(template="plotly_white", legend={"orientation": "h", "y": -0.2},
+                      margin={"l": 60, "r": 10, "t": 40, "b": 60})
+    return fig
+
+
+def _gp_band(predict: Predictor, lo: float, hi: float, legend: bool) -> list[Any]:
+    """The GP's 95 % band and mean over [lo, hi] of the one variable."""
+    import plotly.graph_objects as go
+
+    xg = np.linspace(lo, hi, 301)
+    mg, sg = predict(xg[:, None])
+    return [go.Scatter(x=np.r_[xg, xg[::-1]], y=np.r_[mg + 1.96 * sg, (mg - 1.96 * sg)[::-1]],
+                       fill="toself", fillcolor="rgba(31,119,180,0.18)", line={"width": 0},
+                       name="GP 95 % band", showlegend=legend, hoverinfo="skip"),
+            go.Scatter(x=xg, y=mg, mode="lines", name="GP mean", showlegend=legend,
+                       line={"color": "#1f77b4"})]
+
+
+def _study_surface(report: dict[str, Any], table: dict[str, FloatArray],
+                   gp: dict[str, Predictor] | None, var: list[str], r: str,
+                   optima: list[dict[str, Any]]) -> Any:
+    """Two or more variables: response ``r`` over the first two — the GP's
+    mean (the others at the box centre) or the designs triangulated — with
+    the designs and the optima."""
+    import plotly.graph_objects as go
+
+    cols = _CUT
+    x, y = (np.asarray(table[v], float) for v in var[:2])
+    z = np.asarray(table[r], float)
+    if gp and r in gp:
+        surf = _gp_surface(gp[r], {v["name"]: v for v in report["variables"]}, var, r)
+    else:
+        from scipy.spatial import Delaunay
+
+        tri = Delaunay(np.column_stack([(x - x.min()) / (np.ptp(x) or 1),
+                                        (y - y.min()) / (np.ptp(y) or 1)])).simplices
+        surf = go.Mesh3d(x=x, y=y, z=z, i=tri[:, 0], j=tri[:, 1], k=tri[:, 2],
+                         intensity=z, colorscale="Viridis", opacity=0.85, name=r,
+                         colorbar={"title": {"text": r}}, hoverinfo="x+y+z")
+    tr = [surf, go.Scatter3d(x=x, y=y, z=z, mode="markers", name="sweep designs",
+                             marker={"size": 3, "color": "#263238"})]
+    for k, opt in enumerate(optima):
+        ox = opt.get("x") or {}
+        oz = ((opt.get("responses") or {}).get(r) or {}).get("actual")
+        if oz is None or var[0] not in ox or var[1] not in ox:
+            continue
+        tr.append(go.Scatter3d(x=[ox[var[0]]], y=[ox[var[1]]], z=[oz],
+                               mode="markers", name=opt.get("objective"),
+                               marker={"symbol": "diamond", "size": 8,
+                                       "color": cols[k % len(cols)]}))
+    fig = go.Figure(tr)
+    fig.update_layout(scene={"xaxis": {"title": {"text": var[0]}},
+                             "yaxis": {"title": {"text": var[1]}},
+                             "zaxis": {"title": {"text": r}},
+                             "aspectmode": "cube"},
+                      margin={"l": 0, "r": 0, "t": 10, "b": 0})
+    return fig
+
+
+def _gp_surface(predict: Predictor, vs: dict[str, dict[str, Any]], var: list[str],
+                r: str) -> Any:
+    """The GP's mean of ``r`` over the first two variables on a 41 × 41 grid,
+    the others at the box centre."""
+    import plotly.graph_objects as go
+
+    g0 = np.linspace(float(vs[var[0]]["min"]), float(vs[var[0]]["max"]), 41)
+    g1 = np.linspace(float(vs[var[1]]["min"]), float(vs[var[1]]["max"]), 41)
+    G0, G1 = np.meshgrid(g0, g1)
+    Xq = np.column_stack([np.full(G0.size, 0.5 * (float(vs[n]["min"]) + float(vs[n]["max"])))
+                          for n in var])
+    Xq[:, 0], Xq[:, 1] = G0.ravel(), G1.ravel()
+    return go.Surface(x=g0, y=g1, z=predict(Xq)[0].reshape(G0.shape),
+                      colorscale="Viridis", opacity=0.85, name=f"GP mean {r}",
+                      colorbar={"title": {"text": r}})
+
+
+def _study_tables(s: Section, report: dict[str, Any], optima: list[dict[str, Any]]) -> None:
+    """The optima's predictions against their built geometry, and the LOO errors."""
     rows = []
     for opt in optima:
         for r, v in (opt.get("responses") or {}).items():

@@ -15,9 +15,10 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from ..arrays import FloatArray
+from ..arrays import AnyArray, FloatArray, IntArray
 
 if TYPE_CHECKING:
+    from ..spec import TipSpec
     from . import Predictor
     from .page import Page, Section
 
@@ -400,15 +401,32 @@ def _cad_beside(s, cad, sim, name: str, title: str = "simulated from the program
     s.figure(fig, height=560, name=name)
 
 
-def mill_section(page, res, spec=None) -> None:
+def mill_section(page: Page, res: Any, spec: TipSpec | None = None) -> None:
     """A milling run (:class:`cam.mill.MillResult`): the program's moves over
     the CAD part coloured by kind with a slider that plays them, the
     simulated part beside the CAD, the deviation map and the numbers."""
-    import plotly.graph_objects as go
+    from ..build import build_tip
 
+    tp = res.toolpath
+    cad = build_tip(spec, tolerance=DISPLAY_TOLERANCE) if spec is not None else None
+    summ = res.summary()
+    _mill_program(page, res, cad, summ)
+    if res.milled is not None and cad is not None:
+        m = page.section(f"{tp.name}: simulated part beside the CAD",
+                         "Left the CAD tip, right the tip the simulation milled from the "
+                         "G-code text (both cannula frame, mm, faces by label; the cameras "
+                         "are independent).")
+        _cad_beside(m, cad, res.milled.tip, "milled")
+        m.figure(_mill_deviation_map(res.milled), height=520, name="deviation-map")
+    if res.comparison is not None:
+        _mill_comparison(page, tp.name, res.comparison, summ.get("verdict"))
+
+
+def _mill_program(page: Page, res: Any, cad: Any, summ: dict[str, Any]) -> None:
+    """The program's moves over the part (decimated past MAX_DISPLAY_MOVES),
+    played by the slider, and the toolpath's and program's numbers."""
     from cam.mill.simulate import read_gcode
 
-    from ..build import build_tip
     from ..edges import rotate_z
 
     tp = res.toolpath
@@ -430,7 +448,6 @@ def mill_section(page, res, spec=None) -> None:
                      "by move kind (rapids above the part leave the box); the CAD tip in grey. "
                      "The slider plays the program: the dark line is the path done, the red "
                      "diamond the tool tip.")
-    cad = build_tip(spec, tolerance=DISPLAY_TOLERANCE) if spec is not None else None
     pieces = []
     for ki, nm in enumerate(names):
         sel = keep[kind[keep] == ki]
@@ -444,49 +461,51 @@ def mill_section(page, res, spec=None) -> None:
     pts = np.vstack([start[keep[:1]], end[keep]]) if len(keep) else np.zeros((1, 3))
     _toolpath_view(page, s, pieces, pts, kind[keep], names, cad=cad, r_o=tp.setup.r_o,
                    focus=feed if len(feed) else end[keep], marker_name="tool tip")
-    summ = res.summary()
     s.table(["toolpath", "value"], [[k, v] for k, v in summ["toolpath"].items()
                                     if not isinstance(v, (dict, list))],
             caption="toolpath (units in the names: mm, deg, µm)")
     s.table(["program", "value"], [[k, v] for k, v in summ["program"].items()],
             caption="program (mm, s, rpm)")
 
-    if res.milled is not None and cad is not None:
-        m = page.section(f"{tp.name}: simulated part beside the CAD",
-                         "Left the CAD tip, right the tip the simulation milled from the "
-                         "G-code text (both cannula frame, mm, faces by label; the cameras "
-                         "are independent).")
-        _cad_beside(m, cad, res.milled.tip, "milled")
-        dev = res.milled.deviation() * 1e3
-        sy = max(1, math.ceil(dev.shape[0] / 400))
-        sx = max(1, math.ceil(dev.shape[1] / 400))
-        lim = float(np.nanpercentile(np.abs(dev), 99.5)) if np.isfinite(dev).any() else 1.0
-        figd = go.Figure(go.Heatmap(
-            x=_f32(res.milled.x[::sx]), y=_f32(res.milled.y[::sy]), z=_f32(dev[::sy, ::sx]),
-            colorscale="RdBu", reversescale=True, zmin=-lim, zmax=lim, zsmooth=False,
-            colorbar={"title": {"text": "milled − CAD (µm)"}},
-            hovertemplate="X %{x:.3f} mm<br>Y %{y:.3f} mm<br>%{z:.2f} µm<extra></extra>"))
-        figd.update_layout(xaxis={"title": {"text": "program X (mm)"}, "scaleanchor": "y"},
-                           yaxis={"title": {"text": "program Y (mm)"}},
-                           template="plotly_white", margin={"l": 60, "r": 10, "t": 30, "b": 50},
-                           title={"text": "deviation normal to the surface, program frame "
-                                          f"(every {sx}th×{sy}th cell of "
-                                          f"{dev.shape[1]}×{dev.shape[0]} shown)",
-                                  "font": {"size": 13}})
-        m.figure(figd, height=520, name="deviation-map")
-    if res.comparison is not None:
-        c = page.section(f"{tp.name}: milled against CAD",
-                         "The comparison's figures (µm, deg) and the verdict.")
-        cm = res.comparison
-        c.table(["quantity", "value"], [[k, v] for k, v in cm.items()
-                                        if not isinstance(v, (dict, list))],
-                caption="comparison")
-        rows = [[wall, *[a.get(f"{k}_max_diff_deg") for k in ("lambda", "theta", "alpha")]]
-                for wall, a in (cm.get("angles") or {}).items() if isinstance(a, dict)]
-        if rows:
-            c.table(["edge", "λ max |milled − CAD| (deg)", "θ max |milled − CAD| (deg)",
-                     "α max |milled − CAD| (deg)"], rows, caption="edge angles")
-        c.verdict(summ.get("verdict"))
+
+def _mill_deviation_map(milled: Any) -> Any:
+    """The milled − CAD deviation (µm) over the program's X, Y grid (at most
+    about 400 × 400 cells shown)."""
+    import plotly.graph_objects as go
+
+    dev = milled.deviation() * 1e3
+    sy = max(1, math.ceil(dev.shape[0] / 400))
+    sx = max(1, math.ceil(dev.shape[1] / 400))
+    lim = float(np.nanpercentile(np.abs(dev), 99.5)) if np.isfinite(dev).any() else 1.0
+    figd = go.Figure(go.Heatmap(
+        x=_f32(milled.x[::sx]), y=_f32(milled.y[::sy]), z=_f32(dev[::sy, ::sx]),
+        colorscale="RdBu", reversescale=True, zmin=-lim, zmax=lim, zsmooth=False,
+        colorbar={"title": {"text": "milled − CAD (µm)"}},
+        hovertemplate="X %{x:.3f} mm<br>Y %{y:.3f} mm<br>%{z:.2f} µm<extra></extra>"))
+    figd.update_layout(xaxis={"title": {"text": "program X (mm)"}, "scaleanchor": "y"},
+                       yaxis={"title": {"text": "program Y (mm)"}},
+                       template="plotly_white", margin={"l": 60, "r": 10, "t": 30, "b": 50},
+                       title={"text": "deviation normal to the surface, program frame "
+                                      f"(every {sx}th×{sy}th cell of "
+                                      f"{dev.shape[1]}×{dev.shape[0]} shown)",
+                              "font": {"size": 13}})
+    return figd
+
+
+def _mill_comparison(page: Page, name: str, cm: dict[str, Any],
+                     verdict: dict[str, Any] | None) -> None:
+    """The milled-against-CAD comparison's figures (µm, deg) and the verdict."""
+    c = page.section(f"{name}: milled against CAD",
+                     "The comparison's figures (µm, deg) and the verdict.")
+    c.table(["quantity", "value"], [[k, v] for k, v in cm.items()
+                                    if not isinstance(v, (dict, list))],
+            caption="comparison")
+    rows = [[wall, *[a.get(f"{k}_max_diff_deg") for k in ("lambda", "theta", "alpha")]]
+            for wall, a in (cm.get("angles") or {}).items() if isinstance(a, dict)]
+    if rows:
+        c.table(["edge", "λ max |milled − CAD| (deg)", "θ max |milled − CAD| (deg)",
+                 "α max |milled − CAD| (deg)"], rows, caption="edge angles")
+    c.verdict(verdict)
 
 
 # -----------------------------------------------------------------------------
@@ -511,17 +530,14 @@ def display_sample(dev: np.ndarray, band: float, limit: int = DISPLAY_POINTS) ->
     return np.sort(np.concatenate([out, rest[take]]))
 
 
-def compare_section(page, data: dict, points: np.ndarray, dev: np.ndarray, face: np.ndarray,
-                    labels, *, source: str = "") -> None:
+def compare_section(page: Page, data: dict[str, Any], points: AnyArray, dev: FloatArray,
+                    face: IntArray, labels: list[str], *, source: str = "") -> None:
     """A scan against its CAD: the signed deviations (mm) on the 3D cloud
     (cannula frame) with the colour scale, the histogram of every point
     (click a bar: its displayed points are marked), the per-face table, the
     numbers and the verdict. ``data`` is the compare report (report.json)."""
-    import plotly.graph_objects as go
-
     dev_um = np.asarray(dev, float) * 1e3
     band = float(data.get("tolerance_um", 10.0))
-    lo, hi = (data.get("colour_scale_um") or [-2.5 * band, 2.5 * band])[:2]
     cad_name = (data.get("cad") or {}).get("name", "CAD")
     name = f"{cad_name} vs {(data.get('scan') or {}).get('source', source)}"
     n = len(dev_um)
@@ -535,10 +551,25 @@ def compare_section(page, data: dict, points: np.ndarray, dev: np.ndarray, face:
                      f"scan points in the CAD's cannula frame (mm). Drawn: {rule}. The "
                      "statistics, the histogram and the tables use every point. Click a "
                      "histogram bar to mark its points on the cloud (black).")
-    p = np.asarray(points)[idx]
+    lo, hi = (data.get("colour_scale_um") or [-2.5 * band, 2.5 * band])[:2]
+    cdiv = s.figure(_deviation_cloud(np.asarray(points)[idx], dev_um[idx], lo, hi),
+                    height=620, name="cloud")
+    hdiv = s.figure(_deviation_histogram(dev_um, band), height=360, name="histogram")
+    readout = page._id("readout")
+    s.raw(f'<div class="tg-readout" id="{readout}"></div>')
+    page.link(kind="hist-pick", hist=hdiv, cloud=cdiv, src=0, sel=1, readout=readout)
+    s.verdict(data.get("verdict"))
+    _compare_tables(s, data, band)
+
+
+def _deviation_cloud(p: AnyArray, dev_um: FloatArray, lo: float, hi: float) -> Any:
+    """The drawn scan points (mm) coloured by deviation (µm, scale lo … hi),
+    and the empty trace the histogram's pick fills."""
+    import plotly.graph_objects as go
+
     cloud = go.Scatter3d(
         x=_f32(p[:, 0]), y=_f32(p[:, 1]), z=_f32(p[:, 2]), mode="markers", name="scan points",
-        marker={"size": 1.6, "color": _f32(dev_um[idx]), "colorscale": "RdYlBu",
+        marker={"size": 1.6, "color": _f32(dev_um), "colorscale": "RdYlBu",
                 "reversescale": True, "cmin": lo, "cmax": hi,
                 "colorbar": {"title": {"text": "deviation (µm)"}, "len": 0.8}},
         hovertemplate="x %{x:.4f} mm<br>y %{y:.4f} mm<br>z %{z:.4f} mm<br>"
@@ -548,12 +579,23 @@ def compare_section(page, data: dict, points: np.ndarray, dev: np.ndarray, face:
     fig = go.Figure([cloud, sel])
     fig.update_layout(scene=_scene(p), margin={"l": 0, "r": 0, "t": 10, "b": 0},
                       legend={"x": 0.0, "y": 1.0})
-    cdiv = s.figure(fig, height=620, name="cloud")
+    return fig
+
+
+def _deviation_histogram(dev_um: FloatArray, band: float) -> Any:
+    """The histogram of every point's deviation (µm; log counts), the ±band
+    bars in blue, the others red, the outermost bars holding the tails."""
+    import plotly.graph_objects as go
+
+    from ..tolerances import tol
+
+    n = len(dev_um)
     finite = dev_um[np.isfinite(dev_um)]
     q0, q1 = (np.percentile(finite, [0.05, 99.95]) if len(finite) else (-1.0, 1.0))
     q0, q1 = min(q0, -band * 1.2), max(q1, band * 1.2)
     edges = np.linspace(q0, q1, 121)
-    edges[0], edges[-1] = min(edges[0], finite.min()), max(edges[-1], finite.max() + 1e-9)
+    edges[0] = min(edges[0], finite.min())
+    edges[-1] = max(edges[-1], finite.max() + tol.report_bin_pad)
     counts, _ = np.histogram(finite, bins=edges)
     mid = 0.5 * (edges[1:] + edges[:-1])
     inside = (edges[:-1] >= -band) & (edges[1:] <= band)
@@ -574,11 +616,12 @@ def compare_section(page, data: dict, points: np.ndarray, dev: np.ndarray, face:
                                       "(bars outside it in red); outermost bars hold the tails",
                               "font": {"size": 13}},
                        margin={"l": 60, "r": 10, "t": 40, "b": 50})
-    hdiv = s.figure(figh, height=360, name="histogram")
-    readout = page._id("readout")
-    s.raw(f'<div class="tg-readout" id="{readout}"></div>')
-    page.link(kind="hist-pick", hist=hdiv, cloud=cdiv, src=0, sel=1, readout=readout)
-    s.verdict(data.get("verdict"))
+    return figh
+
+
+def _compare_tables(s: Section, data: dict[str, Any], band: float) -> None:
+    """Per-face deviations, measured diameters and faces, the registration
+    and the warnings of a compare report."""
     devs = data.get("deviation") or {}
     stat_cols = ["count", "mean_um", "std_um", "rms_um", "min_um", "max_um", "p5_um", "p95_um",
                  "within_tol_share"]
@@ -591,7 +634,18 @@ def compare_section(page, data: dict, points: np.ndarray, dev: np.ndarray, face:
         rows.append([fname, *[b.get(c) for c in stat_cols]])
     if rows:
         s.table(["face", *heads], rows, caption="per face (every point)")
-    meas = data.get("measured") or {}
+    _measured_tables(s, data.get("measured") or {})
+    reg = data.get("registration") or {}
+    if reg:
+        s.table(["registration", "value"], [[k, v] for k, v in reg.items()
+                                            if not isinstance(v, dict)],
+                caption="registration (units in the names)")
+    for w in data.get("warnings") or []:
+        s.text(f"warning: {w}", cls="bad")
+
+
+def _measured_tables(s: Section, meas: dict[str, Any]) -> None:
+    """The compare report's measured diameters and faces."""
     mrows = [[w, meas[w].get("diameter_mm"), meas[w].get("cad_diameter_mm"),
               meas[w].get("error_um")] for w in ("outer", "inner") if meas.get(w)]
     if mrows:
@@ -602,13 +656,6 @@ def compare_section(page, data: dict, points: np.ndarray, dev: np.ndarray, face:
     if frows:
         s.table(["face", "ξ (deg)", "CAD ξ (deg)", "error (deg)", "flatness RMS (µm)"], frows,
                 caption="measured faces")
-    reg = data.get("registration") or {}
-    if reg:
-        s.table(["registration", "value"], [[k, v] for k, v in reg.items()
-                                            if not isinstance(v, dict)],
-                caption="registration (units in the names)")
-    for w in data.get("warnings") or []:
-        s.text(f"warning: {w}", cls="bad")
 
 
 # -----------------------------------------------------------------------------
@@ -923,7 +970,8 @@ def _flat(d: dict, prefix: str = "") -> list[list]:
     return rows
 
 
-def laser_section(page, res, spec, *, origin=(0.0, 0.0), gamma0_deg: float = 0.0,
+def laser_section(page: Page, res: Any, spec: TipSpec | None, *,
+                  origin: tuple[float, float] = (0.0, 0.0), gamma0_deg: float = 0.0,
                   name: str | None = None) -> None:
     """A laser program checked and simulated (:class:`gcode.pipeline.LaserCheck`
     of :func:`gcode.pipeline.laser_check`): its beam moves on the tube's outer
@@ -952,6 +1000,24 @@ def laser_section(page, res, spec, *, origin=(0.0, 0.0), gamma0_deg: float = 0.0
                 caption="toolpath (units in the names: mm, s, deg)")
         return
     cad = build_tip(spec, tolerance=DISPLAY_TOLERANCE)
+    _laser_moves(page, s, segs, spec, cad, origin, gamma0_deg)
+    s.table(["toolpath", "value"], _flat(res.toolpath.summary()),
+            caption="toolpath (units in the names: mm, s, deg)")
+    if res.ablation is not None:
+        _laser_ablation(page, name, cad, res.ablation)
+    if res.comparison is not None:
+        c = page.section(f"{name}: ablated against CAD",
+                         "The comparison with the spec's serrations (mm, deg in the names; "
+                         "vertex-sampled, each within the meshes' chordal tolerance) and the "
+                         "verdict.")
+        c.table(["quantity", "value"], _flat(res.comparison), caption="comparison")
+        c.verdict(res.verdict.to_dict() if res.verdict is not None else None)
+
+
+def _laser_moves(page: Page, s: Section, segs: list[Any], spec: TipSpec, cad: Any,
+                 origin: tuple[float, float], gamma0_deg: float) -> None:
+    """The beam moves on the outer wall (cannula frame, mm) by kind, played
+    by the slider, the view focused on the beam-on moves and the part near them."""
     kind = np.array([0 if s_.kind == "rapid" else (2 if s_.beam else 1) for s_ in segs])
     names = [k for k, _ in LASER_KINDS]
     pts = [_laser_move_points(s_) for s_ in segs]
@@ -971,23 +1037,16 @@ def laser_section(page, res, spec, *, origin=(0.0, 0.0), gamma0_deg: float = 0.0
                    focus=np.vstack([on, np.asarray(cad.vertices)[np.asarray(cad.vertices)[:, 2]
                                                                  >= on[:, 2].min() - 0.1]]),
                    marker_name="beam", zoom=1.8)
-    s.table(["toolpath", "value"], _flat(res.toolpath.summary()),
-            caption="toolpath (units in the names: mm, s, deg)")
-    if res.ablation is not None:
-        m = page.section(f"{name}: simulated part beside the CAD",
-                         "Left the CAD tip, right the tip the ablation simulator cut from the "
-                         "program text (both cannula frame, mm, faces by label).")
-        _cad_beside(m, cad, res.ablation.tip, "ablated")
-        a = res.ablation
-        m.table(["ablation", "value"], [["notches", a.notches], ["slugs removed", a.slugs_removed],
-                                        ["C angles firing (deg)",
-                                         ", ".join(f"{c:g}" for c in a.c_angles_deg)],
-                                        ["triangles", len(a.tip.faces)]],
-                caption="the simulated cut")
-    if res.comparison is not None:
-        c = page.section(f"{name}: ablated against CAD",
-                         "The comparison with the spec's serrations (mm, deg in the names; "
-                         "vertex-sampled, each within the meshes' chordal tolerance) and the "
-                         "verdict.")
-        c.table(["quantity", "value"], _flat(res.comparison), caption="comparison")
-        c.verdict(res.verdict.to_dict() if res.verdict is not None else None)
+
+
+def _laser_ablation(page: Page, name: str, cad: Any, a: Any) -> None:
+    """The ablated part beside the CAD, and the simulated cut's numbers."""
+    m = page.section(f"{name}: simulated part beside the CAD",
+                     "Left the CAD tip, right the tip the ablation simulator cut from the "
+                     "program text (both cannula frame, mm, faces by label).")
+    _cad_beside(m, cad, a.tip, "ablated")
+    m.table(["ablation", "value"], [["notches", a.notches], ["slugs removed", a.slugs_removed],
+                                    ["C angles firing (deg)",
+                                     ", ".join(f"{c:g}" for c in a.c_angles_deg)],
+                                    ["triangles", len(a.tip.faces)]],
+            caption="the simulated cut")

@@ -40,7 +40,9 @@ def _check_outputs(config_arg: str, outs: Sequence[tuple[str, str | Path]]) -> N
     read (its base spec, that spec's mesh files): :func:`.common.refuse_overwrite`."""
     from .common import command_reads, refuse_overwrite
 
-    refuse_overwrite(command_reads([("the command's input CONFIG", config_arg)]), list(outs))
+    reads: list[tuple[str, str | Path]] = list(
+        command_reads([("the command's input CONFIG", config_arg)]))
+    refuse_overwrite(reads, list(outs))
 
 
 def _executor(args: argparse.Namespace, config: StudyConfig) -> Executor:

@@ -32,8 +32,12 @@ import hashlib
 import json
 import os
 import stat
+from collections.abc import Callable
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any, NoReturn, cast
+
+if TYPE_CHECKING:
+    from ..spec import TipSpec
 
 __all__ = ["ResultCache", "spec_hash", "spec_key", "key_from_hash", "code_fingerprint",
            "default_cache_dir"]
@@ -53,7 +57,7 @@ def _version() -> str:
     return __version__
 
 
-def _no_constant(name: str):
+def _no_constant(name: str) -> NoReturn:
     raise ValueError(f"{name} is not allowed in a cache entry")
 
 
@@ -152,8 +156,11 @@ def _canonical(spec_dict: dict[str, Any]) -> dict[str, Any]:
             if not 0 < tu <= 100:
                 raise SpecError(f"tolerance_um = {tu:g} is out of range")
             tolerance = tu * 1e-3
-        d = S.spec_to_dict(SimpleNamespace(cannula=cannula, cutters=tuple(cutters), name="",
-                                           description="", tolerance=tolerance))
+        # spec_to_dict reads only these attributes; a TipSpec would also check
+        # the tip as a whole, and a key that parses is hashed canonically either way
+        d = S.spec_to_dict(cast("TipSpec", SimpleNamespace(
+            cannula=cannula, cutters=tuple(cutters), name="", description="",
+            tolerance=tolerance)))
     except SpecError:
         d = dict(spec_dict)  # keys that do not parse: hash it as written
     d.pop("name", None)
@@ -192,7 +199,8 @@ class ResultCache:
     hits, misses, writes : int — counters since construction
     """
 
-    def __init__(self, folder: str | Path, *, warn=None):
+    def __init__(self, folder: str | Path, *,
+                 warn: Callable[[str], None] | None = None) -> None:
         self.folder = Path(folder)
         self.hits = self.misses = self.writes = self.rejected = 0
         self._warn = warn

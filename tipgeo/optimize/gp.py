@@ -51,7 +51,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
-from typing import Any
+from typing import Any, Literal, overload
 
 import numpy as np
 
@@ -385,8 +385,16 @@ class GaussianProcess:
             raise SpecError("the GP is not fitted; call fit(X, Y) first")
         return self.fit_
 
+    @overload
+    def predict(self, Xs: ArrayLike, *, return_std: Literal[False] = False,
+                noise: bool = False) -> FloatArray: ...
+
+    @overload
+    def predict(self, Xs: ArrayLike, *, return_std: Literal[True],
+                noise: bool = False) -> tuple[FloatArray, FloatArray]: ...
+
     def predict(self, Xs: ArrayLike, *, return_std: bool = False,
-                noise: bool = False) -> Any:
+                noise: bool = False) -> FloatArray | tuple[FloatArray, FloatArray]:
         """Predictive mean (eq. 3.31) and standard deviation (√ of eq. 3.32).
 
         Parameters
@@ -448,7 +456,7 @@ class GaussianProcess:
         var = np.maximum(var, 0.0)
         return var[:-1], cov[:-1], float(var[-1])
 
-    def interval(self, Xs: ArrayLike, level: float = 0.95) -> tuple[Any, Any]:
+    def interval(self, Xs: ArrayLike, level: float = 0.95) -> tuple[FloatArray, FloatArray]:
         """(lower, upper) bounds of the two-sided ``level`` interval (normal)."""
         from scipy.stats import norm
 

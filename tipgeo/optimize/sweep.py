@@ -27,13 +27,13 @@ from typing import Any
 import numpy as np
 
 from .. import progress as _progress
-from ..arrays import BoolArray, FloatArray, IntArray
+from ..arrays import AnyArray, ArrayLike, BoolArray, FloatArray, IntArray
 from ..atomic import write_bytes_atomic
 from ..errors import MissingToolError, SpecError
 from .cache import ResultCache, code_fingerprint, default_cache_dir, key_from_hash, spec_hash
 from .config import StudyConfig
 from .design import make_design
-from .executors import SerialExecutor, make_executor
+from .executors import Executor, SerialExecutor, make_executor
 
 __all__ = ["SweepResult", "run_sweep", "design_points", "write_table", "read_table",
            "STATUSES", "MissingPyarrow"]
@@ -46,7 +46,7 @@ class MissingPyarrow(MissingToolError, SpecError):
     3), and a :class:`~tipgeo.errors.SpecError` as it was before that family existed."""
 
 
-def _pyarrow(p: Path):
+def _pyarrow(p: Path) -> tuple[Any, Any]:
     try:
         import pyarrow as pa
         import pyarrow.parquet as pq
@@ -113,41 +113,44 @@ class SweepResult:
     """
 
     config: StudyConfig
-    X: np.ndarray
-    results: list
-    keys: list
-    specs: list
-    hashes: list = field(default_factory=list)
+    X: FloatArray
+    results: list[dict[str, Any]]
+    keys: list[str]
+    specs: list[dict[str, Any]]
+    hashes: list[str] = field(default_factory=list)
     seconds: float = 0.0
     computed: int = 0
     cached: int = 0
     executor: str = "serial"
     workers: int = 1
-    extra: dict = field(default_factory=dict)
-    design: dict = field(default_factory=dict)
-    screen: dict | None = field(default=None, repr=False)
+    extra: dict[str, Any] = field(default_factory=dict)
+    design: dict[str, Any] = field(default_factory=dict)
+    screen: dict[str, Any] | None = field(default=None, repr=False)
 
     @property
-    def status(self) -> np.ndarray:
+    def status(self) -> AnyArray:
         """(n,) str — status per configuration."""
         return np.array([r["status"] for r in self.results])
 
     @property
-    def ok(self) -> np.ndarray:
+    def ok(self) -> BoolArray:
         """(n,) bool — configurations whose analysis succeeded."""
-        return self.status == "ok"
+        ok: BoolArray = self.status == "ok"
+        return ok
 
-    def responses(self, names=None) -> np.ndarray:
+    def responses(self, names: Sequence[str] | None = None) -> FloatArray:
         """(n, q) float — responses (NaN where not ok), columns ``names``
         (default: the config's responses)."""
-        names = list(names or self.config.responses)
-        return np.array([[r["responses"].get(k, math.nan) if r["status"] == "ok" else math.nan
-                          for k in names] for r in self.results], float).reshape(-1, len(names))
+        cols = list(names or self.config.responses)
+        Y: FloatArray = np.array([[r["responses"].get(k, math.nan) if r["status"] == "ok"
+                                   else math.nan for k in cols] for r in self.results],
+                                 float).reshape(-1, len(cols))
+        return Y
 
-    def columns(self) -> dict[str, list]:
+    def columns(self) -> dict[str, list[Any]]:
         """The table as columns (see the module docstring)."""
         cfg = self.config
-        cols: dict[str, list] = {"index": list(range(len(self.results))),
+        cols: dict[str, list[Any]] = {"index": list(range(len(self.results))),
                                  "status": [r["status"] for r in self.results]}
         for k, v in enumerate(cfg.variables):
             cols[v.name] = [int(x) if v.integer else float(x) for x in self.X[:, k]]
@@ -200,17 +203,18 @@ def write_table(result: SweepResult, path: str | Path) -> Path:
     return p
 
 
-def read_table(path: str | Path) -> dict[str, list]:
+def read_table(path: str | Path) -> dict[str, list[Any]]:
     """Read a sweep table back as columns (CSV or Parquet); numbers as floats."""
     p = Path(path)
     if p.suffix.lower() in (".parquet", ".pq"):
         _, pq = _pyarrow(p)
-        return pq.read_table(p).to_pydict()
+        table: dict[str, list[Any]] = pq.read_table(p).to_pydict()
+        return table
     with open(p, newline="", encoding="utf-8") as f:
         rows = list(csv.reader(f))
     head, body = rows[0], rows[1:]
     text = {"status", "error", "spec_hash", "spec"}
-    out: dict[str, list] = {}
+    out: dict[str, list[Any]] = {}
     for j, h in enumerate(head):
         vals = [r[j] for r in body]
         if h in text:
@@ -222,7 +226,8 @@ def read_table(path: str | Path) -> dict[str, list]:
     return out
 
 
-def run_sweep(config: StudyConfig, *, X=None, executor=None, cache: Any = None,
+def run_sweep(config: StudyConfig, *, X: ArrayLike | None = None,
+              executor: Executor | None = None, cache: Any = None,
               progress: bool = True) -> SweepResult:
     """Evaluate every configuration of the config's design.
 
@@ -249,16 +254,17 @@ def run_sweep(config: StudyConfig, *, X=None, executor=None, cache: Any = None,
     cache = _resolve_cache(config, cache)
     if executor is None:
         executor = make_executor(config.workers)
-    design, screen = {"method": "given"}, None
+    design: dict[str, Any] = {"method": "given"}
+    screen: dict[str, Any] | None = None
     if X is None:
         X, design, screen = _design(config, executor=executor, cache=cache,
                                     progress=progress)
-    X = np.asarray(X, float).reshape(-1, len(config.variables))
+    Xa: FloatArray = np.asarray(X, float).reshape(-1, len(config.variables))
     analysis = dict(config.analysis)
-    specs = [config.spec_dict(x, i) for i, x in enumerate(X)]
+    specs = [config.spec_dict(x, i) for i, x in enumerate(Xa)]
     hashes: list[str] = []
     keys: list[str] = []
-    results: list = [None] * len(specs)
+    results: list[Any] = [None] * len(specs)
     bar = _Bar(len(specs), f"sweep {config.name}", "config", progress)
     todo: dict[str, list[int]] = {}
     n_cached = 0
@@ -276,9 +282,9 @@ def run_sweep(config: StudyConfig, *, X=None, executor=None, cache: Any = None,
     tasks = [(specs[todo[k][0]], analysis) for k in order]
 
     here = code_fingerprint()
-    foreign = []
+    foreign: list[str] = []
 
-    def done(j: int, r: dict) -> None:
+    def done(j: int, r: dict[str, Any]) -> None:
         k = order[j]
         code = r.pop("code", here)
         if code != here:  # a worker runs other tipgeo code: keep, but never cache
@@ -301,7 +307,7 @@ def run_sweep(config: StudyConfig, *, X=None, executor=None, cache: Any = None,
         print(f"tipgeo: warning: {len(foreign)} configurations were evaluated by workers "
               "running different tipgeo code than this machine; they were not cached "
               "(restart or update the workers)", file=sys.stderr)
-    return SweepResult(config=config, X=X, results=results, keys=keys, specs=specs,
+    return SweepResult(config=config, X=Xa, results=results, keys=keys, specs=specs,
                        hashes=hashes,
                        seconds=time.perf_counter() - t0, computed=len(tasks), cached=n_cached,
                        executor=ex.name, workers=ex.workers,
@@ -309,7 +315,7 @@ def run_sweep(config: StudyConfig, *, X=None, executor=None, cache: Any = None,
                        design=design, screen=screen)
 
 
-def _resolve_cache(config: StudyConfig, cache: Any):
+def _resolve_cache(config: StudyConfig, cache: Any) -> ResultCache | None:
     if cache is None:
         cache = config.cache
     if cache is True:
@@ -319,8 +325,8 @@ def _resolve_cache(config: StudyConfig, cache: Any):
     return cache if isinstance(cache, ResultCache) else ResultCache(cache)
 
 
-def design_points(config: StudyConfig, *, executor=None, cache: Any = None,
-                  progress: bool = False) -> tuple[np.ndarray, dict]:
+def design_points(config: StudyConfig, *, executor: Executor | None = None, cache: Any = None,
+                  progress: bool = False) -> tuple[FloatArray, dict[str, Any]]:
     """The config's design, and how it was made.
 
     For ``maximin`` every candidate is screened by the spec's validation
@@ -354,7 +360,7 @@ def design_points(config: StudyConfig, *, executor=None, cache: Any = None,
     return X, info
 
 
-def _design(config: StudyConfig, *, executor: Any, cache: Any,
+def _design(config: StudyConfig, *, executor: Executor, cache: ResultCache | None,
             progress: bool) -> tuple[FloatArray, dict[str, Any], dict[str, Any] | None]:
     d = config.design
     if d["method"] != "maximin":
@@ -364,7 +370,7 @@ def _design(config: StudyConfig, *, executor: Any, cache: Any,
     return _maximin_design(config, executor=executor, cache=cache, progress=progress)
 
 
-def _maximin_design(config: StudyConfig, *, executor: Any, cache: Any,
+def _maximin_design(config: StudyConfig, *, executor: Executor, cache: ResultCache | None,
                     progress: bool) -> tuple[FloatArray, dict[str, Any], dict[str, Any]]:
     """A ``maximin`` design on its screened candidate grid: the design, its
     info (see :func:`design_points`) and the screen (validated nodes and the
@@ -481,15 +487,16 @@ _NUMBER = re.compile(r"[-+]?\d+(?:\.\d+)?(?:e[-+]?\d+)?")
 _SCREEN = {"screen": "validate"}
 
 
-def _screen(config: StudyConfig, X, *, executor, cache, bar: _Bar) -> list[str]:
+def _screen(config: StudyConfig, X: FloatArray, *, executor: Executor,
+            cache: ResultCache | None, bar: _Bar) -> list[str]:
     """Validation message per row of X ('' when the spec validates): cached
     verdicts read back (keyed by a hash of the spec's keys: no validation),
     the others validated on the executor."""
     specs = [config.spec_dict(x) for x in X]
     keys: list[str] = []
     hashes: list[str] = []
-    out: list = [None] * len(specs)
-    todo = []
+    out: list[Any] = [None] * len(specs)
+    todo: list[int] = []
     for i, s in enumerate(specs):
         hashes.append(spec_hash(s, _SCREEN))
         keys.append(k := key_from_hash(hashes[-1]))
@@ -501,7 +508,7 @@ def _screen(config: StudyConfig, X, *, executor, cache, bar: _Bar) -> list[str]:
             todo.append(i)
     here = code_fingerprint()
 
-    def done(j: int, r: dict) -> None:
+    def done(j: int, r: dict[str, Any]) -> None:
         i = todo[j]
         if r.get("status") not in ("ok", "invalid"):  # a worker died: refuse, say why
             r = {"status": "invalid", "error": f"validation failed: {r.get('error', '')}"}
@@ -516,7 +523,7 @@ def _screen(config: StudyConfig, X, *, executor, cache, bar: _Bar) -> list[str]:
     return out
 
 
-def evaluate_spec_task(spec_dict: dict, analysis: dict) -> dict:
+def evaluate_spec_task(spec_dict: dict[str, Any], analysis: dict[str, Any]) -> dict[str, Any]:
     """Worker entry point: :func:`~tipgeo.optimize.responses.evaluate_spec`
     (looked up at call time, so it can be instrumented), tagged with this
     process's code fingerprint."""
@@ -527,7 +534,7 @@ def evaluate_spec_task(spec_dict: dict, analysis: dict) -> dict:
     return r
 
 
-def validate_spec_task(spec_dict: dict) -> dict:
+def validate_spec_task(spec_dict: dict[str, Any]) -> dict[str, Any]:
     """Worker entry point: does the spec validate? ``status`` ``ok`` or
     ``invalid`` with the ``error`` message, tagged with the code fingerprint."""
     from ..spec import spec_from_dict

@@ -19,27 +19,33 @@ from __future__ import annotations
 import math
 import sys
 import time
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
+from contextlib import AbstractContextManager
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
 from .. import progress as _progress
+from ..arrays import ArrayLike, BoolArray, FloatArray
 from ..jsonio import dumps as _dumps
 from ..paths import inside
-from .config import StudyConfig
+from .config import Objective, StudyConfig
+from .executors import Executor
 from .infill import InfillResult, infill_optima, training_ranges
 from .objective import Feasible, Optimum, optimum_region, term_summary, verify_optimum
 from .surrogate import Surrogate, fit_surrogate
 from .sweep import SweepResult, run_sweep, write_table
 
+if TYPE_CHECKING:
+    from ..verdict import Check, Verdict
+
 __all__ = ["run_study", "feasibility", "grid_verdicts", "edge_report",
            "constant_responses", "study_verdict", "flat_message", "search_feasibility"]
 
 
-def feasibility(config: StudyConfig, known=None):
+def feasibility(config: StudyConfig, known: dict[str, Any] | None = None) -> Feasible:
     """A callable (m, d) -> (m,) bool: does the spec at each row validate
     (e.g. the helix axis clears the tube, thesis §3.1.1)?
 
@@ -47,15 +53,16 @@ def feasibility(config: StudyConfig, known=None):
     ``maximin`` design's screening, :attr:`SweepResult.screen`), not re-validated."""
     from ..errors import SpecError
 
-    memo: dict[tuple, bool] = {}  # a validation costs ~0.1 s; plots re-ask the same grid
+    # a validation costs ~0.1 s; plots re-ask the same grid
+    memo: dict[tuple[float, ...], bool] = {}
     if known is not None:
         for x, ok in zip(np.asarray(known["X"], float), known["ok"]):
             memo[tuple(np.round(x, 12).tolist())] = bool(ok)
 
-    def feasible(X) -> np.ndarray:
-        X = np.atleast_2d(np.asarray(X, float))
-        out = np.empty(len(X), bool)
-        for i, x in enumerate(X):
+    def feasible(X: ArrayLike) -> BoolArray:
+        A = np.atleast_2d(np.asarray(X, float))
+        out = np.empty(len(A), bool)
+        for i, x in enumerate(A):
             key = tuple(np.round(x, 12).tolist())
             if key not in memo:
                 try:
@@ -69,7 +76,7 @@ def feasibility(config: StudyConfig, known=None):
     return feasible
 
 
-def grid_verdicts(config: StudyConfig, screen: dict):
+def grid_verdicts(config: StudyConfig, screen: dict[str, Any]) -> Feasible:
     """A callable (m, d) -> (m,) bool answering from a ``maximin`` design's
     candidate grid (:attr:`SweepResult.screen`) — no validation: a point is
     admissible when any node of the grid cell holding it is (validated or
@@ -86,7 +93,7 @@ def grid_verdicts(config: StudyConfig, screen: dict):
     lo, hi = np.array(config.bounds, float).T
     top = np.array(levels) - 1
 
-    def feasible(X) -> np.ndarray:
+    def feasible(X: ArrayLike) -> BoolArray:
         t = np.clip((np.atleast_2d(np.asarray(X, float)) - lo) / (hi - lo) * top, 0, top)
         below = np.floor(t + tol.rel).astype(int)
         above = np.minimum(np.ceil(t - tol.rel).astype(int), top)
@@ -99,7 +106,8 @@ def grid_verdicts(config: StudyConfig, screen: dict):
     return feasible
 
 
-def search_feasibility(config: StudyConfig, feasible, screen: dict | None):
+def search_feasibility(config: StudyConfig, feasible: Feasible,
+                       screen: dict[str, Any] | None) -> Feasible:
     """The optimiser's feasibility test: ``feasible`` (a real validation), but
     a point in a cell of a ``maximin`` design's screened candidate grid where
     no node is admissible (:func:`grid_verdicts`: the region the pictures leave
@@ -116,18 +124,19 @@ def search_feasibility(config: StudyConfig, feasible, screen: dict | None):
         return feasible
     seen = grid_verdicts(config, screen)
 
-    def search(X) -> np.ndarray:
-        X = np.atleast_2d(np.asarray(X, float))
-        out = np.zeros(len(X), bool)
-        maybe = seen(X)
+    def search(X: ArrayLike) -> BoolArray:
+        A = np.atleast_2d(np.asarray(X, float))
+        out = np.zeros(len(A), bool)
+        maybe = seen(A)
         if maybe.any():
-            out[maybe] = feasible(X[maybe])
+            out[maybe] = feasible(A[maybe])
         return out
 
     return search
 
 
-def edge_report(config: StudyConfig, x, feasible, step: float = 0.01) -> dict[str, Any]:
+def edge_report(config: StudyConfig, x: ArrayLike, feasible: Feasible,
+                step: float = 0.01) -> dict[str, Any]:
     """Is ``x`` on the box's edge, or on the boundary of the buildable region?
 
     Parameters
@@ -151,8 +160,8 @@ def edge_report(config: StudyConfig, x, feasible, step: float = 0.01) -> dict[st
     x = np.asarray(x, float)
     lo, hi = np.array(config.bounds, float).T
     span = hi - lo
-    edges = []
-    probes = []
+    edges: list[dict[str, str]] = []
+    probes: list[FloatArray] = []
     for i, v in enumerate(config.variables):
         for side, b, sgn in (("min", lo[i], -1.0), ("max", hi[i], 1.0)):
             if abs(x[i] - b) <= tol.rel * span[i]:
@@ -162,7 +171,7 @@ def edge_report(config: StudyConfig, x, feasible, step: float = 0.01) -> dict[st
                 p[i] = np.clip(x[i] + sgn * step * span[i], lo[i], hi[i])
                 probes.append(p)
     ok = feasible(np.array(probes)) if probes else np.ones(0, bool)
-    out = {"on_box_edge": edges, "on_buildable_boundary": not bool(np.all(ok))}
+    out: dict[str, Any] = {"on_box_edge": edges, "on_buildable_boundary": not bool(np.all(ok))}
     if out["on_buildable_boundary"]:  # why the first refused probe was refused
         from ..errors import SpecError
 
@@ -174,7 +183,8 @@ def edge_report(config: StudyConfig, x, feasible, step: float = 0.01) -> dict[st
     return out
 
 
-def constant_responses(sweep, names=None) -> dict[str, float]:
+def constant_responses(sweep: SweepResult,
+                       names: Sequence[str] | None = None) -> dict[str, float]:
     """The responses that do not vary over a sweep's successful configurations.
 
     A response is constant when its range (max − min) is within
@@ -196,12 +206,12 @@ def constant_responses(sweep, names=None) -> dict[str, float]:
     """
     from ..tolerances import tol
 
-    names = list(names or sweep.config.responses)
-    Y = sweep.responses(names)[sweep.ok]
+    cols = list(names or sweep.config.responses)
+    Y = sweep.responses(cols)[sweep.ok]
     out: dict[str, float] = {}
     if len(Y) < 2:
         return out
-    for j, name in enumerate(names):
+    for j, name in enumerate(cols):
         y = Y[:, j]
         if not np.all(np.isfinite(y)):
             continue
@@ -230,12 +240,11 @@ def _plan_objectives(config: StudyConfig, constant: dict[str, float]) -> list[di
     """Per objective of the config: the objective optimised (its terms on
     constant responses left out; None when every term is on one) and the
     flat terms with their messages."""
-    from .config import Objective
-
-    plans = []
+    plans: list[dict[str, Any]] = []
     for obj in config.objectives:
         active = tuple(t for t in obj.terms if t.response not in constant)
         flat = [t.response for t in obj.terms if t.response in constant]
+        run: Objective | None
         if not flat:
             run = obj
         elif active:
@@ -248,7 +257,7 @@ def _plan_objectives(config: StudyConfig, constant: dict[str, float]) -> list[di
     return plans
 
 
-def study_verdict(config: StudyConfig, report: dict[str, Any]):
+def study_verdict(config: StudyConfig, report: dict[str, Any]) -> Verdict:
     """The study's :class:`~tipgeo.verdict.Verdict`: ok when the adaptive
     infill converged and every objective has a verified optimum (analysed
     for real; built watertight when it was built) that no constant response
@@ -257,7 +266,7 @@ def study_verdict(config: StudyConfig, report: dict[str, Any]):
 
     inf = report["infill"]
     constant = report["responses"]["constant"]
-    checks = []
+    checks: list[Check] = []
     if inf["converged"]:
         checks.append(check_true("infill_converged", True, "infill converged", ""))
     else:
@@ -299,18 +308,18 @@ def study_verdict(config: StudyConfig, report: dict[str, Any]):
     return Verdict.of(f"study {config.name}", checks)
 
 
-def _stage(enabled: bool, desc: str):
+def _stage(enabled: bool, desc: str) -> AbstractContextManager[Any]:
     """A stage of unknown length on the progress line (or nothing)."""
     from contextlib import nullcontext
 
     return _progress.stage(desc) if enabled else nullcontext()
 
 
-def _bar(enabled: bool, total: int, desc: str, unit: str):
+def _bar(enabled: bool, total: int, desc: str, unit: str) -> Any:
     return _progress.bar(total, desc, unit=unit) if enabled else _progress._Silent()
 
 
-def _above_bars(log, enabled: bool):
+def _above_bars(log: Callable[[str], None], enabled: bool) -> Callable[[str], None]:
     """``log``, its lines written above any open progress bar (not through it)."""
     if not (enabled and _progress.enabled()):
         return log
@@ -324,9 +333,10 @@ def _above_bars(log, enabled: bool):
     return say
 
 
-def run_study(config: StudyConfig, out_dir: str | Path, *, executor=None, cache: Any = None,
-              progress: bool = True, build: bool = True, plots: bool = True,
-              table: str = "sweep.csv", log=None) -> dict[str, Any]:
+def run_study(config: StudyConfig, out_dir: str | Path, *, executor: Executor | None = None,
+              cache: Any = None, progress: bool = True, build: bool = True,
+              plots: bool = True, table: str = "sweep.csv",
+              log: Callable[[str], None] | None = None) -> dict[str, Any]:
     """Run the sweep, fit the surrogate, optimise every objective and check
     each optimum on the real geometry.
 
@@ -390,7 +400,7 @@ class _Run:
     config: StudyConfig
     out: Path
     files: list[str]
-    executor: Any
+    executor: Executor | None
     cache: Any
     progress: bool
     build: bool
@@ -415,7 +425,8 @@ class _Fit:
     t_infill: float = 0.0
 
 
-def _study(config: StudyConfig, out: Path, files: list[str], *, executor: Any, cache: Any,
+def _study(config: StudyConfig, out: Path, files: list[str], *, executor: Executor | None,
+           cache: Any,
            progress: bool, build: bool, plots: bool, table: str,
            log: Callable[[str], None]) -> dict[str, Any]:
     """The body of :func:`run_study` (``files`` collects what it writes):

@@ -36,7 +36,7 @@ statistics.
 from __future__ import annotations
 
 import json
-from collections.abc import Callable
+from collections.abc import Callable, Iterable
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -83,7 +83,7 @@ class LaserSource:
     name: str | None = None
 
 
-def _check_out(out) -> Path:
+def _check_out(out: str | Path) -> Path:
     from ..errors import InputError
 
     p = Path(out)
@@ -185,10 +185,10 @@ def _ply_vertex_fields(ply: Path, head: list[str]) -> tuple[int, list[tuple[str,
     return n, fields, labels
 
 
-def _fem_runs(folder: Path) -> list[tuple[str, dict]]:
+def _fem_runs(folder: Path) -> list[tuple[str, dict[str, Any]]]:
     """The FEM runs in a ``tipgeo fem --out-dir`` folder: (file name, run
     dict) of every ``*.json`` holding a force ``curve``."""
-    out = []
+    out: list[tuple[str, dict[str, Any]]] = []
     for f in sorted(folder.glob("*.json")):
         if f.stat().st_size > 50_000_000:
             continue
@@ -203,7 +203,8 @@ def _fem_runs(folder: Path) -> list[tuple[str, dict]]:
     return out
 
 
-def _study(folder: Path):
+def _study(folder: Path) -> tuple[dict[str, Any], dict[str, FloatArray],
+                                  dict[str, Predictor] | None] | None:
     """(report, sweep table {column: array}) of a ``tipgeo optimize``
     folder (report.json with optima, sweep.csv), or None."""
     import csv
@@ -306,7 +307,7 @@ def _reproduces(predict: Predictor, name: str, rep: dict[str, Any], names: list[
     return True
 
 
-def _resolve(src: Any):
+def _resolve(src: Any) -> tuple[str, Any]:
     """(kind, object) of one source."""
     from ..errors import InputError
     from ..spec import TipSpec
@@ -353,29 +354,30 @@ def _resolve(src: Any):
                      "Comparison")
 
 
-def _name(kind: str, obj) -> str:
+def _name(kind: str, obj: Any) -> str:
     """What a source is called on the page."""
     if kind == "tip":
-        return obj.name or getattr(obj.spec, "name", None) or getattr(obj.tip, "source", None) \
-            or "tip"
+        return str(obj.name or getattr(obj.spec, "name", None)
+                   or getattr(obj.tip, "source", None) or "tip")
     if kind == "mill":
-        return obj.toolpath.name
+        return str(obj.toolpath.name)
     if kind == "grind":
-        return obj.program.summary().get("name") or "grind"
+        return str(obj.program.summary().get("name") or "grind")
     if kind == "laser":
-        return obj.name or "laser program"
+        return str(obj.name or "laser program")
     if kind == "compare":
-        return obj.cad.summary().get("name") or "compare"
+        return str(obj.cad.summary().get("name") or "compare")
     if kind == "compare-folder":
-        return obj.name
+        return str(obj.name)
     if kind == "fem-folder":
         return ", ".join(d.get("name", n) for n, d in obj)
     if kind == "study-folder":
-        return obj[0].get("name") or "study"
-    return obj.name or "spec"
+        return str(obj[0].get("name") or "study")
+    return str(obj.name or "spec")
 
 
-def html_report(sources, out, *, title: str | None = None) -> dict[str, Any]:
+def html_report(sources: Iterable[Any], out: str | Path, *,
+                title: str | None = None) -> dict[str, Any]:
     """Write one self-contained offline HTML report of ``sources`` to ``out``.
 
     Parameters
@@ -402,11 +404,11 @@ def html_report(sources, out, *, title: str | None = None) -> dict[str, Any]:
     from . import sections as S
     from .page import Page
 
-    sources = list(sources)
-    if not sources:
+    items = list(sources)
+    if not items:
         raise InputError("sources = []; allowed one or more: " + _SOURCE_FORMS)
     path = _check_out(out)
-    resolved = [_resolve(s) for s in sources]  # every source checked before any work
+    resolved = [_resolve(s) for s in items]  # every source checked before any work
     names = [_name(kind, obj) for kind, obj in resolved]
     page = Page(title or "tipgeo report: " + ", ".join(dict.fromkeys(names)),
                 "tipgeo — interactive, offline; mm, degrees and µm; cannula frame, +z toward "

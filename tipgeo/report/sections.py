@@ -15,10 +15,12 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from ..arrays import AnyArray, FloatArray, IntArray
+from ..arrays import AnyArray, ArrayLike, FloatArray, IntArray
+from ..tolerances import tol
 
 if TYPE_CHECKING:
     from ..spec import TipSpec
+    from ..tip import Tip
     from . import Predictor
     from .page import Page, Section
 
@@ -40,7 +42,7 @@ DISPLAY_POINTS = 200_000
 MAX_DISPLAY_MOVES = 100_000
 
 
-def _label_colours(names) -> dict[str, str]:
+def _label_colours(names: list[str]) -> dict[str, str]:
     cuts = [n for n in names if n.startswith("cut:")]
     return {n: COLOURS.get(n, _CUT[cuts.index(n) % len(_CUT)] if n in cuts else "#888888")
             for n in names}
@@ -52,12 +54,12 @@ def _nice(x: float) -> float:
     return max(m * e for m in (1.0, 2.0, 5.0) if m * e <= x)
 
 
-def _f32(a) -> np.ndarray:
+def _f32(a: ArrayLike) -> AnyArray:
     return np.ascontiguousarray(np.asarray(a, dtype=np.float32))
 
 
-def _mesh_traces(tip, *, zlo: float | None = None, opacity: float = 1.0, scene: str = "scene",
-                 legend: bool = True, suffix: str = ""):
+def _mesh_traces(tip: Tip, *, zlo: float | None = None, opacity: float = 1.0,
+                 scene: str = "scene", legend: bool = True, suffix: str = "") -> list[Any]:
     """One Mesh3d per face label (cannula frame, mm), the tube cut at ``zlo``."""
     import plotly.graph_objects as go
 
@@ -88,7 +90,7 @@ def _mesh_traces(tip, *, zlo: float | None = None, opacity: float = 1.0, scene: 
 
 
 def _frame_traces(z0: float, length: float, scene: str = "scene", *, beside: float = 0.0,
-                  z1: float | None = None):
+                  z1: float | None = None) -> list[Any]:
     """The cannula frame's axis directions, each ``length`` mm long (the
     page's scale bar), from (−beside, −beside, z0) — beside the part, not
     inside the tube — and the needle axis (x = y = 0) from z0 to ``z1``."""
@@ -113,19 +115,19 @@ def _frame_traces(z0: float, length: float, scene: str = "scene", *, beside: flo
     return out
 
 
-def _scene(points=None, title_z: str = "z (mm)") -> dict:
+def _scene(points: ArrayLike | None = None, title_z: str = "z (mm)") -> dict[str, Any]:
     """A 3D scene in true proportions (mm on every axis), the camera far
     enough out that the whole box of ``points`` (n, 3) is in view."""
     ax = {"showbackground": True, "backgroundcolor": "#f4f6f8", "gridcolor": "#d0d6dc",
           "nticks": 6}
-    out = {"xaxis": {**ax, "title": {"text": "x (mm)"}},
+    out: dict[str, Any] = {"xaxis": {**ax, "title": {"text": "x (mm)"}},
            "yaxis": {**ax, "title": {"text": "y (mm)"}},
            "zaxis": {**ax, "title": {"text": title_z}}}
-    if points is None or not len(points):
+    p = np.asarray(points if points is not None else np.zeros((0, 3)), float)
+    if not len(p):
         return {**out, "aspectmode": "data"}
-    p = np.asarray(points, float)
     p = p[np.isfinite(p).all(axis=1)]
-    span = np.maximum(p.max(axis=0) - p.min(axis=0), 1e-9)
+    span = np.maximum(p.max(axis=0) - p.min(axis=0), tol.report_span)
     ar = span / span.max()
     d = 0.75 + 0.8 * float(np.hypot(ar[0], ar[1]))  # out by the box's plan size
     return {**out, "aspectmode": "manual",
@@ -140,7 +142,7 @@ DISPLAY_TOLERANCE = 2e-3  # mm
 _DISPLAY_TRIANGLES = 20_000
 
 
-def _display_tip(tip):
+def _display_tip(tip: Tip) -> Tip:
     """The mesh to draw: ``tip`` itself, or (over 20 000 triangles with a
     spec) the same spec built at :data:`DISPLAY_TOLERANCE`."""
     from ..build import build_tip
@@ -151,7 +153,7 @@ def _display_tip(tip):
     return build_tip(tip.spec, tolerance=DISPLAY_TOLERANCE)
 
 
-def _zlo(tip) -> float:
+def _zlo(tip: Tip) -> float:
     """Lowest z shown: the lowest cut-face point less 0.4 × the outer radius."""
     v = np.asarray(tip.vertices, float)
     f = np.asarray(tip.faces)
@@ -162,14 +164,15 @@ def _zlo(tip) -> float:
 
 
 # -----------------------------------------------------------------------------
-def _edge_xyz(w, g: np.ndarray, z: np.ndarray) -> np.ndarray:
+def _edge_xyz(w: Any, g: FloatArray, z: FloatArray) -> FloatArray:
     """Analysis-frame (γ, z) of a wall's edge → cannula-frame points (mm)."""
     gh, zh = w.edge.heel
     r = w.edge.radius
     return np.stack([r * np.cos(g + gh), r * np.sin(g + gh), z + zh], 1)
 
 
-def tip_section(page, spec, *, tip=None, report=None, title: str | None = None) -> None:
+def tip_section(page: Page, spec: TipSpec | None, *, tip: Tip | None = None,
+                report: Any = None, title: str | None = None) -> None:
     """The tip in 3D (faces by label, edges, frame) and λ, θ, α against γ and
     z with the hover linked to the 3D edge; the build's and the angle report's
     numbers as tables. ``spec`` a TipSpec (or None with ``tip``)."""
@@ -267,7 +270,7 @@ def tip_section(page, spec, *, tip=None, report=None, title: str | None = None) 
     _tip_tables(s, tip)
 
 
-def _tip_tables(s, tip) -> None:
+def _tip_tables(s: Section, tip: Tip) -> None:
     info = tip.summary()
     rows = [[k, info[k]] for k in ("triangles", "vertices", "volume_mm3", "area_mm2",
                                    "tolerance_um", "watertight") if k in info]
@@ -276,7 +279,7 @@ def _tip_tables(s, tip) -> None:
             caption="faces")
 
 
-def _angle_tables(s, report) -> None:
+def _angle_tables(s: Section, report: Any) -> None:
     sm = report.summary()
     rows = []
     for wall, key in (("outer", "o"), ("inner", "i")):
@@ -301,12 +304,12 @@ def _angle_tables(s, report) -> None:
 
 
 # -----------------------------------------------------------------------------
-def _move_kinds(moves, params) -> tuple[np.ndarray, list[str]]:
+def _move_kinds(moves: Any, params: Any) -> tuple[IntArray, list[str]]:
     """Each move's kind (index into the names): rapid, or the feed's name
     (finishing / roughing / plunge from the parameters' feeds, else its F)."""
     names: list[str] = ["rapid"]
     kind = np.zeros(len(moves.start), int)
-    known = {}
+    known: dict[float, str] = {}
     if params is not None:
         for nm, f in (("finishing", params.finish_feed), ("roughing", params.rough_feed),
                       ("plunge", params.plunge_feed)):
@@ -315,7 +318,7 @@ def _move_kinds(moves, params) -> tuple[np.ndarray, list[str]]:
     for f in np.unique(np.round(feeds[np.isfinite(feeds)], 6)):
         nm = known.get(float(f), "feed")
         names.append(f"{nm} (F {f:g} mm/min)")
-        kind[np.isclose(feeds, f, rtol=0, atol=1e-6)] = len(names) - 1
+        kind[np.isclose(feeds, f, rtol=0, atol=tol.report_feed)] = len(names) - 1
     return kind, names
 
 
@@ -327,8 +330,10 @@ def _move_colour(name: str) -> str:
     return "#00838f"
 
 
-def _toolpath_view(page, s, pieces, path: np.ndarray, path_kind, names: list[str], *, cad,
-                   r_o: float, focus: np.ndarray, marker_name: str, zoom: float = 1.0) -> str:
+def _toolpath_view(page: Page, s: Section, pieces: list[tuple[str, str, bool, FloatArray]],
+                   path: FloatArray, path_kind: ArrayLike, names: list[str], *,
+                   cad: Tip | None, r_o: float, focus: ArrayLike, marker_name: str,
+                   zoom: float = 1.0) -> str:
     """The toolpath figure of a program over the CAD part (grey) in section
     ``s``, with the slider and play button that walk ``path`` (cannula
     frame, mm; (m + 1, 3): the start, then each move's end) and the page link
@@ -356,12 +361,12 @@ def _toolpath_view(page, s, pieces, path: np.ndarray, path_kind, names: list[str
     traces.append(go.Scatter3d(x=[], y=[], z=[], mode="markers", name=marker_name,
                                marker={"size": 8, "color": "#d50000", "symbol": "diamond"},
                                hoverinfo="skip"))
-    focus = np.asarray(focus, float).reshape(-1, 3)
-    traces += _frame_traces(float(np.nanmin(focus[:, 2])), _nice(0.8 * r_o), beside=1.3 * r_o)
+    box = np.asarray(focus, float).reshape(-1, 3)
+    traces += _frame_traces(float(np.nanmin(box[:, 2])), _nice(0.8 * r_o), beside=1.3 * r_o)
     fig = go.Figure(traces)
-    sc = _scene(focus)
-    if len(focus):  # moves away from the part leave the box: the part fills the view
-        lo, hi = np.nanmin(focus, axis=0), np.nanmax(focus, axis=0)
+    sc = _scene(box)
+    if len(box):  # moves away from the part leave the box: the part fills the view
+        lo, hi = np.nanmin(box, axis=0), np.nanmax(box, axis=0)
         pad = 0.05 * (hi - lo) + 0.05
         for ax, a, b in zip("xyz", lo - pad, hi + pad):
             sc[f"{ax}axis"]["range"] = [float(a), float(b)]
@@ -383,7 +388,8 @@ def _toolpath_view(page, s, pieces, path: np.ndarray, path_kind, names: list[str
     return div
 
 
-def _cad_beside(s, cad, sim, name: str, title: str = "simulated from the program") -> None:
+def _cad_beside(s: Section, cad: Tip, sim: Tip, name: str,
+                title: str = "simulated from the program") -> None:
     """The CAD tip (left) and a simulated tip (right) as two 3D scenes in
     section ``s`` (cannula frame, mm, faces by label, the same box)."""
     from plotly.subplots import make_subplots
@@ -659,7 +665,7 @@ def _measured_tables(s: Section, meas: dict[str, Any]) -> None:
 
 
 # -----------------------------------------------------------------------------
-def fem_section(page, run: dict, *, source: str = "") -> None:
+def fem_section(page: Page, run: dict[str, Any], *, source: str = "") -> None:
     """A finite-element insertion run (its JSON, ``tipgeo fem --out-dir``):
     the axial force against depth (N, mm) beside the analytical force of
     eq. 4.22, their difference, the run's numbers, stresses and verdict."""
@@ -883,7 +889,7 @@ def _study_tables(s: Section, report: dict[str, Any], optima: list[dict[str, Any
 
 
 # -----------------------------------------------------------------------------
-def grind_section(page, res, spec=None) -> None:
+def grind_section(page: Page, res: Any, spec: TipSpec | None = None) -> None:
     """A grinding run (:class:`cam.GrindResult`): the simulated ground tip
     beside the CAD (when simulated), the set-up of every face, the program's
     numbers, the comparison and its verdict."""
@@ -919,7 +925,9 @@ def grind_section(page, res, spec=None) -> None:
 LASER_KINDS = (("rapid", "#9e9e9e"), ("beam off", "#1565c0"), ("beam on", "#e65100"))
 
 
-def laser_to_cannula(x, y, c_deg, spec, *, origin=(0.0, 0.0), gamma0_deg: float = 0.0):
+def laser_to_cannula(x: ArrayLike, y: ArrayLike, c_deg: ArrayLike, spec: TipSpec, *,
+                     origin: tuple[float, float] = (0.0, 0.0),
+                     gamma0_deg: float = 0.0) -> FloatArray:
     """Laser program points (X, Y mm at C degrees, the machine frame of
     :mod:`gcode.interpreter`) on the tube's outer wall in the cannula frame
     (mm; +z toward the tip, γ about +z from the heel) — the mapping of the
@@ -928,7 +936,7 @@ def laser_to_cannula(x, y, c_deg, spec, *, origin=(0.0, 0.0), gamma0_deg: float 
     plain punch's inner rim height at γ, and the point
     u·(−sin γ, cos γ, 0) + z·ez + r_o·(cos γ, sin γ, 0): the beam's plane,
     tangent to the outer wall at γ. Returns (n, 3)."""
-    x, y, c = (np.atleast_1d(np.asarray(a, float)) for a in (x, y, c_deg))
+    xs, ys, c = (np.atleast_1d(np.asarray(a, float)) for a in (x, y, c_deg))
     cannula = spec.cannula
     base = [cut for cut in spec.cutters if cut.process != "laser"]
     gam = np.radians(c + gamma0_deg)
@@ -942,13 +950,14 @@ def laser_to_cannula(x, y, c_deg, spec, *, origin=(0.0, 0.0), gamma0_deg: float 
                   if z is not None]
             rims[key] = min(zs) if zs else 0.0
         z_rim[k] = rims[key]
-    u = x - origin[0]
-    z = z_rim - (y - origin[1])
+    u = xs - origin[0]
+    z = z_rim - (ys - origin[1])
     cg, sg = np.cos(gam), np.sin(gam)
-    return np.stack([-u * sg + cannula.r_o * cg, u * cg + cannula.r_o * sg, z], 1)
+    out: FloatArray = np.stack([-u * sg + cannula.r_o * cg, u * cg + cannula.r_o * sg, z], 1)
+    return out
 
 
-def _laser_move_points(seg, chordal: float = 2e-3, c_step_deg: float = 2.0):
+def _laser_move_points(seg: Any, chordal: float = 2e-3, c_step_deg: float = 2.0) -> FloatArray:
     """(k, 3) X, Y (mm), C (deg) along one move: arcs within ``chordal``,
     a C move every ``c_step_deg``."""
     xy = np.asarray(seg.points(chordal), float)
@@ -957,11 +966,12 @@ def _laser_move_points(seg, chordal: float = 2e-3, c_step_deg: float = 2.0):
         t = np.linspace(0.0, 1.0, n)
         xy = np.asarray(seg.start, float) + t[:, None] * (np.subtract(seg.end, seg.start))
     t = np.linspace(0.0, 1.0, len(xy))
-    return np.column_stack([xy, seg.c0 + t * (seg.c1 - seg.c0)])
+    out: FloatArray = np.column_stack([xy, seg.c0 + t * (seg.c1 - seg.c0)])
+    return out
 
 
-def _flat(d: dict, prefix: str = "") -> list[list]:
-    rows = []
+def _flat(d: dict[str, Any], prefix: str = "") -> list[list[Any]]:
+    rows: list[list[Any]] = []
     for k, v in d.items():
         if isinstance(v, dict):
             rows += _flat(v, f"{prefix}{k}.")

@@ -385,6 +385,12 @@ class GaussianProcess:
             raise SpecError("the GP is not fitted; call fit(X, Y) first")
         return self.fit_
 
+    @property
+    def fitted(self) -> FitResult:
+        """The fit's hyperparameters and estimates (a SpecError when the GP is
+        not fitted yet)."""
+        return self._check_fitted()
+
     @overload
     def predict(self, Xs: ArrayLike, *, return_std: Literal[False] = False,
                 noise: bool = False) -> FloatArray: ...

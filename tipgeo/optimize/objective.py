@@ -321,14 +321,14 @@ def _objective_covariance(surrogate: Surrogate, a: FloatArray, U: FloatArray,
         m = surrogate.models[0]
         var, cov, var0 = m.covariance_with(U, u0)
         b = a * scale
-        k = float(b @ np.asarray(m._check_fitted().sigma) @ b)
+        k = float(b @ np.asarray(m.fitted.sigma) @ b)
         return k * var, k * cov, k * var0
     tot_var, tot_cov, tot_var0 = np.zeros(len(U)), np.zeros(len(U)), 0.0
     for j, m in enumerate(surrogate.models):
         if a[j] == 0.0:
             continue
         var, cov, var0 = m.covariance_with(U, u0)
-        k = (a[j] * scale[j]) ** 2 * float(np.asarray(m._check_fitted().sigma).reshape(-1)[0])
+        k = (a[j] * scale[j]) ** 2 * float(np.asarray(m.fitted.sigma).reshape(-1)[0])
         tot_var += k * var
         tot_cov += k * cov
         tot_var0 += k * var0

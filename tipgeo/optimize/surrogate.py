@@ -249,7 +249,7 @@ class Surrogate:
         models = []
         names = [self.responses] if self.mode == "separable" else [[r] for r in self.responses]
         for m, resp in zip(self.models, names):
-            f = m._check_fitted()
+            f = m.fitted
             ls = length_scales(f.omega, m.kernel)
             models.append({"responses": resp, "kernel": m.kernel, "omega": f.omega.tolist(),
                            "length_scales_unit": ls.tolist(),

@@ -851,6 +851,37 @@ class Tolerances:
     helical_max_steep_deg: float = 88.0
     helical_max_grid: int = 80_000
     maximin_improve: float = 1.0e-12
+    # --- optimize / report ---
+    #: Default ``min_rcond`` of a GP: correlation matrices whose estimated
+    #: reciprocal condition number is below this are rejected during MLE; it
+    #: keeps interpolation round-off near 1e-11 of the response (dimensionless).
+    gp_min_rcond: float = 1.0e-12
+    #: An infill point within this of a training point (max norm on the unit
+    #: box) is not added: it would make the correlation matrix singular.
+    infill_duplicate: float = 1.0e-9
+    #: ``kernel = "auto"``: a correlation family replaces the best so far only
+    #: when its LOO log predictive density is higher by more than this (a tie,
+    #: round-off, keeps the earlier family).
+    kernel_choice: float = 1.0e-9
+    #: The optimum's region: designs whose scaled objective (in [0, 1]) is within
+    #: this of the optimum's are indistinguishable from it.
+    optimum_value: float = 1.0e-4
+    #: The optimum's region touches a bound when its extent is within this of
+    #: it (unit box).
+    optimum_edge: float = 1.0e-6
+    #: A report re-predicts an optimum from ``surrogate.json``; a difference
+    #: above this share of the response's training range means the file is not
+    #: the study's surrogate.
+    report_prediction: float = 1.0e-6
+    #: Smallest axis span of a report's 3D view (mm), so a flat cloud keeps an
+    #: aspect ratio.
+    report_span: float = 1.0e-9
+    #: A report's deviation histogram ends this far above the largest
+    #: deviation (µm), so that value falls inside the last bin.
+    report_bin_pad: float = 1.0e-9
+    #: Feed rates within this of each other are one feed in a report's toolpath
+    #: legend (mm/min; the program's feeds carry at most 6 decimals).
+    report_feed: float = 1.0e-6
 
 
 #: The process-wide tolerance object. Tests set ``tol.strict = True``.

@@ -91,7 +91,7 @@ from .. import validate as v
 from ..cannula import Cannula
 from ..errors import BuildError, SpecError
 from ..tolerances import tol
-from .base import Cutter, check_name
+from .base import Cutter, OptimizerKey, check_name
 from .surfaces import HeightSurface, ImplicitSurface
 from .toml import round_for_toml as _r
 
@@ -169,6 +169,9 @@ class HelicalCutter(Cutter):
                  "ruling": "perpendicular, cone-normal, reverse-cone-normal or angle",
                  "ruling_angle_deg": "β for ruling = angle, (−90, 90)",
                  "tip": "+z or -z (along the helix axis)", "rotation_deg": ""}
+    optimizer_keys = {k: OptimizerKey() for k in (
+        "pitch_mm", "helix_angle_deg", "phi_deg", "helix_position_deg", "axis_offset_mm",
+        "tilt_direction_deg", "ruling_angle_deg", "rotation_deg")}
     _frame: tuple = field(init=False, repr=False, compare=False, hash=False, default=())
 
     @classmethod

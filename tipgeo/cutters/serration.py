@@ -39,7 +39,7 @@ from ..cannula import Cannula
 from ..construct import AUX
 from ..errors import SpecError
 from ..tolerances import tol
-from .base import Cutter, check_name
+from .base import Cutter, OptimizerKey, check_name
 from .surfaces import NotchPrism
 from .toml import round_for_toml as _r
 
@@ -296,6 +296,11 @@ class SerrationCutter(Cutter):
     toml_keys = {"arc_radius_mm": "r_c", "count": "n_s", "spacing_deg": "ρ, instead of count",
                  "depth_mm": "default r_c", "edge_radius_mm": "r_s, default 0",
                  "rotation_deg": "γ of the first"}
+    optimizer_keys = {"arc_radius_mm": OptimizerKey(),
+                      "count": OptimizerKey(integer=True, replaces=("spacing_deg",)),
+                      "spacing_deg": OptimizerKey(replaces=("count",)),
+                      "depth_mm": OptimizerKey(), "edge_radius_mm": OptimizerKey(),
+                      "rotation_deg": OptimizerKey()}
 
     @classmethod
     def from_dict(cls, t):

@@ -109,12 +109,30 @@ def pareto_front(F: ArrayLike) -> BoolArray:
     return keep
 
 
-def _thin(U: FloatArray, S: FloatArray, most: int) -> tuple[FloatArray, FloatArray]:
-    """At most ``most`` points of a front, evenly spaced along its first term."""
-    if len(U) <= most:
-        return U, S
-    idx = np.argsort(S[:, 0], kind="stable")[np.linspace(0, len(U) - 1, most).astype(int)]
-    return U[idx], S[idx]
+def _feasible_front(U: FloatArray, S: FloatArray, check: Callable[[FloatArray], BoolArray],
+                    most: int) -> tuple[FloatArray, FloatArray]:
+    """The front of the *feasible* rows (at most ``most`` points, thinned
+    evenly along the first term): the non-dominated rows are checked (``check``: unit
+    points -> bool), the infeasible ones dropped and the front taken again
+    among the rest, until every point of it is feasible. Only front points are
+    checked, each once: where the GP's best predictions lie past the buildable
+    boundary, the front peels back to it instead of being lost there. Empty
+    when no row is feasible."""
+    alive = np.ones(len(U), bool)
+    known = np.zeros(len(U), bool)
+    while alive.any():
+        idx = np.flatnonzero(alive)
+        front = idx[pareto_front(S[idx])]
+        if len(front) > most:
+            front = front[np.argsort(S[front, 0], kind="stable")[
+                np.linspace(0, len(front) - 1, most).astype(int)]]
+        todo = front[~known[front]]
+        ok = np.asarray(check(U[todo]), bool) if len(todo) else np.ones(0, bool)
+        alive[todo[~ok]] = False
+        known[todo[ok]] = True
+        if ok.all():
+            return U[front], S[front]
+    return U[:0], S[:0]
 
 
 def optimize_objective(surrogate: Surrogate, objective: Objective, *,
@@ -164,30 +182,32 @@ def optimize_objective(surrogate: Surrogate, objective: Objective, *,
     best_v = math.inf
     if objective.combine == "pareto":
         S = scaled_terms(surrogate, objective, surrogate.predict(X))
-        mask = pareto_front(S)
-        # thinned before it is refined: where the whole box is the front (one
-        # variable, two conflicting monotone terms) the 8-fold resampling of
-        # every candidate would make the dominance test quadratic in ~37 000 points
-        Uf, Sf = _thin(U[mask], S[mask], max_front)
-        # refine: resample around the front at shrinking scales, keep the non-dominated
+
+        def check(Uc: FloatArray) -> BoolArray:
+            if feasible is None:
+                return np.ones(len(Uc), bool)
+            return np.asarray(feasible(lo + Uc * span), bool)
+
+        # the front of the feasible candidates, thinned before it is refined:
+        # where the whole box is the front (one variable, two conflicting
+        # monotone terms) the 8-fold resampling of every candidate would make
+        # the dominance test quadratic in ~37 000 points
+        Uf, Sf = _feasible_front(U, S, check, max_front)
+        if not len(Uf):
+            raise SpecError(f"objective '{objective.name}': no feasible configuration "
+                            "on the front")
+        # refine: resample around the front at shrinking scales, keep the
+        # non-dominated feasible points
         rng = np.random.default_rng(seed)
         scale = 0.5 / len(U) ** (1.0 / d)
         for _ in range(refine):
             Un = np.clip(np.repeat(Uf, 8, axis=0)
                          + rng.normal(0.0, scale, (8 * len(Uf), d)), 0.0, 1.0)
-            Uf = np.vstack([Uf, Un])
-            Sf = np.vstack([Sf, scaled_terms(surrogate, objective,
-                                             surrogate.predict(lo + Un * span))])
-            keep = pareto_front(Sf)
-            Uf, Sf = _thin(Uf[keep], Sf[keep], max_front)
+            Sn = scaled_terms(surrogate, objective, surrogate.predict(lo + Un * span))
+            Uf, Sf = _feasible_front(np.vstack([Uf, Un]), np.vstack([Sf, Sn]), check,
+                                     max_front)
             scale *= 0.5
         Xf = lo + Uf * span
-        if feasible is not None:  # validations are costly: only the front's points
-            ok = np.asarray(feasible(Xf), bool)
-            if not ok.any():
-                raise SpecError(f"objective '{objective.name}': no feasible configuration "
-                                "on the front")
-            Xf, Uf, Sf = Xf[ok], Uf[ok], Sf[ok]
         # distance to the ideal point, each term scaled by its range on the front
         flo, fhi = Sf.min(0), Sf.max(0)
         Sn = (Sf - flo) / np.where(fhi > flo, fhi - flo, 1.0)

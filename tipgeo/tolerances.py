@@ -758,6 +758,17 @@ class Tolerances:
     helical_max_steep_deg: float = 88.0
     helical_max_grid: int = 80_000
     maximin_improve: float = 1.0e-12
+    # --- mesh (tipgeo.slivers, tipgeo.meshcheck) ---
+    #: A vertex star is flat (the sliver pass may relax its centre within the
+    #: plane) when every neighbour lies within this share of the star's
+    #: longest edge of the plane of one of its faces (dimensionless; float64
+    #: round-off of coordinates near 1 mm is about 1e-16).
+    sliver_flat: float = 1.0e-12
+    #: Two triangles are coplanar for the exact self-intersection finder when
+    #: each vertex of one lies within this × size³ (signed volume, size = the
+    #: pair's box) of the other's plane (dimensionless; float64 orient3d
+    #: round-off is about 1e-15 × size³).
+    mesh_coplanar_rel: float = 1.0e-13
 
 
 #: The process-wide tolerance object. Tests set ``tol.strict = True``.

@@ -5,7 +5,7 @@ What MeshLab's "select self-intersecting faces", open3d's
 instead of O(n²):
 
 1. candidate pairs: the axis-aligned box of every triangle is entered into
-   a uniform grid (cell ≈ twice the mean box size); two triangles are a
+   a uniform grid (cell ≈ half the median longest box side); two triangles are a
    candidate when their boxes overlap, each pair counted once (in the first
    cell both boxes share);
 2. every candidate is tested with sign-of-volume predicates (orient3d in
@@ -44,7 +44,8 @@ from numba import njit
 from .arrays import FloatArray, IntArray
 from .tolerances import tol
 
-__all__ = ["self_intersections", "crossing_pairs", "tolerant_intersections"]
+__all__ = ["self_intersections", "crossing_pairs", "tolerant_intersections", "near_pairs",
+           "count_tolerant"]
 
 _F = TypeVar("_F", bound=Callable[..., Any])
 
@@ -440,6 +441,13 @@ def _find(P: FloatArray, F: IntArray, lo: FloatArray, hi: FloatArray, cell: floa
     return _pairs_array(out)
 
 
+def _cell_size(lo: FloatArray, hi: FloatArray) -> float:
+    """Grid cell of the pair search: half the median longest side of the
+    boxes (a built tip's wall triangles are long and narrow: cells as long
+    as they are would hold hundreds of triangles each)."""
+    return 0.5 * float(np.median((hi - lo).max(axis=1)))
+
+
 def self_intersections(vertices: FloatArray, faces: IntArray, *,
                        coplanar_rel: float | None = None, gap: float = 0.0) -> IntArray:
     """(k, 2) int64 index pairs ``i < j`` of faces that cross, sorted.
@@ -473,9 +481,9 @@ def self_intersections(vertices: FloatArray, faces: IntArray, *,
     t = P[F]
     lo = np.ascontiguousarray(t.min(axis=1) - 0.5 * gap)
     hi = np.ascontiguousarray(t.max(axis=1) + 0.5 * gap)
-    size = float(np.mean((hi - lo).max(axis=1)))
+    size = _cell_size(lo, hi)
     span = float((hi.max(0) - lo.min(0)).max())
-    cell = max(2.0 * size, span / 512.0, tol.tiny)
+    cell = max(size, span / 512.0, tol.tiny)
     rel = tol.mesh_coplanar_rel if coplanar_rel is None else coplanar_rel
     res = _find(P, F, lo, hi, cell, float(rel), float(gap))
     if len(res):
@@ -539,13 +547,16 @@ def _pt_in(p: FloatArray, u0: FloatArray, u1: FloatArray, u2: FloatArray,
            i0: int, i1: int) -> bool:
     a = u1[i1] - u0[i1]
     b = -(u1[i0] - u0[i0])
-    d0 = a * p[i0] + b * p[i1] - a * u0[i0] - b * u0[i1]
+    c = -a * u0[i0] - b * u0[i1]
+    d0 = a * p[i0] + b * p[i1] + c
     a = u2[i1] - u1[i1]
     b = -(u2[i0] - u1[i0])
-    d1 = a * p[i0] + b * p[i1] - a * u1[i0] - b * u1[i1]
+    c = -a * u1[i0] - b * u1[i1]
+    d1 = a * p[i0] + b * p[i1] + c
     a = u0[i1] - u2[i1]
     b = -(u0[i0] - u2[i0])
-    d2 = a * p[i0] + b * p[i1] - a * u2[i0] - b * u2[i1]
+    c = -a * u2[i0] - b * u2[i1]
+    d2 = a * p[i0] + b * p[i1] + c
     inside: bool = d0 * d1 > 0 and d0 * d2 > 0
     return inside
 
@@ -582,21 +593,29 @@ def _interval(p0: float, p1: float, p2: float, d0: float, d1: float, d2: float,
 
 
 @_jit
+def _dot(a: FloatArray, b: FloatArray) -> float:
+    """a·b summed left to right (as open3d's C macro; numpy's dot may pair
+    the terms differently, which flips borderline tolerance decisions)."""
+    r: float = a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
+    return r
+
+
+@_jit
 def _moller(V: FloatArray, U: FloatArray) -> bool:
     n1 = np.cross(V[1] - V[0], V[2] - V[0])
-    e1 = -(n1 @ V[0])
+    e1 = -_dot(n1, V[0])
     du = np.empty(3)
     for k in range(3):
-        du[k] = n1 @ U[k] + e1
+        du[k] = _dot(n1, U[k]) + e1
         if abs(du[k]) < OPEN3D_EPSILON:
             du[k] = 0.0
     if du[0] * du[1] > 0 and du[0] * du[2] > 0:
         return False
     n2 = np.cross(U[1] - U[0], U[2] - U[0])
-    e2 = -(n2 @ U[0])
+    e2 = -_dot(n2, U[0])
     dv = np.empty(3)
     for k in range(3):
-        dv[k] = n2 @ V[k] + e2
+        dv[k] = _dot(n2, V[k]) + e2
         if abs(dv[k]) < OPEN3D_EPSILON:
             dv[k] = 0.0
     if dv[0] * dv[1] > 0 and dv[0] * dv[2] > 0:
@@ -629,6 +648,35 @@ def _moller(V: FloatArray, U: FloatArray) -> bool:
 
 
 @_jit
+def _one_side(P: FloatArray, t: IntArray, u: IntArray, thr: float) -> bool:
+    """Every vertex of u further than ``thr`` (signed volume, raw
+    coordinates) from t's plane, all on one side."""
+    ax, ay, az = P[t[0], 0], P[t[0], 1], P[t[0], 2]
+    bx, by, bz = P[t[1], 0] - ax, P[t[1], 1] - ay, P[t[1], 2] - az
+    cx, cy, cz = P[t[2], 0] - ax, P[t[2], 1] - ay, P[t[2], 2] - az
+    nx, ny, nz = by * cz - bz * cy, bz * cx - bx * cz, bx * cy - by * cx
+    above = 0
+    below = 0
+    for k in range(3):
+        d = nx * (P[u[k], 0] - ax) + ny * (P[u[k], 1] - ay) + nz * (P[u[k], 2] - az)
+        if d > thr:
+            above += 1
+        elif d < -thr:
+            below += 1
+    return above == 3 or below == 3
+
+
+@_jit
+def _spread(P: FloatArray, t: IntArray, u: IntArray, k: int) -> tuple[float, float]:
+    """Mean and spread (+ open3d's floor) of the pair's six coordinates on
+    axis k, summed in open3d's order (t's three, then u's)."""
+    m = (P[t[0], k] + P[t[1], k] + P[t[2], k] + P[u[0], k] + P[u[1], k] + P[u[2], k]) / 6.0
+    q = ((P[t[0], k] - m) ** 2 + (P[t[1], k] - m) ** 2 + (P[t[2], k] - m) ** 2
+         + (P[u[0], k] - m) ** 2 + (P[u[1], k] - m) ** 2 + (P[u[2], k] - m) ** 2)
+    return m, np.sqrt(q / 5.0) + OPEN3D_SPREAD_FLOOR
+
+
+@_jit
 def _tolerant_pair(P: FloatArray, F: IntArray, i: int, j: int) -> bool:
     t = F[i]
     u = F[j]
@@ -636,19 +684,25 @@ def _tolerant_pair(P: FloatArray, F: IntArray, i: int, j: int) -> bool:
         for b in range(3):
             if t[a] == u[b]:
                 return False  # open3d skips pairs that share a vertex
-    mu = np.zeros(3)
-    for k in range(3):
-        mu += P[t[k]] + P[u[k]]
-    mu /= 6.0
-    sg = np.zeros(3)
-    for k in range(3):
-        sg += (P[t[k]] - mu) ** 2 + (P[u[k]] - mu) ** 2
-    sg = np.sqrt(sg / 5.0) + OPEN3D_SPREAD_FLOOR
+    m0, s0 = _spread(P, t, u, 0)
+    m1, s1 = _spread(P, t, u, 1)
+    m2, s2 = _spread(P, t, u, 2)
+    # Möller rejects at its first plane tests when one triangle lies beyond
+    # the tolerance on one side of the other's plane; the distances it takes
+    # are the raw ones divided by s0·s1·s2: test that first, in raw
+    # coordinates, with a margin of 2 (and no allocation)
+    thr = 2.0 * OPEN3D_EPSILON * s0 * s1 * s2
+    if _one_side(P, t, u, thr) or _one_side(P, u, t, thr):
+        return False
     V = np.empty((3, 3))
     U = np.empty((3, 3))
-    for k in range(3):
-        V[k] = (P[t[k]] - mu) / sg
-        U[k] = (P[u[k]] - mu) / sg
+    for a in range(3):
+        V[a, 0] = (P[t[a], 0] - m0) / s0
+        V[a, 1] = (P[t[a], 1] - m1) / s1
+        V[a, 2] = (P[t[a], 2] - m2) / s2
+        U[a, 0] = (P[u[a], 0] - m0) / s0
+        U[a, 1] = (P[u[a], 1] - m1) / s1
+        U[a, 2] = (P[u[a], 2] - m2) / s2
     return _moller(V, U)
 
 
@@ -677,9 +731,74 @@ def tolerant_intersections(vertices: FloatArray, faces: IntArray) -> IntArray:
     t = P[F]
     lo = np.ascontiguousarray(t.min(axis=1))
     hi = np.ascontiguousarray(t.max(axis=1))
-    size = float(np.mean((hi - lo).max(axis=1)))
+    size = _cell_size(lo, hi)
     span = float((hi.max(0) - lo.min(0)).max())
-    res = _find_tolerant(P, F, lo, hi, max(2.0 * size, span / 512.0, tol.tiny))
+    res = _find_tolerant(P, F, lo, hi, max(size, span / 512.0, tol.tiny))
     if len(res):
         res = np.unique(res, axis=0)
     return res
+
+
+# -- local re-checks (the float32 repair of tipgeo.slivers) -------------------
+
+def _boxes(P: FloatArray, F: IntArray, grow: float) -> tuple[FloatArray, FloatArray, float]:
+    """Every triangle's box grown by ``grow`` on each side, and the grid cell
+    of the pair search."""
+    t = P[F]
+    lo = np.ascontiguousarray(t.min(axis=1) - grow)
+    hi = np.ascontiguousarray(t.max(axis=1) + grow)
+    size = _cell_size(lo, hi)
+    span = float((hi.max(0) - lo.min(0)).max())
+    return lo, hi, max(size, span / 512.0, tol.tiny)
+
+
+def near_pairs(vertices: FloatArray, faces: IntArray, grow: float,
+               ) -> tuple[IntArray, IntArray]:
+    """For every face, the faces sharing no vertex with it whose boxes, each
+    grown by ``grow`` (same unit as the vertices), overlap its own: the only
+    partners :func:`tolerant_intersections` can report for it while no
+    vertex moves further than ``grow``. CSR form ``(start, partners)``:
+    face i's partners are ``partners[start[i]:start[i + 1]]``."""
+    P = np.ascontiguousarray(vertices, dtype=np.float64)
+    F = np.ascontiguousarray(faces, dtype=np.int64)
+    if len(F) < 2:
+        return np.zeros(len(F) + 1, np.int64), np.empty(0, np.int64)
+    lo, hi, cell = _boxes(P, F, grow)
+    cand = _candidates(lo, hi, cell, 0.0)
+    if len(cand):
+        share = (F[cand[:, 0]][:, :, None] == F[cand[:, 1]][:, None, :]).any(axis=(1, 2))
+        cand = cand[~share]
+    both = np.concatenate([cand, cand[:, ::-1]])
+    order = np.argsort(both[:, 0], kind="stable")
+    both = both[order]
+    start = np.searchsorted(both[:, 0], np.arange(len(F) + 1)).astype(np.int64)
+    return start, np.ascontiguousarray(both[:, 1])
+
+
+@_jit
+def _count_tolerant(P: FloatArray, F: IntArray, start: IntArray, partners: IntArray,
+                    which: IntArray) -> int:
+    n = 0
+    for a in range(which.shape[0]):
+        i = which[a]
+        for s in range(start[i], start[i + 1]):
+            j = partners[s]
+            if j < i:
+                dup = False
+                for b in range(which.shape[0]):
+                    dup = dup or which[b] == j
+                if dup:
+                    continue  # both in the set: count the pair once
+            if _tolerant_pair(P, F, min(i, j), max(i, j)):
+                n += 1
+    return n
+
+
+def count_tolerant(vertices: FloatArray, faces: IntArray, near: tuple[IntArray, IntArray],
+                   which: IntArray) -> int:
+    """How many pairs with at least one face in ``which`` (distinct face
+    indices) open3d's tolerant test reports (as :func:`tolerant_intersections`),
+    the partners taken from ``near`` (:func:`near_pairs`). Units and frame: any."""
+    return int(_count_tolerant(np.ascontiguousarray(vertices, dtype=np.float64),
+                               np.ascontiguousarray(faces, dtype=np.int64), near[0], near[1],
+                               np.ascontiguousarray(which, dtype=np.int64)))

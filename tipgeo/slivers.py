@@ -42,7 +42,7 @@ import numpy as np
 from .arrays import BoolArray, FloatArray, IntArray
 from .tolerances import tol
 
-__all__ = ["aspect_ratios", "remove_slivers", "remove_slivers_checked"]
+__all__ = ["aspect_ratios", "remove_slivers", "remove_slivers_checked", "snap_float32"]
 
 _FOLD_COS = math.cos(math.radians(30.0))
 
@@ -517,6 +517,7 @@ def _crossings(v: FloatArray, f: IntArray) -> IntArray:
 
 def remove_slivers_checked(vertices: FloatArray, faces: IntArray, labels: IntArray, *,
                            bound: float, max_deviation: float, rounds: int = 6,
+                           float32: bool = True,
                            ) -> tuple[FloatArray, IntArray, IntArray]:
     """:func:`remove_slivers` that never makes two triangles cross.
 
@@ -529,8 +530,13 @@ def remove_slivers_checked(vertices: FloatArray, faces: IntArray, labels: IntArr
     for crossings); the input vertices around the smaller triangle of each
     pair (within (round + 1) × its longest edge) are frozen and the pass
     re-run from the input, until no pair is left or after ``rounds`` rounds.
-    The result with the fewest pairs is returned when it has no more than
+    The result with the fewest pairs is kept when it has no more than
     the input had, else the input unchanged: the pass never adds a crossing.
+
+    With ``float32`` (the default) the vertices returned are float32 values
+    placed by :func:`snap_float32`, so that an STL (float32) stores them
+    exactly and open3d's tolerant test finds on the file what it finds on
+    the mesh.
 
     Parameters and returns as :func:`remove_slivers` (mm, any frame).
     """
@@ -556,4 +562,115 @@ def remove_slivers_checked(vertices: FloatArray, faces: IntArray, labels: IntArr
             edge = np.sqrt(((t - np.roll(t, 1, axis=1)) ** 2).sum(2)).max(1)
             k = int(np.argmin(edge))
             frozen[tree.query_ball_point(t[k].mean(0), (r + 1) * edge[k])] = True
-    return best[1], best[2], best[3]
+    out = snap_float32(best[1], best[2]) if float32 else best[1]
+    return out, best[2], best[3]
+
+
+# -- float32 (STL) coordinates ------------------------------------------------
+
+def _to32(x: FloatArray) -> FloatArray:
+    """Rounded to the nearest float32, as float64."""
+    out: FloatArray = np.asarray(x, np.float64).astype(np.float32).astype(np.float64)
+    return out
+
+
+def _moves(max_ulps: int) -> IntArray:
+    """Candidate float32 steps (in ulps per axis) of the repair, the
+    smallest first: along each axis up to ``max_ulps``, then ±1 on two and
+    three axes at once."""
+    out = [(0, 0, 0)]
+    for k in range(1, max_ulps + 1):
+        for ax in range(3):
+            for sg in (-k, k):
+                m = [0, 0, 0]
+                m[ax] = sg
+                out.append((m[0], m[1], m[2]))
+    out += [(a, b, c) for a in (-1, 0, 1) for b in (-1, 0, 1) for c in (-1, 0, 1)
+            if abs(a) + abs(b) + abs(c) >= 2]
+    return np.asarray(out, np.int64)
+
+
+def _incident(faces: IntArray, n: int) -> list[IntArray]:
+    """The faces around each of the n vertices."""
+    flat = np.asarray(faces, np.int64).ravel()
+    order = np.argsort(flat, kind="stable")
+    start = np.searchsorted(flat[order], np.arange(n + 1))
+    fid = order // 3
+    return [fid[start[i]:start[i + 1]] for i in range(n)]
+
+
+def _best_move(w: FloatArray, faces: IntArray, near: tuple[IntArray, IntArray],
+               x: int, star: IntArray, cands: FloatArray) -> tuple[int, FloatArray]:
+    """The first candidate position of vertex x (they come smallest move
+    first) that lowers the count of tolerant-test pairs around it: (the
+    lowering, the position); (0, where it is) when none does."""
+    from .meshcheck import count_tolerant
+
+    old = w[x].copy()
+    base = count_tolerant(w, faces, near, star)
+    for c in cands:
+        w[x] = c
+        gain = base - count_tolerant(w, faces, near, star)
+        if gain > 0:
+            w[x] = old
+            return gain, c.copy()
+    w[x] = old
+    return 0, old
+
+
+def snap_float32(vertices: FloatArray, faces: IntArray, *, max_ulps: int | None = None,
+                 rounds: int = 8) -> FloatArray:
+    """Vertices as a binary STL stores them (float32), placed so that
+    open3d's tolerant self-intersection test reports no pair that it did not
+    on the full-precision mesh, where a few float32 steps allow.
+
+    Rounding each coordinate to float32 (≈ 1e-7 of its size) tips coplanar
+    faces (a flat cut face, one strip of a tessellated cylinder) out of their
+    common plane by more than open3d's coplanarity tolerance, and its
+    Möller test then takes neighbours in that plane for crossings. For every
+    such pair (:func:`tipgeo.meshcheck.tolerant_intersections` on the rounded
+    coordinates), each of its six vertices is tried at the float32 points up
+    to ``max_ulps`` steps away along an axis (and one step on two or three
+    axes) and the move that most lowers the count of pairs around that
+    vertex is made; rounds repeat until none is left or no move helps.
+    No vertex moves further than ``max_ulps`` float32 steps (≈ 1e-6 of its
+    coordinates; default ``tol.float32_ulps``) nor than
+    ``tol.float32_move_share`` of its shortest edge.
+
+    Returns the (n, 3) vertices (float64 holding float32 values; mm, the
+    input's frame).
+    """
+    from .meshcheck import near_pairs, tolerant_intersections
+
+    v = np.asarray(vertices, np.float64)
+    f = np.asarray(faces, np.int64)
+    w = _to32(v)
+    pairs = tolerant_intersections(w, f)
+    if not len(pairs):
+        return w
+    ulps = tol.float32_ulps if max_ulps is None else max_ulps
+    step = np.spacing(np.abs(w).astype(np.float32)).astype(np.float64)  # (n, 3) mm
+    t = v[f]
+    edge = np.sqrt(((t - np.roll(t, 1, axis=1)) ** 2).sum(2))  # (m, 3)
+    shortest = np.full(len(v), np.inf)
+    for k in range(3):
+        np.minimum.at(shortest, f[:, k], np.minimum(edge[:, k], edge[:, (k + 2) % 3]))
+    limit = np.minimum(tol.float32_move_share * shortest, ulps * np.sqrt(3.0) * step.max(1))
+    near = near_pairs(w, f, float(limit.max()) if len(limit) else 0.0)
+    around = _incident(f, len(v))
+    moves = _moves(ulps).astype(np.float64)
+    for _ in range(rounds):
+        gained = 0
+        for a, b in pairs:
+            for x in np.unique(np.concatenate([f[a], f[b]])):
+                cands = _to32(w[x] + moves * step[x])  # w[x]: rounded at first
+                ok = np.linalg.norm(cands - v[x], axis=1) <= limit[x]
+                gain, pos = _best_move(w, f, near, int(x), around[x], cands[ok])
+                if gain > 0:
+                    w[x] = pos
+                    gained += gain
+                    break
+        pairs = tolerant_intersections(w, f)
+        if not len(pairs) or not gained:
+            break
+    return w

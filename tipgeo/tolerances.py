@@ -769,6 +769,14 @@ class Tolerances:
     #: pair's box) of the other's plane (dimensionless; float64 orient3d
     #: round-off is about 1e-15 × size³).
     mesh_coplanar_rel: float = 1.0e-13
+    #: Most float32 steps (ulps, ≈ 1.2e-7 of a coordinate each) by which the
+    #: float32 repair of a quality mesh (:func:`tipgeo.slivers.snap_float32`)
+    #: may move a vertex from its rounded position: about 1e-6 mm at 2 mm,
+    #: far below the chordal tolerance.
+    float32_ulps: int = 4
+    #: ... nor further than this share of the vertex's shortest edge (no
+    #: triangle folds or degenerates; dimensionless).
+    float32_move_share: float = 0.01
 
 
 #: The process-wide tolerance object. Tests set ``tol.strict = True``.

@@ -635,12 +635,14 @@ def snap_float32(vertices: FloatArray, faces: IntArray, *, max_ulps: int | None 
     vertex is made; rounds repeat until none is left or no move helps.
     No vertex moves further than ``max_ulps`` float32 steps (≈ 1e-6 of its
     coordinates; default ``tol.float32_ulps``) nor than
-    ``tol.float32_move_share`` of its shortest edge.
+    ``tol.float32_move_share`` of its shortest edge. Should the moves add an
+    exact crossing (:func:`tipgeo.meshcheck.self_intersections`) to those of
+    plain rounding, plain rounding is returned.
 
     Returns the (n, 3) vertices (float64 holding float32 values; mm, the
     input's frame).
     """
-    from .meshcheck import near_pairs, tolerant_intersections
+    from .meshcheck import near_pairs, self_intersections, tolerant_intersections
 
     v = np.asarray(vertices, np.float64)
     f = np.asarray(faces, np.int64)
@@ -673,4 +675,9 @@ def snap_float32(vertices: FloatArray, faces: IntArray, *, max_ulps: int | None 
         pairs = tolerant_intersections(w, f)
         if not len(pairs) or not gained:
             break
+    # the moves are checked against the tolerant test only: keep them when
+    # they add no exact crossing to what plain rounding has
+    crossed = len(self_intersections(w, f))
+    if crossed and crossed > len(self_intersections(_to32(v), f)):
+        return _to32(v)
     return w

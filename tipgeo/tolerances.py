@@ -883,6 +883,26 @@ class Tolerances:
     #: legend (mm/min; the program's feeds carry at most 6 decimals).
     report_feed: float = 1.0e-6
 
+    # --- mesh (tipgeo.slivers, tipgeo.meshcheck) ---
+    #: A vertex star is flat (the sliver pass may relax its centre within the
+    #: plane) when every neighbour lies within this share of the star's
+    #: longest edge of the plane of one of its faces (dimensionless; float64
+    #: round-off of coordinates near 1 mm is about 1e-16).
+    sliver_flat: float = 1.0e-12
+    #: Two triangles are coplanar for the exact self-intersection finder when
+    #: each vertex of one lies within this × size³ (signed volume, size = the
+    #: pair's box) of the other's plane (dimensionless; float64 orient3d
+    #: round-off is about 1e-15 × size³).
+    mesh_coplanar_rel: float = 1.0e-13
+    #: Most float32 steps (ulps, ≈ 1.2e-7 of a coordinate each) by which the
+    #: float32 repair of a quality mesh (:func:`tipgeo.slivers.snap_float32`)
+    #: may move a vertex from its rounded position: about 1e-6 mm at 2 mm,
+    #: far below the chordal tolerance.
+    float32_ulps: int = 4
+    #: ... nor further than this share of the vertex's shortest edge (no
+    #: triangle folds or degenerates; dimensionless).
+    float32_move_share: float = 0.01
+
 
 #: The process-wide tolerance object. Tests set ``tol.strict = True``.
 tol = Tolerances()

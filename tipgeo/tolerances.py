@@ -325,6 +325,13 @@ class InspectSettings:
     outline_min_points: float = 5.0
     outline_reach: float = 0.02
     held_share: float = 1.0e-3
+    # --- scan readers and writers (tipgeo.inspect.heightmap) ---
+    #: Smallest height range (m) an integer X3P is written for: its z
+    #: increment is range / (2·(imax − 1)), never 0 for a flat map.
+    x3p_min_span_m: float = 1.0e-12
+    #: Smallest height reach (in the file's unit) a SUR is written for: its
+    #: float32 z spacing is reach / (imax − 16), never 0 for a flat map.
+    sur_min_span: float = 1.0e-30
 
 
 @dataclass

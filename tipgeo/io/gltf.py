@@ -64,7 +64,7 @@ def write_glb(tip: Tip, tmp: Path, opts: ExportOptions) -> None:
             "axes": f"file {axes} of the cannula frame",
             "to_cannula_mm": (np.linalg.inv(to_file) + 0.0).ravel().tolist()}  # no -0.0
     scene = tip_scene(tip, opts, with_labels=True, transform=to_file, info=info)
-    data = export_glb(scene, include_normals=False)
+    data = export_glb(scene, include_normals=False)  # type: ignore[no-untyped-call]  # trimesh's export_glb has no annotations
     with open(tmp, "wb") as fh:
         fh.write(data)
 

@@ -41,8 +41,6 @@ __all__ = [
     "Writer",
     "register_exporter",
     "register_importer",
-    "supported_exports",
-    "supported_imports",
 ]
 
 
@@ -129,13 +127,3 @@ def register_importer(ext: str, reader: Reader) -> Reader:
     reader already registered for ``ext`` is replaced. Returns ``reader``."""
     IMPORTERS[_check_ext(ext)] = reader
     return reader
-
-
-def supported_exports() -> tuple[str, ...]:
-    """The extensions with a writer, in registration order."""
-    return tuple(EXPORTERS)
-
-
-def supported_imports() -> tuple[str, ...]:
-    """The extensions with a reader, in registration order."""
-    return tuple(IMPORTERS)

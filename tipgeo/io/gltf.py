@@ -26,6 +26,7 @@ from pathlib import Path
 
 import numpy as np
 
+from ..arrays import FloatArray
 from ..errors import SpecError
 from ..tip import Tip
 from .common import tip_scene
@@ -36,7 +37,7 @@ __all__ = ["GLTF_UNITS", "GLTF_UP", "gltf_transform", "write_glb"]
 
 
 
-def gltf_transform(units: str, up: str) -> np.ndarray:
+def gltf_transform(units: str, up: str) -> FloatArray:
     """The 4×4 matrix taking cannula-frame points in mm to GLB file
     coordinates (``units``, needle axis along +``up``); see the module table."""
     if units not in GLTF_UNITS:

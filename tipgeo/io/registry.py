@@ -22,7 +22,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING
 
-import numpy as np
+from ..arrays import AnyArray
 
 if TYPE_CHECKING:
     from ..tip import Tip
@@ -76,9 +76,9 @@ class LoadedMesh:
     the cannula frame, faces indexing them, the labels if the file carries any
     (``label_ids`` ``None`` otherwise) and the unit the file declares."""
 
-    vertices: np.ndarray
-    faces: np.ndarray
-    label_ids: np.ndarray | None = None
+    vertices: AnyArray
+    faces: AnyArray
+    label_ids: AnyArray | None = None
     label_names: tuple[str, ...] = ()
     name: str | None = None
     #: the length unit the file declares itself (a key of

@@ -17,7 +17,7 @@ from typing import TYPE_CHECKING, Any, cast
 
 import numpy as np
 
-from ..arrays import FloatArray
+from ..arrays import FloatArray, IntArray
 from ..errors import ExportError, SpecError
 from .registry import ExportOptions
 
@@ -67,11 +67,16 @@ def check_tip(tip: object) -> None:
     if f.min() < 0 or f.max() >= len(v):
         raise SpecError(f"tip.faces index vertices {int(f.min())}…{int(f.max())}; allowed "
                         f"0…{len(v) - 1}")
-    if lab.shape != (len(f),) or (len(lab) and (lab.min() < 0 or
-                                                lab.max() >= len(t.label_names))):
-        raise SpecError(f"tip.label_ids must have shape ({len(f)},) with values in "
-                        f"0…{len(t.label_names) - 1}")
-    for n in t.label_names:
+    _check_labels(lab, t.label_names, len(f))
+
+
+def _check_labels(lab: IntArray, names: tuple[str, ...], n_faces: int) -> None:
+    """SpecError unless there is one label id per face, each naming one of
+    ``names``, and every name is a non-empty one-line str."""
+    if lab.shape != (n_faces,) or (len(lab) and (lab.min() < 0 or lab.max() >= len(names))):
+        raise SpecError(f"tip.label_ids must have shape ({n_faces},) with values in "
+                        f"0…{len(names) - 1}")
+    for n in names:
         if not isinstance(n, str) or not n or "\n" in n or "\r" in n:
             raise SpecError(f"label name {n!r} is invalid; expected a non-empty str without "
                             f"line breaks")

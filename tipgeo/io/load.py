@@ -160,21 +160,7 @@ def read_trimesh(p: Path) -> LoadedMesh:
     turn back to the cannula frame only from the ``extras`` of a GLB written
     by :func:`~tipgeo.io.export_tip`. STL vertices are merged where
     bit-identical."""
-    import trimesh
-
-    loaded = trimesh.load(str(p), file_type=p.suffix.lower()[1:], process=False)
-    parts: list[tuple[FloatArray, Any, object]] = []  # vertices, mesh, node name
-    if isinstance(loaded, trimesh.Scene):
-        for node in loaded.graph.nodes_geometry:
-            transform, gname = loaded.graph[node]
-            g = loaded.geometry[gname]
-            if isinstance(g, trimesh.Trimesh) and len(g.faces):
-                v = np.asarray(g.vertices, dtype=np.float64)
-                if not np.array_equal(transform, np.eye(4)):
-                    v = trimesh.transform_points(v, transform)
-                parts.append((v, g, gname))
-    elif isinstance(loaded, trimesh.Trimesh):
-        parts.append((np.asarray(loaded.vertices, dtype=np.float64), loaded, None))
+    parts = _trimesh_parts(p)
     if not parts:
         raise SpecError(f"path '{p}' holds no triangle mesh")
     vs, fs, ls, names = [], [], [], []
@@ -210,6 +196,27 @@ def read_trimesh(p: Path) -> LoadedMesh:
     if any_labels:
         mesh.label_ids, mesh.label_names = np.concatenate(ls), tuple(names)
     return mesh
+
+
+def _trimesh_parts(p: Path) -> list[tuple[FloatArray, Any, object]]:
+    """The non-empty triangle meshes trimesh reads from ``p``: (vertices placed
+    by their node transform, the trimesh mesh, its node's geometry name)."""
+    import trimesh
+
+    loaded = trimesh.load(str(p), file_type=p.suffix.lower()[1:], process=False)
+    parts: list[tuple[FloatArray, Any, object]] = []
+    if isinstance(loaded, trimesh.Scene):
+        for node in loaded.graph.nodes_geometry:
+            transform, gname = loaded.graph[node]
+            g = loaded.geometry[gname]
+            if isinstance(g, trimesh.Trimesh) and len(g.faces):
+                v = np.asarray(g.vertices, dtype=np.float64)
+                if not np.array_equal(transform, np.eye(4)):
+                    v = trimesh.transform_points(v, transform)
+                parts.append((v, g, gname))
+    elif isinstance(loaded, trimesh.Trimesh):
+        parts.append((np.asarray(loaded.vertices, dtype=np.float64), loaded, None))
+    return parts
 
 
 def _trimesh_frame(g: Any) -> tuple[str | None, FloatArray]:

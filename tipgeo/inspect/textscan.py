@@ -266,7 +266,7 @@ def _choose_dialect(sample: list[str]) -> tuple[str | None, str, int] | None:
     return sep, dec, n
 
 
-def _value_unit(text: str, dec: str, where: str, line: int,
+def _value_unit(text: str, where: str, line: int,
                 key: str) -> tuple[Decimal | None, str | None]:
     """(value as a Decimal, unit or None) of a metadata value such as '0,5 µm'."""
     m = _NUMBER_UNIT.match(_strip(text))
@@ -512,10 +512,10 @@ def _unit_entry(name: str, key: str, val: str, where: str, line: int) -> _KeyEnt
     return u, None, line
 
 
-def _length_entry(key: str, val: str, unit_txt: str | None, key_unit: str | None, dec: str,
+def _length_entry(key: str, val: str, unit_txt: str | None, key_unit: str | None,
                   where: str, line: int) -> _KeyEntry:
     """A length key's entry (``dx = 0,5 µm``, ``dx;0.5;um``, ``dx [µm] = 0.5``)."""
-    v, u = _value_unit(val, dec, where, line, key)
+    v, u = _value_unit(val, where, line, key)
     if v is None:
         raise ScanError(f"{where}: line {line}: {key} = '{_strip(val)[:40]}'; "
                         "expected a number with an optional length unit")
@@ -539,7 +539,7 @@ def _meta_entry(line: str, i: int, t: Table) -> tuple[str, _KeyEntry] | None:
     if name in _UNIT_NAME_KEYS:
         entry = _unit_entry(name, key, val, t.where, i + 1)
     elif name in _LENGTH_KEYS:
-        entry = _length_entry(key, val, unit_txt, key_unit, t.decimal, t.where, i + 1)
+        entry = _length_entry(key, val, unit_txt, key_unit, t.where, i + 1)
     elif name in _NX_KEYS | _NY_KEYS and re.fullmatch(r"\d{1,12}", _strip(val)):
         entry = (int(_strip(val)), None, i + 1)
     return None if entry is None else (name, entry)

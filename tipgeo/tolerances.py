@@ -325,6 +325,13 @@ class InspectSettings:
     outline_min_points: float = 5.0
     outline_reach: float = 0.02
     held_share: float = 1.0e-3
+    # --- scan readers and writers (tipgeo.inspect.heightmap) ---
+    #: Smallest height range (m) an integer X3P is written for: its z
+    #: increment is range / (2·(imax − 1)), never 0 for a flat map.
+    x3p_min_span_m: float = 1.0e-12
+    #: Smallest height reach (in the file's unit) a SUR is written for: its
+    #: float32 z spacing is reach / (imax − 16), never 0 for a flat map.
+    sur_min_span: float = 1.0e-30
 
 
 @dataclass
@@ -902,6 +909,31 @@ class Tolerances:
     #: ... nor further than this share of the vertex's shortest edge (no
     #: triangle folds or degenerates; dimensionless).
     float32_move_share: float = 0.01
+
+    # --- io (tipgeo.io: exact STEP edges, mesh import) ---
+    #: An edge's range counts whole periods of its curve with this slack
+    #: (in periods), and a shift within this share of itself is a whole
+    #: number of periods (dimensionless; round-off of the period arithmetic).
+    step_period_slack: float = 1.0e-12
+    #: Precision of a point's projection onto a surface (mm;
+    #: ShapeAnalysis_Surface.ValueOfUV): far below the 1e-7 mm of the file.
+    step_project: float = 1.0e-11
+    #: A projection started from the previous answer that lands farther than
+    #: this is searched afresh (mm; NextValueOfUV's maxpreci).
+    step_project_jump: float = 1.0e-4
+    #: Two surfaces whose unit normals have 1 − cos² below this are tangent:
+    #: no single crossing point near them (dimensionless).
+    step_tangent: float = 1.0e-12
+    #: The walk onto two surfaces' crossing stops when a step is below this
+    #: (mm; round-off of coordinates of a few mm).
+    step_walk: float = 1.0e-14
+    #: Interpolation points of a rebuilt edge closer than this coincide (mm;
+    #: OCCT Geom(2d)API_Interpolate's tolerance).
+    step_interp: float = 1.0e-12
+    #: The rotation part of a GLB's ``to_cannula_mm`` must be orthonormal,
+    #: and is rounded to the axis permutation it equals, within this
+    #: (dimensionless; round-off of the written matrix).
+    mesh_rotation: float = 1.0e-12
 
 
 #: The process-wide tolerance object. Tests set ``tol.strict = True``.

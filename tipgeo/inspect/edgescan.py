@@ -63,17 +63,24 @@ bevel and helical 14G tips, σ = 1–2 µm, 5 µm edge rounding, 4 seeds: positi
 from __future__ import annotations
 
 import math
+import os
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
+from ..arrays import AnyArray, ArrayLike, BoolArray, FloatArray
 from ..edges import Edge, EdgePiece, rotate_z
 from ..errors import SpecError
 from ..plot import styled
 from ..tolerances import tol
 from .scanio import ScanError, check_points
+
+if TYPE_CHECKING:
+    from ..angles import AngleReport, WallAngles
+    from ..spec import TipSpec
 
 __all__ = ["MeasuredEdges", "measure_edges", "plot_measured_edges", "edges_markdown",
            "edges_text"]
@@ -105,9 +112,9 @@ class MeasuredEdges:
     notes : list of str
     """
 
-    measured: Any
-    cad: Any
-    samples: dict[str, dict[str, np.ndarray]]
+    measured: AngleReport
+    cad: AngleReport
+    samples: dict[str, dict[str, FloatArray]]
     walls: dict[str, dict[str, Any]]
     heel: tuple[float, float]
     tip_gamma: float
@@ -115,7 +122,8 @@ class MeasuredEdges:
     settings: dict[str, Any]
     notes: list[str] = field(default_factory=list)
 
-    def region(self, gamma, *, heel: float | None = None, tip: float | None = None) -> np.ndarray:
+    def region(self, gamma: ArrayLike, *, heel: float | None = None,
+               tip: float | None = None) -> BoolArray:
         """(m,) bool: γ (rad) farther than ``heel`` from the heel (γ = 0) and
         ``tip`` from the tips of both edges (rad; defaults
         ``tol.scan_edges.heel_window``, ``tol.scan_edges.tip_window``) —
@@ -123,13 +131,13 @@ class MeasuredEdges:
         st = tol.scan_edges
         h = st.heel_window if heel is None else heel
         t = st.tip_window if tip is None else tip
-        g = np.mod(np.asarray(gamma, float), 2 * np.pi)
+        g: FloatArray = np.mod(np.asarray(gamma, float), 2 * np.pi)
         d_heel = np.minimum(g, 2 * np.pi - g)
-        d_tip = np.minimum(*(np.abs(np.angle(np.exp(1j * (g - t))))
-                             for t in (self.tip_gamma, self.tip_gamma_inner)))
+        d_tip: FloatArray = np.minimum(*(np.abs(np.angle(np.exp(1j * (g - tg))))
+                                         for tg in (self.tip_gamma, self.tip_gamma_inner)))
         return (d_heel > h) & (d_tip > t)
 
-    def differences(self, step_deg: float = 1.0) -> dict[str, np.ndarray]:
+    def differences(self, step_deg: float = 1.0) -> dict[str, AnyArray]:
         """Measured − CAD on γ = 0, step, … < 360° (degrees, µm): columns
         ``gamma_deg``, ``in_region`` and, per wall (``o``, ``i``), ``dz_um``,
         ``dlambda_deg``, ``dtheta_deg``, ``dalpha_deg``."""
@@ -194,11 +202,12 @@ class MeasuredEdges:
         return out
 
 
-def _robust_sigma(r: np.ndarray) -> float:
+def _robust_sigma(r: FloatArray) -> float:
     return float(1.4826 * np.median(np.abs(r - np.median(r))))
 
 
-def _fit_wall(rho, g, z, r0: float, band: float) -> tuple[np.ndarray, dict[str, Any]] | None:
+def _fit_wall(rho: FloatArray, g: FloatArray, z: FloatArray, r0: float,
+              band: float) -> tuple[FloatArray, dict[str, Any]] | None:
     """Trimmed least squares of ρ = R + a cos γ + b sin γ + z (c cos γ + d sin γ)
     over the points within ``band`` of r0, re-selected around the fit."""
     st = tol.scan_edges
@@ -225,7 +234,7 @@ def _fit_wall(rho, g, z, r0: float, band: float) -> tuple[np.ndarray, dict[str, 
     return coef, info
 
 
-def _retrim(res: np.ndarray, keep: np.ndarray) -> tuple[np.ndarray, bool]:
+def _retrim(res: FloatArray, keep: BoolArray) -> tuple[BoolArray, bool]:
     """The points within ``tol.scan_edges.trim`` robust σ of a fit (its
     residuals ``res``, σ from the kept ones), and whether that is ``keep``."""
     st = tol.scan_edges
@@ -233,12 +242,19 @@ def _retrim(res: np.ndarray, keep: np.ndarray) -> tuple[np.ndarray, bool]:
     return new, bool(np.array_equal(new, keep))
 
 
-def _wall_radius(coef, g, z):
+def _wall_radius(coef: FloatArray, g: FloatArray, z: FloatArray) -> FloatArray:
+    """ρ (mm) of the fitted wall cylinder at γ (rad), z (mm)."""
     c, s = np.cos(g), np.sin(g)
-    return coef[0] + coef[1] * c + coef[2] * s + z * (coef[3] * c + coef[4] * s)
+    r: FloatArray = coef[0] + coef[1] * c + coef[2] * s + z * (coef[3] * c + coef[4] * s)
+    return r
 
 
-def _local_surface(X: np.ndarray, quadric: bool):
+#: A free local fit: centre (3,), frame (3, 3) rows e_u e_v n, coefficients,
+#: residual RMS (mm), points kept.
+_LocalFit = tuple[FloatArray, FloatArray, FloatArray, float, int]
+
+
+def _local_surface(X: FloatArray, quadric: bool) -> _LocalFit | None:
     """Height-over-plane fit of a patch: (centre, frame (3, 3) rows e_u e_v n,
     coefficients, residual RMS, points kept), trimmed; None if too few.
 
@@ -270,14 +286,15 @@ def _local_surface(X: np.ndarray, quadric: bool):
     return c, E, coef, rms, int(keep.sum())
 
 
-def _design(u, v, quadric: bool):
+def _design(u: FloatArray, v: FloatArray, quadric: bool) -> FloatArray:
     one = np.ones_like(u)
     if quadric:
         return np.stack([one, u, v, u * u, u * v], 1)
     return np.stack([one, u, v], 1)
 
 
-def _surface_terms(coef, u, v, quadric: bool):
+def _surface_terms(coef: FloatArray, u: float, v: float,
+                   quadric: bool) -> tuple[float, float, float]:
     """Height, ∂/∂u, ∂/∂v of the fitted patch."""
     if quadric:
         h = coef[0] + coef[1] * u + coef[2] * v + coef[3] * u * u + coef[4] * u * v
@@ -285,7 +302,8 @@ def _surface_terms(coef, u, v, quadric: bool):
     return coef[0] + coef[1] * u + coef[2] * v, coef[1], coef[2]
 
 
-def _meet_wall(fit, wall_coef, g0: float, quadric: bool):
+def _meet_wall(fit: _LocalFit, wall_coef: FloatArray, g0: float,
+               quadric: bool) -> tuple[FloatArray, FloatArray] | None:
     """The point where the patch meets the wall's generator at γ₀ and the
     patch's unit normal there (analysis frame); None if it does not."""
     c, E, coef, _, _ = fit
@@ -317,20 +335,22 @@ class _Reference:
     analysis frame: z_ref(ρ, γ) (mm) and its outward normals — what the
     CAD-referenced local fits measure the scan's deviation from."""
 
-    def __init__(self, spec, heel: tuple[float, float]):
+    def __init__(self, spec: TipSpec, heel: tuple[float, float]):
         self.cutters = tuple(spec.cutters)
         self.cannula = spec.cannula
         self.gh, self.zh = heel
 
-    def z(self, rho, gamma) -> np.ndarray:
+    def z(self, rho: ArrayLike, gamma: ArrayLike) -> FloatArray:
         """z (mm, from the heel) of the lowest cut at radius ρ (mm) and γ (rad)."""
         from ..edges import lowest_cut
 
         rho = np.broadcast_to(np.asarray(rho, float), np.shape(gamma))
-        return lowest_cut(self.cutters, np.asarray(gamma, float) + self.gh, rho,
-                          self.cannula)[0] - self.zh
+        z: FloatArray = lowest_cut(self.cutters, np.asarray(gamma, float) + self.gh, rho,
+                                   self.cannula)[0]
+        return z - self.zh
 
-    def normals(self, rho, gamma, lo: float, hi: float) -> tuple[np.ndarray, np.ndarray]:
+    def normals(self, rho: ArrayLike, gamma: ArrayLike, lo: float,
+                hi: float) -> tuple[FloatArray, FloatArray]:
         """z (m,) and unit outward normals (m, 3) of the cut surface at (ρ, γ),
         analysis frame; γ nudged into [lo, hi] (the piece's span) so that at a
         kink the piece's own face answers."""
@@ -347,7 +367,8 @@ class _Reference:
         return z - self.zh, rotate_z(n, -self.gh)
 
 
-def _deviation_fit(ds, dr, e):
+def _deviation_fit(ds: FloatArray, dr: FloatArray,
+                   e: FloatArray) -> tuple[FloatArray, float, int] | None:
     """Trimmed least squares of the deviation e (mm) from the reference over
     a window: e = c₀ + c₁ Δs + c₂ Δρ + c₃ Δs² + c₄ Δs Δρ (Δs = R Δγ along
     the edge, Δρ from the wall, mm). (coefficients,
@@ -364,11 +385,12 @@ def _deviation_fit(ds, dr, e):
         if settled:
             break
     rms = float(np.sqrt(np.mean(res[keep] ** 2)))
-    return coef, rms, int(keep.sum())
+    return np.asarray(coef, np.float64), rms, int(keep.sum())
 
 
-def _referenced_edges(ref: _Reference, coefs: np.ndarray, g0: np.ndarray, R0: np.ndarray,
-                      wall_coef, lo: float, hi: float):
+def _referenced_edges(ref: _Reference, coefs: FloatArray, g0: FloatArray, R0: FloatArray,
+                      wall_coef: FloatArray, lo: float,
+                      hi: float) -> tuple[FloatArray, FloatArray]:
     """Edge points and normals of the referenced fits at γ₀ (m,): where the
     reference plus the fitted deviation meets the fitted wall's generator.
     z (m,) mm and unit normals (m, 3), analysis frame."""
@@ -395,7 +417,7 @@ def _referenced_edges(ref: _Reference, coefs: np.ndarray, g0: np.ndarray, R0: np
     return z, m / np.linalg.norm(m, axis=1, keepdims=True)
 
 
-def _smooth_normals(gamma, normal, n_harmonics):
+def _smooth_normals(gamma: FloatArray, normal: FloatArray, n_harmonics: int) -> FloatArray:
     """The traced normals of a piece, each cylindrical component (n_r, n_γ,
     n_z) fitted over γ with eq. 3.12 like z(γ), re-normalised: the local fits'
     noise averaged along the edge."""
@@ -405,11 +427,13 @@ def _smooth_normals(gamma, normal, n_harmonics):
     comp = (normal[:, 0] * c + normal[:, 1] * s, -normal[:, 0] * s + normal[:, 1] * c,
             normal[:, 2])
     nr, ng, nz = (fit_fourier(gamma, x, n=n_harmonics)(gamma) for x in comp)
-    out = np.stack([nr * c - ng * s, nr * s + ng * c, nz], 1)
-    return out / np.linalg.norm(out, axis=1, keepdims=True)
+    out: FloatArray = np.stack([nr * c - ng * s, nr * s + ng * c, nz], 1)
+    unit: FloatArray = out / np.linalg.norm(out, axis=1, keepdims=True)
+    return unit
 
 
-def _dense_edge(wall_angles, radius: float, step: float):
+def _dense_edge(wall_angles: WallAngles, radius: float, step: float
+                ) -> tuple[FloatArray, FloatArray, FloatArray, FloatArray]:
     """The fitted edge on a fine γ grid: apex points (m, 3), face normals
     (m, 3), wall normals (m, 3) and γ (m,) — analysis frame."""
     edge = wall_angles.edge
@@ -429,7 +453,8 @@ def _dense_edge(wall_angles, radius: float, step: float):
     return A, n, w, g
 
 
-def _edge_radius(Q, wall_angles, radius, reach, noise, region) -> dict[str, Any]:
+def _edge_radius(Q: FloatArray, wall_angles: WallAngles, radius: float, reach: float,
+                 noise: float, region: Callable[[FloatArray], BoolArray]) -> dict[str, Any]:
     """Radius of the edge's rounding (mm): the one-parameter fit of a wedge
     rounded by ρ (the two fitted surfaces, their corner replaced by an arc
     tangent to both) to the scan points within ``reach`` of the traced edge,
@@ -463,7 +488,7 @@ def _edge_radius(Q, wall_angles, radius, reach, noise, region) -> dict[str, Any]
     c = np.einsum("ij,ij->i", a, b)
     clip = (3 * noise) ** 2
 
-    def cost(r):
+    def cost(r: float) -> float:
         # the eroded wedge's apex sits at −r/(1 + c)·(a + b); in its normal
         # cone the distance is to that apex, elsewhere to the nearer plane
         qa, qb = da + r, db + r
@@ -479,7 +504,8 @@ def _edge_radius(Q, wall_angles, radius, reach, noise, region) -> dict[str, Any]
     return {"edge_radius_um": float(res.x) * 1e3, "points": int(len(rel))}
 
 
-def _cad_report(cad, n_harmonics):
+def _cad_report(cad: Any, n_harmonics: int
+                ) -> tuple[AngleReport, float, float, str, TipSpec | None]:
     """(AngleReport, r_o, r_i, name, spec or None) of the CAD: spec →
     ``fourier``, mesh → ``mesh``."""
     from ..angles import analyze
@@ -487,6 +513,8 @@ def _cad_report(cad, n_harmonics):
     from ..tip import Tip
     from .cad import CadModel, load_cad
 
+    spec: TipSpec | None
+    tip: Tip | None
     if isinstance(cad, TipSpec):
         spec, tip = cad, None
     elif isinstance(cad, Tip):
@@ -499,19 +527,237 @@ def _cad_report(cad, n_harmonics):
     if spec is not None:
         return (analyze(spec, method="fourier", n_harmonics=n_harmonics),
                 spec.cannula.r_o, spec.cannula.r_i, spec.name or "CAD", spec)
-    from .cad import CadModel as _CM
-
-    model = cad if isinstance(cad, _CM) else None
-    if model is None:
+    if not isinstance(cad, CadModel):
         raise SpecError("cad: a mesh without a spec needs a CadModel (its fitted radii)")
-    return (analyze(tip, method="mesh", n_harmonics=n_harmonics, radii=(model.r_o, model.r_i)),
-            model.r_o, model.r_i, model.name, None)
+    return (analyze(tip, method="mesh", n_harmonics=n_harmonics, radii=(cad.r_o, cad.r_i)),
+            cad.r_o, cad.r_i, cad.name, None)
 
 
-def measure_edges(points, cad, *, window_deg: float | None = None,
+#: One traced edge sample: γ₀ (rad), z (mm), unit normal (3,), points in the
+#: local fit, its residual RMS (mm), the window's width (rad).
+_Row = tuple[float, float, FloatArray, int, float, float]
+
+_SAMPLE_KEYS = ("gamma", "z", "normal", "points", "rms", "window")
+
+
+@dataclass
+class _Face:
+    """The cut-face points (analysis frame) sorted by γ and wrapped once each
+    way, so that windows about γ = 0 and 2π see both sides: γ (rad), points
+    (mm), and with a reference their radii and deviations from it (mm)."""
+
+    g3: FloatArray
+    p3: FloatArray
+    rho3: FloatArray | None = None
+    e3: FloatArray | None = None
+
+
+@dataclass
+class _Tracer:
+    """What tracing an edge needs: the fitted walls' coefficients, the cut
+    face, the CAD's exact cut surface (None: free local fits), the window
+    (rad) and the samples' step (rad)."""
+
+    coefs: dict[str, FloatArray]
+    face: _Face
+    ref: _Reference | None
+    need: int
+    window: float
+    step: float
+    quadric: bool
+    n_harmonics: int
+
+    def trace(self, wall: str, cad_edge: Edge
+              ) -> tuple[list[EdgePiece], dict[str, FloatArray]]:
+        """The pieces of one wall's edge (one per CAD piece) and its samples."""
+        acc: dict[str, list[AnyArray]] = {k: [] for k in _SAMPLE_KEYS}
+        pieces = []
+        p0 = cad_edge.pieces[0]
+        full = len(cad_edge.pieces) == 1 and p0.span[1] - p0.span[0] > 2 * np.pi - 2 * self.step
+        for cp in cad_edge.pieces:
+            rows = self._piece_rows(wall, cad_edge, cp, full)
+            gam = np.array([r[0] for r in rows])
+            zz = np.array([r[1] for r in rows])
+            nn = np.array([r[2] for r in rows])
+            pieces.append(EdgePiece(cp.face, gam, zz, None,
+                                    _smooth_normals(gam, nn, self.n_harmonics)))
+            for key, col in zip(_SAMPLE_KEYS,
+                                (gam, zz, nn, *([r[k] for r in rows] for k in (3, 4, 5)))):
+                acc[key].append(np.asarray(col))
+        return pieces, {k: np.concatenate(v) for k, v in acc.items()}
+
+    def _halves(self, g0s: FloatArray) -> FloatArray:
+        """Each window's half width: the narrowest about γ₀ holding
+        ``need`` face points, between window and window_max wide."""
+        st = tol.scan_edges
+        hw = 0.5 * self.window
+        g3 = self.face.g3
+        widths = np.geomspace(hw, max(hw, 0.5 * st.window_max), st.window_grid)
+        cnt = np.array([np.searchsorted(g3, g0s + w_) - np.searchsorted(g3, g0s - w_)
+                        for w_ in widths])
+        pick = np.argmax(cnt >= self.need, axis=0)
+        pick = np.where((cnt >= self.need).any(axis=0), pick, len(widths) - 1)
+        return np.asarray(widths[pick], np.float64)
+
+    def _piece_rows(self, wall: str, cad_edge: Edge, cp: EdgePiece, full: bool) -> list[_Row]:
+        """The traced samples of one CAD piece (closed at 2π on a full turn)."""
+        a, b = cp.span
+        if full:
+            g0s = np.arange(0.0, 2 * np.pi - 0.5 * self.step, self.step)
+        else:   # up to the piece's ends (kinks): windows there see one side
+            g0s = np.linspace(a, b, max(int(math.ceil((b - a) / self.step)), 1) + 1)
+        rows: list[_Row] = []
+        fits: list[tuple[float, float, tuple[FloatArray, float, int], float]] = []
+        st = tol.scan_edges
+        g3 = self.face.g3
+        for g0, half in zip(g0s, self._halves(g0s)):
+            lo, hi = np.searchsorted(g3, [g0 - half, g0 + half])
+            sel = slice(lo, hi)
+            inside = np.ones(hi - lo, bool) if full else (g3[sel] >= a) & (g3[sel] <= b)
+            if inside.sum() < st.min_window_points:
+                continue
+            if self.ref is not None:
+                got = self._deviation(wall, cad_edge, float(g0), sel, inside)
+                if got is not None:
+                    fits.append((float(g0), got[0], got[1], 2 * float(half)))
+                continue
+            row = self._free_row(wall, cp, float(g0), sel, inside, 2 * float(half))
+            if row is not None:
+                rows.append(row)
+        if fits:
+            rows = self._referenced_rows(wall, fits, a, b)
+        if full and rows and rows[0][0] == 0.0:
+            first = rows[0]
+            rows.append((2 * np.pi, *first[1:]))
+        if len(rows) < 2 * self.n_harmonics + 2:
+            raise ScanError(f"the {wall} edge: only {len(rows)} windows of piece "
+                            f"'{cp.face}' hold enough cut-face points; at least "
+                            f"{2 * self.n_harmonics + 2} are needed (a denser scan, or a "
+                            "wider window_deg)")
+        return rows
+
+    def _deviation(self, wall: str, cad_edge: Edge, g0: float, sel: slice, inside: BoolArray
+                   ) -> tuple[float, tuple[FloatArray, float, int]] | None:
+        """(R₀, deviation fit) of the window about γ₀, referenced."""
+        ref, f = self.ref, self.face
+        assert ref is not None and f.rho3 is not None and f.e3 is not None  # referenced
+        zc = ref.z(cad_edge.radius, np.array([g0]))[0]
+        R0 = float(_wall_radius(self.coefs[wall], np.array([g0]), np.array([zc]))[0])
+        dg = f.g3[sel][inside] - g0
+        fit = _deviation_fit(R0 * dg, f.rho3[sel][inside] - R0, f.e3[sel][inside])
+        return None if fit is None else (R0, fit)
+
+    def _free_row(self, wall: str, cp: EdgePiece, g0: float, sel: slice, inside: BoolArray,
+                  width: float) -> _Row | None:
+        """The sample at γ₀ from a free local fit, its normal outward."""
+        fit = _local_surface(self.face.p3[sel][inside], self.quadric)
+        if fit is None:
+            return None
+        hit = _meet_wall(fit, self.coefs[wall], g0, self.quadric)
+        if hit is None:
+            return None
+        Xe, n = hit
+        # the CAD piece's normal near γ₀ (a mesh piece has one per segment)
+        nref = cp.normal[min(int(np.searchsorted(cp.gamma, g0)), len(cp.normal) - 1)]
+        if n @ nref < 0:        # outward, as the CAD's
+            n = -n
+        return g0, float(Xe[2]), n, fit[4], fit[3], width
+
+    def _referenced_rows(self, wall: str,
+                         fits: list[tuple[float, float, tuple[FloatArray, float, int], float]],
+                         a: float, b: float) -> list[_Row]:
+        """The samples of a piece's referenced fits (γ₀, R₀, fit, width)."""
+        assert self.ref is not None  # only referenced fits come here
+        g0f = np.array([f[0] for f in fits])
+        zf, nf = _referenced_edges(self.ref, np.array([f[2][0] for f in fits]), g0f,
+                                   np.array([f[1] for f in fits]), self.coefs[wall], a, b)
+        return [(f[0], float(zk), nk, f[2][2], f[2][1], f[3])
+                for f, zk, nk in zip(fits, zf, nf)]
+
+
+def _check_reference(reference: str, spec: TipSpec | None) -> None:
+    if reference not in ("auto", "cad", "none"):
+        raise SpecError(f"reference = {reference!r} is not valid; expected one of: auto, cad, "
+                        "none")
+    if reference == "cad" and spec is None:
+        raise SpecError("reference = 'cad' needs a CAD with a spec (its exact cut surface); "
+                        "this CAD is a bare mesh (use reference='auto' or 'none')")
+
+
+def _fit_walls(rho: FloatArray, g: FloatArray, z: FloatArray, radii: tuple[float, float],
+               notes: list[str]) -> tuple[dict[str, dict[str, Any]], dict[str, FloatArray]]:
+    """(wall info, cylinder coefficients) of the outer and inner walls; the
+    CAD radius (noted) where a wall has too few points."""
+    st = tol.scan_edges
+    wall_t = radii[0] - radii[1]
+    walls: dict[str, dict[str, Any]] = {}
+    coefs: dict[str, FloatArray] = {}
+    for wall, r0 in zip(("outer", "inner"), radii):
+        res = _fit_wall(rho, g, z, r0, st.wall_search * wall_t)
+        if res is None:
+            coefs[wall] = np.array([r0, 0.0, 0.0, 0.0, 0.0])
+            walls[wall] = {"radius_mm": r0, "fitted": False}
+            notes.append(f"too few {wall}-wall points to fit it; the CAD radius "
+                         f"{r0:.4f} mm is used")
+        else:
+            coefs[wall], walls[wall] = res
+            walls[wall]["fitted"] = True
+    return walls, coefs
+
+
+def _face_points(q: FloatArray, rho: FloatArray, g: FloatArray, coefs: dict[str, FloatArray],
+                 band: float) -> tuple[FloatArray, FloatArray]:
+    """The cut-face points (farther than ``band`` from both walls) and their
+    γ, sorted by γ."""
+    z = q[:, 2]
+    ro_pt = _wall_radius(coefs["outer"], g, z)
+    ri_pt = _wall_radius(coefs["inner"], g, z)
+    face = (rho < ro_pt - band) & (rho > ri_pt + band)
+    F, Fg = q[face], g[face]
+    st = tol.scan_edges
+    if len(F) < st.min_face_points:
+        raise ScanError(f"{len(F)} cut-face points (inside the wall, {band * 1e3:g} µm from "
+                        f"it); at least {st.min_face_points} are needed to trace the edges")
+    order = np.argsort(Fg)
+    return F[order], Fg[order]
+
+
+def _wrapped_face(F: FloatArray, Fg: FloatArray, reference: str, spec: TipSpec | None,
+                  heel: tuple[float, float], notes: list[str]
+                  ) -> tuple[_Face, _Reference | None]:
+    """The wrapped cut face and the CAD's exact cut surface it is measured
+    from (None: free local fits)."""
+    face = _Face(np.concatenate([Fg - 2 * np.pi, Fg, Fg + 2 * np.pi]),
+                 np.concatenate([F, F, F]))
+    if reference == "none" or spec is None:
+        return face, None
+    try:
+        ref = _Reference(spec, heel)
+        e = F[:, 2] - ref.z(np.hypot(F[:, 0], F[:, 1]), Fg)
+    except SpecError:
+        if reference == "cad":
+            raise
+        notes.append("the CAD has no exact cut surface: free local quadrics are fitted")
+        return face, None
+    face.e3 = np.concatenate([e, e, e])
+    face.rho3 = np.tile(np.hypot(F[:, 0], F[:, 1]), 3)
+    return face, ref
+
+
+def _tips(cad_rep: AngleReport) -> tuple[float, float]:
+    """γ (rad) of the CAD outer and inner edges' highest points."""
+    tips = []
+    for wall in ("outer", "inner"):
+        dense = cad_rep.dense(wall, 7200)
+        tips.append(float(dense["gamma"][int(np.nanargmax(dense["z"]))]))
+    return tips[0], tips[1]
+
+
+def measure_edges(points: ArrayLike, cad: Any, *, window_deg: float | None = None,
                   step_deg: float | None = None, edge_band: float | None = None,
                   n_harmonics: int = 5, quadric: bool = True, reference: str = "auto",
-                  cad_basis: bool = True, progress=None) -> MeasuredEdges:
+                  cad_basis: bool = True,
+                  progress: Callable[[str], object] | None = None) -> MeasuredEdges:
     """Trace the cutting edges of a registered scan and measure λ, θ, α and
     l_c beside the CAD's (method in the module docstring).
 
@@ -569,147 +815,34 @@ def measure_edges(points, cad, *, window_deg: float | None = None,
     if band >= wall_t / 3:
         raise SpecError(f"edge_band = {band * 1e3:g} µm; allowed 0 < value < a third of the "
                         f"wall ({wall_t / 3 * 1e3:.1f} µm)")
+    _check_reference(reference, spec)
     gh, zh = cad_rep.outer.edge.heel
     q = rotate_z(P, -gh)
     q[:, 2] -= zh
     rho = np.hypot(q[:, 0], q[:, 1])
     g = np.mod(np.arctan2(q[:, 1], q[:, 0]), 2 * np.pi)
-    z = q[:, 2]
     notes: list[str] = []
     say("fitting the walls")
-    walls, coefs = {}, {}
-    for wall, r0 in (("outer", r_o), ("inner", r_i)):
-        res = _fit_wall(rho, g, z, r0, st.wall_search * wall_t)
-        if res is None:
-            coefs[wall] = np.array([r0, 0.0, 0.0, 0.0, 0.0])
-            walls[wall] = {"radius_mm": r0, "fitted": False}
-            notes.append(f"too few {wall}-wall points to fit it; the CAD radius "
-                         f"{r0:.4f} mm is used")
-        else:
-            coefs[wall], walls[wall] = res
-            walls[wall]["fitted"] = True
-    ro_pt = _wall_radius(coefs["outer"], g, z)
-    ri_pt = _wall_radius(coefs["inner"], g, z)
-    face = (rho < ro_pt - band) & (rho > ri_pt + band)
-    F, Fg = q[face], g[face]
-    if len(F) < st.min_face_points:
-        raise ScanError(f"{len(F)} cut-face points (inside the wall, {band * 1e3:g} µm from "
-                        f"it); at least {st.min_face_points} are needed to trace the edges")
-    order = np.argsort(Fg)
-    F, Fg = F[order], Fg[order]
-    ref, e3, rho3 = None, None, None
-    if reference not in ("auto", "cad", "none"):
-        raise SpecError(f"reference = {reference!r} is not valid; expected one of: auto, cad, "
-                        "none")
-    if reference != "none" and spec is not None:
-        try:
-            ref = _Reference(spec, (gh, zh))
-            e = F[:, 2] - ref.z(np.hypot(F[:, 0], F[:, 1]), Fg)
-        except SpecError:
-            if reference == "cad":
-                raise
-            ref = None
-            notes.append("the CAD has no exact cut surface: free local quadrics are fitted")
-        else:
-            e3 = np.concatenate([e, e, e])
-    elif reference == "cad":
-        raise SpecError("reference = 'cad' needs a CAD with a spec (its exact cut surface); "
-                        "this CAD is a bare mesh (use reference='auto' or 'none')")
-    if ref is not None:
-        rho3 = np.tile(np.hypot(F[:, 0], F[:, 1]), 3)
+    walls, coefs = _fit_walls(rho, g, q[:, 2], (r_o, r_i), notes)
+    F, Fg = _face_points(q, rho, g, coefs, band)
+    face, ref = _wrapped_face(F, Fg, reference, spec, (gh, zh), notes)
     need = st.window_points if ref is None else st.ref_window_points
-    # a wrapped copy so windows about γ = 0 and 2π see both sides
-    Fg3 = np.concatenate([Fg - 2 * np.pi, Fg, Fg + 2 * np.pi])
-    F3 = np.concatenate([F, F, F])
-    tips = []
-    for wall in ("outer", "inner"):
-        dense = cad_rep.dense(wall, 7200)
-        tips.append(float(dense["gamma"][int(np.nanargmax(dense["z"]))]))
-    samples: dict[str, dict[str, np.ndarray]] = {}
+    tracer = _Tracer(coefs, face, ref, need, window, step, quadric, n_harmonics)
+    samples: dict[str, dict[str, FloatArray]] = {}
     edges = []
-    hw = 0.5 * window
     for wall in ("outer", "inner"):
         say(f"tracing the {wall} edge")
         cad_edge = getattr(cad_rep, wall).edge
-        pieces, acc = [], {k: [] for k in ("gamma", "z", "normal", "points", "rms", "window")}
-        full = len(cad_edge.pieces) == 1 and cad_edge.pieces[0].span[1] - \
-            cad_edge.pieces[0].span[0] > 2 * np.pi - 2 * step
-        for cp in cad_edge.pieces:
-            a, b = cp.span
-            if full:
-                g0s = np.arange(0.0, 2 * np.pi - 0.5 * step, step)
-            else:   # up to the piece's ends (kinks): windows there see one side
-                g0s = np.linspace(a, b, max(int(math.ceil((b - a) / step)), 1) + 1)
-            # each window: the narrowest about γ₀ holding window_points face
-            # points, between window and window_max wide
-            widths = np.geomspace(hw, max(hw, 0.5 * st.window_max), st.window_grid)
-            cnt = np.array([np.searchsorted(Fg3, g0s + w_) - np.searchsorted(Fg3, g0s - w_)
-                            for w_ in widths])
-            pick = np.argmax(cnt >= need, axis=0)
-            pick = np.where((cnt >= need).any(axis=0), pick, len(widths) - 1)
-            rows = []
-            fits = []
-            for g0, half in zip(g0s, widths[pick]):
-                lo, hi = np.searchsorted(Fg3, [g0 - half, g0 + half])
-                sel = slice(lo, hi)
-                inside = np.ones(hi - lo, bool) if full else \
-                    (Fg3[sel] >= a) & (Fg3[sel] <= b)
-                if inside.sum() < st.min_window_points:
-                    continue
-                if ref is not None:
-                    R0 = float(_wall_radius(coefs[wall], np.array([g0]),
-                                            np.array([ref.z(cad_edge.radius, np.array([g0]))[0]
-                                                      ]))[0])
-                    dg = Fg3[sel][inside] - g0
-                    fit = _deviation_fit(R0 * dg, rho3[sel][inside] - R0, e3[sel][inside])
-                    if fit is not None:
-                        fits.append((float(g0), R0, fit, 2 * float(half)))
-                    continue
-                fit = _local_surface(F3[sel][inside], quadric)
-                if fit is None:
-                    continue
-                hit = _meet_wall(fit, coefs[wall], float(g0), quadric)
-                if hit is None:
-                    continue
-                Xe, n = hit
-                # the CAD piece's normal near γ₀ (a mesh piece has one per segment)
-                nref = cp.normal[min(np.searchsorted(cp.gamma, g0), len(cp.normal) - 1)]
-                if n @ nref < 0:        # outward, as the CAD's
-                    n = -n
-                rows.append((float(g0), float(Xe[2]), n, fit[4], fit[3], 2 * float(half)))
-            if fits:
-                g0f = np.array([f[0] for f in fits])
-                zf, nf = _referenced_edges(ref, np.array([f[2][0] for f in fits]), g0f,
-                                           np.array([f[1] for f in fits]), coefs[wall], a, b)
-                rows = [(f[0], float(zk), nk, f[2][2], f[2][1], f[3])
-                        for f, zk, nk in zip(fits, zf, nf)]
-            if full and rows and rows[0][0] == 0.0:
-                first = rows[0]
-                rows.append((2 * np.pi, *first[1:]))
-            if len(rows) < 2 * n_harmonics + 2:
-                raise ScanError(f"the {wall} edge: only {len(rows)} windows of piece "
-                                f"'{cp.face}' hold enough cut-face points; at least "
-                                f"{2 * n_harmonics + 2} are needed (a denser scan, or a "
-                                "wider window_deg)")
-            gam = np.array([r[0] for r in rows])
-            zz = np.array([r[1] for r in rows])
-            nn = np.array([r[2] for r in rows])
-            pieces.append(EdgePiece(cp.face, gam, zz, None, _smooth_normals(gam, nn,
-                                                                             n_harmonics)))
-            for key, col in zip(("gamma", "z", "normal", "points", "rms", "window"),
-                                (gam, zz, nn, *([r[k] for r in rows] for k in (3, 4, 5)))):
-                acc[key].append(np.asarray(col))
-        samples[wall] = {k: np.concatenate(v) for k, v in acc.items()}
-        jumps = []
-        for j in cad_edge.jumps:
-            jumps.append(j)
-        edges.append(Edge(wall, float(coefs[wall][0]), pieces, [], jumps, "scan", (gh, zh)))
+        pieces, samples[wall] = tracer.trace(wall, cad_edge)
+        edges.append(Edge(wall, float(coefs[wall][0]), pieces, [], list(cad_edge.jumps),
+                          "scan", (gh, zh)))
     if any(e.jumps for e in edges):
         notes.append("vertical stretches (jumps) of the edge are taken from the CAD")
     say("fitting eq. 3.12")
     meas = analyze_edges(edges[0], edges[1], n_harmonics=n_harmonics,
                          name=f"scan of {cad_name}", basis=cad_rep if cad_basis else None)
-    out = MeasuredEdges(meas, cad_rep, samples, walls, (gh, zh), *tips,
+    tip_o, tip_i = _tips(cad_rep)
+    out = MeasuredEdges(meas, cad_rep, samples, walls, (gh, zh), tip_o, tip_i,
                         {"window": window, "step": step, "edge_band": band,
                          "referenced": ref is not None, "window_points": need,
                          "cad_basis": cad_basis}, notes)
@@ -721,7 +854,7 @@ def measure_edges(points, cad, *, window_deg: float | None = None,
     return out
 
 
-def _shade_windows(ax, res: MeasuredEdges) -> None:
+def _shade_windows(ax: Any, res: MeasuredEdges) -> None:
     """Grey the γ (degrees) outside the stated region on a plot's axis."""
     g = np.linspace(0.0, 360.0, 3601)
     ax.fill_between(g, 0, 1, where=~res.region(np.radians(g)), color="0.9", zorder=0,
@@ -729,7 +862,8 @@ def _shade_windows(ax, res: MeasuredEdges) -> None:
 
 
 @styled
-def plot_measured_edges(res: MeasuredEdges, path, *, truth=None) -> Path:
+def plot_measured_edges(res: MeasuredEdges, path: str | os.PathLike[str], *,
+                        truth: AngleReport | None = None) -> Path:
     """A PNG: per wall the edge height z(γ) and λ, θ, α (degrees) of the scan
     beside the CAD's, over γ from the heel (degrees); the traced edge samples
     as dots; the heel and tip windows shaded. ``truth`` (an AngleReport, e.g.
@@ -806,7 +940,7 @@ def edges_markdown(res: MeasuredEdges) -> list[str]:
          f"{s['tip_gamma_inner_deg']:.2f}° inner).", "",
          "| edge | quantity | scan | CAD | max abs difference |", "|---|---|---|---|---|"]
 
-    def rng(x):
+    def rng(x: Sequence[float]) -> str:
         return f"{x[0]:.3f} … {x[1]:.3f}"
 
     for wall, k in (("outer", "o"), ("inner", "i")):

@@ -61,21 +61,24 @@ import struct
 import xml.etree.ElementTree as ET
 import zipfile
 import zlib
+from collections.abc import Iterator
 from dataclasses import dataclass, field
 from decimal import Decimal, InvalidOperation
 from fractions import Fraction
 from pathlib import Path
-from typing import Any
+from typing import IO, Any, overload
 
 import numpy as np
 
+from ..arrays import AnyArray, ArrayLike, BoolArray, FloatArray
 from ..atomic import write_atomic
 from ..errors import MissingToolError, ScanError
+from ..tolerances import tol
 
 __all__ = ["HeightMap", "read_height_map", "HEIGHT_MAP_FORMATS", "OWN_FORMATS",
            "SURFALIZE_FORMATS", "MAX_SCAN_POINTS", "MAX_SCAN_BYTES", "LENGTH_UNITS",
            "parse_unit", "to_mm", "write_x3p", "write_al3d", "write_sur", "write_sdf",
-           "surfalize_available", "SURFALIZE_PIP"]
+           "surfalize_available", "SURFALIZE_PIP", "SDF_ZSCALE_M"]
 
 #: Most points (pixels) a scan may have: a height map larger than this is
 #: refused from its header, before anything is allocated; a point file is
@@ -145,7 +148,19 @@ def _unit_or_error(text: str, where: str, part: str) -> str:
     return u
 
 
-def to_mm(values, unit: str):
+@overload
+def to_mm(values: float, unit: str) -> float: ...
+
+
+@overload
+def to_mm(values: AnyArray, unit: str) -> FloatArray: ...
+
+
+@overload
+def to_mm(values: ArrayLike, unit: str) -> float | FloatArray: ...
+
+
+def to_mm(values: ArrayLike, unit: str) -> float | FloatArray:
     """``values`` (a float, or an array as float64) in ``unit`` converted to
     mm: divided by an exact integer below the mm (correctly rounded), times an
     exact integer above it."""
@@ -189,7 +204,7 @@ class HeightMap:
     meta : dict — what the file said (units, data type, instrument...)
     """
 
-    z: np.ndarray
+    z: FloatArray
     dx: float
     dy: float
     x0: float = 0.0
@@ -200,7 +215,8 @@ class HeightMap:
 
     @property
     def shape(self) -> tuple[int, int]:
-        return tuple(self.z.shape)
+        ny, nx = self.z.shape
+        return ny, nx
 
     @property
     def pixels(self) -> int:
@@ -211,7 +227,7 @@ class HeightMap:
         """Number of invalid (non-finite) pixels."""
         return int(self.z.size - np.count_nonzero(np.isfinite(self.z)))
 
-    def iter_points(self, rows: int = 1024):
+    def iter_points(self, rows: int = 1024) -> Iterator[FloatArray]:
         """Valid pixels as (m, 3) float64 points (mm), ``rows`` rows at a time."""
         ny, nx = self.z.shape
         x = self.x0 + np.arange(nx, dtype=np.float64) * self.dx
@@ -224,14 +240,17 @@ class HeightMap:
             y = self.y0 + (ii + i0).astype(np.float64) * self.dy
             yield np.column_stack([x[jj], y, blk[ok]])
 
-    def points(self) -> np.ndarray:
+    def points(self) -> FloatArray:
         """Every valid pixel as an (n, 3) float64 point (mm)."""
         parts = list(self.iter_points(rows=max(1, self.z.shape[0])))
         return parts[0] if len(parts) == 1 else (
             np.concatenate(parts) if parts else np.zeros((0, 3)))
 
 
-def _checked_map(z, dx, dy, x0, y0, where, fmt, meta, source) -> HeightMap:
+def _checked_map(z: ArrayLike, dx: float, dy: float, x0: float, y0: float, where: str,
+                 fmt: str, meta: dict[str, Any], source: str) -> HeightMap:
+    """A :class:`HeightMap` of ``z`` (mm) once the spacing, offsets (mm) and
+    shape are checked."""
     for name, v in (("dx", dx), ("dy", dy)):
         if not (np.isfinite(v) and v > 0):
             raise ScanError(f"{where}: lateral spacing {name} = {v!r} mm; expected a finite "
@@ -308,7 +327,7 @@ def _local(tag: str) -> str:
     return tag.rsplit("}", 1)[-1]
 
 
-def _child(el, name: str):
+def _child(el: ET.Element | None, name: str) -> ET.Element | None:
     if el is None:
         return None
     for c in el:
@@ -317,13 +336,13 @@ def _child(el, name: str):
     return None
 
 
-def _path(el, path: str):
+def _path(el: ET.Element | None, path: str) -> ET.Element | None:
     for part in path.split("/"):
         el = _child(el, part)
     return el
 
 
-def _text(el, path: str) -> str | None:
+def _text(el: ET.Element | None, path: str) -> str | None:
     e = _path(el, path)
     if e is None or e.text is None or not e.text.strip():
         return None
@@ -356,7 +375,7 @@ def _member(zf: zipfile.ZipFile, name: str, where: str, expected: int | None = N
     return data
 
 
-def _x3p_number(root, path: str, where: str, default: str | None = None) -> Decimal:
+def _x3p_number(root: ET.Element, path: str, where: str, default: str | None = None) -> Decimal:
     t = _text(root, path)
     if t is None:
         if default is None:
@@ -371,11 +390,135 @@ def _x3p_number(root, path: str, where: str, default: str | None = None) -> Deci
     return d
 
 
-def _x3p_int(root, path: str, where: str) -> int:
+def _x3p_int(root: ET.Element, path: str, where: str) -> int:
     t = _text(root, path)
     if t is None or not re.fullmatch(r"\+?\d{1,12}", t):
         raise ScanError(f"{where}: main.xml {path} = {t!r}; expected a whole number ≥ 1")
     return int(t)
+
+
+def _x3p_root(xml: bytes, where: str) -> ET.Element:
+    """The parsed main.xml of a surface (no DTD, no entities)."""
+    head = xml[:4096].upper()
+    if b"<!DOCTYPE" in head or b"<!ENTITY" in xml.upper():
+        raise ScanError(f"{where}: main.xml declares a DTD or entities; an ISO 25178-72 "
+                        "main.xml has none")
+    try:
+        root = ET.fromstring(xml)
+    except ET.ParseError as e:
+        line, col = getattr(e, "position", (0, 0))
+        raise ScanError(f"{where}: main.xml is not well-formed XML (line {line}, column "
+                        f"{col})") from None
+    if _local(root.tag) != "ISO5436_2":
+        raise ScanError(f"{where}: main.xml root element is <{_local(root.tag)}>; expected "
+                        "<ISO5436_2>")
+    ftype = _text(root, "Record1/FeatureType")
+    if ftype != "SUR":
+        what = {"PRF": "a profile", "PCL": "a point cloud"}.get(ftype or "", repr(ftype))
+        raise ScanError(f"{where}: Record1/FeatureType is {what}; only surfaces (SUR) are "
+                        "read")
+    return root
+
+
+def _x3p_lateral(root: ET.Element, where: str, a: str) -> tuple[float, float]:
+    """(increment, offset) of incremental axis ``a`` (CX or CY), in mm."""
+    t = _text(root, f"Record1/Axes/{a}/AxisType")
+    if t != "I":
+        raise ScanError(f"{where}: Record1/Axes/{a}/AxisType = {t!r}; only incremental "
+                        "('I') x and y axes (a regular grid) are read")
+    inc = _x3p_number(root, f"Record1/Axes/{a}/Increment", where)
+    if inc <= 0:
+        raise ScanError(f"{where}: Record1/Axes/{a}/Increment = {inc}; expected > 0 (m)")
+    off = _x3p_number(root, f"Record1/Axes/{a}/Offset", where, "0")
+    return float(inc * 1000), float(off * 1000)
+
+
+def _x3p_z_axis(root: ET.Element, where: str) -> tuple[str, Decimal, Decimal]:
+    """(data type, increment in m, offset in m) of the z axis."""
+    zt = _text(root, "Record1/Axes/CZ/AxisType")
+    if zt != "A":
+        raise ScanError(f"{where}: Record1/Axes/CZ/AxisType = {zt!r}; expected 'A' "
+                        "(absolute heights)")
+    dt = _text(root, "Record1/Axes/CZ/DataType")
+    if dt is None or dt not in _X3P_TYPES:
+        raise ScanError(f"{where}: Record1/Axes/CZ/DataType = {dt!r}; allowed: I, L, F, D")
+    zinc = _x3p_number(root, "Record1/Axes/CZ/Increment", where, "1")
+    zoff = _x3p_number(root, "Record1/Axes/CZ/Offset", where, "0")
+    return dt, zinc, zoff
+
+
+def _x3p_size(root: ET.Element, where: str, max_pixels: int) -> tuple[int, int]:
+    """(SizeX, SizeY) of a single-layer matrix within ``max_pixels``."""
+    nx = _x3p_int(root, "Record3/MatrixDimension/SizeX", where)
+    ny = _x3p_int(root, "Record3/MatrixDimension/SizeY", where)
+    nz = _x3p_int(root, "Record3/MatrixDimension/SizeZ", where)
+    if nz != 1:
+        raise ScanError(f"{where}: Record3/MatrixDimension/SizeZ = {nz}; only single-layer "
+                        "surfaces (1) are read")
+    _check_pixels(nx, ny, where, "Record3/MatrixDimension", max_pixels)
+    return nx, ny
+
+
+def _x3p_linked(zf: zipfile.ZipFile, link: ET.Element, dt: str, n: int,
+                where: str) -> tuple[FloatArray, BoolArray | None]:
+    """The raw values of a binary point-data member (MD5 checked when given)
+    and the validity mask of its valid-points member, if any."""
+    name = _text(link, "PointDataLink")
+    if name is None:
+        raise ScanError(f"{where}: Record3/DataLink has no PointDataLink")
+    dtype = np.dtype(_X3P_TYPES[dt])
+    data = _member(zf, name, where, expected=n * dtype.itemsize)
+    md5 = _text(link, "MD5ChecksumPointData")
+    if md5 is not None and hashlib.md5(data).hexdigest() != md5.lower():
+        raise ScanError(f"{where}: the MD5 of '{name}' is {hashlib.md5(data).hexdigest()}"
+                        f"; Record3/DataLink/MD5ChecksumPointData says {md5.lower()} "
+                        "(corrupt point data)")
+    raw = np.frombuffer(data, dtype).astype(np.float64)
+    vname = _text(link, "ValidPointsLink")
+    if vname is None:
+        return raw, None
+    bits = _member(zf, vname, where, expected=(n + 7) // 8)
+    valid = np.unpackbits(np.frombuffer(bits, np.uint8), count=n,
+                          bitorder="little").astype(bool)
+    return raw, valid
+
+
+def _x3p_listed(root: ET.Element, n: int, where: str) -> FloatArray:
+    """The raw values of a text ``DataList`` (an empty Datum: NaN)."""
+    lst = _path(root, "Record3/DataList")
+    if lst is None:
+        raise ScanError(f"{where}: Record3 has neither DataLink nor DataList")
+    vals: list[float] = []
+    for d in lst:
+        if _local(d.tag) != "Datum":
+            continue
+        t = (d.text or "").strip()
+        try:
+            vals.append(float(t) if t else np.nan)
+        except ValueError:
+            raise ScanError(f"{where}: Record3/DataList Datum {len(vals) + 1} = "
+                            f"'{t[:40]}' is not a number") from None
+        if len(vals) > n:
+            break
+    if len(vals) != n:
+        raise ScanError(f"{where}: Record3/DataList holds {len(vals):,}"
+                        f"{'+' if len(vals) > n else ''} Datum values; expected "
+                        f"SizeX × SizeY = {n:,}")
+    return np.asarray(vals, np.float64)
+
+
+def _x3p_extra_meta(zf: zipfile.ZipFile, root: ET.Element, xml: bytes, where: str,
+                    meta: dict[str, Any]) -> None:
+    """The main.xml checksum's verdict and the instrument, into ``meta``."""
+    ck = _text(root, "Record4/ChecksumFile")
+    if ck is not None and ck in zf.namelist():
+        got = _member(zf, ck, where, limit=4096).decode("latin-1").split()
+        meta["main_xml_md5"] = ("ok" if got and got[0].lower()
+                                == hashlib.md5(xml).hexdigest() else "mismatch")
+    inst = _path(root, "Record2/Instrument")
+    if inst is not None:
+        meta["instrument"] = " ".join(filter(None, (_text(inst, k) for k in
+                                                   ("Manufacturer", "Model", "Serial"))))
 
 
 def _read_x3p(p: Path, where: str, max_pixels: int) -> HeightMap:
@@ -386,93 +529,16 @@ def _read_x3p(p: Path, where: str, max_pixels: int) -> HeightMap:
                         "holding main.xml") from None
     with zf:
         xml = _member(zf, "main.xml", where)
-        head = xml[:4096].upper()
-        if b"<!DOCTYPE" in head or b"<!ENTITY" in xml.upper():
-            raise ScanError(f"{where}: main.xml declares a DTD or entities; an ISO 25178-72 "
-                            "main.xml has none")
-        try:
-            root = ET.fromstring(xml)
-        except ET.ParseError as e:
-            line, col = getattr(e, "position", (0, 0))
-            raise ScanError(f"{where}: main.xml is not well-formed XML (line {line}, column "
-                            f"{col})") from None
-        if _local(root.tag) != "ISO5436_2":
-            raise ScanError(f"{where}: main.xml root element is <{_local(root.tag)}>; expected "
-                            "<ISO5436_2>")
-        ftype = _text(root, "Record1/FeatureType")
-        if ftype != "SUR":
-            what = {"PRF": "a profile", "PCL": "a point cloud"}.get(ftype or "", repr(ftype))
-            raise ScanError(f"{where}: Record1/FeatureType is {what}; only surfaces (SUR) are "
-                            "read")
+        root = _x3p_root(xml, where)
         meta: dict[str, Any] = {"file_units": "m", "revision": _text(root, "Record1/Revision")}
-        ax = {}
-        for a in ("CX", "CY"):
-            t = _text(root, f"Record1/Axes/{a}/AxisType")
-            if t != "I":
-                raise ScanError(f"{where}: Record1/Axes/{a}/AxisType = {t!r}; only incremental "
-                                "('I') x and y axes (a regular grid) are read")
-            inc = _x3p_number(root, f"Record1/Axes/{a}/Increment", where)
-            if inc <= 0:
-                raise ScanError(f"{where}: Record1/Axes/{a}/Increment = {inc}; expected > 0 (m)")
-            off = _x3p_number(root, f"Record1/Axes/{a}/Offset", where, "0")
-            ax[a] = (float(inc * 1000), float(off * 1000))
-        zt = _text(root, "Record1/Axes/CZ/AxisType")
-        if zt != "A":
-            raise ScanError(f"{where}: Record1/Axes/CZ/AxisType = {zt!r}; expected 'A' "
-                            "(absolute heights)")
-        dt = _text(root, "Record1/Axes/CZ/DataType")
-        if dt not in _X3P_TYPES:
-            raise ScanError(f"{where}: Record1/Axes/CZ/DataType = {dt!r}; allowed: I, L, F, D")
-        zinc = _x3p_number(root, "Record1/Axes/CZ/Increment", where, "1")
-        zoff = _x3p_number(root, "Record1/Axes/CZ/Offset", where, "0")
-        nx = _x3p_int(root, "Record3/MatrixDimension/SizeX", where)
-        ny = _x3p_int(root, "Record3/MatrixDimension/SizeY", where)
-        nz = _x3p_int(root, "Record3/MatrixDimension/SizeZ", where)
-        if nz != 1:
-            raise ScanError(f"{where}: Record3/MatrixDimension/SizeZ = {nz}; only single-layer "
-                            "surfaces (1) are read")
-        _check_pixels(nx, ny, where, "Record3/MatrixDimension", max_pixels)
-        n = nx * ny
-        valid = None
+        (dx, x0), (dy, y0) = _x3p_lateral(root, where, "CX"), _x3p_lateral(root, where, "CY")
+        dt, zinc, zoff = _x3p_z_axis(root, where)
+        nx, ny = _x3p_size(root, where, max_pixels)
         link = _path(root, "Record3/DataLink")
         if link is not None:
-            name = _text(link, "PointDataLink")
-            if name is None:
-                raise ScanError(f"{where}: Record3/DataLink has no PointDataLink")
-            dtype = np.dtype(_X3P_TYPES[dt])
-            data = _member(zf, name, where, expected=n * dtype.itemsize)
-            md5 = _text(link, "MD5ChecksumPointData")
-            if md5 is not None and hashlib.md5(data).hexdigest() != md5.lower():
-                raise ScanError(f"{where}: the MD5 of '{name}' is {hashlib.md5(data).hexdigest()}"
-                                f"; Record3/DataLink/MD5ChecksumPointData says {md5.lower()} "
-                                "(corrupt point data)")
-            raw = np.frombuffer(data, dtype).astype(np.float64)
-            vname = _text(link, "ValidPointsLink")
-            if vname is not None:
-                bits = _member(zf, vname, where, expected=(n + 7) // 8)
-                valid = np.unpackbits(np.frombuffer(bits, np.uint8), count=n,
-                                      bitorder="little").astype(bool)
+            raw, valid = _x3p_linked(zf, link, dt, nx * ny, where)
         else:
-            lst = _path(root, "Record3/DataList")
-            if lst is None:
-                raise ScanError(f"{where}: Record3 has neither DataLink nor DataList")
-            vals = []
-            for d in lst:
-                if _local(d.tag) != "Datum":
-                    continue
-                t = (d.text or "").strip()
-                try:
-                    vals.append(float(t) if t else np.nan)
-                except ValueError:
-                    raise ScanError(f"{where}: Record3/DataList Datum {len(vals) + 1} = "
-                                    f"'{t[:40]}' is not a number") from None
-                if len(vals) > n:
-                    break
-            if len(vals) != n:
-                raise ScanError(f"{where}: Record3/DataList holds {len(vals):,}"
-                                f"{'+' if len(vals) > n else ''} Datum values; expected "
-                                f"SizeX × SizeY = {n:,}")
-            raw = np.asarray(vals, np.float64)
+            raw, valid = _x3p_listed(root, nx * ny, where), None
         # heights in m = offset + increment × raw; in mm: the increment and the
         # offset scaled in decimal (one rounding each), × raw, + offset
         if zinc == 1 and zoff == 0:
@@ -483,20 +549,11 @@ def _read_x3p(p: Path, where: str, max_pixels: int) -> HeightMap:
             z[~valid] = np.nan
         z[~np.isfinite(z)] = np.nan
         meta.update(data_type=dt, z_increment_m=str(zinc), z_offset_m=str(zoff))
-        ck = _text(root, "Record4/ChecksumFile")
-        if ck is not None and ck in zf.namelist():
-            got = _member(zf, ck, where, limit=4096).decode("latin-1").split()
-            meta["main_xml_md5"] = ("ok" if got and got[0].lower()
-                                    == hashlib.md5(xml).hexdigest() else "mismatch")
-        inst = _path(root, "Record2/Instrument")
-        if inst is not None:
-            meta["instrument"] = " ".join(filter(None, (_text(inst, k) for k in
-                                                       ("Manufacturer", "Model", "Serial"))))
-    (dx, x0), (dy, y0) = ax["CX"], ax["CY"]
+        _x3p_extra_meta(zf, root, xml, where, meta)
     return _checked_map(z.reshape(ny, nx), dx, dy, x0, y0, where, "x3p", meta, p.name)
 
 
-def write_x3p(path: str | os.PathLike[str], z_mm, dx_mm: float, dy_mm: float, *,
+def write_x3p(path: str | os.PathLike[str], z_mm: ArrayLike, dx_mm: float, dy_mm: float, *,
               x0_mm: float = 0.0, y0_mm: float = 0.0, dtype: str = "D",
               z_increment_m: float | None = None, z_offset_m: float | None = None,
               valid_mask: bool | None = None, data_list: bool = False,
@@ -527,7 +584,7 @@ def write_x3p(path: str | os.PathLike[str], z_mm, dx_mm: float, dy_mm: float, *,
         if z_offset_m is None:
             z_offset_m = 0.5 * (lo + hi)
         if z_increment_m is None:
-            z_increment_m = max(hi - lo, 1e-12) / (2 * (imax - 1))
+            z_increment_m = max(hi - lo, tol.inspect.x3p_min_span_m) / (2 * (imax - 1))
         zoff, zinc = Decimal(repr(float(z_offset_m))), Decimal(repr(float(z_increment_m)))
         raw = np.where(ok, np.round((zm - float(zoff)) / float(zinc)), 0)
         info = np.iinfo(np.dtype(_X3P_TYPES[dt]))
@@ -537,7 +594,6 @@ def write_x3p(path: str | os.PathLike[str], z_mm, dx_mm: float, dy_mm: float, *,
         valid_mask = True
     else:
         vals = zm.astype(_X3P_TYPES[dt])
-    fmt = lambda v: repr(float(v))  # noqa: E731 - shortest round-trip text
     xml = ['<?xml version="1.0" encoding="UTF-8" standalone="no"?>',
            '<p:ISO5436_2 xmlns:p="http://www.opengps.eu/2008/ISO5436_2" '
            'xmlns:xsi="http://www.w3.org/2001/XMLSchema-instance">',
@@ -559,7 +615,8 @@ def write_x3p(path: str | os.PathLike[str], z_mm, dx_mm: float, dy_mm: float, *,
     members: dict[str, bytes] = {}
     if data_list:
         xml.append("<DataList>" + "".join(
-            f"<Datum>{fmt(v) if np.isfinite(v) else ''}</Datum>" for v in vals.ravel())
+            f"<Datum>{repr(float(v)) if np.isfinite(v) else ''}</Datum>"  # shortest exact
+            for v in vals.ravel())
             + "</DataList>")
     else:
         data = vals.tobytes()
@@ -578,7 +635,7 @@ def write_x3p(path: str | os.PathLike[str], z_mm, dx_mm: float, dy_mm: float, *,
                "</p:ISO5436_2>")
     main = ("\n".join(xml) + "\n").encode("utf-8")
 
-    def write(tmp):
+    def write(tmp: Path) -> None:
         with zipfile.ZipFile(tmp, "w", compression=zipfile.ZIP_DEFLATED) as zf:
             zf.writestr("main.xml", main)
             for k, v in members.items():
@@ -607,7 +664,7 @@ def _read_al3d(p: Path, where: str, max_pixels: int) -> HeightMap:
             raise ScanError(f"{where} is not an AL3D file (no 'AliconaImaging' magic)")
         tags: dict[str, str] = {}
 
-        def tag(i):
+        def tag(i: int) -> tuple[str, str]:
             b = fh.read(52)
             if len(b) < 52:
                 raise ScanError(f"{where}: header tag {i + 1} is truncated")
@@ -629,14 +686,14 @@ def _read_al3d(p: Path, where: str, max_pixels: int) -> HeightMap:
             k, val = tag(i + 2)
             tags[k] = val
 
-        def num(key, kind=int):
+        def num(key: str) -> int:
             if key not in tags:
                 raise ScanError(f"{where}: header tag {key} is missing")
             try:
-                return kind(tags[key])
+                return int(tags[key])
             except ValueError:
                 raise ScanError(f"{where}: header tag {key} = '{tags[key]}' is not a "
-                                f"{'whole number' if kind is int else 'number'}") from None
+                                "whole number") from None
 
         nx, ny = num("Cols"), num("Rows")
         _check_pixels(nx, ny, where, "header tags Cols × Rows", max_pixels)
@@ -675,7 +732,7 @@ def _read_al3d(p: Path, where: str, max_pixels: int) -> HeightMap:
 
 
 def _al3d_unrepeatable(p: Path, tags: dict[str, str], nx: int, ny: int, size: int,
-                       where: str) -> np.ndarray | None:
+                       where: str) -> BoolArray | None:
     """Pixels whose depth repeatability exceeds the file's filter value, or
     None when the file has no repeatability plane. The repeatability is
     ``code · DepthResShiftVal + DepthResMinVal`` (÷√8 on both sides of the
@@ -708,9 +765,9 @@ def _al3d_unrepeatable(p: Path, tags: dict[str, str], nx: int, ny: int, size: in
     return codes * shift + lo > limit
 
 
-def write_al3d(path: str | os.PathLike[str], z_mm, dx_mm: float, dy_mm: float, *,
-               repeatability_codes=None, filter_value: float = 0.0, shift: float = 1.0,
-               minimum: float = 0.0) -> Path:
+def write_al3d(path: str | os.PathLike[str], z_mm: ArrayLike, dx_mm: float, dy_mm: float, *,
+               repeatability_codes: ArrayLike | None = None, filter_value: float = 0.0,
+               shift: float = 1.0, minimum: float = 0.0) -> Path:
     """Write an Alicona AL3D depth image (float32 metres; NaN → the invalid
     value 3e15), pixel sizes as decimal text in m (exact), scanlines padded
     to 8 bytes; with ``repeatability_codes`` ((ny, nx) uint8), a texture
@@ -753,7 +810,7 @@ def write_al3d(path: str | os.PathLike[str], z_mm, dx_mm: float, dy_mm: float, *
         codes[:, :nx] = np.asarray(repeatability_codes, np.uint8)
         tex = codes.tobytes()
 
-    def write(tmp):
+    def write(tmp: Path) -> None:
         with open(tmp, "wb") as fh:
             fh.write(bytes(head))
             fh.write(img.tobytes())
@@ -782,27 +839,71 @@ def _sur_str(b: bytes) -> str:
     return b.split(b"\0", 1)[0].decode("latin-1").strip()
 
 
+def _sur_header(hb: bytes, where: str) -> tuple[str, dict[str, Any]]:
+    """(numpy byte order, header fields) of a SUR file's 512-byte header,
+    checked: a surface, 16 or 32 bits, not inverted."""
+    if len(hb) < 512 or hb[:12] not in (b"DIGITAL SURF", b"DSCOMPRESSED"):
+        raise ScanError(f"{where} is not a Digital Surf SUR file (no 'DIGITAL SURF' or "
+                        "'DSCOMPRESSED' code, or under 512 bytes)")
+    bo = ">" if struct.unpack("<h", hb[12:14])[0] == 257 else "<"   # 257: Macintosh
+    s = struct.Struct(bo + _SUR_HEADER.format[1:])
+    h = dict(zip(_SUR_FIELDS, s.unpack(hb)))
+    if h["version"] != 1:
+        raise ScanError(f"{where}: header version_number = {h['version']}; expected 1")
+    if h["studiable"] not in (2, 16):
+        raise ScanError(f"{where}: header studiable type = {h['studiable']}; only surfaces "
+                        "(2, and 16: a surface with its RGB/intensity layers) are read")
+    if h["bits"] not in (16, 32):
+        raise ScanError(f"{where}: header bits per point = {h['bits']}; expected 16 or 32")
+    if h["inverted"] not in (0,):
+        raise ScanError(f"{where}: header 'inverted' = {h['inverted']}; only surfaces that "
+                        "are not inverted (0) are read")
+    return bo, h
+
+
+def _sur_inflate(fh: IO[bytes], bo: str, nbytes: int, itemsize: int, size: int,
+                 where: str) -> bytes:
+    """The point data of a DSCOMPRESSED file: its directory of zlib streams,
+    each inflated to no more than the size the directory gives."""
+    cnt_b = fh.read(4)
+    if len(cnt_b) < 4:
+        raise ScanError(f"{where} is truncated: no compressed-data directory")
+    cnt = struct.unpack(bo + "I", cnt_b)[0]
+    if not 1 <= cnt <= 4096:
+        raise ScanError(f"{where}: compressed-data directory count = {cnt}; expected "
+                        "1 to 4096")
+    dirs = [struct.unpack(bo + "2I", fh.read(8)) for _ in range(cnt)]
+    if sum(r for r, _ in dirs) != nbytes:
+        raise ScanError(f"{where}: compressed streams hold {sum(r for r, _ in dirs):,} "
+                        f"bytes once inflated; expected {nbytes:,} (points × "
+                        f"{itemsize})")
+    if sum(c for _, c in dirs) > size:
+        raise ScanError(f"{where}: compressed streams of {sum(c for _, c in dirs):,} "
+                        f"bytes in a file of {size:,}")
+    parts = []
+    for i, (rawlen, ziplen) in enumerate(dirs):
+        if rawlen == 0:        # max_length 0 would mean 'unbounded'
+            fh.seek(ziplen, 1)
+            continue
+        d = zlib.decompressobj()
+        try:
+            out = d.decompress(fh.read(ziplen), rawlen)
+        except zlib.error as e:
+            raise ScanError(f"{where}: compressed stream {i + 1} is corrupt ({e})") \
+                from None
+        if len(out) != rawlen or d.unconsumed_tail:
+            raise ScanError(f"{where}: compressed stream {i + 1} inflates to "
+                            f"{len(out):,}{'+' if d.unconsumed_tail else ''} bytes; "
+                            f"expected {rawlen:,}")
+        parts.append(out)
+    return b"".join(parts)
+
+
 def _read_sur(p: Path, where: str, max_pixels: int) -> HeightMap:
     size = p.stat().st_size
     with open(p, "rb") as fh:
-        hb = fh.read(512)
-        if len(hb) < 512 or hb[:12] not in (b"DIGITAL SURF", b"DSCOMPRESSED"):
-            raise ScanError(f"{where} is not a Digital Surf SUR file (no 'DIGITAL SURF' or "
-                            "'DSCOMPRESSED' code, or under 512 bytes)")
-        bo = ">" if struct.unpack("<h", hb[12:14])[0] == 257 else "<"   # 257: Macintosh
-        s = struct.Struct(bo + _SUR_HEADER.format[1:])
-        h = dict(zip(_SUR_FIELDS, s.unpack(hb)))
+        bo, h = _sur_header(fh.read(512), where)
         code = h["code"]
-        if h["version"] != 1:
-            raise ScanError(f"{where}: header version_number = {h['version']}; expected 1")
-        if h["studiable"] not in (2, 16):
-            raise ScanError(f"{where}: header studiable type = {h['studiable']}; only surfaces "
-                            "(2, and 16: a surface with its RGB/intensity layers) are read")
-        if h["bits"] not in (16, 32):
-            raise ScanError(f"{where}: header bits per point = {h['bits']}; expected 16 or 32")
-        if h["inverted"] not in (0,):
-            raise ScanError(f"{where}: header 'inverted' = {h['inverted']}; only surfaces that "
-                            "are not inverted (0) are read")
         nx, ny = h["nx"], h["ny"]
         _check_pixels(nx, ny, where, "header points per line × lines", max_pixels)
         n = nx * ny
@@ -821,44 +922,12 @@ def _read_sur(p: Path, where: str, max_pixels: int) -> HeightMap:
                 raise ScanError(f"{where} is truncated: {len(buf):,} bytes of point data; "
                                 f"expected {nbytes:,}")
         else:
-            cnt_b = fh.read(4)
-            if len(cnt_b) < 4:
-                raise ScanError(f"{where} is truncated: no compressed-data directory")
-            cnt = struct.unpack(bo + "I", cnt_b)[0]
-            if not 1 <= cnt <= 4096:
-                raise ScanError(f"{where}: compressed-data directory count = {cnt}; expected "
-                                "1 to 4096")
-            dirs = [struct.unpack(bo + "2I", fh.read(8)) for _ in range(cnt)]
-            if sum(r for r, _ in dirs) != nbytes:
-                raise ScanError(f"{where}: compressed streams hold {sum(r for r, _ in dirs):,} "
-                                f"bytes once inflated; expected {nbytes:,} (points × "
-                                f"{dtype.itemsize})")
-            if sum(c for _, c in dirs) > size:
-                raise ScanError(f"{where}: compressed streams of {sum(c for _, c in dirs):,} "
-                                f"bytes in a file of {size:,}")
-            parts = []
-            for i, (rawlen, ziplen) in enumerate(dirs):
-                if rawlen == 0:        # max_length 0 would mean 'unbounded'
-                    fh.seek(ziplen, 1)
-                    continue
-                d = zlib.decompressobj()
-                try:
-                    out = d.decompress(fh.read(ziplen), rawlen)
-                except zlib.error as e:
-                    raise ScanError(f"{where}: compressed stream {i + 1} is corrupt ({e})") \
-                        from None
-                if len(out) != rawlen or d.unconsumed_tail:
-                    raise ScanError(f"{where}: compressed stream {i + 1} inflates to "
-                                    f"{len(out):,}{'+' if d.unconsumed_tail else ''} bytes; "
-                                    f"expected {rawlen:,}")
-                parts.append(out)
-            buf = b"".join(parts)
+            buf = _sur_inflate(fh, bo, nbytes, dtype.itemsize, size, where)
     raw = np.frombuffer(buf, dtype).reshape(ny, nx)
-    bad = (raw == h["min_point"] - 2) if h["non_measured"] == 1 else None
     z = to_mm(raw.astype(np.float64) * float(np.float32(h["spacing_z"]))
               + float(np.float32(h["offset_z"])), units["z"])
-    if bad is not None:
-        z[bad] = np.nan
+    if h["non_measured"] == 1:
+        z[raw == h["min_point"] - 2] = np.nan
     dx = to_mm(float(np.float32(h["spacing_x"])), units["x"])
     dy = to_mm(float(np.float32(h["spacing_y"])), units["y"])
     x0 = to_mm(float(np.float32(h["offset_x"])), units["x"])
@@ -870,8 +939,9 @@ def _read_sur(p: Path, where: str, max_pixels: int) -> HeightMap:
     return _checked_map(z, dx, dy, x0, y0, where, "sur", meta, p.name)
 
 
-def write_sur(path: str | os.PathLike[str], z_mm, dx: float, dy: float, *, unit: str = "um",
-              bits: int = 32, compressed: bool = False, x0: float = 0.0, y0: float = 0.0,
+def write_sur(path: str | os.PathLike[str], z_mm: ArrayLike, dx: float, dy: float, *,
+              unit: str = "um", bits: int = 32, compressed: bool = False, x0: float = 0.0,
+              y0: float = 0.0,
               z_spacing: float | None = None, z_offset: float | None = None) -> Path:
     """Write a Digital Surf SUR surface. Lengths (``dx``, ``dy``, offsets,
     ``z_spacing``, ``z_offset``) in ``unit`` (the header's unit strings), all
@@ -890,7 +960,7 @@ def write_sur(path: str | os.PathLike[str], z_mm, dx: float, dy: float, *, unit:
         z_offset = float(np.float32(0.5 * (lo + hi)))
     if z_spacing is None:       # the smallest float32 step that spans the range
         need = max(hi - float(np.float32(z_offset)), float(np.float32(z_offset)) - lo,
-                   1e-30) / (imax - 16)
+                   tol.inspect.sur_min_span) / (imax - 16)
         z32 = np.float32(need)
         z_spacing = float(z32 if float(z32) >= need else np.nextafter(z32, np.float32(np.inf)))
     zs, zo = float(np.float32(z_spacing)), float(np.float32(z_offset))
@@ -898,7 +968,7 @@ def write_sur(path: str | os.PathLike[str], z_mm, dx: float, dy: float, *, unit:
     if ok.any() and (raw[ok].min() < zmin_code or raw[ok].max() > imax):
         raise ValueError("heights out of the integer range for this z_spacing")
     raw = raw.astype("<i2" if bits == 16 else "<i4")
-    vals = dict.fromkeys(_SUR_FIELDS, 0)
+    vals: dict[str, Any] = dict.fromkeys(_SUR_FIELDS, 0)
     vals.update(code=b"DSCOMPRESSED" if compressed else b"DIGITAL SURF", format=0, n_objects=1,
                 version=1, studiable=2, name_object=b"", name_operator=b"tipgeo",
                 non_measured=int(not ok.all()), bits=bits,
@@ -918,7 +988,7 @@ def write_sur(path: str | os.PathLike[str], z_mm, dx: float, dy: float, *, unit:
         body = data
     head = _SUR_HEADER.pack(*(vals[k] for k in _SUR_FIELDS))
 
-    def write(tmp):
+    def write(tmp: Path) -> None:
         with open(tmp, "wb") as fh:
             fh.write(head)
             fh.write(body)
@@ -929,9 +999,100 @@ def write_sur(path: str | os.PathLike[str], z_mm, dx: float, dy: float, *, unit:
 
 # -----------------------------------------------------------------------------
 # SDF (ISO 25178-71)
+#: Default z scale of a written SDF (m): 1 µm, the heights' unit.
+SDF_ZSCALE_M = 1.0e-6
 _SDF_TYPES = {3: "<f4", 4: "<i1", 5: "<i2", 6: "<i4", 7: "<f8"}
 _SDF_KEYS = ("ManufacID", "CreateDate", "ModDate", "NumPoints", "NumProfiles", "Xscale",
              "Yscale", "Zscale", "Zresolution", "Compression", "DataType", "CheckType")
+
+
+def _sdf_binary(fh: IO[bytes], wide: bool, size: int, where: str,
+                max_pixels: int) -> tuple[FloatArray, BoolArray, int, int, float, float]:
+    """(heights in mm, invalid mask, nx, ny, dx, dy) of a binary SDF (ISO-1.0,
+    or ISO-2.0 with ``wide`` counts) read from just past its magic."""
+    hs = struct.Struct("<10s12s12s" + ("II" if wide else "HH") + "ddddBBB")
+    hb = fh.read(hs.size)
+    if len(hb) < hs.size:
+        raise ScanError(f"{where}: binary SDF header is truncated ({len(hb)} of "
+                        f"{hs.size} bytes)")
+    h = dict(zip(_SDF_KEYS, hs.unpack(hb)))
+    nx, ny, dtc = h["NumPoints"], h["NumProfiles"], h["DataType"]
+    _check_pixels(nx, ny, where, "header NumPoints × NumProfiles", max_pixels)
+    if dtc not in _SDF_TYPES:
+        raise ScanError(f"{where}: header DataType = {dtc}; allowed 3 (float32), "
+                        "4 (int8), 5 (int16), 6 (int32), 7 (float64)")
+    if h["Compression"] != 0:
+        raise ScanError(f"{where}: header Compression = {h['Compression']}; only "
+                        "uncompressed (0) data are defined")
+    dtype = np.dtype(_SDF_TYPES[dtc])
+    need = 8 + hs.size + nx * ny * dtype.itemsize
+    if need > size:
+        raise ScanError(f"{where} is truncated: {size:,} bytes; NumPoints × NumProfiles"
+                        f" × {dtype.itemsize} needs {need:,}")
+    raw = np.frombuffer(fh.read(nx * ny * dtype.itemsize), dtype)
+    bad = raw == (np.finfo(dtype).min if dtype.kind == "f" else np.iinfo(dtype).min)
+    zs, xs, ys = (float(h[k]) for k in ("Zscale", "Xscale", "Yscale"))
+    z = raw.astype(np.float64) * zs * 1000.0
+    return z, bad, nx, ny, xs * 1000.0, ys * 1000.0
+
+
+def _sdf_ascii_header(text: str, where: str) -> dict[str, str]:
+    """The ``Key = value`` lines of an ASCII SDF header (lines from 2)."""
+    h = {}
+    for ln, line in enumerate(text.splitlines(), 2):
+        if not line.strip():
+            continue
+        k, sep, v = line.partition("=")
+        if not sep:
+            raise ScanError(f"{where}: line {ln}: '{line.strip()[:40]}'; expected "
+                            "'Key = value'")
+        h[k.strip()] = v.strip()
+    for k in ("NumPoints", "NumProfiles", "Xscale", "Yscale", "Zscale"):
+        if k not in h:
+            raise ScanError(f"{where}: header key {k} is missing")
+    return h
+
+
+def _sdf_ascii_values(toks: list[str], where: str) -> FloatArray:
+    """The data record's values (``BAD``: NaN)."""
+    vals = np.empty(len(toks))
+    for i, t in enumerate(toks):
+        if t.upper() == "BAD":
+            vals[i] = np.nan
+            continue
+        try:
+            vals[i] = float(t)
+        except ValueError:
+            raise ScanError(f"{where}: data value {i + 1} = '{t[:40]}' is not a number "
+                            "or BAD") from None
+    return vals
+
+
+def _sdf_ascii(fh: IO[bytes], size: int, where: str,
+               max_pixels: int) -> tuple[FloatArray, BoolArray, int, int, float, float]:
+    """(heights in mm, invalid mask, nx, ny, dx, dy) of an ASCII SDF read
+    from just past its magic; header numbers scaled in decimal."""
+    text = fh.read(min(size, MAX_SCAN_BYTES)).decode("latin-1")
+    parts = text.split("*")
+    if len(parts) < 2:
+        raise ScanError(f"{where}: ASCII SDF without the '*' that ends its header")
+    h = _sdf_ascii_header(parts[0], where)
+    try:
+        nx, ny = int(h["NumPoints"]), int(h["NumProfiles"])
+    except ValueError:
+        raise ScanError(f"{where}: header NumPoints = '{h['NumPoints']}', NumProfiles = "
+                        f"'{h['NumProfiles']}'; expected whole numbers") from None
+    _check_pixels(nx, ny, where, "header NumPoints × NumProfiles", max_pixels)
+    toks = parts[1].split()
+    if len(toks) != nx * ny:
+        raise ScanError(f"{where}: the data record holds {len(toks):,} values; expected "
+                        f"NumPoints × NumProfiles = {nx * ny:,}")
+    vals = _sdf_ascii_values(toks, where)
+    zdec = _decimal_to_mm(h["Zscale"], "m", where, "Zscale")
+    z = vals * zdec
+    dx = _decimal_to_mm(h["Xscale"], "m", where, "Xscale")
+    dy = _decimal_to_mm(h["Yscale"], "m", where, "Yscale")
+    return z, ~np.isfinite(z), nx, ny, dx, dy
 
 
 def _read_sdf(p: Path, where: str, max_pixels: int) -> HeightMap:
@@ -939,74 +1100,11 @@ def _read_sdf(p: Path, where: str, max_pixels: int) -> HeightMap:
     with open(p, "rb") as fh:
         magic = fh.read(8)
         if magic in (b"bISO-1.0", b"bISO-2.0"):
-            wide = magic == b"bISO-2.0"
-            hs = struct.Struct("<10s12s12s" + ("II" if wide else "HH") + "ddddBBB")
-            hb = fh.read(hs.size)
-            if len(hb) < hs.size:
-                raise ScanError(f"{where}: binary SDF header is truncated ({len(hb)} of "
-                                f"{hs.size} bytes)")
-            h = dict(zip(_SDF_KEYS, hs.unpack(hb)))
-            nx, ny, dtc = h["NumPoints"], h["NumProfiles"], h["DataType"]
-            _check_pixels(nx, ny, where, "header NumPoints × NumProfiles", max_pixels)
-            if dtc not in _SDF_TYPES:
-                raise ScanError(f"{where}: header DataType = {dtc}; allowed 3 (float32), "
-                                "4 (int8), 5 (int16), 6 (int32), 7 (float64)")
-            if h["Compression"] != 0:
-                raise ScanError(f"{where}: header Compression = {h['Compression']}; only "
-                                "uncompressed (0) data are defined")
-            dtype = np.dtype(_SDF_TYPES[dtc])
-            need = 8 + hs.size + nx * ny * dtype.itemsize
-            if need > size:
-                raise ScanError(f"{where} is truncated: {size:,} bytes; NumPoints × NumProfiles"
-                                f" × {dtype.itemsize} needs {need:,}")
-            raw = np.frombuffer(fh.read(nx * ny * dtype.itemsize), dtype)
-            bad = raw == (np.finfo(dtype).min if dtype.kind == "f" else np.iinfo(dtype).min)
-            zs, xs, ys = (float(h[k]) for k in ("Zscale", "Xscale", "Yscale"))
-            z = raw.astype(np.float64) * zs * 1000.0
-            dx, dy = xs * 1000.0, ys * 1000.0
+            z, bad, nx, ny, dx, dy = _sdf_binary(fh, magic == b"bISO-2.0", size, where,
+                                                 max_pixels)
             kind = "binary"
         elif magic in (b"aISO-1.0", b"aISO-2.0"):
-            text = fh.read(min(size, MAX_SCAN_BYTES)).decode("latin-1")
-            parts = text.split("*")
-            if len(parts) < 2:
-                raise ScanError(f"{where}: ASCII SDF without the '*' that ends its header")
-            h = {}
-            for ln, line in enumerate(parts[0].splitlines(), 2):
-                if not line.strip():
-                    continue
-                k, sep, v = line.partition("=")
-                if not sep:
-                    raise ScanError(f"{where}: line {ln}: '{line.strip()[:40]}'; expected "
-                                    "'Key = value'")
-                h[k.strip()] = v.strip()
-            for k in ("NumPoints", "NumProfiles", "Xscale", "Yscale", "Zscale"):
-                if k not in h:
-                    raise ScanError(f"{where}: header key {k} is missing")
-            try:
-                nx, ny = int(h["NumPoints"]), int(h["NumProfiles"])
-            except ValueError:
-                raise ScanError(f"{where}: header NumPoints = '{h['NumPoints']}', NumProfiles = "
-                                f"'{h['NumProfiles']}'; expected whole numbers") from None
-            _check_pixels(nx, ny, where, "header NumPoints × NumProfiles", max_pixels)
-            toks = parts[1].split()
-            if len(toks) != nx * ny:
-                raise ScanError(f"{where}: the data record holds {len(toks):,} values; expected "
-                                f"NumPoints × NumProfiles = {nx * ny:,}")
-            vals = np.empty(nx * ny)
-            for i, t in enumerate(toks):
-                if t.upper() == "BAD":
-                    vals[i] = np.nan
-                    continue
-                try:
-                    vals[i] = float(t)
-                except ValueError:
-                    raise ScanError(f"{where}: data value {i + 1} = '{t[:40]}' is not a number "
-                                    "or BAD") from None
-            zdec = _decimal_to_mm(h["Zscale"], "m", where, "Zscale")
-            z = vals * zdec
-            bad = ~np.isfinite(z)
-            dx = _decimal_to_mm(h["Xscale"], "m", where, "Xscale")
-            dy = _decimal_to_mm(h["Yscale"], "m", where, "Yscale")
+            z, bad, nx, ny, dx, dy = _sdf_ascii(fh, size, where, max_pixels)
             kind = "ascii"
         else:
             raise ScanError(f"{where} is not an ISO 25178-71 SDF file (magic "
@@ -1016,8 +1114,8 @@ def _read_sdf(p: Path, where: str, max_pixels: int) -> HeightMap:
     return _checked_map(z.reshape(ny, nx), dx, dy, 0.0, 0.0, where, "sdf", meta, p.name)
 
 
-def write_sdf(path: str | os.PathLike[str], z_mm, dx_mm: float, dy_mm: float, *,
-              binary: bool = True, zscale_m: float = 1e-6) -> Path:
+def write_sdf(path: str | os.PathLike[str], z_mm: ArrayLike, dx_mm: float, dy_mm: float, *,
+              binary: bool = True, zscale_m: float = SDF_ZSCALE_M) -> Path:
     """Write an ISO 25178-71 SDF (ISO-1.0): binary float64 values of
     z/``zscale_m`` (NaN: the type's minimum), or ASCII with each value as
     its shortest exact decimal (NaN: ``BAD``)."""
@@ -1043,7 +1141,7 @@ def write_sdf(path: str | os.PathLike[str], z_mm, dx_mm: float, dy_mm: float, *,
         lines += ["*", "Comment = tipgeo", "*"]
         blob = ("\r\n".join(lines) + "\r\n").encode("ascii")
 
-    def write(tmp):
+    def write(tmp: Path) -> None:
         with open(tmp, "wb") as fh:
             fh.write(blob)
 

@@ -33,11 +33,14 @@ from __future__ import annotations
 import io
 import os
 import re
+from collections.abc import Iterable
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
+from ..arrays import AnyArray, ArrayLike, FloatArray
 from ..atomic import write_atomic
 from ..errors import ScanError
 from .heightmap import (
@@ -47,7 +50,14 @@ from .heightmap import (
     HeightMap,
     read_height_map,
 )
-from .textscan import TABLE_LAYOUTS, iter_table_points, read_table_grid, sniff_table
+from .textscan import (
+    TABLE_LAYOUTS,
+    Table,
+    iter_table_points,
+    line_blocks,
+    read_table_grid,
+    sniff_table,
+)
 
 __all__ = ["Scan", "ScanError", "load_scan", "write_ply", "check_points", "SCAN_FORMATS",
            "POINT_FORMATS", "HEIGHT_MAP_FORMATS", "MAX_SCAN_POINTS", "MAX_SCAN_BYTES",
@@ -98,10 +108,12 @@ class Scan:
     rounding_mm : float — bound of |stored − read| per coordinate (0: exact)
     """
 
-    def __init__(self, points, normals=None, source: str = "array",
-                 meta: dict[str, Any] | None = None, *, origin=None):
+    def __init__(self, points: ArrayLike, normals: ArrayLike | None = None,
+                 source: str = "array", meta: dict[str, Any] | None = None, *,
+                 origin: ArrayLike | None = None):
         self.source = source
         self.meta = dict(meta or {})
+        self._local: AnyArray
         if origin is None:
             self._local = check_points(points, source)
             self.origin = np.zeros(3)
@@ -113,29 +125,28 @@ class Scan:
                 raise ScanError(f"{source}: the scan is empty (0 points)")
             self._local = loc
             self.origin = np.asarray(origin, np.float64).reshape(3)
+        self.normals: AnyArray | None = None
         if normals is not None:
             n = np.asarray(normals)
             if n.dtype not in (np.float32, np.float64):
                 n = n.astype(np.float64)
             n = n.reshape(-1, 3)
-            if len(n) != len(self._local) or not np.all(np.isfinite(n)):
-                n = None
-            normals = n
-        self.normals = normals
+            if len(n) == len(self._local) and np.all(np.isfinite(n)):
+                self.normals = n
 
     @property
-    def points(self) -> np.ndarray:
+    def points(self) -> FloatArray:
         if self._local.dtype == np.float64 and not self.origin.any():
             return self._local
         return self.origin + self._local.astype(np.float64)
 
     @points.setter
-    def points(self, value) -> None:
+    def points(self, value: ArrayLike) -> None:
         self._local = check_points(value, self.source)
         self.origin = np.zeros(3)
 
     @property
-    def local(self) -> np.ndarray:
+    def local(self) -> AnyArray:
         return self._local
 
     @property
@@ -163,7 +174,7 @@ def _coordinate_limit_error(where: str, biggest: float, unit: str = "mm",
                      "(wrong --units, or a corrupt file?)")
 
 
-def check_points(points, where: str = "points") -> np.ndarray:
+def check_points(points: ArrayLike, where: str = "points") -> FloatArray:
     """Return ``points`` as a finite (n ≥ 1, 3) float64 array with every
     |coordinate| ≤ :data:`MAX_COORDINATE_MM`, else ScanError."""
     try:
@@ -197,9 +208,9 @@ class _Accumulator:
         self.bad = 0
         self.first_bad = -1
         self.biggest = 0.0
-        self.origin: np.ndarray | None = None
-        self.parts: list[np.ndarray] = []
-        self.nparts: list[np.ndarray] = []
+        self.origin: FloatArray | None = None
+        self.parts: list[AnyArray] = []
+        self.nparts: list[AnyArray] = []
         self.normals_ok = True
         self.dtype = np.float32 if compact else np.float64
         self.buf = None
@@ -216,7 +227,7 @@ class _Accumulator:
             raise ScanError(f"{self.where}: more than {MAX_SCAN_POINTS:,} points; allowed at "
                             f"most {MAX_SCAN_POINTS:,}")
 
-    def add(self, xyz: np.ndarray, nrm: np.ndarray | None = None) -> None:
+    def add(self, xyz: AnyArray, nrm: AnyArray | None = None) -> None:
         m = len(xyz)
         if not m:
             return
@@ -248,7 +259,7 @@ class _Accumulator:
             self.normals_ok = False
             self.nparts = []
 
-    def add_fields(self, x: np.ndarray, y: np.ndarray, z: np.ndarray) -> bool:
+    def add_fields(self, x: AnyArray, y: AnyArray, z: AnyArray) -> bool:
         """:meth:`add` of the columns of a binary chunk ((m,) native float32
         or float64 each) in two compiled passes, with no (m, 3) temporary;
         False (nothing done) where it does not apply: a preallocated buffer is
@@ -290,7 +301,7 @@ class _Accumulator:
             self.buf = wide
         self.parts = [p.astype(np.float64) for p in self.parts]
 
-    def _store(self, loc: np.ndarray) -> None:
+    def _store(self, loc: AnyArray) -> None:
         if self.buf is not None and self.stored + len(loc) <= len(self.buf):
             self.buf[self.stored:self.stored + len(loc)] = loc
         else:
@@ -374,12 +385,37 @@ def load_scan(path: str | os.PathLike[str], *, units: str = "mm",
         A height-map format that needs surfalize while it is not installed
         (the message gives the pip line; the command line exits 3).
     """
+    _check_scan_options(units, layout)
+    p = Path(path)
+    ext = _check_scan_file(p)
+    where = f"scan '{p}'"
+    meta: dict[str, Any] = {"path": str(p), "format": ext[1:], "source": p.name}
+    if ext in HEIGHT_MAP_FORMATS:
+        return scan_from_height_map(read_height_map(p), compact=compact, meta=meta)
+    try:
+        got = _read_points(p, ext, where, meta, units=units, compact=compact,
+                           spacing_mm=spacing_mm, layout=layout)
+    except ScanError:
+        raise
+    except MemoryError:
+        raise ScanError(f"{where}: too large to read into memory") from None
+    except Exception as e:  # any reader failure is a bad file
+        raise ScanError(f"{where} could not be read as {ext}: {type(e).__name__}: {e}") \
+            from None
+    return got if isinstance(got, Scan) else got.finish(meta)
+
+
+def _check_scan_options(units: str, layout: str | None) -> None:
     if units not in UNITS:
         raise ScanError(f"units = {units!r} is not supported; allowed: mm, um, m")
     if layout is not None and layout not in TABLE_LAYOUTS:
         raise ScanError(f"layout = {layout!r} is not supported; allowed: "
                         + ", ".join(TABLE_LAYOUTS))
-    p = Path(path)
+
+
+def _check_scan_file(p: Path) -> str:
+    """The scan's extension (lower case) once the file is known to exist,
+    be a regular non-empty file of a known format and not too large."""
     ext = p.suffix.lower()
     if ext not in SCAN_FORMATS:
         raise ScanError(f"scan '{p}' has extension '{p.suffix}'; allowed: "
@@ -393,63 +429,71 @@ def load_scan(path: str | os.PathLike[str], *, units: str = "mm",
         raise ScanError(f"scan '{p}' is empty (0 bytes)")
     if size > MAX_SCAN_BYTES:
         raise ScanError(f"scan '{p}' has {size:,} bytes; allowed at most {MAX_SCAN_BYTES:,}")
-    where = f"scan '{p}'"
-    meta = {"path": str(p), "format": ext[1:], "source": p.name}
-    if ext in HEIGHT_MAP_FORMATS:
-        return scan_from_height_map(read_height_map(p), compact=compact, meta=meta)
-    acc = None
-    try:
-        if ext in (".stl", ".obj"):
-            acc = _Accumulator(where, units, compact)
-            pts, nrm = _read_trimesh(p)
-            acc.add(np.asarray(pts, np.float64), nrm)
-        elif ext == ".ply":
-            acc = _read_ply(p, where, units, compact)
-        elif ext in (".txt", ".csv"):
-            table = sniff_table(p, units=units, spacing_mm=spacing_mm, layout=layout)
-            if table is None:            # no one dialect: the plain x y z reader
-                acc = _Accumulator(where, units, compact)
-                _read_text(p, acc, normals=False, count_line=False)
-                meta["units_from"] = "argument"
-            elif table.layout == "grid":
-                hm = read_table_grid(p, table)
-                return scan_from_height_map(hm, compact=compact, meta=meta)
-            else:
-                acc = _Accumulator(where, "mm", compact)
-                invalid = 0
-                for pts, bad in iter_table_points(p, table):
-                    invalid += bad
-                    acc.add(pts)
-                if acc.count == 0 and not acc.failed:
-                    raise ScanError(f"{where} holds no valid points ({invalid} rows with "
-                                    "no-data fields)")
-                s = acc.finish(meta)
-                units_col = [table.col_units[k] or (table.z_unit if a == "z" else
-                                                    table.xy_unit)
-                             for a, k in zip("xyz", table.xyz)]
-                s.meta.update(file_units=units_col[2] if len(set(units_col)) == 1 else
-                              "/".join(units_col), units_from=table.units_from,
-                              invalid_points=invalid, layout="points",
-                              separator=table.sep or "whitespace", decimal=table.decimal,
-                              columns=[table.columns[k] or str(k + 1) for k in table.xyz])
-                if table.unit_col is not None:
-                    s.meta["file_units"] = "per row (unit column)"
-                return s
-        elif ext in (".xyz", ".pts", ".xyzn"):
-            acc = _Accumulator(where, units, compact)
-            _read_text(p, acc, normals=(ext == ".xyzn"), count_line=(ext == ".pts"))
-        else:
-            acc = _Accumulator(where, units, compact)
-            pts, nrm = _read_open3d(p, ext)
-            acc.add(pts, nrm)
-    except ScanError:
-        raise
-    except MemoryError:
-        raise ScanError(f"{where}: too large to read into memory") from None
-    except Exception as e:  # any reader failure is a bad file
-        raise ScanError(f"{where} could not be read as {ext}: {type(e).__name__}: {e}") \
-            from None
-    return acc.finish(meta)
+    return ext
+
+
+def _read_points(p: Path, ext: str, where: str, meta: dict[str, Any], *, units: str,
+                 compact: bool, spacing_mm: float | tuple[float, float] | None,
+                 layout: str | None) -> _Accumulator | Scan:
+    """The points of a point-cloud, mesh or text scan (accumulated, or a
+    finished Scan for a CSV/TXT table)."""
+    if ext in (".stl", ".obj"):
+        acc = _Accumulator(where, units, compact)
+        acc.add(_read_trimesh(p))
+        return acc
+    if ext == ".ply":
+        return _read_ply(p, where, units, compact)
+    if ext in (".txt", ".csv"):
+        return _read_table(p, where, meta, units=units, compact=compact,
+                           spacing_mm=spacing_mm, layout=layout)
+    acc = _Accumulator(where, units, compact)
+    if ext in (".xyz", ".pts", ".xyzn"):
+        _read_text(p, acc, normals=(ext == ".xyzn"), count_line=(ext == ".pts"))
+    else:
+        pts, nrm = _read_open3d(p)
+        acc.add(pts, nrm)
+    return acc
+
+
+def _read_table(p: Path, where: str, meta: dict[str, Any], *, units: str, compact: bool,
+                spacing_mm: float | tuple[float, float] | None,
+                layout: str | None) -> _Accumulator | Scan:
+    """A CSV/TXT scan: sniffed (:mod:`tipgeo.inspect.textscan`), or the
+    plain x y z reader where no one dialect fits."""
+    table = sniff_table(p, units=units, spacing_mm=spacing_mm, layout=layout)
+    if table is None:            # no one dialect: the plain x y z reader
+        acc = _Accumulator(where, units, compact)
+        _read_text(p, acc, normals=False, count_line=False)
+        meta["units_from"] = "argument"
+        return acc
+    if table.layout == "grid":
+        hm = read_table_grid(p, table)
+        return scan_from_height_map(hm, compact=compact, meta=meta)
+    return _read_table_points(p, table, where, meta, compact)
+
+
+def _read_table_points(p: Path, table: Table, where: str, meta: dict[str, Any],
+                       compact: bool) -> Scan:
+    """A CSV/TXT point list (mm), its units, columns and dropped rows in meta."""
+    acc = _Accumulator(where, "mm", compact)
+    invalid = 0
+    for pts, bad in iter_table_points(p, table):
+        invalid += bad
+        acc.add(pts)
+    if acc.count == 0 and not acc.failed:
+        raise ScanError(f"{where} holds no valid points ({invalid} rows with "
+                        "no-data fields)")
+    s = acc.finish(meta)
+    units_col = [table.col_units[k] or (table.z_unit if a == "z" else table.xy_unit)
+                 for a, k in zip("xyz", table.xyz)]
+    s.meta.update(file_units=units_col[2] if len(set(units_col)) == 1 else
+                  "/".join(units_col), units_from=table.units_from,
+                  invalid_points=invalid, layout="points",
+                  separator=table.sep or "whitespace", decimal=table.decimal,
+                  columns=[table.columns[k] or str(k + 1) for k in table.xyz])
+    if table.unit_col is not None:
+        s.meta["file_units"] = "per row (unit column)"
+    return s
 
 
 def scan_from_height_map(hm: HeightMap, *, compact: bool = False,
@@ -476,7 +520,7 @@ def scan_from_height_map(hm: HeightMap, *, compact: bool = False,
     return s
 
 
-def _read_open3d(p: Path, ext: str):
+def _read_open3d(p: Path) -> tuple[FloatArray, FloatArray | None]:
     from .._open3d import import_open3d
 
     o3d = import_open3d()
@@ -501,40 +545,7 @@ def _is_number(tok: bytes) -> bool:
     return True
 
 
-def _blocks(fh, first: bytes, max_rows: int | None):
-    """Chunks of whole lines (bytes), at most ``max_rows`` lines in all."""
-    rows = 0
-    tail = first
-    while True:
-        buf = fh.read(_CHUNK_BYTES)
-        if buf:
-            buf = tail + buf
-            k = buf.rfind(b"\n")
-            if k < 0:
-                tail = buf
-                continue
-            block, tail = buf[:k + 1], buf[k + 1:]
-        else:
-            block, tail = tail, b""
-            if not block.strip():
-                return
-        if max_rows is not None:
-            n = block.count(b"\n") + (0 if block.endswith(b"\n") else 1)
-            if rows + n >= max_rows:
-                nl = np.flatnonzero(np.frombuffer(block, np.uint8) == 10)
-                cut = max_rows - rows
-                yield rows, block[:nl[cut - 1] + 1] if cut <= len(nl) else block
-                return
-            yield rows, block
-            rows += n
-        else:
-            yield rows, block
-            rows += block.count(b"\n")
-        if not buf:
-            return
-
-
-def _parse_block(block: bytes, ncols: int, where: str, line0: int) -> np.ndarray:
+def _parse_block(block: bytes, ncols: int, where: str, line0: int) -> FloatArray:
     """The first ``ncols`` columns of a chunk of lines, (m, ncols) float64:
     numpy's C parser on the plain chunk; comments (# and //), commas and a
     varying number of extra columns take a slower path."""
@@ -556,71 +567,76 @@ def _parse_block(block: bytes, ncols: int, where: str, line0: int) -> np.ndarray
     return a[:, :ncols] if a.size else np.zeros((0, ncols))
 
 
+def _text_columns(lines: list[bytes], whole: bool, count_line: bool,
+                  where: str) -> tuple[int, int]:
+    """(number of value columns, number of lines to skip) of a text scan from
+    the lines of its head (``whole``: the head is the whole file): comment
+    lines and, before the first point, one header line (a column title such
+    as ``X Y Z``, or with ``count_line`` a PTS point count) are skipped."""
+    header_seen = False
+    skip = 0
+    for i, ln in enumerate(lines if whole else lines[:-1]):
+        if _COMMENT.match(ln):
+            continue
+        toks = _INLINE.split(ln, maxsplit=1)[0].replace(b",", b" ").split()
+        numbers = [_is_number(t) for t in toks]
+        if not header_seen and (not all(numbers) or (count_line and len(toks) == 1)):
+            header_seen, skip = True, i + 1
+            continue
+        if not all(numbers):
+            bad = toks[numbers.index(False)]
+            raise ScanError(f"{where}: line {i + 1}: '{bad.decode('ascii', 'replace')}'"
+                            " is not a number")
+        if len(toks) < 3:
+            raise ScanError(f"{where}: lines have {len(toks)} value(s); expected x y z "
+                            "(3 or more columns)")
+        return len(toks), skip
+    if whole:
+        raise ScanError(f"{where} holds no points")
+    raise ScanError(f"{where}: no point in its first 64 KiB")
+
+
 def _read_text(p: Path, acc: _Accumulator, *, normals: bool, count_line: bool,
-               start: int = 0, max_rows: int | None = None, cols=(0, 1, 2),
-               ncols: int | None = None) -> None:
-    """Parse a whitespace- or comma-separated text file in chunks. Comment
-    lines (# or //) and, before the first point, one header line (a column
-    title such as ``X Y Z``, or a PTS point count) are skipped."""
-    where = acc.where
+               start: int = 0, max_rows: int | None = None,
+               cols: tuple[int, int, int] = (0, 1, 2), ncols: int | None = None) -> None:
+    """Parse a whitespace- or comma-separated text file in chunks into
+    ``acc`` (file units). Comment lines (# or //) and, before the first
+    point, one header line (a column title such as ``X Y Z``, or a PTS point
+    count) are skipped; with ``ncols`` given (an ASCII PLY's vertex lines
+    from byte ``start``) nothing is."""
     with open(p, "rb") as fh:
         fh.seek(start)
         head = fh.read(min(_CHUNK_BYTES, 1 << 16))
-        lines = head.split(b"\n")
-        skip, line0 = 0, 0
+        line0 = 0
         if ncols is None:
-            header_seen = False
-            whole = len(head) < 1 << 16           # the head is the whole file
-            for i, ln in enumerate(lines if whole else lines[:-1]):
-                if _COMMENT.match(ln):
-                    continue
-                toks = _INLINE.split(ln, maxsplit=1)[0].replace(b",", b" ").split()
-                if not all(_is_number(t) for t in toks) and not header_seen:
-                    header_seen, skip = True, i + 1
-                    continue
-                if count_line and len(toks) == 1 and not header_seen:
-                    header_seen, skip = True, i + 1
-                    continue
-                bad = [t for t in toks if not _is_number(t)]
-                if bad:
-                    raise ScanError(f"{where}: line {i + 1}: '{bad[0].decode('ascii', 'replace')}'"
-                                    " is not a number")
-                ncols = len(toks)
-                break
-            if ncols is None:
-                if whole:
-                    raise ScanError(f"{where} holds no points")
-                raise ScanError(f"{where}: no point in its first 64 KiB")
-            if ncols < 3:
-                raise ScanError(f"{where}: lines have {ncols} value(s); expected x y z "
-                                "(3 or more columns)")
+            lines = head.split(b"\n")
+            ncols, skip = _text_columns(lines, len(head) < 1 << 16, count_line, acc.where)
             if skip:
                 cut = sum(len(x) + 1 for x in lines[:skip])
                 head, line0 = head[cut:], skip
         normals = normals and ncols >= 6
         want = max(6 if normals else 3, max(cols) + 1)
-        for rows, block in _blocks(fh, head, max_rows):
-            a = _parse_block(block, want, where, line0 + rows)
+        for rows, block in line_blocks(fh, head, chunk_bytes=_CHUNK_BYTES, max_rows=max_rows):
+            a = _parse_block(block, want, acc.where, line0 + rows)
             acc.add(a[:, list(cols)], a[:, 3:6] if normals else None)
 
 
 # -----------------------------------------------------------------------------
-def _read_trimesh(p: Path):
+def _read_trimesh(p: Path) -> FloatArray:
+    """The vertices of an STL or OBJ file (file units; a mesh's repeated
+    corners once)."""
     import trimesh
 
-    g = trimesh.load(str(p), process=False, force=None)
+    g: Any = trimesh.load(str(p), process=False, force=None)
     if isinstance(g, trimesh.Scene):
         geoms = list(g.geometry.values())
         if not geoms:
-            return np.zeros((0, 3)), None
-        pts = np.concatenate([np.asarray(x.vertices) for x in geoms])
-        return pts, None
+            return np.zeros((0, 3))
+        return np.concatenate([np.asarray(x.vertices, np.float64) for x in geoms])
     pts = np.asarray(g.vertices, dtype=np.float64)
-    nrm = None
     if isinstance(g, trimesh.Trimesh) and len(g.faces):
-        pts, inv = np.unique(pts, axis=0, return_inverse=True)  # STL repeats corners
-        del inv
-    return pts, nrm
+        pts = np.unique(pts, axis=0)  # STL repeats corners
+    return pts
 
 
 _PLY_TYPES = {"char": "i1", "int8": "i1", "uchar": "u1", "uint8": "u1", "short": "i2",
@@ -629,26 +645,26 @@ _PLY_TYPES = {"char": "i1", "int8": "i1", "uchar": "u1", "uint8": "u1", "short":
               "float64": "f8"}
 
 
-def _read_ply(p: Path, where: str, units: str, compact: bool) -> _Accumulator:
-    """PLY whose first element is 'vertex' with scalar properties: binary
-    vertices in chunks straight into numpy (double precision kept), ASCII ones
-    by the chunked text parser; anything else through open3d."""
-    with open(p, "rb") as fh:
-        head = fh.read(65536)
-    end = head.find(b"end_header")
-    if not head.startswith(b"ply") or end < 0:
-        raise ScanError(f"{where} is not a PLY file (no 'ply' magic or no end_header)")
-    nl = head.find(b"\n", end)
-    if nl < 0:
-        nl = len(head) - 1
-    lines = head[:end].decode("ascii", "replace").splitlines()
-    fmt = next((ln.split()[1] for ln in lines if ln.startswith("format") and
-                len(ln.split()) > 1), "")
-    if fmt not in ("binary_little_endian", "binary_big_endian", "ascii"):
-        raise ScanError(f"{where}: PLY format '{fmt}'; allowed ascii, binary_little_endian, "
-                        "binary_big_endian")
-    bo = "<" if fmt == "binary_little_endian" else ">"
-    elements: list[tuple[str, int, list]] = []
+_PlyProps = list[tuple[str, str]]
+
+
+@dataclass
+class _PlyHeader:
+    """A PLY header: its format, its elements (name, count, scalar
+    properties with their numpy type), whether the vertex element has only
+    scalar properties, and the byte offset of the data."""
+
+    fmt: str
+    elements: list[tuple[str, int, _PlyProps]]
+    simple: bool
+    data_start: int
+
+
+def _ply_elements(lines: list[str], bo: str,
+                  where: str) -> tuple[list[tuple[str, int, _PlyProps]], bool]:
+    """The elements of a PLY header's lines and whether the vertex element
+    has only scalar properties (``bo``: numpy byte order)."""
+    elements: list[tuple[str, int, _PlyProps]] = []
     simple = True
     for ln in lines:
         t = ln.split()
@@ -665,12 +681,40 @@ def _read_ply(p: Path, where: str, units: str, compact: bool) -> _Accumulator:
                     simple = False
                 continue
             elements[-1][2].append((t[2], bo + _PLY_TYPES[t[1]]))
-    acc = _Accumulator(where, units, compact)
-    if not simple or not elements or elements[0][0] != "vertex":
-        pts, nrm = _read_open3d(p, ".ply")
+    return elements, simple
+
+
+def _ply_header(p: Path, where: str) -> _PlyHeader:
+    with open(p, "rb") as fh:
+        head = fh.read(65536)
+    end = head.find(b"end_header")
+    if not head.startswith(b"ply") or end < 0:
+        raise ScanError(f"{where} is not a PLY file (no 'ply' magic or no end_header)")
+    nl = head.find(b"\n", end)
+    if nl < 0:
+        nl = len(head) - 1
+    lines = head[:end].decode("ascii", "replace").splitlines()
+    fmt = next((ln.split()[1] for ln in lines if ln.startswith("format") and
+                len(ln.split()) > 1), "")
+    if fmt not in ("binary_little_endian", "binary_big_endian", "ascii"):
+        raise ScanError(f"{where}: PLY format '{fmt}'; allowed ascii, binary_little_endian, "
+                        "binary_big_endian")
+    bo = "<" if fmt == "binary_little_endian" else ">"
+    elements, simple = _ply_elements(lines, bo, where)
+    return _PlyHeader(fmt, elements, simple, nl + 1)
+
+
+def _read_ply(p: Path, where: str, units: str, compact: bool) -> _Accumulator:
+    """PLY whose first element is 'vertex' with scalar properties: binary
+    vertices in chunks straight into numpy (double precision kept), ASCII ones
+    by the chunked text parser; anything else through open3d."""
+    h = _ply_header(p, where)
+    if not h.simple or not h.elements or h.elements[0][0] != "vertex":
+        acc = _Accumulator(where, units, compact)
+        pts, nrm = _read_open3d(p)
         acc.add(pts, nrm)
         return acc
-    _, n, props = elements[0]
+    _, n, props = h.elements[0]
     if n > MAX_SCAN_POINTS:
         raise ScanError(f"{where}: the PLY header gives {n:,} vertices; allowed at most "
                         f"{MAX_SCAN_POINTS:,}")
@@ -678,23 +722,39 @@ def _read_ply(p: Path, where: str, units: str, compact: bool) -> _Accumulator:
     if not {"x", "y", "z"} <= set(names):
         raise ScanError(f"{where}: the vertex element has no x, y, z properties")
     has_n = {"nx", "ny", "nz"} <= set(names)
-    if fmt == "ascii":
-        cols = tuple(names.index(c) for c in ("x", "y", "z"))
-        if has_n and [names.index(c) for c in ("nx", "ny", "nz")] != [3, 4, 5]:
-            has_n = False
-        if n:
-            _read_text(p, acc, normals=has_n, count_line=False, start=nl + 1, max_rows=n,
-                       cols=cols, ncols=len(names))
-        if acc.count < n and not acc.failed:
-            raise ScanError(f"{where} is truncated: {acc.count} of {n} vertices")
+    if h.fmt == "ascii":
+        acc = _Accumulator(where, units, compact)
+        _read_ply_ascii(p, acc, h.data_start, n, names, has_n)
         return acc
+    acc = _Accumulator(where, units, compact, capacity=n)
+    _read_ply_binary(p, acc, h.data_start, n, props, has_n)
+    return acc
+
+
+def _read_ply_ascii(p: Path, acc: _Accumulator, start: int, n: int, names: list[str],
+                    has_n: bool) -> None:
+    """The ``n`` vertex lines of an ASCII PLY from byte ``start`` into ``acc``."""
+    cols = (names.index("x"), names.index("y"), names.index("z"))
+    if has_n and [names.index(c) for c in ("nx", "ny", "nz")] != [3, 4, 5]:
+        has_n = False
+    if n:
+        _read_text(p, acc, normals=has_n, count_line=False, start=start, max_rows=n,
+                   cols=cols, ncols=len(names))
+    if acc.count < n and not acc.failed:
+        raise ScanError(f"{acc.where} is truncated: {acc.count} of {n} vertices")
+
+
+def _read_ply_binary(p: Path, acc: _Accumulator, start: int, n: int, props: _PlyProps,
+                     has_n: bool) -> None:
+    """The ``n`` vertices of a binary PLY from byte ``start`` into ``acc``,
+    in chunks of :data:`_CHUNK_ROWS`."""
+    where = acc.where
     dt = np.dtype(props)
-    avail = (p.stat().st_size - (nl + 1)) // dt.itemsize
+    avail = (p.stat().st_size - start) // dt.itemsize
     if avail < n:
         raise ScanError(f"{where} is truncated: {max(avail, 0)} of {n} vertices")
-    acc = _Accumulator(where, units, compact, capacity=n)
     with open(p, "rb") as fh:
-        fh.seek(nl + 1)
+        fh.seek(start)
         done = 0
         while done < n:
             k = min(_CHUNK_ROWS, n - done)
@@ -708,12 +768,11 @@ def _read_ply(p: Path, where: str, units: str, compact: bool) -> _Accumulator:
             nrm = np.stack([data["nx"], data["ny"], data["nz"]], 1) if has_n else None
             acc.add(xyz, nrm)
             done += k
-    return acc
 
 
-def write_ply(path: str | os.PathLike[str], points: np.ndarray, *,
-              colors: np.ndarray | None = None, normals: np.ndarray | None = None,
-              scalars: dict[str, np.ndarray] | None = None, comments=(),
+def write_ply(path: str | os.PathLike[str], points: ArrayLike, *,
+              colors: ArrayLike | None = None, normals: ArrayLike | None = None,
+              scalars: dict[str, ArrayLike] | None = None, comments: Iterable[str] = (),
               double: bool = True) -> Path:
     """Write a binary little-endian PLY point cloud, atomically.
 
@@ -750,7 +809,7 @@ def write_ply(path: str | os.PathLike[str], points: np.ndarray, *,
     header = ["ply", "format binary_little_endian 1.0", *(f"comment {c}" for c in comments),
               f"element vertex {len(pts)}",
               *(f"property {names[t]} {n}" for n, t in fields), "end_header"]
-    def write(tmp):
+    def write(tmp: Path) -> None:
         with open(tmp, "wb") as fh:
             fh.write(("\n".join(header) + "\n").encode("ascii", "replace"))
             arr.tofile(fh)

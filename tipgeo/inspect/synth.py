@@ -25,22 +25,27 @@ What it models:
 from __future__ import annotations
 
 import math
+import os
 from dataclasses import dataclass, field, replace
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
+from ..arrays import ArrayLike, FloatArray, IntArray
 from ..errors import SpecError, UnsupportedCutter
 from ..tolerances import tol
 from .exact import ExactSolid
 from .scanio import write_ply
 
+if TYPE_CHECKING:
+    from ..spec import TipSpec
+
 __all__ = ["Misalignment", "Burr", "SynthScan", "synthetic_scan", "default_views",
            "actual_spec", "rigid"]
 
 
-def rigid(R: np.ndarray, t) -> np.ndarray:
+def rigid(R: FloatArray, t: ArrayLike) -> FloatArray:
     """4×4 homogeneous matrix of x ↦ R x + t."""
     T = np.eye(4)
     T[:3, :3] = R
@@ -48,11 +53,13 @@ def rigid(R: np.ndarray, t) -> np.ndarray:
     return T
 
 
-def _rot(axis, angle: float) -> np.ndarray:
+def _rot(axis: ArrayLike, angle: float) -> FloatArray:
+    """3×3 rotation by ``angle`` (rad) about ``axis``."""
     a = np.asarray(axis, float)
     a = a / np.linalg.norm(a)
     K = np.array([[0, -a[2], a[1]], [a[2], 0, -a[0]], [-a[1], a[0], 0]])
-    return np.eye(3) + math.sin(angle) * K + (1 - math.cos(angle)) * K @ K
+    R: FloatArray = np.eye(3) + math.sin(angle) * K + (1 - math.cos(angle)) * K @ K
+    return R
 
 
 @dataclass(frozen=True)
@@ -73,7 +80,7 @@ class Misalignment:
     tilt_axis_deg: float = 0.0
     offset_mm: tuple[float, float, float] = (0.0, 0.0, 0.0)
 
-    def matrix(self) -> np.ndarray:
+    def matrix(self) -> FloatArray:
         """4×4 CAD → scanner."""
         rz = _rot((0, 0, 1), math.radians(self.about_axis_deg))
         ta = math.radians(self.tilt_axis_deg)
@@ -110,26 +117,26 @@ class SynthScan:
     info : dict — the parameters (JSON-ready)
     """
 
-    points: np.ndarray
-    points_cad: np.ndarray
-    cad_to_scan: np.ndarray
-    part: Any
-    kind: np.ndarray
+    points: FloatArray
+    points_cad: FloatArray
+    cad_to_scan: FloatArray
+    part: TipSpec
+    kind: IntArray
     info: dict[str, Any] = field(default_factory=dict)
 
     @property
-    def scan_to_cad(self) -> np.ndarray:
+    def scan_to_cad(self) -> FloatArray:
         """4×4 scanner → CAD: what registration should find."""
-        return np.linalg.inv(self.cad_to_scan)
+        return np.asarray(np.linalg.inv(self.cad_to_scan), np.float64)
 
-    def write(self, path) -> Path:
+    def write(self, path: str | os.PathLike[str]) -> Path:
         """Write the scan as a binary PLY (double coordinates, mm); returns the path."""
         return write_ply(path, self.points, comments=[
             "tipgeo synthetic scan, units mm, scanner frame",
             f"part {self.info.get('part', '')}"])
 
 
-def actual_spec(spec, *, xi_deg: float | None = None):
+def actual_spec(spec: TipSpec, *, xi_deg: float | None = None) -> TipSpec:
     """The spec with the bevel angle ξ of its planar cutters set to ``xi_deg``
     (degrees): bevel, multi-plane, and the primary plane of a lancet."""
     if xi_deg is None:
@@ -147,7 +154,7 @@ def actual_spec(spec, *, xi_deg: float | None = None):
     return spec.with_(cutters=tuple(cut), name=f"{spec.name or 'tip'}-as-made-xi{xi_deg:g}")
 
 
-def default_views(*, elevation_deg: float = 30.0, count: int = 8) -> np.ndarray:
+def default_views(*, elevation_deg: float = 30.0, count: int = 8) -> FloatArray:
     """``count`` views around the axis looking down at the tip from
     ``elevation_deg`` above the horizontal, plus one straight down the axis:
     (count + 1, 3) unit directions from the scanner to the part (cannula
@@ -159,8 +166,133 @@ def default_views(*, elevation_deg: float = 30.0, count: int = 8) -> np.ndarray:
     return np.vstack([v, [0.0, 0.0, -1.0]])
 
 
-def synthetic_scan(spec, *, points: int = 200_000, noise: float = 0.001,
-                   misalignment: Misalignment | None = None, views=None,
+def _check_scan_args(spec: TipSpec, points: int, noise: float, edge_radius: float) -> None:
+    if not isinstance(points, (int, np.integer)) or points < 10:
+        raise SpecError(f"points = {points!r}; allowed an integer ≥ 10")
+    if not (np.isfinite(noise) and noise >= 0):
+        raise SpecError(f"noise = {noise!r} mm; allowed ≥ 0")
+    if not (np.isfinite(edge_radius) and 0 <= edge_radius < 0.5 * spec.cannula.wall):
+        raise SpecError(f"edge_radius = {edge_radius!r} mm; allowed 0 ≤ value < half the wall")
+
+
+def _part_solid(part: TipSpec, edge_radius: float, burr: Burr | None) -> ExactSolid | None:
+    """The part's exact solid; None for a tip without face-wise exact
+    surfaces (serrations), which allows neither rounded edges nor burrs."""
+    try:
+        return ExactSolid(part)
+    except UnsupportedCutter:
+        # no face-wise exact surface (serrations): the points lie on the fine
+        # mesh (chordal error ``tol.inspect.synth_chordal``), its facets' normals
+        if edge_radius > 0 or burr is not None:
+            raise SpecError(f"edge_radius = {edge_radius!r} mm, burr = {burr!r}: rounded edges "
+                            f"and burrs need the exact surfaces, which '{part.name}' lacks; "
+                            "allowed: edge_radius = 0 and no burr") from None
+        return None
+
+
+@dataclass
+class _Sampler:
+    """Surface sampling of a tip: its triangles above ``z_min`` (mm) with
+    their areas, the exact solid (None: the mesh), the solid eroded by the
+    edge radius (None: sharp edges) and the views' ray-casting scene."""
+
+    tri: FloatArray
+    roi: IntArray
+    area: FloatArray
+    z_min: float
+    solid: ExactSolid | None
+    eroded: ExactSolid | None
+    edge_radius: float
+    scene: Any
+    o3d: Any
+    views: FloatArray
+    cos_max: float
+
+    def batch(self, count: int, rng: np.random.Generator
+              ) -> tuple[FloatArray, FloatArray, IntArray]:
+        """``count`` area-uniform samples, those seen by some view: points
+        (mm, cannula frame), their view directions, their kinds."""
+        tri = self.tri
+        k = rng.choice(self.roi, count, p=self.area / self.area.sum())
+        r1, r2 = rng.random(count), rng.random(count)
+        s = np.sqrt(r1)
+        p = tri[k, 0] * (1 - s)[:, None] + tri[k, 1] * (s * (1 - r2))[:, None] \
+            + tri[k, 2] * (s * r2)[:, None]
+        if self.solid is not None:
+            d = self.solid.distances(p)
+            p, nrm = d.closest, d.normal               # onto the exact surface
+        else:
+            t = tri[k]
+            nrm = np.cross(t[:, 1] - t[:, 0], t[:, 2] - t[:, 0])
+            nrm /= np.maximum(np.linalg.norm(nrm, axis=1, keepdims=True), tol.tiny)
+        kind = np.zeros(len(p), np.int8)
+        keep = p[:, 2] >= self.z_min
+        p, nrm, kind = p[keep], nrm[keep], kind[keep]
+        if self.eroded is not None:
+            p, nrm = self._round(p, nrm, kind, self.eroded)
+        vis_view = _visible_view(self.scene, self.o3d, p, nrm, self.views, self.cos_max, rng)
+        ok = vis_view >= 0
+        return p[ok], self.views[vis_view[ok]], kind[ok]
+
+    def _round(self, p: FloatArray, nrm: FloatArray, kind: IntArray,
+               eroded: ExactSolid) -> tuple[FloatArray, FloatArray]:
+        """Points and normals with every convex edge rounded (kind 1 there):
+        the opening of the solid by a ball of the edge radius."""
+        r = self.edge_radius
+        de = eroded.distances(p)
+        v = p - de.closest
+        dist = np.linalg.norm(v, axis=1)
+        moved = dist > r * (1 + tol.rel)
+        u = v / np.maximum(dist, tol.tiny)[:, None]
+        kind[moved] = 1
+        return (np.where(moved[:, None], de.closest + r * u, p),
+                np.where(moved[:, None], u, nrm))
+
+
+def _sample_seen(sampler: _Sampler, want: int, points: int, rng: np.random.Generator
+                 ) -> tuple[FloatArray, FloatArray, IntArray]:
+    """``want`` seen surface points, their view directions and kinds."""
+    got_p, got_v, got_k = [], [], []
+    have = 0
+    batch = int(want * 2.5) + 1000
+    for _ in range(20):
+        p, v, kind = sampler.batch(batch, rng)
+        got_p.append(p)
+        got_v.append(v)
+        got_k.append(kind)
+        have += len(p)
+        if have >= want:
+            break
+    if have < want:
+        raise SpecError(f"points = {points}: the views see too little of the tip "
+                        f"({have} visible points); add views or lower points")
+    return (np.concatenate(got_p)[:want], np.concatenate(got_v)[:want],
+            np.concatenate(got_k)[:want])
+
+
+def _scan_info(spec: TipSpec, part: TipSpec, n: int, noise: float, xi_deg: float | None,
+               edge_radius: float, burr: Burr | None, n_burr: int, z_min: float,
+               views: FloatArray, max_slope_deg: float, seed: int,
+               misalignment: Misalignment | None, M: FloatArray) -> dict[str, Any]:
+    """The parameters of a synthetic scan, JSON-ready."""
+    return {"cad": spec.name, "part": part.name, "points": int(n),
+            "noise_mm": noise, "xi_deg": xi_deg, "edge_radius_mm": edge_radius,
+            "burr": None if burr is None else {"gamma_deg": list(burr.gamma_deg),
+                                               "height_mm": burr.height,
+                                               "width_mm": burr.width, "edge": burr.edge,
+                                               "points": int(n_burr)},
+            "z_min_mm": z_min, "views": views.tolist(), "max_slope_deg": max_slope_deg,
+            "seed": seed,
+            "misalignment": None if misalignment is None else {
+                "about_axis_deg": misalignment.about_axis_deg,
+                "tilt_deg": misalignment.tilt_deg,
+                "tilt_axis_deg": misalignment.tilt_axis_deg,
+                "offset_mm": list(misalignment.offset_mm)},
+            "cad_to_scan": M.tolist(), "scan_to_cad": np.linalg.inv(M).tolist()}
+
+
+def synthetic_scan(spec: TipSpec, *, points: int = 200_000, noise: float = 0.001,
+                   misalignment: Misalignment | None = None, views: ArrayLike | None = None,
                    xi_deg: float | None = None, edge_radius: float = 0.0,
                    burr: Burr | None = None, z_min: float = -1.0,
                    max_slope_deg: float = 80.0, seed: int = 0) -> SynthScan:
@@ -188,24 +320,10 @@ def synthetic_scan(spec, *, points: int = 200_000, noise: float = 0.001,
     from .._open3d import import_open3d
     from ..build import build_tip
 
-    if not isinstance(points, (int, np.integer)) or points < 10:
-        raise SpecError(f"points = {points!r}; allowed an integer ≥ 10")
-    if not (np.isfinite(noise) and noise >= 0):
-        raise SpecError(f"noise = {noise!r} mm; allowed ≥ 0")
-    if not (np.isfinite(edge_radius) and 0 <= edge_radius < 0.5 * spec.cannula.wall):
-        raise SpecError(f"edge_radius = {edge_radius!r} mm; allowed 0 ≤ value < half the wall")
+    _check_scan_args(spec, points, noise, edge_radius)
     rng = np.random.default_rng(seed)
     part = actual_spec(spec, xi_deg=xi_deg)
-    try:
-        solid = ExactSolid(part)
-    except UnsupportedCutter:
-        # no face-wise exact surface (serrations): the points lie on the fine
-        # mesh (chordal error ``tol.inspect.synth_chordal``), its facets' normals
-        if edge_radius > 0 or burr is not None:
-            raise SpecError(f"edge_radius = {edge_radius!r} mm, burr = {burr!r}: rounded edges "
-                            f"and burrs need the exact surfaces, which '{part.name}' lacks; "
-                            "allowed: edge_radius = 0 and no burr") from None
-        solid = None
+    solid = _part_solid(part, edge_radius, burr)
     tip = build_tip(part, tolerance=tol.inspect.synth_chordal)  # sampling and visibility only
     vw = default_views() if views is None else np.asarray(views, float).reshape(-1, 3)
     vw = vw / np.linalg.norm(vw, axis=1, keepdims=True)
@@ -222,55 +340,15 @@ def synthetic_scan(spec, *, points: int = 200_000, noise: float = 0.001,
     area = tip.face_areas[roi]
     n_burr = 0
     burr_pts = burr_dir = np.zeros((0, 3))
-    if burr is not None:
+    if burr is not None and solid is not None:  # a burr needs the solid (_part_solid)
         # burr points at the surface density of the rest of the scan
         dens = points / max(area.sum(), tol.inspect.area_floor) * 0.5
         burr_pts, burr_dir = _burr_points(part, solid, burr, rng, density=dens)
         n_burr = min(len(burr_pts), points // 4)
         burr_pts, burr_dir = burr_pts[:n_burr], burr_dir[:n_burr]
-    want = points - n_burr
-    got_p, got_v, got_k = [], [], []
-    have = 0
-    batch = int(want * 2.5) + 1000
-    for _ in range(20):
-        k = rng.choice(roi, batch, p=area / area.sum())
-        r1, r2 = rng.random(batch), rng.random(batch)
-        s = np.sqrt(r1)
-        p = tri[k, 0] * (1 - s)[:, None] + tri[k, 1] * (s * (1 - r2))[:, None] \
-            + tri[k, 2] * (s * r2)[:, None]
-        if solid is not None:
-            d = solid.distances(p)
-            p, nrm = d.closest, d.normal               # onto the exact surface
-        else:
-            t = tri[k]
-            nrm = np.cross(t[:, 1] - t[:, 0], t[:, 2] - t[:, 0])
-            nrm /= np.maximum(np.linalg.norm(nrm, axis=1, keepdims=True), tol.tiny)
-        kind = np.zeros(len(p), np.int8)
-        keep = p[:, 2] >= z_min
-        p, nrm, kind = p[keep], nrm[keep], kind[keep]
-        if eroded is not None:
-            de = eroded.distances(p)
-            v = p - de.closest
-            dist = np.linalg.norm(v, axis=1)
-            moved = dist > edge_radius * (1 + tol.rel)
-            u = v / np.maximum(dist, tol.tiny)[:, None]
-            p = np.where(moved[:, None], de.closest + edge_radius * u, p)
-            nrm = np.where(moved[:, None], u, nrm)
-            kind[moved] = 1
-        vis_view = _visible_view(scene, o3d, p, nrm, vw, cos_max, rng)
-        ok = vis_view >= 0
-        got_p.append(p[ok])
-        got_v.append(vw[vis_view[ok]])
-        got_k.append(kind[ok])
-        have += int(ok.sum())
-        if have >= want:
-            break
-    if have < want:
-        raise SpecError(f"points = {points}: the views see too little of the tip "
-                        f"({have} visible points); add views or lower points")
-    p = np.concatenate(got_p)[:want]
-    v = np.concatenate(got_v)[:want]
-    kind = np.concatenate(got_k)[:want]
+    sampler = _Sampler(tri, roi, area, z_min, solid, eroded, edge_radius, scene, o3d, vw,
+                       cos_max)
+    p, v, kind = _sample_seen(sampler, points - n_burr, points, rng)
     if n_burr:
         # burrs are seen from the view best facing them (no occlusion test)
         p = np.vstack([p, burr_pts])
@@ -281,24 +359,13 @@ def synthetic_scan(spec, *, points: int = 200_000, noise: float = 0.001,
     noisy = p + rng.normal(0.0, noise, len(p))[:, None] * v if noise > 0 else p.copy()
     M = (misalignment or Misalignment()).matrix()
     scan = noisy @ M[:3, :3].T + M[:3, 3]
-    info = {"cad": spec.name, "part": part.name, "points": int(len(p)),
-            "noise_mm": noise, "xi_deg": xi_deg, "edge_radius_mm": edge_radius,
-            "burr": None if burr is None else {"gamma_deg": list(burr.gamma_deg),
-                                               "height_mm": burr.height,
-                                               "width_mm": burr.width, "edge": burr.edge,
-                                               "points": int(n_burr)},
-            "z_min_mm": z_min, "views": vw.tolist(), "max_slope_deg": max_slope_deg,
-            "seed": seed,
-            "misalignment": None if misalignment is None else {
-                "about_axis_deg": misalignment.about_axis_deg,
-                "tilt_deg": misalignment.tilt_deg,
-                "tilt_axis_deg": misalignment.tilt_axis_deg,
-                "offset_mm": list(misalignment.offset_mm)},
-            "cad_to_scan": M.tolist(), "scan_to_cad": np.linalg.inv(M).tolist()}
+    info = _scan_info(spec, part, len(p), noise, xi_deg, edge_radius, burr, n_burr, z_min, vw,
+                      max_slope_deg, seed, misalignment, M)
     return SynthScan(scan, p, M, part, kind, info)
 
 
-def _visible_view(scene, o3d, p, nrm, views, cos_max, rng) -> np.ndarray:
+def _visible_view(scene: Any, o3d: Any, p: FloatArray, nrm: FloatArray, views: FloatArray,
+                  cos_max: float, rng: np.random.Generator) -> IntArray:
     """Index of a (random) view that sees each point, −1 where none does."""
     n = len(p)
     seen = np.zeros((n, len(views)), bool)
@@ -317,7 +384,8 @@ def _visible_view(scene, o3d, p, nrm, views, cos_max, rng) -> np.ndarray:
     return np.where(seen.any(axis=1), out, -1)
 
 
-def _burr_points(part, solid, burr: Burr, rng, density):
+def _burr_points(part: TipSpec, solid: ExactSolid, burr: Burr, rng: np.random.Generator,
+                 density: float) -> tuple[FloatArray, FloatArray]:
     """Points on the exposed face of a burr ridge and its outward direction
     (cannula frame)."""
     if burr.edge not in ("inner", "outer"):

@@ -43,13 +43,15 @@ from __future__ import annotations
 import io
 import os
 import re
+from collections.abc import Iterator
 from dataclasses import dataclass, field
 from decimal import Decimal
 from pathlib import Path
-from typing import Any
+from typing import IO, Any, cast
 
 import numpy as np
 
+from ..arrays import FloatArray
 from ..errors import ScanError
 from .heightmap import (
     ALLOWED_UNITS_TEXT,
@@ -62,7 +64,7 @@ from .heightmap import (
 )
 
 __all__ = ["Table", "sniff_table", "iter_table_points", "read_table_grid", "NODATA_TOKENS",
-           "TABLE_LAYOUTS"]
+           "TABLE_LAYOUTS", "line_blocks"]
 
 #: Layouts a caller can force.
 TABLE_LAYOUTS = ("points", "grid")
@@ -188,7 +190,8 @@ def _numeric_row(line: str, sep: str | None, dec: str, *, some: bool = True) -> 
     if sum(units) > 1 or (units and all(units)):
         return 0
     vals = [np.nan if u else v for u, v in zip(units, vals)]
-    if not toks or any(v is None for v in vals) or (some and all(np.isnan(v) for v in vals)):
+    nums = [v for v in vals if v is not None]
+    if not toks or len(nums) < len(vals) or (some and all(np.isnan(v) for v in nums)):
         return 0
     return len(toks)
 
@@ -213,7 +216,7 @@ def _decode(b: bytes) -> tuple[str, str]:
         return b.decode("latin-1"), "latin-1"
 
 
-def _open_bytes(p: Path, where: str):
+def _open_bytes(p: Path, where: str) -> tuple[IO[bytes], str]:
     """A binary stream of the file as UTF-8 (UTF-16 files are converted in
     memory; a UTF-8 BOM is skipped), and its encoding name."""
     with open(p, "rb") as fh:
@@ -263,7 +266,8 @@ def _choose_dialect(sample: list[str]) -> tuple[str | None, str, int] | None:
     return sep, dec, n
 
 
-def _value_unit(text: str, dec: str, where: str, line: int, key: str):
+def _value_unit(text: str, where: str, line: int,
+                key: str) -> tuple[Decimal | None, str | None]:
     """(value as a Decimal, unit or None) of a metadata value such as '0,5 µm'."""
     m = _NUMBER_UNIT.match(_strip(text))
     if not m:
@@ -290,7 +294,7 @@ def _dec_mm(value: Decimal, unit: str) -> float:
     return float(value * f.numerator / f.denominator)
 
 
-def _key_value(line: str, sep: str | None):
+def _key_value(line: str, sep: str | None) -> tuple[str, str, str | None] | None:
     """(key, value text, unit text or None) of a metadata line, or None."""
     s = line.strip()
     for c in _COMMENTS:
@@ -348,7 +352,9 @@ def _column_name_unit(tok: str, where: str, line: int) -> tuple[str, str | None]
 
 
 def _units_row(toks: list[str]) -> list[str | None] | None:
-    out = []
+    """The units of a units row (``mm;mm;µm``, empty fields None), or None
+    where a field is not a unit or none is given."""
+    out: list[str | None] = []
     for t in toks:
         s = _strip(t)
         if not s:
@@ -361,18 +367,17 @@ def _units_row(toks: list[str]) -> list[str | None] | None:
     return out if any(out) else None
 
 
-def sniff_table(path: str | os.PathLike[str], *, units: str | None = None,
-                spacing_mm: float | tuple[float, float] | None = None,
-                layout: str | None = None) -> Table | None:
-    """Find the dialect, layout, columns and units of a CSV/TXT scan from its
-    first 256 KiB.
+#: A header key's value (a unit name, a Decimal length, an integer count),
+#: its unit (lengths) and its line number (1-based).
+_KeyEntry = tuple[Decimal | str | int, str | None, int]
 
-    Returns None where no consistent dialect is found (the caller may then try
-    its plain whitespace reader); raises :class:`ScanError` for what is
-    found to be wrong (unknown unit, header keys that contradict, ...).
-    """
-    p = Path(path)
-    where = f"scan '{p}'"
+_LENGTH_KEYS = _DX_KEYS | _DY_KEYS | _DXY_KEYS | _X0_KEYS | _Y0_KEYS
+_UNIT_NAME_KEYS = _ZUNIT_KEYS | _XYUNIT_KEYS | _UNIT_KEYS
+
+
+def _default_unit(units: str | None, layout: str | None) -> str:
+    """The unit of what the file leaves unstated (``units``, or mm), after
+    checking ``units`` and ``layout``."""
     if layout is not None and layout not in TABLE_LAYOUTS:
         raise ScanError(f"layout = {layout!r}; allowed: {', '.join(TABLE_LAYOUTS)}")
     dunit = "mm" if units is None else units
@@ -381,6 +386,21 @@ def sniff_table(path: str | os.PathLike[str], *, units: str | None = None,
         if not dunit:
             raise ScanError(f"units = {units!r} is not a length unit; allowed: "
                             f"{ALLOWED_UNITS_TEXT}")
+    return dunit
+
+
+@dataclass
+class _Head:
+    """The decoded lines of a file's first :data:`_HEAD_BYTES`, their byte
+    offsets, the encoding and whether they are the whole file."""
+
+    lines: list[str]
+    offsets: list[int]
+    encoding: str
+    whole: bool
+
+
+def _read_head(p: Path, where: str) -> _Head:
     fh, enc = _open_bytes(p, where)
     with fh:
         start = fh.tell()
@@ -399,14 +419,19 @@ def sniff_table(path: str | os.PathLike[str], *, units: str | None = None,
         if e == "latin-1" and enc == "utf-8":
             enc = "latin-1"
         lines.append(s)
-    # the data: the first line from which the sampled lines share one dialect
+    return _Head(lines, offsets, enc, whole)
+
+
+def _find_data(head: _Head, where: str) -> tuple[int, tuple[str | None, str, int]] | None:
+    """(index of the first data line, its dialect): the first line from which
+    the sampled lines share one dialect; None where there is none."""
+    lines = head.lines
     cand = [i for i, s in enumerate(lines) if s.strip() and not _is_comment(s.strip())]
-    k0, dia = None, None
     for pos, i in enumerate(cand[:400]):
         if not any(_numeric_row(lines[i], sep, dec) for sep in _SEPS for dec in (".", ",")):
             continue
         sample = [lines[j] for j in cand[pos:pos + _SAMPLE_LINES]]
-        if not whole and len(sample) < 2:
+        if not head.whole and len(sample) < 2:
             continue
         dia = _choose_dialect(sample)
         if dia is None:
@@ -415,21 +440,23 @@ def sniff_table(path: str | os.PathLike[str], *, units: str | None = None,
             if nxt is not None:
                 continue
             return None
-        k0 = i
-        break
-    if k0 is None or dia is None:
-        if not cand:
-            raise ScanError(f"{where} holds no data lines")
-        return None
-    sep, dec, ncols = dia
-    t = Table(where=where, layout="points", sep=sep, decimal=dec, ncols=ncols,
-              data_offset=offsets[k0], data_line=k0 + 1, encoding=enc)
-    t.quoted = '"' in lines[k0] or "'" in lines[k0]
-    # the preamble: header row, units row, metadata keys
-    pre = [i for i in range(k0) if lines[i].strip()]
-    header_i = units_i = None
+        return i, dia
+    if not cand:
+        raise ScanError(f"{where} holds no data lines")
+    return None
+
+
+def _all_names(toks: list[str], dec: str) -> bool:
+    return all(_num(x, dec) is None for x in toks)
+
+
+def _header_rows(lines: list[str], pre: list[int], t: Table) -> tuple[int | None, int | None]:
+    """(header row, units row) among the preamble lines ``pre`` (indices):
+    the last non-comment, non-key lines above the data."""
+    sep, dec, ncols = t.sep, t.decimal, t.ncols
     non_comment = [i for i in pre if not _is_comment(lines[i].strip())]
     non_comment = [i for i in non_comment if not _is_key_line(lines[i], sep)]
+    header_i = units_i = None
     if non_comment:
         last = non_comment[-1]
         toks = _header_tokens(lines[last], sep)
@@ -437,190 +464,319 @@ def sniff_table(path: str | os.PathLike[str], *, units: str | None = None,
         if ur is not None and len(non_comment) >= 2:
             prev = non_comment[-2]
             ptoks = _header_tokens(lines[prev], sep)
-            if len(ptoks) == ncols and all(_num(x, dec) is None for x in ptoks):
+            if len(ptoks) == ncols and _all_names(ptoks, dec):
                 header_i, units_i = prev, last
-        elif len(toks) == ncols and all(_num(x, dec) is None for x in toks) and ncols >= 2:
+        elif len(toks) == ncols and _all_names(toks, dec) and ncols >= 2:
             header_i = last
-    # a commented header just above the data ('# x y z', '//X,Y,Z')
-    if header_i is None and pre and _is_comment(lines[pre[-1]].strip()):
-        s = lines[pre[-1]].strip().lstrip("#/%!").strip()
-        toks = _header_tokens(s, sep)
-        if len(toks) == ncols and ncols >= 2 and all(_num(x, dec) is None for x in toks):
-            names = [_column_name_unit(x, where, pre[-1] + 1)[0] for x in toks]
-            if {"x", "y", "z"} <= {("z" if n in _Z_NAMES else n) for n in names} or \
-                    sum(n in _X_NAMES | _Y_NAMES | _Z_NAMES for n in names) >= 3:
-                header_i = pre[-1]
-    meta_keys: dict[str, tuple[float | str, str | None, int]] = {}
-    for i in pre:
-        if i in (header_i, units_i):
-            continue
-        kv = _key_value(lines[i], sep)
-        if kv is None:
-            continue
-        key, val, unit_txt = kv
-        name, key_unit = (_norm_key(key), None)
-        m = _BRACKET_UNIT.match(key)
-        if m and m.group("name").strip():
-            name = _norm_key(m.group("name"))
-            key_unit = parse_unit(m.group("unit"))
-            if key_unit is None and name in (_DX_KEYS | _DY_KEYS | _DXY_KEYS | _X0_KEYS
-                                             | _Y0_KEYS):
-                raise ScanError(f"{where}: line {i + 1}: key '{key}': unit "
-                                f"'{m.group('unit')}' is not a length unit; allowed: "
-                                f"{ALLOWED_UNITS_TEXT}")
-        if name in _ZUNIT_KEYS | _XYUNIT_KEYS | _UNIT_KEYS:
-            u = parse_unit(val)
-            if u is None:
-                if name in _UNIT_KEYS and len(val) > 12:
-                    continue                # prose, not a unit
-                raise ScanError(f"{where}: line {i + 1}: {key} = '{_strip(val)[:40]}' is not a "
-                                f"length unit; allowed: {ALLOWED_UNITS_TEXT}")
-            meta_keys[name] = (u, None, i + 1)
-        elif name in (_DX_KEYS | _DY_KEYS | _DXY_KEYS | _X0_KEYS | _Y0_KEYS):
-            v, u = _value_unit(val, dec, where, i + 1, key)
-            if v is None:
-                raise ScanError(f"{where}: line {i + 1}: {key} = '{_strip(val)[:40]}'; "
-                                "expected a number with an optional length unit")
-            if unit_txt is not None:
-                u2 = parse_unit(unit_txt)
-                if u2 is None:
-                    raise ScanError(f"{where}: line {i + 1}: {key}: unit '{unit_txt}' is not a "
-                                    f"length unit; allowed: {ALLOWED_UNITS_TEXT}")
-                u = u or u2
-            meta_keys[name] = (v, u or key_unit, i + 1)
-        elif name in _NX_KEYS | _NY_KEYS and re.fullmatch(r"\d{1,12}", _strip(val)):
-            meta_keys[name] = (int(_strip(val)), None, i + 1)
-    t.meta["header_keys"] = {k: (str(v) if isinstance(v, Decimal) else v, u)
-                             for k, (v, u, _) in meta_keys.items()}
+    if header_i is None and pre and _commented_header(lines[pre[-1]], pre[-1], t):
+        header_i = pre[-1]
+    return header_i, units_i
 
-    def key_of(keys):
-        for k in keys:
-            if k in meta_keys:
-                return k, meta_keys[k]
-        return None, None
 
-    generic_unit = key_of(_UNIT_KEYS)[1]
-    zu, xyu = key_of(_ZUNIT_KEYS)[1], key_of(_XYUNIT_KEYS)[1]
-    t.z_unit = (zu or generic_unit or (dunit, None, 0))[0]
-    t.xy_unit = (xyu or generic_unit or (dunit, None, 0))[0]
+def _commented_header(line: str, i: int, t: Table) -> bool:
+    """Whether a comment line just above the data names x, y, z columns
+    (``# x y z``, ``//X,Y,Z``)."""
+    if not _is_comment(line.strip()):
+        return False
+    s = line.strip().lstrip("#/%!").strip()
+    toks = _header_tokens(s, t.sep)
+    if not (len(toks) == t.ncols and t.ncols >= 2 and _all_names(toks, t.decimal)):
+        return False
+    names = [_column_name_unit(x, t.where, i + 1)[0] for x in toks]
+    return {"x", "y", "z"} <= {("z" if n in _Z_NAMES else n) for n in names} or \
+        sum(n in _X_NAMES | _Y_NAMES | _Z_NAMES for n in names) >= 3
+
+
+def _key_name_unit(key: str, where: str, line: int) -> tuple[str, str | None]:
+    """A header key's normalised name and its bracketed unit (``dx [µm]``)."""
+    m = _BRACKET_UNIT.match(key)
+    if not (m and m.group("name").strip()):
+        return _norm_key(key), None
+    name = _norm_key(m.group("name"))
+    key_unit = parse_unit(m.group("unit"))
+    if key_unit is None and name in _LENGTH_KEYS:
+        raise ScanError(f"{where}: line {line}: key '{key}': unit "
+                        f"'{m.group('unit')}' is not a length unit; allowed: "
+                        f"{ALLOWED_UNITS_TEXT}")
+    return name, key_unit
+
+
+def _unit_entry(name: str, key: str, val: str, where: str, line: int) -> _KeyEntry | None:
+    """A unit key's entry (``z unit = µm``); None for prose under 'unit'."""
+    u = parse_unit(val)
+    if u is None:
+        if name in _UNIT_KEYS and len(val) > 12:
+            return None                # prose, not a unit
+        raise ScanError(f"{where}: line {line}: {key} = '{_strip(val)[:40]}' is not a "
+                        f"length unit; allowed: {ALLOWED_UNITS_TEXT}")
+    return u, None, line
+
+
+def _length_entry(key: str, val: str, unit_txt: str | None, key_unit: str | None,
+                  where: str, line: int) -> _KeyEntry:
+    """A length key's entry (``dx = 0,5 µm``, ``dx;0.5;um``, ``dx [µm] = 0.5``)."""
+    v, u = _value_unit(val, where, line, key)
+    if v is None:
+        raise ScanError(f"{where}: line {line}: {key} = '{_strip(val)[:40]}'; "
+                        "expected a number with an optional length unit")
+    if unit_txt is not None:
+        u2 = parse_unit(unit_txt)
+        if u2 is None:
+            raise ScanError(f"{where}: line {line}: {key}: unit '{unit_txt}' is not a "
+                            f"length unit; allowed: {ALLOWED_UNITS_TEXT}")
+        u = u or u2
+    return v, u or key_unit, line
+
+
+def _meta_entry(line: str, i: int, t: Table) -> tuple[str, _KeyEntry] | None:
+    """(normalised key, entry) of a known metadata line, or None."""
+    kv = _key_value(line, t.sep)
+    if kv is None:
+        return None
+    key, val, unit_txt = kv
+    name, key_unit = _key_name_unit(key, t.where, i + 1)
+    entry: _KeyEntry | None = None
+    if name in _UNIT_NAME_KEYS:
+        entry = _unit_entry(name, key, val, t.where, i + 1)
+    elif name in _LENGTH_KEYS:
+        entry = _length_entry(key, val, unit_txt, key_unit, t.where, i + 1)
+    elif name in _NX_KEYS | _NY_KEYS and re.fullmatch(r"\d{1,12}", _strip(val)):
+        entry = (int(_strip(val)), None, i + 1)
+    return None if entry is None else (name, entry)
+
+
+def _meta_keys(lines: list[str], rows: list[int], t: Table) -> dict[str, _KeyEntry]:
+    """The known header keys of the preamble lines ``rows`` (indices)."""
+    meta_keys: dict[str, _KeyEntry] = {}
+    for i in rows:
+        found = _meta_entry(lines[i], i, t)
+        if found is not None:
+            meta_keys[found[0]] = found[1]
+    return meta_keys
+
+
+def _key_of(meta_keys: dict[str, _KeyEntry], keys: set[str]) -> _KeyEntry | None:
+    """The entry of the first of ``keys`` the header gives, or None."""
+    for k in keys:
+        if k in meta_keys:
+            return meta_keys[k]
+    return None
+
+
+def _length_of(meta_keys: dict[str, _KeyEntry], keys: set[str]
+               ) -> tuple[Decimal, str | None, int] | None:
+    e = _key_of(meta_keys, keys)
+    return None if e is None else (cast(Decimal, e[0]), e[1], e[2])  # a length key's value
+
+
+def _set_units(t: Table, meta_keys: dict[str, _KeyEntry], dunit: str) -> None:
+    """The z and lateral units: the file's unit keys, else ``dunit``."""
+    generic_unit = _key_of(meta_keys, _UNIT_KEYS)
+    zu, xyu = _key_of(meta_keys, _ZUNIT_KEYS), _key_of(meta_keys, _XYUNIT_KEYS)
+    t.z_unit = str((zu or generic_unit or (dunit, None, 0))[0])
+    t.xy_unit = str((xyu or generic_unit or (dunit, None, 0))[0])
     if zu or xyu or generic_unit:
         t.units_from = "file"
-    # columns
-    if header_i is not None:
-        s = lines[header_i].strip()
-        if _is_comment(s):
-            s = s.lstrip("#/%!").strip()
-        toks = _header_tokens(s, sep)
-        named = [_column_name_unit(x, where, header_i + 1) for x in toks]
-        t.columns = [n for n, _ in named]
-        t.col_units = [u for _, u in named]
-        if units_i is not None:
-            ur = _units_row(_header_tokens(lines[units_i], sep))
-            t.col_units = [a or b for a, b in zip(t.col_units, ur)]
-        t.meta["header_line"] = header_i + 1
-    else:
-        t.columns = [""] * ncols
-        t.col_units = [None] * ncols
+
+
+def _set_columns(t: Table, lines: list[str], header_i: int | None,
+                 units_i: int | None) -> None:
+    """Column names and units from the header row and the units row."""
+    if header_i is None:
+        t.columns = [""] * t.ncols
+        t.col_units = [None] * t.ncols
+        return
+    s = lines[header_i].strip()
+    if _is_comment(s):
+        s = s.lstrip("#/%!").strip()
+    toks = _header_tokens(s, t.sep)
+    named = [_column_name_unit(x, t.where, header_i + 1) for x in toks]
+    t.columns = [n for n, _ in named]
+    t.col_units = [u for _, u in named]
+    if units_i is not None:
+        ur = _units_row(_header_tokens(lines[units_i], t.sep)) or []
+        t.col_units = [a or b for a, b in zip(t.col_units, ur)]
+    t.meta["header_line"] = header_i + 1
+
+
+def _named_xyz(t: Table, first: str, k0: int) -> tuple[int, int, int] | None:
+    """The x, y, z columns the header names (None unless all three); sets the
+    unit column (named 'unit', or holding units on the first data line)."""
     names = t.columns
     ix = next((k for k, n in enumerate(names) if n in _X_NAMES), None)
     iy = next((k for k, n in enumerate(names) if n in _Y_NAMES), None)
     iz = next((k for k, n in enumerate(names) if n in _Z_NAMES), None)
     t.unit_col = next((k for k, n in enumerate(names) if n in _UNIT_COLUMN), None)
-    first = _split(lines[k0], sep)
-    ucols = [k for k, x in enumerate(first) if _num(x, dec) is None and parse_unit(_strip(x))]
+    toks = _split(first, t.sep)
+    ucols = [k for k, x in enumerate(toks) if _num(x, t.decimal) is None
+             and parse_unit(_strip(x))]
     if ucols:
         if t.unit_col is not None and ucols != [t.unit_col]:
-            raise ScanError(f"{where}: line {k0 + 1}: a unit in column {ucols[0] + 1}; the "
+            raise ScanError(f"{t.where}: line {k0 + 1}: a unit in column {ucols[0] + 1}; the "
                             f"header names column {t.unit_col + 1} 'unit'")
         t.unit_col = ucols[0]
-    named_xyz = None not in (ix, iy, iz)
-    # layout
-    spacing_keys = any(k in meta_keys for k in _DX_KEYS | _DY_KEYS | _DXY_KEYS)
+    if ix is None or iy is None or iz is None:
+        return None
+    return ix, iy, iz
+
+
+def _choose_layout(layout: str | None, named: tuple[int, int, int] | None,
+                   meta_keys: dict[str, _KeyEntry],
+                   spacing_mm: float | tuple[float, float] | None) -> str:
+    """The caller's layout; else points where x, y, z are named, a grid where
+    a spacing is given, points otherwise."""
     if layout is not None:
-        t.layout = layout
-    elif named_xyz:
-        t.layout = "points"
-    elif spacing_keys or spacing_mm is not None:
-        t.layout = "grid"
+        return layout
+    if named is not None:
+        return "points"
+    spacing_keys = any(k in meta_keys for k in _DX_KEYS | _DY_KEYS | _DXY_KEYS)
+    if spacing_keys or spacing_mm is not None:
+        return "grid"
+    return "points"
+
+
+def _points_layout(t: Table, named: tuple[int, int, int] | None, k0: int) -> None:
+    """The x, y, z columns of a point list (named, or the first three
+    value columns) and where its units come from."""
+    if named is not None:
+        t.xyz = named
     else:
-        t.layout = "points"
+        free = [k for k in range(t.ncols) if k != t.unit_col]
+        if len(free) < 3:
+            raise ScanError(f"{t.where}: line {k0 + 1}: {len(free)} value column(s) "
+                            f"({_SEP_NAMES[t.sep]}-separated); a point list needs x, y, z "
+                            "(3 columns), a height-map grid its spacing (header key dx/dy/"
+                            "spacing/pixel size, or a spacing option)")
+        t.xyz = (free[0], free[1], free[2])
+    if any(t.col_units[k] is not None for k in t.xyz) or t.unit_col is not None:
+        t.units_from = "file"
+
+
+def _grid_spacing(t: Table, meta_keys: dict[str, _KeyEntry],
+                  spacing_mm: float | tuple[float, float] | None) -> None:
+    """A grid's lateral spacing (mm): the caller's, else the header's dx and dy."""
+    lat = t.xy_unit
+    dxk = _length_of(meta_keys, _DX_KEYS) or _length_of(meta_keys, _DXY_KEYS)
+    dyk = _length_of(meta_keys, _DY_KEYS) or _length_of(meta_keys, _DXY_KEYS)
+    if spacing_mm is not None:
+        s = np.asarray(spacing_mm, np.float64)
+        sx, sy = (s, s) if s.ndim == 0 else s
+        dx, dy = float(sx), float(sy)
+        t.meta["spacing_from"] = "argument (mm)"
+    elif dxk is not None and dyk is not None:
+        dx = _dec_mm(dxk[0], dxk[1] or lat)
+        dy = _dec_mm(dyk[0], dyk[1] or lat)
+        t.meta["spacing_from"] = f"header lines {dxk[2]}, {dyk[2]}"
+    else:
+        have = dxk or dyk
+        raise ScanError(f"{t.where}: a height-map grid needs its lateral spacing: "
+                        + ("only one of dx/dy is given (line "
+                           f"{have[2]})" if have else "no header key dx/dy/spacing/"
+                           "pixel size/step/XY calibration")
+                        + " and no spacing option")
+    for name, v in (("dx", dx), ("dy", dy)):
+        if not (np.isfinite(v) and v > 0):
+            raise ScanError(f"{t.where}: lateral spacing {name} = {v} mm; expected a finite "
+                            "number > 0")
+    t.dx, t.dy = dx, dy
+
+
+def _grid_layout(t: Table, meta_keys: dict[str, _KeyEntry],
+                 spacing_mm: float | tuple[float, float] | None, header_i: int | None,
+                 k0: int) -> None:
+    """A grid's spacing, origin and size hints from the header (mm)."""
+    if t.unit_col is not None:
+        raise ScanError(f"{t.where}: a height-map grid with a 'unit' column (line "
+                        f"{(header_i or 0) + 1}); the grid's unit is a header key (z unit)")
+    _grid_spacing(t, meta_keys, spacing_mm)
+    lat = t.xy_unit
+    x0k, y0k = _length_of(meta_keys, _X0_KEYS), _length_of(meta_keys, _Y0_KEYS)
+    t.x0 = _dec_mm(x0k[0], x0k[1] or lat) if x0k else 0.0
+    t.y0 = _dec_mm(y0k[0], y0k[1] or lat) if y0k else 0.0
+    nxk, nyk = _key_of(meta_keys, _NX_KEYS), _key_of(meta_keys, _NY_KEYS)
+    t.cols_hint = int(nxk[0]) if nxk else None
+    t.rows_hint = int(nyk[0]) if nyk else None
+    if nxk is not None and t.cols_hint != t.ncols:
+        raise ScanError(f"{t.where}: line {nxk[2]}: the header says {t.cols_hint} columns; "
+                        f"line {k0 + 1} has {t.ncols}")
+    if any(t.col_units) and header_i is not None:
+        t.meta["column_names_ignored"] = True
+
+
+def sniff_table(path: str | os.PathLike[str], *, units: str | None = None,
+                spacing_mm: float | tuple[float, float] | None = None,
+                layout: str | None = None) -> Table | None:
+    """Find the dialect, layout, columns and units of a CSV/TXT scan from its
+    first 256 KiB.
+
+    Returns None where no consistent dialect is found (the caller may then try
+    its plain whitespace reader); raises :class:`ScanError` for what is
+    found to be wrong (unknown unit, header keys that contradict, ...).
+    Lengths (spacing, origin) in mm.
+    """
+    p = Path(path)
+    where = f"scan '{p}'"
+    dunit = _default_unit(units, layout)
+    head = _read_head(p, where)
+    found = _find_data(head, where)
+    if found is None:
+        return None
+    k0, (sep, dec, ncols) = found
+    lines = head.lines
+    t = Table(where=where, layout="points", sep=sep, decimal=dec, ncols=ncols,
+              data_offset=head.offsets[k0], data_line=k0 + 1, encoding=head.encoding)
+    t.quoted = '"' in lines[k0] or "'" in lines[k0]
+    # the preamble: header row, units row, metadata keys
+    pre = [i for i in range(k0) if lines[i].strip()]
+    header_i, units_i = _header_rows(lines, pre, t)
+    meta_keys = _meta_keys(lines, [i for i in pre if i not in (header_i, units_i)], t)
+    t.meta["header_keys"] = {k: (str(v) if isinstance(v, Decimal) else v, u)
+                             for k, (v, u, _) in meta_keys.items()}
+    _set_units(t, meta_keys, dunit)
+    _set_columns(t, lines, header_i, units_i)
+    named = _named_xyz(t, lines[k0], k0)
+    t.layout = _choose_layout(layout, named, meta_keys, spacing_mm)
     if t.layout == "points":
-        if named_xyz:
-            t.xyz = (ix, iy, iz)
-        else:
-            free = [k for k in range(ncols) if k != t.unit_col]
-            if len(free) < 3:
-                raise ScanError(f"{where}: line {k0 + 1}: {len(free)} value column(s) "
-                                f"({_SEP_NAMES[sep]}-separated); a point list needs x, y, z "
-                                "(3 columns), a height-map grid its spacing (header key dx/dy/"
-                                "spacing/pixel size, or a spacing option)")
-            t.xyz = tuple(free[:3])
-        if any(t.col_units[k] is not None for k in t.xyz) or t.unit_col is not None:
-            t.units_from = "file"
+        _points_layout(t, named, k0)
     else:
-        if t.unit_col is not None:
-            raise ScanError(f"{where}: a height-map grid with a 'unit' column (line "
-                            f"{(header_i or 0) + 1}); the grid's unit is a header key (z unit)")
-        lat = t.xy_unit
-        dxk = key_of(_DX_KEYS)[1] or key_of(_DXY_KEYS)[1]
-        dyk = key_of(_DY_KEYS)[1] or key_of(_DXY_KEYS)[1]
-        if spacing_mm is not None:
-            sx, sy = (spacing_mm, spacing_mm) if np.ndim(spacing_mm) == 0 else spacing_mm
-            t.dx, t.dy = float(sx), float(sy)
-            t.meta["spacing_from"] = "argument (mm)"
-        elif dxk is not None and dyk is not None:
-            t.dx = _dec_mm(dxk[0], dxk[1] or lat)
-            t.dy = _dec_mm(dyk[0], dyk[1] or lat)
-            t.meta["spacing_from"] = f"header lines {dxk[2]}, {dyk[2]}"
-        else:
-            have = dxk or dyk
-            raise ScanError(f"{where}: a height-map grid needs its lateral spacing: "
-                            + ("only one of dx/dy is given (line "
-                               f"{have[2]})" if have else "no header key dx/dy/spacing/"
-                               "pixel size/step/XY calibration")
-                            + " and no spacing option")
-        for name in ("dx", "dy"):
-            v = getattr(t, name)
-            if not (np.isfinite(v) and v > 0):
-                raise ScanError(f"{where}: lateral spacing {name} = {v} mm; expected a finite "
-                                "number > 0")
-        x0k, y0k = key_of(_X0_KEYS)[1], key_of(_Y0_KEYS)[1]
-        t.x0 = _dec_mm(x0k[0], x0k[1] or lat) if x0k else 0.0
-        t.y0 = _dec_mm(y0k[0], y0k[1] or lat) if y0k else 0.0
-        nxk, nyk = key_of(_NX_KEYS)[1], key_of(_NY_KEYS)[1]
-        t.cols_hint = int(nxk[0]) if nxk else None
-        t.rows_hint = int(nyk[0]) if nyk else None
-        if t.cols_hint is not None and t.cols_hint != ncols:
-            raise ScanError(f"{where}: line {nxk[2]}: the header says {t.cols_hint} columns; "
-                            f"line {k0 + 1} has {ncols}")
-        if any(t.col_units) and header_i is not None:
-            t.meta["column_names_ignored"] = True
+        _grid_layout(t, meta_keys, spacing_mm, header_i, k0)
     return t
 
-
 # -----------------------------------------------------------------------------
-def _blocks(fh, line0: int):
-    """(first line number, bytes of whole lines) chunks from the current
-    position."""
-    tail = b""
-    line = line0
+def line_blocks(fh: IO[bytes], first: bytes = b"", *, chunk_bytes: int = _CHUNK_BYTES,
+                max_rows: int | None = None) -> Iterator[tuple[int, bytes]]:
+    """Chunks of whole lines of a binary stream from its current position:
+    (number of lines before the chunk, its bytes), ``first`` (bytes already
+    read) in front, at most ``max_rows`` lines in all (every line if None);
+    a last line without its newline is the end of the last chunk."""
+    rows = 0
+    tail = first
     while True:
-        buf = fh.read(_CHUNK_BYTES)
-        if not buf:
-            if tail.strip():
-                yield line, tail
+        buf = fh.read(chunk_bytes)
+        if buf:
+            buf = tail + buf
+            k = buf.rfind(b"\n")
+            if k < 0:
+                tail = buf
+                continue
+            block, tail = buf[:k + 1], buf[k + 1:]
+        else:
+            block, tail = tail, b""
+            if not block.strip():
+                return
+        n = block.count(b"\n") + (0 if block.endswith(b"\n") else 1)
+        if max_rows is not None and rows + n >= max_rows:
+            nl = np.flatnonzero(np.frombuffer(block, np.uint8) == 10)
+            cut = max_rows - rows
+            yield rows, block[:nl[cut - 1] + 1] if cut <= len(nl) else block
             return
-        buf = tail + buf
-        k = buf.rfind(b"\n")
-        if k < 0:
-            tail = buf
-            continue
-        block, tail = buf[:k + 1], buf[k + 1:]
-        yield line, block
-        line += block.count(b"\n")
+        yield rows, block
+        rows += n
+        if not buf:
+            return
 
 
-def _fast(block: bytes, t: Table) -> np.ndarray | None:
+def _fast(block: bytes, t: Table) -> FloatArray | None:
     """The block's rows as (m, ncols) float64 through numpy's parser, or None
     (the slow path decides)."""
     if t.unit_col is not None:
@@ -649,10 +805,11 @@ def _fast(block: bytes, t: Table) -> np.ndarray | None:
     return a
 
 
-def _slow(block: bytes, t: Table, line0: int):
+def _slow(block: bytes, t: Table, line0: int) -> tuple[FloatArray, list[str]]:
     """The block's rows field by field: (m, ncols) values, per-row unit names
     (unit column) — errors name the line."""
-    rows, units = [], []
+    rows: list[list[float]] = []
+    units: list[str] = []
     text, _ = _decode(block) if t.encoding in ("utf-8", "utf-8-sig", "utf-16") else (
         block.decode("latin-1"), "latin-1")
     for n, line in enumerate(text.split("\n"), line0):
@@ -688,12 +845,13 @@ def _slow(block: bytes, t: Table, line0: int):
     return a, units
 
 
-def _rows(path: Path, t: Table):
+def _rows(path: Path, t: Table) -> Iterator[tuple[int, FloatArray, list[str]]]:
     """(line number, (m, ncols) float64 rows, per-row units or []) chunks."""
     fh, _ = _open_bytes(path, t.where)
     with fh:
         fh.seek(t.data_offset)
-        for line0, block in _blocks(fh, t.data_line):
+        for rows, block in line_blocks(fh):
+            line0 = t.data_line + rows
             a = _fast(block, t)
             if a is not None:
                 yield line0, a, []
@@ -703,7 +861,8 @@ def _rows(path: Path, t: Table):
 
 
 def iter_table_points(path: str | os.PathLike[str], t: Table, *,
-                      max_points: int = MAX_SCAN_POINTS):
+                      max_points: int = MAX_SCAN_POINTS
+                      ) -> Iterator[tuple[FloatArray, int]]:
     """Yield ((m, 3) float64 points in mm, invalid rows dropped in the chunk)."""
     p = Path(path)
     if p.stat().st_size > MAX_SCAN_BYTES:
@@ -742,6 +901,9 @@ def read_table_grid(path: str | os.PathLike[str], t: Table, *,
     if p.stat().st_size > MAX_SCAN_BYTES:
         raise ScanError(f"{t.where} has {p.stat().st_size:,} bytes; allowed at most "
                         f"{MAX_SCAN_BYTES:,}")
+    if t.dx is None or t.dy is None:
+        raise ScanError(f"{t.where}: read as a point list, not a height-map grid (no lateral "
+                        "spacing)")
     if t.rows_hint is not None and t.rows_hint * t.ncols > max_pixels:
         raise ScanError(f"{t.where}: the header gives {t.ncols} × {t.rows_hint:,} = "
                         f"{t.ncols * t.rows_hint:,} pixels; allowed at most {max_pixels:,}")

@@ -82,8 +82,7 @@ SUPPORTED_EXPORTS: tuple[str, ...] = tuple(EXPORTERS)
 #: File extensions :func:`load_tip` reads.
 SUPPORTED_IMPORTS: tuple[str, ...] = tuple(IMPORTERS)
 
-# The names of the single-module tipgeo.io, kept for code (and tests) that
-# reach into it: the registry dicts themselves, and the STEP solid builder.
+# The names of the single-module tipgeo.io, kept for the tests that reach
+# into it: the writers' registry itself, and the STEP solid builder.
 _WRITERS = EXPORTERS
-_READERS = IMPORTERS
 _step_solid = step.step_solid

@@ -52,13 +52,20 @@ OCP is imported where used; without it the functions raise
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from types import SimpleNamespace
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
+from ..arrays import ArrayLike, FloatArray
 from ..errors import ExportError, MissingToolError
 from ..tolerances import tol
+
+if TYPE_CHECKING:
+    from ..cannula import Cannula
+    from ..spec import TipSpec
 
 __all__ = ["EDGE_FIT_MM", "EDGE_TOL_MAX_MM", "ExactSolid", "exact_solid", "exact_supported",
            "occ", "OcpMissing", "ocp_missing", "settle_edges"]
@@ -138,10 +145,10 @@ class ExactSolid:
         ``max_tolerance_mm`` (largest edge or vertex tolerance)
     """
 
-    shape: object
-    fits: list = field(default_factory=list)
-    faces: dict = field(default_factory=dict)
-    edges: dict = field(default_factory=dict)
+    shape: Any
+    fits: list[dict[str, Any]] = field(default_factory=list)
+    faces: dict[str, int] = field(default_factory=dict)
+    edges: dict[str, Any] = field(default_factory=dict)
 
     @property
     def volume(self) -> float:
@@ -158,7 +165,7 @@ class ExactSolid:
         return bool(occ().BRepCheck.BRepCheck_Analyzer(self.shape).IsValid())
 
 
-def exact_supported(spec) -> str | None:
+def exact_supported(spec: TipSpec | None) -> str | None:
     """None when every cutter of ``spec`` gives exact bounds, else the reason
     (naming the first cutter that does not)."""
     if spec is None:
@@ -170,7 +177,7 @@ def exact_supported(spec) -> str | None:
     return None
 
 
-def exact_solid(spec, tolerance: float) -> ExactSolid:
+def exact_solid(spec: TipSpec, tolerance: float) -> ExactSolid:
     """The exact solid of ``spec`` (mm, cannula frame), non-analytic surfaces
     fitted within ``tol.step_fit_share × tolerance`` (mm).
 
@@ -222,15 +229,16 @@ def exact_solid(spec, tolerance: float) -> ExactSolid:
 
 
 # -- primitives ------------------------------------------------------------------
-def _tube(o, ro: float, ri: float, z0: float, z1: float):
+def _tube(o: Any, ro: float, ri: float, z0: float, z1: float) -> Any:
+    """The uncut tube between z0 and z1 (mm) as an OCCT solid."""
     ax = o.gp.gp_Ax2(o.gp.gp_Pnt(0.0, 0.0, z0), o.gp.gp_Dir(0.0, 0.0, 1.0))
     outer = o.BRepPrimAPI.BRepPrimAPI_MakeCylinder(ax, ro, z1 - z0).Shape()
     inner = o.BRepPrimAPI.BRepPrimAPI_MakeCylinder(ax, ri, z1 - z0).Shape()
     return _boolean(o, "Cut", outer, inner, "tube")
 
 
-def _region(o, b, can, z_lo: float, z_hi: float, span: float, tolerance: float,
-            res: ExactSolid):
+def _region(o: Any, b: Any, can: Cannula, z_lo: float, z_hi: float, span: float, tolerance: float,
+            res: ExactSolid) -> Any:
     """The kept side of one exact bound as a solid covering the tube."""
     kind = type(b).__name__
     if kind == "Plane":
@@ -254,14 +262,14 @@ def _region(o, b, can, z_lo: float, z_hi: float, span: float, tolerance: float,
     raise ExportError(f"exact STEP export: surface {b.label} ({kind}) has no exact solid form")
 
 
-def _notch(o, b):
+def _notch(o: Any, b: Any) -> Any:
     """The removed prism of a NotchPrism: its outline's exact lines and arcs
     in the plane (t, z) at ρ = r_in, extruded along w to r_out."""
     c, s = math.cos(b.angle), math.sin(b.angle)
     w = np.array([c, s, 0.0])
     t = np.array([-s, c, 0.0])
 
-    def pnt(uz):
+    def pnt(uz: tuple[float, float]) -> Any:
         x = b.r_in * w + uz[0] * t + np.array([0.0, 0.0, uz[1]])
         return o.gp.gp_Pnt(*x.tolist())
 
@@ -279,7 +287,7 @@ def _notch(o, b):
     return o.BRepPrimAPI.BRepPrimAPI_MakePrism(face, o.gp.gp_Vec(*depth.tolist())).Shape()
 
 
-def fit_height(o, b, can, tolerance: float):
+def fit_height(o: Any, b: Any, can: Cannula, tolerance: float) -> tuple[Any, dict[str, Any]]:
     """A bicubic B-spline z(x, y) interpolating ``b.height`` on an n × n grid
     over the square |x|, |y| ≤ a = r_o (1 + margin), n grown until the height
     error at every cell centre and edge midpoint inside the disc ρ ≤ a (all
@@ -335,14 +343,15 @@ def fit_height(o, b, can, tolerance: float):
         n = n_new
 
 
-def _continued(height, radius: float):
+def _continued(height: Callable[[FloatArray, FloatArray], ArrayLike],
+               radius: float) -> Callable[[ArrayLike, ArrayLike], FloatArray]:
     """``height`` (mm) inside ρ ≤ ``radius``, continued linearly along each
     radius beyond it (slope from a backward difference over ``radius`` ×
     1e-3): a C¹ extension for fitting a surface over a square."""
     d = radius * 1e-3
 
-    def ext(x, y):
-        x, y = np.asarray(x, float), np.asarray(y, float)
+    def ext(x: ArrayLike, y: ArrayLike) -> FloatArray:
+        x, y = np.asarray(x, np.float64), np.asarray(y, np.float64)
         rho = np.hypot(x, y)
         out = np.empty(np.broadcast(x, y).shape)
         inn = rho <= radius
@@ -358,14 +367,14 @@ def _continued(height, radius: float):
     return ext
 
 
-def _boolean(o, op: str, a, b, what: str):
+def _boolean(o: Any, op: str, a: Any, b: Any, what: str) -> Any:
     alg = getattr(o.BRepAlgoAPI, f"BRepAlgoAPI_{op}")(a, b)
     if not alg.IsDone():
         raise ExportError(f"exact STEP export: OCCT's boolean {op} failed for {what}")
     return alg.Shape()
 
 
-def _subshapes(o, shape, kind) -> list:
+def _subshapes(o: Any, shape: Any, kind: Any) -> list[Any]:
     out = []
     ex = o.TopExp.TopExp_Explorer(shape, kind)
     while ex.More():
@@ -374,7 +383,7 @@ def _subshapes(o, shape, kind) -> list:
     return out
 
 
-def _face_kinds(o, shape) -> dict:
+def _face_kinds(o: Any, shape: Any) -> dict[str, int]:
     from OCP.BRepAdaptor import BRepAdaptor_Surface
 
     kinds: dict[str, int] = {}
@@ -386,7 +395,7 @@ def _face_kinds(o, shape) -> dict:
 
 
 # -- edges that pass OCCT's curve-on-surface check ---------------------------------
-def settle_edges(shape, fit: float = EDGE_FIT_MM) -> dict:
+def settle_edges(shape: Any, fit: float = EDGE_FIT_MM) -> dict[str, Any]:
     """Settle the edges of ``shape`` (an OCCT solid, mm) in place: periodic
     ranges into one period, edges whose 3D curve and p-curves disagree by
     more than ``fit`` (mm) rebuilt, tolerances set from the measured
@@ -407,13 +416,13 @@ def settle_edges(shape, fit: float = EDGE_FIT_MM) -> dict:
     TopExp.MapShapesAndAncestors_s(shape, TopAbs_EDGE, TopAbs_FACE, emap)
     edges = []
     for i in range(1, emap.Size() + 1):
-        faces = []
+        faces: list[Any] = []
         for f in emap.FindFromIndex(i):
             if not any(f.IsSame(g) for g in faces):
                 faces.append(f)
         edges.append((TopoDS.Edge(emap.FindKey(i)), [TopoDS.Face(f) for f in faces]))
     builder = BRep_Builder()
-    report = {"edges": len(edges), "shifted": 0, "rebuilt": 0, "points": 0}
+    report: dict[str, Any] = {"edges": len(edges), "shifted": 0, "rebuilt": 0, "points": 0}
     for e, faces in edges:
         report["shifted"] += _one_period(builder, e, faces)
     worst = 0.0
@@ -442,7 +451,7 @@ def settle_edges(shape, fit: float = EDGE_FIT_MM) -> dict:
     return report
 
 
-def max_tolerance(shape) -> float:
+def max_tolerance(shape: Any) -> float:
     """The largest edge or vertex tolerance of ``shape`` (mm)."""
     from OCP.BRep import BRep_Tool
     from OCP.TopAbs import TopAbs_EDGE, TopAbs_VERTEX
@@ -454,7 +463,7 @@ def max_tolerance(shape) -> float:
     return max(t, default=0.0)
 
 
-def _cos_distance(e, f) -> float:
+def _cos_distance(e: Any, f: Any) -> float:
     """The largest distance (mm) between the 3D curve of edge ``e`` and its
     p-curve on face ``f`` (BRepLib_ValidateEdge, exact method: what
     BOPAlgo_ArgumentAnalyzer's curve-on-surface check measures)."""
@@ -469,7 +478,7 @@ def _cos_distance(e, f) -> float:
     return check.GetMaxDistance() if check.IsDone() else math.inf
 
 
-def _one_period(builder, e, faces) -> int:
+def _one_period(builder: Any, e: Any, faces: list[Any]) -> int:
     """Bring the range of edge ``e`` on a periodic 3D curve into [0, period),
     its p-curves reparametrised to match; 1 if it moved, else 0."""
     from OCP.BRep import BRep_Tool
@@ -482,7 +491,7 @@ def _one_period(builder, e, faces) -> int:
         return 0
     period = curve.Period()
     first, last = BRep_Tool.Range_s(e)
-    k = math.floor(first / period + 1e-12)
+    k = math.floor(first / period + tol.step_period_slack)
     if k == 0:
         return 0
     shift = k * period
@@ -500,14 +509,15 @@ def _one_period(builder, e, faces) -> int:
     return 1
 
 
-def _shifted(pc, first: float, last: float, shift: float):
+def _shifted(pc: Any, first: float, last: float, shift: float) -> Any:
     """The 2D curve s ↦ pc(s + shift) on [first − shift, last − shift]: the
     same curve where ``shift`` is a whole number of its periods, else its
     B-spline form on [first, last] with the knots moved by −shift (exact)."""
     from OCP.Geom2d import Geom2d_TrimmedCurve
     from OCP.Geom2dConvert import Geom2dConvert
 
-    if pc.IsPeriodic() and abs(math.remainder(shift, pc.Period())) <= 1e-12 * abs(shift):
+    if (pc.IsPeriodic()
+            and abs(math.remainder(shift, pc.Period())) <= tol.step_period_slack * abs(shift)):
         return pc
     bs = Geom2dConvert.CurveToBSplineCurve_s(Geom2d_TrimmedCurve(pc, first, last))
     n = bs.NbKnots()
@@ -521,17 +531,19 @@ class _Projector:
     search started from the previous answer (ShapeAnalysis_Surface). Plain
     floats: called thousands of times per edge."""
 
-    def __init__(self, surface):
+    def __init__(self, surface: Any):
         from OCP.gp import gp_Pnt, gp_Vec
         from OCP.ShapeAnalysis import ShapeAnalysis_Surface
 
         self.surface, self.sas, self.prev = surface, ShapeAnalysis_Surface(surface), None
         self._pnt, self._vec = gp_Pnt, gp_Vec
 
-    def __call__(self, x):
+    def __call__(self, x: tuple[float, float, float]
+                 ) -> tuple[float, float, tuple[float, float, float], tuple[float, float, float]]:
         p = self._pnt(*x)
-        uv = (self.sas.ValueOfUV(p, 1e-11) if self.prev is None
-              else self.sas.NextValueOfUV(self.prev, p, 1e-11, 1e-4))
+        uv = (self.sas.ValueOfUV(p, tol.step_project) if self.prev is None
+              else self.sas.NextValueOfUV(self.prev, p, tol.step_project,
+                                          tol.step_project_jump))
         self.prev = uv
         foot, du, dv = self._pnt(), self._vec(), self._vec()
         self.surface.D1(uv.X(), uv.Y(), foot, du, dv)
@@ -540,7 +552,8 @@ class _Projector:
         return uv.X(), uv.Y(), foot.Coord(), n.Coord()
 
 
-def _on_both(p1: _Projector, p2: _Projector, x: tuple) -> tuple:
+def _on_both(p1: _Projector, p2: _Projector,
+             x: tuple[float, float, float]) -> tuple[float, float, float]:
     """Newton steps from ``x`` to the nearby point on both surfaces: each
     step goes to the nearest point of the line where their tangent planes
     meet (plain floats, mm)."""
@@ -551,17 +564,18 @@ def _on_both(p1: _Projector, p2: _Projector, x: tuple) -> tuple:
         r1 = sum(n * (q - xi) for n, q, xi in zip(n1, q1, x))
         r2 = sum(n * (q - xi) for n, q, xi in zip(n2, q2, x))
         det = 1.0 - c * c
-        if det <= 1e-12:  # tangent surfaces: no single nearby crossing point
+        if det <= tol.step_tangent:  # tangent surfaces: no single nearby crossing point
             break
         a, b = (r1 - c * r2) / det, (r2 - c * r1) / det
         step = [a * m1 + b * m2 for m1, m2 in zip(n1, n2)]
-        x = tuple(xi + si for xi, si in zip(x, step))
-        if math.sqrt(sum(si * si for si in step)) <= 1e-14:
+        x = (x[0] + step[0], x[1] + step[1], x[2] + step[2])
+        if math.sqrt(sum(si * si for si in step)) <= tol.step_walk:
             break
     return x
 
 
-def _interpolated_2d(surface, uv: np.ndarray, params: np.ndarray, old, first: float):
+def _interpolated_2d(surface: Any, uv: FloatArray, params: FloatArray, old: Any,
+                     first: float) -> Any:
     """A p-curve on ``surface`` through the points ``uv`` (n × 2) at
     ``params``, on the same sheet of a periodic surface as the p-curve
     ``old`` at its parameter ``first``."""
@@ -581,14 +595,14 @@ def _interpolated_2d(surface, uv: np.ndarray, params: np.ndarray, old, first: fl
     for i, ((u, v), t) in enumerate(zip(uv.tolist(), params.tolist()), 1):
         arr.SetValue(i, gp_Pnt2d(u, v))
         par.SetValue(i, t)
-    it = Geom2dAPI_Interpolate(arr, par, False, 1e-12)
+    it = Geom2dAPI_Interpolate(arr, par, False, tol.step_interp)
     it.Perform()
     if not it.IsDone():
         raise ExportError("exact STEP export: OCCT could not interpolate a p-curve")
     return it.Curve()
 
 
-def _curves(e, faces) -> tuple:
+def _curves(e: Any, faces: list[Any]) -> tuple[Any, list[Any], tuple[float, float]]:
     """The 3D curve, p-curves (on ``faces``) and range of edge ``e``."""
     from OCP.BRep import BRep_Tool
 
@@ -596,7 +610,8 @@ def _curves(e, faces) -> tuple:
                                              for f in faces], BRep_Tool.Range_s(e))
 
 
-def _restore(builder, e, faces, kept) -> None:
+def _restore(builder: Any, e: Any, faces: list[Any],
+             kept: tuple[Any, list[Any], tuple[float, float]]) -> None:
     """Put back what :func:`_curves` returned."""
     from OCP.BRep import BRep_Tool
 
@@ -608,7 +623,80 @@ def _restore(builder, e, faces, kept) -> None:
     builder.Range(e, first, last)
 
 
-def _rebuild(o, builder, e, faces, fit: float) -> int:
+#: A point on an edge (mm) and its (u, v) on each of the edge's two faces.
+_EdgeSample = tuple[tuple[float, float, float], tuple[float, float], tuple[float, float]]
+
+
+def _edge_sampler(curve: Any, surfaces: list[Any], first: float, last: float, exact: bool
+                  ) -> tuple[Callable[[float], tuple[float, float, float]], float, float]:
+    """(parameter ↦ point of the rebuilt edge, its parameter range): the 3D
+    curve itself where it is exact; else chord length along it, each point
+    put on both surfaces."""
+    if exact:
+        def point(t: float) -> tuple[float, float, float]:
+            x: tuple[float, float, float] = curve.Value(t).Coord()
+            return x
+        return point, first, last
+    # an approximated intersection, its parameter perhaps running at very
+    # uneven speed: the rebuilt edge is parametrised by chord length and
+    # its points put on both surfaces
+    tt = np.linspace(first, last, 1025)
+    dense = np.array([curve.Value(t).Coord() for t in tt.tolist()])
+    length = np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.diff(dense, axis=0),
+                                                              axis=1))])
+    walk = [_Projector(s) for s in surfaces]
+
+    def on_both(s: float) -> tuple[float, float, float]:
+        return _on_both(walk[0], walk[1],
+                        curve.Value(float(np.interp(s, length, tt))).Coord())
+    return on_both, 0.0, float(length[-1])
+
+
+def _interpolated_3d(o: Any, pts: list[_EdgeSample], params: FloatArray) -> Any:
+    """A 3D curve through the sampled points at ``params``."""
+    from OCP.collections import HArray1_double, HArray1_gp_Pnt
+
+    arr, par = HArray1_gp_Pnt(1, len(params)), HArray1_double(1, len(params))
+    for i, (p, t) in enumerate(zip(pts, params.tolist()), 1):
+        arr.SetValue(i, o.gp.gp_Pnt(*p[0]))
+        par.SetValue(i, t)
+    it = o.GeomAPI.GeomAPI_Interpolate(arr, par, False, tol.step_interp)
+    it.Perform()
+    if not it.IsDone():
+        raise ExportError("exact STEP export: OCCT could not interpolate an edge")
+    return it.Curve()
+
+
+def _midpoint_errors(curve: Any, pcs: list[Any], surfaces: list[Any],
+                     params: FloatArray) -> FloatArray:
+    """The largest distance (mm) between the 3D curve and the p-curves' points
+    at the midpoint of each interval of ``params`` (where it is largest)."""
+    mids = 0.5 * (params[:-1] + params[1:])
+    err = np.zeros(len(mids))
+    for pc, s in zip(pcs, surfaces):
+        for i, t in enumerate(mids.tolist()):
+            uv = pc.Value(t)
+            err[i] = max(err[i], curve.Value(t).Distance(s.Value(uv.X(), uv.Y())))
+    return err
+
+
+def _refined(params: FloatArray, err: FloatArray, fit: float) -> FloatArray | None:
+    """``params`` with every interval that misses ``fit`` split, or None
+    when none does or the split would pass EDGE_MAX_POINTS."""
+    bad = np.flatnonzero(err > fit)
+    if len(bad) == 0:
+        return None
+    # cubic interpolation's error falls as h⁴: split each interval that
+    # misses into as many as should meet the fit, with a margin
+    pieces = np.maximum(2, np.ceil(1.25 * (err[bad] / fit) ** 0.25)).astype(int)
+    if len(params) + int(np.sum(pieces - 1)) > EDGE_MAX_POINTS:
+        return None
+    extra = [params[i] + (params[i + 1] - params[i]) * np.arange(1, k) / k
+             for i, k in zip(bad.tolist(), pieces.tolist())]
+    return np.sort(np.concatenate([params, *extra]))
+
+
+def _rebuild(o: Any, builder: Any, e: Any, faces: list[Any], fit: float) -> int:
     """Rebuild edge ``e`` between two faces so that its 3D curve and p-curves
     agree within ``fit`` (mm) where interpolation through ≤ EDGE_MAX_POINTS
     points can: points on both surfaces (on the 3D curve itself where it is
@@ -616,7 +704,6 @@ def _rebuild(o, builder, e, faces, fit: float) -> int:
     misses ``fit`` until none does. Returns the number of points used."""
     from OCP.BRep import BRep_Tool
     from OCP.BRepAdaptor import BRepAdaptor_Curve
-    from OCP.collections import HArray1_double, HArray1_gp_Pnt
     from OCP.GeomAbs import GeomAbs_Circle, GeomAbs_Ellipse, GeomAbs_Line
 
     first, last = BRep_Tool.Range_s(e)
@@ -625,24 +712,8 @@ def _rebuild(o, builder, e, faces, fit: float) -> int:
     surfaces = [BRep_Tool.Surface_s(f) for f in faces]
     olds = [BRep_Tool.CurveOnSurface_s(e, f, 0.0, 0.0) for f in faces]
     projectors = [_Projector(s) for s in surfaces]
-    if exact:
-        def point(t):
-            return curve.Value(t).Coord()
-        lo, hi = first, last
-    else:
-        # an approximated intersection, its parameter perhaps running at very
-        # uneven speed: the rebuilt edge is parametrised by chord length and
-        # its points put on both surfaces
-        tt = np.linspace(first, last, 1025)
-        dense = np.array([curve.Value(t).Coord() for t in tt.tolist()])
-        length = np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.diff(dense, axis=0),
-                                                                  axis=1))])
-        walk = [_Projector(s) for s in surfaces]
-
-        def point(s):
-            return _on_both(*walk, curve.Value(float(np.interp(s, length, tt))).Coord())
-        lo, hi = 0.0, float(length[-1])
-    cache: dict = {}
+    point, lo, hi = _edge_sampler(curve, surfaces, first, last, exact)
+    cache: dict[float, _EdgeSample] = {}
     params = np.linspace(lo, hi, 33)
     while True:
         for t in params.tolist():
@@ -650,36 +721,13 @@ def _rebuild(o, builder, e, faces, fit: float) -> int:
                 x = point(t)
                 cache[t] = (x, projectors[0](x)[:2], projectors[1](x)[:2])
         pts = [cache[t] for t in params.tolist()]
-        new = curve
-        if not exact:
-            arr, par = HArray1_gp_Pnt(1, len(params)), HArray1_double(1, len(params))
-            for i, (p, t) in enumerate(zip(pts, params.tolist()), 1):
-                arr.SetValue(i, o.gp.gp_Pnt(*p[0]))
-                par.SetValue(i, t)
-            it = o.GeomAPI.GeomAPI_Interpolate(arr, par, False, 1e-12)
-            it.Perform()
-            if not it.IsDone():
-                raise ExportError("exact STEP export: OCCT could not interpolate an edge")
-            new = it.Curve()
-        pcs = [_interpolated_2d(s, [p[k + 1] for p in pts], params, old, first)
+        new = curve if exact else _interpolated_3d(o, pts, params)
+        pcs = [_interpolated_2d(s, np.array([p[k + 1] for p in pts]), params, old, first)
                for k, (s, old) in enumerate(zip(surfaces, olds))]
-        mids = 0.5 * (params[:-1] + params[1:])
-        err = np.zeros(len(mids))
-        for pc, s in zip(pcs, surfaces):  # between the points, where it is largest
-            for i, t in enumerate(mids.tolist()):
-                uv = pc.Value(t)
-                err[i] = max(err[i], new.Value(t).Distance(s.Value(uv.X(), uv.Y())))
-        bad = np.flatnonzero(err > fit)
-        if len(bad) == 0:
+        refined = _refined(params, _midpoint_errors(new, pcs, surfaces, params), fit)
+        if refined is None:
             break
-        # cubic interpolation's error falls as h⁴: split each interval that
-        # misses into as many as should meet the fit, with a margin
-        pieces = np.maximum(2, np.ceil(1.25 * (err[bad] / fit) ** 0.25)).astype(int)
-        if len(params) + int(np.sum(pieces - 1)) > EDGE_MAX_POINTS:
-            break
-        extra = [params[i] + (params[i + 1] - params[i]) * np.arange(1, k) / k
-                 for i, k in zip(bad.tolist(), pieces.tolist())]
-        params = np.sort(np.concatenate([params, *extra]))
+        params = refined
     t = BRep_Tool.Tolerance_s(e)
     if not exact:
         builder.UpdateEdge(e, new, t)

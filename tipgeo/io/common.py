@@ -10,16 +10,20 @@ from __future__ import annotations
 
 import math
 import os
+from collections.abc import Iterable
 from numbers import Real
 from pathlib import Path
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING, Any, cast
 
 import numpy as np
 
+from ..arrays import FloatArray, IntArray
 from ..errors import ExportError, SpecError
 from .registry import ExportOptions
 
 if TYPE_CHECKING:
+    import trimesh
+
     from ..tip import Tip
 
 __all__ = [
@@ -53,7 +57,8 @@ def check_tip(tip: object) -> None:
     if not all(hasattr(tip, a) for a in ("vertices", "faces", "label_ids", "label_names",
                                          "spec", "meta")):
         raise SpecError(f"tip = {type(tip).__name__} is not a Tip")
-    v, f, lab = tip.vertices, tip.faces, tip.label_ids
+    t = cast("Tip", tip)  # has every attribute a writer reads (checked above)
+    v, f, lab = t.vertices, t.faces, t.label_ids
     if v.ndim != 2 or v.shape[1] != 3 or f.ndim != 2 or f.shape[1] != 3 or len(f) == 0:
         raise SpecError(f"tip has vertices of shape {v.shape} and faces of shape {f.shape}; "
                         f"expected (n, 3) and (m, 3) with m ≥ 1")
@@ -62,11 +67,16 @@ def check_tip(tip: object) -> None:
     if f.min() < 0 or f.max() >= len(v):
         raise SpecError(f"tip.faces index vertices {int(f.min())}…{int(f.max())}; allowed "
                         f"0…{len(v) - 1}")
-    if lab.shape != (len(f),) or (len(lab) and (lab.min() < 0 or
-                                                lab.max() >= len(tip.label_names))):
-        raise SpecError(f"tip.label_ids must have shape ({len(f)},) with values in "
-                        f"0…{len(tip.label_names) - 1}")
-    for n in tip.label_names:
+    _check_labels(lab, t.label_names, len(f))
+
+
+def _check_labels(lab: IntArray, names: tuple[str, ...], n_faces: int) -> None:
+    """SpecError unless there is one label id per face, each naming one of
+    ``names``, and every name is a non-empty one-line str."""
+    if lab.shape != (n_faces,) or (len(lab) and (lab.min() < 0 or lab.max() >= len(names))):
+        raise SpecError(f"tip.label_ids must have shape ({n_faces},) with values in "
+                        f"0…{len(names) - 1}")
+    for n in names:
         if not isinstance(n, str) or not n or "\n" in n or "\r" in n:
             raise SpecError(f"label name {n!r} is invalid; expected a non-empty str without "
                             f"line breaks")
@@ -90,18 +100,19 @@ def check_ref_point(ref: object) -> str | tuple[float, float, float]:
             return ref
     else:
         try:
-            vals = tuple(ref)  # type: ignore[arg-type]
-        except TypeError:
+            vals: tuple[object, ...] = tuple(cast(Iterable[object], ref))
+        except TypeError:  # not iterable
             vals = ()
-        if (len(vals) == 3 and all(isinstance(x, Real) and not isinstance(x, bool)
-                                   and math.isfinite(float(x)) for x in vals)):
-            return (float(vals[0]), float(vals[1]), float(vals[2]))
+        nums = [float(x) for x in vals if isinstance(x, Real) and not isinstance(x, bool)]
+        if len(vals) == 3 and len(nums) == 3 and all(math.isfinite(x) for x in nums):
+            return (nums[0], nums[1], nums[2])
     raise SpecError(f"ref_point = {ref!r} is invalid; allowed: 'centroid', 'top' or three finite "
                     f"numbers (x, y, z) in mm")
 
 
 def tip_scene(tip: Tip, opts: ExportOptions, with_labels: bool,
-              transform: np.ndarray | None = None, info: dict[str, Any] | None = None):
+              transform: FloatArray | None = None,
+              info: dict[str, Any] | None = None) -> trimesh.Scene:
     """The tip as a one-mesh ``trimesh.Scene``, the mesh and its node named
     ``opts.name``: vertices in mm and the cannula frame, or mapped by the 4×4
     ``transform`` (cannula mm → file coordinates) when given. With

@@ -13,7 +13,7 @@ import os
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
 from ..atomic import write_atomic
 from ..errors import SpecError, TipGeoError
@@ -129,7 +129,7 @@ def export_tip(tip: Tip, path: str | os.PathLike[str], *, binary: bool = True,
     return p
 
 
-def check_export(tip: Tip, path: str | os.PathLike[str], **options) -> Path:
+def check_export(tip: Tip, path: str | os.PathLike[str], **options: Any) -> Path:
     """Check, without writing, that :func:`export_tip` could write ``tip`` to
     ``path`` with ``options`` (the same keywords): the tip, the path, the
     options, and the format's pre-flight check (OCP present for STEP, the
@@ -147,9 +147,9 @@ def check_export(tip: Tip, path: str | os.PathLike[str], **options) -> Path:
     return p
 
 
-def guarded_export(tip: Tip, path: str | os.PathLike[str], *, failed: list[dict],
+def guarded_export(tip: Tip, path: str | os.PathLike[str], *, failed: list[dict[str, Any]],
                    on_error: Callable[[Path, Exception], None] | None = None,
-                   dry_run: bool = False, **options) -> bool:
+                   dry_run: bool = False, **options: Any) -> bool:
     """Check (``dry_run``, as :func:`check_export`) or write (as
     :func:`export_tip`) the one mesh output of a command that writes several
     files (a mesh in the cannula frame, mm).
@@ -181,7 +181,7 @@ class ExportReport:
 
 def export_many(tip: Tip, paths: Sequence[str | os.PathLike[str]], *,
                 on_error: Callable[[Path, Exception], None] | None = None,
-                **options) -> ExportReport:
+                **options: Any) -> ExportReport:
     """Write ``tip`` to several files (each as :func:`export_tip` would, with
     ``options``), telling what cannot be written before writing the others.
 
@@ -219,7 +219,8 @@ def export_many(tip: Tip, paths: Sequence[str | os.PathLike[str]], *,
     return report
 
 
-def _checked(tip, path, *, binary: bool = True, name: str | None = None,
+def _checked(tip: Tip, path: str | os.PathLike[str], *, binary: bool = True,
+             name: str | None = None,
              ref_point: str | Sequence[float] = "centroid", gltf_units: str = "m",
              gltf_up: str = "y", step_form: str = "auto") -> tuple[Path, ExportOptions]:
     check_tip(tip)

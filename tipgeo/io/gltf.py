@@ -26,6 +26,7 @@ from pathlib import Path
 
 import numpy as np
 
+from ..arrays import FloatArray
 from ..errors import SpecError
 from ..tip import Tip
 from .common import tip_scene
@@ -36,7 +37,7 @@ __all__ = ["GLTF_UNITS", "GLTF_UP", "gltf_transform", "write_glb"]
 
 
 
-def gltf_transform(units: str, up: str) -> np.ndarray:
+def gltf_transform(units: str, up: str) -> FloatArray:
     """The 4×4 matrix taking cannula-frame points in mm to GLB file
     coordinates (``units``, needle axis along +``up``); see the module table."""
     if units not in GLTF_UNITS:
@@ -64,7 +65,7 @@ def write_glb(tip: Tip, tmp: Path, opts: ExportOptions) -> None:
             "axes": f"file {axes} of the cannula frame",
             "to_cannula_mm": (np.linalg.inv(to_file) + 0.0).ravel().tolist()}  # no -0.0
     scene = tip_scene(tip, opts, with_labels=True, transform=to_file, info=info)
-    data = export_glb(scene, include_normals=False)
+    data = export_glb(scene, include_normals=False)  # type: ignore[no-untyped-call]  # trimesh's export_glb has no annotations
     with open(tmp, "wb") as fh:
         fh.write(data)
 

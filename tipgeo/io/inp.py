@@ -28,6 +28,7 @@ from pathlib import Path
 
 import numpy as np
 
+from ..arrays import IntArray
 from ..tip import Tip
 from ..tolerances import tol
 from .common import FRAME_NOTE
@@ -101,7 +102,7 @@ def write_inp(tip: Tip, tmp: Path, opts: ExportOptions) -> None:
     rx, ry, rz = ref_point(tip, opts.ref_point)
     ref_id = n + 1
 
-    def id_lines(ids: np.ndarray) -> str:
+    def id_lines(ids: IntArray) -> str:
         if len(ids) and ids[-1] - ids[0] + 1 == len(ids):  # contiguous: generate
             return f", GENERATE\n{ids[0]}, {ids[-1]}, 1\n"
         rows = [", ".join(map(str, ids[i:i + 16].tolist())) for i in range(0, len(ids), 16)]

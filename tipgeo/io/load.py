@@ -16,8 +16,10 @@ from typing import Any
 
 import numpy as np
 
+from ..arrays import ArrayLike, FloatArray, IntArray
 from ..errors import SpecError
 from ..tip import Tip
+from ..tolerances import tol
 from .common import as_path
 from .registry import IMPORTERS, LoadedMesh
 
@@ -65,6 +67,38 @@ def load_tip(path: str | os.PathLike[str], *, units: str | None = None) -> Tip:
         unreadable, holds no triangles, has non-finite vertices or faces
         indexing missing vertices.
     """
+    p = _checked_path(path, units)
+    ext = p.suffix.lower()
+    try:
+        mesh = IMPORTERS[ext](p)
+    except SpecError:
+        raise
+    except Exception as exc:
+        raise SpecError(f"path '{p}' could not be read as {ext}: "
+                        f"{type(exc).__name__}: {exc}") from exc
+
+    if mesh.units is not None and units is not None and units != mesh.units:
+        raise SpecError(f"units = {units!r} contradicts the unit the file '{p}' declares "
+                        f"({mesh.units!r}); leave units out to use the file's")
+    units = units or mesh.units or "mm"
+    v, f = _checked_mesh(mesh, p)
+    labels_from_file = mesh.label_ids is not None
+    if mesh.label_ids is not None:
+        lab = np.asarray(mesh.label_ids, dtype=np.int64)
+        names = tuple(mesh.label_names)
+    else:
+        lab, names = np.zeros(len(f), dtype=np.int64), (UNLABELLED,)
+    meta: dict[str, Any] = {"path": str(p), "format": ext[1:], "file_units": units,
+                            "labels_from_file": labels_from_file}
+    if mesh.name:
+        meta["name"] = mesh.name
+    return Tip(vertices=v * UNITS[units], faces=f, label_ids=lab, label_names=names,
+               source=p.name, meta=meta)
+
+
+def _checked_path(path: str | os.PathLike[str], units: str | None) -> Path:
+    """``path`` once it names an existing, non-empty regular file with an
+    importable extension and ``units`` is known."""
     p = as_path(path)
     if units is not None and (not isinstance(units, str) or units not in UNITS):
         raise SpecError(f"units = {units!r} is not supported; allowed: "
@@ -83,18 +117,12 @@ def load_tip(path: str | os.PathLike[str], *, units: str | None = None) -> Tip:
         raise SpecError(f"path '{p}' cannot be read: {exc}") from exc
     if size == 0:
         raise SpecError(f"path '{p}' is empty (0 bytes); expected a {ext} mesh")
-    try:
-        mesh = IMPORTERS[ext](p)
-    except SpecError:
-        raise
-    except Exception as exc:
-        raise SpecError(f"path '{p}' could not be read as {ext}: "
-                        f"{type(exc).__name__}: {exc}") from exc
+    return p
 
-    if mesh.units is not None and units is not None and units != mesh.units:
-        raise SpecError(f"units = {units!r} contradicts the unit the file '{p}' declares "
-                        f"({mesh.units!r}); leave units out to use the file's")
-    units = units or mesh.units or "mm"
+
+def _checked_mesh(mesh: LoadedMesh, p: Path) -> tuple[FloatArray, IntArray]:
+    """The mesh's (n, 3) float64 vertices and (m ≥ 1, 3) int64 faces, finite
+    and indexing existing vertices."""
     v = np.asarray(mesh.vertices, dtype=np.float64).reshape(-1, 3)
     f = np.asarray(mesh.faces, dtype=np.int64).reshape(-1, 3)
     if len(f) == 0:
@@ -104,22 +132,11 @@ def load_tip(path: str | os.PathLike[str], *, units: str | None = None) -> Tip:
     if f.min() < 0 or f.max() >= len(v):
         raise SpecError(f"path '{p}': faces index vertices {int(f.min())}…{int(f.max())}; "
                         f"the file has {len(v)} vertices")
-    labels_from_file = mesh.label_ids is not None
-    if labels_from_file:
-        lab = np.asarray(mesh.label_ids, dtype=np.int64)
-        names = tuple(mesh.label_names)
-    else:
-        lab, names = np.zeros(len(f), dtype=np.int64), (UNLABELLED,)
-    meta: dict[str, Any] = {"path": str(p), "format": ext[1:], "file_units": units,
-                            "labels_from_file": labels_from_file}
-    if mesh.name:
-        meta["name"] = mesh.name
-    return Tip(vertices=v * UNITS[units], faces=f, label_ids=lab, label_names=names,
-               source=p.name, meta=meta)
+    return v, f
 
 
-def labels_from_ids(ids: np.ndarray, named: dict[int, str], n_faces: int,
-                    where: str) -> tuple[np.ndarray, tuple[str, ...]]:
+def labels_from_ids(ids: ArrayLike, named: dict[int, str], n_faces: int,
+                    where: str) -> tuple[IntArray, tuple[str, ...]]:
     """Face labels read from a file (ids ≥ 0, one per face) and their names:
     ``named`` where given, ``label<k>`` for the other ids up to the largest.
     SpecError (naming ``where``) for a wrong count or implausible ids."""
@@ -143,27 +160,13 @@ def read_trimesh(p: Path) -> LoadedMesh:
     turn back to the cannula frame only from the ``extras`` of a GLB written
     by :func:`~tipgeo.io.export_tip`. STL vertices are merged where
     bit-identical."""
-    import trimesh
-
-    loaded = trimesh.load(str(p), file_type=p.suffix.lower()[1:], process=False)
-    parts: list[tuple[np.ndarray, Any, str | None]] = []
-    if isinstance(loaded, trimesh.Scene):
-        for node in loaded.graph.nodes_geometry:
-            transform, gname = loaded.graph[node]
-            g = loaded.geometry[gname]
-            if isinstance(g, trimesh.Trimesh) and len(g.faces):
-                v = np.asarray(g.vertices, dtype=np.float64)
-                if not np.array_equal(transform, np.eye(4)):
-                    v = trimesh.transform_points(v, transform)
-                parts.append((v, g, gname))
-    elif isinstance(loaded, trimesh.Trimesh):
-        parts.append((np.asarray(loaded.vertices, dtype=np.float64), loaded, None))
+    parts = _trimesh_parts(p)
     if not parts:
         raise SpecError(f"path '{p}' holds no triangle mesh")
     vs, fs, ls, names = [], [], [], []
     offset, any_labels, name, declared = 0, False, None, set()
     for v, g, gname in parts:
-        f = np.asarray(g.faces, dtype=np.int64)
+        f: IntArray = np.asarray(g.faces, dtype=np.int64)
         unit, rot = _trimesh_frame(g)
         if unit is not None:
             declared.add(unit)
@@ -195,7 +198,28 @@ def read_trimesh(p: Path) -> LoadedMesh:
     return mesh
 
 
-def _trimesh_frame(g) -> tuple[str | None, np.ndarray]:
+def _trimesh_parts(p: Path) -> list[tuple[FloatArray, Any, object]]:
+    """The non-empty triangle meshes trimesh reads from ``p``: (vertices placed
+    by their node transform, the trimesh mesh, its node's geometry name)."""
+    import trimesh
+
+    loaded = trimesh.load(str(p), file_type=p.suffix.lower()[1:], process=False)
+    parts: list[tuple[FloatArray, Any, object]] = []
+    if isinstance(loaded, trimesh.Scene):
+        for node in loaded.graph.nodes_geometry:
+            transform, gname = loaded.graph[node]
+            g = loaded.geometry[gname]
+            if isinstance(g, trimesh.Trimesh) and len(g.faces):
+                v = np.asarray(g.vertices, dtype=np.float64)
+                if not np.array_equal(transform, np.eye(4)):
+                    v = trimesh.transform_points(v, transform)
+                parts.append((v, g, gname))
+    elif isinstance(loaded, trimesh.Trimesh):
+        parts.append((np.asarray(loaded.vertices, dtype=np.float64), loaded, None))
+    return parts
+
+
+def _trimesh_frame(g: Any) -> tuple[str | None, FloatArray]:
     """The unit a GLB written by export_tip declares and the rotation from its
     axes to the cannula frame's (``None`` and the identity otherwise)."""
     info = g.metadata.get("tipgeo") if isinstance(g.metadata, dict) else None
@@ -207,16 +231,18 @@ def _trimesh_frame(g) -> tuple[str | None, np.ndarray]:
         rot = m.reshape(4, 4)[:3, :3] / UNITS[unit]
     except (TypeError, ValueError):
         return None, np.eye(3)
-    if not np.allclose(rot @ rot.T, np.eye(3), atol=1e-12) or np.linalg.det(rot) < 0:
+    if not np.allclose(rot @ rot.T, np.eye(3), atol=tol.mesh_rotation) or np.linalg.det(rot) < 0:
         raise SpecError(f"tipgeo.to_cannula_mm in the file's extras is not a rotation scaled by "
                         f"its unit {unit!r}")
     exact = np.round(rot)  # an axis permutation (what export_tip writes), exactly
-    return unit, exact if np.allclose(exact, rot, atol=1e-12) else rot
+    return unit, exact if np.allclose(exact, rot, atol=tol.mesh_rotation) else rot
 
 
-def _trimesh_labels(g, n_faces: int) -> tuple[np.ndarray | None, tuple[str, ...]]:
+def _trimesh_labels(g: Any, n_faces: int) -> tuple[IntArray | None, tuple[str, ...]]:
     """Labels a GLB written by export_tip keeps in the mesh extras."""
     info = g.metadata.get("tipgeo") if isinstance(g.metadata, dict) else None
+    if not isinstance(info, dict):
+        return None, ()
     try:
         names = tuple(str(n) for n in info["label_names"])
         runs = np.asarray(info["label_runs"], dtype=np.int64).reshape(-1, 2)
@@ -228,7 +254,7 @@ def _trimesh_labels(g, n_faces: int) -> tuple[np.ndarray | None, tuple[str, ...]
         return None, ()
 
 
-def _merge_identical(v: np.ndarray, f: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+def _merge_identical(v: FloatArray, f: IntArray) -> tuple[FloatArray, IntArray]:
     """Merge bit-identical vertices (STL repeats them per triangle), keeping
     the order of first use."""
     uniq, first, inv = np.unique(v, axis=0, return_index=True, return_inverse=True)

@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import re
 from collections.abc import Sequence
+from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
@@ -56,6 +57,66 @@ def write_obj(tip: Tip, tmp: Path, opts: ExportOptions) -> None:
             fh.write("".join(f"f {a} {b} {c}\n" for a, b, c in f[s:e].tolist()))
 
 
+@dataclass
+class _ObjReader:
+    """The state of reading an OBJ written here: label names from ``# label``
+    comments, the mesh name, vertex lines, triangles and their labels."""
+
+    where: str
+    named: dict[int, str] = field(default_factory=dict)
+    name: str | None = None
+    vs: list[str] = field(default_factory=list)
+    faces: list[list[int]] = field(default_factory=list)
+    fl: list[int] = field(default_factory=list)
+    group: int | None = None
+
+    def comment(self, line: str) -> None:
+        parts = line[1:].split(None, 2)
+        if len(parts) == 3 and parts[0] == "label" and parts[1].isdigit():
+            self.named[int(parts[1])] = parts[2].strip()
+        elif len(parts) >= 2 and parts[0] == "name":
+            self.name = line[1:].split(None, 1)[1].strip()
+
+    def face(self, rest: str, ln: int) -> None:
+        """A face line, fan-triangulated, each triangle with the group's label."""
+        idx = []
+        for t in rest.split():
+            k = int(t.split("/", 1)[0])
+            idx.append(k - 1 if k > 0 else len(self.vs) + k)
+        if len(idx) < 3:
+            raise SpecError(f"path '{self.where}' line {ln}: face with {len(idx)} vertices")
+        for j in range(1, len(idx) - 1):  # fan-triangulate polygons
+            self.faces.append([idx[0], idx[j], idx[j + 1]])
+            self.fl.append(-1 if self.group is None else self.group)
+
+    def line(self, line: str, ln: int) -> None:
+        if not line or line.startswith("#"):
+            self.comment(line)
+            return
+        tag, _, rest = line.partition(" ")
+        if tag == "v":
+            self.vs.append(rest)
+        elif tag == "f":
+            self.face(rest, ln)
+        elif tag == "g":
+            self.group = _obj_group_id(rest.strip(), self.named)
+
+    def mesh(self) -> LoadedMesh:
+        p = self.where
+        if not self.vs:
+            raise SpecError(f"path '{p}' has no vertices")
+        vals = np.array(" ".join(self.vs).split(), dtype=np.float64)
+        if len(vals) != 3 * len(self.vs):
+            raise SpecError(f"path '{p}': vertex lines must hold exactly x y z")
+        mesh = LoadedMesh(vals.reshape(-1, 3),
+                          np.array(self.faces, dtype=np.int64).reshape(-1, 3), name=self.name)
+        labels = np.array(self.fl, dtype=np.int64)
+        if len(labels) and labels.min() >= 0:
+            mesh.label_ids, mesh.label_names = labels_from_ids(labels, self.named, len(labels),
+                                                               f"path '{p}'")
+        return mesh
+
+
 def read_obj(p: Path) -> LoadedMesh:
     """Read an OBJ written by :func:`write_obj` directly (groups and ``# label``
     comments give the labels; polygons are fan-triangulated), any other OBJ
@@ -65,47 +126,10 @@ def read_obj(p: Path) -> LoadedMesh:
     if not first.decode("utf-8", "replace").startswith(OBJ_MAGIC):
         return read_trimesh(p)  # not ours: no labels
     text = p.read_text(encoding="utf-8", errors="replace")
-    named: dict[int, str] = {}
-    name = None
-    vs: list[str] = []
-    faces: list[list[int]] = []
-    fl: list[int] = []
-    group = None
+    reader = _ObjReader(str(p))
     for ln, line in enumerate(text.splitlines(), 1):
-        if not line or line.startswith("#"):
-            parts = line[1:].split(None, 2)
-            if len(parts) == 3 and parts[0] == "label" and parts[1].isdigit():
-                named[int(parts[1])] = parts[2].strip()
-            elif len(parts) >= 2 and parts[0] == "name":
-                name = line[1:].split(None, 1)[1].strip()
-            continue
-        tag, _, rest = line.partition(" ")
-        if tag == "v":
-            vs.append(rest)
-        elif tag == "f":
-            idx = []
-            for t in rest.split():
-                k = int(t.split("/", 1)[0])
-                idx.append(k - 1 if k > 0 else len(vs) + k)
-            if len(idx) < 3:
-                raise SpecError(f"path '{p}' line {ln}: face with {len(idx)} vertices")
-            for j in range(1, len(idx) - 1):  # fan-triangulate polygons
-                faces.append([idx[0], idx[j], idx[j + 1]])
-                fl.append(-1 if group is None else group)
-        elif tag == "g":
-            group = _obj_group_id(rest.strip(), named)
-    if not vs:
-        raise SpecError(f"path '{p}' has no vertices")
-    vals = np.array(" ".join(vs).split(), dtype=np.float64)
-    if len(vals) != 3 * len(vs):
-        raise SpecError(f"path '{p}': vertex lines must hold exactly x y z")
-    mesh = LoadedMesh(vals.reshape(-1, 3), np.array(faces, dtype=np.int64).reshape(-1, 3),
-                      name=name)
-    labels = np.array(fl, dtype=np.int64)
-    if len(labels) and labels.min() >= 0:
-        mesh.label_ids, mesh.label_names = labels_from_ids(labels, named, len(labels),
-                                                           f"path '{p}'")
-    return mesh
+        reader.line(line, ln)
+    return reader.mesh()
 
 
 def _obj_group_id(token: str, named: dict[int, str]) -> int:

@@ -11,10 +11,12 @@ without labels.
 
 from __future__ import annotations
 
+from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
 
+from ..arrays import AnyArray
 from ..errors import SpecError
 from ..tip import Tip
 from .common import FRAME_NOTE, ExportError
@@ -79,6 +81,54 @@ def read_ply(p: Path) -> LoadedMesh:
         return read_trimesh(p)
 
 
+#: A PLY property: (name, numpy type) or, for a list, (name, count type, item type).
+_Prop = tuple[str, ...]
+_Element = tuple[str, int, list[_Prop]]
+
+
+@dataclass
+class _PlyHeader:
+    """What a PLY header says: its format, elements, label names (``comment
+    label <id> <name>``), mesh name (``comment name``)."""
+
+    fmt: str | None = None
+    elements: list[_Element] = field(default_factory=list)
+    named: dict[int, str] = field(default_factory=dict)
+    name: str | None = None
+
+    def comment(self, line: str, tok: list[str]) -> None:
+        rest = line.split(None, 1)[1] if len(tok) > 1 else ""
+        parts = rest.split(None, 2)
+        if len(parts) == 3 and parts[0] == "label" and parts[1].isdigit():
+            self.named[int(parts[1])] = parts[2].strip()
+        elif len(parts) >= 2 and parts[0] == "name":
+            self.name = rest.split(None, 1)[1].strip()
+
+    def prop(self, tok: list[str], where: str) -> None:
+        if not self.elements:
+            raise SpecError(f"path '{where}': PLY property before any element")
+        if tok[1] == "list":
+            self.elements[-1][2].append((tok[4], _PLY_TYPES[tok[2]], _PLY_TYPES[tok[3]]))
+        else:
+            self.elements[-1][2].append((tok[2], _PLY_TYPES[tok[1]]))
+
+    def line(self, line: str, where: str) -> None:
+        tok = line.split()
+        if not tok:
+            return
+        if tok[0] == "format":
+            self.fmt = tok[1]
+        elif tok[0] == "comment":
+            self.comment(line, tok)
+        elif tok[0] == "element":
+            self.elements.append((tok[1], int(tok[2]), []))
+        elif tok[0] == "property":
+            self.prop(tok, where)
+
+
+_BYTE_ORDERS = {"binary_little_endian": "<", "binary_big_endian": ">"}
+
+
 def _parse_ply(data: bytes, where: str) -> LoadedMesh:
     if not data.startswith(b"ply"):
         raise SpecError(f"path '{where}' is not a PLY file (it does not start with 'ply')")
@@ -86,57 +136,42 @@ def _parse_ply(data: bytes, where: str) -> LoadedMesh:
     if end < 0:
         raise SpecError(f"path '{where}': PLY header has no 'end_header' line")
     body = data.index(b"\n", end) + 1
-    header = data[:end].decode("utf-8", "replace").splitlines()
-    fmt = None
-    elements: list[tuple[str, int, list[tuple]]] = []
-    named: dict[int, str] = {}
-    name = None
-    for line in header[1:]:
-        tok = line.split()
-        if not tok:
-            continue
-        if tok[0] == "format":
-            fmt = tok[1]
-        elif tok[0] == "comment":
-            rest = line.split(None, 1)[1] if len(tok) > 1 else ""
-            parts = rest.split(None, 2)
-            if len(parts) == 3 and parts[0] == "label" and parts[1].isdigit():
-                named[int(parts[1])] = parts[2].strip()
-            elif len(parts) >= 2 and parts[0] == "name":
-                name = rest.split(None, 1)[1].strip()
-        elif tok[0] == "element":
-            elements.append((tok[1], int(tok[2]), []))
-        elif tok[0] == "property":
-            if not elements:
-                raise SpecError(f"path '{where}': PLY property before any element")
-            if tok[1] == "list":
-                elements[-1][2].append((tok[4], _PLY_TYPES[tok[2]], _PLY_TYPES[tok[3]]))
-            else:
-                elements[-1][2].append((tok[2], _PLY_TYPES[tok[1]]))
-    order = {"binary_little_endian": "<", "binary_big_endian": ">", "ascii": None}
-    if fmt not in order:
-        raise SpecError(f"path '{where}': PLY format {fmt!r} unknown; expected ascii, "
+    h = _PlyHeader()
+    for line in data[:end].decode("utf-8", "replace").splitlines()[1:]:
+        h.line(line, where)
+    if h.fmt == "ascii":
+        arrays = _ply_ascii(data[body:], h.elements)
+    elif h.fmt in _BYTE_ORDERS:
+        arrays = _ply_binary(data, body, h.elements, _BYTE_ORDERS[h.fmt])
+    else:
+        raise SpecError(f"path '{where}': PLY format {h.fmt!r} unknown; expected ascii, "
                         f"binary_little_endian or binary_big_endian")
-    arrays = (_ply_binary(data, body, elements, order[fmt]) if fmt != "ascii"
-              else _ply_ascii(data[body:], elements))
+    return _ply_mesh(arrays, h, where)
+
+
+def _ply_mesh(arrays: dict[str, AnyArray], h: _PlyHeader, where: str) -> LoadedMesh:
+    """The triangle mesh (and labels) of a PLY's vertex and face elements;
+    :class:`_Unsupported` for another layout."""
     if "vertex" not in arrays or "face" not in arrays:
         raise _Unsupported
     vert, face = arrays["vertex"], arrays["face"]
     if not {"x", "y", "z"} <= set(vert.dtype.names or ()):
         raise _Unsupported
-    lists = [n for n in face.dtype.names if n in ("vertex_indices", "vertex_index")]
+    names = face.dtype.names or ()
+    lists = [n for n in names if n in ("vertex_indices", "vertex_index")]
     if not lists or face[lists[0]].shape[1:] != (3,):
         raise _Unsupported  # polygons: let trimesh triangulate (labels are then dropped)
     v = np.column_stack([vert["x"], vert["y"], vert["z"]]).astype(np.float64)
     f = face[lists[0]].astype(np.int64)
-    mesh = LoadedMesh(v, f, name=name)
-    if "label" in face.dtype.names:
-        mesh.label_ids, mesh.label_names = labels_from_ids(face["label"], named, len(f),
+    mesh = LoadedMesh(v, f, name=h.name)
+    if "label" in names:
+        mesh.label_ids, mesh.label_names = labels_from_ids(face["label"], h.named, len(f),
                                                            f"path '{where}'")
     return mesh
 
 
-def _ply_binary(data: bytes, pos: int, elements, bo: str) -> dict[str, np.ndarray]:
+def _ply_binary(data: bytes, pos: int, elements: list[_Element],
+                bo: str) -> dict[str, AnyArray]:
     out = {}
     for ename, count, props in elements:
         # list properties must hold the same count in every row (triangles)
@@ -166,9 +201,10 @@ def _ply_binary(data: bytes, pos: int, elements, bo: str) -> dict[str, np.ndarra
     return out
 
 
-def _ply_ascii(body: bytes, elements) -> dict[str, np.ndarray]:
+def _ply_ascii(body: bytes, elements: list[_Element]) -> dict[str, AnyArray]:
     lines = body.decode("ascii", "replace").splitlines()
-    out, row = {}, 0
+    out: dict[str, AnyArray] = {}
+    row = 0
     for ename, count, props in elements:
         rows = [ln.split() for ln in lines[row:row + count]]
         row += count

@@ -22,7 +22,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING
 
-import numpy as np
+from ..arrays import AnyArray
 
 if TYPE_CHECKING:
     from ..tip import Tip
@@ -41,8 +41,6 @@ __all__ = [
     "Writer",
     "register_exporter",
     "register_importer",
-    "supported_exports",
-    "supported_imports",
 ]
 
 
@@ -78,9 +76,9 @@ class LoadedMesh:
     the cannula frame, faces indexing them, the labels if the file carries any
     (``label_ids`` ``None`` otherwise) and the unit the file declares."""
 
-    vertices: np.ndarray
-    faces: np.ndarray
-    label_ids: np.ndarray | None = None
+    vertices: AnyArray
+    faces: AnyArray
+    label_ids: AnyArray | None = None
     label_names: tuple[str, ...] = ()
     name: str | None = None
     #: the length unit the file declares itself (a key of
@@ -129,13 +127,3 @@ def register_importer(ext: str, reader: Reader) -> Reader:
     reader already registered for ``ext`` is replaced. Returns ``reader``."""
     IMPORTERS[_check_ext(ext)] = reader
     return reader
-
-
-def supported_exports() -> tuple[str, ...]:
-    """The extensions with a writer, in registration order."""
-    return tuple(EXPORTERS)
-
-
-def supported_imports() -> tuple[str, ...]:
-    """The extensions with a reader, in registration order."""
-    return tuple(IMPORTERS)

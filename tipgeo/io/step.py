@@ -24,6 +24,7 @@ from __future__ import annotations
 
 from pathlib import Path
 from types import SimpleNamespace
+from typing import Any
 
 from ..tip import Tip
 from .brep import exact_solid, exact_supported, ocp_missing
@@ -62,7 +63,7 @@ def _ocp() -> SimpleNamespace:
         TopExp_Explorer=TopExp_Explorer, TopoDS_Shell=TopoDS_Shell, TopoDS_Solid=TopoDS_Solid)
 
 
-def step_solid(tip: Tip):
+def step_solid(tip: Tip) -> Any:
     """The tip as an OCCT solid bounded by one planar face per triangle, the
     faces pointing outwards (mm, cannula frame).
 
@@ -120,9 +121,12 @@ def step_form_for(tip: Tip, form: str = "auto") -> str:
     return "faceted"
 
 
-def _exact(tip: Tip):
-    """The exact solid of a CAD tip, checked against its mesh: the volumes
-    differ by at most the build tolerance times the area."""
+def _exact(tip: Tip) -> Any:
+    """The exact solid of a CAD tip (an OCCT solid, mm), checked against its
+    mesh: the volumes differ by at most the build tolerance times the area."""
+    if tip.spec is None or tip.tolerance is None:
+        raise ExportError("exact STEP export: the tip has no spec or no build tolerance; "
+                          "use step_form='faceted'")
     es = exact_solid(tip.spec, tip.tolerance)
     dv, bound = abs(es.volume - tip.volume), tip.tolerance * tip.area
     if not dv <= bound:

@@ -60,6 +60,7 @@ from typing import Any
 
 import numpy as np
 
+from ..arrays import AnyArray, BoolArray, FloatArray
 from ..errors import TipGeoError
 from ..tolerances import tol
 from .scanio import ScanError
@@ -640,6 +641,35 @@ def _covariance(H, outline, q, w, ctr, sigma, V):
     return cov
 
 
+def _tukey(r: FloatArray, c: float) -> FloatArray:
+    """Tukey's biweight of residuals ``r`` (mm) at cut-off ``c`` (mm)."""
+    u = r / c
+    w: FloatArray = np.where(np.abs(u) < 1, (1 - u * u) ** 2, 0.0)
+    return w
+
+
+def _held(lam: FloatArray, V: FloatArray, fix_rz: bool, fix_tz: bool) -> BoolArray:
+    """The eigen-directions of the Gauss–Newton matrix a step may move
+    along: not degenerate, and (``fix_rz``, a rotationally symmetric tip) not
+    the turn about +z, (``fix_tz``, a scan of the tube alone) not the shift
+    along +z."""
+    keep: BoolArray = lam > tol.inspect.degenerate * lam[-1]
+    for fixed, k in ((fix_rz, 2), (fix_tz, 5)):
+        if fixed:
+            ez = np.zeros(6)
+            ez[k] = 1.0
+            keep &= np.abs(V.T @ ez) < 0.9
+    return keep
+
+
+def _steps_left(sw: float, st: float, prev: tuple[float, float]) -> float:
+    """How many of this step are left to go (≥ 1): ICP converges linearly,
+    a step shrinking by ρ per iteration leaves about ρ/(1 − ρ) of itself."""
+    rho = min(max(sw / prev[0] if prev[0] > 0 else 0.0,
+                  st / prev[1] if prev[1] > 0 else 0.0), 0.99)
+    return max(1.0, rho / (1.0 - rho))
+
+
 def _icp(p, cad, T, iterations, *, fix_rz=False, loose=False, outlines=True,
          anneal: float | None = None, fix_tz=False):
     """Point-to-plane ICP (Gauss–Newton on the exact closest points and
@@ -673,16 +703,14 @@ def _icp(p, cad, T, iterations, *, fix_rz=False, loose=False, outlines=True,
         c_sigma = max(4.685 * sigma, tol.inspect.loss_floor)
         c = min(max(c_sigma, clip), tol.inspect.search_clip)
         annealing = clip > c_sigma
-        u = r / c
-        w = np.where(np.abs(u) < 1, (1 - u * u) ** 2, 0.0)
+        w = _tukey(r, c)
         outline = _outline(cad, q, D, w, c, sigma, not reached) if outlines else None
         reached = reached or outline is not None
         if outline is not None:
             zone, r_z, n_z = outline[:3]
             r, n = r.copy(), n.copy()
             r[zone], n[zone] = r_z, n_z
-            u = r / c
-            w = np.where(np.abs(u) < 1, (1 - u * u) ** 2, 0.0)
+            w = _tukey(r, c)
         ctr = np.average(q, axis=0, weights=w) if w.sum() > 0 else q.mean(axis=0)
         J = np.hstack([np.cross(q - ctr, n), n])
         H = (J * w[:, None]).T @ J
@@ -694,17 +722,7 @@ def _icp(p, cad, T, iterations, *, fix_rz=False, loose=False, outlines=True,
         if not lam[-1] > 0:
             raise ScanError("registration failed: no scan point lies within "
                             f"{c * 1e3:.3g} µm of the CAD surface; is the scan of this tip?")
-        keep = lam > tol.inspect.degenerate * lam[-1]
-        if fix_rz:
-            # a rotationally symmetric tip: the turn about +z is free; hold it
-            ez = np.zeros(6)
-            ez[2] = 1.0
-            keep &= np.abs(V.T @ ez) < 0.9
-        if fix_tz:
-            # a scan of the tube alone: the shift along +z is free too
-            ez = np.zeros(6)
-            ez[5] = 1.0
-            keep &= np.abs(V.T @ ez) < 0.9
+        keep = _held(lam, V, fix_rz, fix_tz)
         x = -V[:, keep] @ ((V[:, keep].T @ g) / lam[keep])
         info["fixed"] = int((~keep).sum())
         info["covariance"] = _covariance(H - (H_o if outline is not None else 0.0),
@@ -720,10 +738,8 @@ def _icp(p, cad, T, iterations, *, fix_rz=False, loose=False, outlines=True,
         # ICP converges linearly: a step shrinking by ρ per iteration leaves
         # about ρ/(1 − ρ) of itself to go, which a weakly held direction (a
         # turn fixed by an outline alone) makes many steps
-        sw, st_ = np.linalg.norm(w_), np.linalg.norm(t_)
-        rho = min(max(sw / prev[0] if prev[0] > 0 else 0.0,
-                      st_ / prev[1] if prev[1] > 0 else 0.0), 0.99)
-        left = max(1.0, rho / (1.0 - rho))
+        sw, st_ = float(np.linalg.norm(w_)), float(np.linalg.norm(t_))
+        left = _steps_left(sw, st_, prev)
         if sw * left < conv_r and st_ * left < conv_t and not annealing:
             break
         prev = (sw, st_)
@@ -862,14 +878,7 @@ def register(points: np.ndarray, cad, *, inlier_distance: float = 0.01,
 
     say = progress or (lambda msg: None)
     rng = np.random.default_rng(seed)
-    p_all = points if isinstance(points, np.ndarray) else np.asarray(points, float)
-    if p_all.ndim != 2 or p_all.shape[1] != 3:
-        raise ScanError(f"points have shape {p_all.shape}; expected (n, 3)")
-    n = min(len(p_all), tol.inspect.register_points)
-    p = p_all[rng.choice(len(p_all), n, replace=False)] if n < len(p_all) else p_all
-    p = np.asarray(p, np.float64)
-    if not np.all(np.isfinite(p)):
-        raise ScanError("scan points have non-finite (NaN or infinite) coordinates")
+    p = _registration_points(points, rng)
     faces = planar_cut_faces(cad)
     geo = check_geometry(p, cad.r_o, register=True, allow_plane=bool(faces))
     if geo["rms_extent_mm"][2] < tol.inspect.min_spread_plane * cad.r_o:
@@ -899,33 +908,89 @@ def register(points: np.ndarray, cad, *, inlier_distance: float = 0.01,
         return _register_tube(p, clean, cad, point, a, radius, axis, warnings, inlier_distance,
                               rng, say)
     say("global search about the axis")
-    cands = []
     search: dict[str, Any] = {"coarse_step_deg": 2 * math.degrees(tol.inspect.search_step),
                               "fine_step_deg": 0.5 * math.degrees(tol.inspect.search_step)}
+    cands = _candidate_poses(clean, cad, point, a, rng, search)
+    say(f"ICP from {min(4, len(cands))} candidate poses")
+    results = _ranked_starts(p, cad, cands, rng)
+    best = results[0]
+    T, sigma, info = _refine(p, cad, best[1], best[5], rng)
+    d = cad.distances(apply(T, p)).distance
+    ok = np.abs(d) <= inlier_distance
+    fitness = float(ok.mean())
+    rmse = float(np.sqrt(np.mean(d[ok] ** 2))) if ok.any() else float("nan")
+    search.update({"candidates": len(results), "best_robust_rms_mm": best[0]})
+    sym = cad.symmetry
+    _runner_up(results, sym, search, warnings)
+    fixed = _held_notes(sym, info, warnings)
+    if fitness < 0.5:
+        warnings.append(f"low fitness {fitness:.2f}: fewer than half the points lie within "
+                        f"{inlier_distance * 1e3:g} µm of the CAD surface")
+    search["sigma_mm"] = sigma
+    if sym > 1:
+        say(f"pose determined up to the tip's {sym}-fold symmetry ({360 / sym:g}° turns)")
+    return Registration(T, fitness, rmse, inlier_distance, axis, search, warnings,
+                        info["iterations"], len(p), fixed, sym,
+                        _uncertainty(info.get("covariance"), sym))
+
+
+def _registration_points(points: AnyArray, rng: np.random.Generator) -> FloatArray:
+    """The (float64) subset of at most ``tol.inspect.register_points``
+    points (mm) the registration works on; checked (n, 3) and finite."""
+    p_all = points if isinstance(points, np.ndarray) else np.asarray(points, float)
+    if p_all.ndim != 2 or p_all.shape[1] != 3:
+        raise ScanError(f"points have shape {p_all.shape}; expected (n, 3)")
+    n = min(len(p_all), tol.inspect.register_points)
+    p = p_all[rng.choice(len(p_all), n, replace=False)] if n < len(p_all) else p_all
+    p = np.asarray(p, np.float64)
+    if not np.all(np.isfinite(p)):
+        raise ScanError("scan points have non-finite (NaN or infinite) coordinates")
+    return p
+
+
+#: A start pose of the search: (score, axis sign, turn about the axis (rad), 4 × 4 transform).
+_Candidate = tuple[float, float, float, FloatArray]
+
+
+def _candidate_poses(clean: FloatArray, cad: Any, point: FloatArray, a: FloatArray,
+                     rng: np.random.Generator, search: dict[str, Any]) -> list[_Candidate]:
+    """The start poses of the global search about the fitted axis (both
+    senses of it), best score first; the scores go into ``search``."""
+    cands: list[_Candidate] = []
     sym = cad.symmetry
     z_feature = _feature_z(cad)
     for sign in (1.0, -1.0):
         Ta = _frame(point, a, sign)
         q = apply(Ta, clean)
         if sym == 0:
-            ang, sc, dz = np.array([0.0]), None, cad.z_top - np.quantile(q[:, 2], 0.9995)
+            dz = cad.z_top - np.quantile(q[:, 2], 0.9995)
             cands.append((0.0, sign, 0.0, _pose(Ta, 0.0, dz)))
             continue
         period = 2 * math.pi / sym
-        ang, sc, best_turns = _search(q, cad, tol.inspect.search_step,
-                                      tol.inspect.search_points, rng, period, z_feature)
+        _, sc, best_turns = _search(q, cad, tol.inspect.search_step,
+                                    tol.inspect.search_points, rng, period, z_feature)
         for turn, score, dz in best_turns:
             cands.append((score, sign, turn, _pose(Ta, turn, dz)))
         key = "plus" if sign > 0 else "minus"
         search[f"scores_{key}"] = sc.round(6).tolist()
         search[f"best_turns_{key}_deg"] = [[math.degrees(t_), s_] for t_, s_, _ in best_turns]
     cands.sort(key=lambda c: c[0])
-    say(f"ICP from {min(4, len(cands))} candidate poses")
+    return cands
+
+
+#: A start after loose ICP: (robust RMS (mm), transform, sign, turn, score, Tukey cut-off).
+_Start = tuple[float, FloatArray, float, float, float, Any]
+
+
+def _ranked_starts(p: FloatArray, cad: Any, cands: list[_Candidate],
+                   rng: np.random.Generator) -> list[_Start]:
+    """Loose ICP from the four best candidates on a small subset, ranked by
+    the robust RMS of the residuals (mm), best first."""
     small = p[rng.choice(len(p), min(tol.inspect.icp_start_points, len(p)), replace=False)]
-    results = []
+    results: list[_Start] = []
     for score, sign, ang, T0 in cands[:4]:
         try:
-            T, sig, info = _icp(small, cad, T0, 30, fix_rz=(sym == 0), loose=True)
+            T, sig, info = _icp(small, cad, T0, 30, fix_rz=(cad.symmetry == 0), loose=True)
             d = cad.distances(apply(T, small)).distance
         except (ScanError, TipGeoError):
             continue  # this start is too far off to converge; the others may not be
@@ -936,25 +1001,32 @@ def register(points: np.ndarray, cad, *, inlier_distance: float = 0.01,
                         f"point lie within {tol.inspect.search_clip * 1e3:g} µm of the CAD "
                         "surface; is the scan of this tip?")
     results.sort(key=lambda r: r[0])
-    best = results[0]
-    # Gauss–Newton to convergence on a subset, then on every registration
-    # point from there (a few steps): the final pose is that of the full set
+    return results
+
+
+def _refine(p: FloatArray, cad: Any, T0: FloatArray, cutoff: Any,
+            rng: np.random.Generator) -> tuple[FloatArray, float, dict[str, Any]]:
+    """Gauss–Newton to convergence on a subset, then on every registration
+    point from there (a few steps): the final pose is that of the full set."""
+    sym = cad.symmetry
     mid = p if len(p) <= tol.inspect.icp_mid_points else \
         p[rng.choice(len(p), tol.inspect.icp_mid_points, replace=False)]
-    T, sigma, info = _icp(mid, cad, best[1], tol.inspect.icp_iterations, fix_rz=(sym == 0),
-                          anneal=best[5])
+    T, sigma, info = _icp(mid, cad, T0, tol.inspect.icp_iterations, fix_rz=(sym == 0),
+                          anneal=cutoff)
     if mid is not p:
         T, sigma, info2 = _icp(p, cad, T, tol.inspect.icp_iterations, fix_rz=(sym == 0),
                                anneal=info.get("cutoff"))
         info["iterations"] += info2["iterations"]
         info["fixed"] = info2["fixed"]
         info["covariance"] = info2["covariance"]
-    d = cad.distances(apply(T, p)).distance
-    ok = np.abs(d) <= inlier_distance
-    fitness = float(ok.mean())
-    rmse = float(np.sqrt(np.mean(d[ok] ** 2))) if ok.any() else float("nan")
-    search.update({"candidates": len(results), "best_robust_rms_mm": best[0]})
-    # ambiguity: a clearly different pose that fits almost as well
+    return T, sigma, info
+
+
+def _runner_up(results: list[_Start], sym: int, search: dict[str, Any],
+               warnings: list[str]) -> None:
+    """Ambiguity: a clearly different pose (turned more than 2°, modulo the
+    tip's symmetry) that fits almost as well; into ``search`` and ``warnings``."""
+    best = results[0]
     Rb = best[1][:3, :3]
     for rr, Tr, *_ in results[1:]:
         dR = Tr[:3, :3] @ Rb.T
@@ -970,6 +1042,10 @@ def register(points: np.ndarray, cad, *, inlier_distance: float = 0.01,
                     f"well (robust RMS {rr * 1e3:.2f} vs {best[0] * 1e3:.2f} µm); check "
                     "that the scan shows the tip's features (bevel, planes, serrations)")
             break
+
+
+def _held_notes(sym: int, info: dict[str, Any], warnings: list[str]) -> list[str]:
+    """The degrees of freedom held at the search result (and a warning each)."""
     fixed = []
     if sym == 0:
         fixed.append("rotation about the axis (the tip is rotationally symmetric; the "
@@ -980,15 +1056,7 @@ def register(points: np.ndarray, cad, *, inlier_distance: float = 0.01,
         fixed.append(f"{info['fixed']} direction(s) the scan does not constrain")
         warnings.append(f"{info['fixed']} degree(s) of freedom are not constrained by the scan; "
                         "held at the search result")
-    if fitness < 0.5:
-        warnings.append(f"low fitness {fitness:.2f}: fewer than half the points lie within "
-                        f"{inlier_distance * 1e3:g} µm of the CAD surface")
-    search["sigma_mm"] = sigma
-    if sym > 1:
-        say(f"pose determined up to the tip's {sym}-fold symmetry ({360 / sym:g}° turns)")
-    return Registration(T, fitness, rmse, inlier_distance, axis, search, warnings,
-                        info["iterations"], len(p), fixed, sym,
-                        _uncertainty(info.get("covariance"), sym))
+    return fixed
 
 
 def planar_cut_faces(cad) -> dict[str, tuple[np.ndarray, np.ndarray]]:

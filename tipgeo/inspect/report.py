@@ -14,6 +14,7 @@ from __future__ import annotations
 import math
 import os
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
@@ -387,62 +388,78 @@ def _f(x, nd=3):
     return f"{x:.{nd}f}"
 
 
-def _write_markdown(res, path: Path) -> None:
-    from ..atomic import write_text_atomic as _atomic_text
-
-    r = res.to_dict()
-    L = [f"# Inspection: {r['cad']['name']} vs {r['scan']['source']}", ""]
+def _md_verdict(res: Any, r: dict[str, Any]) -> list[str]:
+    """The verdict and its checks' table."""
     v = r.get("verdict")
-    if v is not None:
-        L += [f"**Verdict: {'PASS' if v['ok'] else 'FAIL'}** — rule: "
-              f"{res.rule.describe() if res.rule is not None else '—'}", ""]
-        L += ["| check | rule | value | result |", "|---|---|---|---|"]
-        for c in v["checks"]:
-            val = c["value"]
-            val = f"{100 * val:.2f} %" if isinstance(val, float) else str(val)
-            L.append(f"| {c['name']} | {c['rule']} | {val} | "
-                     f"{'pass' if c['ok'] else 'FAIL: ' + c['reason']} |")
-        L.append("")
-    L += [f"- CAD: `{r['cad']['name']}`, measured against **{r['cad']['method']}**",
-          f"- scan: `{r['scan']['source']}`, {r['scan']['points']:,} points; "
-          f"{r['compared_points']:,} compared"
-          + (f" (left out: {', '.join(f'{k} {v:,}' for k, v in r['dropped_points'].items())})"
-             if r["dropped_points"] else ""),
-          f"- tolerance ±{r['tolerance_um']:g} µm; colour scale `{r['colormap']}` fixed at "
-          f"{r['colour_scale_um'][0]:g} … +{r['colour_scale_um'][1]:g} µm (blue: missing "
-          "material, red: excess), saturated beyond",
-          f"- sign: {r['sign_convention']}"]
-    mt = r.get("match") or {}
-    if mt:
-        fit = "" if mt["fitness"] is None else \
-            f", registration fitness {mt['fitness']:.3f} (needs ≥ {mt['min_fitness']:g})"
-        dia = "".join(f", {k} {v['mm']:.4f} mm (CAD {v['cad_mm']:.4f}, allowed "
-                      f"±{100 * mt['diameter_tolerance']:g} %)"
-                      for k, v in mt["diameters"].items())
-        L.append(f"- match with the CAD: {'yes' if mt['ok'] else '**no**'} — inlier share "
-                 f"{100 * mt['inlier_share']:.1f} % within {mt['match_distance_mm'] * 1e3:g} µm "
-                 f"(needs ≥ {100 * mt['min_inlier_share']:g} %){fit}{dia}")
+    if v is None:
+        return []
+    L = [f"**Verdict: {'PASS' if v['ok'] else 'FAIL'}** — rule: "
+         f"{res.rule.describe() if res.rule is not None else '—'}", ""]
+    L += ["| check | rule | value | result |", "|---|---|---|---|"]
+    for c in v["checks"]:
+        val = c["value"]
+        val = f"{100 * val:.2f} %" if isinstance(val, float) else str(val)
+        L.append(f"| {c['name']} | {c['rule']} | {val} | "
+                 f"{'pass' if c['ok'] else 'FAIL: ' + c['reason']} |")
+    return L + [""]
+
+
+def _md_match(mt: dict[str, Any]) -> list[str]:
+    """The match-with-the-CAD line."""
+    if not mt:
+        return []
+    fit = "" if mt["fitness"] is None else \
+        f", registration fitness {mt['fitness']:.3f} (needs ≥ {mt['min_fitness']:g})"
+    dia = "".join(f", {k} {v['mm']:.4f} mm (CAD {v['cad_mm']:.4f}, allowed "
+                  f"±{100 * mt['diameter_tolerance']:g} %)"
+                  for k, v in mt["diameters"].items())
+    return [f"- match with the CAD: {'yes' if mt['ok'] else '**no**'} — inlier share "
+            f"{100 * mt['inlier_share']:.1f} % within {mt['match_distance_mm'] * 1e3:g} µm "
+            f"(needs ≥ {100 * mt['min_inlier_share']:g} %){fit}{dia}"]
+
+
+def _md_summary(r: dict[str, Any]) -> list[str]:
+    """CAD, scan, tolerance, colour scale, sign, match and warnings."""
+    L = [f"- CAD: `{r['cad']['name']}`, measured against **{r['cad']['method']}**",
+         f"- scan: `{r['scan']['source']}`, {r['scan']['points']:,} points; "
+         f"{r['compared_points']:,} compared"
+         + (f" (left out: {', '.join(f'{k} {v:,}' for k, v in r['dropped_points'].items())})"
+            if r["dropped_points"] else ""),
+         f"- tolerance ±{r['tolerance_um']:g} µm; colour scale `{r['colormap']}` fixed at "
+         f"{r['colour_scale_um'][0]:g} … +{r['colour_scale_um'][1]:g} µm (blue: missing "
+         "material, red: excess), saturated beyond",
+         f"- sign: {r['sign_convention']}"]
+    L += _md_match(r.get("match") or {})
     L.append("")
     if r["warnings"]:
         L += ["**Warnings**", ""] + [f"- {w}" for w in r["warnings"]] + [""]
-    reg = r["registration"]
-    if reg:
-        T = np.asarray(reg["transform"])
-        L += ["## Registration (scanner → cannula frame)", "",
-              "| quantity | value |", "|---|---|",
-              f"| rotation angle | {reg['rotation_angle_deg']:.4f}° |",
-              f"| translation | ({', '.join(f'{x:.4f}' for x in reg['translation_mm'])}) mm |",
-              f"| fitness (share within {reg['inlier_distance_mm'] * 1e3:g} µm) | "
-              f"{reg['fitness']:.4f} |",
-              f"| inlier RMSE | {reg['inlier_rmse_mm'] * 1e3:.3f} µm |",
-              f"| fitted outer diameter | {reg['axis']['outer_diameter_mm']:.4f} mm |",
-              f"| ICP iterations | {reg['iterations']} on {reg['points']:,} points |",
-              *_uncertainty_rows(reg.get("uncertainty") or {}), "",
-              "```", *("  ".join(f"{v:+.9f}" for v in row) for row in T), "```", ""]
-    L += ["## Deviations (µm)", "",
-          "| region | points | mean | std | RMS | min | max | P5 | P95 | within tol |",
-          "|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|"]
-    rows = [("all", r["deviation"]["all"])] + list(r["deviation"]["regions"].items())
+    return L
+
+
+def _md_registration(reg: dict[str, Any] | None) -> list[str]:
+    """The registration table and its 4 × 4 transform."""
+    if not reg:
+        return []
+    T = np.asarray(reg["transform"])
+    return ["## Registration (scanner → cannula frame)", "",
+            "| quantity | value |", "|---|---|",
+            f"| rotation angle | {reg['rotation_angle_deg']:.4f}° |",
+            f"| translation | ({', '.join(f'{x:.4f}' for x in reg['translation_mm'])}) mm |",
+            f"| fitness (share within {reg['inlier_distance_mm'] * 1e3:g} µm) | "
+            f"{reg['fitness']:.4f} |",
+            f"| inlier RMSE | {reg['inlier_rmse_mm'] * 1e3:.3f} µm |",
+            f"| fitted outer diameter | {reg['axis']['outer_diameter_mm']:.4f} mm |",
+            f"| ICP iterations | {reg['iterations']} on {reg['points']:,} points |",
+            *_uncertainty_rows(reg.get("uncertainty") or {}), "",
+            "```", *("  ".join(f"{v:+.9f}" for v in row) for row in T), "```", ""]
+
+
+def _md_deviations(dev: dict[str, Any]) -> list[str]:
+    """The deviation table (µm), all points and each region."""
+    L = ["## Deviations (µm)", "",
+         "| region | points | mean | std | RMS | min | max | P5 | P95 | within tol |",
+         "|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|"]
+    rows = [("all", dev["all"])] + list(dev["regions"].items())
     for name, b in rows:
         if not b["count"]:
             continue
@@ -450,9 +467,12 @@ def _write_markdown(res, path: Path) -> None:
                  f"{_f(b['rms_um'])} | {_f(b['min_um'])} | {_f(b['max_um'])} | "
                  f"{_f(b['p5_um'])} | {_f(b['p95_um'])} | "
                  f"{100 * b['within_tol_share']:.1f} % |")
-    L.append("")
-    m = r["measured"]
-    L += ["## Measured geometry", ""]
+    return L + [""]
+
+
+def _md_walls_faces(m: dict[str, Any]) -> list[str]:
+    """Walls' diameters, cut faces, included angles and the tip."""
+    L = []
     for wall in ("outer", "inner"):
         w = m.get(wall)
         if w:
@@ -471,23 +491,47 @@ def _write_markdown(res, path: Path) -> None:
     if tip and "error_um" in tip:
         L.append(f"- tip (apex) position error {tip['error_um']:.2f} µm (axial "
                  f"{tip['axial_error_um']:+.2f} µm), {tip['method']}")
-    ca = m.get("cutting_angles")
-    if ca and "measured" in ca:
-        L += ["", f"Cutting angles ({ca['method']}):", "",
-              "| edge | quantity | measured | CAD |", "|---|---|---|---|"]
-        for wall in ("outer", "inner"):
-            for k, v in ca["measured"][wall].items():
-                c = ca["cad"][wall][k]
-                fmt = (lambda x: f"{x[0]:.3f} … {x[1]:.3f}") if isinstance(v, list) else \
-                    (lambda x: f"{x:.4f}")
-                L.append(f"| {wall} | {k} | {fmt(v)} | {fmt(c)} |")
-    for n in m.get("notes") or []:
-        L.append(f"- note: {n}")
+    return L
+
+
+def _range_or_value(x: Any, as_range: bool) -> str:
+    return f"{x[0]:.3f} … {x[1]:.3f}" if as_range else f"{x:.4f}"
+
+
+def _md_cutting_angles(ca: dict[str, Any] | None) -> list[str]:
+    """The cutting angles' table, measured against the CAD's."""
+    if not ca or "measured" not in ca:
+        return []
+    L = ["", f"Cutting angles ({ca['method']}):", "",
+         "| edge | quantity | measured | CAD |", "|---|---|---|---|"]
+    for wall in ("outer", "inner"):
+        for k, v in ca["measured"][wall].items():
+            rng = isinstance(v, list)
+            L.append(f"| {wall} | {k} | {_range_or_value(v, rng)} | "
+                     f"{_range_or_value(ca['cad'][wall][k], rng)} |")
+    return L
+
+
+def _md_measured(res: Any, m: dict[str, Any]) -> list[str]:
+    """The measured geometry section (with the scan's edges, if traced)."""
+    L = ["## Measured geometry", ""] + _md_walls_faces(m)
+    L += _md_cutting_angles(m.get("cutting_angles"))
+    L += [f"- note: {n}" for n in m.get("notes") or []]
     if getattr(res, "edges", None) is not None:
         from .edgescan import edges_markdown
 
         L += edges_markdown(res.edges)
-    L.append("")
+    return L + [""]
+
+
+def _write_markdown(res: Any, path: Path) -> None:
+    """report.md of ``res`` (a :class:`~tipgeo.inspect.compare.Comparison`), atomically."""
+    from ..atomic import write_text_atomic as _atomic_text
+
+    r = res.to_dict()
+    L = [f"# Inspection: {r['cad']['name']} vs {r['scan']['source']}", ""]
+    L += _md_verdict(res, r) + _md_summary(r) + _md_registration(r["registration"])
+    L += _md_deviations(r["deviation"]) + _md_measured(res, r["measured"])
     pics = [p for p in res.outputs if str(p).endswith(".png")]
     if pics:
         L += ["## Pictures", ""] + [f"![{p.stem}]({p.name})" for p in pics] + [""]

@@ -194,7 +194,7 @@ class _Tree:
             reach = 0.5 * cell
             # the lists are built a hair wider than the reach tested, so a
             # point rounded into the neighbouring cell still finds them all
-            grow = reach * (1 + 1e-6) + tol.tiny
+            grow = reach * (1 + st.grid_grow_rel) + tol.tiny
             origin = lo.min(axis=0) - grow - cell
             dims = np.floor((ext + 2 * grow) / cell).astype(np.int64) + 3
             i0 = np.floor((lo - grow - origin) / cell).astype(np.int64)
@@ -379,7 +379,3 @@ class MeshSolid:
     def bound(self, points: np.ndarray) -> np.ndarray:
         """Signed distance (exact here; the name matches :class:`ExactSolid`)."""
         return self.distances(points).distance
-
-    def contains(self, points: np.ndarray) -> np.ndarray:
-        """(n,) bool — inside or on the mesh."""
-        return self.distances(points).distance <= 0

@@ -27,6 +27,8 @@ import math
 import numpy as np
 from numba import njit
 
+from ..tolerances import tol
+
 __all__ = ["grid_lists", "nearest_signed_into", "nearest_triangles",
            "signed_query", "signed_rows", "spatial_order", "transform_envelope"]
 
@@ -419,6 +421,10 @@ def signed_rows(x, rows, R, t, tri, PT, f, fn, en, vn, eps, clo, nrm):
         nrm[j, 0], nrm[j, 1], nrm[j, 2] = nx, ny, nz
 
 
+#: tol.inspect.hypot_margin, a compile-time constant of the compiled loop below.
+_HYPOT_MARGIN = tol.inspect.hypot_margin
+
+
 @njit(cache=True, fastmath=False, nogil=True)
 def transform_envelope(x, R, t, crop, z_min, reach, z_lo, z_hi, q, rows, first):
     """Map points by a rigid transform and keep those that may lie near the CAD.
@@ -444,8 +450,8 @@ def transform_envelope(x, R, t, crop, z_min, reach, z_lo, z_hi, q, rows, first):
     # the radius by its square, and math.hypot only within round-off of the
     # reach (the squares' relative error is below 1e-15): the same decisions
     # as hypot alone, at a quarter of the cost
-    lo2 = reach * reach * (1.0 - 1e-12)
-    hi2 = reach * reach * (1.0 + 1e-12)
+    lo2 = reach * reach * (1.0 - _HYPOT_MARGIN)
+    hi2 = reach * reach * (1.0 + _HYPOT_MARGIN)
     for i in range(x.shape[0]):
         a, b, c = np.float64(x[i, 0]), np.float64(x[i, 1]), np.float64(x[i, 2])
         qz = a * R[2, 0] + b * R[2, 1] + c * R[2, 2] + t[2]

@@ -218,7 +218,7 @@ def fit_cylinder(points: np.ndarray, axis_dir: np.ndarray, axis_point: np.ndarra
     x = np.array([0.0, 0.0, 0.0, 0.0, radius])
     r = model(x)[0]
     h = tol.inspect.fd_step
-    lam = 1e-6
+    lam = tol.inspect.lm_damping_start
     for _ in range(tol.inspect.max_iterations):
         w = 1.0 / np.sqrt(1.0 + (r / scale) ** 2)
         J = np.empty((len(r), 5))
@@ -230,13 +230,13 @@ def fit_cylinder(points: np.ndarray, axis_dir: np.ndarray, axis_point: np.ndarra
         A, g = Jw.T @ J, Jw.T @ r
         cost = np.sum(2 * scale ** 2 * (np.sqrt(1 + (r / scale) ** 2) - 1))
         while True:
-            dx = -np.linalg.solve(A + lam * np.diag(np.diag(A) + 1e-12), g)
+            dx = -np.linalg.solve(A + lam * np.diag(np.diag(A) + tol.inspect.lm_diag_floor), g)
             rn = model(x + dx)[0]
             if np.sum(2 * scale ** 2 * (np.sqrt(1 + (rn / scale) ** 2) - 1)) <= cost \
                     or lam > 1e6:
                 break
             lam *= 10
-        x, r, lam = x + dx, rn, max(lam / 10, 1e-9)
+        x, r, lam = x + dx, rn, max(lam / 10, tol.inspect.lm_damping_floor)
         if np.max(np.abs(dx)) < tol.inspect.cylinder_converge:
             break
     res_x = x
@@ -440,7 +440,7 @@ def _search(q_all, cad, step, npts, rng, period, z_feature):
     near = q_all[:, 2] + dz >= z_feature - cad.r_o
     pool = q_all[near] if np.count_nonzero(near) >= 50 else q_all
     sub = pool[rng.choice(len(pool), min(npts, len(pool)), replace=False)]
-    coarse = np.arange(0.0, period - 1e-12, 2 * step)
+    coarse = np.arange(0.0, period - tol.inspect.arange_margin, 2 * step)
     sc = _scores(sub[: max(len(sub) // 3, 1)], cad, coarse, dz)
     mins = np.flatnonzero((sc <= np.roll(sc, 1)) & (sc <= np.roll(sc, -1)))
     mins = mins[np.argsort(sc[mins], kind="stable")][:3]
@@ -469,7 +469,7 @@ def _dz_search(sub, cad, angle, dz0):
     where the CAD's tube still holds it)."""
     st = tol.inspect
     span, h = st.search_dz_span * cad.r_o, st.search_dz_step * cad.r_o
-    grid = dz0 + np.arange(-span, 0.1 * span + 1e-12, h)
+    grid = dz0 + np.arange(-span, 0.1 * span + tol.inspect.arange_margin, h)
     sc = _scores_dz(sub, cad, np.full(len(grid), angle), grid)
     s0 = float(_scores_dz(sub, cad, np.array([angle]), np.array([dz0]))[0])
     if s0 <= st.search_dz_keep * sc.min() + st.search_dz_floor:
@@ -1081,7 +1081,7 @@ def planar_cut_faces(cad) -> dict[str, tuple[np.ndarray, np.ndarray]]:
         v = tip.vertices[np.unique(tip.faces[on])]
         c = v.mean(axis=0)
         _, sv, vt = np.linalg.svd(v - c, full_matrices=False)
-        if sv[-1] / math.sqrt(len(v)) > 1e-4:
+        if sv[-1] / math.sqrt(len(v)) > tol.inspect.planar_face_rms:
             continue
         tri = tip.vertices[tip.faces[on]]
         area = 0.5 * np.linalg.norm(np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0]),
@@ -1182,7 +1182,7 @@ def _register_face(p, cad, faces, inlier_distance, rng, say) -> Registration:
         if ang > 2.0 or np.linalg.norm(T2[:3, 3] - T[:3, 3]) > 0.05:
             search["runner_up_robust_rms_mm"] = r2
             search["runner_up_angle_deg"] = ang
-            if r2 <= 1.02 * rr + 1e-4:
+            if r2 <= 1.02 * rr + tol.inspect.face_tie:
                 # the face alone looks the same in both poses (a bevel's face is
                 # an elliptic ring: a half turn about its normal maps it onto
                 # itself): the scanned points' deviations are the same in both

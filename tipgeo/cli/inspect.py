@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import sys
 from argparse import Namespace
+from collections.abc import Callable
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
@@ -38,7 +39,8 @@ def _positive(name: str, value: float | None, hi: float | None = None) -> float 
     return value
 
 
-def _log(args):
+def _log(args: Namespace) -> Callable[[str], None] | None:
+    """The progress sink of a command (None when progress is off)."""
     from .. import progress
 
     if not progress.enabled():
@@ -50,13 +52,16 @@ def _one_line(e: BaseException) -> str:
     return " ".join(str(e).split())
 
 
-def _compare_kwargs(args) -> dict:
+def _compare_kwargs(args: Namespace) -> dict[str, Any]:
     """compare()'s options from the command line (µm → mm), validated."""
     import math
 
     from ..errors import InputError as SpecError  # options and paths, not specs
 
-    tol = _positive("--band-um", args.band_um, 1e4) * 1e-3
+    band_um = _positive("--band-um", args.band_um, 1e4)
+    if band_um is None:
+        raise SpecError("--band-um is missing; allowed 0 < value ≤ 10000")
+    tol = band_um * 1e-3
     scale = _positive("--scale-um", args.scale_um, 1e5)
     voxel = _positive("--voxel-um", args.voxel_um, 1e5)
     far = _positive("--max-distance-mm", args.max_distance_mm, 1e3)
@@ -94,7 +99,8 @@ def _compare_kwargs(args) -> dict:
     return kw
 
 
-def _check_out_file(opt: str, value: str | None, exts: tuple[str, ...], inputs) -> None:
+def _check_out_file(opt: str, value: str | None, exts: tuple[str, ...],
+                    inputs: list[str]) -> None:
     from ..errors import InputError as SpecError  # options and paths, not specs
 
     if value is None:
@@ -109,7 +115,8 @@ def _check_out_file(opt: str, value: str | None, exts: tuple[str, ...], inputs) 
         raise SpecError(f"{opt} = '{value}': the folder '{folder}' does not exist")
     from .common import command_reads, refuse_overwrite
 
-    refuse_overwrite(command_reads([("an input", i) for i in inputs]), [(opt, p)])
+    reads: list[tuple[str, str | Path]] = [*command_reads([("an input", i) for i in inputs])]
+    refuse_overwrite(reads, [(opt, p)])
 
 
 #: The files a compare report writes in --out-dir (with --batch: in each
@@ -118,7 +125,7 @@ REPORT_FILES = ("deviations.ply", "deviation-map.png", "histogram.png", "edges.p
                 "report.md", "report.json")
 
 
-def report_files(args) -> list[str]:
+def report_files(args: Namespace) -> list[str]:
     """The files ``compare`` writes in ``--out-dir`` (names and patterns)."""
     if getattr(args, "batch", False):
         return [f"*/{n}" for n in REPORT_FILES] + ["spc.csv", "control-*.png"]
@@ -198,7 +205,9 @@ def _write_extras(args: Namespace, res: Comparison, kw: dict[str, Any]) -> None:
     if args.html:
         from .report import write_html
 
-        res.outputs.append(Path(write_html(args, [res], say=False)))
+        html = write_html(args, [res], say=False)
+        if html is not None:
+            res.outputs.append(Path(html))
 
 
 def _print_deviations(r: dict[str, Any]) -> None:
@@ -276,7 +285,7 @@ def cmd_compare(args: Namespace) -> int:
     return status
 
 
-def _batch_executor(args):
+def _batch_executor(args: Namespace) -> Any:
     from ..errors import InputError as SpecError  # options and paths, not specs
     from ..optimize.executors import DaskExecutor, make_executor
 
@@ -290,7 +299,7 @@ def _batch_executor(args):
     return make_executor(args.workers)  # default: a process per CPU, as ``tipgeo sweep``
 
 
-def _batch(args, kw) -> int:
+def _batch(args: Namespace, kw: dict[str, Any]) -> int:
     """Compare every scan (files, folders, glob patterns) with the one CAD,
     here or on --workers N / --scheduler ADDRESS; one summary table (stdout,
     and --summary FILE as CSV or JSON); each report in --out-dir DIR/<scan>/
@@ -308,7 +317,7 @@ def _batch(args, kw) -> int:
     log = _log(args)
     ex = _batch_executor(args)
 
-    def done(i, r):
+    def done(i: int, r: dict[str, Any]) -> None:
         if log:
             row = r.get("row") or {}
             log(f"{row.get('scan')}: {row.get('status')}"
@@ -473,7 +482,7 @@ def cmd_scan_synth(args: Namespace) -> int:
     return 0
 
 
-def register(subparsers) -> None:
+def register(subparsers: Any) -> None:
     """Add ``compare`` and ``scan-synth`` to the ``tipgeo`` command line."""
     c = subparsers.add_parser("compare", help="compare a scan with a tip spec or CAD mesh: "
                               "registration, signed deviations, measured geometry, report")

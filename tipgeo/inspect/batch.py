@@ -86,7 +86,7 @@ def scan_files(scans: str | Path | Iterable[str | Path]) -> list[str]:
     return out
 
 
-def summary_row(scan: str, res=None, error: str | None = None) -> dict[str, Any]:
+def summary_row(scan: str, res: Any = None, error: str | None = None) -> dict[str, Any]:
     """The summary-table row of one scan: from its :class:`Comparison`, or
     an ``error`` (could not be compared)."""
     row: dict[str, Any] = dict.fromkeys(SUMMARY_COLUMNS)
@@ -164,7 +164,7 @@ def characteristics(res: Any, *, xi_tol_deg: float = 0.5) -> tuple[dict[str, flo
 _CAD_CACHE: dict[str, Any] = {}
 
 
-def _cad(cad):
+def _cad(cad: Any) -> Any:
     """The CAD of a worker: loaded once per process from its name or path."""
     if not isinstance(cad, (str, Path)):
         return cad
@@ -176,7 +176,7 @@ def _cad(cad):
     return _CAD_CACHE[key]
 
 
-def compare_one(scan: str, cad, out: str | None, kwargs: dict,
+def compare_one(scan: str, cad: Any, out: str | None, kwargs: dict[str, Any],
                 xi_tol_deg: float = 0.5) -> dict[str, Any]:
     """Compare one scan (a worker's task): ``{"row", "faces", "values",
     "limits"}`` as plain dicts. A scan that is not this tip is a failed
@@ -187,7 +187,7 @@ def compare_one(scan: str, cad, out: str | None, kwargs: dict,
     from .compare import compare
     from .scanio import ScanError
 
-    base = {"faces": {}, "values": {}, "limits": {}}
+    base: dict[str, dict[str, Any]] = {"faces": {}, "values": {}, "limits": {}}
     try:
         res = compare(scan, _cad(cad), out=out, progress=None, **kwargs)
     except NotThisTip as e:
@@ -284,7 +284,7 @@ class BatchResult:
 
 
 def process_statistics(labels: Sequence[str], values: Sequence[dict[str, float]],
-                       limits: dict[str, tuple], *, subgroup: int = 1,
+                       limits: dict[str, Limits], *, subgroup: int = 1,
                        mr: str = "mean") -> dict[str, Any]:
     """Control charts per characteristic over the scans that have it (in
     order); characteristics with fewer than 2 values (2·subgroup on X̄–R)
@@ -313,10 +313,12 @@ def _slug(name: str) -> str:
     return re.sub(r"[^A-Za-z0-9_.-]+", "-", name).strip("-")
 
 
-def run_batch(scans, cad, *, executor=None, out_dir: str | Path | None = None,
+def run_batch(scans: Any, cad: Any, *, executor: Any = None,
+              out_dir: str | Path | None = None,
               subgroup: int = 1, xi_tol_deg: float = 0.5, mr: str = "mean",
-              charts: bool = True, on_done: Callable[[int, dict], None] | None = None,
-              **compare_kwargs) -> BatchResult:
+              charts: bool = True,
+              on_done: Callable[[int, dict[str, Any]], None] | None = None,
+              **compare_kwargs: Any) -> BatchResult:
     """Compare every scan with ``cad`` and chart the process across them.
 
     Parameters

@@ -277,12 +277,12 @@ class _ScanDistances(Distances):
             self._fill = None
         return self._cn
 
-    @property  # type: ignore[override]  # a field of Distances, computed on first use here
-    def closest(self) -> AnyArray:
+    @property
+    def closest(self) -> AnyArray:  # type: ignore[override]  # a field of Distances, computed here on first use
         return self._pair()[0]
 
-    @property  # type: ignore[override]  # a field of Distances, computed on first use here
-    def normal(self) -> AnyArray:
+    @property
+    def normal(self) -> AnyArray:  # type: ignore[override]  # a field of Distances, computed here on first use
         return self._pair()[1]
 
 
@@ -322,7 +322,8 @@ def _deviations(model: CadModel, local: AnyArray, T: FloatArray, *, z_min: float
     compared (after the crop), in the envelope (the bounding cylinder grown by
     ``max_distance``), within ``tol.inspect.match_distance``."""
     m = len(local)
-    mesh = model.engine if isinstance(getattr(model, "engine", None), MeshSolid) else None
+    engine = getattr(model, "engine", None)
+    mesh = engine if isinstance(engine, MeshSolid) else None
     P = np.empty((m, 3), np.float32)
     rows = np.empty(m, np.int64)
     dist = np.empty(m)
@@ -694,7 +695,7 @@ def stage_deviate(loaded: Loaded, placed: Placed, *, tolerance: float = 0.01,
     lo_h, hi_h = _colour_options(tolerance, None, histogram_range)[1] or (
         -COLOUR_SCALE_PER_TOLERANCE * tolerance, COLOUR_SCALE_PER_TOLERANCE * tolerance)
     say = progress or _quiet
-    model, cpu = loaded.cad, {}
+    model, cpu = loaded.cad, dict[str, float]()
     t = _now()
     say(f"deviations of {len(loaded.local):,} points ({model.method})")
     pts, dist, rows, cnt = _deviations(model, loaded.local, placed.transform, z_min=z_min,

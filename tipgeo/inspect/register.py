@@ -55,12 +55,13 @@ almost as well), an unconstrained direction, too few points.
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
 
-from ..arrays import AnyArray, BoolArray, FloatArray
+from ..arrays import AnyArray, ArrayLike, BoolArray, FloatArray
 from ..errors import TipGeoError
 from ..tolerances import tol
 from .scanio import ScanError
@@ -69,19 +70,21 @@ __all__ = ["Registration", "register", "fit_cylinder", "apply", "point_normals",
            "planar_cut_faces"]
 
 
-def apply(T: np.ndarray, points: np.ndarray) -> np.ndarray:
-    """x ↦ R x + t for a 4×4 matrix T, on (n, 3) points."""
-    return points @ T[:3, :3].T + T[:3, 3]
+def apply(T: AnyArray, points: AnyArray) -> FloatArray:
+    """x ↦ R x + t for a 4×4 matrix T, on (n, 3) points (mm)."""
+    out: FloatArray = points @ T[:3, :3].T + T[:3, 3]
+    return out
 
 
-def _rot(axis, angle) -> np.ndarray:
+def _rot(axis: ArrayLike, angle: float) -> FloatArray:
     a = np.asarray(axis, float)
     n = np.linalg.norm(a)
     if n == 0 or angle == 0:
         return np.eye(3)
     a = a / n
     K = np.array([[0, -a[2], a[1]], [a[2], 0, -a[0]], [-a[1], a[0], 0]])
-    return np.eye(3) + math.sin(angle) * K + (1 - math.cos(angle)) * K @ K
+    R: FloatArray = np.eye(3) + math.sin(angle) * K + (1 - math.cos(angle)) * K @ K
+    return R
 
 
 def _align(a: np.ndarray, b: np.ndarray) -> np.ndarray:
@@ -185,7 +188,7 @@ def point_normals(p: np.ndarray, k: int = 12) -> np.ndarray:
 
 def fit_cylinder(points: np.ndarray, axis_dir: np.ndarray, axis_point: np.ndarray,
                  radius: float, *, scale: float = 0.005, bore: np.ndarray | None = None,
-                 wall: float = 0.0):
+                 wall: float = 0.0) -> tuple[FloatArray, FloatArray, float, float]:
     """Least-squares cylinder through points (robust soft-L1 loss of width
     ``scale`` mm), from an initial axis and radius. With ``bore`` ((n,) bool)
     those points lie on a coaxial cylinder ``wall`` mm smaller (a tube's
@@ -206,7 +209,7 @@ def fit_cylinder(points: np.ndarray, axis_dir: np.ndarray, axis_point: np.ndarra
     q = points - c0
     inset = 0.0 if bore is None else wall * np.asarray(bore, float)
 
-    def model(x):
+    def model(x: FloatArray) -> tuple[FloatArray, FloatArray, FloatArray]:
         a = a0 + x[0] * e1 + x[1] * e2
         a = a / np.linalg.norm(a)
         c = x[2] * e1 + x[3] * e2
@@ -312,7 +315,8 @@ def _axis_stage(p: np.ndarray, r_nominal: float,
         a = np.linalg.eigh(nrm[wall].T @ nrm[wall])[1][:, 0]
     if abs(a @ starts[0]) < 0.999:
         starts.append(a)
-    best, err = None, None
+    best: tuple[float, _AxisFit] | None = None
+    err: ScanError | None = None
     for a0 in starts:
         try:
             fit = _axis_fit(p, nrm, cen, a0, r_nominal, first=0.3 if a0 is starts[0] else 0.15,
@@ -324,11 +328,14 @@ def _axis_stage(p: np.ndarray, r_nominal: float,
         if best is None or score > best[0]:
             best = (score, fit)
     if best is None:
+        assert err is not None  # every start failed, each with a ScanError
         raise err
-    return best[1][:4]
+    point, a, radius, rms, _ = best[1]
+    return point, a, radius, rms
 
 
-def _axis_centre(p, nrm, a, radii):
+def _axis_centre(p: FloatArray, nrm: FloatArray, a: FloatArray,
+                 radii: tuple[float, ...]) -> FloatArray | None:
     """The point where the normal lines of wall-like points (normals across
     ``a``) meet the axis: each votes at its own distance ``radii`` along its
     normal, both ways; the densest cell of the votes, refined to their mean
@@ -351,12 +358,19 @@ def _axis_centre(p, nrm, a, radii):
     c = votes[key == uk[np.argmax(cnt)]].mean(axis=0)
     for _ in range(3):
         c = votes[np.linalg.norm(votes - c, axis=1) < 2 * h].mean(axis=0)
-    return c[0] * e1 + c[1] * e2 + a * float(p.mean(axis=0) @ a)
+    centre: FloatArray = c[0] * e1 + c[1] * e2 + a * float(p.mean(axis=0) @ a)
+    return centre
 
 
-def _axis_fit(p, nrm, cen, a, r_nominal, first, r_inner=None):
+#: An axis fit: (point (3,), direction (3,), radius, RMS (mm), wall points).
+_AxisFit = tuple[FloatArray, FloatArray, float, float, int]
+
+
+def _axis_fit(p: FloatArray, nrm: FloatArray, cen: FloatArray, a: FloatArray, r_nominal: float,
+              first: float, r_inner: float | None = None) -> _AxisFit:
     thick = None if r_inner is None or not 0 < r_inner < r_nominal else r_nominal - r_inner
-    point = _axis_centre(p, nrm, a, (r_nominal,) if thick is None else (r_nominal, r_inner))
+    point = _axis_centre(p, nrm, a, (r_nominal,) if thick is None or r_inner is None else
+                         (r_nominal, r_inner))
     point = cen if point is None else point
     radius = r_nominal
     sel = np.ones(len(p), bool)
@@ -391,7 +405,7 @@ def _axis_fit(p, nrm, cen, a, r_nominal, first, r_inner=None):
     return point, a, radius, rms, inliers
 
 
-def _frame(point, a, sign) -> np.ndarray:
+def _frame(point: FloatArray, a: FloatArray, sign: float) -> FloatArray:
     """4×4 taking the fitted axis (direction a·sign) to +z through the origin."""
     R = _align(a * sign, np.array([0.0, 0.0, 1.0]))
     T = np.eye(4)
@@ -400,7 +414,7 @@ def _frame(point, a, sign) -> np.ndarray:
     return T
 
 
-def _feature_z(cad) -> float:
+def _feature_z(cad: Any) -> float:
     """Lowest z (cannula frame, mm) of the CAD's faces that are not the tube
     (outer and inner wall, base): below it every turn about the axis fits
     alike, so points there say nothing about the turn."""
@@ -408,21 +422,24 @@ def _feature_z(cad) -> float:
     names = np.asarray(tip.label_names, dtype=object)
     cut = ~np.isin(names[tip.label_ids], ["outer", "inner", "base"])
     if not cut.any():
-        return cad.z_base
+        return float(cad.z_base)
     return float(tip.vertices[tip.faces[cut]][..., 2].min())
 
 
-def _scores(sub, cad, angles, dz):
+def _scores(sub: FloatArray, cad: Any, angles: FloatArray, dz: float) -> FloatArray:
     """Mean clipped |distance| to the CAD of ``sub`` (on the axis) turned by
     each angle about +z and shifted by dz: one batched query."""
     c, s = np.cos(angles)[:, None], np.sin(angles)[:, None]
     x = np.stack([c * sub[:, 0] - s * sub[:, 1], s * sub[:, 0] + c * sub[:, 1],
                   np.broadcast_to(sub[:, 2] + dz, (len(angles), len(sub)))], 2)
     f = cad.bound(x.reshape(-1, 3)).reshape(len(angles), len(sub))
-    return np.mean(np.minimum(np.abs(f), tol.inspect.search_clip), axis=1)
+    scores: FloatArray = np.mean(np.minimum(np.abs(f), tol.inspect.search_clip), axis=1)
+    return scores
 
 
-def _search(q_all, cad, step, npts, rng, period, z_feature):
+def _search(q_all: FloatArray, cad: Any, step: float, npts: int, rng: np.random.Generator,
+            period: float,
+            z_feature: float) -> tuple[FloatArray, FloatArray, list[tuple[float, float, float]]]:
     """The best poses about +z for points already on the axis: turns (rad,
     within one symmetry period) and axial shifts, coarse to fine. A third of
     ``npts`` points scored every 2·step at the shift that puts the scan's top
@@ -456,7 +473,7 @@ def _search(q_all, cad, step, npts, rng, period, z_feature):
     return coarse, sc, best
 
 
-def _dz_search(sub, cad, angle, dz0):
+def _dz_search(sub: FloatArray, cad: Any, angle: float, dz0: float) -> float:
     """The axial shift (mm) that best fits at ``angle``. A scan's top lies
     at or below the CAD's (sparse points, a rounded tip): when the shift
     that matches the tops (``dz0``) scores within ``tol.inspect.search_dz_keep``
@@ -475,7 +492,7 @@ def _dz_search(sub, cad, angle, dz0):
     if s0 <= st.search_dz_keep * sc.min() + st.search_dz_floor:
         return dz0
 
-    def pick(grid, sc):
+    def pick(grid: FloatArray, sc: FloatArray) -> float:
         ok = sc <= sc.min() + 0.1 * (sc.max() - sc.min())
         return float(grid[np.flatnonzero(ok)[-1]])
 
@@ -484,16 +501,17 @@ def _dz_search(sub, cad, angle, dz0):
     return pick(fine, _scores_dz(sub, cad, np.full(len(fine), angle), fine))
 
 
-def _scores_dz(sub, cad, angles, dzs):
+def _scores_dz(sub: FloatArray, cad: Any, angles: FloatArray, dzs: FloatArray) -> FloatArray:
     """:func:`_scores` for one (angle, dz) pair per row."""
     c, s = np.cos(angles)[:, None], np.sin(angles)[:, None]
     x = np.stack([c * sub[:, 0] - s * sub[:, 1], s * sub[:, 0] + c * sub[:, 1],
                   sub[:, 2][None, :] + np.asarray(dzs)[:, None]], 2)
     f = cad.bound(x.reshape(-1, 3)).reshape(len(angles), len(sub))
-    return np.mean(np.minimum(np.abs(f), tol.inspect.search_clip), axis=1)
+    scores: FloatArray = np.mean(np.minimum(np.abs(f), tol.inspect.search_clip), axis=1)
+    return scores
 
 
-def _pose(T_axis, angle, dz):
+def _pose(T_axis: FloatArray, angle: float, dz: float) -> FloatArray:
     Rz = _rot((0, 0, 1), angle)
     T = np.eye(4)
     T[:3, :3] = Rz
@@ -501,7 +519,8 @@ def _pose(T_axis, angle, dz):
     return T @ T_axis
 
 
-def _outline(cad, q, D, w, c, sigma, check_reach=True):
+def _outline(cad: Any, q: FloatArray, D: Any, w: FloatArray, c: float, sigma: float,
+             check_reach: bool = True) -> tuple[Any, ...] | None:
     """The points near an outline: an edge of a face the scan sees (F) with
     an analytic face it does not see (k) — the back of a tube ends at the
     bevel's edge, whose face is out of view.
@@ -581,7 +600,8 @@ def _outline(cad, q, D, w, c, sigma, check_reach=True):
     return (zone, np.concatenate(r_z), np.concatenate(n_z), s, np.concatenate(g_z), near, band)
 
 
-def _outline_terms(outline, q, w, ctr, sigma):
+def _outline_terms(outline: tuple[Any, ...], q: FloatArray, w: FloatArray, ctr: FloatArray,
+                   sigma: float) -> tuple[FloatArray, FloatArray, int]:
     """Gauss–Newton terms (6 × 6 and 6) of the outline likelihood, in the
     units of the ICP's ½ Σ w r² (that is σ² × the negative log-likelihood).
 
@@ -619,7 +639,8 @@ _STEP_FISHER = 0.9031972855686256
 _STEP_MEAN = 1.0 / math.sqrt(2.0 * math.pi)
 
 
-def _covariance(H, outline, q, w, ctr, sigma, V):
+def _covariance(H: FloatArray, outline: tuple[Any, ...] | None, q: FloatArray, w: FloatArray,
+                ctr: FloatArray, sigma: float, V: FloatArray) -> FloatArray:
     """(6, 6) covariance of an ICP step (rotation about ``ctr``, rad;
     translation, mm) from the Fisher information at the pose: H/σ² of the
     normal residuals (H = Σ w J Jᵀ) plus the outline's expected information
@@ -670,8 +691,9 @@ def _steps_left(sw: float, st: float, prev: tuple[float, float]) -> float:
     return max(1.0, rho / (1.0 - rho))
 
 
-def _icp(p, cad, T, iterations, *, fix_rz=False, loose=False, outlines=True,
-         anneal: float | None = None, fix_tz=False):
+def _icp(p: FloatArray, cad: Any, T: FloatArray, iterations: int, *, fix_rz: bool = False,
+         loose: bool = False, outlines: bool = True, anneal: float | None = None,
+         fix_tz: bool = False) -> tuple[FloatArray, float, dict[str, Any]]:
     """Point-to-plane ICP (Gauss–Newton on the exact closest points and
     normals) with Tukey weights; returns T, robust σ, info. ``loose``: stop
     at ``tol.inspect.icp_loose`` (rad, mm): enough to rank start poses.
@@ -687,8 +709,8 @@ def _icp(p, cad, T, iterations, *, fix_rz=False, loose=False, outlines=True,
     are fitted by the likelihood of a blurred outline (:func:`_outline`)."""
     conv_r, conv_t = (tol.inspect.icp_loose,) * 2 if loose else \
         (tol.inspect.icp_converge_rot, tol.inspect.icp_converge_trans)
-    info = {"iterations": 0, "fixed": []}
-    sigma = None
+    info: dict[str, Any] = {"iterations": 0, "fixed": []}
+    sigma = math.nan  # the robust scale of the residuals (mm), from the first step on
     prev = (0.0, 0.0)
     clip = tol.inspect.search_clip if anneal is None else anneal
     level = 0   # steps at this cut-off
@@ -728,7 +750,7 @@ def _icp(p, cad, T, iterations, *, fix_rz=False, loose=False, outlines=True,
         info["covariance"] = _covariance(H - (H_o if outline is not None else 0.0),
                                          outline, q, w, ctr, sigma, V[:, keep])
         w_, t_ = x[:3], x[3:]
-        R = _rot(w_, np.linalg.norm(w_))
+        R = _rot(w_, float(np.linalg.norm(w_)))
         step = np.eye(4)
         step[:3, :3] = R
         step[:3, 3] = ctr - R @ ctr + t_
@@ -821,7 +843,7 @@ def _free_axis(p: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray] | Non
     return np.linalg.solve(A, b), a, nrm
 
 
-def _check_gauge(points: np.ndarray, cad, max_error: float) -> None:
+def _check_gauge(points: FloatArray, cad: Any, max_error: float) -> None:
     """Refuse, before the costly search, a scan whose coaxial walls are not
     the CAD's: with two or more walls the outermost must be its outer wall;
     a single wall (a scan of one side) its outer or its inner wall."""
@@ -842,8 +864,8 @@ def _check_gauge(points: np.ndarray, cad, max_error: float) -> None:
                     "registration)")
 
 
-def register(points: np.ndarray, cad, *, inlier_distance: float = 0.01,
-             seed: int = 0, progress=None,
+def register(points: AnyArray, cad: Any, *, inlier_distance: float = 0.01,
+             seed: int = 0, progress: Callable[[str], None] | None = None,
              max_diameter_error: float | None = None) -> Registration:
     """Register scan points (scanner frame, mm) onto a :class:`CadModel`.
 
@@ -1059,14 +1081,15 @@ def _held_notes(sym: int, info: dict[str, Any], warnings: list[str]) -> list[str
     return fixed
 
 
-def planar_cut_faces(cad) -> dict[str, tuple[np.ndarray, np.ndarray]]:
+def planar_cut_faces(cad: Any) -> dict[str, tuple[FloatArray, FloatArray]]:
     """The CAD's planar cut faces: label → (unit normal, outward; an area-
     weighted sample of up to 20,000 points on it), cannula frame, mm. A face
     is planar when its mesh vertices lie within 0.1 µm of their plane."""
     tip = cad.tip
     if tip is None:
         return {}
-    cached = getattr(cad, "_planar_cut_faces", None)
+    cached: dict[str, tuple[FloatArray, FloatArray]] | None = getattr(cad, "_planar_cut_faces",
+                                                                        None)
     if cached is not None:
         return cached
     out = {}
@@ -1103,13 +1126,15 @@ def planar_cut_faces(cad) -> dict[str, tuple[np.ndarray, np.ndarray]]:
     return out
 
 
-def _plane_frame(n):
+def _plane_frame(n: FloatArray) -> tuple[FloatArray, FloatArray]:
     e1 = np.cross(n, [1.0, 0, 0] if abs(n[0]) < 0.9 else [0, 1.0, 0])
     e1 /= np.linalg.norm(e1)
     return e1, np.cross(n, e1)
 
 
-def _register_face(p, cad, faces, inlier_distance, rng, say) -> Registration:
+def _register_face(p: FloatArray, cad: Any, faces: dict[str, tuple[FloatArray, FloatArray]],
+                   inlier_distance: float, rng: np.random.Generator,
+                   say: Callable[[str], None]) -> Registration:
     """A scan of one planar cut face alone (its points on a plane): the
     plane onto one of the CAD's planar cut faces (either side), the face's
     extent onto the CAD face's — centroids together, principal axes along
@@ -1216,7 +1241,8 @@ def _register_face(p, cad, faces, inlier_distance, rng, say) -> Registration:
 TUBE_ONLY_SHARE = 0.98
 
 
-def _tube_only(q, point, a, radius, cad) -> bool:
+def _tube_only(q: FloatArray, point: FloatArray, a: FloatArray, radius: float,
+               cad: Any) -> bool:
     """Whether the scan shows the tube alone — no cut face, no outline of
     one: at least :data:`TUBE_ONLY_SHARE` of the points within
     max(10 µm, 1 % of the radius) of the fitted outer wall or of the bore
@@ -1243,8 +1269,10 @@ def _tube_only(q, point, a, radius, cad) -> bool:
     return True
 
 
-def _register_tube(p, clean, cad, point, a, radius, axis, warnings, inlier_distance, rng,
-                   say) -> Registration:
+def _register_tube(p: FloatArray, clean: FloatArray, cad: Any, point: FloatArray, a: FloatArray,
+                   radius: float, axis: dict[str, Any], warnings: list[str],
+                   inlier_distance: float, rng: np.random.Generator,
+                   say: Callable[[str], None]) -> Registration:
     """The pose of a scan of the tube alone, up to what it leaves free: its
     axis on the CAD's, its far end just below the lowest of the CAD's cut
     features (where the tube is tube at any turn and shift); the turn about
@@ -1284,7 +1312,7 @@ def _register_tube(p, clean, cad, point, a, radius, axis, warnings, inlier_dista
                         info["iterations"], len(p), free, 0, unc)
 
 
-def _uncertainty(cov, sym) -> dict[str, Any]:
+def _uncertainty(cov: FloatArray | None, sym: int) -> dict[str, Any]:
     """The report's 1σ pose uncertainty from the ICP covariance (rad, mm)."""
     if cov is None:
         return {}
@@ -1310,4 +1338,5 @@ def _remove_outliers(p: np.ndarray, k: int = 8, ratio: float = 3.0) -> np.ndarra
     d, _ = cKDTree(p).query(p, k=k + 1, workers=-1)
     m = d[:, 1:].mean(axis=1)
     keep = m <= m.mean() + ratio * m.std()
-    return p[keep]
+    kept: FloatArray = p[keep]
+    return kept

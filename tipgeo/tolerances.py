@@ -332,6 +332,32 @@ class InspectSettings:
     #: Smallest height reach (in the file's unit) a SUR is written for: its
     #: float32 z spacing is reach / (imax − 16), never 0 for a flat map.
     sur_min_span: float = 1.0e-30
+    # --- compare, registration, distance queries (issue 30) ---
+    #: Starting damping of the cylinder fit's Levenberg–Marquardt steps
+    #: (relative to the normal matrix's diagonal): small, so the first step is
+    #: nearly Gauss–Newton.
+    lm_damping_start: float = 1.0e-6
+    #: Floor the damping comes down to after each accepted step, so it can
+    #: grow again within a few tenfold steps when a step fails.
+    lm_damping_floor: float = 1.0e-9
+    #: Added to the normal matrix's diagonal (mm²) so that a parameter the
+    #: points do not move (a zero column) leaves the system solvable.
+    lm_diag_floor: float = 1.0e-12
+    #: An arange's end is moved by this (rad or mm) so that round-off neither
+    #: adds the period's end (the same turn as 0) nor drops the last wanted step.
+    arange_margin: float = 1.0e-12
+    #: A CAD cut face is planar when its vertices' RMS distance to their plane
+    #: is below this (mm, 0.1 µm: far below any face's tessellation of a curve).
+    planar_face_rms: float = 1.0e-4
+    #: A face-only registration's runner-up pose ties the best when its robust
+    #: RMS is within 2 % plus this (mm, 0.1 µm: the noise of the RMS itself).
+    face_tie: float = 1.0e-4
+    #: Relative widening of a mesh grid cell's lists beyond the reach tested,
+    #: so a point rounded into the neighbouring cell still finds them all.
+    grid_grow_rel: float = 1.0e-6
+    #: Relative band about the envelope radius (its square) within which the
+    #: exact hypot decides: the squares' own relative error is below 1e-15.
+    hypot_margin: float = 1.0e-12
 
 
 @dataclass

@@ -12,10 +12,18 @@ degenerate scans, and scans that do not match the CAD unless
 from __future__ import annotations
 
 import sys
+from argparse import Namespace
+from collections.abc import Callable
 from pathlib import Path
+from typing import TYPE_CHECKING, Any
 
 from ..jsonio import dumps as _dumps
 from .common import declare_files, deprecated, spec_arg, verdict_status
+
+if TYPE_CHECKING:
+    from ..inspect.compare import Comparison
+    from ..inspect.synth import SynthScan
+    from ..spec import TipSpec
 
 __all__ = ["register", "cmd_compare", "cmd_scan_synth"]
 
@@ -31,7 +39,8 @@ def _positive(name: str, value: float | None, hi: float | None = None) -> float 
     return value
 
 
-def _log(args):
+def _log(args: Namespace) -> Callable[[str], None] | None:
+    """The progress sink of a command (None when progress is off)."""
     from .. import progress
 
     if not progress.enabled():
@@ -43,13 +52,16 @@ def _one_line(e: BaseException) -> str:
     return " ".join(str(e).split())
 
 
-def _compare_kwargs(args) -> dict:
+def _compare_kwargs(args: Namespace) -> dict[str, Any]:
     """compare()'s options from the command line (µm → mm), validated."""
     import math
 
     from ..errors import InputError as SpecError  # options and paths, not specs
 
-    tol = _positive("--band-um", args.band_um, 1e4) * 1e-3
+    band_um = _positive("--band-um", args.band_um, 1e4)
+    if band_um is None:
+        raise SpecError("--band-um is missing; allowed 0 < value ≤ 10000")
+    tol = band_um * 1e-3
     scale = _positive("--scale-um", args.scale_um, 1e5)
     voxel = _positive("--voxel-um", args.voxel_um, 1e5)
     far = _positive("--max-distance-mm", args.max_distance_mm, 1e3)
@@ -87,7 +99,8 @@ def _compare_kwargs(args) -> dict:
     return kw
 
 
-def _check_out_file(opt: str, value: str | None, exts: tuple[str, ...], inputs) -> None:
+def _check_out_file(opt: str, value: str | None, exts: tuple[str, ...],
+                    inputs: list[str]) -> None:
     from ..errors import InputError as SpecError  # options and paths, not specs
 
     if value is None:
@@ -102,7 +115,8 @@ def _check_out_file(opt: str, value: str | None, exts: tuple[str, ...], inputs) 
         raise SpecError(f"{opt} = '{value}': the folder '{folder}' does not exist")
     from .common import command_reads, refuse_overwrite
 
-    refuse_overwrite(command_reads([("an input", i) for i in inputs]), [(opt, p)])
+    reads: list[tuple[str, str | Path]] = [*command_reads([("an input", i) for i in inputs])]
+    refuse_overwrite(reads, [(opt, p)])
 
 
 #: The files a compare report writes in --out-dir (with --batch: in each
@@ -111,20 +125,18 @@ REPORT_FILES = ("deviations.ply", "deviation-map.png", "histogram.png", "edges.p
                 "report.md", "report.json")
 
 
-def report_files(args) -> list[str]:
+def report_files(args: Namespace) -> list[str]:
     """The files ``compare`` writes in ``--out-dir`` (names and patterns)."""
     if getattr(args, "batch", False):
         return [f"*/{n}" for n in REPORT_FILES] + ["spc.csv", "control-*.png"]
     return list(REPORT_FILES)
 
 
-def cmd_compare(args) -> int:
-    import numpy as np
-
+def _check_compare_args(args: Namespace) -> None:
+    """Refuse options that do not go together, and outputs that would land on
+    an input or in a missing folder, before any work."""
     from ..errors import InputError as SpecError  # options and paths, not specs
-    from ..inspect import ScanError, compare
 
-    kw = _compare_kwargs(args)
     inputs = [*args.scan, args.cad]
     if args.out_dir is not None and Path(args.out_dir).exists() and \
             not Path(args.out_dir).is_dir():
@@ -138,7 +150,7 @@ def cmd_compare(args) -> int:
             raise SpecError("--export, --matrix-out and --html name one file; with --batch each "
                             "scan's "
                             "report (--out-dir DIR/<scan>/) holds its own")
-        return _batch(args, kw)
+        return
     if len(args.scan) != 1:
         raise SpecError(f"{len(args.scan)} scans given; compare one, or several with --batch")
     if args.summary:
@@ -147,10 +159,18 @@ def cmd_compare(args) -> int:
                    ("--subgroup", args.subgroup)):
         if v is not None:
             raise SpecError(f"{opt} goes with --batch")
+
+
+def _compare_one(args: Namespace, kw: dict[str, Any]) -> Comparison | int:
+    """The comparison of the one scan, or the exit code of a scan that
+    could not be compared (1: not this tip or a numerical failure, 2: bad scan)."""
+    import numpy as np
+
     from ..errors import NotThisTip
+    from ..inspect import ScanError, compare
 
     try:
-        res = compare(args.scan[0], args.cad, out=args.out_dir, progress=_log(args), **kw)
+        return compare(args.scan[0], args.cad, out=args.out_dir, progress=_log(args), **kw)
     except NotThisTip as e:  # a verdict: the scan is not this tip
         reason = _one_line(e)
         if args.json:
@@ -166,6 +186,12 @@ def cmd_compare(args) -> int:
     except (np.linalg.LinAlgError, FloatingPointError, OverflowError, MemoryError) as e:
         print(f"tipgeo: failed: {type(e).__name__}: {_one_line(e)}", file=sys.stderr)
         return 1
+
+
+def _write_extras(args: Namespace, res: Comparison, kw: dict[str, Any]) -> None:
+    """--export, --matrix-out and --html, each added to ``res.outputs``."""
+    import numpy as np
+
     if args.export:
         from ..inspect.report import write_points
 
@@ -179,12 +205,13 @@ def cmd_compare(args) -> int:
     if args.html:
         from .report import write_html
 
-        res.outputs.append(Path(write_html(args, [res], say=False)))
-    status = verdict_status(res.verdict, args)
-    if args.json:
-        print(_dumps(res.to_dict()))
-        return status
-    r = res.to_dict()
+        html = write_html(args, [res], say=False)
+        if html is not None:
+            res.outputs.append(Path(html))
+
+
+def _print_deviations(r: dict[str, Any]) -> None:
+    """The registration and the deviation statistics (µm), all and per region."""
     st = r["deviation"]["all"]
     print(f"{r['cad']['name']} vs {r['scan']['source']}: {r['compared_points']:,} points, "
           f"measured against {r['cad']['method']}")
@@ -204,7 +231,10 @@ def cmd_compare(args) -> int:
     for name, b in r["deviation"]["regions"].items():
         print(f"    {name:<22} {b['count']:>9,} pts  mean {b['mean_um']:+8.3f}  RMS "
               f"{b['rms_um']:8.3f}  within {100 * b['within_tol_share']:6.2f} %")
-    m = r["measured"]
+
+
+def _print_measured(m: dict[str, Any]) -> None:
+    """Walls' diameters, cut faces and the tip, against the CAD's."""
     for wall in ("outer", "inner"):
         if m.get(wall):
             w = m[wall]
@@ -217,36 +247,45 @@ def cmd_compare(args) -> int:
     if tip and "error_um" in tip:
         print(f"  tip position error {tip['error_um']:.2f} µm "
               f"(axial {tip['axial_error_um']:+.2f} µm)")
+
+
+def _print_comparison(res: Comparison) -> None:
+    """The plain-text summary of ``compare``."""
+    r = res.to_dict()
+    _print_deviations(r)
+    _print_measured(r["measured"])
     if res.edges is not None:
         from ..inspect.edgescan import edges_text
 
         print(edges_text(res.edges))
     for w in r["warnings"]:
         print(f"  warning: {w}")
-    print(f"  {res.verdict.line()}")
+    if res.verdict is not None:
+        print(f"  {res.verdict.line()}")
     for o in r["outputs"]:
         print(f"  wrote {o}")
+
+
+def cmd_compare(args: Namespace) -> int:
+    """``tipgeo compare``: one scan (or --batch many) against the CAD; exit 0
+    pass, 1 fail or not this tip, 2 bad input."""
+    kw = _compare_kwargs(args)
+    _check_compare_args(args)
+    if args.batch:
+        return _batch(args, kw)
+    res = _compare_one(args, kw)
+    if isinstance(res, int):
+        return res
+    _write_extras(args, res, kw)
+    status = verdict_status(res.verdict, args)
+    if args.json:
+        print(_dumps(res.to_dict()))
+    else:
+        _print_comparison(res)
     return status
 
 
-def __getattr__(name: str):
-    """``SUMMARY_COLUMNS``: the --batch summary table's columns (the
-    library's, :data:`tipgeo.inspect.batch.SUMMARY_COLUMNS`), imported on first
-    use so that building the parser stays light."""
-    if name == "SUMMARY_COLUMNS":
-        from ..inspect.batch import SUMMARY_COLUMNS
-
-        return SUMMARY_COLUMNS
-    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
-
-
-def _summary_row(scan: str, res=None, error: str | None = None) -> dict:
-    from ..inspect.batch import summary_row
-
-    return summary_row(scan, res, error)
-
-
-def _batch_executor(args):
+def _batch_executor(args: Namespace) -> Any:
     from ..errors import InputError as SpecError  # options and paths, not specs
     from ..optimize.executors import DaskExecutor, make_executor
 
@@ -260,7 +299,7 @@ def _batch_executor(args):
     return make_executor(args.workers)  # default: a process per CPU, as ``tipgeo sweep``
 
 
-def _batch(args, kw) -> int:
+def _batch(args: Namespace, kw: dict[str, Any]) -> int:
     """Compare every scan (files, folders, glob patterns) with the one CAD,
     here or on --workers N / --scheduler ADDRESS; one summary table (stdout,
     and --summary FILE as CSV or JSON); each report in --out-dir DIR/<scan>/
@@ -278,7 +317,7 @@ def _batch(args, kw) -> int:
     log = _log(args)
     ex = _batch_executor(args)
 
-    def done(i, r):
+    def done(i: int, r: dict[str, Any]) -> None:
         if log:
             row = r.get("row") or {}
             log(f"{row.get('scan')}: {row.get('status')}"
@@ -319,18 +358,11 @@ MAX_SYNTH_POINTS = 2_000_000
 MAX_SYNTH_VIEWS = 64
 
 
-def cmd_scan_synth(args) -> int:
-    import math
-
-    import numpy as np
-
+def _check_synth_outputs(args: Namespace, out: Path) -> None:
+    """-o and --truth: allowed extensions, existing folders, two files."""
     from ..errors import InputError as SpecError  # options and paths, not specs
-    from ..inspect import Burr, Misalignment, default_views, synthetic_scan
 
-    spec = spec_arg(args.spec)
-    out = Path(args.output)
-    ext = out.suffix.lower()
-    if ext not in (".ply", ".xyz", ".txt", ".pcd"):
+    if out.suffix.lower() not in (".ply", ".xyz", ".txt", ".pcd"):
         raise SpecError(f"-o '{out}': allowed extensions .ply .xyz .txt .pcd")
     for opt, f in (("-o", out), ("--truth", Path(args.truth) if args.truth else None)):
         if f is None:
@@ -342,6 +374,14 @@ def cmd_scan_synth(args) -> int:
             raise SpecError(f"{opt} = '{f}': the folder '{folder}' does not exist")
     if args.truth and Path(args.truth).resolve() == out.resolve():
         raise SpecError(f"--truth = '{args.truth}' is also -o; allowed two different files")
+
+
+def _check_synth_options(args: Namespace) -> None:
+    """--points, --views and --noise-um within their ranges."""
+    import math
+
+    from ..errors import InputError as SpecError  # options and paths, not specs
+
     if not 10 <= args.points <= MAX_SYNTH_POINTS:
         raise SpecError(f"--points = {args.points:,}; allowed 10 ≤ value ≤ "
                         f"{MAX_SYNTH_POINTS:,} (time and memory grow with the points; merge "
@@ -355,6 +395,14 @@ def cmd_scan_synth(args) -> int:
                             f"{MAX_SYNTH_VIEWS} (each view is a ray cast of the whole tip)")
     if not args.noise_um >= 0:
         raise SpecError(f"--noise-um = {args.noise_um:g}; allowed ≥ 0")
+
+
+def _synth(args: Namespace, spec: TipSpec) -> SynthScan:
+    """The virtual scan the options describe (µm and degrees → mm and radians
+    inside :func:`tipgeo.inspect.synthetic_scan`)."""
+    from .. import progress
+    from ..inspect import Burr, Misalignment, default_views, synthetic_scan
+
     mis = Misalignment(about_axis_deg=args.rotate_deg, tilt_deg=args.tilt_deg,
                        tilt_axis_deg=args.tilt_axis_deg, offset_mm=tuple(args.offset_mm))
     burr = None
@@ -364,20 +412,24 @@ def cmd_scan_synth(args) -> int:
                     edge=args.burr_edge)
     views = default_views(elevation_deg=args.views[0], count=int(args.views[1])) \
         if args.views else None
-    from .. import progress
-
     with progress.stage(f"scanning {spec.name or args.spec}: {args.points:,} points"):
-        s = synthetic_scan(spec, points=args.points, noise=args.noise_um * 1e-3,
-                           misalignment=mis, views=views, xi_deg=args.xi_deg,
-                           edge_radius=(args.edge_radius_um or 0.0) * 1e-3, burr=burr,
-                           z_min=args.z_min_mm, seed=args.seed)
-    existed = out.exists()
+        return synthetic_scan(spec, points=args.points, noise=args.noise_um * 1e-3,
+                              misalignment=mis, views=views, xi_deg=args.xi_deg,
+                              edge_radius=(args.edge_radius_um or 0.0) * 1e-3, burr=burr,
+                              z_min=args.z_min_mm, seed=args.seed)
+
+
+def _write_synth(s: SynthScan, out: Path) -> None:
+    """The scan's points to ``out`` (.ply, .xyz/.txt or .pcd), atomically."""
+    import numpy as np
+
+    ext = out.suffix.lower()
     if ext == ".ply":
         s.write(out)
     elif ext in (".xyz", ".txt"):
         from ..atomic import write_atomic
 
-        def text(tmp):
+        def text(tmp: Path) -> None:
             with open(tmp, "wb") as fh:
                 for i in range(0, len(s.points), 1 << 18):
                     np.savetxt(fh, s.points[i:i + (1 << 18)], fmt="%.9f")
@@ -390,6 +442,22 @@ def cmd_scan_synth(args) -> int:
         pc = o3d.geometry.PointCloud(o3d.utility.Vector3dVector(s.points))
         if not o3d.io.write_point_cloud(str(out), pc, write_ascii=False):
             raise OSError(f"open3d could not write '{out}'")
+
+
+def cmd_scan_synth(args: Namespace) -> int:
+    """``tipgeo scan-synth``: a virtual profilometer's scan of a spec, with
+    its truth (--truth FILE, JSON) beside it; exit 0, 2 on bad input."""
+    import math
+
+    import numpy as np
+
+    spec = spec_arg(args.spec)
+    out = Path(args.output)
+    _check_synth_outputs(args, out)
+    _check_synth_options(args)
+    s = _synth(args, spec)
+    existed = out.exists()
+    _write_synth(s, out)
     info = dict(s.info)
     info["output"] = str(out)
     if args.truth:
@@ -414,7 +482,7 @@ def cmd_scan_synth(args) -> int:
     return 0
 
 
-def register(subparsers) -> None:
+def register(subparsers: Any) -> None:
     """Add ``compare`` and ``scan-synth`` to the ``tipgeo`` command line."""
     c = subparsers.add_parser("compare", help="compare a scan with a tip spec or CAD mesh: "
                               "registration, signed deviations, measured geometry, report")

@@ -28,10 +28,23 @@ from .cad import CadModel, load_cad
 from .checks import check_geometry, check_match
 from .compare import (
     Comparison,
+    Decided,
+    Deviated,
+    Loaded,
+    Placed,
+    Reported,
+    Verified,
     compare,
     crop,
+    default_rule,
     estimate_normals,
     remove_outliers,
+    stage_decide,
+    stage_deviate,
+    stage_load,
+    stage_register,
+    stage_report,
+    stage_verify,
     voxel_down_sample,
 )
 from .deviation import STAT_KEYS, statistics
@@ -53,4 +66,7 @@ __all__ = ["CadModel", "load_cad", "check_geometry", "check_match", "Comparison"
            "load_scan", "write_ply", "InspectSettings", "Burr", "Misalignment",
            "SynthScan", "actual_spec", "default_views", "synthetic_scan",
            "MeasuredEdges", "measure_edges", "plot_measured_edges", "AcceptanceRule", "Band",
-           "judge", "load_acceptance", "BatchResult", "run_batch"]
+           "judge", "load_acceptance", "BatchResult", "run_batch",
+           "Loaded", "Placed", "Deviated", "Verified", "Decided", "Reported", "stage_load",
+           "stage_register", "stage_deviate", "stage_verify", "stage_decide", "stage_report",
+           "default_rule"]

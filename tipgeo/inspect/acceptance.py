@@ -112,7 +112,7 @@ def _num(where: str, key: str, value: Any) -> float:
     return float(value)
 
 
-def _band(where: str, table: dict, base: Band) -> Band:
+def _band(where: str, table: dict[str, Any], base: Band) -> Band:
     bad = set(table) - {"band_um", "share"}
     if bad:
         raise InputError(f"{where}: key {sorted(bad)[0]!r} is not known; allowed: band_um, share")
@@ -124,7 +124,7 @@ def _band(where: str, table: dict, base: Band) -> Band:
         raise InputError(f"{where}: {e}") from None
 
 
-def rule_from_dict(data: dict, *, source: str = "acceptance table",
+def rule_from_dict(data: dict[str, Any], *, source: str = "acceptance table",
                    default: Band | None = None) -> AcceptanceRule:
     """An :class:`AcceptanceRule` from a table (the file's keys, see the module)."""
     if not isinstance(data, dict):
@@ -160,7 +160,7 @@ def load_acceptance(path: str | Path, *, default: Band | None = None) -> Accepta
     return rule_from_dict(data, source=str(p), default=default)
 
 
-def _registration_certain(res) -> tuple[bool, str]:
+def _registration_certain(res: Any) -> tuple[bool, str]:
     """Whether the pose is certain: no runner-up pose that fits almost as
     well, no degree of freedom held at the search's guess (a free turn of a
     rotationally symmetric tip changes no deviation and is fine)."""
@@ -180,7 +180,7 @@ def _registration_certain(res) -> tuple[bool, str]:
     return True, "one pose; every degree of freedom held by the points or the tip's symmetry"
 
 
-def judge(res, rule: AcceptanceRule) -> Verdict:
+def judge(res: Any, rule: AcceptanceRule) -> Verdict:
     """The verdict of a :class:`~tipgeo.inspect.compare.Comparison` under ``rule``:
     the scan is this tip, its registration is certain, and each face it
     shows (with at least ``rule.min_points`` points) holds its band on its

@@ -86,7 +86,7 @@ def scan_files(scans: str | Path | Iterable[str | Path]) -> list[str]:
     return out
 
 
-def summary_row(scan: str, res=None, error: str | None = None) -> dict[str, Any]:
+def summary_row(scan: str, res: Any = None, error: str | None = None) -> dict[str, Any]:
     """The summary-table row of one scan: from its :class:`Comparison`, or
     an ``error`` (could not be compared)."""
     row: dict[str, Any] = dict.fromkeys(SUMMARY_COLUMNS)
@@ -111,44 +111,60 @@ def summary_row(scan: str, res=None, error: str | None = None) -> dict[str, Any]
     return row
 
 
-def characteristics(res, *, xi_tol_deg: float = 0.5) -> tuple[dict[str, float],
-                                                                 dict[str, tuple]]:
-    """The SPC characteristics of one comparison (see the module) and their
-    specification limits ``(lsl, usl)`` (None where there is none)."""
-    values: dict[str, float] = {}
-    limits: dict[str, tuple] = {}
+#: A characteristic's specification limits (lower, upper), None where there is none.
+Limits = tuple[float | None, float | None]
+
+
+def _finite(v: Any) -> bool:
+    return v is not None and math.isfinite(v)
+
+
+def _rms_characteristics(res: Any) -> dict[str, tuple[float, Limits]]:
+    """``rms_um.<face>``: each face's RMS deviation (µm), limit its band."""
+    out: dict[str, tuple[float, Limits]] = {}
     rule = res.rule
     for face, s in (res.stats.get("regions") or {}).items():
         v = s.get("rms_um")
-        if v is not None and s.get("count", 0) and math.isfinite(v):
-            values[f"rms_um.{face}"] = float(v)
-            limits[f"rms_um.{face}"] = (None, rule.band_for(face).band * 1e3
-                                        if rule is not None else None)
+        if s.get("count", 0) and _finite(v):
+            out[f"rms_um.{face}"] = (float(v), (None, rule.band_for(face).band * 1e3
+                                                if rule is not None else None))
+    return out
+
+
+def _angle_characteristics(res: Any, xi_tol_deg: float) -> dict[str, tuple[float, Limits]]:
+    """``xi_deg.<face>`` (± ``xi_tol_deg`` about the CAD's), ``tip_error_um``
+    and ``lambda_max_deg`` (no limits)."""
+    out: dict[str, tuple[float, Limits]] = {}
     for face, f in ((res.measured or {}).get("faces") or {}).items():
-        if f.get("xi_deg") is not None and math.isfinite(f["xi_deg"]):
-            values[f"xi_deg.{face}"] = float(f["xi_deg"])
+        if _finite(f.get("xi_deg")):
             cad = f.get("cad_xi_deg")
-            limits[f"xi_deg.{face}"] = (None, None) if cad is None else \
-                (cad - xi_tol_deg, cad + xi_tol_deg)
+            out[f"xi_deg.{face}"] = (float(f["xi_deg"]), (None, None) if cad is None else
+                                     (cad - xi_tol_deg, cad + xi_tol_deg))
     tip = (res.measured or {}).get("tip") or {}
-    if tip.get("error_um") is not None and math.isfinite(tip["error_um"]):
-        values["tip_error_um"] = float(tip["error_um"])
-        limits["tip_error_um"] = (None, None)
+    if _finite(tip.get("error_um")):
+        out["tip_error_um"] = (float(tip["error_um"]), (None, None))
     if res.edges is not None:
         try:
             lam = res.edges.summary()["outer"]["lambda_o_deg"]["measured"][1]
         except (KeyError, IndexError, TypeError):
             lam = None
-        if lam is not None and math.isfinite(lam):
-            values["lambda_max_deg"] = float(lam)
-            limits["lambda_max_deg"] = (None, None)
-    return values, limits
+        if _finite(lam):
+            out["lambda_max_deg"] = (float(lam), (None, None))
+    return out
+
+
+def characteristics(res: Any, *, xi_tol_deg: float = 0.5) -> tuple[dict[str, float],
+                                                                      dict[str, Limits]]:
+    """The SPC characteristics of one comparison (see the module) and their
+    specification limits ``(lsl, usl)`` (None where there is none)."""
+    both = {**_rms_characteristics(res), **_angle_characteristics(res, xi_tol_deg)}
+    return {k: v for k, (v, _) in both.items()}, {k: lim for k, (_, lim) in both.items()}
 
 
 _CAD_CACHE: dict[str, Any] = {}
 
 
-def _cad(cad):
+def _cad(cad: Any) -> Any:
     """The CAD of a worker: loaded once per process from its name or path."""
     if not isinstance(cad, (str, Path)):
         return cad
@@ -160,7 +176,7 @@ def _cad(cad):
     return _CAD_CACHE[key]
 
 
-def compare_one(scan: str, cad, out: str | None, kwargs: dict,
+def compare_one(scan: str, cad: Any, out: str | None, kwargs: dict[str, Any],
                 xi_tol_deg: float = 0.5) -> dict[str, Any]:
     """Compare one scan (a worker's task): ``{"row", "faces", "values",
     "limits"}`` as plain dicts. A scan that is not this tip is a failed
@@ -171,7 +187,7 @@ def compare_one(scan: str, cad, out: str | None, kwargs: dict,
     from .compare import compare
     from .scanio import ScanError
 
-    base = {"faces": {}, "values": {}, "limits": {}}
+    base: dict[str, dict[str, Any]] = {"faces": {}, "values": {}, "limits": {}}
     try:
         res = compare(scan, _cad(cad), out=out, progress=None, **kwargs)
     except NotThisTip as e:
@@ -268,7 +284,7 @@ class BatchResult:
 
 
 def process_statistics(labels: Sequence[str], values: Sequence[dict[str, float]],
-                       limits: dict[str, tuple], *, subgroup: int = 1,
+                       limits: dict[str, Limits], *, subgroup: int = 1,
                        mr: str = "mean") -> dict[str, Any]:
     """Control charts per characteristic over the scans that have it (in
     order); characteristics with fewer than 2 values (2·subgroup on X̄–R)
@@ -297,10 +313,12 @@ def _slug(name: str) -> str:
     return re.sub(r"[^A-Za-z0-9_.-]+", "-", name).strip("-")
 
 
-def run_batch(scans, cad, *, executor=None, out_dir: str | Path | None = None,
+def run_batch(scans: Any, cad: Any, *, executor: Any = None,
+              out_dir: str | Path | None = None,
               subgroup: int = 1, xi_tol_deg: float = 0.5, mr: str = "mean",
-              charts: bool = True, on_done: Callable[[int, dict], None] | None = None,
-              **compare_kwargs) -> BatchResult:
+              charts: bool = True,
+              on_done: Callable[[int, dict[str, Any]], None] | None = None,
+              **compare_kwargs: Any) -> BatchResult:
     """Compare every scan with ``cad`` and chart the process across them.
 
     Parameters
@@ -326,10 +344,41 @@ def run_batch(scans, cad, *, executor=None, out_dir: str | Path | None = None,
     -------
     BatchResult — rows in input order; ``exit_code`` as the command line's
     """
-    from .. import progress
-    from ..atomic import write_text_atomic
     from ..optimize.executors import make_executor
 
+    _check_batch_options(subgroup, xi_tol_deg, compare_kwargs)
+    files = scan_files(scans)
+    if executor is None:
+        executor = make_executor(None)
+    cad_name = getattr(cad, "name", None) or str(cad)
+    stems = [Path(s).stem for s in files]
+    outs = _report_folders(stems, out_dir)
+    if out_dir is not None:
+        Path(out_dir).mkdir(parents=True, exist_ok=True)
+    if isinstance(cad, (str, Path)):  # read once here: a bad CAD stops the batch, and the
+        from .cad import load_cad  # loaded CAD travels pickled to every worker
+
+        cad = load_cad(cad)
+    cad_name = getattr(cad, "name", None) or cad_name
+    tasks = [(f, cad, o, dict(compare_kwargs), xi_tol_deg) for f, o in zip(files, outs)]
+    results = _run_tasks(executor, tasks, files, on_done)
+    rows, faces, values, limits = _gather(files, results)
+    labels = [Path(f).name if stems.count(Path(f).stem) == 1 else f for f in files]
+    ch = process_statistics(labels, values, limits, subgroup=subgroup, mr=mr)
+    res = BatchResult(cad_name, rows, faces, values, ch, executor=getattr(executor, "name", "?"),
+                      workers=getattr(executor, "workers", 1))
+    flagged: dict[str, list[str]] = {}
+    for name, c in ch.items():
+        for i in c.out_of_control:
+            flagged.setdefault(c.labels[i], []).append(name)
+    for lab, row in zip(labels, rows):
+        row["out_of_control"] = "; ".join(flagged.get(lab, [])) or None
+    if out_dir is not None:
+        _write_spc(res, ch, Path(out_dir), charts)
+    return res
+
+
+def _check_batch_options(subgroup: Any, xi_tol_deg: Any, compare_kwargs: dict[str, Any]) -> None:
     if not (isinstance(subgroup, int) and not isinstance(subgroup, bool)
             and (subgroup == 1 or 2 <= subgroup <= 10)):
         raise InputError(f"subgroup = {subgroup!r}; allowed 1 (individuals) or 2 … 10")
@@ -339,39 +388,44 @@ def run_batch(scans, cad, *, executor=None, out_dir: str | Path | None = None,
     for k in ("out", "progress"):
         if k in compare_kwargs:
             raise InputError(f"run_batch sets compare's {k!r} itself")
-    files = scan_files(scans)
-    if executor is None:
-        executor = make_executor(None)
-    cad_name = getattr(cad, "name", None) or str(cad)
-    stems = [Path(s).stem for s in files]
-    outs: list[str | None] = []
-    for i, s in enumerate(stems):
-        if out_dir is None:
-            outs.append(None)
-        else:
-            name = s if stems.count(s) == 1 else f"{i + 1:03d}-{s}"
-            outs.append(str(Path(out_dir) / name))
-    if out_dir is not None:
-        Path(out_dir).mkdir(parents=True, exist_ok=True)
-    if isinstance(cad, (str, Path)):  # read once here: a bad CAD stops the batch, and the
-        from .cad import load_cad  # loaded CAD travels pickled to every worker
 
-        cad = load_cad(cad)
-    cad_name = getattr(cad, "name", None) or cad_name
-    tasks = [(f, cad, o, dict(compare_kwargs), xi_tol_deg) for f, o in zip(files, outs)]
+
+def _report_folders(stems: list[str], out_dir: str | Path | None) -> list[str | None]:
+    """Each scan's report folder: ``out_dir/<stem>`` (numbered where two
+    scans share a stem), None without ``out_dir``."""
+    if out_dir is None:
+        return [None] * len(stems)
+    return [str(Path(out_dir) / (s if stems.count(s) == 1 else f"{i + 1:03d}-{s}"))
+            for i, s in enumerate(stems)]
+
+
+def _run_tasks(executor: Any, tasks: list[tuple[Any, ...]], files: list[str],
+               on_done: Callable[[int, dict[str, Any]], None] | None) -> list[dict[str, Any]]:
+    """The workers' results, in input order, with a progress bar."""
+    from .. import progress
+
     pb = progress.bar(len(tasks), "compare", unit="scan")
 
-    def done(i: int, r: dict) -> None:
+    def done(i: int, r: dict[str, Any]) -> None:
         pb.set_postfix_str(Path(files[i]).name)
         pb.update()
         if on_done is not None:
             on_done(i, r)
 
     try:
-        results = executor.run(compare_one, tasks, done)
+        results: list[dict[str, Any]] = executor.run(compare_one, tasks, done)
     finally:
         pb.close()
-    rows, faces, values, limits = [], [], [], {}
+    return results
+
+
+def _gather(files: list[str], results: list[dict[str, Any]]
+            ) -> tuple[list[dict[str, Any]], list[dict[str, Any]], list[dict[str, float]],
+                       dict[str, Limits]]:
+    """Rows, per-face tables, characteristics and their limits of the
+    workers' results (a lost worker's scan: an error row)."""
+    rows, faces, values = [], [], []
+    limits: dict[str, Limits] = {}
     for f, r in zip(files, results):
         if "row" not in r:  # the executor's own failure (a lost worker)
             r = {"row": summary_row(f, error=r.get("error") or "the worker failed"),
@@ -380,22 +434,17 @@ def run_batch(scans, cad, *, executor=None, out_dir: str | Path | None = None,
         faces.append(r["faces"])
         values.append(r["values"])
         for k, lim in r["limits"].items():
-            limits.setdefault(k, tuple(lim))
-    labels = [Path(f).name if stems.count(Path(f).stem) == 1 else f for f in files]
-    ch = process_statistics(labels, values, limits, subgroup=subgroup, mr=mr)
-    res = BatchResult(cad_name, rows, faces, values, ch, executor=getattr(executor, "name", "?"),
-                      workers=getattr(executor, "workers", 1))
-    flagged = {}
-    for name, c in ch.items():
-        for i in c.out_of_control:
-            flagged.setdefault(c.labels[i], []).append(name)
-    for lab, row in zip(labels, rows):
-        row["out_of_control"] = "; ".join(flagged.get(lab, [])) or None
-    if out_dir is not None:
-        res.outputs.append(write_text_atomic(Path(out_dir) / "spc.csv", res.spc_table()))
-        if charts:
-            from .spc import plot_chart
+            limits.setdefault(k, (lim[0], lim[1]))
+    return rows, faces, values, limits
 
-            for name, c in ch.items():
-                res.outputs.append(plot_chart(c, Path(out_dir) / f"control-{_slug(name)}.png"))
-    return res
+
+def _write_spc(res: BatchResult, ch: dict[str, Any], out_dir: Path, charts: bool) -> None:
+    """spc.csv and (with ``charts``) a control chart PNG per characteristic."""
+    from ..atomic import write_text_atomic
+
+    res.outputs.append(write_text_atomic(out_dir / "spc.csv", res.spc_table()))
+    if charts:
+        from .spc import plot_chart
+
+        for name, c in ch.items():
+            res.outputs.append(plot_chart(c, out_dir / f"control-{_slug(name)}.png"))

@@ -8,9 +8,11 @@ from __future__ import annotations
 
 import math
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
+from ..arrays import FloatArray
 from ..errors import SpecError
 from .exact import Distances, ExactSolid, UnsupportedCutter
 from .meshdist import MeshSolid
@@ -41,7 +43,11 @@ class CadModel:
     labels : tuple of str — face labels
     """
 
-    def __init__(self, *, spec=None, tip=None, tolerance: float | None = None):
+    symmetry: int
+    name: str
+
+    def __init__(self, *, spec: Any = None, tip: Any = None,
+                 tolerance: float | None = None) -> None:
         from ..build import build_tip
 
         if spec is None and tip is None:
@@ -52,7 +58,7 @@ class CadModel:
             self.tip = tip if tip is not None else build_tip(spec, tolerance=tolerance)
             self.r_o, self.r_i = spec.cannula.r_o, spec.cannula.r_i
             try:
-                self.engine = ExactSolid(spec)
+                self.engine: ExactSolid | MeshSolid = ExactSolid(spec)
                 self.exact = True
                 self.method = "exact surfaces"
             except UnsupportedCutter as e:
@@ -80,35 +86,37 @@ class CadModel:
         """Signed distances of points (cannula frame, mm) to the CAD surface."""
         return self.engine.distances(points)
 
-    def face_fields(self, points: np.ndarray):
+    def face_fields(self, points: FloatArray) -> tuple[FloatArray, FloatArray] | None:
         """Every analytic face's signed distance (n, K) and unit outward
         gradient (n, K, 3) at points (cannula frame, mm), in the order of
         :attr:`labels`; None when the CAD is a mesh (no analytic faces)."""
-        fields = getattr(self.engine, "face_fields", None)
-        return None if fields is None else fields(points)
+        if isinstance(self.engine, ExactSolid):
+            return self.engine.face_fields(points)
+        return None
 
     def bound(self, points: np.ndarray) -> np.ndarray:
         """A cheap signed distance (exact inside, a lower bound outside)."""
         return self.engine.bound(points)
 
-    def summary(self) -> dict:
+    def summary(self) -> dict[str, Any]:
+        """The CAD as the report shows it (diameters in mm)."""
         return {"name": self.name, "method": self.method, "exact": self.exact,
                 "outer_diameter_mm": 2 * self.r_o, "inner_diameter_mm": 2 * self.r_i,
                 "symmetry": self.symmetry, "labels": list(self.labels), "notes": self.notes}
 
 
-def _mesh_method(tip) -> str:
+def _mesh_method(tip: Any) -> str:
     tol = "" if tip.tolerance is None else f", chordal {tip.tolerance * 1e3:g} µm"
     return f"mesh ({len(tip.faces)} triangles{tol})"
 
 
-def _symmetry(spec) -> int:
+def _symmetry(spec: Any) -> int:
     if all(c.axisymmetric for c in spec.cutters):
         return 0
     return math.lcm(*(c.symmetry_order for c in spec.cutters))
 
 
-def _labelled(tip):
+def _labelled(tip: Any) -> Any:
     from ..edges import label_by_geometry
     from ..io import UNLABELLED
     from ..tip import Tip
@@ -124,7 +132,7 @@ def _labelled(tip):
     return tip
 
 
-def load_cad(arg, *, tolerance: float | None = None) -> CadModel:
+def load_cad(arg: Any, *, tolerance: float | None = None) -> CadModel:
     """A CAD model from a TipSpec, a Tip, a spec file (.toml), a preset name or
     a mesh file (.stl .ply .obj .3mf .glb, cannula frame, mm)."""
     from ..io import SUPPORTED_IMPORTS, load_tip

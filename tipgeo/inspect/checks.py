@@ -28,14 +28,15 @@ from typing import Any
 
 import numpy as np
 
+from ..arrays import AnyArray, FloatArray
 from ..tolerances import tol
 from .scanio import ScanError
 
 __all__ = ["check_geometry", "check_match", "spread"]
 
 
-def spread(points: np.ndarray, origin=None, *, sample: int = 200_000) -> tuple[np.ndarray,
-                                                                             np.ndarray]:
+def spread(points: AnyArray, origin: AnyArray | None = None, *,
+           sample: int = 200_000) -> tuple[FloatArray, FloatArray]:
     """RMS extents (s1 ≥ s2 ≥ s3, mm) of points along their principal axes,
     and their centroid; from at most ``sample`` evenly spaced points, in
     float64."""
@@ -50,7 +51,8 @@ def spread(points: np.ndarray, origin=None, *, sample: int = 200_000) -> tuple[n
     return s, c
 
 
-def check_geometry(points: np.ndarray, r_o: float, *, register: bool, origin=None,
+def check_geometry(points: AnyArray, r_o: float, *, register: bool,
+                   origin: AnyArray | None = None,
                    where: str = "scan", allow_plane: bool = False) -> dict[str, Any]:
     """Refuse a scan that no comparison (``register=False``) or registration
     can use.
@@ -99,7 +101,7 @@ def check_geometry(points: np.ndarray, r_o: float, *, register: bool, origin=Non
     return {"points": int(n), "rms_extent_mm": s.tolist(), "centroid_mm": c.tolist()}
 
 
-def check_match(cad, *, share: float, fitness: float | None, registered_od: float | None,
+def check_match(cad: Any, *, share: float, fitness: float | None, registered_od: float | None,
                 measured: dict[str, Any]) -> dict[str, Any]:
     """Does the (registered) scan show the CAD's part?
 

@@ -1,5 +1,26 @@
 """``compare``: scan → registration → signed deviations → measured geometry
-→ match check → report. The public call behind ``tipgeo compare``.
+→ match check → verdict → report. The public call behind ``tipgeo compare``.
+
+The comparison is a pipeline of named stages, each a public function with a
+result type of its own, so a caller can run, inspect or replace any one:
+
+1. load — :func:`stage_load` → :class:`Loaded`: read the scan and the CAD,
+   thin the scan (voxel, outliers), refuse a degenerate one;
+2. register — :func:`stage_register` → :class:`Placed`: the transform
+   scanner frame → cannula frame;
+3. deviate — :func:`stage_deviate` → :class:`Deviated`: signed deviations,
+   their statistics and the measured geometry;
+4. verify — :func:`stage_verify` → :class:`Verified`: does the scan show the
+   CAD's part (the match check);
+5. decide — :func:`stage_decide` → :class:`Decided`: cutting edges
+   (optional), identity, pass or fail under the acceptance rule;
+6. report — :func:`stage_report` → :class:`Reported`: report.json,
+   report.md, the coloured PLY and the PNGs.
+
+The match check (verify) runs after the deviations: it uses the share of
+points near the CAD surface counted in the same pass over the scan, and the
+measured diameters. :meth:`Comparison.from_stages` gathers the first four
+results into the :class:`Comparison` that decide and report take.
 
 Frames and units: the scan in its scanner frame (mm after ``units``); every
 result in the CAD's cannula frame; mm inside, µm and degrees in reports.
@@ -17,12 +38,14 @@ frame, |x| of a few mm: rounding ≤ 0.0005 µm), face ids in int16. A scan of
 from __future__ import annotations
 
 import time
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
+from ..arrays import AnyArray, BoolArray, FloatArray, IntArray
 from ..errors import NotThisTip, SpecError
 from ..tolerances import tol
 from .cad import CadModel, load_cad
@@ -35,8 +58,25 @@ from .register import Registration, apply, register
 from .scanio import Scan, ScanError, check_points, load_scan
 from .transform import check_transform
 
+if TYPE_CHECKING:
+    from ..verdict import Verdict
+    from .acceptance import AcceptanceRule
+    from .edgescan import MeasuredEdges
+    from .identity import Identity
+
 __all__ = ["Comparison", "compare", "crop", "voxel_down_sample", "remove_outliers",
-           "estimate_normals"]
+           "estimate_normals", "Loaded", "Placed", "Deviated", "Verified", "Decided",
+           "Reported", "stage_load", "stage_register", "stage_deviate", "stage_verify",
+           "stage_decide", "stage_report", "default_rule"]
+
+#: A stage message sink (``tipgeo.progress`` or ``print``).
+Progress = Callable[[str], None]
+
+#: Share of each face's points the default acceptance rule wants within ± tolerance.
+DEFAULT_SHARE = 0.95
+
+#: Half-range of the default colour map, in tolerances.
+COLOUR_SCALE_PER_TOLERANCE = 2.5
 
 
 @dataclass
@@ -78,7 +118,7 @@ class Comparison:
     scan: Scan
     cad: CadModel
     registration: Registration | None
-    points: np.ndarray
+    points: AnyArray
     distances: Distances
     stats: dict[str, Any]
     measured: dict[str, Any]
@@ -87,16 +127,37 @@ class Comparison:
     dropped: dict[str, int] = field(default_factory=dict)
     timings: dict[str, float] = field(default_factory=dict)
     cpu_timings: dict[str, float] = field(default_factory=dict)
-    index: np.ndarray | None = None
+    index: IntArray | None = None
     colour_range: tuple[float, float] | None = None
     colormap: str = "RdYlBu_r"
     outputs: list[Path] = field(default_factory=list)
     match: dict[str, Any] = field(default_factory=dict)
     notes: list[str] = field(default_factory=list)
-    edges: Any = None
-    rule: Any = None
-    verdict: Any = None
-    identity: Any = None
+    edges: MeasuredEdges | None = None
+    rule: AcceptanceRule | None = None
+    verdict: Verdict | None = None
+    identity: Identity | None = None
+
+    @classmethod
+    def from_stages(cls, loaded: Loaded, placed: Placed, deviated: Deviated,
+                    verified: Verified, *, colour_scale: float | None = None,
+                    colour_range: tuple[float, float] | None = None,
+                    colormap: str | None = None) -> Comparison:
+        """The comparison of the first four stages' results (before the
+        verdict: ``stage_decide`` fills in ``edges``, ``identity``, ``rule``
+        and ``verdict``). ``colour_scale`` (mm) defaults to 2.5 × the
+        tolerance of ``deviated``; ``colour_range`` (mm, low < 0 < high)
+        overrides it; ``colormap`` defaults to ``RdYlBu_r``."""
+        scale, rng = _colour_options(deviated.tolerance, colour_scale, colour_range)
+        if colormap is not None:
+            _check_colormap(colormap)
+        timings = {**loaded.timings, **placed.timings, **deviated.timings}
+        cpu = {**loaded.cpu_timings, **placed.cpu_timings, **deviated.cpu_timings}
+        return cls(loaded.scan, loaded.cad, placed.registration, deviated.points,
+                   deviated.distances, deviated.stats, deviated.measured, deviated.tolerance,
+                   scale, {**loaded.dropped, **deviated.dropped}, timings, cpu,
+                   index=deviated.index, colour_range=rng, colormap=colormap or "RdYlBu_r",
+                   match=verified.match, notes=list(verified.notes))
 
     @property
     def colour_limits(self) -> tuple[float, float]:
@@ -107,6 +168,7 @@ class Comparison:
 
     @property
     def warnings(self) -> list[str]:
+        """The registration's, the CAD's and the comparison's warnings."""
         w = list(self.registration.warnings) if self.registration else []
         return w + list(self.cad.notes) + list(self.notes)
 
@@ -141,8 +203,8 @@ class Comparison:
 
 # -----------------------------------------------------------------------------
 # pre-processing
-def crop(points: np.ndarray, *, z_min: float | None = None, z_max: float | None = None,
-         radius: float | None = None) -> np.ndarray:
+def crop(points: AnyArray, *, z_min: float | None = None, z_max: float | None = None,
+         radius: float | None = None) -> BoolArray:
     """(n,) bool — points (cannula frame, mm) with z_min ≤ z ≤ z_max and
     distance to the axis ≤ radius (each bound optional)."""
     keep = np.ones(len(points), bool)
@@ -155,7 +217,7 @@ def crop(points: np.ndarray, *, z_min: float | None = None, z_max: float | None 
     return keep
 
 
-def voxel_down_sample(points: np.ndarray, voxel: float) -> np.ndarray:
+def voxel_down_sample(points: AnyArray, voxel: float) -> IntArray:
     """Indices of one point per occupied voxel of edge ``voxel`` (mm): the
     point nearest the voxel's centroid (so no coordinate is averaged)."""
     if not voxel > 0:
@@ -173,7 +235,7 @@ def voxel_down_sample(points: np.ndarray, voxel: float) -> np.ndarray:
     return np.sort(order[first])
 
 
-def remove_outliers(points: np.ndarray, *, neighbours: int = 8, ratio: float = 3.0) -> np.ndarray:
+def remove_outliers(points: AnyArray, *, neighbours: int = 8, ratio: float = 3.0) -> BoolArray:
     """(n,) bool — statistical outlier removal: keep points whose mean
     distance to their ``neighbours`` nearest points is within ``ratio``
     standard deviations of the mean."""
@@ -183,10 +245,11 @@ def remove_outliers(points: np.ndarray, *, neighbours: int = 8, ratio: float = 3
         return np.ones(len(points), bool)
     d, _ = cKDTree(points).query(points, k=neighbours + 1, workers=-1)
     m = d[:, 1:].mean(axis=1)
-    return m <= m.mean() + ratio * m.std()
+    keep: BoolArray = m <= m.mean() + ratio * m.std()
+    return keep
 
 
-def estimate_normals(points: np.ndarray, *, neighbours: int = 12) -> np.ndarray:
+def estimate_normals(points: AnyArray, *, neighbours: int = 12) -> FloatArray:
     """(n, 3) unit normals by local PCA (sign arbitrary)."""
     from .register import point_normals
 
@@ -200,23 +263,26 @@ class _ScanDistances(Distances):
     computed on first use from each point's triangle, the same values bit
     for bit (:meth:`MeshSolid.closest_normals`)."""
 
-    def __init__(self, distance, face, feature, labels, fill):
+    def __init__(self, distance: FloatArray, face: IntArray, feature: IntArray,
+                 labels: tuple[str, ...],
+                 fill: Callable[[], tuple[AnyArray, AnyArray]]) -> None:
         self.distance, self.face, self.feature, self.labels = distance, face, feature, labels
-        self._fill = fill
-        self._cn = None
+        self._fill: Callable[[], tuple[AnyArray, AnyArray]] | None = fill
+        self._cn: tuple[AnyArray, AnyArray] | None = None
 
-    def _pair(self):
+    def _pair(self) -> tuple[AnyArray, AnyArray]:
         if self._cn is None:
+            assert self._fill is not None  # set until the first call
             self._cn = self._fill()
             self._fill = None
         return self._cn
 
     @property
-    def closest(self) -> np.ndarray:
+    def closest(self) -> AnyArray:  # type: ignore[override]  # a field of Distances, computed here on first use
         return self._pair()[0]
 
     @property
-    def normal(self) -> np.ndarray:
+    def normal(self) -> AnyArray:  # type: ignore[override]  # a field of Distances, computed here on first use
         return self._pair()[1]
 
 
@@ -224,20 +290,28 @@ def _now() -> tuple[float, float]:
     return time.perf_counter(), time.process_time()
 
 
-def _lap(cpu: dict, name: str, since: tuple[float, float]) -> float:
+def _lap(cpu: dict[str, float], name: str, since: tuple[float, float]) -> float:
     """Wall seconds since ``since``; CPU seconds (this process) into ``cpu``."""
     cpu[name] = time.process_time() - since[1]
     return time.perf_counter() - since[0]
 
 
-def _shift(v) -> np.ndarray:
+def _shift(v: AnyArray) -> FloatArray:
     T = np.eye(4)
     T[:3, 3] = v
     return T
 
 
-def _deviations(model: CadModel, local: np.ndarray, T: np.ndarray, *, z_min, max_distance,
-                chunk: int):
+def _take(mask: BoolArray, *arrays: AnyArray) -> tuple[AnyArray, ...]:
+    """The rows of ``arrays`` where ``mask`` holds (no copy when all do)."""
+    if mask.all():
+        return arrays
+    return tuple(a[mask] for a in arrays)
+
+
+def _deviations(model: CadModel, local: AnyArray, T: FloatArray, *, z_min: float | None,
+                max_distance: float,
+                chunk: int) -> tuple[AnyArray, Distances, IntArray, dict[str, int]]:
     """Signed deviations of ``local`` (offsets, any float) mapped by ``T``
     into the cannula frame, chunk by chunk in float64. Points that cannot lie
     within ``max_distance`` of the CAD (outside its bounding cylinder grown by
@@ -248,7 +322,8 @@ def _deviations(model: CadModel, local: np.ndarray, T: np.ndarray, *, z_min, max
     compared (after the crop), in the envelope (the bounding cylinder grown by
     ``max_distance``), within ``tol.inspect.match_distance``."""
     m = len(local)
-    mesh = model.engine if isinstance(getattr(model, "engine", None), MeshSolid) else None
+    engine = getattr(model, "engine", None)
+    mesh = engine if isinstance(engine, MeshSolid) else None
     P = np.empty((m, 3), np.float32)
     rows = np.empty(m, np.int64)
     dist = np.empty(m)
@@ -264,12 +339,6 @@ def _deviations(model: CadModel, local: np.ndarray, T: np.ndarray, *, z_min, max
     reach = model.r_o + max_distance
     z_lo, z_hi = model.z_base - max_distance, model.z_top + max_distance
     cur = 0
-
-    def take(mask, *arrays):
-        """The rows of ``arrays`` where ``mask`` holds (no copy when all do)."""
-        if mask.all():
-            return arrays
-        return tuple(a[mask] for a in arrays)
 
     from .nearest import transform_envelope
 
@@ -299,30 +368,528 @@ def _deviations(model: CadModel, local: np.ndarray, T: np.ndarray, *, z_min, max
         ok = ad <= max_distance
         k = int(np.count_nonzero(ok))
         sl = slice(cur, cur + k)
-        P[sl], dist[sl], clo[sl], nrm[sl], face[sl], feat[sl], rows[sl] = take(
+        P[sl], dist[sl], clo[sl], nrm[sl], face[sl], feat[sl], rows[sl] = _take(
             ok, q, D.distance, D.closest, D.normal, D.face, D.feature, r)
         cur += k
     cnt["far"] = cnt["compared"] - cur
     if mesh is not None:
-        kept, tk = rows[:cur], tri[:cur]
+        kept_rows, tk, solid = rows[:cur], tri[:cur], mesh
         D = _ScanDistances(dist[:cur], face[:cur], feat[:cur], tuple(model.labels),
-                           lambda: mesh.closest_normals(local, kept, T, tk))
-        return P[:cur], D, kept, cnt
+                           lambda: solid.closest_normals(local, kept_rows, T, tk))
+        return P[:cur], D, kept_rows, cnt
     return P[:cur], Distances(dist[:cur], clo[:cur], nrm[:cur], face[:cur], feat[:cur],
                               tuple(model.labels)), rows[:cur], cnt
 
 
-def compare(scan, cad, *, tolerance: float = 0.01, units: str = "mm",
-            register_scan: bool = True, z_min: float | None = None,
+# -----------------------------------------------------------------------------
+# options, checked before any work
+def _quiet(msg: str) -> None:
+    """The default progress: say nothing."""
+
+
+def _positive(name: str, value: float) -> float:
+    if not (np.isfinite(value) and value > 0):
+        raise SpecError(f"{name} = {value!r} mm; allowed > 0")
+    return float(value)
+
+
+def _colour_options(tolerance: float, colour_scale: float | None,
+                    colour_range: tuple[float, float] | None
+                    ) -> tuple[float, tuple[float, float] | None]:
+    """(half-range, (low, high) or None) of the colour map (mm), checked."""
+    _positive("tolerance", tolerance)
+    scale = _positive("colour_scale", COLOUR_SCALE_PER_TOLERANCE * tolerance
+                      if colour_scale is None else float(colour_scale))
+    if colour_range is None:
+        return scale, None
+    lo_c, hi_c = (float(x) for x in colour_range)
+    if not (np.isfinite(lo_c) and np.isfinite(hi_c) and lo_c < 0 < hi_c):
+        raise SpecError(f"colour_range = {tuple(colour_range)!r} mm; allowed low < 0 < high")
+    return max(-lo_c, hi_c), (lo_c, hi_c)
+
+
+def _check_colormap(colormap: str) -> None:
+    import matplotlib
+
+    if colormap not in matplotlib.colormaps:
+        raise SpecError(f"colormap = {colormap!r} is not a matplotlib colormap; e.g. "
+                        "RdYlBu_r, coolwarm, jet, viridis")
+
+
+def _check_crop(z_min: float | None, max_distance: float) -> None:
+    _positive("max_distance", max_distance)
+    if z_min is not None and not np.isfinite(z_min):
+        raise SpecError(f"z_min = {z_min!r} mm; allowed a finite value")
+
+
+def default_rule(tolerance: float) -> AcceptanceRule:
+    """The acceptance rule when none is given: ± ``tolerance`` (mm) on 95 %
+    of each face's points."""
+    from .acceptance import AcceptanceRule, Band
+
+    return AcceptanceRule(Band(tolerance, DEFAULT_SHARE))
+
+
+# -----------------------------------------------------------------------------
+# stage 1: load
+@dataclass
+class Loaded:
+    """What :func:`stage_load` read: the scan and the CAD, ready to register.
+
+    Attributes
+    ----------
+    scan : Scan — as read (scanner frame, mm)
+    cad : CadModel — the CAD tip (cannula frame, mm)
+    local : (m, 3) float32 or float64 — the points kept (after ``voxel`` and
+        ``outliers``) as offsets from ``origin`` (mm, scanner frame axes)
+    origin : (3,) float64 — mm, scanner frame
+    rows : (m,) int64 or None — row of each kept point in the scan as read
+        (increasing; None: every row, in order)
+    dropped : dict — points left out, by reason (``voxel``, ``outliers``)
+    timings, cpu_timings : dict — wall and CPU seconds of ``load_scan`` and
+        ``load_cad``
+    """
+
+    scan: Scan
+    cad: CadModel
+    local: AnyArray
+    origin: FloatArray
+    rows: IntArray | None = None
+    dropped: dict[str, int] = field(default_factory=dict)
+    timings: dict[str, float] = field(default_factory=dict)
+    cpu_timings: dict[str, float] = field(default_factory=dict)
+
+    @property
+    def where(self) -> str:
+        """The scan, named for messages."""
+        return f"scan '{self.scan.source}'"
+
+
+def _read_scan(scan: Scan | str | Path | AnyArray, units: str, say: Progress) -> Scan:
+    if isinstance(scan, Scan):
+        return scan
+    if isinstance(scan, (str, Path)):
+        say(f"reading {scan}")
+        return load_scan(scan, units=units, compact=True)
+    return Scan(check_points(scan, "scan"))
+
+
+def _thin(local: AnyArray, voxel: float | None,
+          outliers: bool) -> tuple[AnyArray, IntArray | None, dict[str, int]]:
+    """(kept offsets, their rows or None, dropped counts)."""
+    dropped: dict[str, int] = {}
+    src: IntArray | None = None
+    if voxel:
+        idx = voxel_down_sample(local, voxel)
+        dropped["voxel"] = int(len(local) - len(idx))
+        local, src = local[idx], idx
+    if outliers:
+        keep = remove_outliers(local)
+        dropped["outliers"] = int((~keep).sum())
+        local = local[keep]
+        src = np.flatnonzero(keep) if src is None else src[keep]
+    return local, src, dropped
+
+
+def stage_load(scan: Scan | str | Path | AnyArray, cad: Any, *, units: str = "mm",
+               voxel: float | None = None, outliers: bool = False,
+               register_scan: bool = True, progress: Progress | None = None) -> Loaded:
+    """Stage 1 of :func:`compare`: read the scan and the CAD, thin the scan,
+    and refuse one that no comparison can use.
+
+    Parameters
+    ----------
+    scan : path, Scan or (n, 3) array — the scan (scanner frame; a file in
+        ``units``: 'mm', 'um' or 'm')
+    cad : TipSpec, Tip, CadModel, spec/mesh path or preset name
+    voxel : float — keep one point per voxel of this edge (mm)
+    outliers : bool — statistical outlier removal
+    register_scan : bool — the scan will be registered (a flat scan is
+        refused then unless the CAD has a planar cut face)
+    progress : callable(str) — stage messages
+
+    Raises
+    ------
+    ScanError — unreadable, empty, non-finite or degenerate scan
+        (:func:`tipgeo.inspect.checks.check_geometry`)
+    """
+    from .register import planar_cut_faces
+
+    say = progress or _quiet
+    cpu: dict[str, float] = {}
+    t = _now()
+    sc = _read_scan(scan, units, say)
+    timings = {"load_scan": _lap(cpu, "load_scan", t)}
+    say(f"{len(sc):,} points read in {timings['load_scan']:.2f} s")
+    t = _now()
+    model = cad if isinstance(cad, CadModel) else load_cad(cad)
+    timings["load_cad"] = _lap(cpu, "load_cad", t)
+    loc, src, dropped = _thin(sc.local, voxel, outliers)
+    res = Loaded(sc, model, loc, np.asarray(sc.origin, float), src, dropped, timings, cpu)
+    check_geometry(loc, model.r_o, register=register_scan, origin=res.origin, where=res.where,
+                   allow_plane=bool(planar_cut_faces(model)))
+    return res
+
+
+# -----------------------------------------------------------------------------
+# stage 2: register
+@dataclass
+class Placed:
+    """Where :func:`stage_register` put the scan.
+
+    Attributes
+    ----------
+    registration : Registration or None — None when the scan was not
+        registered; its ``transform`` maps the scanner frame to the cannula
+        frame (mm)
+    transform : (4, 4) float64 — the stored offsets (``Loaded.local``) →
+        cannula frame (mm)
+    scanner_to_cannula : (4, 4) float64 — scanner frame → cannula frame (mm)
+    timings, cpu_timings : dict — wall and CPU seconds of ``register``
+    """
+
+    registration: Registration | None
+    transform: FloatArray
+    scanner_to_cannula: FloatArray
+    timings: dict[str, float] = field(default_factory=dict)
+    cpu_timings: dict[str, float] = field(default_factory=dict)
+
+
+def _registered(loaded: Loaded, init_transform: FloatArray | None, seed: int,
+                allow_mismatch: bool, say: Progress) -> tuple[Registration, FloatArray]:
+    """The registration (its transform and axis in the scanner frame) and
+    the offsets → cannula frame transform."""
+    origin, loc, where = loaded.origin, loaded.local, loaded.where
+    try:
+        start = loc if init_transform is None else apply(init_transform @ _shift(origin), loc)
+        reg = register(start, loaded.cad, seed=seed, progress=lambda m: say(f"  {m}"),
+                       max_diameter_error=None if allow_mismatch else tol.inspect.match_diameter)
+    except ScanError as e:
+        if "another gauge" in str(e):
+            raise NotThisTip(f"{where}: {e} (--allow-mismatch compares it anyway)") from None
+        raise ScanError(f"{where}: {e}") from None
+    if init_transform is None:
+        T_loc = reg.transform          # offsets → cannula frame
+        reg.axis["point_mm"] = (np.asarray(reg.axis["point_mm"]) + origin).tolist()
+    else:
+        T_loc = reg.transform @ init_transform @ _shift(origin)
+        reg.axis["point_mm"] = apply(np.linalg.inv(init_transform),
+                                     np.asarray([reg.axis["point_mm"]]))[0].tolist()
+    reg.transform = T_loc @ _shift(-origin)   # scanner frame → cannula frame
+    return reg, T_loc
+
+
+def stage_register(loaded: Loaded, *, register_scan: bool = True,
+                   init_transform: AnyArray | None = None, seed: int = 0,
+                   allow_mismatch: bool = False, progress: Progress | None = None) -> Placed:
+    """Stage 2 of :func:`compare`: the rigid transform scanner frame →
+    cannula frame (mm; +z along the axis toward the tip).
+
+    Parameters
+    ----------
+    loaded : Loaded — from :func:`stage_load`
+    register_scan : bool — False: the scan is already in the cannula frame
+        (or ``init_transform`` takes it there)
+    init_transform : (4, 4) float — scanner frame → cannula frame to start
+        from (mm): the whole transform without registration, its starting
+        pose with it
+    seed : int — of the registration's random subsets
+    allow_mismatch : bool — do not refuse a scan of another gauge
+
+    Raises
+    ------
+    ScanError — the registration found no pose (no outer wall, a plane);
+    NotThisTip — the fitted diameter is another gauge's (unless ``allow_mismatch``)
+    """
+    say = progress or _quiet
+    T0 = None if init_transform is None else check_transform(init_transform, "init_transform")
+    cpu: dict[str, float] = {}
+    t = _now()
+    reg: Registration | None = None
+    if register_scan:
+        say("registering")
+        reg, T_loc = _registered(loaded, T0, seed, allow_mismatch, say)
+    else:
+        T_loc = _shift(loaded.origin) if T0 is None else T0 @ _shift(loaded.origin)
+    timings = {"register": _lap(cpu, "register", t)}
+    if reg:
+        say(f"registered in {timings['register']:.2f} s: fitness {reg.fitness:.3f}, inlier "
+            f"RMSE {reg.inlier_rmse * 1e3:.3f} µm")
+    return Placed(reg, T_loc, T_loc @ _shift(-loaded.origin), timings, cpu)
+
+
+# -----------------------------------------------------------------------------
+# stage 3: deviate
+@dataclass
+class Deviated:
+    """What :func:`stage_deviate` found: signed deviations and measured geometry.
+
+    Attributes
+    ----------
+    points : (m, 3) float32 — the compared points, cannula frame (mm)
+    distances : Distances — their signed deviations (mm; > 0 outside the CAD
+        solid, excess material)
+    index : (m,) int64 — row of each compared point in the scan as read
+        (increasing)
+    counts : dict — points ``crop``-ped, ``far`` from the CAD, ``compared``
+        (after the crop), in the ``envelope`` (the CAD's bounding cylinder grown
+        by ``max_distance``), within ``tol.inspect.match_distance`` (``match``)
+    stats : dict — :func:`tipgeo.inspect.deviation.statistics` with
+        ``trimmed`` and ``histogram``
+    measured : dict — :func:`tipgeo.inspect.measure.measure`
+    tolerance, max_distance : float — mm, as given
+    dropped : dict — points left out (``crop``, ``far``)
+    timings, cpu_timings : dict — ``deviations``, ``statistics``, ``measure``
+    """
+
+    points: AnyArray
+    distances: Distances
+    index: IntArray
+    counts: dict[str, int]
+    stats: dict[str, Any]
+    measured: dict[str, Any]
+    tolerance: float
+    max_distance: float
+    dropped: dict[str, int] = field(default_factory=dict)
+    timings: dict[str, float] = field(default_factory=dict)
+    cpu_timings: dict[str, float] = field(default_factory=dict)
+
+    @property
+    def rms(self) -> float:
+        """RMS of the signed deviations (mm)."""
+        return float(np.sqrt(np.mean(np.square(self.distances.distance))))
+
+
+def _dropped(cnt: dict[str, int], z_min: float | None) -> dict[str, int]:
+    out: dict[str, int] = {}
+    if z_min is not None:
+        out["crop"] = cnt["crop"]
+    if cnt["far"]:
+        out["far"] = cnt["far"]
+    return out
+
+
+def stage_deviate(loaded: Loaded, placed: Placed, *, tolerance: float = 0.01,
+                  z_min: float | None = None, max_distance: float = 0.5,
+                  histogram_range: tuple[float, float] | None = None,
+                  progress: Progress | None = None) -> Deviated:
+    """Stage 3 of :func:`compare`: every point's signed deviation from the
+    CAD (cannula frame, mm; exact in float64), their statistics per face
+    and the measured geometry (diameters, cut-face angles, tip).
+
+    Parameters
+    ----------
+    loaded, placed : the results of :func:`stage_load` and :func:`stage_register`
+    tolerance : float — ± band of the statistics (mm)
+    z_min : float — compare only points with z ≥ z_min (mm, cannula frame)
+    max_distance : float — points farther than this from the CAD are left
+        out as not belonging to the part (mm)
+    histogram_range : (low, high) float — mm; default ± 2.5 × tolerance
+
+    Raises
+    ------
+    ScanError — no point left after the crop, or none within ``max_distance``
+    """
+    _positive("tolerance", tolerance)
+    _check_crop(z_min, max_distance)
+    lo_h, hi_h = _colour_options(tolerance, None, histogram_range)[1] or (
+        -COLOUR_SCALE_PER_TOLERANCE * tolerance, COLOUR_SCALE_PER_TOLERANCE * tolerance)
+    say = progress or _quiet
+    model, cpu = loaded.cad, dict[str, float]()
+    t = _now()
+    say(f"deviations of {len(loaded.local):,} points ({model.method})")
+    pts, dist, rows, cnt = _deviations(model, loaded.local, placed.transform, z_min=z_min,
+                                       max_distance=max_distance, chunk=tol.inspect.chunk)
+    timings = {"deviations": _lap(cpu, "deviations", t)}
+    if not cnt["compared"]:
+        raise ScanError(f"no scan points left to compare after cropping at z_min = {z_min} mm")
+    if not len(pts):
+        raise ScanError(f"{loaded.where}: none of its {cnt['compared']:,} points lies within "
+                        f"{max_distance} mm of the CAD surface; wrong tip, units or "
+                        "registration?")
+    say(f"deviations in {timings['deviations']:.2f} s")
+    t = _now()
+    stats = statistics(dist.distance, dist.face, tolerance, names=dist.labels)
+    stats["trimmed"] = trimmed(dist.distance, tolerance, sigmas=tol.inspect.trim_sigmas)
+    stats["histogram"] = histogram(dist.distance, lo_h, hi_h, tol.inspect.histogram_bins)
+    timings["statistics"] = _lap(cpu, "statistics", t)
+    t = _now()
+    measured = measure(pts, dist, model)
+    timings["measure"] = _lap(cpu, "measure", t)
+    index = rows if loaded.rows is None else loaded.rows[rows]
+    return Deviated(pts, dist, index, cnt, stats, measured, float(tolerance),
+                    float(max_distance), _dropped(cnt, z_min), timings, cpu)
+
+
+# -----------------------------------------------------------------------------
+# stage 4: verify
+@dataclass
+class Verified:
+    """What :func:`stage_verify` concluded: does the scan show the CAD's part.
+
+    Attributes
+    ----------
+    match : dict — :func:`tipgeo.inspect.checks.check_match` (``ok``,
+        inlier share, fitness, diameters, ``problems``)
+    notes : list of str — warnings for the report (far points, a mismatch
+        let through)
+    """
+
+    match: dict[str, Any]
+    notes: list[str] = field(default_factory=list)
+
+    @property
+    def ok(self) -> bool:
+        """The scan matches the CAD."""
+        return bool(self.match.get("ok", False))
+
+
+def stage_verify(loaded: Loaded, placed: Placed, deviated: Deviated, *,
+                 allow_mismatch: bool = False) -> Verified:
+    """Stage 4 of :func:`compare`: the match check — at least
+    ``tol.inspect.match_min_share`` of the points in the CAD's envelope within
+    ``tol.inspect.match_distance`` (mm) of its surface (background far from
+    the part does not count), a registration fitness of at least
+    ``tol.inspect.match_min_fitness``, fitted diameters within
+    ``tol.inspect.match_diameter`` of the CAD's.
+
+    Warns (``Verified.notes``) when more than ``tol.inspect.far_share_warn``
+    of the compared points lie beyond ``max_distance``.
+
+    Raises
+    ------
+    NotThisTip — the scan does not match, unless ``allow_mismatch`` (then a note)
+    """
+    reg, cnt, model = placed.registration, deviated.counts, loaded.cad
+    share = cnt["match"] / cnt["envelope"]
+    match = check_match(model, share=share, fitness=reg.fitness if reg else None,
+                        registered_od=reg.axis["outer_diameter_mm"] if reg else None,
+                        measured=deviated.measured)
+    notes = []
+    far_share = cnt["far"] / cnt["compared"]
+    if far_share > tol.inspect.far_share_warn:
+        notes.append(f"{100 * far_share:.2f} % of the compared points ({cnt['far']:,} of "
+                     f"{cnt['compared']:,}) lie farther than {deviated.max_distance:g} mm from "
+                     f"the CAD surface (more than {100 * tol.inspect.far_share_warn:g} %): gross "
+                     "outliers, a fixture in the scan or a wrong registration; they are left "
+                     "out of the statistics")
+    if not match["ok"]:
+        msg = (f"{loaded.where} does not match the CAD '{model.name}': "
+               + "; ".join(match["problems"]))
+        if not allow_mismatch:
+            raise NotThisTip(msg + " (--allow-mismatch compares it anyway)")
+        notes.append(msg + " (compared anyway: --allow-mismatch)")
+    return Verified(match, notes)
+
+
+# -----------------------------------------------------------------------------
+# stage 5: decide
+@dataclass
+class Decided:
+    """What :func:`stage_decide` judged.
+
+    Attributes
+    ----------
+    rule : AcceptanceRule — the rule applied
+    verdict : Verdict — pass or fail, with each check's figure and reason
+    identity : Identity — gauge, cut-face shape and serrations checks
+    edges : MeasuredEdges or None — cutting edges measured on the scan (``angles``)
+    timings, cpu_timings : dict — ``edges`` (when measured) and ``identity``
+    """
+
+    rule: AcceptanceRule
+    verdict: Verdict
+    identity: Identity
+    edges: MeasuredEdges | None = None
+    timings: dict[str, float] = field(default_factory=dict)
+    cpu_timings: dict[str, float] = field(default_factory=dict)
+
+    @property
+    def ok(self) -> bool:
+        """The verdict is a pass."""
+        return bool(self.verdict.ok)
+
+
+def stage_decide(res: Comparison, rule: AcceptanceRule | None = None, *, angles: bool = False,
+                 edge_band: float | None = None, progress: Progress | None = None) -> Decided:
+    """Stage 5 of :func:`compare`: pass or fail of ``res`` under ``rule``
+    (default ± ``res.tolerance`` on 95 % of each face's points). With
+    ``angles`` the cutting edges are traced on the scan first
+    (:func:`tipgeo.inspect.measure_edges`, ``edge_band`` in mm). Never a pass
+    for a scan that is not this tip (:mod:`.identity`) or whose registration
+    is not certain.
+
+    ``res`` gets ``rule``, ``edges``, ``identity`` and ``verdict`` (the report
+    shows them); its timings get ``edges`` and ``identity`` (seconds).
+    """
+    from .acceptance import judge
+    from .identity import identify
+
+    say = progress or _quiet
+    res.rule = rule if rule is not None else default_rule(res.tolerance)
+    if angles:
+        from .edgescan import measure_edges
+
+        t = _now()
+        say("tracing the cutting edges")
+        res.edges = measure_edges(res.points, res.cad, edge_band=edge_band,
+                                  progress=lambda m: say(f"  {m}"))
+        res.timings["edges"] = _lap(res.cpu_timings, "edges", t)
+    t = _now()
+    res.identity = identify(res)
+    res.timings["identity"] = _lap(res.cpu_timings, "identity", t)
+    res.verdict = judge(res, res.rule)
+    say(res.verdict.line())
+    keys = ("edges", "identity")
+    return Decided(res.rule, res.verdict, res.identity, res.edges,
+                   {k: res.timings[k] for k in keys if k in res.timings},
+                   {k: res.cpu_timings[k] for k in keys if k in res.cpu_timings})
+
+
+# -----------------------------------------------------------------------------
+# stage 6: report
+@dataclass
+class Reported:
+    """What :func:`stage_report` wrote.
+
+    Attributes
+    ----------
+    folder : Path — the report folder
+    outputs : list of Path — the files, in the order written
+    """
+
+    folder: Path
+    outputs: list[Path]
+
+
+def stage_report(res: Comparison, out: str | Path, *, pictures: bool = True,
+                 progress: Progress | None = None) -> Reported:
+    """Stage 6 of :func:`compare`: write report.json, report.md,
+    deviations.ply and (with ``pictures``) the PNGs into the folder ``out``
+    — all or nothing (:func:`tipgeo.inspect.report.write_report`)."""
+    from .report import write_report
+
+    say = progress or _quiet
+    say(f"writing the report to {out}")
+    return Reported(Path(out), write_report(res, out, pictures=pictures))
+
+
+# -----------------------------------------------------------------------------
+def compare(scan: Scan | str | Path | AnyArray, cad: Any, *, tolerance: float = 0.01,
+            units: str = "mm", register_scan: bool = True, z_min: float | None = None,
             voxel: float | None = None, outliers: bool = False,
             max_distance: float = 0.5, colour_scale: float | None = None,
             out: str | Path | None = None, pictures: bool = True, seed: int = 0,
-            progress=None, allow_mismatch: bool = False, angles: bool = False,
-            edge_band: float | None = None,
-            init_transform: np.ndarray | None = None,
+            progress: Progress | None = None, allow_mismatch: bool = False,
+            angles: bool = False, edge_band: float | None = None,
+            init_transform: AnyArray | None = None,
             colour_range: tuple[float, float] | None = None,
-            colormap: str | None = None, acceptance=None) -> Comparison:
-    """Compare a scan with a CAD tip, and judge it.
+            colormap: str | None = None,
+            acceptance: AcceptanceRule | None = None) -> Comparison:
+    """Compare a scan with a CAD tip, and judge it: the six stages
+    (:func:`stage_load` → :func:`stage_register` → :func:`stage_deviate` →
+    :func:`stage_verify` → :func:`stage_decide` → :func:`stage_report`) in a row,
+    every option checked before any work.
 
     Parameters
     ----------
@@ -379,161 +946,26 @@ def compare(scan, cad, *, tolerance: float = 0.01, units: str = "mm",
         more than ``tol.inspect.match_diameter`` off the CAD's
         (:func:`tipgeo.inspect.checks.check_match`).
     """
-    say = progress or (lambda msg: None)
-    if not (np.isfinite(tolerance) and tolerance > 0):
-        raise SpecError(f"tolerance = {tolerance!r} mm; allowed > 0")
-    scale = 2.5 * tolerance if colour_scale is None else float(colour_scale)
-    if not (np.isfinite(scale) and scale > 0):
-        raise SpecError(f"colour_scale = {colour_scale!r} mm; allowed > 0")
-    if colour_range is not None:
-        lo_c, hi_c = (float(x) for x in colour_range)
-        if not (np.isfinite(lo_c) and np.isfinite(hi_c) and lo_c < 0 < hi_c):
-            raise SpecError(f"colour_range = {tuple(colour_range)!r} mm; allowed low < 0 < high")
-        colour_range = (lo_c, hi_c)
-        scale = max(-lo_c, hi_c)
+    say = progress or _quiet
+    scale, rng = _colour_options(tolerance, colour_scale, colour_range)
     if colormap is not None:
-        import matplotlib
-
-        if colormap not in matplotlib.colormaps:
-            raise SpecError(f"colormap = {colormap!r} is not a matplotlib colormap; e.g. "
-                            "RdYlBu_r, coolwarm, jet, viridis")
-    if init_transform is not None:
-        init_transform = check_transform(init_transform, "init_transform")
-    if not (np.isfinite(max_distance) and max_distance > 0):
-        raise SpecError(f"max_distance = {max_distance!r} mm; allowed > 0")
-    if z_min is not None and not np.isfinite(z_min):
-        raise SpecError(f"z_min = {z_min!r} mm; allowed a finite value")
-    timings: dict[str, float] = {}
-    cpu: dict[str, float] = {}
+        _check_colormap(colormap)
+    T0 = None if init_transform is None else check_transform(init_transform, "init_transform")
+    _check_crop(z_min, max_distance)
+    rule = acceptance if acceptance is not None else default_rule(tolerance)
     t0 = _now()
-    from .acceptance import AcceptanceRule, Band
-
-    rule = acceptance if acceptance is not None else AcceptanceRule(Band(tolerance, 0.95))
-    if isinstance(scan, Scan):
-        sc = scan
-    elif isinstance(scan, (str, Path)):
-        say(f"reading {scan}")
-        sc = load_scan(scan, units=units, compact=True)
-    else:
-        sc = Scan(check_points(scan, "scan"))
-    timings["load_scan"] = _lap(cpu, "load_scan", t0)
-    say(f"{len(sc):,} points read in {timings['load_scan']:.2f} s")
-    t = _now()
-    model = cad if isinstance(cad, CadModel) else load_cad(cad)
-    timings["load_cad"] = _lap(cpu, "load_cad", t)
-    dropped: dict[str, int] = {}
-    loc, origin = sc.local, sc.origin
-    src = None  # rows of loc in the scan as read (None: all, in order)
-    if voxel:
-        idx = voxel_down_sample(loc, voxel)
-        dropped["voxel"] = int(len(loc) - len(idx))
-        loc, src = loc[idx], idx
-    if outliers:
-        keep = remove_outliers(loc)
-        dropped["outliers"] = int((~keep).sum())
-        loc = loc[keep]
-        src = np.flatnonzero(keep) if src is None else src[keep]
-    T_init = _shift(origin) if init_transform is None else init_transform @ _shift(origin)
-    where = f"scan '{sc.source}'"
-    from .register import planar_cut_faces
-
-    check_geometry(loc, model.r_o, register=register_scan, origin=origin, where=where,
-                   allow_plane=bool(planar_cut_faces(model)))
-    reg = None
-    t = _now()
-    if register_scan:
-        say("registering")
-        try:
-            start = loc if init_transform is None else apply(init_transform @ _shift(origin), loc)
-            reg = register(start, model, seed=seed, progress=lambda m: say(f"  {m}"),
-                           max_diameter_error=None if allow_mismatch else
-                           tol.inspect.match_diameter)
-        except ScanError as e:
-            if "another gauge" in str(e):
-                raise NotThisTip(f"{where}: {e} (--allow-mismatch compares it anyway)") from None
-            raise ScanError(f"{where}: {e}") from None
-        if init_transform is None:
-            T_loc = reg.transform          # offsets → cannula frame
-            reg.axis["point_mm"] = (np.asarray(reg.axis["point_mm"]) + origin).tolist()
-        else:
-            T_loc = reg.transform @ T_init
-            reg.axis["point_mm"] = apply(np.linalg.inv(init_transform),
-                                         np.asarray([reg.axis["point_mm"]]))[0].tolist()
-        reg.transform = T_loc @ _shift(-origin)   # scanner frame → cannula frame
-    else:
-        T_loc = T_init
-    timings["register"] = _lap(cpu, "register", t)
-    if reg:
-        say(f"registered in {timings['register']:.2f} s: fitness {reg.fitness:.3f}, inlier "
-            f"RMSE {reg.inlier_rmse * 1e3:.3f} µm")
-    t = _now()
-    say(f"deviations of {len(loc):,} points ({model.method})")
-    pts, dist, rows, cnt = _deviations(model, loc, T_loc, z_min=z_min, max_distance=max_distance,
-                                 chunk=tol.inspect.chunk)
-    timings["deviations"] = _lap(cpu, "deviations", t)
-    if z_min is not None:
-        dropped["crop"] = cnt["crop"]
-    if not cnt["compared"]:
-        raise ScanError(f"no scan points left to compare after cropping at z_min = {z_min} mm")
-    if cnt["far"]:
-        dropped["far"] = cnt["far"]
-    if not len(pts):
-        raise ScanError(f"{where}: none of its {cnt['compared']:,} points lies within "
-                        f"{max_distance} mm of the CAD surface; wrong tip, units or "
-                        "registration?")
-    say(f"deviations in {timings['deviations']:.2f} s")
-    t = _now()
-    stats = statistics(dist.distance, dist.face, tolerance, names=dist.labels)
-    stats["trimmed"] = trimmed(dist.distance, tolerance, sigmas=tol.inspect.trim_sigmas)
-    lo_h, hi_h = colour_range or (-scale, scale)
-    stats["histogram"] = histogram(dist.distance, lo_h, hi_h, tol.inspect.histogram_bins)
-    timings["statistics"] = _lap(cpu, "statistics", t)
-    t = _now()
-    measured = measure(pts, dist, model)
-    timings["measure"] = _lap(cpu, "measure", t)
-    # background far from the part (a fixture, a table) does not count against it
-    share = cnt["match"] / cnt["envelope"]
-    match = check_match(model, share=share, fitness=reg.fitness if reg else None,
-                        registered_od=reg.axis["outer_diameter_mm"] if reg else None,
-                        measured=measured)
-    notes = []
-    far_share = cnt["far"] / cnt["compared"]
-    if far_share > tol.inspect.far_share_warn:
-        notes.append(f"{100 * far_share:.2f} % of the compared points ({cnt['far']:,} of "
-                     f"{cnt['compared']:,}) lie farther than {max_distance:g} mm from the CAD "
-                     f"surface (more than {100 * tol.inspect.far_share_warn:g} %): gross "
-                     "outliers, a fixture in the scan or a wrong registration; they are left "
-                     "out of the statistics")
-    if not match["ok"]:
-        msg = (f"{where} does not match the CAD '{model.name}': "
-               + "; ".join(match["problems"]))
-        if not allow_mismatch:
-            raise NotThisTip(msg + " (--allow-mismatch compares it anyway)")
-        notes.append(msg + " (compared anyway: --allow-mismatch)")
-    res = Comparison(sc, model, reg, pts, dist, stats, measured, tolerance, scale, dropped,
-                     timings, cpu, match=match, notes=notes, rule=rule,
-                     index=rows if src is None else src[rows], colour_range=colour_range,
-                     colormap=colormap or "RdYlBu_r")
-    if angles:
-        from .edgescan import measure_edges
-
-        t = _now()
-        say("tracing the cutting edges")
-        res.edges = measure_edges(pts, model, edge_band=edge_band,
-                                  progress=lambda m: say(f"  {m}"))
-        timings["edges"] = _lap(cpu, "edges", t)
-    from .acceptance import judge
-    from .identity import identify
-
-    t = _now()
-    res.identity = identify(res)
-    timings["identity"] = _lap(cpu, "identity", t)
-    res.verdict = judge(res, rule)
-    say(res.verdict.line())
-    timings["total"] = _lap(cpu, "total", t0)
+    loaded = stage_load(scan, cad, units=units, voxel=voxel, outliers=outliers,
+                        register_scan=register_scan, progress=say)
+    placed = stage_register(loaded, register_scan=register_scan, init_transform=T0, seed=seed,
+                            allow_mismatch=allow_mismatch, progress=say)
+    deviated = stage_deviate(loaded, placed, tolerance=tolerance, z_min=z_min,
+                             max_distance=max_distance, histogram_range=rng or (-scale, scale),
+                             progress=say)
+    verified = stage_verify(loaded, placed, deviated, allow_mismatch=allow_mismatch)
+    res = Comparison.from_stages(loaded, placed, deviated, verified, colour_scale=scale,
+                                 colour_range=rng, colormap=colormap)
+    stage_decide(res, rule, angles=angles, edge_band=edge_band, progress=say)
+    res.timings["total"] = _lap(res.cpu_timings, "total", t0)
     if out is not None:
-        from .report import write_report
-
-        say(f"writing the report to {out}")
-        write_report(res, out, pictures=pictures)
+        stage_report(res, out, pictures=pictures, progress=say)
     return res

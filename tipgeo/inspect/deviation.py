@@ -7,9 +7,12 @@ inside (missing material).
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from typing import Any
 
 import numpy as np
+
+from ..arrays import AnyArray
 
 __all__ = ["statistics", "STAT_KEYS", "trimmed", "histogram"]
 
@@ -37,12 +40,12 @@ def _block(d: np.ndarray, tol: float) -> dict[str, Any]:
             "within_tol_share": m["within"] / n}
 
 
-def _order(name: str):
+def _order(name: str) -> tuple[bool, str]:
     return (not name.startswith("cut:"), name)
 
 
-def statistics(distance: np.ndarray, labels: np.ndarray, tolerance: float, *,
-               names=None) -> dict[str, Any]:
+def statistics(distance: AnyArray, labels: AnyArray, tolerance: float, *,
+               names: Sequence[str] | None = None) -> dict[str, Any]:
     """Statistics of signed deviations.
 
     Parameters
@@ -61,11 +64,12 @@ def statistics(distance: np.ndarray, labels: np.ndarray, tolerance: float, *,
     percentiles by linear interpolation; share of |d| ≤ tolerance).
     """
     d = np.asarray(distance, float)
-    out = {"tolerance_um": tolerance * 1e3, "all": _block(d, tolerance), "regions": {}}
+    regions: dict[str, dict[str, Any]] = {}
+    out = {"tolerance_um": tolerance * 1e3, "all": _block(d, tolerance), "regions": regions}
     if names is None:
         lab = np.asarray(labels, dtype=object)
         for name in sorted(set(lab.tolist()), key=_order):
-            out["regions"][name] = _block(d[lab == name], tolerance)
+            regions[name] = _block(d[lab == name], tolerance)
         return out
     from .quantiles import by_group
 
@@ -77,7 +81,7 @@ def statistics(distance: np.ndarray, labels: np.ndarray, tolerance: float, *,
     vals, start = by_group(d, ids, gmap, len(order))
     for g, name in enumerate(order):
         if start[g + 1] > start[g]:
-            out["regions"][name] = _block(vals[start[g]:start[g + 1]], tolerance)
+            regions[name] = _block(vals[start[g]:start[g + 1]], tolerance)
     return out
 
 

@@ -31,9 +31,11 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 
+from ..arrays import AnyArray, ArrayLike, BoolArray, FloatArray, IntArray
 from ..errors import TipGeoError, UnsupportedCutter
 from ..tolerances import tol
 
@@ -62,9 +64,10 @@ class Distances:
     feature: np.ndarray
     labels: tuple[str, ...]
 
-    def label_of(self) -> np.ndarray:
+    def label_of(self) -> AnyArray:
         """(n,) object — the face label of every point."""
-        return np.asarray(self.labels, dtype=object)[self.face]
+        out: AnyArray = np.asarray(self.labels, dtype=object)[self.face]
+        return out
 
 
 # -----------------------------------------------------------------------------
@@ -82,7 +85,8 @@ class _Face:
 
     def foot(self, p: np.ndarray, off: float) -> np.ndarray:
         f, g = self.eval(p, off)
-        return p - f[:, None] * g
+        out: FloatArray = p - f[:, None] * g
+        return out
 
     def signed(self, p: np.ndarray, off: float) -> np.ndarray:
         """Signed distance to the face's surface (exact)."""
@@ -90,20 +94,21 @@ class _Face:
 
 
 class _PlaneFace(_Face):
-    def __init__(self, normal, offset, label):
+    def __init__(self, normal: ArrayLike, offset: float, label: str) -> None:
         n = np.asarray(normal, float)
         self.n = n / np.linalg.norm(n)
         self.d = float(offset)
         self.label = label
 
-    def value(self, p, off):
-        return p @ self.n - self.d + off
+    def value(self, p: FloatArray, off: float) -> FloatArray:
+        out: FloatArray = p @ self.n - self.d + off
+        return out
 
-    def eval(self, p, off):
+    def eval(self, p: FloatArray, off: float) -> tuple[FloatArray, FloatArray]:
         return self.value(p, off), np.broadcast_to(self.n, p.shape)
 
 
-def _radial(p):
+def _radial(p: FloatArray) -> tuple[FloatArray, FloatArray]:
     rho = np.hypot(p[:, 0], p[:, 1])
     safe = np.where(rho > 0, rho, 1.0)
     u = np.stack([np.where(rho > 0, p[:, 0] / safe, 1.0), p[:, 1] / safe,
@@ -114,15 +119,15 @@ def _radial(p):
 class _CylinderFace(_Face):
     """ρ ≤ r (outer wall, ``inside=True``) or ρ ≥ r (bore)."""
 
-    def __init__(self, radius, keep_inside, label):
+    def __init__(self, radius: float, keep_inside: bool, label: str) -> None:
         self.r = float(radius)
         self.s = 1.0 if keep_inside else -1.0
         self.label = label
 
-    def value(self, p, off):
+    def value(self, p: FloatArray, off: float) -> FloatArray:
         return self.s * (np.hypot(p[:, 0], p[:, 1]) - self.r) + off
 
-    def eval(self, p, off):
+    def eval(self, p: FloatArray, off: float) -> tuple[FloatArray, FloatArray]:
         rho, u = _radial(p)
         return self.s * (rho - self.r) + off, self.s * u
 
@@ -132,12 +137,12 @@ class _ConeFace(_Face):
     distance to the cone's line in the (ρ, z) half-plane, exact while the foot
     has ρ ≥ 0 (everywhere near a tip's faces)."""
 
-    def __init__(self, theta, r_o, label):
+    def __init__(self, theta: float, r_o: float, label: str) -> None:
         self.c, self.s_ = math.cos(theta), math.sin(theta)
         self.r = float(r_o)
         self.label = label
 
-    def eval(self, p, off):
+    def eval(self, p: FloatArray, off: float) -> tuple[FloatArray, FloatArray]:
         rho, u = _radial(p)
         f = rho * self.c + p[:, 2] * self.s_ - self.r * self.c + off
         g = u * self.c
@@ -151,16 +156,16 @@ class _ImplicitFace(_Face):
 
     exact = False
 
-    def __init__(self, cutter, cannula, label):
+    def __init__(self, cutter: Any, cannula: Any, label: str) -> None:
         self.cutter, self.cannula, self.label = cutter, cannula, label
 
-    def eval(self, p, off):
+    def eval(self, p: FloatArray, off: float) -> tuple[FloatArray, FloatArray]:
         f, g = self.cutter.implicit(p, self.cannula)
         nrm = np.linalg.norm(g, axis=1)
         nrm = np.where(nrm > 0, nrm, 1.0)
         return f / nrm + off, g / nrm[:, None]
 
-    def foot(self, p, off):
+    def foot(self, p: FloatArray, off: float) -> FloatArray:
         x = p.copy()
         for _ in range(3):
             f, g = self.eval(x, off)
@@ -177,13 +182,14 @@ class _ImplicitFace(_Face):
                 break
         return x
 
-    def signed(self, p, off):
+    def signed(self, p: FloatArray, off: float) -> FloatArray:
         x = self.foot(p, off)
         f = self.value(p, off)
-        return np.where(f >= 0, 1.0, -1.0) * np.linalg.norm(p - x, axis=1)
+        out: FloatArray = np.where(f >= 0, 1.0, -1.0) * np.linalg.norm(p - x, axis=1)
+        return out
 
 
-def _faces_of(spec) -> list[_Face]:
+def _faces_of(spec: Any) -> list[_Face]:
     """The analytic faces of a spec (labels as in the built tip), from each
     cutter's :meth:`~tipgeo.cutters.base.Cutter.surfaces`."""
     from ..cutters import ConeSurface, ImplicitSurface, Plane
@@ -211,7 +217,8 @@ def _faces_of(spec) -> list[_Face]:
 
 
 def _rows(a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    return np.einsum("ij,ij->i", a, b)
+    out: FloatArray = np.einsum("ij,ij->i", a, b)
+    return out
 
 
 class ExactSolid:
@@ -230,7 +237,7 @@ class ExactSolid:
         A cutter (serration, mesh, SDF) has no face-wise exact surface.
     """
 
-    def __init__(self, spec, *, offset: float = 0.0):
+    def __init__(self, spec: Any, *, offset: float = 0.0) -> None:
         self.spec = spec
         self.faces = _faces_of(spec)
         self.labels = tuple(f.label for f in self.faces)
@@ -262,7 +269,9 @@ class ExactSolid:
         of it outside (mm). Cheap: no projections (first-order for implicit
         faces)."""
         p = _points(points)
-        return np.max(np.stack([f.value(p, self.offset) for f in self.faces], 1), axis=1)
+        out: FloatArray = np.max(np.stack([f.value(p, self.offset) for f in self.faces], 1),
+                                 axis=1)
+        return out
 
     def contains(self, points: np.ndarray) -> np.ndarray:
         """(n,) bool — inside or on the solid (every face function ≤ 0)."""
@@ -309,10 +318,11 @@ class ExactSolid:
         return Distances(dist, x, normal, face_id, feature, self.labels)
 
     # -- internals -------------------------------------------------------------
-    def _values(self, x):
+    def _values(self, x: FloatArray) -> FloatArray:
         return np.stack([f.value(x, self.offset) for f in self.faces], 1)
 
-    def _normals(self, p, x, dist, face_id, feature):
+    def _normals(self, p: FloatArray, x: FloatArray, dist: FloatArray, face_id: IntArray,
+                 feature: IntArray) -> FloatArray:
         nrm = np.empty_like(p)
         for j, face in enumerate(self.faces):
             s = face_id == j
@@ -324,7 +334,8 @@ class ExactSolid:
             nrm[e] = v / np.linalg.norm(v, axis=1, keepdims=True)
         return nrm
 
-    def _features(self, p, seed, viol):
+    def _features(self, p: FloatArray, seed: FloatArray,
+                  viol: BoolArray) -> tuple[FloatArray, FloatArray, IntArray, IntArray]:
         """Closest points on edges/vertices for points whose face foot left the
         solid. ``viol`` (m, K) marks the faces involved per point."""
         m, K = viol.shape
@@ -346,7 +357,8 @@ class ExactSolid:
             better = feas & (d < best[s])
             sb = s[better]
             best[sb], bx[sb], bface[sb], bfeat[sb] = d[better], xf[better], a, 0
-        def inside_others(x, own, lam, ok):
+        def inside_others(x: FloatArray, own: list[int], lam: FloatArray,
+                          ok: BoolArray) -> tuple[FloatArray, BoolArray]:
             """Face values at x (own faces masked) and whether x is a feasible
             closest point: inside every other face, multipliers ≥ 0."""
             G = self._values(x)
@@ -354,7 +366,7 @@ class ExactSolid:
             return G, ok & (G.max(axis=1) <= tol.inspect.feasible) & np.all(
                 lam >= -tol.inspect.multiplier, axis=1)
 
-        def try_edge(s, seeds, a, b, accelerate):
+        def try_edge(s: IntArray, seeds: FloatArray, a: int, b: int, accelerate: bool) -> None:
             xe, lam, ok = self._edge(p[s], seeds, a, b, accelerate=accelerate)
             G, feas = inside_others(xe, [a, b], lam, ok)
             d = np.linalg.norm(p[s] - xe, axis=1)
@@ -398,7 +410,8 @@ class ExactSolid:
                               "surfaces (far outside the tip?)")
         return best, bx, bface, bfeat
 
-    def _edge(self, p, x, a, b, *, accelerate: bool = True):
+    def _edge(self, p: FloatArray, x: FloatArray, a: int, b: int, *,
+              accelerate: bool = True) -> tuple[FloatArray, FloatArray, BoolArray]:
         """Closest point to p on the curve f_a = f_b = 0, from seeds x.
 
         Alternates a Newton step onto the curve (minimum-norm correction) with
@@ -412,7 +425,7 @@ class ExactSolid:
         act = np.arange(len(p))
         prev = np.zeros(len(p))
 
-        def onto(xx):
+        def onto(xx: FloatArray) -> tuple[FloatArray, FloatArray, FloatArray, BoolArray]:
             for _ in range(3):
                 fa, ga = fa_.eval(xx, off)
                 fb, gb = fb_.eval(xx, off)
@@ -454,7 +467,8 @@ class ExactSolid:
         lam = np.stack([(bb * ra - ab * rb) / det, (aa * rb - ab * ra) / det], 1)
         return x, lam, ok & np.all(np.isfinite(x), axis=1)
 
-    def _vertex(self, p, x, key):
+    def _vertex(self, p: FloatArray, x: FloatArray,
+                key: tuple[int, ...]) -> tuple[FloatArray, FloatArray, BoolArray]:
         """The point where three face surfaces meet, near seeds x."""
         faces = [self.faces[i] for i in key]
         off = self.offset
@@ -477,7 +491,7 @@ class ExactSolid:
         return x, lam, ok & np.all(np.isfinite(x), axis=1)
 
 
-def _points(points) -> np.ndarray:
+def _points(points: ArrayLike) -> FloatArray:
     p = np.asarray(points, dtype=np.float64)
     if p.ndim != 2 or p.shape[1] != 3:
         p = p.reshape(-1, 3)

@@ -36,6 +36,7 @@ from typing import Any
 
 import numpy as np
 
+from ..arrays import FloatArray, IntArray
 from ..tolerances import tol
 from ..verdict import Check
 
@@ -92,7 +93,7 @@ class Identity:
                 "figures": self.figures, "not_judged": list(self.not_judged)}
 
 
-def _sigma(res) -> float:
+def _sigma(res: Any) -> float:
     """The scan's noise (mm): the robust scale of the deviations on the walls
     (where any tube fits), else of all points."""
     d = res.distances
@@ -109,7 +110,7 @@ def _plane_rms(p: np.ndarray) -> float:
     return float(np.linalg.svd(q, compute_uv=False)[-1] / math.sqrt(len(q)))
 
 
-def _gauge(res, out: Identity) -> None:
+def _gauge(res: Any, out: Identity) -> None:
     m = res.measured or {}
     rel = tol.inspect.match_diameter
     for wall, r in (("outer", res.cad.r_o), ("inner", res.cad.r_i)):
@@ -128,7 +129,7 @@ def _gauge(res, out: Identity) -> None:
                           f"{want:.4f} mm ({100 * off:+.1f} %): another gauge"))
 
 
-def _cut_region(res, sigma: float, out: Identity) -> bool:
+def _cut_region(res: Any, sigma: float, out: Identity) -> bool:
     """A CAD with one cut face, planar (a bevel): the scan's points inside
     the wall's annulus (off both walls by ``max(20 µm, 6 σ)``, above the
     base) are its cut face, whatever CAD face lies nearest them — they must
@@ -165,7 +166,7 @@ def _cut_region(res, sigma: float, out: Identity) -> bool:
     return True
 
 
-def _faces(res, sigma: float, out: Identity) -> None:
+def _faces(res: Any, sigma: float, out: Identity) -> None:
     d = res.distances
     pts = res.points
     near = np.abs(d.distance) < 0.25
@@ -204,7 +205,7 @@ def _faces(res, sigma: float, out: Identity) -> None:
                                     ""))
 
 
-def _places(gamma: np.ndarray, depth: np.ndarray):
+def _places(gamma: FloatArray, depth: FloatArray) -> list[tuple[float, int, float]]:
     """Runs of 1° γ bins holding the given points (gaps of a few bins closed):
     (centre γ rad, points, deepest |depth| mm) of each run with at least
     :data:`NOTCH_POINTS` points."""
@@ -240,7 +241,7 @@ def _places(gamma: np.ndarray, depth: np.ndarray):
     return sorted(out)
 
 
-def _regular(places, least: int) -> tuple[bool, float]:
+def _regular(places: list[tuple[float, int, float]], least: int) -> tuple[bool, float]:
     """Serration-like: at least ``least`` separate places along the rim (a
     chip or a burr is one or two); returns (serration-like, the median pitch
     between neighbouring places, rad — a lower bound on the true pitch where
@@ -252,7 +253,7 @@ def _regular(places, least: int) -> tuple[bool, float]:
     return True, float(np.median(gaps))
 
 
-def _serrations(res, sigma: float, out: Identity) -> None:
+def _serrations(res: Any, sigma: float, out: Identity) -> None:
     spec = res.cad.spec
     n_cad = 0
     for c in (spec.cutters if spec is not None else ()):
@@ -308,7 +309,7 @@ def _serrations(res, sigma: float, out: Identity) -> None:
 class _Subset:
     """The fields of a comparison :func:`identify` reads, on some rows."""
 
-    def __init__(self, res, rows):
+    def __init__(self, res: Any, rows: IntArray) -> None:
         self.points = np.asarray(res.points[rows], np.float64)
         # the CAD distances of these rows again (the comparison's closest points
         # are made on first use for every row: 10⁷ of them would cost more)
@@ -316,7 +317,7 @@ class _Subset:
         self.cad, self.measured = res.cad, res.measured
 
 
-def identify(res) -> Identity:
+def identify(res: Any) -> Identity:
     """The identity checks of a :class:`~tipgeo.inspect.compare.Comparison`
     (its points registered into the cannula frame, their CAD distances and
     the measured walls): see the module docstring.

@@ -14,10 +14,12 @@ another face (edge rounding, burrs) stay out of the plane fits.
 from __future__ import annotations
 
 import math
+from collections.abc import Iterator
 from typing import Any
 
 import numpy as np
 
+from ..arrays import AnyArray, BoolArray, FloatArray
 from ..tolerances import tol
 from .register import fit_cylinder
 
@@ -27,7 +29,7 @@ __all__ = ["measure", "fit_plane"]
 _ROWS = 1 << 20  # rows per chunk of the plane fit (memory only)
 
 
-def _chunks(n: int):
+def _chunks(n: int) -> Iterator[slice]:
     for i in range(0, n, _ROWS):
         yield slice(i, min(n, i + _ROWS))
 
@@ -73,12 +75,12 @@ def fit_plane(points: np.ndarray, *, rounds: int = 4) -> tuple[np.ndarray, float
     return n, float(n @ c), float(np.sqrt(np.mean(rk ** 2))), int(keep.sum())
 
 
-def _planar_faces(spec):
+def _planar_faces(spec: Any) -> dict[str, Any]:
     """label -> Plane of every plane face of the spec's cutters (their
     :meth:`~tipgeo.cutters.base.Cutter.surfaces`)."""
     from ..cutters import Plane
 
-    out = {}
+    out: dict[str, Any] = {}
     if spec is None:
         return out
     for c in spec.cutters:
@@ -88,7 +90,8 @@ def _planar_faces(spec):
     return out
 
 
-def _apex(planes: list[tuple[np.ndarray, float]], point, axis, radius) -> np.ndarray:
+def _apex(planes: list[tuple[FloatArray, float]], point: FloatArray, axis: FloatArray,
+          radius: float) -> FloatArray:
     """Highest point (along ``axis``) of the planes ∩ cylinder edge: for
     every γ the lowest plane bounds the edge; the apex is the highest such
     point (mm)."""
@@ -97,7 +100,7 @@ def _apex(planes: list[tuple[np.ndarray, float]], point, axis, radius) -> np.nda
     e1 /= np.linalg.norm(e1)
     e2 = np.cross(a, e1)
 
-    def edge(g):
+    def edge(g: FloatArray) -> tuple[FloatArray, FloatArray]:
         base = point + radius * (np.cos(g)[:, None] * e1 + np.sin(g)[:, None] * e2)
         s = np.full(len(g), np.inf)
         for n, d in planes:
@@ -116,10 +119,11 @@ def _apex(planes: list[tuple[np.ndarray, float]], point, axis, radius) -> np.nda
             lo = m1
         else:
             hi = m2
-    return edge(np.array([0.5 * (lo + hi)]))[0][0]
+    apex: FloatArray = edge(np.array([0.5 * (lo + hi)]))[0][0]
+    return apex
 
 
-def measure(points: np.ndarray, dist, cad, *, min_points: int = 50,
+def measure(points: AnyArray, dist: Any, cad: Any, *, min_points: int = 50,
             angles_min_points: int = 2000) -> dict[str, Any]:
     """Measure a registered scan.
 
@@ -140,10 +144,11 @@ def measure(points: np.ndarray, dist, cad, *, min_points: int = 50,
     out: dict[str, Any] = {"notes": []}
     labels = tuple(dist.labels)
 
-    def on(label):  # (n,) bool: points whose closest CAD face is ``label``
+    def on(label: str) -> BoolArray:  # (n,) bool: points whose closest CAD face is ``label``
         if label not in labels:
             return np.zeros(len(dist.face), bool)
-        return dist.face == labels.index(label)
+        mask: BoolArray = dist.face == labels.index(label)
+        return mask
 
     d = dist.distance
     # fits take every point of a face that is not far off (robust fits drop
@@ -248,7 +253,9 @@ def _highest(z: np.ndarray, mask: np.ndarray, k: int) -> np.ndarray:
     return np.sort(np.concatenate([above, np.flatnonzero(zm == thr)[:k - len(above)]]))
 
 
-def _tip(points, d, near, fitted, planes, axis_pt, axis_dir, out, cad):
+def _tip(points: AnyArray, d: Any, near: BoolArray, fitted: list[Any] | None,
+         planes: dict[str, Any], axis_pt: FloatArray, axis_dir: FloatArray, out: dict[str, Any],
+         cad: Any) -> dict[str, Any] | None:
     r_o = out["outer"]["diameter_mm"] / 2 if out.get("outer") else cad.r_o
     if fitted and len(fitted) == len(planes):
         apex = _apex([(n, off) for _, n, off, _ in fitted], axis_pt, axis_dir, r_o)
@@ -262,7 +269,7 @@ def _tip(points, d, near, fitted, planes, axis_pt, axis_dir, out, cad):
         apex = np.asarray(points[top], np.float64).mean(axis=0)
         cad_apex = None
         how = "mean of the 20 highest scan points near the surface"
-    res = {"apex_mm": apex.tolist(), "method": how}
+    res: dict[str, Any] = {"apex_mm": apex.tolist(), "method": how}
     if cad_apex is not None:
         e = apex - cad_apex
         res.update({"cad_apex_mm": cad_apex.tolist(), "error_mm": e.tolist(),
@@ -271,7 +278,8 @@ def _tip(points, d, near, fitted, planes, axis_pt, axis_dir, out, cad):
     return res
 
 
-def _cutting_angles(cad, faces, out, min_points):
+def _cutting_angles(cad: Any, faces: dict[str, Any], out: dict[str, Any],
+                    min_points: int) -> dict[str, Any] | None:
     """λ, θ, α and l_c of the measured bevel (fitted ξ and diameters) by the
     angle analysis, next to the CAD's."""
     from dataclasses import replace
@@ -282,7 +290,7 @@ def _cutting_angles(cad, faces, out, min_points):
     if spec is None or len(spec.cutters) != 1:
         return None
     c = spec.cutters[0]
-    surfaces = c.surfaces(spec.cannula) or ()
+    surfaces = list(c.surfaces(spec.cannula) or [])
     if not (c.angle_field and len(surfaces) == 1 and isinstance(surfaces[0], Plane)):
         return None  # one rake plane whose ξ the scan measured: a bevel
     f = faces.get(c.label)
@@ -297,14 +305,14 @@ def _cutting_angles(cad, faces, out, min_points):
     try:
         meas = TipSpec(cannula=Cannula(outer_diameter=do, inner_diameter=di,
                                        length=spec.cannula.length),
-                       cutters=[replace(c, **{c.angle_field: math.radians(f["xi_deg"])})],
+                       cutters=(replace(c, **{c.angle_field: math.radians(f["xi_deg"])}),),
                        name="measured")
         rm = analyze(meas, method="exact").summary()
         rc = analyze(spec, method="exact").summary()
     except Exception as e:  # a failed analysis is a note, not a crash
         return {"note": f"angle analysis failed: {e}"}
 
-    def pick(s):
+    def pick(s: dict[str, Any]) -> dict[str, Any]:
         return {w: {k: s[w][k] for k in s[w] if k.endswith("_deg") or k == "l_c_mm"}
                 for w in ("outer", "inner")}
 

@@ -23,8 +23,12 @@ first. The mesh must be closed and consistently oriented (a built tip is).
 
 from __future__ import annotations
 
+from collections.abc import Callable
+from typing import Any
+
 import numpy as np
 
+from ..arrays import AnyArray, BoolArray, FloatArray, IntArray
 from ..errors import TipGeoError
 from ..tolerances import tol
 from .exact import Distances
@@ -32,7 +36,8 @@ from .exact import Distances
 __all__ = ["MeshSolid", "brute_force_distances", "closest_on_triangles"]
 
 
-def closest_on_triangles(p: np.ndarray, a: np.ndarray, b: np.ndarray, c: np.ndarray):
+def closest_on_triangles(p: FloatArray, a: FloatArray, b: FloatArray,
+                         c: FloatArray) -> tuple[FloatArray, FloatArray]:
     """Closest points on triangles (a, b, c) to points p, row by row.
 
     Parameters
@@ -60,10 +65,10 @@ def closest_on_triangles(p: np.ndarray, a: np.ndarray, b: np.ndarray, c: np.ndar
     w = np.empty(n)
     done = np.zeros(n, bool)
 
-    def put(mask, uu, vv, ww):
+    def put(mask: BoolArray, uu: FloatArray | float, vv: FloatArray | float,
+            ww: FloatArray | float) -> None:
         m = mask & ~done
-        u[m], v[m], w[m] = (uu[m] if np.ndim(uu) else uu), (vv[m] if np.ndim(vv) else vv), \
-            (ww[m] if np.ndim(ww) else ww)
+        u[m], v[m], w[m] = _at(uu, m), _at(vv, m), _at(ww, m)
         done[m] = True
 
     put((d1 <= 0) & (d2 <= 0), 1.0, 0.0, 0.0)                       # vertex a
@@ -106,11 +111,19 @@ def brute_force_distances(points: np.ndarray, triangles: np.ndarray) -> np.ndarr
     return best
 
 
-def _dot(x, y):
-    return np.einsum("ij,ij->i", x, y)
+def _at(x: FloatArray | float, m: BoolArray) -> FloatArray | float:
+    """``x[m]`` of an array, a scalar (or 0-d array) as it is."""
+    if isinstance(x, np.ndarray) and x.ndim:
+        return x[m]
+    return x
 
 
-def _split_fat(v: np.ndarray, f: np.ndarray, cell: float):
+def _dot(x: FloatArray, y: FloatArray) -> FloatArray:
+    out: FloatArray = np.einsum("ij,ij->i", x, y)
+    return out
+
+
+def _split_fat(v: FloatArray, f: IntArray, cell: float) -> tuple[FloatArray, IntArray]:
     """Sub-triangles whose bounding boxes are thin (second-largest extent ≤
     ``cell``), by longest-edge bisection, with their parent triangle's index.
     A long facet along an axis keeps a tight box and is not split."""
@@ -146,7 +159,7 @@ class _Tree:
 
     LEAF = 4
 
-    def __init__(self, sub: np.ndarray, parent: np.ndarray):
+    def __init__(self, sub: FloatArray, parent: IntArray) -> None:
         lo, hi = sub.min(axis=1), sub.max(axis=1)
         c = 0.5 * (lo + hi)
         n = len(sub)
@@ -178,7 +191,7 @@ class _Tree:
         self.stop = np.ascontiguousarray(levels[-1][:, 1])
         self._grid(tlo, thi)
 
-    def _grid(self, lo, hi):
+    def _grid(self, lo: FloatArray, hi: FloatArray) -> None:
         """Uniform cells listing every sub-triangle whose box, grown by the
         reach (half a cell), touches the cell: a point whose nearest triangle
         in its cell's list lies within the reach needs no tree walk. The
@@ -188,13 +201,14 @@ class _Tree:
         cell = st.grid_cell
         self.cell, self.reach2 = 1.0, 0.0
         self.origin, self.dims = np.zeros(3), np.zeros(3, np.int64)
-        self.cstart, self.cprim = np.zeros(1, np.int64), np.zeros(0, np.int32)
+        self.cstart: IntArray = np.zeros(1, np.int64)
+        self.cprim: IntArray = np.zeros(0, np.int32)
         ext = (hi.max(axis=0) - lo.min(axis=0)) if len(lo) else np.zeros(3)
         for _ in range(8):
             reach = 0.5 * cell
             # the lists are built a hair wider than the reach tested, so a
             # point rounded into the neighbouring cell still finds them all
-            grow = reach * (1 + 1e-6) + tol.tiny
+            grow = reach * (1 + st.grid_grow_rel) + tol.tiny
             origin = lo.min(axis=0) - grow - cell
             dims = np.floor((ext + 2 * grow) / cell).astype(np.int64) + 3
             i0 = np.floor((lo - grow - origin) / cell).astype(np.int64)
@@ -212,7 +226,7 @@ class _Tree:
         self.cell, self.reach2, self.origin, self.dims = cell, reach * reach, origin, dims
 
     @property
-    def args(self) -> tuple:
+    def args(self) -> tuple[Any, ...]:
         """The tree and grid arguments of :func:`~tipgeo.inspect.nearest.nearest_triangles`
         (from ``box`` to ``reach2``)."""
         return (self.box, self.first_leaf, self.start, self.stop, self.T, self.origin,
@@ -223,7 +237,8 @@ class _Tree:
         the points in ``order``."""
         from .nearest import nearest_triangles
 
-        return self.parent[nearest_triangles(p, order, *self.args)]
+        out: IntArray = self.parent[nearest_triangles(p, order, *self.args)]
+        return out
 
 
 class MeshSolid:
@@ -237,7 +252,7 @@ class MeshSolid:
         Longest sub-triangle edge of the candidate index (mm; speed only).
     """
 
-    def __init__(self, tip, *, cell: float | None = None):
+    def __init__(self, tip: Any, *, cell: float | None = None) -> None:
         self.tip = tip
         self.v = np.ascontiguousarray(tip.vertices, float)
         self.f = np.ascontiguousarray(tip.faces, np.int64)
@@ -245,10 +260,10 @@ class MeshSolid:
         self.labels = tuple(tip.label_names)
         self.label_ids = np.asarray(tip.label_ids)
         self.cell = float(cell or tol.inspect.mesh_cell)
-        self._index = None
+        self._index: _Tree | None = None
         self._pseudo()
 
-    def _pseudo(self):
+    def _pseudo(self) -> None:
         v, f = self.v, self.f
         t = v[f]
         n = np.cross(t[:, 1] - t[:, 0], t[:, 2] - t[:, 0])
@@ -277,9 +292,12 @@ class MeshSolid:
         np.add.at(acc, inv, np.repeat(self.fn, 3, axis=0))
         self.en = acc[inv].reshape(-1, 3, 3)  # (m, local edge, xyz)
 
-    def _build(self):
-        sub, parent = _split_fat(self.v, self.f, self.cell)
-        self._index = _Tree(sub, parent)
+    def _build(self) -> _Tree:
+        """The candidate index, built on first use."""
+        if self._index is None:
+            sub, parent = _split_fat(self.v, self.f, self.cell)
+            self._index = _Tree(sub, parent)
+        return self._index
 
     @staticmethod
     def _bits(n: int) -> int:
@@ -292,10 +310,8 @@ class MeshSolid:
         """(n,) int — nearest parent triangle of every point ((n, 3) float64)."""
         from .nearest import spatial_order
 
-        if self._index is None:
-            self._build()
         # spatial order: each search starts from its predecessor's triangle
-        return self._index.nearest(p, spatial_order(p, self._bits(len(p))))
+        return self._build().nearest(p, spatial_order(p, self._bits(len(p))))
 
     def distances(self, points: np.ndarray) -> Distances:
         """Exact signed distance, closest point, normal and face of every point.
@@ -312,8 +328,9 @@ class MeshSolid:
                                              tol.inspect.feature_eps)
         return Distances(d, q, normal, self.label_ids[t], feature, self.labels)
 
-    def distances_into(self, points: np.ndarray, rows: np.ndarray, *, far: float, near: float,
-                       out: tuple, cur: int, tri: np.ndarray | None = None) -> tuple[int, int]:
+    def distances_into(self, points: AnyArray, rows: IntArray, *, far: float, near: float,
+                       out: tuple[AnyArray, ...], cur: int,
+                       tri: AnyArray | None = None) -> tuple[int, int]:
         """:meth:`distances` of the points (mm), appended to a scan's result
         arrays from row ``cur`` on where |d| ≤ ``far`` (mm), with no
         temporary per point (what ``compare`` uses).
@@ -337,19 +354,18 @@ class MeshSolid:
         from .nearest import nearest_signed_into
 
         p = np.ascontiguousarray(points, float)
-        if self._index is None:
-            self._build()
+        index = self._build()
         # one compiled call: spatial order, nearest search, signed distances
         P, dist, clo, nrm, face, feat, out_rows = out
-        return nearest_signed_into(p, rows, self._bits(len(p)), *self._index.args,
-                                   self._index.parent, self.PT, self.f, self.fn, self.en,
-                                   self.vn, tol.inspect.feature_eps, self.label_ids, far, near,
-                                   P, dist, clo, nrm,
-                                   np.empty(0, np.int32) if tri is None else tri, face, feat,
-                                   out_rows, cur)
+        run: Callable[..., tuple[int, int]] = nearest_signed_into
+        done = run(
+            p, rows, self._bits(len(p)), *index.args, index.parent, self.PT, self.f, self.fn,
+            self.en, self.vn, tol.inspect.feature_eps, self.label_ids, far, near, P, dist, clo,
+            nrm, np.empty(0, np.int32) if tri is None else tri, face, feat, out_rows, cur)
+        return done
 
-    def closest_normals(self, x: np.ndarray, rows: np.ndarray, T: np.ndarray,
-                        tri: np.ndarray, dtype=np.float32) -> tuple[np.ndarray, np.ndarray]:
+    def closest_normals(self, x: AnyArray, rows: IntArray, T: FloatArray, tri: IntArray,
+                        dtype: Any = np.float32) -> tuple[AnyArray, AnyArray]:
         """Closest points and normals (as :meth:`distances` gives them) of the
         points ``T`` applied to ``x[rows]``, given their triangles ``tri``
         (from :meth:`distances_into`): the same values bit for bit as when the
@@ -379,7 +395,3 @@ class MeshSolid:
     def bound(self, points: np.ndarray) -> np.ndarray:
         """Signed distance (exact here; the name matches :class:`ExactSolid`)."""
         return self.distances(points).distance
-
-    def contains(self, points: np.ndarray) -> np.ndarray:
-        """(n,) bool — inside or on the mesh."""
-        return self.distances(points).distance <= 0

@@ -27,12 +27,16 @@ import math
 import numpy as np
 from numba import njit
 
+from ..arrays import AnyArray, FloatArray, IntArray
+from ..tolerances import tol
+
 __all__ = ["grid_lists", "nearest_signed_into", "nearest_triangles",
            "signed_query", "signed_rows", "spatial_order", "transform_envelope"]
 
 
 @njit(cache=True, fastmath=False, nogil=True, inline="always")
-def _bary(px, py, pz, T, k, o):
+def _bary(px: float, py: float, pz: float, T: AnyArray, k: int,
+          o: int) -> tuple[float, float, float]:
     """Closest point on the triangle stored flat in row ``k`` of ``T`` from
     column ``o`` on (a, b, c: nine floats) to p: barycentric weights (u, v, w)
     of a, b, c, in the region order of
@@ -77,7 +81,7 @@ def _bary(px, py, pz, T, k, o):
 
 
 @njit(cache=True, fastmath=False, nogil=True, inline="always")
-def _d2(px, py, pz, T, k):
+def _d2(px: float, py: float, pz: float, T: AnyArray, k: int) -> float:
     """Squared distance from p to sub-triangle ``k`` of ``T`` ((k, 15): box,
     then a, b, c); in a vertex region the vertex itself (what a·1 + b·0 +
     c·0 rounds to), so the same value as through the closest point."""
@@ -92,21 +96,24 @@ def _d2(px, py, pz, T, k):
         qx = T[k, 6] * u + T[k, 9] * v + T[k, 12] * w
         qy = T[k, 7] * u + T[k, 10] * v + T[k, 13] * w
         qz = T[k, 8] * u + T[k, 11] * v + T[k, 14] * w
-    return (px - qx) ** 2 + (py - qy) ** 2 + (pz - qz) ** 2
+    d2: float = (px - qx) ** 2 + (py - qy) ** 2 + (pz - qz) ** 2
+    return d2
 
 
 @njit(cache=True, fastmath=False, nogil=True, inline="always")
-def _box_d2(px, py, pz, box, k):
+def _box_d2(px: float, py: float, pz: float, box: AnyArray, k: int) -> float:
     """Squared distance from p to box k (row k of ``box``: lo xyz, hi xyz),
     without branches."""
     a = max(box[k, 0] - px, px - box[k, 3], 0.0)
     b = max(box[k, 1] - py, py - box[k, 4], 0.0)
     c = max(box[k, 2] - pz, pz - box[k, 5], 0.0)
-    return a * a + b * b + c * c
+    d2: float = a * a + b * b + c * c
+    return d2
 
 
 @njit(cache=True, fastmath=False, nogil=True)
-def _walk(px, py, pz, box, first_leaf, start, stop, T, stack, bt, bd):
+def _walk(px: float, py: float, pz: float, box: AnyArray, first_leaf: int, start: AnyArray,
+          stop: AnyArray, T: AnyArray, stack: AnyArray, bt: int, bd: float) -> int:
     """Nearest sub-triangle by the tree, from the bound (bt, bd)."""
     stack[0] = 0
     sp = 1
@@ -139,8 +146,10 @@ def _walk(px, py, pz, box, first_leaf, start, stop, T, stack, bt, bd):
 
 
 @njit(cache=True, fastmath=False, nogil=True)
-def nearest_triangles(p, order, box, first_leaf, start, stop, T,
-                      origin, cell, dims, cstart, cprim, reach2):
+def nearest_triangles(p: AnyArray, order: AnyArray, box: AnyArray, first_leaf: int,
+                      start: AnyArray, stop: AnyArray, T: AnyArray, origin: AnyArray,
+                      cell: float, dims: AnyArray, cstart: AnyArray, cprim: AnyArray,
+                      reach2: float) -> IntArray:
     """Index (into ``T``) of the nearest sub-triangle of every point.
 
     Parameters
@@ -204,7 +213,8 @@ def nearest_triangles(p, order, box, first_leaf, start, stop, T,
 
 
 @njit(cache=True, fastmath=False, nogil=True)
-def grid_lists(tbox, origin, cell, dims, grow):
+def grid_lists(tbox: AnyArray, origin: AnyArray, cell: float, dims: AnyArray,
+               grow: float) -> tuple[IntArray, IntArray]:
     """Each uniform-grid cell's list of the boxes (rows of ``tbox``, (k, ≥ 6):
     lo xyz, hi xyz first) that, grown by ``grow``, touch it: CSR (start
     (cells + 1,), entries), by two passes."""
@@ -235,7 +245,7 @@ def grid_lists(tbox, origin, cell, dims, grow):
 
 
 @njit(cache=True, fastmath=False, nogil=True)
-def spatial_order(p, bits):
+def spatial_order(p: AnyArray, bits: int) -> IntArray:
     """A permutation of the points (n, 3) grouping them by Morton cell
     (``bits`` per axis over their bounding box; input order within a cell):
     a counting sort, O(n + 8**bits)."""
@@ -279,7 +289,9 @@ def spatial_order(p, bits):
 
 
 @njit(cache=True, fastmath=False, nogil=True, inline="always")
-def _signed(px, py, pz, k, PT, f, fn, en, vn, eps):
+def _signed(px: float, py: float, pz: float, k: int, PT: AnyArray, f: AnyArray, fn: AnyArray,
+            en: AnyArray, vn: AnyArray,
+            eps: float) -> tuple[float, float, float, float, float, float, float, int]:
     """Signed distance of p to parent triangle ``k`` (corners in row k of
     ``PT``): (d, qx, qy, qz, nx, ny, nz, feature), the normal as
     :func:`signed_query` documents it."""
@@ -317,7 +329,9 @@ def _signed(px, py, pz, k, PT, f, fn, en, vn, eps):
 
 
 @njit(cache=True, fastmath=False, nogil=True)
-def signed_query(p, t, PT, f, fn, en, vn, eps):
+def signed_query(p: AnyArray, t: AnyArray, PT: AnyArray, f: AnyArray, fn: AnyArray,
+                 en: AnyArray, vn: AnyArray,
+                 eps: float) -> tuple[FloatArray, FloatArray, FloatArray, IntArray]:
     """Signed distance, closest point, normal and feature of every point to
     its nearest triangle ``t`` (parent mesh), signs from the angle-weighted
     pseudo-normal of the feature the closest point lies on.
@@ -352,9 +366,14 @@ def signed_query(p, t, PT, f, fn, en, vn, eps):
 
 
 @njit(cache=True, fastmath=False, nogil=True)
-def nearest_signed_into(p, rows, bits, box, first_leaf, start, stop, T, origin, cell, dims,
-                        cstart, cprim, reach2, parent, PT, f, fn, en, vn, eps, label, far,
-                        near, P, dist, clo, nrm, tri, face, feat, out_rows, cur):
+def nearest_signed_into(p: AnyArray, rows: AnyArray, bits: int, box: AnyArray, first_leaf: int,
+                        start: AnyArray, stop: AnyArray, T: AnyArray, origin: AnyArray,
+                        cell: float, dims: AnyArray, cstart: AnyArray, cprim: AnyArray,
+                        reach2: float, parent: AnyArray, PT: AnyArray, f: AnyArray,
+                        fn: AnyArray, en: AnyArray, vn: AnyArray, eps: float, label: AnyArray,
+                        far: float, near: float, P: AnyArray, dist: AnyArray, clo: AnyArray,
+                        nrm: AnyArray, tri: AnyArray, face: AnyArray, feat: AnyArray,
+                        out_rows: AnyArray, cur: int) -> tuple[int, int]:
     """The nearest triangle of every point and its signed distance in one
     compiled call (what ``compare`` runs per chunk): the points are put in
     :func:`spatial_order` (``bits``), searched by :func:`nearest_triangles`
@@ -402,7 +421,9 @@ def nearest_signed_into(p, rows, bits, box, first_leaf, start, stop, T, origin, 
 
 
 @njit(cache=True, fastmath=False, nogil=True)
-def signed_rows(x, rows, R, t, tri, PT, f, fn, en, vn, eps, clo, nrm):
+def signed_rows(x: AnyArray, rows: AnyArray, R: AnyArray, t: AnyArray, tri: AnyArray,
+                PT: AnyArray, f: AnyArray, fn: AnyArray, en: AnyArray, vn: AnyArray,
+                eps: float, clo: AnyArray, nrm: AnyArray) -> None:
     """Closest points and normals of the points ``R x[rows] + t`` to their
     triangles ``tri`` (the arithmetic of :func:`transform_envelope` and of
     :func:`nearest_signed_into`, so the same values bit for bit), written to
@@ -419,8 +440,14 @@ def signed_rows(x, rows, R, t, tri, PT, f, fn, en, vn, eps, clo, nrm):
         nrm[j, 0], nrm[j, 1], nrm[j, 2] = nx, ny, nz
 
 
+#: tol.inspect.hypot_margin, a compile-time constant of the compiled loop below.
+_HYPOT_MARGIN = tol.inspect.hypot_margin
+
+
 @njit(cache=True, fastmath=False, nogil=True)
-def transform_envelope(x, R, t, crop, z_min, reach, z_lo, z_hi, q, rows, first):
+def transform_envelope(x: AnyArray, R: AnyArray, t: AnyArray, crop: bool, z_min: float,
+                       reach: float, z_lo: float, z_hi: float, q: AnyArray, rows: AnyArray,
+                       first: int) -> tuple[int, int]:
     """Map points by a rigid transform and keep those that may lie near the CAD.
 
     Parameters
@@ -444,8 +471,8 @@ def transform_envelope(x, R, t, crop, z_min, reach, z_lo, z_hi, q, rows, first):
     # the radius by its square, and math.hypot only within round-off of the
     # reach (the squares' relative error is below 1e-15): the same decisions
     # as hypot alone, at a quarter of the cost
-    lo2 = reach * reach * (1.0 - 1e-12)
-    hi2 = reach * reach * (1.0 + 1e-12)
+    lo2 = reach * reach * (1.0 - _HYPOT_MARGIN)
+    hi2 = reach * reach * (1.0 + _HYPOT_MARGIN)
     for i in range(x.shape[0]):
         a, b, c = np.float64(x[i, 0]), np.float64(x[i, 1]), np.float64(x[i, 2])
         qz = a * R[2, 0] + b * R[2, 1] + c * R[2, 2] + t[2]

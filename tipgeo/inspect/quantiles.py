@@ -16,8 +16,12 @@ round-off.
 
 from __future__ import annotations
 
+from typing import Any
+
 import numpy as np
 from numba import njit
+
+from ..arrays import ArrayLike, FloatArray, IntArray
 
 __all__ = ["by_group", "histogram_counts", "moments", "percentiles", "within_band"]
 
@@ -25,7 +29,7 @@ _BUCKETS = 1 << 12   # the count table stays in the L1 cache
 
 
 @njit(cache=True, nogil=True, inline="always")
-def _bucket(v, lo, scale, nb):
+def _bucket(v: float, lo: float, scale: float, nb: int) -> int:
     """The bucket of ``v`` in 0..nb-1, monotone in ``v``, for any scale:
     (v − lo)·scale is NaN (0·∞, ∞·0) or ∞ when the span is subnormal or
     overflows, and a float beyond int64 has no defined conversion — so
@@ -39,7 +43,8 @@ def _bucket(v, lo, scale, nb):
 
 
 @njit(cache=True, nogil=True)
-def _order_statistics(x, ks, absolute, lo, hi):
+def _order_statistics(x: FloatArray, ks: IntArray, absolute: bool, lo: float,
+                      hi: float) -> FloatArray:
     """The values of ranks ``ks`` ((m,) int, 0-based, ascending) of ``x`` (or
     of |x| when ``absolute``) in sorted order; ``lo``, ``hi``: the least and
     the greatest value or bounds on them (NaN: found here)."""
@@ -93,8 +98,8 @@ def _order_statistics(x, ks, absolute, lo, hi):
     return out
 
 
-def percentiles(x: np.ndarray, q, *, absolute: bool = False,
-                bounds: tuple[float, float] | None = None) -> np.ndarray:
+def percentiles(x: FloatArray, q: ArrayLike, *, absolute: bool = False,
+                bounds: tuple[float, float] | None = None) -> FloatArray:
     """Percentiles of ``x`` (or of |x|), numpy's default ``linear`` method.
 
     Parameters
@@ -125,11 +130,12 @@ def percentiles(x: np.ndarray, q, *, absolute: bool = False,
     a, b = v[np.searchsorted(ks, lo)], v[np.searchsorted(ks, hi)]
     diff = b - a
     # numpy's _lerp: from the nearer end
-    return np.where(g >= 0.5, b - diff * (1.0 - g), a + diff * g)
+    out: FloatArray = np.where(g >= 0.5, b - diff * (1.0 - g), a + diff * g)
+    return out
 
 
 @njit(cache=True, nogil=True)
-def _sum_blocks(x, absolute, shift, square):
+def _sum_blocks(x: FloatArray, absolute: bool, shift: float, square: bool) -> float:
     """Σ f(x) with f = (|x| or x − shift), squared or not, summed by blocks
     of 1024 (round-off ~ (1024 + n/1024) ε rather than n ε)."""
     total = 0.0
@@ -144,7 +150,7 @@ def _sum_blocks(x, absolute, shift, square):
 
 
 @njit(cache=True, nogil=True)
-def _moments(x, band):
+def _moments(x: FloatArray, band: float) -> tuple[float, float, float, int, float, float]:
     """Σx, Σ|x|, Σx², count of |x| ≤ band, min, max in one pass (blocked sums)."""
     s = 0.0
     sa = 0.0
@@ -173,7 +179,7 @@ def _moments(x, band):
     return s, sa, sq, within, lo, hi
 
 
-def moments(x: np.ndarray, band: float) -> dict:
+def moments(x: FloatArray, band: float) -> dict[str, Any]:
     """Count, mean, population standard deviation (about the mean, a second
     pass), RMS, mean |x|, min, max and the count within ±``band`` of ``x``
     ((n,) float, n ≥ 1), in the units of ``x``."""
@@ -187,7 +193,7 @@ def moments(x: np.ndarray, band: float) -> dict:
 
 
 @njit(cache=True, nogil=True)
-def _band(x, centre, half):
+def _band(x: FloatArray, centre: float, half: float) -> FloatArray:
     # counted first: the result is allocated at its size (a full-size buffer
     # and a copy would touch twice the memory, and fresh pages cost)
     k = 0
@@ -204,7 +210,8 @@ def _band(x, centre, half):
 
 
 @njit(cache=True, nogil=True)
-def _by_group(x, gid, gmap, ngroup):
+def _by_group(x: FloatArray, gid: IntArray, gmap: IntArray,
+              ngroup: int) -> tuple[FloatArray, IntArray]:
     """The values of ``x`` grouped by ``gmap[gid]`` (0..ngroup-1), input
     order kept within a group (a stable counting sort), and each group's
     start."""
@@ -229,12 +236,14 @@ def by_group(x: np.ndarray, gid: np.ndarray, gmap: np.ndarray,
     a group) and the groups' starts ((ngroup + 1,) int): group g is
     ``values[start[g]:start[g + 1]]``. One copy of ``x`` in two passes, not
     a mask and a copy per group."""
-    return _by_group(np.ascontiguousarray(x, float), np.ascontiguousarray(gid),
-                     np.ascontiguousarray(gmap, np.int64), int(ngroup))
+    out: tuple[FloatArray, IntArray] = _by_group(
+        np.ascontiguousarray(x, float), np.ascontiguousarray(gid),
+        np.ascontiguousarray(gmap, np.int64), int(ngroup))
+    return out
 
 
 @njit(cache=True, nogil=True)
-def _hist(x, edges):
+def _hist(x: FloatArray, edges: FloatArray) -> IntArray:
     nb = edges.shape[0] - 1
     out = np.zeros(nb + 2, np.int64)   # the bins, then below and above
     first, last = edges[0], edges[nb]
@@ -259,7 +268,8 @@ def _hist(x, edges):
     return out
 
 
-def histogram_counts(x: np.ndarray, lo: float, hi: float, bins: int):
+def histogram_counts(x: FloatArray, lo: float, hi: float,
+                     bins: int) -> tuple[IntArray, FloatArray, int, int]:
     """``numpy.histogram(x, bins, range=(lo, hi))`` (the same edges and
     counts; lo < hi finite) and the counts below lo and above hi, in one
     compiled pass and no temporary."""
@@ -270,4 +280,5 @@ def histogram_counts(x: np.ndarray, lo: float, hi: float, bins: int):
 
 def within_band(x: np.ndarray, centre: float, half: float) -> np.ndarray:
     """The values of ``x`` ((n,) float) with |x − centre| ≤ half, in order."""
-    return _band(np.ascontiguousarray(x, float), float(centre), float(half))
+    out: FloatArray = _band(np.ascontiguousarray(x, float), float(centre), float(half))
+    return out

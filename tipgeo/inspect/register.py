@@ -55,11 +55,13 @@ almost as well), an unconstrained direction, too few points.
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
 
+from ..arrays import AnyArray, ArrayLike, BoolArray, FloatArray
 from ..errors import TipGeoError
 from ..tolerances import tol
 from .scanio import ScanError
@@ -68,19 +70,21 @@ __all__ = ["Registration", "register", "fit_cylinder", "apply", "point_normals",
            "planar_cut_faces"]
 
 
-def apply(T: np.ndarray, points: np.ndarray) -> np.ndarray:
-    """x ↦ R x + t for a 4×4 matrix T, on (n, 3) points."""
-    return points @ T[:3, :3].T + T[:3, 3]
+def apply(T: AnyArray, points: AnyArray) -> FloatArray:
+    """x ↦ R x + t for a 4×4 matrix T, on (n, 3) points (mm)."""
+    out: FloatArray = points @ T[:3, :3].T + T[:3, 3]
+    return out
 
 
-def _rot(axis, angle) -> np.ndarray:
+def _rot(axis: ArrayLike, angle: float) -> FloatArray:
     a = np.asarray(axis, float)
     n = np.linalg.norm(a)
     if n == 0 or angle == 0:
         return np.eye(3)
     a = a / n
     K = np.array([[0, -a[2], a[1]], [a[2], 0, -a[0]], [-a[1], a[0], 0]])
-    return np.eye(3) + math.sin(angle) * K + (1 - math.cos(angle)) * K @ K
+    R: FloatArray = np.eye(3) + math.sin(angle) * K + (1 - math.cos(angle)) * K @ K
+    return R
 
 
 def _align(a: np.ndarray, b: np.ndarray) -> np.ndarray:
@@ -184,7 +188,7 @@ def point_normals(p: np.ndarray, k: int = 12) -> np.ndarray:
 
 def fit_cylinder(points: np.ndarray, axis_dir: np.ndarray, axis_point: np.ndarray,
                  radius: float, *, scale: float = 0.005, bore: np.ndarray | None = None,
-                 wall: float = 0.0):
+                 wall: float = 0.0) -> tuple[FloatArray, FloatArray, float, float]:
     """Least-squares cylinder through points (robust soft-L1 loss of width
     ``scale`` mm), from an initial axis and radius. With ``bore`` ((n,) bool)
     those points lie on a coaxial cylinder ``wall`` mm smaller (a tube's
@@ -205,7 +209,7 @@ def fit_cylinder(points: np.ndarray, axis_dir: np.ndarray, axis_point: np.ndarra
     q = points - c0
     inset = 0.0 if bore is None else wall * np.asarray(bore, float)
 
-    def model(x):
+    def model(x: FloatArray) -> tuple[FloatArray, FloatArray, FloatArray]:
         a = a0 + x[0] * e1 + x[1] * e2
         a = a / np.linalg.norm(a)
         c = x[2] * e1 + x[3] * e2
@@ -217,7 +221,7 @@ def fit_cylinder(points: np.ndarray, axis_dir: np.ndarray, axis_point: np.ndarra
     x = np.array([0.0, 0.0, 0.0, 0.0, radius])
     r = model(x)[0]
     h = tol.inspect.fd_step
-    lam = 1e-6
+    lam = tol.inspect.lm_damping_start
     for _ in range(tol.inspect.max_iterations):
         w = 1.0 / np.sqrt(1.0 + (r / scale) ** 2)
         J = np.empty((len(r), 5))
@@ -229,13 +233,13 @@ def fit_cylinder(points: np.ndarray, axis_dir: np.ndarray, axis_point: np.ndarra
         A, g = Jw.T @ J, Jw.T @ r
         cost = np.sum(2 * scale ** 2 * (np.sqrt(1 + (r / scale) ** 2) - 1))
         while True:
-            dx = -np.linalg.solve(A + lam * np.diag(np.diag(A) + 1e-12), g)
+            dx = -np.linalg.solve(A + lam * np.diag(np.diag(A) + tol.inspect.lm_diag_floor), g)
             rn = model(x + dx)[0]
             if np.sum(2 * scale ** 2 * (np.sqrt(1 + (rn / scale) ** 2) - 1)) <= cost \
                     or lam > 1e6:
                 break
             lam *= 10
-        x, r, lam = x + dx, rn, max(lam / 10, 1e-9)
+        x, r, lam = x + dx, rn, max(lam / 10, tol.inspect.lm_damping_floor)
         if np.max(np.abs(dx)) < tol.inspect.cylinder_converge:
             break
     res_x = x
@@ -311,7 +315,8 @@ def _axis_stage(p: np.ndarray, r_nominal: float,
         a = np.linalg.eigh(nrm[wall].T @ nrm[wall])[1][:, 0]
     if abs(a @ starts[0]) < 0.999:
         starts.append(a)
-    best, err = None, None
+    best: tuple[float, _AxisFit] | None = None
+    err: ScanError | None = None
     for a0 in starts:
         try:
             fit = _axis_fit(p, nrm, cen, a0, r_nominal, first=0.3 if a0 is starts[0] else 0.15,
@@ -323,11 +328,14 @@ def _axis_stage(p: np.ndarray, r_nominal: float,
         if best is None or score > best[0]:
             best = (score, fit)
     if best is None:
+        assert err is not None  # every start failed, each with a ScanError
         raise err
-    return best[1][:4]
+    point, a, radius, rms, _ = best[1]
+    return point, a, radius, rms
 
 
-def _axis_centre(p, nrm, a, radii):
+def _axis_centre(p: FloatArray, nrm: FloatArray, a: FloatArray,
+                 radii: tuple[float, ...]) -> FloatArray | None:
     """The point where the normal lines of wall-like points (normals across
     ``a``) meet the axis: each votes at its own distance ``radii`` along its
     normal, both ways; the densest cell of the votes, refined to their mean
@@ -350,12 +358,19 @@ def _axis_centre(p, nrm, a, radii):
     c = votes[key == uk[np.argmax(cnt)]].mean(axis=0)
     for _ in range(3):
         c = votes[np.linalg.norm(votes - c, axis=1) < 2 * h].mean(axis=0)
-    return c[0] * e1 + c[1] * e2 + a * float(p.mean(axis=0) @ a)
+    centre: FloatArray = c[0] * e1 + c[1] * e2 + a * float(p.mean(axis=0) @ a)
+    return centre
 
 
-def _axis_fit(p, nrm, cen, a, r_nominal, first, r_inner=None):
+#: An axis fit: (point (3,), direction (3,), radius, RMS (mm), wall points).
+_AxisFit = tuple[FloatArray, FloatArray, float, float, int]
+
+
+def _axis_fit(p: FloatArray, nrm: FloatArray, cen: FloatArray, a: FloatArray, r_nominal: float,
+              first: float, r_inner: float | None = None) -> _AxisFit:
     thick = None if r_inner is None or not 0 < r_inner < r_nominal else r_nominal - r_inner
-    point = _axis_centre(p, nrm, a, (r_nominal,) if thick is None else (r_nominal, r_inner))
+    point = _axis_centre(p, nrm, a, (r_nominal,) if thick is None or r_inner is None else
+                         (r_nominal, r_inner))
     point = cen if point is None else point
     radius = r_nominal
     sel = np.ones(len(p), bool)
@@ -390,7 +405,7 @@ def _axis_fit(p, nrm, cen, a, r_nominal, first, r_inner=None):
     return point, a, radius, rms, inliers
 
 
-def _frame(point, a, sign) -> np.ndarray:
+def _frame(point: FloatArray, a: FloatArray, sign: float) -> FloatArray:
     """4×4 taking the fitted axis (direction a·sign) to +z through the origin."""
     R = _align(a * sign, np.array([0.0, 0.0, 1.0]))
     T = np.eye(4)
@@ -399,7 +414,7 @@ def _frame(point, a, sign) -> np.ndarray:
     return T
 
 
-def _feature_z(cad) -> float:
+def _feature_z(cad: Any) -> float:
     """Lowest z (cannula frame, mm) of the CAD's faces that are not the tube
     (outer and inner wall, base): below it every turn about the axis fits
     alike, so points there say nothing about the turn."""
@@ -407,21 +422,24 @@ def _feature_z(cad) -> float:
     names = np.asarray(tip.label_names, dtype=object)
     cut = ~np.isin(names[tip.label_ids], ["outer", "inner", "base"])
     if not cut.any():
-        return cad.z_base
+        return float(cad.z_base)
     return float(tip.vertices[tip.faces[cut]][..., 2].min())
 
 
-def _scores(sub, cad, angles, dz):
+def _scores(sub: FloatArray, cad: Any, angles: FloatArray, dz: float) -> FloatArray:
     """Mean clipped |distance| to the CAD of ``sub`` (on the axis) turned by
     each angle about +z and shifted by dz: one batched query."""
     c, s = np.cos(angles)[:, None], np.sin(angles)[:, None]
     x = np.stack([c * sub[:, 0] - s * sub[:, 1], s * sub[:, 0] + c * sub[:, 1],
                   np.broadcast_to(sub[:, 2] + dz, (len(angles), len(sub)))], 2)
     f = cad.bound(x.reshape(-1, 3)).reshape(len(angles), len(sub))
-    return np.mean(np.minimum(np.abs(f), tol.inspect.search_clip), axis=1)
+    scores: FloatArray = np.mean(np.minimum(np.abs(f), tol.inspect.search_clip), axis=1)
+    return scores
 
 
-def _search(q_all, cad, step, npts, rng, period, z_feature):
+def _search(q_all: FloatArray, cad: Any, step: float, npts: int, rng: np.random.Generator,
+            period: float,
+            z_feature: float) -> tuple[FloatArray, FloatArray, list[tuple[float, float, float]]]:
     """The best poses about +z for points already on the axis: turns (rad,
     within one symmetry period) and axial shifts, coarse to fine. A third of
     ``npts`` points scored every 2·step at the shift that puts the scan's top
@@ -439,7 +457,7 @@ def _search(q_all, cad, step, npts, rng, period, z_feature):
     near = q_all[:, 2] + dz >= z_feature - cad.r_o
     pool = q_all[near] if np.count_nonzero(near) >= 50 else q_all
     sub = pool[rng.choice(len(pool), min(npts, len(pool)), replace=False)]
-    coarse = np.arange(0.0, period - 1e-12, 2 * step)
+    coarse = np.arange(0.0, period - tol.inspect.arange_margin, 2 * step)
     sc = _scores(sub[: max(len(sub) // 3, 1)], cad, coarse, dz)
     mins = np.flatnonzero((sc <= np.roll(sc, 1)) & (sc <= np.roll(sc, -1)))
     mins = mins[np.argsort(sc[mins], kind="stable")][:3]
@@ -455,7 +473,7 @@ def _search(q_all, cad, step, npts, rng, period, z_feature):
     return coarse, sc, best
 
 
-def _dz_search(sub, cad, angle, dz0):
+def _dz_search(sub: FloatArray, cad: Any, angle: float, dz0: float) -> float:
     """The axial shift (mm) that best fits at ``angle``. A scan's top lies
     at or below the CAD's (sparse points, a rounded tip): when the shift
     that matches the tops (``dz0``) scores within ``tol.inspect.search_dz_keep``
@@ -468,13 +486,13 @@ def _dz_search(sub, cad, angle, dz0):
     where the CAD's tube still holds it)."""
     st = tol.inspect
     span, h = st.search_dz_span * cad.r_o, st.search_dz_step * cad.r_o
-    grid = dz0 + np.arange(-span, 0.1 * span + 1e-12, h)
+    grid = dz0 + np.arange(-span, 0.1 * span + tol.inspect.arange_margin, h)
     sc = _scores_dz(sub, cad, np.full(len(grid), angle), grid)
     s0 = float(_scores_dz(sub, cad, np.array([angle]), np.array([dz0]))[0])
     if s0 <= st.search_dz_keep * sc.min() + st.search_dz_floor:
         return dz0
 
-    def pick(grid, sc):
+    def pick(grid: FloatArray, sc: FloatArray) -> float:
         ok = sc <= sc.min() + 0.1 * (sc.max() - sc.min())
         return float(grid[np.flatnonzero(ok)[-1]])
 
@@ -483,16 +501,17 @@ def _dz_search(sub, cad, angle, dz0):
     return pick(fine, _scores_dz(sub, cad, np.full(len(fine), angle), fine))
 
 
-def _scores_dz(sub, cad, angles, dzs):
+def _scores_dz(sub: FloatArray, cad: Any, angles: FloatArray, dzs: FloatArray) -> FloatArray:
     """:func:`_scores` for one (angle, dz) pair per row."""
     c, s = np.cos(angles)[:, None], np.sin(angles)[:, None]
     x = np.stack([c * sub[:, 0] - s * sub[:, 1], s * sub[:, 0] + c * sub[:, 1],
                   sub[:, 2][None, :] + np.asarray(dzs)[:, None]], 2)
     f = cad.bound(x.reshape(-1, 3)).reshape(len(angles), len(sub))
-    return np.mean(np.minimum(np.abs(f), tol.inspect.search_clip), axis=1)
+    scores: FloatArray = np.mean(np.minimum(np.abs(f), tol.inspect.search_clip), axis=1)
+    return scores
 
 
-def _pose(T_axis, angle, dz):
+def _pose(T_axis: FloatArray, angle: float, dz: float) -> FloatArray:
     Rz = _rot((0, 0, 1), angle)
     T = np.eye(4)
     T[:3, :3] = Rz
@@ -500,7 +519,8 @@ def _pose(T_axis, angle, dz):
     return T @ T_axis
 
 
-def _outline(cad, q, D, w, c, sigma, check_reach=True):
+def _outline(cad: Any, q: FloatArray, D: Any, w: FloatArray, c: float, sigma: float,
+             check_reach: bool = True) -> tuple[Any, ...] | None:
     """The points near an outline: an edge of a face the scan sees (F) with
     an analytic face it does not see (k) — the back of a tube ends at the
     bevel's edge, whose face is out of view.
@@ -580,7 +600,8 @@ def _outline(cad, q, D, w, c, sigma, check_reach=True):
     return (zone, np.concatenate(r_z), np.concatenate(n_z), s, np.concatenate(g_z), near, band)
 
 
-def _outline_terms(outline, q, w, ctr, sigma):
+def _outline_terms(outline: tuple[Any, ...], q: FloatArray, w: FloatArray, ctr: FloatArray,
+                   sigma: float) -> tuple[FloatArray, FloatArray, int]:
     """Gauss–Newton terms (6 × 6 and 6) of the outline likelihood, in the
     units of the ICP's ½ Σ w r² (that is σ² × the negative log-likelihood).
 
@@ -618,7 +639,8 @@ _STEP_FISHER = 0.9031972855686256
 _STEP_MEAN = 1.0 / math.sqrt(2.0 * math.pi)
 
 
-def _covariance(H, outline, q, w, ctr, sigma, V):
+def _covariance(H: FloatArray, outline: tuple[Any, ...] | None, q: FloatArray, w: FloatArray,
+                ctr: FloatArray, sigma: float, V: FloatArray) -> FloatArray:
     """(6, 6) covariance of an ICP step (rotation about ``ctr``, rad;
     translation, mm) from the Fisher information at the pose: H/σ² of the
     normal residuals (H = Σ w J Jᵀ) plus the outline's expected information
@@ -640,8 +662,38 @@ def _covariance(H, outline, q, w, ctr, sigma, V):
     return cov
 
 
-def _icp(p, cad, T, iterations, *, fix_rz=False, loose=False, outlines=True,
-         anneal: float | None = None, fix_tz=False):
+def _tukey(r: FloatArray, c: float) -> FloatArray:
+    """Tukey's biweight of residuals ``r`` (mm) at cut-off ``c`` (mm)."""
+    u = r / c
+    w: FloatArray = np.where(np.abs(u) < 1, (1 - u * u) ** 2, 0.0)
+    return w
+
+
+def _held(lam: FloatArray, V: FloatArray, fix_rz: bool, fix_tz: bool) -> BoolArray:
+    """The eigen-directions of the Gauss–Newton matrix a step may move
+    along: not degenerate, and (``fix_rz``, a rotationally symmetric tip) not
+    the turn about +z, (``fix_tz``, a scan of the tube alone) not the shift
+    along +z."""
+    keep: BoolArray = lam > tol.inspect.degenerate * lam[-1]
+    for fixed, k in ((fix_rz, 2), (fix_tz, 5)):
+        if fixed:
+            ez = np.zeros(6)
+            ez[k] = 1.0
+            keep &= np.abs(V.T @ ez) < 0.9
+    return keep
+
+
+def _steps_left(sw: float, st: float, prev: tuple[float, float]) -> float:
+    """How many of this step are left to go (≥ 1): ICP converges linearly,
+    a step shrinking by ρ per iteration leaves about ρ/(1 − ρ) of itself."""
+    rho = min(max(sw / prev[0] if prev[0] > 0 else 0.0,
+                  st / prev[1] if prev[1] > 0 else 0.0), 0.99)
+    return max(1.0, rho / (1.0 - rho))
+
+
+def _icp(p: FloatArray, cad: Any, T: FloatArray, iterations: int, *, fix_rz: bool = False,
+         loose: bool = False, outlines: bool = True, anneal: float | None = None,
+         fix_tz: bool = False) -> tuple[FloatArray, float, dict[str, Any]]:
     """Point-to-plane ICP (Gauss–Newton on the exact closest points and
     normals) with Tukey weights; returns T, robust σ, info. ``loose``: stop
     at ``tol.inspect.icp_loose`` (rad, mm): enough to rank start poses.
@@ -657,8 +709,8 @@ def _icp(p, cad, T, iterations, *, fix_rz=False, loose=False, outlines=True,
     are fitted by the likelihood of a blurred outline (:func:`_outline`)."""
     conv_r, conv_t = (tol.inspect.icp_loose,) * 2 if loose else \
         (tol.inspect.icp_converge_rot, tol.inspect.icp_converge_trans)
-    info = {"iterations": 0, "fixed": []}
-    sigma = None
+    info: dict[str, Any] = {"iterations": 0, "fixed": []}
+    sigma = math.nan  # the robust scale of the residuals (mm), from the first step on
     prev = (0.0, 0.0)
     clip = tol.inspect.search_clip if anneal is None else anneal
     level = 0   # steps at this cut-off
@@ -673,16 +725,14 @@ def _icp(p, cad, T, iterations, *, fix_rz=False, loose=False, outlines=True,
         c_sigma = max(4.685 * sigma, tol.inspect.loss_floor)
         c = min(max(c_sigma, clip), tol.inspect.search_clip)
         annealing = clip > c_sigma
-        u = r / c
-        w = np.where(np.abs(u) < 1, (1 - u * u) ** 2, 0.0)
+        w = _tukey(r, c)
         outline = _outline(cad, q, D, w, c, sigma, not reached) if outlines else None
         reached = reached or outline is not None
         if outline is not None:
             zone, r_z, n_z = outline[:3]
             r, n = r.copy(), n.copy()
             r[zone], n[zone] = r_z, n_z
-            u = r / c
-            w = np.where(np.abs(u) < 1, (1 - u * u) ** 2, 0.0)
+            w = _tukey(r, c)
         ctr = np.average(q, axis=0, weights=w) if w.sum() > 0 else q.mean(axis=0)
         J = np.hstack([np.cross(q - ctr, n), n])
         H = (J * w[:, None]).T @ J
@@ -694,23 +744,13 @@ def _icp(p, cad, T, iterations, *, fix_rz=False, loose=False, outlines=True,
         if not lam[-1] > 0:
             raise ScanError("registration failed: no scan point lies within "
                             f"{c * 1e3:.3g} µm of the CAD surface; is the scan of this tip?")
-        keep = lam > tol.inspect.degenerate * lam[-1]
-        if fix_rz:
-            # a rotationally symmetric tip: the turn about +z is free; hold it
-            ez = np.zeros(6)
-            ez[2] = 1.0
-            keep &= np.abs(V.T @ ez) < 0.9
-        if fix_tz:
-            # a scan of the tube alone: the shift along +z is free too
-            ez = np.zeros(6)
-            ez[5] = 1.0
-            keep &= np.abs(V.T @ ez) < 0.9
+        keep = _held(lam, V, fix_rz, fix_tz)
         x = -V[:, keep] @ ((V[:, keep].T @ g) / lam[keep])
         info["fixed"] = int((~keep).sum())
         info["covariance"] = _covariance(H - (H_o if outline is not None else 0.0),
                                          outline, q, w, ctr, sigma, V[:, keep])
         w_, t_ = x[:3], x[3:]
-        R = _rot(w_, np.linalg.norm(w_))
+        R = _rot(w_, float(np.linalg.norm(w_)))
         step = np.eye(4)
         step[:3, :3] = R
         step[:3, 3] = ctr - R @ ctr + t_
@@ -720,10 +760,8 @@ def _icp(p, cad, T, iterations, *, fix_rz=False, loose=False, outlines=True,
         # ICP converges linearly: a step shrinking by ρ per iteration leaves
         # about ρ/(1 − ρ) of itself to go, which a weakly held direction (a
         # turn fixed by an outline alone) makes many steps
-        sw, st_ = np.linalg.norm(w_), np.linalg.norm(t_)
-        rho = min(max(sw / prev[0] if prev[0] > 0 else 0.0,
-                      st_ / prev[1] if prev[1] > 0 else 0.0), 0.99)
-        left = max(1.0, rho / (1.0 - rho))
+        sw, st_ = float(np.linalg.norm(w_)), float(np.linalg.norm(t_))
+        left = _steps_left(sw, st_, prev)
         if sw * left < conv_r and st_ * left < conv_t and not annealing:
             break
         prev = (sw, st_)
@@ -805,7 +843,7 @@ def _free_axis(p: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray] | Non
     return np.linalg.solve(A, b), a, nrm
 
 
-def _check_gauge(points: np.ndarray, cad, max_error: float) -> None:
+def _check_gauge(points: FloatArray, cad: Any, max_error: float) -> None:
     """Refuse, before the costly search, a scan whose coaxial walls are not
     the CAD's: with two or more walls the outermost must be its outer wall;
     a single wall (a scan of one side) its outer or its inner wall."""
@@ -826,8 +864,8 @@ def _check_gauge(points: np.ndarray, cad, max_error: float) -> None:
                     "registration)")
 
 
-def register(points: np.ndarray, cad, *, inlier_distance: float = 0.01,
-             seed: int = 0, progress=None,
+def register(points: AnyArray, cad: Any, *, inlier_distance: float = 0.01,
+             seed: int = 0, progress: Callable[[str], None] | None = None,
              max_diameter_error: float | None = None) -> Registration:
     """Register scan points (scanner frame, mm) onto a :class:`CadModel`.
 
@@ -862,14 +900,7 @@ def register(points: np.ndarray, cad, *, inlier_distance: float = 0.01,
 
     say = progress or (lambda msg: None)
     rng = np.random.default_rng(seed)
-    p_all = points if isinstance(points, np.ndarray) else np.asarray(points, float)
-    if p_all.ndim != 2 or p_all.shape[1] != 3:
-        raise ScanError(f"points have shape {p_all.shape}; expected (n, 3)")
-    n = min(len(p_all), tol.inspect.register_points)
-    p = p_all[rng.choice(len(p_all), n, replace=False)] if n < len(p_all) else p_all
-    p = np.asarray(p, np.float64)
-    if not np.all(np.isfinite(p)):
-        raise ScanError("scan points have non-finite (NaN or infinite) coordinates")
+    p = _registration_points(points, rng)
     faces = planar_cut_faces(cad)
     geo = check_geometry(p, cad.r_o, register=True, allow_plane=bool(faces))
     if geo["rms_extent_mm"][2] < tol.inspect.min_spread_plane * cad.r_o:
@@ -899,33 +930,89 @@ def register(points: np.ndarray, cad, *, inlier_distance: float = 0.01,
         return _register_tube(p, clean, cad, point, a, radius, axis, warnings, inlier_distance,
                               rng, say)
     say("global search about the axis")
-    cands = []
     search: dict[str, Any] = {"coarse_step_deg": 2 * math.degrees(tol.inspect.search_step),
                               "fine_step_deg": 0.5 * math.degrees(tol.inspect.search_step)}
+    cands = _candidate_poses(clean, cad, point, a, rng, search)
+    say(f"ICP from {min(4, len(cands))} candidate poses")
+    results = _ranked_starts(p, cad, cands, rng)
+    best = results[0]
+    T, sigma, info = _refine(p, cad, best[1], best[5], rng)
+    d = cad.distances(apply(T, p)).distance
+    ok = np.abs(d) <= inlier_distance
+    fitness = float(ok.mean())
+    rmse = float(np.sqrt(np.mean(d[ok] ** 2))) if ok.any() else float("nan")
+    search.update({"candidates": len(results), "best_robust_rms_mm": best[0]})
+    sym = cad.symmetry
+    _runner_up(results, sym, search, warnings)
+    fixed = _held_notes(sym, info, warnings)
+    if fitness < 0.5:
+        warnings.append(f"low fitness {fitness:.2f}: fewer than half the points lie within "
+                        f"{inlier_distance * 1e3:g} µm of the CAD surface")
+    search["sigma_mm"] = sigma
+    if sym > 1:
+        say(f"pose determined up to the tip's {sym}-fold symmetry ({360 / sym:g}° turns)")
+    return Registration(T, fitness, rmse, inlier_distance, axis, search, warnings,
+                        info["iterations"], len(p), fixed, sym,
+                        _uncertainty(info.get("covariance"), sym))
+
+
+def _registration_points(points: AnyArray, rng: np.random.Generator) -> FloatArray:
+    """The (float64) subset of at most ``tol.inspect.register_points``
+    points (mm) the registration works on; checked (n, 3) and finite."""
+    p_all = points if isinstance(points, np.ndarray) else np.asarray(points, float)
+    if p_all.ndim != 2 or p_all.shape[1] != 3:
+        raise ScanError(f"points have shape {p_all.shape}; expected (n, 3)")
+    n = min(len(p_all), tol.inspect.register_points)
+    p = p_all[rng.choice(len(p_all), n, replace=False)] if n < len(p_all) else p_all
+    p = np.asarray(p, np.float64)
+    if not np.all(np.isfinite(p)):
+        raise ScanError("scan points have non-finite (NaN or infinite) coordinates")
+    return p
+
+
+#: A start pose of the search: (score, axis sign, turn about the axis (rad), 4 × 4 transform).
+_Candidate = tuple[float, float, float, FloatArray]
+
+
+def _candidate_poses(clean: FloatArray, cad: Any, point: FloatArray, a: FloatArray,
+                     rng: np.random.Generator, search: dict[str, Any]) -> list[_Candidate]:
+    """The start poses of the global search about the fitted axis (both
+    senses of it), best score first; the scores go into ``search``."""
+    cands: list[_Candidate] = []
     sym = cad.symmetry
     z_feature = _feature_z(cad)
     for sign in (1.0, -1.0):
         Ta = _frame(point, a, sign)
         q = apply(Ta, clean)
         if sym == 0:
-            ang, sc, dz = np.array([0.0]), None, cad.z_top - np.quantile(q[:, 2], 0.9995)
+            dz = cad.z_top - np.quantile(q[:, 2], 0.9995)
             cands.append((0.0, sign, 0.0, _pose(Ta, 0.0, dz)))
             continue
         period = 2 * math.pi / sym
-        ang, sc, best_turns = _search(q, cad, tol.inspect.search_step,
-                                      tol.inspect.search_points, rng, period, z_feature)
+        _, sc, best_turns = _search(q, cad, tol.inspect.search_step,
+                                    tol.inspect.search_points, rng, period, z_feature)
         for turn, score, dz in best_turns:
             cands.append((score, sign, turn, _pose(Ta, turn, dz)))
         key = "plus" if sign > 0 else "minus"
         search[f"scores_{key}"] = sc.round(6).tolist()
         search[f"best_turns_{key}_deg"] = [[math.degrees(t_), s_] for t_, s_, _ in best_turns]
     cands.sort(key=lambda c: c[0])
-    say(f"ICP from {min(4, len(cands))} candidate poses")
+    return cands
+
+
+#: A start after loose ICP: (robust RMS (mm), transform, sign, turn, score, Tukey cut-off).
+_Start = tuple[float, FloatArray, float, float, float, Any]
+
+
+def _ranked_starts(p: FloatArray, cad: Any, cands: list[_Candidate],
+                   rng: np.random.Generator) -> list[_Start]:
+    """Loose ICP from the four best candidates on a small subset, ranked by
+    the robust RMS of the residuals (mm), best first."""
     small = p[rng.choice(len(p), min(tol.inspect.icp_start_points, len(p)), replace=False)]
-    results = []
+    results: list[_Start] = []
     for score, sign, ang, T0 in cands[:4]:
         try:
-            T, sig, info = _icp(small, cad, T0, 30, fix_rz=(sym == 0), loose=True)
+            T, sig, info = _icp(small, cad, T0, 30, fix_rz=(cad.symmetry == 0), loose=True)
             d = cad.distances(apply(T, small)).distance
         except (ScanError, TipGeoError):
             continue  # this start is too far off to converge; the others may not be
@@ -936,25 +1023,32 @@ def register(points: np.ndarray, cad, *, inlier_distance: float = 0.01,
                         f"point lie within {tol.inspect.search_clip * 1e3:g} µm of the CAD "
                         "surface; is the scan of this tip?")
     results.sort(key=lambda r: r[0])
-    best = results[0]
-    # Gauss–Newton to convergence on a subset, then on every registration
-    # point from there (a few steps): the final pose is that of the full set
+    return results
+
+
+def _refine(p: FloatArray, cad: Any, T0: FloatArray, cutoff: Any,
+            rng: np.random.Generator) -> tuple[FloatArray, float, dict[str, Any]]:
+    """Gauss–Newton to convergence on a subset, then on every registration
+    point from there (a few steps): the final pose is that of the full set."""
+    sym = cad.symmetry
     mid = p if len(p) <= tol.inspect.icp_mid_points else \
         p[rng.choice(len(p), tol.inspect.icp_mid_points, replace=False)]
-    T, sigma, info = _icp(mid, cad, best[1], tol.inspect.icp_iterations, fix_rz=(sym == 0),
-                          anneal=best[5])
+    T, sigma, info = _icp(mid, cad, T0, tol.inspect.icp_iterations, fix_rz=(sym == 0),
+                          anneal=cutoff)
     if mid is not p:
         T, sigma, info2 = _icp(p, cad, T, tol.inspect.icp_iterations, fix_rz=(sym == 0),
                                anneal=info.get("cutoff"))
         info["iterations"] += info2["iterations"]
         info["fixed"] = info2["fixed"]
         info["covariance"] = info2["covariance"]
-    d = cad.distances(apply(T, p)).distance
-    ok = np.abs(d) <= inlier_distance
-    fitness = float(ok.mean())
-    rmse = float(np.sqrt(np.mean(d[ok] ** 2))) if ok.any() else float("nan")
-    search.update({"candidates": len(results), "best_robust_rms_mm": best[0]})
-    # ambiguity: a clearly different pose that fits almost as well
+    return T, sigma, info
+
+
+def _runner_up(results: list[_Start], sym: int, search: dict[str, Any],
+               warnings: list[str]) -> None:
+    """Ambiguity: a clearly different pose (turned more than 2°, modulo the
+    tip's symmetry) that fits almost as well; into ``search`` and ``warnings``."""
+    best = results[0]
     Rb = best[1][:3, :3]
     for rr, Tr, *_ in results[1:]:
         dR = Tr[:3, :3] @ Rb.T
@@ -970,6 +1064,10 @@ def register(points: np.ndarray, cad, *, inlier_distance: float = 0.01,
                     f"well (robust RMS {rr * 1e3:.2f} vs {best[0] * 1e3:.2f} µm); check "
                     "that the scan shows the tip's features (bevel, planes, serrations)")
             break
+
+
+def _held_notes(sym: int, info: dict[str, Any], warnings: list[str]) -> list[str]:
+    """The degrees of freedom held at the search result (and a warning each)."""
     fixed = []
     if sym == 0:
         fixed.append("rotation about the axis (the tip is rotationally symmetric; the "
@@ -980,25 +1078,18 @@ def register(points: np.ndarray, cad, *, inlier_distance: float = 0.01,
         fixed.append(f"{info['fixed']} direction(s) the scan does not constrain")
         warnings.append(f"{info['fixed']} degree(s) of freedom are not constrained by the scan; "
                         "held at the search result")
-    if fitness < 0.5:
-        warnings.append(f"low fitness {fitness:.2f}: fewer than half the points lie within "
-                        f"{inlier_distance * 1e3:g} µm of the CAD surface")
-    search["sigma_mm"] = sigma
-    if sym > 1:
-        say(f"pose determined up to the tip's {sym}-fold symmetry ({360 / sym:g}° turns)")
-    return Registration(T, fitness, rmse, inlier_distance, axis, search, warnings,
-                        info["iterations"], len(p), fixed, sym,
-                        _uncertainty(info.get("covariance"), sym))
+    return fixed
 
 
-def planar_cut_faces(cad) -> dict[str, tuple[np.ndarray, np.ndarray]]:
+def planar_cut_faces(cad: Any) -> dict[str, tuple[FloatArray, FloatArray]]:
     """The CAD's planar cut faces: label → (unit normal, outward; an area-
     weighted sample of up to 20,000 points on it), cannula frame, mm. A face
     is planar when its mesh vertices lie within 0.1 µm of their plane."""
     tip = cad.tip
     if tip is None:
         return {}
-    cached = getattr(cad, "_planar_cut_faces", None)
+    cached: dict[str, tuple[FloatArray, FloatArray]] | None = getattr(cad, "_planar_cut_faces",
+                                                                        None)
     if cached is not None:
         return cached
     out = {}
@@ -1013,7 +1104,7 @@ def planar_cut_faces(cad) -> dict[str, tuple[np.ndarray, np.ndarray]]:
         v = tip.vertices[np.unique(tip.faces[on])]
         c = v.mean(axis=0)
         _, sv, vt = np.linalg.svd(v - c, full_matrices=False)
-        if sv[-1] / math.sqrt(len(v)) > 1e-4:
+        if sv[-1] / math.sqrt(len(v)) > tol.inspect.planar_face_rms:
             continue
         tri = tip.vertices[tip.faces[on]]
         area = 0.5 * np.linalg.norm(np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0]),
@@ -1035,13 +1126,15 @@ def planar_cut_faces(cad) -> dict[str, tuple[np.ndarray, np.ndarray]]:
     return out
 
 
-def _plane_frame(n):
+def _plane_frame(n: FloatArray) -> tuple[FloatArray, FloatArray]:
     e1 = np.cross(n, [1.0, 0, 0] if abs(n[0]) < 0.9 else [0, 1.0, 0])
     e1 /= np.linalg.norm(e1)
     return e1, np.cross(n, e1)
 
 
-def _register_face(p, cad, faces, inlier_distance, rng, say) -> Registration:
+def _register_face(p: FloatArray, cad: Any, faces: dict[str, tuple[FloatArray, FloatArray]],
+                   inlier_distance: float, rng: np.random.Generator,
+                   say: Callable[[str], None]) -> Registration:
     """A scan of one planar cut face alone (its points on a plane): the
     plane onto one of the CAD's planar cut faces (either side), the face's
     extent onto the CAD face's — centroids together, principal axes along
@@ -1114,7 +1207,7 @@ def _register_face(p, cad, faces, inlier_distance, rng, say) -> Registration:
         if ang > 2.0 or np.linalg.norm(T2[:3, 3] - T[:3, 3]) > 0.05:
             search["runner_up_robust_rms_mm"] = r2
             search["runner_up_angle_deg"] = ang
-            if r2 <= 1.02 * rr + 1e-4:
+            if r2 <= 1.02 * rr + tol.inspect.face_tie:
                 # the face alone looks the same in both poses (a bevel's face is
                 # an elliptic ring: a half turn about its normal maps it onto
                 # itself): the scanned points' deviations are the same in both
@@ -1148,7 +1241,8 @@ def _register_face(p, cad, faces, inlier_distance, rng, say) -> Registration:
 TUBE_ONLY_SHARE = 0.98
 
 
-def _tube_only(q, point, a, radius, cad) -> bool:
+def _tube_only(q: FloatArray, point: FloatArray, a: FloatArray, radius: float,
+               cad: Any) -> bool:
     """Whether the scan shows the tube alone — no cut face, no outline of
     one: at least :data:`TUBE_ONLY_SHARE` of the points within
     max(10 µm, 1 % of the radius) of the fitted outer wall or of the bore
@@ -1175,8 +1269,10 @@ def _tube_only(q, point, a, radius, cad) -> bool:
     return True
 
 
-def _register_tube(p, clean, cad, point, a, radius, axis, warnings, inlier_distance, rng,
-                   say) -> Registration:
+def _register_tube(p: FloatArray, clean: FloatArray, cad: Any, point: FloatArray, a: FloatArray,
+                   radius: float, axis: dict[str, Any], warnings: list[str],
+                   inlier_distance: float, rng: np.random.Generator,
+                   say: Callable[[str], None]) -> Registration:
     """The pose of a scan of the tube alone, up to what it leaves free: its
     axis on the CAD's, its far end just below the lowest of the CAD's cut
     features (where the tube is tube at any turn and shift); the turn about
@@ -1216,7 +1312,7 @@ def _register_tube(p, clean, cad, point, a, radius, axis, warnings, inlier_dista
                         info["iterations"], len(p), free, 0, unc)
 
 
-def _uncertainty(cov, sym) -> dict[str, Any]:
+def _uncertainty(cov: FloatArray | None, sym: int) -> dict[str, Any]:
     """The report's 1σ pose uncertainty from the ICP covariance (rad, mm)."""
     if cov is None:
         return {}
@@ -1242,4 +1338,5 @@ def _remove_outliers(p: np.ndarray, k: int = 8, ratio: float = 3.0) -> np.ndarra
     d, _ = cKDTree(p).query(p, k=k + 1, workers=-1)
     m = d[:, 1:].mean(axis=1)
     keep = m <= m.mean() + ratio * m.std()
-    return p[keep]
+    kept: FloatArray = p[keep]
+    return kept

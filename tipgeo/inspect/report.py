@@ -14,11 +14,16 @@ from __future__ import annotations
 import math
 import os
 from pathlib import Path
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
+from ..arrays import AnyArray, FloatArray
 from ..plot import styled
 from ..tolerances import tol
+
+if TYPE_CHECKING:
+    from .compare import Comparison
 
 __all__ = ["REPORT_STAGING_TAG", "write_report", "write_json", "write_deviation_ply",
            "deviation_colours", "write_points", "COLORMAP"]
@@ -42,7 +47,7 @@ def deviation_colours(d: np.ndarray, scale: float, *, low: float | None = None,
     return lut[k]
 
 
-def _norm(res):
+def _norm(res: Comparison) -> Any:
     """The colour norm of the pictures: 0 in the middle, µm."""
     from matplotlib.colors import TwoSlopeNorm
 
@@ -50,7 +55,7 @@ def _norm(res):
     return TwoSlopeNorm(0.0, lo, hi)
 
 
-def write_points(res, path: Path, *, chunk: int = 1 << 18) -> Path:
+def write_points(res: Comparison, path: Path, *, chunk: int = 1 << 18) -> Path:
     """Per-point deviations in the scan's input order: ``index`` (row in the
     scan as read), x y z (cannula frame, float64 mm), ``deviation_mm``
     (signed, float64), ``face`` (label index, names in the header) and
@@ -69,13 +74,13 @@ def write_points(res, path: Path, *, chunk: int = 1 << 18) -> Path:
     idx = res.index if res.index is not None else np.arange(n)
     labels = ", ".join(f"{k}={lab}" for k, lab in enumerate(d.labels))
 
-    def rows(i, j):
+    def rows(i: int, j: int) -> tuple[Any, ...]:
         # float32 storage widened: the registered points were rounded by at
         # most 2^-21 mm when stored, the deviations never were
         return (idx[i:j], np.asarray(res.points[i:j], np.float64), d.distance[i:j],
                 d.face[i:j], d.feature[i:j])
 
-    def write(tmp) -> None:
+    def write(tmp: Path) -> None:
         with open(tmp, "wb") as fh:
             if ext == ".csv":
                 fh.write(f"# tipgeo compare: cannula frame, mm; face: {labels}\n"
@@ -105,7 +110,7 @@ def write_points(res, path: Path, *, chunk: int = 1 << 18) -> Path:
     return write_atomic(path, write)
 
 
-def write_json(res, path: Path) -> Path:
+def write_json(res: Comparison, path: Path) -> Path:
     from ..atomic import write_text_atomic
     from ..jsonio import dumps
 
@@ -119,7 +124,7 @@ _PLY_COMMENTS = ("tipgeo compare: scan points in the CAD's cannula frame, units 
                  "deviation_mm > 0: outside the CAD solid (excess material)")
 
 
-def write_deviation_ply(res, path: Path, *, chunk: int = 1 << 20) -> Path:
+def write_deviation_ply(res: Comparison, path: Path, *, chunk: int = 1 << 20) -> Path:
     """The compared points (cannula frame, float32 mm) coloured by deviation,
     with ``deviation_mm`` and ``face`` properties: a binary little-endian PLY,
     written chunk by chunk and atomically."""
@@ -137,7 +142,7 @@ def write_deviation_ply(res, path: Path, *, chunk: int = 1 << 20) -> Path:
               f"element vertex {n}", *(f"property {names[t]} {k}" for k, t in fields),
               "end_header"]
 
-    def write(tmp) -> None:
+    def write(tmp: Path) -> None:
         with open(tmp, "wb") as fh:
             fh.write(("\n".join(header) + "\n").encode("ascii", "replace"))
             for i in range(0, n, chunk):
@@ -173,7 +178,7 @@ def _missing_parents(out: Path) -> list[Path]:
 REPORT_STAGING_TAG = ".tipgeo-report"
 
 
-def write_report(res, out, *, pictures: bool = True) -> list[Path]:
+def write_report(res: Comparison, out: str | Path, *, pictures: bool = True) -> list[Path]:
     """Write ``report.json``, ``report.md``, ``deviations.ply`` and (with
     ``pictures``) ``deviation-map.png`` and ``histogram.png`` into ``out``.
 
@@ -234,7 +239,7 @@ def write_report(res, out, *, pictures: bool = True) -> list[Path]:
 
 
 # -----------------------------------------------------------------------------
-def _view_basis(res):
+def _view_basis(res: Comparison) -> list[tuple[str, FloatArray, FloatArray, FloatArray]]:
     """Two view directions (unit, looking at the part) with their image axes:
     the first face-on to the main cut face, the second from the side."""
     ez = np.array([0.0, 0.0, 1.0])
@@ -266,7 +271,8 @@ def _view_basis(res):
 _MAX_PICTURE_POINTS = 400_000
 
 
-def _picture_sample(p, d, max_points: int = _MAX_PICTURE_POINTS):
+def _picture_sample(p: AnyArray, d: AnyArray,
+                    max_points: int = _MAX_PICTURE_POINTS) -> tuple[FloatArray, FloatArray]:
     """At most ``max_points`` of the points (seeded: reproducible), float64."""
     if len(p) > max_points:  # a picture needs no more
         k = np.random.default_rng(0).choice(len(p), max_points, replace=False)
@@ -274,8 +280,9 @@ def _picture_sample(p, d, max_points: int = _MAX_PICTURE_POINTS):
     return np.asarray(p, np.float64), np.asarray(d, np.float64)
 
 
-def _zbuffer_image(p, d, look, right, up, max_px: int = 900,
-                   max_points: int = _MAX_PICTURE_POINTS):
+def _zbuffer_image(p: AnyArray, d: AnyArray, look: FloatArray, right: FloatArray, up: FloatArray,
+                   max_px: int = 900, max_points: int = _MAX_PICTURE_POINTS
+                   ) -> tuple[FloatArray, tuple[float, float, float, float]]:
     """Deviation of the point nearest the viewer in every pixel (NaN where
     none). Pixels are sized to the point density (about three points of one
     surface per pixel, each point splatted on 2×2 pixels) so that a sparse
@@ -301,7 +308,7 @@ def _zbuffer_image(p, d, look, right, up, max_px: int = 900,
 
 
 @styled
-def plot_map(res, path: Path) -> Path:
+def plot_map(res: Comparison, path: Path) -> Path:
     """PNG: the deviation (µm, fixed colour scale) seen face-on to the cut
     face and from the side, nearest surface per pixel."""
     import matplotlib
@@ -324,6 +331,7 @@ def plot_map(res, path: Path) -> Path:
         ax.set_xlabel("mm")
         ax.set_ylabel("mm (towards the tip)")
         ax.set_facecolor("#dddddd")
+    assert im is not None  # _view_basis gives two views
     cb = fig.colorbar(im, ax=axes, shrink=0.85, extend="both")
     cb.set_label(f"deviation (µm): + excess, − missing; fixed scale {lo:g} … +{s:g} µm")
     st = res.stats["all"]
@@ -336,7 +344,7 @@ def plot_map(res, path: Path) -> Path:
 
 
 @styled
-def plot_histogram(res, path: Path) -> Path:
+def plot_histogram(res: Comparison, path: Path) -> Path:
     """PNG: histogram of the deviations (µm), overall and per CAD face, with
     the tolerance band."""
     import matplotlib
@@ -359,10 +367,10 @@ def plot_histogram(res, path: Path) -> Path:
         x = np.clip((dd.distance[i:i + (1 << 20)] * 1e3 + lim) * (nb / (2 * lim)), 0, nb - 1)
         counts += np.bincount(dd.face[i:i + (1 << 20)].astype(np.int64) * nb
                               + x.astype(np.int64), minlength=K * nb)
-    counts = counts.reshape(K, nb)
-    ax.stairs(counts.sum(axis=0), bins, fill=True, color="#888888", alpha=0.5, label="all")
+    per_face = counts.reshape(K, nb)
+    ax.stairs(per_face.sum(axis=0), bins, fill=True, color="#888888", alpha=0.5, label="all")
     for name in res.stats["regions"]:
-        h = counts[[k for k, lab in enumerate(dd.labels) if lab == name]].sum(axis=0)
+        h = per_face[[k for k, lab in enumerate(dd.labels) if lab == name]].sum(axis=0)
         if h.sum() > 0:
             ax.stairs(h, bins, lw=1.4, label=f"{name} ({int(h.sum()):,})")
     t = res.tolerance * 1e3
@@ -381,68 +389,84 @@ def plot_histogram(res, path: Path) -> Path:
 
 
 # -----------------------------------------------------------------------------
-def _f(x, nd=3):
+def _f(x: float | None, nd: int = 3) -> str:
     if x is None or (isinstance(x, float) and not math.isfinite(x)):
         return "—"
     return f"{x:.{nd}f}"
 
 
-def _write_markdown(res, path: Path) -> None:
-    from ..atomic import write_text_atomic as _atomic_text
-
-    r = res.to_dict()
-    L = [f"# Inspection: {r['cad']['name']} vs {r['scan']['source']}", ""]
+def _md_verdict(res: Comparison, r: dict[str, Any]) -> list[str]:
+    """The verdict and its checks' table."""
     v = r.get("verdict")
-    if v is not None:
-        L += [f"**Verdict: {'PASS' if v['ok'] else 'FAIL'}** — rule: "
-              f"{res.rule.describe() if res.rule is not None else '—'}", ""]
-        L += ["| check | rule | value | result |", "|---|---|---|---|"]
-        for c in v["checks"]:
-            val = c["value"]
-            val = f"{100 * val:.2f} %" if isinstance(val, float) else str(val)
-            L.append(f"| {c['name']} | {c['rule']} | {val} | "
-                     f"{'pass' if c['ok'] else 'FAIL: ' + c['reason']} |")
-        L.append("")
-    L += [f"- CAD: `{r['cad']['name']}`, measured against **{r['cad']['method']}**",
-          f"- scan: `{r['scan']['source']}`, {r['scan']['points']:,} points; "
-          f"{r['compared_points']:,} compared"
-          + (f" (left out: {', '.join(f'{k} {v:,}' for k, v in r['dropped_points'].items())})"
-             if r["dropped_points"] else ""),
-          f"- tolerance ±{r['tolerance_um']:g} µm; colour scale `{r['colormap']}` fixed at "
-          f"{r['colour_scale_um'][0]:g} … +{r['colour_scale_um'][1]:g} µm (blue: missing "
-          "material, red: excess), saturated beyond",
-          f"- sign: {r['sign_convention']}"]
-    mt = r.get("match") or {}
-    if mt:
-        fit = "" if mt["fitness"] is None else \
-            f", registration fitness {mt['fitness']:.3f} (needs ≥ {mt['min_fitness']:g})"
-        dia = "".join(f", {k} {v['mm']:.4f} mm (CAD {v['cad_mm']:.4f}, allowed "
-                      f"±{100 * mt['diameter_tolerance']:g} %)"
-                      for k, v in mt["diameters"].items())
-        L.append(f"- match with the CAD: {'yes' if mt['ok'] else '**no**'} — inlier share "
-                 f"{100 * mt['inlier_share']:.1f} % within {mt['match_distance_mm'] * 1e3:g} µm "
-                 f"(needs ≥ {100 * mt['min_inlier_share']:g} %){fit}{dia}")
+    if v is None:
+        return []
+    L = [f"**Verdict: {'PASS' if v['ok'] else 'FAIL'}** — rule: "
+         f"{res.rule.describe() if res.rule is not None else '—'}", ""]
+    L += ["| check | rule | value | result |", "|---|---|---|---|"]
+    for c in v["checks"]:
+        val = c["value"]
+        val = f"{100 * val:.2f} %" if isinstance(val, float) else str(val)
+        L.append(f"| {c['name']} | {c['rule']} | {val} | "
+                 f"{'pass' if c['ok'] else 'FAIL: ' + c['reason']} |")
+    return L + [""]
+
+
+def _md_match(mt: dict[str, Any]) -> list[str]:
+    """The match-with-the-CAD line."""
+    if not mt:
+        return []
+    fit = "" if mt["fitness"] is None else \
+        f", registration fitness {mt['fitness']:.3f} (needs ≥ {mt['min_fitness']:g})"
+    dia = "".join(f", {k} {v['mm']:.4f} mm (CAD {v['cad_mm']:.4f}, allowed "
+                  f"±{100 * mt['diameter_tolerance']:g} %)"
+                  for k, v in mt["diameters"].items())
+    return [f"- match with the CAD: {'yes' if mt['ok'] else '**no**'} — inlier share "
+            f"{100 * mt['inlier_share']:.1f} % within {mt['match_distance_mm'] * 1e3:g} µm "
+            f"(needs ≥ {100 * mt['min_inlier_share']:g} %){fit}{dia}"]
+
+
+def _md_summary(r: dict[str, Any]) -> list[str]:
+    """CAD, scan, tolerance, colour scale, sign, match and warnings."""
+    L = [f"- CAD: `{r['cad']['name']}`, measured against **{r['cad']['method']}**",
+         f"- scan: `{r['scan']['source']}`, {r['scan']['points']:,} points; "
+         f"{r['compared_points']:,} compared"
+         + (f" (left out: {', '.join(f'{k} {v:,}' for k, v in r['dropped_points'].items())})"
+            if r["dropped_points"] else ""),
+         f"- tolerance ±{r['tolerance_um']:g} µm; colour scale `{r['colormap']}` fixed at "
+         f"{r['colour_scale_um'][0]:g} … +{r['colour_scale_um'][1]:g} µm (blue: missing "
+         "material, red: excess), saturated beyond",
+         f"- sign: {r['sign_convention']}"]
+    L += _md_match(r.get("match") or {})
     L.append("")
     if r["warnings"]:
         L += ["**Warnings**", ""] + [f"- {w}" for w in r["warnings"]] + [""]
-    reg = r["registration"]
-    if reg:
-        T = np.asarray(reg["transform"])
-        L += ["## Registration (scanner → cannula frame)", "",
-              "| quantity | value |", "|---|---|",
-              f"| rotation angle | {reg['rotation_angle_deg']:.4f}° |",
-              f"| translation | ({', '.join(f'{x:.4f}' for x in reg['translation_mm'])}) mm |",
-              f"| fitness (share within {reg['inlier_distance_mm'] * 1e3:g} µm) | "
-              f"{reg['fitness']:.4f} |",
-              f"| inlier RMSE | {reg['inlier_rmse_mm'] * 1e3:.3f} µm |",
-              f"| fitted outer diameter | {reg['axis']['outer_diameter_mm']:.4f} mm |",
-              f"| ICP iterations | {reg['iterations']} on {reg['points']:,} points |",
-              *_uncertainty_rows(reg.get("uncertainty") or {}), "",
-              "```", *("  ".join(f"{v:+.9f}" for v in row) for row in T), "```", ""]
-    L += ["## Deviations (µm)", "",
-          "| region | points | mean | std | RMS | min | max | P5 | P95 | within tol |",
-          "|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|"]
-    rows = [("all", r["deviation"]["all"])] + list(r["deviation"]["regions"].items())
+    return L
+
+
+def _md_registration(reg: dict[str, Any] | None) -> list[str]:
+    """The registration table and its 4 × 4 transform."""
+    if not reg:
+        return []
+    T = np.asarray(reg["transform"])
+    return ["## Registration (scanner → cannula frame)", "",
+            "| quantity | value |", "|---|---|",
+            f"| rotation angle | {reg['rotation_angle_deg']:.4f}° |",
+            f"| translation | ({', '.join(f'{x:.4f}' for x in reg['translation_mm'])}) mm |",
+            f"| fitness (share within {reg['inlier_distance_mm'] * 1e3:g} µm) | "
+            f"{reg['fitness']:.4f} |",
+            f"| inlier RMSE | {reg['inlier_rmse_mm'] * 1e3:.3f} µm |",
+            f"| fitted outer diameter | {reg['axis']['outer_diameter_mm']:.4f} mm |",
+            f"| ICP iterations | {reg['iterations']} on {reg['points']:,} points |",
+            *_uncertainty_rows(reg.get("uncertainty") or {}), "",
+            "```", *("  ".join(f"{v:+.9f}" for v in row) for row in T), "```", ""]
+
+
+def _md_deviations(dev: dict[str, Any]) -> list[str]:
+    """The deviation table (µm), all points and each region."""
+    L = ["## Deviations (µm)", "",
+         "| region | points | mean | std | RMS | min | max | P5 | P95 | within tol |",
+         "|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|"]
+    rows = [("all", dev["all"])] + list(dev["regions"].items())
     for name, b in rows:
         if not b["count"]:
             continue
@@ -450,9 +474,12 @@ def _write_markdown(res, path: Path) -> None:
                  f"{_f(b['rms_um'])} | {_f(b['min_um'])} | {_f(b['max_um'])} | "
                  f"{_f(b['p5_um'])} | {_f(b['p95_um'])} | "
                  f"{100 * b['within_tol_share']:.1f} % |")
-    L.append("")
-    m = r["measured"]
-    L += ["## Measured geometry", ""]
+    return L + [""]
+
+
+def _md_walls_faces(m: dict[str, Any]) -> list[str]:
+    """Walls' diameters, cut faces, included angles and the tip."""
+    L = []
     for wall in ("outer", "inner"):
         w = m.get(wall)
         if w:
@@ -471,23 +498,47 @@ def _write_markdown(res, path: Path) -> None:
     if tip and "error_um" in tip:
         L.append(f"- tip (apex) position error {tip['error_um']:.2f} µm (axial "
                  f"{tip['axial_error_um']:+.2f} µm), {tip['method']}")
-    ca = m.get("cutting_angles")
-    if ca and "measured" in ca:
-        L += ["", f"Cutting angles ({ca['method']}):", "",
-              "| edge | quantity | measured | CAD |", "|---|---|---|---|"]
-        for wall in ("outer", "inner"):
-            for k, v in ca["measured"][wall].items():
-                c = ca["cad"][wall][k]
-                fmt = (lambda x: f"{x[0]:.3f} … {x[1]:.3f}") if isinstance(v, list) else \
-                    (lambda x: f"{x:.4f}")
-                L.append(f"| {wall} | {k} | {fmt(v)} | {fmt(c)} |")
-    for n in m.get("notes") or []:
-        L.append(f"- note: {n}")
-    if getattr(res, "edges", None) is not None:
+    return L
+
+
+def _range_or_value(x: Any, as_range: bool) -> str:
+    return f"{x[0]:.3f} … {x[1]:.3f}" if as_range else f"{x:.4f}"
+
+
+def _md_cutting_angles(ca: dict[str, Any] | None) -> list[str]:
+    """The cutting angles' table, measured against the CAD's."""
+    if not ca or "measured" not in ca:
+        return []
+    L = ["", f"Cutting angles ({ca['method']}):", "",
+         "| edge | quantity | measured | CAD |", "|---|---|---|---|"]
+    for wall in ("outer", "inner"):
+        for k, v in ca["measured"][wall].items():
+            rng = isinstance(v, list)
+            L.append(f"| {wall} | {k} | {_range_or_value(v, rng)} | "
+                     f"{_range_or_value(ca['cad'][wall][k], rng)} |")
+    return L
+
+
+def _md_measured(res: Comparison, m: dict[str, Any]) -> list[str]:
+    """The measured geometry section (with the scan's edges, if traced)."""
+    L = ["## Measured geometry", ""] + _md_walls_faces(m)
+    L += _md_cutting_angles(m.get("cutting_angles"))
+    L += [f"- note: {n}" for n in m.get("notes") or []]
+    if res.edges is not None:
         from .edgescan import edges_markdown
 
         L += edges_markdown(res.edges)
-    L.append("")
+    return L + [""]
+
+
+def _write_markdown(res: Comparison, path: Path) -> None:
+    """report.md of ``res`` (a :class:`~tipgeo.inspect.compare.Comparison`), atomically."""
+    from ..atomic import write_text_atomic as _atomic_text
+
+    r = res.to_dict()
+    L = [f"# Inspection: {r['cad']['name']} vs {r['scan']['source']}", ""]
+    L += _md_verdict(res, r) + _md_summary(r) + _md_registration(r["registration"])
+    L += _md_deviations(r["deviation"]) + _md_measured(res, r["measured"])
     pics = [p for p in res.outputs if str(p).endswith(".png")]
     if pics:
         L += ["## Pictures", ""] + [f"![{p.stem}]({p.name})" for p in pics] + [""]
@@ -496,7 +547,7 @@ def _write_markdown(res, path: Path) -> None:
     _atomic_text(path, "\n".join(L) + "\n")
 
 
-def _uncertainty_rows(u: dict) -> list[str]:
+def _uncertainty_rows(u: dict[str, Any]) -> list[str]:
     """Table rows of the registration's 1σ pose uncertainty (degrees, µm)."""
     if not u:
         return []

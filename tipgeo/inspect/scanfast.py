@@ -10,11 +10,14 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
+from ..arrays import AnyArray, FloatArray
+
 __all__ = ["chunk_bounds", "store_offsets"]
 
 
 @njit(cache=True, nogil=True)
-def chunk_bounds(x, y, z):
+def chunk_bounds(x: AnyArray, y: AnyArray,
+                 z: AnyArray) -> tuple[int, float, FloatArray, FloatArray]:
     """Non-finite points, the largest |coordinate| and the per-axis minimum
     and maximum of the finite points of a chunk given as three columns
     ((m,) float each).
@@ -40,7 +43,8 @@ def chunk_bounds(x, y, z):
 
 
 @njit(cache=True, nogil=True)
-def store_offsets(x, y, z, factor, origin, out, start):
+def store_offsets(x: AnyArray, y: AnyArray, z: AnyArray, factor: float, origin: FloatArray,
+                  out: AnyArray, start: int) -> float:
     """``out[start + i] = (x, y, z)[i] · factor − origin`` in float64, stored
     as ``out``'s dtype ((n, 3) float32 or float64); returns the largest
     |offset| (mm)."""

@@ -36,6 +36,7 @@ from __future__ import annotations
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass, field
+from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -273,12 +274,10 @@ def xbar_r(x: Sequence[float], n: int, *, name: str = "x", labels: Sequence[str]
 
 
 @styled
-def plot_chart(c: ControlChart, path) -> Any:
+def plot_chart(c: ControlChart, path: str | Path) -> Any:
     """The chart as a PNG: points (or subgroup means) with centre line and
     limits (and specification limits, dashed) above, ranges below; points
     out of control in red. Returns the path."""
-    from pathlib import Path
-
     import matplotlib
 
     matplotlib.use("Agg", force=False)

@@ -11,16 +11,18 @@ from __future__ import annotations
 
 import os
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
+from ..arrays import FloatArray
 from ..errors import SpecError
 from ..tolerances import tol
 
 __all__ = ["check_transform", "read_transform", "write_transform"]
 
 
-def check_transform(T, name: str = "transform") -> np.ndarray:
+def check_transform(T: Any, name: str = "transform") -> FloatArray:
     """``T`` as a (4, 4) float rigid transform (rotation orthonormal with
     determinant +1 within ``tol.inspect.rigid``, last row 0 0 0 1), else
     SpecError naming ``name``."""

@@ -415,3 +415,28 @@ def test_pareto_front_peels_back_to_the_feasible_region():
     assert np.linalg.norm(uc - np.array([0.75, 0.85])) < 0.02
     # only front points are checked, never the whole candidate set over again
     assert sum(calls) < 3 * (2048 + 4 + 40)
+
+
+@pytest.mark.parametrize("terms", [2, 3])
+def test_feasible_front_is_the_front_of_the_feasible_rows(terms):
+    """The front the optimiser keeps equals the non-dominated rows among the
+    feasible ones (two terms: one sweep; more: peeled), and only rows that
+    could join it are checked."""
+    from tipgeo.optimize.objective import _feasible_front
+
+    rng = np.random.default_rng(terms)
+    U = rng.random((600, 2))
+    S = rng.random((600, terms))
+    ok = rng.random(600) < 0.6
+    checked = []
+
+    def check(Uc):
+        rows = [int(np.flatnonzero((U == u).all(1))[0]) for u in Uc]
+        checked.extend(rows)
+        return ok[rows]
+
+    Uf, Sf = _feasible_front(U, S, check, most=600)
+    want = np.flatnonzero(ok)[pareto_front(S[ok])]
+    got = sorted(int(np.flatnonzero((U == u).all(1))[0]) for u in Uf)
+    assert got == sorted(want.tolist())
+    assert len(set(checked)) == len(checked) < 600

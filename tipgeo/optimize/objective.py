@@ -25,7 +25,7 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from ..arrays import ArrayLike, BoolArray, FloatArray
+from ..arrays import ArrayLike, BoolArray, FloatArray, IntArray
 from ..errors import SpecError
 from ..tolerances import tol
 from .config import Objective, StudyConfig, Term
@@ -109,30 +109,70 @@ def pareto_front(F: ArrayLike) -> BoolArray:
     return keep
 
 
-def _feasible_front(U: FloatArray, S: FloatArray, check: Callable[[FloatArray], BoolArray],
-                    most: int) -> tuple[FloatArray, FloatArray]:
-    """The front of the *feasible* rows (at most ``most`` points, thinned
-    evenly along the first term): the non-dominated rows are checked (``check``: unit
-    points -> bool), the infeasible ones dropped and the front taken again
-    among the rest, until every point of it is feasible. Only front points are
-    checked, each once: where the GP's best predictions lie past the buildable
-    boundary, the front peels back to it instead of being lost there. Empty
-    when no row is feasible."""
-    alive = np.ones(len(U), bool)
-    known = np.zeros(len(U), bool)
+def _thin_front(front: IntArray, S: FloatArray, most: int) -> IntArray:
+    """At most ``most`` of the rows ``front``, evenly spaced along the first term."""
+    if len(front) <= most:
+        return front
+    order = np.argsort(S[front, 0], kind="stable")
+    kept: IntArray = front[order[np.linspace(0, len(front) - 1, most).astype(int)]]
+    return kept
+
+
+def _front_sweep(S: FloatArray, check: Callable[[IntArray], BoolArray]) -> IntArray:
+    """Two terms: the feasible non-dominated rows in one sweep along the first
+    term — a row is on the front when its second term is below every feasible
+    row's before it; only such candidates are checked, a block at a time,
+    each once (n log n, not a dominance test per peeled layer)."""
+    order = np.lexsort((S[:, 1], S[:, 0]))
+    best = math.inf
+    front: list[int] = []
+    pos = 0
+    while pos < len(order):
+        block = order[pos:pos + 64]
+        pos += len(block)
+        cand = block[S[block, 1] < best]
+        if not len(cand):
+            continue
+        ok = np.asarray(check(cand), bool)
+        for i in cand[ok]:  # in sweep order: a later row must beat the earlier ones
+            if S[i, 1] < best:
+                front.append(int(i))
+                best = float(S[i, 1])
+    return np.array(front, dtype=np.int64)
+
+
+def _front_peel(S: FloatArray, check: Callable[[IntArray], BoolArray], most: int) -> IntArray:
+    """Any number of terms: the front is taken, its infeasible rows dropped,
+    and taken again among the rest until every row of it is feasible."""
+    alive = np.ones(len(S), bool)
+    known = np.zeros(len(S), bool)
     while alive.any():
         idx = np.flatnonzero(alive)
-        front = idx[pareto_front(S[idx])]
-        if len(front) > most:
-            front = front[np.argsort(S[front, 0], kind="stable")[
-                np.linspace(0, len(front) - 1, most).astype(int)]]
+        front = _thin_front(idx[pareto_front(S[idx])], S, most)
         todo = front[~known[front]]
-        ok = np.asarray(check(U[todo]), bool) if len(todo) else np.ones(0, bool)
+        ok = np.asarray(check(todo), bool) if len(todo) else np.ones(0, bool)
         alive[todo[~ok]] = False
         known[todo[ok]] = True
         if ok.all():
-            return U[front], S[front]
-    return U[:0], S[:0]
+            return front
+    return np.zeros(0, dtype=np.int64)
+
+
+def _feasible_front(U: FloatArray, S: FloatArray, check: Callable[[FloatArray], BoolArray],
+                    most: int) -> tuple[FloatArray, FloatArray]:
+    """The front of the *feasible* rows (at most ``most`` points, thinned
+    evenly along the first term; ``check``: unit points -> bool). Only
+    candidates that would join the front are checked, each once: where the
+    GP's best predictions lie past the buildable boundary, the front comes
+    back to it instead of being lost there. Empty when no row is feasible."""
+    def rows_ok(rows: IntArray) -> BoolArray:
+        return np.asarray(check(U[rows]), bool)
+
+    if S.shape[1] == 2:
+        front = _thin_front(_front_sweep(S, rows_ok), S, most)
+    else:
+        front = _front_peel(S, rows_ok, most)
+    return U[front], S[front]
 
 
 def optimize_objective(surrogate: Surrogate, objective: Objective, *,

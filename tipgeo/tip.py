@@ -2,10 +2,16 @@
 
 Frame and units: cannula frame (+z along the needle axis towards the tip, the
 heel at z = 0, γ about +z from +x), lengths in mm.
+
+:meth:`Tip.export` writes through the installed :data:`TipWriter`: the I/O
+layer's :func:`tipgeo.io.export_tip`, plugged in by ``tipgeo/__init__.py``
+(which Python runs before any ``tipgeo`` module), so this module does not
+import :mod:`tipgeo.io` — which imports it (``tests/test_import_graph.py``).
 """
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Any
 
@@ -18,7 +24,23 @@ if TYPE_CHECKING:  # pragma: no cover
 
     from .spec import TipSpec
 
-__all__ = ["Tip"]
+__all__ = ["Tip", "TipWriter", "set_tip_writer"]
+
+#: Writes a tip to a file: ``writer(tip, path, **options)``, the format from
+#: the extension of ``path`` (options as :func:`tipgeo.io.export_tip`).
+TipWriter = Callable[..., object]
+
+#: The installed writer (at most one, under the key ``"writer"``).
+_TIP_WRITER: dict[str, TipWriter] = {}
+
+
+def set_tip_writer(writer: TipWriter) -> None:
+    """Install the function :meth:`Tip.export` writes with (the I/O layer's
+    :func:`tipgeo.io.export_tip`; ``tipgeo/__init__.py`` installs it).
+    Replaces any earlier one."""
+    if not callable(writer):
+        raise TypeError(f"writer = {writer!r} is not callable")
+    _TIP_WRITER["writer"] = writer
 
 
 @dataclass(eq=False)
@@ -161,9 +183,10 @@ class Tip:
     def export(self, path, **kwargs) -> None:
         """Write the tip to ``path``; the format follows the extension
         (see :func:`tipgeo.io.export_tip`). Written atomically."""
-        from .io.export import export_tip
-
-        export_tip(self, path, **kwargs)
+        writer = _TIP_WRITER.get("writer")
+        if writer is None:  # pragma: no cover - tipgeo/__init__.py installs it
+            raise RuntimeError("no tip writer installed; import tipgeo first")
+        writer(self, path, **kwargs)
 
     def summary(self) -> dict[str, Any]:
         """Plain numbers describing the tip (for reports and ``--json``)."""

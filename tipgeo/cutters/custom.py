@@ -7,6 +7,14 @@ cover the tube's cross-section below the cut and end it above.
 A mesh-defined cutter gives only its solid (protocol item 1): analysis falls
 back to the tip's mesh. An SDF cutter also gives its implicit function (by
 central differences for the gradient).
+
+Reading a mesh file is the I/O layer's job, not the cutters': this module
+defines the slot (:data:`MeshReader`, :func:`set_mesh_reader`) and
+``tipgeo/__init__.py`` — which Python runs before any ``tipgeo`` module —
+plugs :func:`tipgeo.io.load_tip` into it. So ``tipgeo.cutters`` never imports
+``tipgeo.io`` (which imports :mod:`tipgeo.tip`, which names
+:class:`~tipgeo.spec.TipSpec`, which imports the cutters): the import graph
+has no circle (``tests/test_import_graph.py``).
 """
 
 from __future__ import annotations
@@ -14,17 +22,43 @@ from __future__ import annotations
 import math
 from collections.abc import Callable
 from dataclasses import dataclass, field
+from typing import NamedTuple
 
 import manifold3d as m3d
 import numpy as np
 
 from .. import validate as v
+from ..arrays import FloatArray, IntArray
 from ..construct import AUX, BuildContext
 from ..errors import SpecError
 from ..tolerances import tol
 from .base import Cutter, check_name
 
-__all__ = ["MeshCutter", "SDFCutter"]
+__all__ = ["MeshCutter", "SDFCutter", "MeshReader", "set_mesh_reader"]
+
+#: Reads a mesh file: ``reader(path, units)`` → (vertices (n, 3) float mm in
+#: the cannula frame, faces (m, 3) int). ``units`` None means the unit the file
+#: declares, else mm. Bad files raise :class:`~tipgeo.errors.SpecError`.
+MeshReader = Callable[[str, str | None], tuple[FloatArray, IntArray]]
+
+#: The installed reader (at most one, under the key ``"reader"``).
+_MESH_READER: dict[str, MeshReader] = {}
+
+
+class _Mesh(NamedTuple):
+    """A read mesh, as :func:`_as_manifold` takes it."""
+
+    vertices: FloatArray
+    faces: IntArray
+
+
+def set_mesh_reader(reader: MeshReader) -> None:
+    """Install the function :meth:`MeshCutter.from_file` reads mesh files
+    with (the I/O layer's :func:`tipgeo.io.load_tip`; ``tipgeo/__init__.py``
+    installs it). Replaces any earlier one."""
+    if not callable(reader):
+        raise TypeError(f"reader = {reader!r} is not callable")
+    _MESH_READER["reader"] = reader
 
 
 def _as_manifold(solid) -> m3d.Manifold:
@@ -81,14 +115,13 @@ class MeshCutter(Cutter):
     def from_file(cls, path, *, name: str = "custom", units: str | None = None) -> MeshCutter:
         """Load the kept solid from a mesh file (STL, PLY, OBJ, …) in
         ``units`` (default: the unit the file declares, else mm; see
-        :func:`tipgeo.io.load_tip`)."""
-        from ..io import load_tip
-
-        tip = load_tip(path, units=units)
-
-        class _M:
-            vertices, faces = tip.vertices, tip.faces
-        return cls(solid_=_M(), name=name, source=str(path))
+        :func:`tipgeo.io.load_tip`), through the installed
+        :data:`MeshReader`."""
+        reader = _MESH_READER.get("reader")
+        if reader is None:  # pragma: no cover - tipgeo/__init__.py installs it
+            raise RuntimeError("no mesh reader installed; import tipgeo first")
+        verts, faces = reader(str(path), units)
+        return cls(solid_=_Mesh(verts, faces), name=name, source=str(path))
 
     def face_labels(self):
         return (self.label,)

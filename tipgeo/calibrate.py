@@ -35,6 +35,7 @@ import numpy as np
 from .cannula import Cannula
 from .cutters.helical import RULINGS, TIPS, HelicalCutter
 from .errors import SpecError
+from .tolerances import tol
 
 __all__ = ["TABLE_3_1", "TABLE_3_1_SOURCE", "table_3_1_edge", "EdgeDeviation",
            "edge_deviation", "Reading", "READINGS", "ReadingFit", "fit_reading",
@@ -116,7 +117,7 @@ def _shift_fit(edge, wall: str, g: np.ndarray, x0=(0.0, 0.0)):
 
     p0 = list(x0) + ([0.0] if inner else [])
     return least_squares(res, p0, x_scale=[0.1, 1.0] + ([0.1] if inner else []),
-                         xtol=1e-12, ftol=1e-12)
+                         xtol=tol.calib_fit, ftol=tol.calib_fit)
 
 
 def edge_deviation(cutter: HelicalCutter, wall: str = "outer", *,
@@ -255,7 +256,8 @@ def fit_reading(reading: Reading, *, cannula: Cannula | None = None,
             continue
         p0 = list(s) + [float(g[np.argmin(z)] - g[np.argmin(zt)]), float(z.min() - zt.min())]
         with np.errstate(all="ignore"):
-            fit = least_squares(res, p0, max_nfev=300, xtol=1e-10, ftol=1e-12)
+            fit = least_squares(res, p0, max_nfev=300, xtol=tol.calib_reading_step,
+                                ftol=tol.calib_fit)
         if best is None or fit.cost < best.cost:
             best = fit
     if best is None:
@@ -294,7 +296,7 @@ def reading_of(cutter: HelicalCutter) -> Reading:
     tilt = "free"
     for name, w in TILTS.items():
         if w is not None and math.isclose(math.remainder(cutter.tilt_direction - w, 2 * math.pi),
-                                          0.0, abs_tol=1e-12):
+                                          0.0, abs_tol=tol.tilt_match):
             tilt = name
     return Reading(cutter.ruling, tilt, cutter.tip)
 

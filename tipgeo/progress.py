@@ -85,9 +85,6 @@ class _Silent:
     def set_postfix_str(self, s: str = "", refresh: bool = True) -> None:
         pass
 
-    def set_description_str(self, s: str = "", refresh: bool = True) -> None:
-        pass
-
     def close(self) -> None:
         pass
 

@@ -144,14 +144,6 @@ def _keys(where: str, table: Any, allowed: dict[str, str]) -> dict:
     return table
 
 
-def _one_of(where: str, table: dict, a: str, b: str) -> str:
-    has_a, has_b = a in table, b in table
-    if has_a == has_b:
-        raise SpecError(f"{where}: give exactly one of {a} and {b}"
-                        + (" (both given)" if has_a else " (neither given)"))
-    return a if has_a else b
-
-
 def _need(where: str, table: dict, key: str) -> Any:
     if key not in table:
         raise SpecError(f"{where}.{key} is missing; it is required")

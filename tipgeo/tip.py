@@ -133,12 +133,6 @@ class Tip:
         """(2, 3) float — min and max corner (mm)."""
         return np.stack([self.vertices.min(axis=0), self.vertices.max(axis=0)])
 
-    def edge_use(self) -> np.ndarray:
-        """Counts of how many triangles use each undirected edge."""
-        e = np.sort(self.faces[:, [0, 1, 1, 2, 2, 0]].reshape(-1, 2), axis=1)
-        _, cnt = np.unique(e, axis=0, return_counts=True)
-        return cnt
-
     @property
     def is_watertight(self) -> bool:
         """Every edge is shared by exactly two triangles with opposite

@@ -51,12 +51,28 @@ def _check_angles_costs(args) -> None:
 
 
 def cmd_angles(args) -> int:
+    _check_angles_costs(args)
+    sources = [_angle_source(arg, args) for arg in args.spec]  # every input checked first
+    reports = _analyse_sources(args, sources)
+    _write_angle_files(args, sources, reports)
+    if args.json:
+        data = [json.loads(r.to_json(args.step_deg)) for r in reports]
+        print(_dumps({"tips": data} if len(data) > 1 else data[0]))
+        return 0
+    for r in reports:
+        _print_angle_report(r)
+    for o in (args.csv, args.png, args.html):
+        if o:
+            print(f"wrote {o}")
+    return 0
+
+
+def _analyse_sources(args, sources) -> list:
+    """The angle report of each (source, radii, name), with a progress bar."""
     from .. import progress
     from ..angles import analyze
 
-    _check_angles_costs(args)
     reports = []
-    sources = [_angle_source(arg, args) for arg in args.spec]  # every input checked first
     with progress.bar(len(sources), "angles", unit="tip") as pb:
         for src, radii, name in sources:
             pb.set_postfix_str(name)
@@ -64,6 +80,11 @@ def cmd_angles(args) -> int:
             reports.append(analyze(src, method=method, n_harmonics=args.harmonics, radii=radii,
                                    name=name))
             pb.update()
+    return reports
+
+
+def _write_angle_files(args, sources, reports) -> None:
+    """The --csv, --png and --html outputs asked for."""
     if args.csv:
         from ..atomic import write_text_atomic
 
@@ -82,35 +103,34 @@ def cmd_angles(args) -> int:
         write_html(args, [TipSource(src if radii is None else None,
                                     None if radii is None else src, rep, name)
                           for (src, radii, name), rep in zip(sources, reports)], say=False)
-    if args.json:
-        data = [json.loads(r.to_json(args.step_deg)) for r in reports]
-        print(_dumps({"tips": data} if len(data) > 1 else data[0]))
-        return 0
-    for r in reports:
-        s = r.summary()
-        print(f"{r.name} (method {r.method}"
-              + (")" if r.method == "exact" else f", {r.n_harmonics} harmonics)"))
-        for wall, key in (("outer", "o"), ("inner", "i")):
-            w = s[wall]
-            th = w["theta_deg"] if key == "o" else w["theta_i_deg"]
-            print(f"  {wall:<5} l_c {w['l_c_mm']:9.5f} mm  top z {w['z_max_mm']:8.5f} mm at "
-                  f"γ {w['gamma_of_z_max_deg']:7.2f}°  λ {w[f'lambda_{key}_deg'][0]:6.2f}…"
-                  f"{w[f'lambda_{key}_deg'][1]:6.2f}°  θ {th[0]:6.2f}…{th[1]:6.2f}°  "
-                  f"α {w[f'alpha_{key}_deg'][0]:6.2f}…{w[f'alpha_{key}_deg'][1]:6.2f}°")
-            for p in w["pieces"]:
-                if "fit" in p:
-                    f = p["fit"]
-                    print(f"        fit {p['face']:<22} R² {f['r2']:.9f}  RMSE "
-                          f"{f['rmse_mm'] * 1e3:8.4f} µm  w {f['w']:.6f}")
-            for kk in w["kinks"]:
-                print(f"        kink at γ {kk['gamma_deg']:7.2f}°: θ {kk['theta_deg']:.4f}° "
-                      f"({kk['faces'][0]} | {kk['faces'][1]})")
-            if w["jumps"]:
-                print(f"        {len(w['jumps'])} vertical stretches")
-    for o in (args.csv, args.png, args.html):
-        if o:
-            print(f"wrote {o}")
-    return 0
+
+
+def _print_angle_report(r) -> None:
+    """One tip's angle summary, plain text (both walls)."""
+    s = r.summary()
+    print(f"{r.name} (method {r.method}"
+          + (")" if r.method == "exact" else f", {r.n_harmonics} harmonics)"))
+    for wall, key in (("outer", "o"), ("inner", "i")):
+        _print_wall(wall, key, s[wall])
+
+
+def _print_wall(wall: str, key: str, w) -> None:
+    """One wall's line, its fits, kinks and vertical stretches."""
+    th = w["theta_deg"] if key == "o" else w["theta_i_deg"]
+    print(f"  {wall:<5} l_c {w['l_c_mm']:9.5f} mm  top z {w['z_max_mm']:8.5f} mm at "
+          f"γ {w['gamma_of_z_max_deg']:7.2f}°  λ {w[f'lambda_{key}_deg'][0]:6.2f}…"
+          f"{w[f'lambda_{key}_deg'][1]:6.2f}°  θ {th[0]:6.2f}…{th[1]:6.2f}°  "
+          f"α {w[f'alpha_{key}_deg'][0]:6.2f}…{w[f'alpha_{key}_deg'][1]:6.2f}°")
+    for p in w["pieces"]:
+        if "fit" in p:
+            f = p["fit"]
+            print(f"        fit {p['face']:<22} R² {f['r2']:.9f}  RMSE "
+                  f"{f['rmse_mm'] * 1e3:8.4f} µm  w {f['w']:.6f}")
+    for kk in w["kinks"]:
+        print(f"        kink at γ {kk['gamma_deg']:7.2f}°: θ {kk['theta_deg']:.4f}° "
+              f"({kk['faces'][0]} | {kk['faces'][1]})")
+    if w["jumps"]:
+        print(f"        {len(w['jumps'])} vertical stretches")
 
 
 def cmd_calibrate(args) -> int:

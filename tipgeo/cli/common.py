@@ -105,7 +105,16 @@ def deprecated(parser: argparse.ArgumentParser, old: str | tuple[str, ...], new:
     DEPRECATED.append((parser.prog.split(" ", 1)[-1], "/".join(olds), new))
 
 
-def feed_mm_min_arg(name: str, value: float | None, lo: float = 1e-4, hi: float = 1e5):
+#: Slowest feed a command accepts (mm/min): 0.1 µm/min, below any machine's
+#: feed resolution; it keeps a typo like 0 from meaning "stand still".
+MIN_FEED_MM_MIN = 1.0e-4
+#: Fastest feed a command accepts (mm/min): 100 m/min, above any grinder's or
+#: laser stage's rapid.
+MAX_FEED_MM_MIN = 1.0e5
+
+
+def feed_mm_min_arg(name: str, value: float | None, lo: float = MIN_FEED_MM_MIN,
+                    hi: float = MAX_FEED_MM_MIN):
     """A feed given in mm/min at the command line, checked, in mm/s (None if not given)."""
     if value is None:
         return None
@@ -268,12 +277,6 @@ def refuse_overwrite(reads: list[tuple[str, str | Path]],
                 raise InputError(f"{opt} = '{p}' is {what} '{q}'; allowed an output that is "
                                  "not one of the command's inputs, direct or indirect (nothing "
                                  "was written)")
-
-
-def check_derived_inputs(inputs: list[str | Path], outs: list[tuple[str, Path]]) -> None:
-    """Refuse an output that is a file one of ``inputs`` makes the command read
-    (:func:`derived_inputs`), naming both."""
-    refuse_overwrite([r for src in inputs for r in derived_inputs(src)], outs)
 
 
 def refuse_special_file(what: str, path: str | Path) -> None:

@@ -420,12 +420,6 @@ class HelicalCutter(Cutter):
         # no mesh here: exact analysis works on the surface; the mesh's grid
         # is chosen (and capped) when a tip is built, at the asked tolerance
 
-    def _height_needle(self, x, y, z0=None):
-        x = np.asarray(x, float)
-        z0 = None if z0 is None else np.asarray(z0, float).ravel()
-        return self._solve_z_needle(x.ravel(), np.asarray(y, float).ravel(),
-                                    z0).reshape(x.shape)
-
     def _placement(self, cannula: Cannula) -> tuple[float, float]:
         """(γ_heel, z_heel) of the outer edge in the needle frame."""
         self.check(cannula)

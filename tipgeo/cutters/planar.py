@@ -92,11 +92,6 @@ class PlanarCutter(Cutter):
         labels = np.array([p.label for p in planes], dtype=object)
         return np.take_along_axis(zs, k[None], 0)[0], labels[k]
 
-    def plane_index(self, gamma: np.ndarray, radius: float, cannula: Cannula) -> np.ndarray:
-        """Index of the plane that forms the edge at each γ."""
-        g = np.asarray(gamma, dtype=float)
-        return np.argmin([p.z_on_cylinder(g, radius) for p in self.planes(cannula)], axis=0)
-
 
 def _xi(name: str, value: float) -> float:
     return v.angle(name, value, lo=0.0, hi=HALF_PI, lo_open=True)

@@ -20,19 +20,24 @@ has no circle (``tests/test_import_graph.py``).
 from __future__ import annotations
 
 import math
+import os
 from collections.abc import Callable
 from dataclasses import dataclass, field
-from typing import NamedTuple
+from typing import TYPE_CHECKING, Any, NamedTuple
 
 import manifold3d as m3d
 import numpy as np
 
 from .. import validate as v
 from ..arrays import FloatArray, IntArray
+from ..cannula import Cannula
 from ..construct import AUX, BuildContext
 from ..errors import SpecError
 from ..tolerances import tol
 from .base import Cutter, check_name
+
+if TYPE_CHECKING:  # pragma: no cover
+    from .toml import CutterTable
 
 __all__ = ["MeshCutter", "SDFCutter", "MeshReader", "set_mesh_reader"]
 
@@ -61,7 +66,7 @@ def set_mesh_reader(reader: MeshReader) -> None:
     _MESH_READER["reader"] = reader
 
 
-def _as_manifold(solid) -> m3d.Manifold:
+def _as_manifold(solid: Any) -> Any:
     if isinstance(solid, m3d.Manifold):
         man = solid
     else:
@@ -90,7 +95,7 @@ class MeshCutter(Cutter):
     ``source`` records where the solid came from (a file path) for specs.
     """
 
-    solid_: object = field(repr=False)
+    solid_: Any = field(repr=False)
     name: str = "custom"
     source: str | None = None
     kind = "mesh"
@@ -98,21 +103,22 @@ class MeshCutter(Cutter):
                  "units": "mm, um or m; default the file's own (a tipgeo GLB says), else mm"}
 
     @classmethod
-    def from_dict(cls, t):
+    def from_dict(cls, t: CutterTable) -> Cutter:
         return cls.from_file(t.path("path"), units=t.str("units"),
                              name=t.str("name", "custom"))
 
-    def to_dict(self):
+    def to_dict(self) -> dict[str, Any]:
         if not self.source:
             raise SpecError(f"mesh cutter '{self.name}' has no source file; it has no TOML form")
         return {"path": self.source}
 
-    def __post_init__(self):
+    def __post_init__(self) -> None:
         object.__setattr__(self, "solid_", _as_manifold(self.solid_))
         check_name(self.name)
 
     @classmethod
-    def from_file(cls, path, *, name: str = "custom", units: str | None = None) -> MeshCutter:
+    def from_file(cls, path: str | os.PathLike[str], *, name: str = "custom",
+                  units: str | None = None) -> MeshCutter:
         """Load the kept solid from a mesh file (STL, PLY, OBJ, …) in
         ``units`` (default: the unit the file declares, else mm; see
         :func:`tipgeo.io.load_tip`), through the installed
@@ -123,13 +129,13 @@ class MeshCutter(Cutter):
         verts, faces = reader(str(path), units)
         return cls(solid_=_Mesh(verts, faces), name=name, source=str(path))
 
-    def face_labels(self):
+    def face_labels(self) -> tuple[str, ...]:
         return (self.label,)
 
-    def z_upper(self, cannula):
+    def z_upper(self, cannula: Cannula) -> float:
         return float(self.solid_.bounding_box()[5])
 
-    def solid(self, ctx: BuildContext):
+    def solid(self, ctx: BuildContext) -> Any:
         lid = ctx.labels.id(self.label)
         return ctx.labelled(self.solid_, lambda c, n: np.full(len(c), lid), self.label)
 
@@ -158,7 +164,7 @@ class SDFCutter(Cutter):
     name: str = "sdf"
     kind = "sdf"
 
-    def __post_init__(self):
+    def __post_init__(self) -> None:
         if not callable(self.sdf):
             raise SpecError(f"sdf = {self.sdf!r} is not callable; expected f(points) -> values")
         try:
@@ -172,10 +178,10 @@ class SDFCutter(Cutter):
             v.feature_length("edge_length", self.edge_length, hi=10.0)
         check_name(self.name)
 
-    def face_labels(self):
+    def face_labels(self) -> tuple[str, ...]:
         return (self.label,)
 
-    def z_upper(self, cannula):
+    def z_upper(self, cannula: Cannula) -> float:
         return self.z_range[1]
 
     def _values(self, pts: np.ndarray) -> np.ndarray:
@@ -186,7 +192,7 @@ class SDFCutter(Cutter):
             raise SpecError("sdf returned non-finite values; expected finite distances (mm)")
         return val
 
-    def implicit(self, points, cannula):
+    def implicit(self, points: FloatArray, cannula: Cannula) -> tuple[FloatArray, FloatArray]:
         p = np.asarray(points, float).reshape(-1, 3)
         h = tol.fd_step
         f = self._values(p)
@@ -194,7 +200,7 @@ class SDFCutter(Cutter):
                       for e in np.eye(3)], 1)
         return f, g
 
-    def solid(self, ctx: BuildContext):
+    def solid(self, ctx: BuildContext) -> Any:
         lo, hi = self.z_range
         if lo <= ctx.z_lo:
             raise SpecError(f"z_range[0] = {lo:.6g} mm is below the tube base; allowed above "
@@ -205,8 +211,8 @@ class SDFCutter(Cutter):
         pad = 2 * edge
         band = (lo - pad, hi + pad)
 
-        def f(x, y, z):  # manifold3d: positive inside; clip to the box band
-            val = -self._values(np.array([[x, y, z]]))[0]
+        def f(x: float, y: float, z: float) -> float:  # manifold3d: positive inside; clip to
+            val = float(-self._values(np.array([[x, y, z]]))[0])  # the box band
             return min(val, z - band[0], band[1] - z, r - abs(x), r - abs(y))
         ls = m3d.Manifold.level_set(f, [-r - pad, -r - pad, band[0] - pad, r + pad, r + pad,
                                         band[1] + pad], edge, 0.0, ctx.chordal)

@@ -100,7 +100,7 @@ class NotchPrism:
     z1))`` — a circular arc through three of its points (mm), so the outline
     is exact."""
 
-    outline: tuple
+    outline: tuple[tuple[Any, ...], ...]
     angle: float
     r_in: float
     r_out: float

@@ -28,6 +28,7 @@ open3d and scipy only with the functions that need them.
 """
 
 import importlib as _importlib
+from types import ModuleType as _ModuleType
 from typing import Any as _Any
 
 from .arrays import FloatArray as _FloatArray
@@ -91,7 +92,7 @@ _LAZY = ("angles", "closedforms", "edges", "fourier", "io", "inspect", "mechanic
          "plot", "demo", "cli")
 
 
-def __getattr__(name: str):
+def __getattr__(name: str) -> _ModuleType:
     if name in _LAZY:
         module = _importlib.import_module(f".{name}", __name__)
         globals()[name] = module
@@ -99,5 +100,5 @@ def __getattr__(name: str):
     raise AttributeError(f"module 'tipgeo' has no attribute {name!r}")
 
 
-def __dir__():
+def __dir__() -> list[str]:
     return sorted(set(globals()) | set(_LAZY))

@@ -242,7 +242,7 @@ def analyze(source: TipSpec | Tip, *, method: str = "exact", n_harmonics: int = 
         if tip is None:
             from .build import build_tip
 
-            tip = build_tip(spec)
+            tip = build_tip(cast("TipSpec", spec))  # the source was a TipSpec
         if radii is None and spec is None:
             raise SpecError("radii = None: a tip without a spec needs radii=(r_o, r_i) in mm")
         r = radii or (cast("TipSpec", spec).cannula.r_o, cast("TipSpec", spec).cannula.r_i)

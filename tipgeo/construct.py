@@ -15,10 +15,12 @@ from __future__ import annotations
 import math
 from collections.abc import Callable
 from dataclasses import dataclass, field
+from typing import Any
 
 import manifold3d as m3d
 import numpy as np
 
+from .arrays import FloatArray, IntArray
 from .cannula import Cannula
 from .errors import BuildError, SpecError
 from .tolerances import MAX_ASPECT_RATIO, MIN_TOLERANCE_FRACTION, tol
@@ -121,7 +123,7 @@ class BuildContext:
     z_bottom: float
     z_top: float
     labels: Labels = field(default_factory=Labels)
-    previous: tuple = ()
+    previous: tuple[Any, ...] = ()  # the cutters applied before the current one
     rings: bool = False
 
     @property
@@ -156,7 +158,8 @@ class BuildContext:
         g = 2.0 * np.pi * np.arange(n) / n
         c, s = np.cos(g), np.sin(g)
         zb, zt = self.z_bottom, self.z_top
-        verts, rings = [], []
+        verts: list[FloatArray] = []
+        rings: list[list[IntArray]] = []
         for r in (self.cannula.r_o, self.cannula.r_i):
             bands = math.ceil((zt - zb) / ring_spacing(r, n)) if self.rings else 1
             zs = np.linspace(zb, zt, max(1, bands) + 1)
@@ -203,7 +206,7 @@ class BuildContext:
         lid, aux = self.labels.id(label), self.labels.id(AUX)
         scale = max(self.reach, abs(self.z_lo), abs(self.z_hi))
 
-        def classify(cent, nr):
+        def classify(cent: FloatArray, nr: FloatArray) -> IntArray:
             on = ((np.abs(cent @ nrm - offset) <= 1e3 * tol.plane * scale)
                   & (nr @ nrm > 1 - tol.parallel))
             return np.where(on, lid, aux)
@@ -231,7 +234,7 @@ class BuildContext:
         rings = [j * n + np.arange(n) for j in range(len(zs))]
         sides = [_ring_quads(a, b, False) for a, b in zip(rings, rings[1:])]
         cb = len(zs) * n
-        verts.append([[0, 0, z0], [0, 0, z1]])
+        verts.append(np.array([[0.0, 0.0, z0], [0.0, 0.0, z1]]))
         b, t = rings[0], rings[-1]
         bcap = np.stack([np.full(n, cb), np.roll(b, -1), b], 1)
         if r1 > 0:
@@ -240,9 +243,9 @@ class BuildContext:
         else:
             sides.append(np.stack([t, np.roll(t, -1), np.full(n, cb + 1)], 1))
             caps, cap_ids = [bcap], [self.labels.id(AUX)]
-        sides = np.concatenate(sides)
-        tris = np.concatenate([sides] + caps)
-        ids = np.concatenate([np.full(len(sides), self.labels.id(side))]
+        side_tris = np.concatenate(sides)
+        tris = np.concatenate([side_tris] + caps)
+        ids = np.concatenate([np.full(len(side_tris), self.labels.id(side))]
                              + [np.full(n, k) for k in cap_ids])
         return _manifold(np.concatenate(verts), tris, ids, side)
 

@@ -11,12 +11,14 @@ import :mod:`tipgeo.io` — which imports it (``tests/test_import_graph.py``).
 
 from __future__ import annotations
 
+import os
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
+from .arrays import AnyArray, BoolArray, FloatArray, IntArray
 from .tolerances import tol
 
 if TYPE_CHECKING:  # pragma: no cover
@@ -59,9 +61,9 @@ class Tip:
     source : str — where the tip came from (``cad``, a file name, a simulator)
     """
 
-    vertices: np.ndarray
-    faces: np.ndarray
-    label_ids: np.ndarray
+    vertices: FloatArray
+    faces: IntArray
+    label_ids: IntArray
     label_names: tuple[str, ...]
     spec: TipSpec | None = None
     tolerance: float | None = None
@@ -69,7 +71,7 @@ class Tip:
     source: str = "cad"
     meta: dict[str, Any] = field(default_factory=dict)
 
-    def __post_init__(self):
+    def __post_init__(self) -> None:
         self.vertices = np.ascontiguousarray(self.vertices, dtype=np.float64)
         self.faces = np.ascontiguousarray(self.faces, dtype=np.int64)
         self.label_ids = np.ascontiguousarray(self.label_ids, dtype=np.int64)
@@ -77,9 +79,10 @@ class Tip:
 
     # -- labels -----------------------------------------------------------
     @property
-    def labels(self) -> np.ndarray:
+    def labels(self) -> AnyArray:
         """(m,) str — the label of every triangle."""
-        return np.asarray(self.label_names, dtype=object)[self.label_ids]
+        names: AnyArray = np.asarray(self.label_names, dtype=object)
+        return names[self.label_ids]
 
     def present_labels(self) -> tuple[str, ...]:
         """Labels that at least one triangle carries, in registry order."""
@@ -91,7 +94,7 @@ class Tip:
         ids, cnt = np.unique(self.label_ids, return_counts=True)
         return {self.label_names[i]: int(c) for i, c in zip(ids, cnt)}
 
-    def mask(self, label: str) -> np.ndarray:
+    def mask(self, label: str) -> BoolArray:
         """(m,) bool — triangles carrying ``label`` (or, for ``cut:<name>``,
         also its sub-faces ``cut:<name>.<k>``)."""
         ids = [k for k, n in enumerate(self.label_names)
@@ -100,22 +103,25 @@ class Tip:
 
     # -- geometry ---------------------------------------------------------
     @property
-    def triangles(self) -> np.ndarray:
+    def triangles(self) -> FloatArray:
         """(m, 3, 3) float — triangle corners (mm)."""
         return self.vertices[self.faces]
 
     @property
-    def face_normals(self) -> np.ndarray:
+    def face_normals(self) -> FloatArray:
         """(m, 3) float — unit outward normals."""
         t = self.triangles
         n = np.cross(t[:, 1] - t[:, 0], t[:, 2] - t[:, 0])
-        return n / np.maximum(np.linalg.norm(n, axis=1, keepdims=True), tol.tiny)
+        return np.asarray(n / np.maximum(np.linalg.norm(n, axis=1, keepdims=True), tol.tiny),
+                          dtype=np.float64)
 
     @property
-    def face_areas(self) -> np.ndarray:
+    def face_areas(self) -> FloatArray:
         """(m,) float — triangle areas (mm²)."""
         t = self.triangles
-        return 0.5 * np.linalg.norm(np.cross(t[:, 1] - t[:, 0], t[:, 2] - t[:, 0]), axis=1)
+        return np.asarray(
+            0.5 * np.linalg.norm(np.cross(t[:, 1] - t[:, 0], t[:, 2] - t[:, 0]), axis=1),
+            dtype=np.float64)
 
     @property
     def volume(self) -> float:
@@ -168,13 +174,13 @@ class Tip:
         mesh.metadata["units"] = "mm"
         return mesh
 
-    def submesh(self, label: str) -> tuple[np.ndarray, np.ndarray]:
+    def submesh(self, label: str) -> tuple[FloatArray, IntArray]:
         """Vertices and faces (re-indexed) of the triangles carrying ``label``."""
         f = self.faces[self.mask(label)]
         used, inv = np.unique(f, return_inverse=True)
         return self.vertices[used], inv.reshape(-1, 3)
 
-    def export(self, path, **kwargs) -> None:
+    def export(self, path: str | os.PathLike[str], **kwargs: Any) -> None:
         """Write the tip to ``path``; the format follows the extension
         (see :func:`tipgeo.io.export_tip`). Written atomically."""
         writer = _TIP_WRITER.get("writer")

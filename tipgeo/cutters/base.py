@@ -33,7 +33,7 @@ CAM handle it through this protocol.
 from __future__ import annotations
 
 from abc import ABC, abstractmethod
-from typing import TYPE_CHECKING, Any, ClassVar
+from typing import TYPE_CHECKING, Any, ClassVar, TypeVar
 
 import manifold3d as m3d
 import numpy as np
@@ -50,10 +50,12 @@ if TYPE_CHECKING:  # pragma: no cover
 __all__ = ["Cutter", "CUTTER_KINDS", "register_cutter", "cutter_kind", "check_name"]
 
 #: kind -> cutter class: every concrete cutter class that sets ``kind``.
-CUTTER_KINDS: dict[str, type] = {}
+CUTTER_KINDS: dict[str, type[Cutter]] = {}
+
+_C = TypeVar("_C", bound="Cutter")
 
 
-def register_cutter(cls: type) -> type:
+def register_cutter(cls: type[_C]) -> type[_C]:
     """Register ``cls`` under ``cls.kind`` (done automatically for subclasses of
     :class:`Cutter` that set ``kind``). Re-defining a class of the same module
     and name replaces it; another class claiming a taken kind is an error."""
@@ -68,7 +70,7 @@ def register_cutter(cls: type) -> type:
     return cls
 
 
-def cutter_kind(kind: str) -> type:
+def cutter_kind(kind: str) -> type[Cutter]:
     """The cutter class of a spec ``kind``, or a SpecError listing the kinds."""
     cls = CUTTER_KINDS.get(kind)
     if cls is None:

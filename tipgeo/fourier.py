@@ -86,6 +86,35 @@ def _solve(g: FloatArray, z: FloatArray, n: int, w: float) -> tuple[FloatArray, 
     return np.asarray(coef, dtype=np.float64), float(res @ res)
 
 
+def _search_w(g: FloatArray, zz: FloatArray, n: int, span: float) -> float:
+    """The base frequency w (1/rad) by variable projection over a grid of
+    [0.2, 1.5]·2π/span, every local minimum refined (see :func:`fit_fourier`)."""
+    w0 = 2 * np.pi / span
+    grid = w0 * np.geomspace(0.2, 1.5, 40)
+    grss = np.array([_solve(g, zz, n, wi)[1] for wi in grid])
+    # refine every local minimum of the grid, keep the best; among equally
+    # good w (a series with w/2 can mimic one with w) keep the largest
+    tss0 = float(((zz - zz.mean()) ** 2).sum())
+    left = np.r_[np.inf, grss[:-1]]
+    right = np.r_[grss[1:], np.inf]
+    at = np.flatnonzero((grss <= left) & (grss <= right) & ((grss < left) | (grss < right)))
+    minima = [int(k) for k in at[np.argsort(grss[at])][:n + 1]]  # w/k mimics w: n valleys + 1
+    cand: list[tuple[float, float]] = []
+    # a constant profile: w = 2π/span
+    if tss0 <= tol.fourier_constant * g.size or len(minima) == 0:
+        cand.append((w0, _solve(g, zz, n, w0)[1]))
+        minima = []
+    for k in minima:
+        lo, hi = grid[max(k - 1, 0)], grid[min(k + 1, len(grid) - 1)]
+        r = minimize_scalar(lambda x: _solve(g, zz, n, x)[1], bounds=(lo, hi),
+                            method="bounded", options={"xatol": tol.fourier_xatol * w0})
+        cand.append((float(r.x), float(r.fun)) if r.fun <= grss[k] else
+                    (float(grid[k]), float(grss[k])))
+    best = min(c[1] for c in cand)
+    floor = best * (1 + tol.fourier_tie) + tol.fourier_floor * tss0
+    return max(c[0] for c in cand if c[1] <= floor)
+
+
 def fit_fourier(gamma: ArrayLike, z: ArrayLike, *, n: int = 5,
                 w: float | None = None) -> FourierFit:
     """Least-squares fit of z(γ) with ``n`` harmonics.
@@ -115,30 +144,7 @@ def fit_fourier(gamma: ArrayLike, z: ArrayLike, *, n: int = 5,
         raise SpecError("gamma spans no interval")
     refine = w is None      # a given w stays fixed
     if refine:
-        w0 = 2 * np.pi / span
-        grid = w0 * np.geomspace(0.2, 1.5, 40)
-        grss = np.array([_solve(g, zz, n, wi)[1] for wi in grid])
-        # refine every local minimum of the grid, keep the best; among equally
-        # good w (a series with w/2 can mimic one with w) keep the largest
-        tss0 = float(((zz - zz.mean()) ** 2).sum())
-        left = np.r_[np.inf, grss[:-1]]
-        right = np.r_[grss[1:], np.inf]
-        at = np.flatnonzero((grss <= left) & (grss <= right) & ((grss < left) | (grss < right)))
-        minima = [int(k) for k in at[np.argsort(grss[at])][:n + 1]]  # w/k mimics w: n valleys + 1
-        cand: list[tuple[float, float]] = []
-        # a constant profile: w = 2π/span
-        if tss0 <= tol.fourier_constant * g.size or len(minima) == 0:
-            cand.append((w0, _solve(g, zz, n, w0)[1]))
-            minima = []
-        for k in minima:
-            lo, hi = grid[max(k - 1, 0)], grid[min(k + 1, len(grid) - 1)]
-            r = minimize_scalar(lambda x: _solve(g, zz, n, x)[1], bounds=(lo, hi),
-                                method="bounded", options={"xatol": tol.fourier_xatol * w0})
-            cand.append((float(r.x), float(r.fun)) if r.fun <= grss[k] else
-                        (float(grid[k]), float(grss[k])))
-        best = min(c[1] for c in cand)
-        floor = best * (1 + tol.fourier_tie) + tol.fourier_floor * tss0
-        w = max(c[0] for c in cand if c[1] <= floor)
+        w = _search_w(g, zz, n, span)
     else:
         w = v.real("w", w, lo=0.0, lo_open=True)
     coef, rss = _solve(g, zz, n, w)

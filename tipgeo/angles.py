@@ -40,7 +40,7 @@ from scipy.integrate import simpson
 
 from . import validate as v
 from ._threads import small_linalg
-from .arrays import AnyArray, ArrayLike, FloatArray
+from .arrays import AnyArray, ArrayLike, FloatArray, IntArray
 from .edges import Edge, EdgePiece, exact_edges, lowest_cut, mesh_edges, rotate_z
 from .errors import SpecError
 from .fourier import FourierFit, fit_fourier
@@ -130,7 +130,7 @@ class AngleReport:
     radii: tuple[float, float]
     n_harmonics: int
 
-    def table(self, step_deg: float = 1.0) -> dict[str, np.ndarray]:
+    def table(self, step_deg: float = 1.0) -> dict[str, AnyArray]:
         """Columns on γ = 0, step, … < 360°: ``gamma_deg``, ``z_o_mm``,
         ``z_i_mm``, ``lambda_o_deg``, ``lambda_i_deg``, ``theta_deg`` (outer,
         eq. 3.14), ``theta_i_deg``, ``alpha_o_deg``, ``alpha_i_deg``."""
@@ -144,7 +144,7 @@ class AngleReport:
                 "theta_deg": d(o["theta"]), "theta_i_deg": d(i["theta"]),
                 "alpha_o_deg": d(o["alpha"]), "alpha_i_deg": d(i["alpha"])}
 
-    def dense(self, wall: str, samples: int = 3601) -> dict[str, np.ndarray]:
+    def dense(self, wall: str, samples: int = 3601) -> dict[str, AnyArray]:
         """Values on a fine γ grid over [0, 2π) for plots (one wall)."""
         g = np.linspace(0.0, 2 * np.pi, samples, endpoint=False)
         w = self.outer if wall == "outer" else self.inner
@@ -268,7 +268,7 @@ def _length_pieces(pieces_dz: list[tuple[FloatArray, FloatArray]], radius: float
     return total
 
 
-def _find_piece(pieces: list[EdgePiece], g: np.ndarray) -> np.ndarray:
+def _find_piece(pieces: list[EdgePiece], g: FloatArray) -> IntArray:
     """Index of the piece whose γ span holds each γ (γ in [0, 2π))."""
     idx = np.full(g.shape, -1)
     for k, p in enumerate(pieces):
@@ -279,7 +279,7 @@ def _find_piece(pieces: list[EdgePiece], g: np.ndarray) -> np.ndarray:
     return idx
 
 
-def _unwrap_to(p: EdgePiece, g: np.ndarray) -> np.ndarray:
+def _unwrap_to(p: EdgePiece, g: FloatArray) -> FloatArray:
     """γ shifted by a whole turn into the piece's span."""
     out = g.copy()
     out[out < p.gamma[0] - tol.angle] += 2 * np.pi

@@ -75,7 +75,7 @@ def ring_spacing(radius: float, segments: int) -> float:
     return 0.9 * MAX_ASPECT_RATIO * 2.0 * math.pi * radius / segments
 
 
-def _manifold(verts: np.ndarray, tris: np.ndarray, face_ids: np.ndarray, what: str) -> m3d.Manifold:
+def _manifold(verts: FloatArray, tris: IntArray, face_ids: IntArray, what: str) -> m3d.Manifold:
     # nanobind wants writable, owned, C-ordered arrays
     mesh = m3d.Mesh64(np.array(verts, dtype=np.float64, order="C", copy=True),
                       np.array(tris, dtype=np.uint64, order="C", copy=True),
@@ -86,7 +86,7 @@ def _manifold(verts: np.ndarray, tris: np.ndarray, face_ids: np.ndarray, what: s
     return man
 
 
-def _ring_quads(a: np.ndarray, b: np.ndarray, flip: bool) -> np.ndarray:
+def _ring_quads(a: IntArray, b: IntArray, flip: bool) -> IntArray:
     """Triangles joining two closed vertex rings a, b (index arrays, same length)."""
     a1, b1 = np.roll(a, -1), np.roll(b, -1)
     t = np.concatenate([np.stack([a, a1, b1], 1), np.stack([a, b1, b], 1)])
@@ -177,7 +177,7 @@ class BuildContext:
         return _manifold(np.concatenate(verts), np.concatenate(tris), ids, "tube")
 
     # -- primitives for cutters --------------------------------------------
-    def labelled(self, man: m3d.Manifold, classify: Callable[[np.ndarray, np.ndarray], np.ndarray],
+    def labelled(self, man: m3d.Manifold, classify: Callable[[FloatArray, FloatArray], IntArray],
                  what: str) -> m3d.Manifold:
         """Re-make ``man`` as an original solid whose triangles carry the label
         ids returned by ``classify(centroids, unit_normals)``."""
@@ -196,7 +196,7 @@ class BuildContext:
         return m3d.Manifold.cube((2 * r, 2 * r, self.z_hi - self.z_lo)).translate(
             (-r, -r, self.z_lo))
 
-    def halfspace(self, normal: np.ndarray, offset: float, label: str) -> m3d.Manifold:
+    def halfspace(self, normal: FloatArray, offset: float, label: str) -> m3d.Manifold:
         """Box ∩ {p : normal·p ≤ offset}; the plane's triangles get ``label``."""
         nrm = np.asarray(normal, dtype=float)
         nrm = nrm / np.linalg.norm(nrm)
@@ -249,7 +249,7 @@ class BuildContext:
                              + [np.full(n, k) for k in cap_ids])
         return _manifold(np.concatenate(verts), tris, ids, side)
 
-    def prism(self, polygon: np.ndarray, thickness: float, side: str) -> m3d.Manifold:
+    def prism(self, polygon: FloatArray, thickness: float, side: str) -> m3d.Manifold:
         """Right prism over a simple CCW polygon (k, 2) in the XY plane, from
         Z = 0 to Z = thickness, vertices exactly as given (no simplification).
         Side triangles get ``side``, the caps ``aux``."""
@@ -268,7 +268,7 @@ class BuildContext:
             raise BuildError(f"prism of '{side}' is inside out (polygon not CCW)")
         return man
 
-    def annular_heightfield(self, height: Callable[[np.ndarray, np.ndarray], np.ndarray],
+    def annular_heightfield(self, height: Callable[[FloatArray, FloatArray], FloatArray],
                             label: str, angular: int, radial: int) -> m3d.Manifold:
         """Solid {r_in ≤ ρ ≤ r_out, z_lo ≤ z ≤ height(x, y)} over an annulus a
         little wider than the tube wall, as a polygonal grid of ``angular`` ×

@@ -63,10 +63,10 @@ class EdgePiece:
     """
 
     face: str
-    gamma: np.ndarray
-    z: np.ndarray
-    tangent: np.ndarray | None
-    normal: np.ndarray
+    gamma: FloatArray
+    z: FloatArray
+    tangent: FloatArray | None
+    normal: FloatArray
 
     @property
     def span(self) -> tuple[float, float]:
@@ -120,15 +120,15 @@ class Edge:
     heel: tuple[float, float] = (0.0, 0.0)
 
     @property
-    def gamma(self) -> np.ndarray:
+    def gamma(self) -> FloatArray:
         return np.concatenate([p.gamma for p in self.pieces])
 
     @property
-    def z(self) -> np.ndarray:
+    def z(self) -> FloatArray:
         return np.concatenate([p.z for p in self.pieces])
 
     @property
-    def points(self) -> np.ndarray:
+    def points(self) -> FloatArray:
         """(m, 3) edge points in the analysis frame (mm)."""
         g, z = self.gamma, self.z
         return np.stack([self.radius * np.cos(g), self.radius * np.sin(g), z], 1)

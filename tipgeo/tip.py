@@ -135,7 +135,7 @@ class Tip:
         return float(self.face_areas.sum())
 
     @property
-    def bounds(self) -> np.ndarray:
+    def bounds(self) -> FloatArray:
         """(2, 3) float — min and max corner (mm)."""
         return np.stack([self.vertices.min(axis=0), self.vertices.max(axis=0)])
 

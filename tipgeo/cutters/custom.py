@@ -29,7 +29,7 @@ import manifold3d as m3d
 import numpy as np
 
 from .. import validate as v
-from ..arrays import FloatArray, IntArray
+from ..arrays import ArrayLike, FloatArray, IntArray
 from ..cannula import Cannula
 from ..construct import AUX, BuildContext
 from ..errors import SpecError
@@ -158,7 +158,7 @@ class SDFCutter(Cutter):
     name : str
     """
 
-    sdf: Callable[[np.ndarray], np.ndarray] = field(repr=False)
+    sdf: Callable[[FloatArray], ArrayLike] = field(repr=False)
     z_range: tuple[float, float]
     edge_length: float | None = None
     name: str = "sdf"
@@ -184,7 +184,7 @@ class SDFCutter(Cutter):
     def z_upper(self, cannula: Cannula) -> float:
         return self.z_range[1]
 
-    def _values(self, pts: np.ndarray) -> np.ndarray:
+    def _values(self, pts: FloatArray) -> FloatArray:
         val = np.asarray(self.sdf(pts), dtype=float).reshape(-1)
         if val.shape[0] != len(pts):
             raise SpecError(f"sdf returned {val.shape[0]} values for {len(pts)} points")

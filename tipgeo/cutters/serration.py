@@ -188,7 +188,7 @@ class SerrationProfile:
         pieces = [bottom, *right[1:], ("line", (w, z_top), (-w, z_top)), *left[:-1]]
         return tuple(pieces)
 
-    def bottom(self, u: np.ndarray) -> np.ndarray:
+    def bottom(self, u: FloatArray) -> FloatArray:
         """Lowest z of the notch above tangential offset u (+inf outside)."""
         u = np.abs(np.asarray(u, float))
         uf, zf, ut, _ = self.fillet() if self.r_s > 0 else (0, 0, self.half_width, 0)
@@ -205,7 +205,7 @@ class SerrationProfile:
             out[(u <= w)] = np.where(u[u <= w] <= self.r_c, out[u <= w], self.z_c)
         return out
 
-    def signed_distance(self, u: np.ndarray, z: np.ndarray) -> np.ndarray:
+    def signed_distance(self, u: FloatArray, z: FloatArray) -> FloatArray:
         """Exact 2-D signed distance to the notch (< 0 inside), for the part of
         the profile below the rim (the top is open)."""
         u = np.abs(np.asarray(u, float))

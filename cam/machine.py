@@ -65,15 +65,25 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field, fields
+from pathlib import Path
+from typing import Any
 
 import numpy as np
 
+from tipgeo.arrays import ArrayLike, FloatArray
 from tipgeo.errors import TipGeoError
 from tipgeo.tolerances import tol
 
 __all__ = ["CamError", "AxisLimit", "Machine", "machine_toml", "machine_number",
            "wheel_from_needle", "f_surf", "plane_2_36", "near_generator", "wheel_height",
            "face_plane"]
+
+
+#: Resolution of the grinder's linear axes t1, t2 (mm; thesis §2.3.1.2).
+LINEAR_RESOLUTION = 1.0e-4
+
+#: Resolution of the grinder's rotary axes r3 and r5 (deg; r4's is 0.001°).
+ROTARY_RESOLUTION = 1.0e-4
 
 
 class CamError(TipGeoError, ValueError):
@@ -90,6 +100,8 @@ class AxisLimit:
     resolution: float
 
     def check(self, name: str, value: float, unit: str) -> float:
+        """``value`` rounded to the resolution when inside the travel (with
+        ``tol.cam.travel`` round-off), else a CamError naming the axis."""
         if not (self.lo - tol.cam.travel <= value <= self.hi + tol.cam.travel):
             raise CamError(f"axis {name} = {value:.6g} {unit} is outside its travel "
                            f"[{self.lo:g}, {self.hi:g}] {unit}")
@@ -115,11 +127,11 @@ class Machine:
     feed_min: float = 0.02
     feed_max: float = 0.5
     needle_rpm_max: float = 3000.0
-    t1: AxisLimit = field(default_factory=lambda: AxisLimit(-50.0, 5.0, 1e-4))
-    t2: AxisLimit = field(default_factory=lambda: AxisLimit(0.0, 600.0, 1e-4))
-    r3: AxisLimit = field(default_factory=lambda: AxisLimit(-10.0, 10.0, 1e-4))
+    t1: AxisLimit = field(default_factory=lambda: AxisLimit(-50.0, 5.0, LINEAR_RESOLUTION))
+    t2: AxisLimit = field(default_factory=lambda: AxisLimit(0.0, 600.0, LINEAR_RESOLUTION))
+    r3: AxisLimit = field(default_factory=lambda: AxisLimit(-10.0, 10.0, ROTARY_RESOLUTION))
     r4: AxisLimit = field(default_factory=lambda: AxisLimit(-720.0, 720.0, 1e-3))
-    r5: AxisLimit = field(default_factory=lambda: AxisLimit(10.5, 95.0, 1e-4))
+    r5: AxisLimit = field(default_factory=lambda: AxisLimit(10.5, 95.0, ROTARY_RESOLUTION))
     rapid_speed: float = 5.0                   # mm/s
 
     @property
@@ -133,7 +145,7 @@ class Machine:
         return self.contact_radius / math.sin(self.phi)
 
     @classmethod
-    def from_toml(cls, path) -> Machine:
+    def from_toml(cls, path: str | Path) -> Machine:
         """A machine from a TOML file: top-level keys override the defaults;
         ``[t1]`` … ``[r5]`` tables give ``lo``, ``hi``, ``resolution``.
 
@@ -181,6 +193,7 @@ class Machine:
         return cls(**kw)
 
     def check_feed(self, feed: float) -> float:
+        """``feed`` (mm/s) inside the machine's range, or a CamError."""
         if not self.feed_min <= feed <= self.feed_max:
             raise CamError(f"feed = {feed:g} mm/s is outside the machine's range "
                            f"[{self.feed_min:g}, {self.feed_max:g}] mm/s (= {feed * 60:g} "
@@ -214,7 +227,7 @@ _UNITS = {"phi_deg": "deg", "wheel_diameter": "mm", "wheel_thickness": "mm", "wh
 MAX_MACHINE_NAME = 120
 
 
-def machine_name(val) -> str:
+def machine_name(val: object) -> str:
     """A machine file's display name: a non-empty string on one line (no
     control character) of at most :data:`MAX_MACHINE_NAME` characters, else
     a CamError naming it."""
@@ -233,7 +246,7 @@ def machine_name(val) -> str:
     return val
 
 
-def machine_number(key: str, val, unit: str = "") -> float:
+def machine_number(key: str, val: object, unit: str = "") -> float:
     """A machine file's number: finite and > 0, else a CamError naming it."""
     from tipgeo.validate import brief
 
@@ -250,8 +263,8 @@ def machine_number(key: str, val, unit: str = "") -> float:
     return x
 
 
-def machine_toml(cls, path, axes: tuple[str, ...], *, extra: tuple[str, ...] = (),
-                 drop: tuple[str, ...] = ()) -> dict:
+def machine_toml(cls: type[Any], path: str | Path, axes: tuple[str, ...], *,
+                 extra: tuple[str, ...] = (), drop: tuple[str, ...] = ()) -> dict[str, Any]:
     """The keyword arguments of machine dataclass ``cls`` from the TOML file
     ``path``: top-level keys override its defaults (unknown keys refused,
     naming the allowed ones; ``extra`` keys are allowed too, ``drop`` fields
@@ -303,7 +316,7 @@ def machine_toml(cls, path, axes: tuple[str, ...], *, extra: tuple[str, ...] = (
     return kw
 
 
-def wheel_from_needle(p: np.ndarray, phi: float, H: float, phi_g: float) -> np.ndarray:
+def wheel_from_needle(p: ArrayLike, phi: float, H: float, phi_g: float) -> FloatArray:
     """Eq. 2.31: needle-frame points (n, 3) → wheel frame (mm)."""
     p = np.asarray(p, float).reshape(-1, 3)
     c, s = math.cos(phi), math.sin(phi)
@@ -313,7 +326,8 @@ def wheel_from_needle(p: np.ndarray, phi: float, H: float, phi_g: float) -> np.n
                      -s * p[:, 0] + c * p[:, 2] + z0], 1)
 
 
-def f_surf(X, Y, Z, phi: float, H: float, phi_g: float):
+def f_surf(X: FloatArray | float, Y: FloatArray | float, Z: FloatArray | float, phi: float,
+           H: float, phi_g: float) -> FloatArray:
     """Eq. 2.35: the wheel cone in the needle frame (= 0 on the surface;
     < 0 on the needle's side of the near generator)."""
     s, c = math.sin(phi), math.cos(phi)
@@ -321,7 +335,8 @@ def f_surf(X, Y, Z, phi: float, H: float, phi_g: float):
             + (np.sqrt((X * c + Z * s - H * s) ** 2 + Y ** 2) - H * s) / math.tan(phi_g))
 
 
-def plane_2_36(X, Z, phi: float, H: float, phi_g: float):
+def plane_2_36(X: FloatArray | float, Z: FloatArray | float, phi: float, H: float,
+               phi_g: float) -> tuple[FloatArray | float, FloatArray | float]:
     """Both lines of eq. 2.35 at Y = 0: (eq. 2.36 as printed — the far
     generator —, the near generator through O)."""
     s, c, t = math.sin(phi), math.cos(phi), math.tan(phi_g)
@@ -335,7 +350,8 @@ def near_generator(phi: float, phi_g: float) -> float:
     return phi_g - phi
 
 
-def wheel_height(X, Y, phi: float, H: float, phi_g: float, infeed: float = 0.0):
+def wheel_height(X: ArrayLike, Y: ArrayLike, phi: float, H: float, phi_g: float,
+                 infeed: float = 0.0) -> FloatArray:
     """Z (needle frame, mm) where the wheel cone crosses the line through
     (X, Y) parallel to the needle axis, with the needle fed ``infeed`` mm
     along Z* towards the wheel (Newton on eq. 2.35, monotone there)."""
@@ -357,10 +373,12 @@ def wheel_height(X, Y, phi: float, H: float, phi_g: float, infeed: float = 0.0):
             break
     else:
         raise CamError("the wheel surface does not cross the needle's axis direction there")
-    return Z - infeed * c
+    out: FloatArray = Z - infeed * c
+    return out
 
 
-def face_plane(*, phi: float, phi_g: float, r3: float, r4: float, t1: float, t2: float):
+def face_plane(*, phi: float, phi_g: float, r3: float, r4: float, t1: float,
+               t2: float) -> tuple[FloatArray, float]:
     """The half-space the wheel face leaves in the cannula frame.
 
     Returns ``(m, d)`` with unit normal m (3,) and offset d (mm): the needle

@@ -7,13 +7,19 @@ degrees in programs and reports). Used by ``tipgeo grind`` and ``tipgeo demo``.
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from .machine import Machine
 from .program import GrindProgram, make_program
 from .simulate import compare_with_cad, simulate
+
+if TYPE_CHECKING:
+    from tipgeo.spec import TipSpec
+    from tipgeo.tip import Tip
+    from tipgeo.verdict import Verdict
 
 __all__ = ["GrindResult", "grind", "write_grind_outputs"]
 
@@ -34,24 +40,25 @@ class GrindResult:
     """
 
     program: GrindProgram
-    ground: Any = None
-    comparison: dict | None = None
+    ground: Tip | None = None
+    comparison: dict[str, Any] | None = None
     files: list[str] = field(default_factory=list)
-    failed: list[dict] = field(default_factory=list)
+    failed: list[dict[str, str]] = field(default_factory=list)
 
     def summary(self) -> dict[str, Any]:
         """Program summary, comparison (if any) and files written (report units)."""
         out: dict[str, Any] = {"program": self.program.summary()}
-        if self.comparison is not None:
+        verdict = self.verdict
+        if self.comparison is not None and verdict is not None:
             out["comparison"] = self.comparison
-            out["verdict"] = self.verdict.to_dict()
+            out["verdict"] = verdict.to_dict()
         out["wrote"] = list(self.files)
         if self.failed:
             out["failed"] = list(self.failed)
         return out
 
     @property
-    def verdict(self):
+    def verdict(self) -> Verdict | None:
         """:class:`tipgeo.verdict.Verdict` of the ground tip against CAD;
         None when the run was not compared.
 
@@ -96,7 +103,7 @@ class GrindResult:
         return worst, worst_m
 
 
-def grind(spec, *, machine: Machine | None = None, feed: float = 0.1,
+def grind(spec: TipSpec, *, machine: Machine | None = None, feed: float = 0.1,
           needle_rpm: float = 1000.0, simulate_tip: bool = True, compare: bool = True,
           tolerance: float | None = None) -> GrindResult:
     """Grind ``spec`` on ``machine``: the program, then (by default) the
@@ -130,40 +137,44 @@ def grind(spec, *, machine: Machine | None = None, feed: float = 0.1,
 
 def write_grind_outputs(res: GrindResult, *, program: str | Path | None = None,
                         gcode: str | Path | None = None, sheet: str | Path | None = None,
-                        mesh: str | Path | None = None, on_error=None) -> list[str]:
+                        mesh: str | Path | None = None,
+                        on_error: Callable[[Path, Exception], None] | None = None) -> list[str]:
     """Write the files of a :func:`grind` result, each atomically: the axis
     program (``.json`` or ``.csv`` by extension), ISO G-code, the Markdown
     set-up sheet, the simulated tip mesh (any :mod:`tipgeo.io` format).
 
-    The mesh export is checked first (:func:`tipgeo.io.check_export`: e.g. a
-    STEP file without OCP). If it cannot be written, ``on_error(path, exc)``
-    is called before any file is written and the other files are written
-    (``res.failed`` records it); with ``on_error`` ``None`` the error is
-    raised before anything is written.
+    Every text is made (the G-code by its dialect's rules: a
+    :class:`CamError` there) and the mesh export checked
+    (:func:`tipgeo.io.check_export`: e.g. a STEP file without OCP) before the
+    first file is written. If the mesh cannot be written, ``on_error(path,
+    exc)`` is called before any file is written and the other files are
+    written (``res.failed`` records it); with ``on_error`` ``None`` the error
+    is raised before anything is written.
     """
     from tipgeo.atomic import write_text_atomic
     from tipgeo.io import guarded_export
 
-    if mesh is not None:
-        if res.ground is None:
-            raise ValueError("mesh: the result has no simulated tip (grind(simulate_tip=True))")
-        if not guarded_export(res.ground, mesh, failed=res.failed, on_error=on_error,
-                              dry_run=True):
-            mesh = None
-    wrote = []
+    ground = res.ground
+    if mesh is not None and ground is None:
+        raise ValueError("mesh: the result has no simulated tip (grind(simulate_tip=True))")
+    texts = []
     if program is not None:
         p = Path(program)
-        write_text_atomic(p, res.program.to_csv() if p.suffix.lower() == ".csv"
-                          else res.program.to_json())
-        wrote.append(str(p))
+        texts.append((p, res.program.to_csv() if p.suffix.lower() == ".csv"
+                      else res.program.to_json()))
     if gcode is not None:
-        write_text_atomic(Path(gcode), res.program.to_gcode())
-        wrote.append(str(gcode))
+        texts.append((Path(gcode), res.program.to_gcode()))
     if sheet is not None:
-        write_text_atomic(Path(sheet), res.program.setup_sheet())
-        wrote.append(str(sheet))
-    if mesh is not None and guarded_export(res.ground, mesh, failed=res.failed,
-                                           on_error=on_error):
+        texts.append((Path(sheet), res.program.setup_sheet()))
+    if ground is not None and mesh is not None and not guarded_export(
+            ground, mesh, failed=res.failed, on_error=on_error, dry_run=True):
+        mesh = None
+    wrote = []
+    for path, text in texts:
+        write_text_atomic(path, text)
+        wrote.append(str(path))
+    if ground is not None and mesh is not None and guarded_export(
+            ground, mesh, failed=res.failed, on_error=on_error):
         wrote.append(str(mesh))
     res.files += wrote
     return wrote

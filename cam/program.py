@@ -18,6 +18,7 @@ import csv
 import io
 import math
 from dataclasses import dataclass
+from typing import TYPE_CHECKING, Any
 
 from gcode.dialects import DIALECTS, Dialect, number_lines
 from gcode.dialects import dialect as get_dialect
@@ -26,6 +27,9 @@ from tipgeo.jsonio import dumps
 
 from .iso import iso_comment, iso_end, iso_start
 from .machine import CamError, Machine
+
+if TYPE_CHECKING:
+    from tipgeo.spec import TipSpec
 
 __all__ = ["Face", "GrindProgram", "setup_faces", "make_program", "COLUMNS"]
 
@@ -44,7 +48,7 @@ class Face:
     spin: bool = False
 
 
-def setup_faces(spec, machine: Machine | None = None) -> list[Face]:
+def setup_faces(spec: TipSpec, machine: Machine | None = None) -> list[Face]:
     """The faces the grinder must make for ``spec`` (cannula frame): every
     analytic face of the cutters made by grinding (their
     :meth:`~tipgeo.cutters.base.Cutter.surfaces`) — planes ground flat, cones
@@ -85,17 +89,21 @@ class GrindProgram:
     name: str
     machine: Machine
     faces: list[Face]
-    rows: list[dict]
+    rows: list[dict[str, Any]]
     feed: float
     needle_rpm: float
 
-    def summary(self) -> dict:
+    def summary(self) -> dict[str, Any]:
+        """Name, faces, rows, time (s), feed (mm/s), needle speed (rpm) and
+        each face's set-up (:meth:`face_setup`)."""
         return {"name": self.name, "faces": len(self.faces), "rows": len(self.rows),
                 "time_s": self.rows[-1]["t"] if self.rows else 0.0,
                 "feed_mm_s": self.feed, "needle_rpm": self.needle_rpm,
                 "setup": [self.face_setup(f) for f in self.faces]}
 
-    def face_setup(self, f: Face) -> dict:
+    def face_setup(self, f: Face) -> dict[str, Any]:
+        """The set-up of face ``f``: ξ, r5 = ϕ_g, r4 (deg), t1, t2, H, OC (mm,
+        eq. 2.38) and the needle's spin (rpm)."""
         m = self.machine
         phi_g = f.xi + m.phi
         H = m.H
@@ -107,12 +115,14 @@ class GrindProgram:
                 "H_mm": H, "OC_mm": oc, "spin_rpm": self.needle_rpm if f.spin else 0.0}
 
     def to_json(self) -> str:
+        """The program as JSON: machine, units, summary and rows."""
         return dumps({"machine": self.machine.name, "units": {
             "t1": "mm", "t2": "mm", "r3": "deg", "r4": "deg", "r5": "deg", "feed": "mm/s",
             "t": "s", "spindle_rpm": "rpm", "needle_rpm": "rpm"},
             "summary": self.summary(), "rows": self.rows})
 
     def to_csv(self) -> str:
+        """The rows as CSV (:data:`COLUMNS`; mm, deg, rpm, mm/s, s)."""
         buf = io.StringIO()
         w = csv.writer(buf, lineterminator="\n")
         w.writerow(COLUMNS)
@@ -187,7 +197,7 @@ class GrindProgram:
         return "\n".join(lines)
 
 
-def make_program(spec, *, machine: Machine | None = None, feed: float = 0.1,
+def make_program(spec: TipSpec, *, machine: Machine | None = None, feed: float = 0.1,
                  needle_rpm: float = 1000.0, clearance: float = 0.5) -> GrindProgram:
     """The axis program that grinds ``spec`` (see the module docstring).
 
@@ -201,11 +211,12 @@ def make_program(spec, *, machine: Machine | None = None, feed: float = 0.1,
     if not clearance > 0:
         raise CamError(f"clearance = {clearance:g} mm must be positive")
     faces = setup_faces(spec, m)
-    rows: list[dict] = []
+    rows: list[dict[str, Any]] = []
     t = 0.0
     c, s = math.cos(m.phi), math.sin(m.phi)
 
-    def add(t1, t2, r3, r4, r5, rpm, fd, dist):
+    def add(t1: float, t2: float, r3: float, r4: float, r5: float, rpm: float,
+            fd: float | None, dist: float) -> None:
         nonlocal t
         m.t1.check("t1", t1, "mm")
         m.t2.check("t2", t2, "mm")

@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
@@ -21,6 +22,11 @@ from tipgeo.tolerances import tol
 
 from .machine import CamError, face_plane
 from .program import GrindProgram
+
+if TYPE_CHECKING:
+    from tipgeo.cutters.base import Cutter
+    from tipgeo.spec import TipSpec
+    from tipgeo.tip import Tip
 
 __all__ = ["simulate", "GroundFace", "compare_with_cad"]
 
@@ -36,6 +42,8 @@ class GroundFace:
 
 
 def _faces(program: GrindProgram, samples: int) -> list[GroundFace]:
+    """The bounds the wheel leaves along the program's feed moves, each
+    sampled ``samples`` times: the deepest of each orientation."""
     mach = program.machine
     rows = program.rows
     found: list[GroundFace] = []
@@ -51,9 +59,9 @@ def _faces(program: GrindProgram, samples: int) -> list[GroundFace]:
                               t1=v["t1"], t2=v["t2"])
             if spin:
                 m = np.array([math.hypot(m[0], m[1]), 0.0, m[2]])
-            found.append(GroundFace(tuple(float(x) for x in m), float(d), spin))
+            found.append(GroundFace((float(m[0]), float(m[1]), float(m[2])), float(d), spin))
     # the deepest bound of each orientation is the one that counts
-    best: dict[tuple, GroundFace] = {}
+    best: dict[tuple[tuple[float, ...], bool], GroundFace] = {}
     for f in found:
         key = (tuple(round(x, 10) for x in f.m), f.spin)
         if key not in best or f.d < best[key].d:
@@ -61,8 +69,8 @@ def _faces(program: GrindProgram, samples: int) -> list[GroundFace]:
     return list(best.values())
 
 
-def simulate(program: GrindProgram, spec, *, tolerance: float | None = None,
-             samples: int = 8, strict: bool | None = None):
+def simulate(program: GrindProgram, spec: TipSpec, *, tolerance: float | None = None,
+             samples: int = 8, strict: bool | None = None) -> Tip:
     """Grind the cannula of ``spec`` with ``program``.
 
     Returns the ground :class:`tipgeo.Tip` (labelled ``cut:ground.<k>`` /
@@ -84,7 +92,7 @@ def simulate(program: GrindProgram, spec, *, tolerance: float | None = None,
             raise CamError("a wheel face is parallel to the needle axis or faces away "
                            "from the tip; the needle would be cut off")
     planes = [f for f in faces if not f.spin]
-    cutters = []
+    cutters: list[Cutter] = []
     if planes:
         cutters.append(PlaneSetCutter(plane_normals=tuple(f.m for f in planes),
                                       plane_offsets=tuple(f.d for f in planes),
@@ -96,7 +104,7 @@ def simulate(program: GrindProgram, spec, *, tolerance: float | None = None,
             raise CamError(f"a spun face meets the outer wall at z = {z_heel:.6g} mm; the "
                            "simulator needs conical faces that start at the heel (z = 0)")
         cutters.append(ConicalCutter(theta=math.atan2(mz, mh), name=f"ground-cone{k}"))
-    ground_spec = TipSpec(cannula=cannula, cutters=cutters,
+    ground_spec = TipSpec(cannula=cannula, cutters=tuple(cutters),
                           name=f"{spec.name or 'tip'}-ground",
                           description="surfaces left by the grinding program")
     tip = build_tip(ground_spec, tolerance=tolerance, strict=strict)
@@ -105,7 +113,8 @@ def simulate(program: GrindProgram, spec, *, tolerance: float | None = None,
     return tip
 
 
-def compare_with_cad(ground, spec, *, tolerance: float | None = None) -> dict:
+def compare_with_cad(ground: Tip, spec: TipSpec, *,
+                     tolerance: float | None = None) -> dict[str, Any]:
     """Hausdorff distance (vertex-sampled, both ways, mm) between the ground
     tip and the CAD tip of ``spec``, and the largest differences of λ, θ, α
     (deg) along both edges, γ ∈ [1°, 359°], away (0.25°) from kinks: of the
@@ -118,8 +127,9 @@ def compare_with_cad(ground, spec, *, tolerance: float | None = None) -> dict:
     cad = build_tip(spec, tolerance=tolerance or ground.tolerance)
     ma = trimesh.Trimesh(ground.vertices, ground.faces, process=False)
     mb = trimesh.Trimesh(cad.vertices, cad.faces, process=False)
-    d1 = trimesh.proximity.closest_point(mb, ground.vertices)[1].max()
-    d2 = trimesh.proximity.closest_point(ma, cad.vertices)[1].max()
+    closest: Any = trimesh.proximity.closest_point  # trimesh is not typed
+    d1 = closest(mb, ground.vertices)[1].max()
+    d2 = closest(ma, cad.vertices)[1].max()
     radii = (spec.cannula.r_o, spec.cannula.r_i)
     rg = analyze(ground, method="exact")   # the surfaces the program left
     rm = analyze(ground, method="mesh", radii=radii)
@@ -130,8 +140,8 @@ def compare_with_cad(ground, spec, *, tolerance: float | None = None) -> dict:
         dist = np.min(np.abs(np.angle(np.exp(1j * (g[:, None] - np.array(kinks)[None])))),
                       axis=1)
         g = g[dist > math.radians(0.25)]
-    out = {"hausdorff_mm": float(max(d1, d2)), "angles_max_diff_deg": {},
-           "mesh_angles_max_diff_deg": {}}
+    out: dict[str, Any] = {"hausdorff_mm": float(max(d1, d2)), "angles_max_diff_deg": {},
+                           "mesh_angles_max_diff_deg": {}}
     for wall in ("outer", "inner"):
         b = getattr(rc, wall).at(g)
         for key, rep in (("angles_max_diff_deg", rg), ("mesh_angles_max_diff_deg", rm)):

@@ -24,18 +24,29 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from typing import TYPE_CHECKING, Any, Protocol, TypedDict, runtime_checkable
 
 import manifold3d as m3d
 import numpy as np
 
+from tipgeo.arrays import FloatArray, IntArray
 from tipgeo.errors import TipGeoError
 from tipgeo.tip import Tip
 from tipgeo.tolerances import tol
 
+from .emitter import laser_serrations
 from .errors import GCodeError
 from .interpreter import Segment, Toolpath
+from .motion import Point
 
-__all__ = ["ablate", "AblationResult", "swept_region", "compare_with_cutter"]
+if TYPE_CHECKING:
+    from tipgeo.cannula import Cannula
+    from tipgeo.construct import BuildContext
+    from tipgeo.cutters.base import Cutter
+    from tipgeo.spec import TipSpec
+
+__all__ = ["ablate", "AblationResult", "swept_region", "compare_with_cutter", "notch_arcs",
+           "Comparison", "RadiusFigures", "SpacingFigures", "NotchFigures", "NotchArcs"]
 
 
 @dataclass
@@ -48,13 +59,71 @@ class AblationResult:
     slugs_removed: int
 
 
-def _disc(center, r, chordal):
+class RadiusFigures(TypedDict):
+    """The notch radius (mm): the spec's, the fitted mean and largest error."""
+
+    spec: float
+    fitted_mean: float | None
+    fitted_max_error: float | None
+
+
+class SpacingFigures(TypedDict):
+    """The notch spacing (degrees): the spec's and the largest fitted error."""
+
+    spec: float
+    fitted_max_error: float | None
+
+
+class NotchFigures(TypedDict):
+    """One notch of :func:`compare_with_cutter` (mm; its C angle in degrees)."""
+
+    c_deg: float
+    radius_mm: float | None
+    radius_error_mm: float | None
+    material_left_mm: float
+    overcut_mm: float
+
+
+class Comparison(TypedDict):
+    """What :func:`compare_with_cutter` found (mm, degrees)."""
+
+    notches_sim: int
+    notches_cad: int
+    radius_mm: RadiusFigures
+    spacing_deg: SpacingFigures
+    hausdorff_mm: float
+    material_left_mm: float
+    overcut_mm: float
+    tolerance_mm: float
+    inner_radius_mm: float
+    slugs_removed: int
+    per_notch: list[NotchFigures]
+
+
+class NotchArcs(TypedDict):
+    """The beam-on arcs of one notch (:func:`notch_arcs`; mm, degrees)."""
+
+    c_deg: float
+    arcs: int
+    min_radius_mm: float | None
+    max_radius_mm: float | None
+
+
+@runtime_checkable
+class _Sharpens(Protocol):
+    """A laser cutter that gives its sharp-edged self
+    (:meth:`tipgeo.cutters.serration.SerrationCutter.sharp`)."""
+
+    def sharp(self) -> Cutter: ...
+
+
+def _disc(center: Point, r: float, chordal: float) -> FloatArray:
     n = max(12, math.ceil(math.pi / math.acos(max(1 - chordal / r, -1.0)))) if r > chordal else 12
     a = np.linspace(0, 2 * math.pi, n, endpoint=False)
     return np.stack([center[0] + r * np.cos(a), center[1] + r * np.sin(a)], 1)
 
 
-def _stadium(p, q, r, chordal):
+def _stadium(p: Point, q: Point, r: float, chordal: float) -> FloatArray:
     """Polygon of the segment pq swept by a disc of radius r (CCW)."""
     d = np.subtract(q, p)
     L = float(np.hypot(*d))
@@ -69,10 +138,12 @@ def _stadium(p, q, r, chordal):
     return np.concatenate([cap_q, cap_p])
 
 
-def _arc_band(seg: Segment, r, chordal):
+def _arc_band(seg: Segment, r: float, chordal: float) -> list[FloatArray]:
     """Polygon of an arc swept by a disc of radius r."""
     R = seg.radius
     c = seg.center
+    if c is None:               # not an arc: its chord
+        return [_stadium(seg.start, seg.end, r, chordal)]
     sweep = seg.sweep
     a0 = math.atan2(seg.start[1] - c[1], seg.start[0] - c[0])
     if abs(sweep) >= 2 * math.pi - tol.gcode.full_turn:
@@ -95,11 +166,12 @@ def _arc_band(seg: Segment, r, chordal):
     return [band] + ends
 
 
-def swept_region(segments: list[Segment], beam_radius: float, chordal: float):
+def swept_region(segments: list[Segment], beam_radius: float,
+                 chordal: float) -> m3d.CrossSection:
     """The 2-D region (machine X, Y) the beam disc sweeps along ``segments``,
     as a manifold3d CrossSection."""
     polys = []
-    seen = set()
+    seen: set[tuple[object, ...]] = set()
     for s in segments:
         key = (s.kind, round(s.start[0], 9), round(s.start[1], 9), round(s.end[0], 9),
                round(s.end[1], 9), None if s.center is None else
@@ -117,7 +189,7 @@ def swept_region(segments: list[Segment], beam_radius: float, chordal: float):
     return m3d.CrossSection.batch_boolean(polys, m3d.OpType.Add)
 
 
-def ablate(toolpath: Toolpath, spec, *, beam_diameter: float = 0.020,
+def ablate(toolpath: Toolpath, spec: TipSpec, *, beam_diameter: float = 0.020,
            origin: tuple[float, float] = (0.0, 0.0), gamma0_deg: float = 0.0,
            tolerance: float | None = None) -> AblationResult:
     """Cut the beam-on moves of ``toolpath`` into the tip of ``spec`` (its
@@ -141,7 +213,7 @@ def ablate(toolpath: Toolpath, spec, *, beam_diameter: float = 0.020,
         raise GCodeError("the spec has no punch cutter to ablate (only serrations)")
     plain = spec.with_(cutters=base_cutters)
     tip0 = build_tip(plain, tolerance=tolerance)
-    chordal = tip0.tolerance
+    chordal = tip0.tolerance if tip0.tolerance is not None else tol.chordal
     cannula = plain.cannula
     r_b = beam_diameter / 2
     if not r_b > 0:
@@ -155,7 +227,7 @@ def ablate(toolpath: Toolpath, spec, *, beam_diameter: float = 0.020,
     ctx = BuildContext(cannula=cannula, chordal=chordal, segments=tip0.segments or 360,
                        z_bottom=-cannula.length, z_top=float(tip0.bounds[1, 2]))
     ctx.labels.names = names
-    cuts = []
+    cuts: list[m3d.Manifold] = []
     notches = 0
     bar = pg.bar(len(groups), "laser: ablation", unit="notch")
     for c_deg, segs in sorted(groups.items()):
@@ -200,7 +272,7 @@ def _beam_groups(toolpath: Toolpath) -> dict[float, list[Segment]]:
     return groups
 
 
-def _label_names(tip0) -> list[str]:
+def _label_names(tip0: Tip) -> list[str]:
     """The plain tip's face labels with ``cut:laser`` and ``aux`` added."""
     names = list(tip0.label_names)
     for extra in ("cut:laser", "aux"):
@@ -209,28 +281,28 @@ def _label_names(tip0) -> list[str]:
     return names
 
 
-def _notch_polygons(segs, gamma: float, c_deg: float, prev: tuple, cannula, r_b: float,
-                    chordal: float, origin: tuple[float, float]):
+def _notch_polygons(segs: list[Segment], gamma: float, c_deg: float, prev: tuple[Cutter, ...],
+                    cannula: Cannula, r_b: float, chordal: float,
+                    origin: tuple[float, float]) -> list[FloatArray] | None:
     """The region the beam sweeps at one C angle, in the (u, z) frame of the
     rim there (mm), or None if it is empty."""
-    z_rim = min(float(np.min(np.atleast_1d(cut.edge_z(np.array([gamma]), cannula.r_i,
-                                                        cannula))))
-                for cut in prev if cut.edge_z(np.array([gamma]), cannula.r_i,
-                                               cannula) is not None)
+    edges = [cut.edge_z(np.array([gamma]), cannula.r_i, cannula) for cut in prev]
+    z_rim = min(float(np.min(np.atleast_1d(z))) for z in edges if z is not None)
     region = swept_region(segs, r_b, chordal)
     if region.is_empty():
         return None
     x0, y0 = origin
     # machine (X, Y) → (u, z): u = X − X0, z = z_rim − (Y − Y0)
     polys = []
-    for p in region.to_polygons():
-        p = np.asarray(p, float)
+    for poly in region.to_polygons():
+        p = np.asarray(poly, float)
         q = np.stack([p[:, 0] - x0, z_rim - (p[:, 1] - y0)], 1)
         polys.append(q[::-1])  # the Y flip mirrors: keep CCW
     return polys
 
 
-def _notch_prisms(ctx, polys: list, gamma: float, c_deg: float, cannula) -> list:
+def _notch_prisms(ctx: BuildContext, polys: list[FloatArray], gamma: float, c_deg: float,
+                  cannula: Cannula) -> list[m3d.Manifold]:
     """Prisms through the wall at angle ``gamma`` for the notch polygons."""
     half = max(float(np.abs(np.concatenate(polys)[:, 0]).max()), tol.gcode.half_floor)
     if not half < cannula.r_i:
@@ -247,24 +319,24 @@ def _notch_prisms(ctx, polys: list, gamma: float, c_deg: float, cannula) -> list
         if sec.area() <= 0:
             continue
         for part in sec.decompose():
-            for poly in part.to_polygons():
-                poly = np.asarray(poly, float)
+            for outline in part.to_polygons():
+                poly = np.asarray(outline, float)
                 if len(poly) >= 3:
                     cuts.append(_prism(ctx, poly, thick, "cut:laser").transform(mat))
     return cuts
 
 
-def _prism(ctx, poly, thick, label):
+def _prism(ctx: BuildContext, poly: FloatArray, thick: float, label: str) -> m3d.Manifold:
     """A prism over ``poly`` whose outline may hold holes: triangulate the
     outline only (the holes are separate decomposed parts)."""
-    poly = np.asarray(poly, float)
     area = 0.5 * np.sum(poly[:, 0] * np.roll(poly[:, 1], -1) - np.roll(poly[:, 0], -1) * poly[:, 1])
     if area < 0:
         poly = poly[::-1]
     return ctx.prism(poly, thick, label)
 
 
-def compare_with_cutter(result: AblationResult, spec, *, beam_diameter: float = 0.020) -> dict:
+def compare_with_cutter(result: AblationResult, spec: TipSpec, *,
+                        beam_diameter: float = 0.020) -> Comparison:
     """Compare an ablated tip with the serration cutter of ``spec`` built
     exactly (edge radius 0, the laser cuts sharp edges): notch count, fitted
     notch radius and spacing, the Hausdorff distance, and its two signed
@@ -277,35 +349,37 @@ def compare_with_cutter(result: AblationResult, spec, *, beam_diameter: float = 
     from tipgeo.build import build_tip
 
     ser = [c for c in spec.cutters if c.process == "laser"]
-    if len(ser) != 1:
+    if len(ser) != 1 or not isinstance(ser[0], _Sharpens):
         raise GCodeError("the spec needs exactly one serration cutter to compare with")
     s = ser[0]
-    sharp = s.__class__(arc_radius=s.arc_radius, count=s.count, spacing=s.spacing,
-                        depth=s.depth, edge_radius=0.0, rotation=s.rotation, name=s.name)
+    facts = laser_serrations(spec)
+    sharp = s.sharp()
     cad_spec = spec.with_(cutters=[c if c is not s else sharp for c in spec.cutters])
     cad = build_tip(cad_spec, tolerance=result.tip.tolerance)
     sim = result.tip
+    chordal = sim.tolerance if sim.tolerance is not None else tol.chordal
     # notch radius: circle fit to the laser faces' vertices on the inner wall, per notch
     cannula = spec.cannula
     v = sim.vertices[np.unique(sim.faces[sim.mask("cut:laser")])]
     rho = np.hypot(v[:, 0], v[:, 1])
-    wall = np.abs(rho - cannula.r_i) < 2 * sim.tolerance + tol.gcode.point
+    wall = np.abs(rho - cannula.r_i) < 2 * chordal + tol.gcode.point
     pts = v[wall]
     ang = np.arctan2(pts[:, 1], pts[:, 0])
-    radii, centers = [], []
+    radii: list[float] = []
+    centers: list[float] = []
     fitted: dict[float, float] = {}
     rim = float(cad.bounds[1, 2])
     for g in result.c_angles_deg:
-        gr = math.radians(g) + s.rotation
+        gr = math.radians(g) + facts.rotation
         d = np.angle(np.exp(1j * (ang - gr)))
-        sel = np.abs(d) < s.rho / 2
+        sel = np.abs(d) < facts.spacing / 2
         p = pts[sel]
         if len(p) < 5:
             continue
         u = cannula.r_i * np.sin(np.angle(np.exp(1j * (np.arctan2(p[:, 1], p[:, 0]) - gr))))
         z = p[:, 2]
         # the arc well below the rim: not the lead-in nor a bite at the rim corner
-        below = z < rim - 0.25 * s.arc_radius
+        below = z < rim - 0.25 * facts.arc_radius
         u, z = u[below], z[below]
         A = np.stack([u, z, np.ones_like(u)], 1)
         b = u ** 2 + z ** 2
@@ -317,33 +391,35 @@ def compare_with_cutter(result: AblationResult, spec, *, beam_diameter: float = 
     spacing = np.diff(sorted(centers)) if len(centers) > 1 else np.array([])
     ma = trimesh.Trimesh(sim.vertices, sim.faces, process=False)
     mb = trimesh.Trimesh(cad.vertices, cad.faces, process=False)
-    d_ab = trimesh.proximity.closest_point(mb, sim.vertices)[1].max()
-    d_ba = trimesh.proximity.closest_point(ma, cad.vertices)[1].max()
+    proximity: Any = trimesh.proximity          # trimesh's functions are untyped
+    d_ab = proximity.closest_point(mb, sim.vertices)[1].max()
+    d_ba = proximity.closest_point(ma, cad.vertices)[1].max()
     # signed (+ inside): a simulated vertex outside CAD is material left; a
     # CAD vertex outside the simulated part was cut away
-    sd_sim = -trimesh.proximity.signed_distance(mb, sim.vertices)
-    sd_cad = -trimesh.proximity.signed_distance(ma, cad.vertices)
+    sd_sim = -proximity.signed_distance(mb, sim.vertices)
+    sd_cad = -proximity.signed_distance(ma, cad.vertices)
     left, over = float(sd_sim.max()), float(sd_cad.max())
-    per_notch = _per_notch(result.c_angles_deg, s.rotation, fitted, sim.vertices, sd_sim,
-                           cad.vertices, sd_cad, s.arc_radius)
-    return {"notches_sim": result.notches, "notches_cad": s.n,
-            "radius_mm": {"spec": s.arc_radius,
+    per_notch = _per_notch(result.c_angles_deg, facts.rotation, fitted, sim.vertices, sd_sim,
+                           cad.vertices, sd_cad, facts.arc_radius)
+    return {"notches_sim": result.notches, "notches_cad": facts.count,
+            "radius_mm": {"spec": facts.arc_radius,
                           "fitted_mean": float(np.mean(radii)) if radii else None,
                           "fitted_max_error": float(np.max(np.abs(np.array(radii)
-                                                                  - s.arc_radius)))
+                                                                  - facts.arc_radius)))
                           if radii else None},
-            "spacing_deg": {"spec": math.degrees(s.rho),
-                            "fitted_max_error": float(np.max(np.abs(spacing
-                                                                    - math.degrees(s.rho))))
+            "spacing_deg": {"spec": math.degrees(facts.spacing),
+                            "fitted_max_error": float(np.max(np.abs(
+                                spacing - math.degrees(facts.spacing))))
                             if len(spacing) else None},
             "hausdorff_mm": float(max(d_ab, d_ba)),
             "material_left_mm": max(left, 0.0), "overcut_mm": max(over, 0.0),
-            "tolerance_mm": float(sim.tolerance), "inner_radius_mm": float(cannula.r_i),
+            "tolerance_mm": float(chordal), "inner_radius_mm": float(cannula.r_i),
             "slugs_removed": result.slugs_removed, "per_notch": per_notch}
 
 
-def _per_notch(c_angles_deg, rotation, fitted, v_sim, left_sim, v_cad, over_cad,
-               arc_radius) -> list[dict]:
+def _per_notch(c_angles_deg: list[float], rotation: float, fitted: dict[float, float],
+               v_sim: FloatArray, left_sim: FloatArray, v_cad: FloatArray,
+               over_cad: FloatArray, arc_radius: float) -> list[NotchFigures]:
     """Each notch's figures: the vertices of both meshes go to the notch
     nearest in angle about the axis (γ = C + the cutter's rotation); per
     notch the fitted radius (mm; None where too few wall points), its error,
@@ -352,13 +428,14 @@ def _per_notch(c_angles_deg, rotation, fitted, v_sim, left_sim, v_cad, over_cad,
     if len(cs) == 0:
         return []
 
-    def nearest(v):
+    def nearest(v: FloatArray) -> IntArray:
         a = np.arctan2(v[:, 1], v[:, 0])
         d = np.abs(np.angle(np.exp(1j * (a[:, None] - cs[None, :]))))
-        return np.argmin(d, axis=1)
+        index: IntArray = np.argmin(d, axis=1)
+        return index
 
     ns, nc = nearest(v_sim), nearest(v_cad)
-    out = []
+    out: list[NotchFigures] = []
     for j, g in enumerate(c_angles_deg):
         r = fitted.get(g)
         ls, oc = left_sim[ns == j], over_cad[nc == j]
@@ -370,7 +447,7 @@ def _per_notch(c_angles_deg, rotation, fitted, v_sim, left_sim, v_cad, over_cad,
     return out
 
 
-def notch_arcs(toolpath: Toolpath) -> list[dict]:
+def notch_arcs(toolpath: Toolpath) -> list[NotchArcs]:
     """The beam-on arcs of each notch (grouped by the C angle they are cut
     at): how many, and the smallest and largest radius of the beam centre's
     path (mm, after cutter compensation; 0 where an arc collapsed to its

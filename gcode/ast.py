@@ -9,11 +9,12 @@ Python's ``eval``.
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Union
+from typing import Literal, Union
 
 __all__ = ["Span", "Num", "Var", "Neg", "BinOp", "Compare", "Logic", "Not", "Expr", "Word",
            "Block", "Assign", "SysAssign", "DVar", "Mode", "Pso", "Repeat", "For", "While", "If",
-           "Call", "Dwell", "NoMotion", "StatusRead", "StringAssign", "Sub", "Program", "Stmt"]
+           "Call", "Dwell", "NoMotion", "StatusRead", "StringAssign", "Sub", "Program", "Stmt",
+           "StringTree", "IndexPart", "PsoArg"]
 
 
 @dataclass(frozen=True)
@@ -84,6 +85,17 @@ class Not:
 
 Expr = Union[Num, Var, Neg, BinOp, Compare, Logic, Not]  # noqa: UP007 - a runtime alias
 
+#: A string expression (:mod:`gcode.strings`): a tree of tuples.
+StringTree = Union[  # noqa: UP007 - a runtime alias
+    tuple[Literal["lit"], str], tuple[Literal["var"], str], tuple[Literal["num"], Expr],
+    tuple[Literal["cat"], "StringTree", "StringTree"],
+    tuple[Literal["call"], str, tuple["StringTree", ...]]]
+#: A part of a system variable's index (:class:`SysAssign`): an expression for
+#: ``[i]``, a string for ``.X`` or a glued ``.0``.
+IndexPart = Union[Expr, str]  # noqa: UP007 - a runtime alias
+#: An argument of a PSO command (:class:`Pso`): a keyword or an expression.
+PsoArg = Union[str, Expr]  # noqa: UP007 - a runtime alias
+
 
 # -- statements --------------------------------------------------------------------
 @dataclass(frozen=True)
@@ -129,7 +141,7 @@ class SysAssign:
     (upper-case) or a glued ``.0`` (its text)."""
 
     name: str
-    index: tuple
+    index: tuple[IndexPart, ...]
     expr: Expr
     span: Span
 
@@ -162,7 +174,7 @@ class Pso:
 
     command: str
     axis: str
-    args: tuple
+    args: tuple[PsoArg, ...]
     span: Span
 
 
@@ -171,7 +183,7 @@ class Repeat:
     """``REPEAT count … END REPEAT`` (or ``ENDREPEAT``)."""
 
     count: Expr
-    body: tuple
+    body: tuple[Stmt, ...]
     span: Span
 
 
@@ -185,7 +197,7 @@ class For:
     start: Expr
     end: Expr
     step: Expr | None
-    body: tuple
+    body: tuple[Stmt, ...]
     span: Span
 
 
@@ -206,7 +218,7 @@ class StringAssign:
     :mod:`gcode.strings` (``parts`` are its tokens after the ``=``)."""
 
     name: str
-    parts: tuple
+    parts: StringTree
     span: Span
 
 
@@ -215,7 +227,7 @@ class While:
     """``WHILE cond [DO]`` … ``ENDWHILE`` (or ``END WHILE``)."""
 
     cond: Expr
-    body: tuple
+    body: tuple[Stmt, ...]
     span: Span
 
 
@@ -226,7 +238,7 @@ class If:
     ``branches`` are ``(cond, body)`` pairs in order; the ``ELSE`` branch
     has cond None."""
 
-    branches: tuple
+    branches: tuple[tuple[Expr | None, tuple[Stmt, ...]], ...]
     span: Span
 
 
@@ -237,7 +249,7 @@ class Call:
     ``$q`` …"""
 
     name: str
-    args: tuple
+    args: tuple[tuple[str, Expr], ...]
     span: Span
 
 
@@ -267,7 +279,7 @@ class Sub:
     """``DFS name`` … ``ENDDFS``: a subroutine (name upper-case)."""
 
     name: str
-    body: tuple
+    body: tuple[Stmt, ...]
     span: Span
 
 
@@ -290,7 +302,7 @@ class Program:
     (lenient mode), subroutines (``DFS``, wherever they were written) and
     ``#define`` macros (name → replacement text, or a :class:`FunctionMacro`)."""
 
-    body: tuple
+    body: tuple[Stmt, ...]
     warnings: tuple[str, ...] = ()
-    subroutines: tuple = ()
-    macros: tuple = ()
+    subroutines: tuple[Sub, ...] = ()
+    macros: tuple[tuple[str, str | FunctionMacro], ...] = ()

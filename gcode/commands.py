@@ -43,8 +43,9 @@ class Command:
     syntax : str — its arguments, as written after it
     effect : str — what it does (the "no motion" record's text when recorded)
     simulated : str — :data:`MODELLED`, :data:`RECORDED` or :data:`REFUSED`
-    parser : str — the statement parser that reads it (a method ``st_<parser>``
-        of :class:`gcode.parser._Line`)
+    parser : str — the statement parser that reads it (the method
+        ``st_<parser>`` of :class:`gcode.parser._Line`, listed under this name
+        in ``gcode.parser._STATEMENT_PARSERS``)
     """
 
     keyword: str

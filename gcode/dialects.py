@@ -53,6 +53,7 @@ import unicodedata
 from dataclasses import dataclass
 
 __all__ = ["Dialect", "DIALECTS", "HAAS", "LINUXCNC", "FANUC", "AEROBASIC", "comment",
+           "register_dialect", "FAMILIES",
            "ascii_text", "number_lines", "dialect"]
 
 #: Characters spelt out in ASCII before a comment's own rules apply.
@@ -143,8 +144,39 @@ AEROBASIC = Dialect(name="aerobasic", family="aerobasic", start="", program_numb
                     end="", finish="", comment_open="; ", comment_close="",
                     comment_spell=(), max_block=4096, max_comment=4000)
 
-#: dialect name -> row.
+#: dialect name -> row. Add a controller with :func:`register_dialect`.
 DIALECTS: dict[str, Dialect] = {d.name: d for d in (HAAS, LINUXCNC, FANUC, AEROBASIC)}
+
+#: The program families a row can belong to: ``iso`` rows are mill and grinder
+#: posts (:data:`cam.mill.post.POSTS` lists them), ``aerobasic`` the laser's.
+FAMILIES: tuple[str, ...] = ("iso", "aerobasic")
+
+_DIALECT_NAME = re.compile(r"[a-z][a-z0-9_-]{0,31}")
+
+
+def register_dialect(row: Dialect) -> Dialect:
+    """Add one controller's row to :data:`DIALECTS` (a new controller is one
+    :class:`Dialect` and this call; an ``iso`` row is then a post of
+    ``tipgeo mill``/``grind``/``gcode --post``, a machine file's
+    ``controller``). The name is a lower-case word of at most 32 characters
+    (``[a-z][a-z0-9_-]*``); a name taken by another row is an error, the same
+    row again is not. Returns ``row``."""
+    if not isinstance(row, Dialect):
+        raise TypeError(f"register_dialect(row={row!r}): expected a Dialect")
+    if not _DIALECT_NAME.fullmatch(row.name):
+        raise ValueError(f"dialect name = {row.name!r} is invalid; expected a lower-case word "
+                         "of at most 32 characters ([a-z][a-z0-9_-]*)")
+    if row.family not in FAMILIES:
+        raise ValueError(f"dialect {row.name!r}: family = {row.family!r} is unknown; "
+                         "expected one of: " + ", ".join(FAMILIES))
+    if not (isinstance(row.max_block, int) and row.max_block >= 16):
+        raise ValueError(f"dialect {row.name!r}: max_block = {row.max_block!r}; expected an "
+                         "int >= 16 (characters)")
+    old = DIALECTS.get(row.name)
+    if old is not None and old != row:
+        raise ValueError(f"dialect name {row.name!r} is taken by another row")
+    DIALECTS[row.name] = row
+    return row
 
 
 def dialect(key: Dialect | str) -> Dialect:

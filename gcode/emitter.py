@@ -54,6 +54,8 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from pathlib import Path
+from typing import TYPE_CHECKING, Protocol, runtime_checkable
 
 from tipgeo import validate as v
 from tipgeo.errors import SpecError
@@ -61,7 +63,11 @@ from tipgeo.tolerances import tol
 
 from .dialects import AEROBASIC, comment
 
-__all__ = ["LaserParams", "emit_program", "LENGTH_DECIMALS", "LASER_TOML_KEYS"]
+if TYPE_CHECKING:
+    from tipgeo.cutters.serration import SerrationFacts
+    from tipgeo.spec import TipSpec
+
+__all__ = ["LaserParams", "emit_program", "laser_serrations", "LENGTH_DECIMALS", "LASER_TOML_KEYS"]
 
 LENGTH_DECIMALS = 4
 ANGLE_DECIMALS = 4
@@ -98,7 +104,7 @@ class LaserParams:
     rotary_feed: float = 5.0
     power_w: float = 0.75
 
-    def __post_init__(self):
+    def __post_init__(self) -> None:
         v.length("beam_diameter", self.beam_diameter, hi=1.0)
         v.real("overlap", self.overlap, lo=0.0, hi=1.0, hi_open=True)
         v.length("roughing_depth", self.roughing_depth, lo=0.0, lo_open=False, hi=5.0)
@@ -115,7 +121,7 @@ class LaserParams:
                             f"radius {self.beam_diameter / 2:g} mm (the G41 lead-in)")
 
     @classmethod
-    def from_toml(cls, path) -> LaserParams:
+    def from_toml(cls, path: str | Path) -> LaserParams:
         """The laser station's parameters from a TOML file (sample:
         ``samples/machines/a3200-laser.toml``): the keys of
         :data:`LASER_TOML_KEYS`, each with its unit in its name (feeds per
@@ -138,7 +144,7 @@ class LaserParams:
         return cls.from_dict(data, source=f"laser file '{path}'")
 
     @classmethod
-    def from_dict(cls, table, *, source: str = "laser table") -> LaserParams:
+    def from_dict(cls, table: object, *, source: str = "laser table") -> LaserParams:
         """:meth:`from_toml` of a table already read (a dict)."""
         from tipgeo.validate import brief
 
@@ -146,7 +152,8 @@ class LaserParams:
 
         if not isinstance(table, dict):
             raise GCodeError(f"{source}: expected a table of keys, not {brief(table)}")
-        kw = {}
+        kw: dict[str, float] = {}
+        passes = cls.finishing_passes
         try:
             for key, val in table.items():
                 if key not in LASER_TOML_KEYS:
@@ -154,7 +161,7 @@ class LaserParams:
                                     + ", ".join(LASER_TOML_KEYS))
                 field_, scale, lo, hi, unit = LASER_TOML_KEYS[key]
                 if field_ == "finishing_passes":
-                    kw[field_] = v.integer(key, val, lo=lo, hi=hi)
+                    passes = v.integer(key, val, lo=int(lo), hi=int(hi))
                     continue
                 if key == "pulse_on_us" and "pulse_period_us" in table:
                     hi = v.real("pulse_period_us", table["pulse_period_us"], lo=0.0,
@@ -173,7 +180,7 @@ class LaserParams:
             if on > per:
                 raise SpecError(f"pulse_on_us = {on:g} is out of range; allowed 0 < value ≤ "
                                 f"pulse_period_us = {per:g} (µs)")
-            return cls(**kw)
+            return cls(finishing_passes=passes, **kw)
         except SpecError as e:
             raise GCodeError(f"{source}: {e}") from None
 
@@ -198,7 +205,7 @@ class LaserParams:
 #: are open (the value must exceed them) except for ``overlap``,
 #: ``roughing_depth_um``, ``finishing_passes`` and ``power_w``, which may be 0;
 #: ``overlap`` stays below 1.
-LASER_TOML_KEYS = {
+LASER_TOML_KEYS: dict[str, tuple[str, float, float, float, str]] = {
     "beam_diameter_um": ("beam_diameter", 1000.0, 0.0, 1000.0, "µm"),
     "overlap": ("overlap", 1.0, 0.0, 1.0, ""),
     "roughing_depth_um": ("roughing_depth", 1000.0, 0.0, 5000.0, "µm"),
@@ -223,7 +230,31 @@ def _deg(x: float) -> str:
     return f"{x:.{ANGLE_DECIMALS}f}"
 
 
-def emit_program(spec, laser: LaserParams | None = None, *, name: str | None = None) -> str:
+@runtime_checkable
+class _LaserCutter(Protocol):
+    """A cutter the laser makes (``process == "laser"``): it tells its
+    serrations (:meth:`tipgeo.cutters.serration.SerrationCutter.serration_facts`)."""
+
+    def serration_facts(self) -> SerrationFacts: ...
+
+
+def laser_serrations(spec: TipSpec) -> SerrationFacts:
+    """The serrations of ``spec``'s one laser cutter, as the cutter tells
+    them (mm, rad; cannula frame). SpecError unless there is exactly one
+    laser cutter and it tells its serrations."""
+    ser = [c for c in spec.cutters if c.process == "laser"]
+    if len(ser) != 1:
+        raise SpecError(f"spec '{spec.name}' has {len(ser)} serration cutters; the laser "
+                        "program needs exactly one")
+    s = ser[0]
+    if not isinstance(s, _LaserCutter):
+        raise SpecError(f"cutter '{s.name}' is cut by the laser but tells no serrations "
+                        "(serration_facts); the laser program needs a serration cutter")
+    return s.serration_facts()
+
+
+def emit_program(spec: TipSpec, laser: LaserParams | None = None, *,
+                 name: str | None = None) -> str:
     """The AeroBasic program that cuts ``spec``'s serrations.
 
     Parameters
@@ -236,12 +267,8 @@ def emit_program(spec, laser: LaserParams | None = None, *, name: str | None = N
     str — the program text (deterministic)
     """
     laser = laser or LaserParams()
-    ser = [c for c in spec.cutters if c.process == "laser"]
-    if len(ser) != 1:
-        raise SpecError(f"spec '{spec.name}' has {len(ser)} serration cutters; the laser "
-                        "program needs exactly one")
-    s = ser[0]
-    r_c, rho, n = s.arc_radius, math.degrees(s.rho), s.n
+    s = laser_serrations(spec)
+    r_c, rho, n = s.arc_radius, math.degrees(s.spacing), s.count
     y_c = s.depth - r_c  # arc centre, +Y into the material from the rim
     if not r_c > laser.tool_radius:
         raise SpecError(f"arc_radius = {r_c:g} mm is not larger than the beam radius "

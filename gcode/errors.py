@@ -20,7 +20,7 @@ class GCodeError(TipGeoError, ValueError):
         super().__init__(f"{where}{message}{what}")
 
 
-def check_limit(name: str, value) -> int:
+def check_limit(name: str, value: object) -> int:
     """``value`` if it is a valid cost bound (an int ≥ 0, not a bool).
 
     Raises

@@ -10,7 +10,8 @@ stack, so any depth is safe.
 from __future__ import annotations
 
 import math
-from collections.abc import Mapping
+from collections.abc import Callable, Mapping
+from typing import TypeGuard
 
 from . import ast
 from .errors import GCodeError
@@ -20,8 +21,9 @@ __all__ = ["evaluate", "to_source", "variables_in"]
 # binding strength of each operator (higher binds tighter); unary minus binds tightest
 _OR, _AND, _NOT, _CMP, _ADD, _MUL, _NEG = 1, 2, 3, 4, 5, 6, 7
 _PRECEDENCE = {"+": _ADD, "-": _ADD, "*": _MUL, "/": _MUL}
-_COMPARE = {"==": lambda a, b: a == b, "<>": lambda a, b: a != b, "<": lambda a, b: a < b,
-            ">": lambda a, b: a > b, "<=": lambda a, b: a <= b, ">=": lambda a, b: a >= b}
+_COMPARE: dict[str, Callable[[float, float], bool]] = {
+    "==": lambda a, b: a == b, "<>": lambda a, b: a != b, "<": lambda a, b: a < b,
+    ">": lambda a, b: a > b, "<=": lambda a, b: a <= b, ">=": lambda a, b: a >= b}
 
 
 def evaluate(expr: ast.Expr, variables: Mapping[str, float],
@@ -88,14 +90,15 @@ def evaluate(expr: ast.Expr, variables: Mapping[str, float],
     return values[0]
 
 
-def _literal(value, fail) -> float:
+def _literal(value: object, fail: Callable[[str], GCodeError]) -> float:
     if isinstance(value, bool) or not isinstance(value, (int, float)) \
             or not math.isfinite(value):
         raise fail(f"not a finite number: {value!r}")
     return float(value)
 
 
-def _variable(name: str, variables: Mapping[str, float], fail) -> float:
+def _variable(name: str, variables: Mapping[str, float],
+              fail: Callable[[str], GCodeError]) -> float:
     if name not in variables:
         raise fail(f"unknown variable ${name}")
     try:
@@ -107,13 +110,14 @@ def _variable(name: str, variables: Mapping[str, float], fail) -> float:
     return value
 
 
-def _is_binary(node) -> bool:
+def _is_binary(node: object) -> TypeGuard[ast.BinOp | ast.Compare | ast.Logic]:
     return (isinstance(node, ast.BinOp) and node.op in _PRECEDENCE) or (
         isinstance(node, ast.Compare) and node.op in _COMPARE) or (
         isinstance(node, ast.Logic) and node.op in ("AND", "OR"))
 
 
-def _binary(node, left: float, right: float, fail) -> float:
+def _binary(node: ast.BinOp | ast.Compare | ast.Logic, left: float, right: float,
+            fail: Callable[[str], GCodeError]) -> float:
     """The value of a binary node (arithmetic, comparison, AND/OR) of two values."""
     if isinstance(node, ast.Compare):
         return float(_COMPARE[node.op](left, right))

@@ -47,13 +47,13 @@ class ExpressionParser:
 
     def is_op(self, chars: str) -> bool:
         tok = self.peek()
-        return tok is not None and tok.kind == "op" and tok.value in chars
+        return tok is not None and tok.kind == "op" and tok.str_value in chars
 
     def is_word(self, word: str) -> bool:
         tok = self.peek()
         return tok is not None and tok.kind == "ident" and tok.value == word
 
-    def error(self, message: str, tok: Token, cls: type = GCodeError) -> GCodeError:
+    def error(self, message: str, tok: Token, cls: type[GCodeError] = GCodeError) -> GCodeError:
         return cls(message, self.lineno, tok.col, tok.text)
 
     def source(self, first: Token) -> str:
@@ -136,7 +136,7 @@ class ExpressionParser:
             op = self.advance()
             right, rdepth = self.term(nest)
             depth = self.deeper(max(depth, rdepth), op)
-            left = ast.BinOp(op.value, left, right)
+            left = ast.BinOp(op.str_value, left, right)
         return left, depth
 
     def term(self, nest: int) -> tuple[ast.Expr, int]:
@@ -146,7 +146,7 @@ class ExpressionParser:
             op = self.advance()
             right, rdepth = self.unary(nest)
             depth = self.deeper(max(depth, rdepth), op)
-            left = ast.BinOp(op.value, left, right)
+            left = ast.BinOp(op.str_value, left, right)
         return left, depth
 
     def unary(self, nest: int) -> tuple[ast.Expr, int]:
@@ -154,12 +154,12 @@ class ExpressionParser:
         signs: list[Token] = []
         while self.is_op("+-"):
             signs.append(self.advance())
-        literal = self.peek() is not None and self.peek().kind == "num"
+        literal = (first := self.peek()) is not None and first.kind == "num"
         node, depth = self.primary(nest)
         for sign in reversed(signs):
             if sign.value == "+":
                 continue
-            if literal:
+            if literal and isinstance(node, ast.Num):     # a number token makes a Num
                 node = ast.Num(-node.value)
                 literal = False
             else:
@@ -174,13 +174,13 @@ class ExpressionParser:
             raise self.error(f"expected a value after {prev.text!r}", prev)
         self.advance()
         if tok.kind == "num":
-            return ast.Num(tok.value), 1
+            return ast.Num(float(tok.value)), 1
         if tok.kind == "var":
             nxt = self.peek()
-            if nxt is not None and nxt.kind == "op" and nxt.value in "[.":
+            if nxt is not None and nxt.kind == "op" and nxt.str_value in "[.":
                 raise self.error(f"{tok.text}{nxt.text}…: reading an input, system variable or "
                                  "array element cannot be simulated", tok)
-            return ast.Var(tok.value), 1
+            return ast.Var(tok.str_value), 1
         if tok.kind == "op" and tok.value == "(":
             if nest >= MAX_NESTING:
                 raise self.error(f"parentheses nested deeper than {MAX_NESTING}", tok)
@@ -202,7 +202,7 @@ class ExpressionParser:
         return depth + 1
 
     # -- string expressions -----------------------------------------------------
-    def string_expr(self):
+    def string_expr(self) -> ast.StringTree:
         """``term ('+' term)*`` of a string expression (see :mod:`gcode.strings`)."""
         left = self.string_term()
         while self.is_op("+"):
@@ -210,7 +210,7 @@ class ExpressionParser:
             left = ("cat", left, self.string_term())
         return left
 
-    def string_term(self):
+    def string_term(self) -> ast.StringTree:
         tok = self.peek()
         if tok is None:
             prev = self.tokens[self.pos - 1]
@@ -218,21 +218,21 @@ class ExpressionParser:
         nxt = self.tokens[self.pos + 1] if self.pos + 1 < len(self.tokens) else None
         if tok.kind == "str":
             self.advance()
-            return ("lit", tok.value)
-        if tok.kind == "ident" and tok.value in _EVALUATED_STRING_FUNCTIONS:
+            return ("lit", tok.str_value)
+        if tok.kind == "ident" and tok.str_value in _EVALUATED_STRING_FUNCTIONS:
             return self.string_call(tok)
-        if tok.kind == "var" and (nxt is None or (nxt.kind == "op" and nxt.value in "+,)")):
+        if tok.kind == "var" and (nxt is None or (nxt.kind == "op" and nxt.str_value in "+,)")):
             self.advance()
-            return ("var", tok.value)
+            return ("var", tok.str_value)
         return ("num", self.term(0)[0])
 
-    def string_call(self, head: Token):
+    def string_call(self, head: Token) -> ast.StringTree:
         self.advance()
         if not self.is_op("("):
             raise self.error(f"{head.value} needs '(' and its arguments", self.peek() or head)
         self.advance()
-        kinds, _ = _EVALUATED_STRING_FUNCTIONS[head.value]
-        args = []
+        kinds, _ = _EVALUATED_STRING_FUNCTIONS[head.str_value]
+        args: list[ast.StringTree] = []
         for i, kind in enumerate(kinds):
             if i:
                 if not self.is_op(","):
@@ -243,4 +243,4 @@ class ExpressionParser:
         if not self.is_op(")"):
             raise self.error(f"expected ')' to close {head.value}(", self.peek() or head)
         self.advance()
-        return ("call", head.value, tuple(args))
+        return ("call", head.str_value, tuple(args))

@@ -48,7 +48,9 @@ from __future__ import annotations
 
 import math
 import operator
+from collections.abc import Callable, Iterable, Mapping
 from dataclasses import dataclass, field, fields
+from typing import TypedDict, TypeVar, cast
 
 from tipgeo.tolerances import tol
 
@@ -60,7 +62,9 @@ from .motion import (
     MAX_ANGLE_DEG,
     MAX_POSITION_MM,
     BlockContext,
+    Evaluate,
     MachineState,
+    Move,
     Segment,
     apply_block,
     compensate,
@@ -69,14 +73,16 @@ from .parser import IO_NAME as _IO
 from .parser import MAX_NESTING
 from .strings import evaluate_string
 
-__all__ = ["Segment", "Toolpath", "interpret", "Limits", "ARC_TOLERANCE", "MAX_POSITION_MM",
-           "MAX_ANGLE_DEG", "MAX_CALL_DEPTH", "MAX_IO_NAMES"]
+__all__ = ["Segment", "Toolpath", "interpret", "Limits", "NoMotionRecord", "ARC_TOLERANCE",
+           "MAX_POSITION_MM", "MAX_ANGLE_DEG", "MAX_CALL_DEPTH", "MAX_IO_NAMES"]
 
 #: Deepest nesting of subroutine calls (CALL inside a DFS …).
 MAX_CALL_DEPTH = MAX_NESTING
 #: Most different outputs and system variables one run writes (``$DO[i].X`` for
 #: 10 000 values of i), so that the record of their values stays small.
 MAX_IO_NAMES = 10_000
+#: Seconds per microsecond (PSOPULSE times are in µs).
+S_PER_US = 1e-6
 
 
 @dataclass(frozen=True)
@@ -119,9 +125,21 @@ class Limits:
     max_segments: int = 100_000
     max_operations: int = 4_000_000
 
-    def __post_init__(self):
+    def __post_init__(self) -> None:
         for f in fields(self):
             check_limit(f.name, getattr(self, f.name))
+
+
+class NoMotionRecord(TypedDict):
+    """A statement that moved nothing (:attr:`Toolpath.no_motion`): its source
+    line and text, its kind (``VELOCITY``, ``I/O``, ``G359`` …), what it did
+    (its last effect) and how many times it was executed."""
+
+    line: int
+    statement: str
+    kind: str
+    effect: str
+    executed: int
 
 
 @dataclass
@@ -138,13 +156,13 @@ class Toolpath:
     dwells: list[tuple[float, bool, int]] = field(default_factory=list)
     #: statements that moved nothing (one record per source statement: line,
     #: statement, kind, effect, times executed), in order of first execution
-    no_motion: list[dict] = field(default_factory=list)
+    no_motion: list[NoMotionRecord] = field(default_factory=list)
     #: last value written to each system variable or output (``$DO[0].X`` …)
     io: dict[str, float] = field(default_factory=dict)
     #: string variables at the end of the run (name without ``$`` → text)
     strings: dict[str, str] = field(default_factory=dict)
 
-    def summary(self) -> dict:
+    def summary(self) -> dict[str, object]:
         """Path length, beam-on length (mm), estimated time (s) from the
         feeds (rapids at ``rapid_speed`` mm/s, C moves at their E feed) plus
         the dwells (a dwell with the beam on counts as beam-on time), and the
@@ -163,7 +181,7 @@ class Toolpath:
                 t_on += dt
         pulses = None
         if self.pulse_period_us:
-            pulses = int(round(t_on / (self.pulse_period_us * 1e-6)))
+            pulses = int(round(t_on / (self.pulse_period_us * S_PER_US)))
         cs = sorted({round(s.c0, 9) for s in self.segments if s.beam})
         return {"segments": len(self.segments), "path_length_mm": path,
                 "beam_on_length_mm": on, "time_s": t, "beam_on_time_s": t_on,
@@ -235,13 +253,13 @@ class _Run:
     counts checked against :class:`Limits`. Each statement type has one
     method (:data:`_EXECUTE`); moves are applied by :mod:`gcode.motion`."""
 
-    def __init__(self, program: ast.Program, tools: dict, limits: Limits,
+    def __init__(self, program: ast.Program, tools: dict[int, float], limits: Limits,
                  default_feed: float | None):
         self.st = MachineState()
         self.tools, self.limits = tools, limits
         self.vars: dict[str, float] = {}
         self.strings: dict[str, str] = {}
-        self.raw: list[dict] = []          # programmed moves, compensated afterwards
+        self.raw: list[Move] = []          # programmed moves, compensated afterwards
         self.warnings: list[str] = list(program.warnings)
         self.st.default_feed, self.st.warnings = default_feed, self.warnings
         self.executed = 0                  # statements
@@ -249,13 +267,13 @@ class _Run:
         self.weights: dict[int, int] = {}  # id(statement) -> its operations
         self.subs = {sub.name: sub for sub in program.subroutines}
         self.dwells: list[tuple[float, bool, int]] = []
-        self.notes: dict[tuple[int, int], dict] = {}
+        self.notes: dict[tuple[int, int], NoMotionRecord] = {}
         self.io: dict[str, float] = {}
         self.depth = 0                     # subroutine calls in progress
         self.ctx = BlockContext(self.ev, _err, self.raw, tools, self.note, self.dwell)
 
     # -- services ---------------------------------------------------------------------
-    def ev(self, expr, span):
+    def ev(self, expr: ast.Expr, span: ast.Span) -> float:
         return evaluate(expr, self.vars, span=span)
 
     def note(self, span: ast.Span, kind: str, effect: str) -> None:
@@ -278,13 +296,13 @@ class _Run:
         if len(self.raw) + len(self.dwells) > limit:
             raise _err(f"more than {limit} {what} (max_segments = {limit})", span)
 
-    def weight(self, s) -> int:
+    def weight(self, s: ast.Stmt) -> int:
         w = self.weights.get(id(s))
         if w is None:
             w = self.weights[id(s)] = _weight(s)
         return w
 
-    def charge(self, s) -> None:
+    def charge(self, s: ast.Stmt) -> None:
         """Count one execution of ``s`` (its header, for a loop) against the bounds."""
         self.executed += 1
         limit = self.limits.max_statements
@@ -298,7 +316,7 @@ class _Run:
                        f"(max_operations = {limit}; runaway loop?)", s.span)
 
     # -- statements ----------------------------------------------------------------------
-    def body(self, statements) -> None:
+    def body(self, statements: Iterable[ast.Stmt]) -> None:
         for s in statements:
             self.charge(s)
             handler = _EXECUTE.get(type(s))
@@ -421,13 +439,24 @@ class _Run:
             self.note(s.span, "STRING", f"sets ${s.name} = {value:.12g} (string function)")
 
 
+_S = TypeVar("_S", bound=ast.Stmt)
+_Execute = Callable[[_Run, ast.Stmt], None]
+
+
+def _on(kind: type[_S], method: Callable[[_Run, _S], None]) -> tuple[type, _Execute]:
+    """A row of :data:`_EXECUTE`. The table is looked up by a statement's exact
+    type, so ``method`` is only ever given a ``kind``: the cast is safe."""
+    return kind, cast(_Execute, method)
+
+
 #: The method that executes each statement type.
-_EXECUTE = {ast.Block: _Run.block, ast.Assign: _Run.assign, ast.Pso: _Run.pso,
-            ast.Mode: _Run.mode, ast.Repeat: _Run.repeat, ast.For: _Run.for_loop,
-            ast.While: _Run.while_loop, ast.If: _Run.if_, ast.DVar: _Run.dvar,
-            ast.Call: _Run.call, ast.Dwell: _Run.dwell_statement, ast.SysAssign: _Run.sys_assign,
-            ast.NoMotion: _Run.no_motion, ast.StatusRead: _Run.status_read,
-            ast.StringAssign: _Run.string_assign}
+_EXECUTE: dict[type, _Execute] = dict([
+    _on(ast.Block, _Run.block), _on(ast.Assign, _Run.assign), _on(ast.Pso, _Run.pso),
+    _on(ast.Mode, _Run.mode), _on(ast.Repeat, _Run.repeat), _on(ast.For, _Run.for_loop),
+    _on(ast.While, _Run.while_loop), _on(ast.If, _Run.if_), _on(ast.DVar, _Run.dvar),
+    _on(ast.Call, _Run.call), _on(ast.Dwell, _Run.dwell_statement),
+    _on(ast.SysAssign, _Run.sys_assign), _on(ast.NoMotion, _Run.no_motion),
+    _on(ast.StatusRead, _Run.status_read), _on(ast.StringAssign, _Run.string_assign)])
 
 
 def _err(msg: str, span: ast.Span) -> GCodeError:
@@ -443,7 +472,7 @@ def _repeat_count(n: float, s: ast.Repeat, max_repeat: int) -> int:
     return k
 
 
-def _for_passes(start: float, end: float, step: float, s) -> int:
+def _for_passes(start: float, end: float, step: float, s: ast.For) -> int:
     """Passes of ``FOR $v = start TO end STEP step`` (0 if it never starts)."""
     if step == 0.0:
         raise _err("FOR … STEP 0 never ends", s.span)
@@ -453,7 +482,7 @@ def _for_passes(start: float, end: float, step: float, s) -> int:
     return int(math.floor(n + tol.gcode.whole * max(1.0, abs(n)))) + 1
 
 
-def _io_key(s: ast.SysAssign, ev) -> str:
+def _io_key(s: ast.SysAssign, ev: Evaluate) -> str:
     """``$DO[0].X``-style name of a system variable assignment, indices evaluated."""
     parts = [f"${s.name.upper()}"]
     for part in s.index:
@@ -464,7 +493,7 @@ def _io_key(s: ast.SysAssign, ev) -> str:
     return "".join(parts)
 
 
-def _tool_table(tool_radii) -> dict[int, float]:
+def _tool_table(tool_radii: Mapping[int, float]) -> dict[int, float]:
     """Validated copy of a tool table {tool number: radius mm}."""
     try:
         items = list(dict(tool_radii).items())
@@ -489,10 +518,10 @@ def _tool_table(tool_radii) -> dict[int, float]:
     return tools
 
 
-def _size(expr) -> int:
+def _size(expr: ast.Expr) -> int:
     """Number of nodes of an expression tree."""
     n = 0
-    stack = [expr]
+    stack: list[ast.Expr] = [expr]
     while stack:
         node = stack.pop()
         n += 1
@@ -504,7 +533,7 @@ def _size(expr) -> int:
     return n
 
 
-def _index_size(index) -> int:
+def _index_size(index: Iterable[ast.IndexPart]) -> int:
     return sum(1 if isinstance(i, str) else _size(i) for i in index)
 
 
@@ -526,7 +555,7 @@ _WEIGHTS = {
 }
 
 
-def _weight(s) -> int:
+def _weight(s: ast.Stmt) -> int:
     """Operations one execution of statement ``s`` costs (see Limits)."""
     f = _WEIGHTS.get(type(s))
     return 1 if f is None else f(s)   # NoMotion, StatusRead, StringAssign: 1
@@ -548,7 +577,7 @@ def _mode(st: MachineState, s: ast.Mode) -> None:
         raise _err(f"keyword {k} is not supported", s.span)
 
 
-def _pso(st: MachineState, s: ast.Pso, ev) -> None:
+def _pso(st: MachineState, s: ast.Pso, ev: Evaluate) -> None:
     args = list(s.args)
     if s.command == "PSOCONTROL":
         _pso_control(st, s, args)
@@ -560,7 +589,7 @@ def _pso(st: MachineState, s: ast.Pso, ev) -> None:
     # other PSO commands configure the output and do not change the path
 
 
-def _pso_control(st: MachineState, s: ast.Pso, args: list) -> None:
+def _pso_control(st: MachineState, s: ast.Pso, args: list[ast.PsoArg]) -> None:
     words = {a for a in args if isinstance(a, str)}
     if words & {"FIRE", "ON", "ARM"}:
         st.laser = True       # ARM: pulses on distance events while moving — beam on
@@ -570,7 +599,7 @@ def _pso_control(st: MachineState, s: ast.Pso, args: list) -> None:
         raise _err("PSOCONTROL needs FIRE, ON, ARM, OFF or RESET", s.span)
 
 
-def _pso_time(st: MachineState, s: ast.Pso, args: list, ev) -> None:
+def _pso_time(st: MachineState, s: ast.Pso, args: list[ast.PsoArg], ev: Evaluate) -> None:
     i = args.index("TIME")
     nums = [a for a in args[i + 1:i + 3] if not isinstance(a, str)]
     if len(nums) != 2:
@@ -582,11 +611,12 @@ def _pso_time(st: MachineState, s: ast.Pso, args: list, ev) -> None:
     st.period_us, st.on_us = period, on
 
 
-def _pso_cycles(s: ast.Pso, args: list, ev) -> None:
+def _pso_cycles(s: ast.Pso, args: list[ast.PsoArg], ev: Evaluate) -> None:
     i = args.index("CYCLES")
-    if i + 1 >= len(args) or isinstance(args[i + 1], str):
+    count = args[i + 1] if i + 1 < len(args) else None
+    if count is None or isinstance(count, str):
         raise _err("PSOPULSE CYCLES needs a pulse count", s.span)
-    n = ev(args[i + 1], s.span)
+    n = ev(count, s.span)
     if n != int(n) or n < 1:
         raise _err(f"PSOPULSE CYCLES {n:g}: the pulse count must be a whole number ≥ 1",
                    s.span)

@@ -38,6 +38,7 @@ from __future__ import annotations
 
 import math
 import re
+from collections.abc import Callable, Iterator
 from dataclasses import dataclass
 
 from .errors import GCodeError
@@ -100,6 +101,12 @@ class Token:
     width: int | None = None
 
     @property
+    def str_value(self) -> str:
+        """``value`` of a name, operator, ``$variable`` or string token (a
+        str); for a number token, its source text."""
+        return self.value if isinstance(self.value, str) else self.text
+
+    @property
     def end(self) -> int:
         """0-based index just past the token in its line."""
         return self.col - 1 + (len(self.text) if self.width is None else self.width)
@@ -117,7 +124,7 @@ def split_lines(text: str) -> list[str]:
     return text.replace("\r\n", "\n").replace("\r", "\n").split("\n")
 
 
-def iter_lines(text: str, max_length: int = MAX_LINE_LENGTH):
+def iter_lines(text: str, max_length: int = MAX_LINE_LENGTH) -> Iterator[str]:
     """The lines of ``text`` one at a time, split like :func:`split_lines`.
 
     A line longer than ``max_length`` characters raises before it is copied,
@@ -191,7 +198,8 @@ def split_comment(line: str) -> int:
 
 
 def tokenize_line(line: str, lineno: int = 0, *, max_length: int = MAX_LINE_LENGTH,
-                  max_tokens: int = MAX_LINE_TOKENS, out: list | None = None) -> list[Token]:
+                  max_tokens: int = MAX_LINE_TOKENS,
+                  out: list[Token] | None = None) -> list[Token]:
     """Tokens of one source line, its comment dropped.
 
     Parameters
@@ -245,7 +253,7 @@ def tokenize_line(line: str, lineno: int = 0, *, max_length: int = MAX_LINE_LENG
     return tokens
 
 
-def _scanner(line: str, i: int, end: int):
+def _scanner(line: str, i: int, end: int) -> Callable[[str, int, int, int], tuple[Token, int]]:
     """The function that reads the token starting at ``line[i]``."""
     ch = line[i]
     if ch in _NAME_START:

@@ -14,7 +14,7 @@ import re
 
 from . import ast
 from .errors import GCodeError
-from .lexer import MAX_LINE_LENGTH, split_comment, tokenize_line
+from .lexer import MAX_LINE_LENGTH, Token, split_comment, tokenize_line
 
 __all__ = ["directive", "expand", "origin", "MAX_MACROS", "MAX_MACRO_PARAMS", "MAX_EXPANSIONS",
            "MAX_PROGRAM_EXPANSIONS", "MAX_NESTING", "SUB_NAME"]
@@ -38,10 +38,22 @@ MAX_EXPANSIONS = 4096
 #: reaching it costs about 2–3 s of CPU.
 MAX_PROGRAM_EXPANSIONS = 1_000_000
 
+#: The macros of a program: name → replacement text or a function-like macro.
+Macros = dict[str, str | ast.FunctionMacro]
+#: Replacements left and the bound: ``[left, bound]`` (mutated as they are made).
+Budget = list[int]
+#: A line's budget within its program's: ``(program, line)``.
+_Budgets = tuple[Budget, Budget]
+#: A piece of an expanded line: (start in the result, start in the code, length
+#: in the code, from a macro).
+Piece = tuple[int, int, int, bool]
 
-def directive(line: str, lineno: int, macros: dict[str, str], lexed: list) -> None:
+
+def directive(line: str, lineno: int, macros: Macros, lexed: list[Token]) -> None:
     """Apply one preprocessor line: ``#define NAME text`` or ``#undef NAME``."""
     d = _DIRECTIVE.match(line)
+    if d is None:
+        raise GCodeError("expected a preprocessor line starting with '#'", lineno, 1, line[:20])
     word = d.group(1).lower()
     col = line.index("#") + 1
     if word == "define":
@@ -49,7 +61,8 @@ def directive(line: str, lineno: int, macros: dict[str, str], lexed: list) -> No
         if m is None:
             raise GCodeError("#define needs a macro name", lineno, col, line[col - 1:col + 19])
         name = m.group(1)
-        end, params = m.end(), None
+        end = m.end()
+        params: tuple[str, ...] | None = None
         if m.group(2):              # NAME( right after the name: function-like
             end, params = _macro_params(line, m, lineno)
         body = line[end:]
@@ -68,20 +81,20 @@ def directive(line: str, lineno: int, macros: dict[str, str], lexed: list) -> No
         macros[name] = body if params is None else ast.FunctionMacro(params, body)
     elif word == "undef":
         rest = line[d.end():]
-        m = SUB_NAME.match(rest.strip())
-        if m is None:
+        u = SUB_NAME.match(rest.strip())
+        if u is None:
             raise GCodeError("#undef needs a macro name", lineno, col, line[col - 1:col + 19])
-        macros.pop(m.group(0), None)
+        macros.pop(u.group(0), None)
     else:
         raise GCodeError(f"preprocessor directive #{d.group(1)} is not supported (only #define "
                          "and #undef): the statements it would select or bring in cannot be "
                          "checked", lineno, col, line[col - 1:d.end()])
 
 
-def _macro_params(line: str, m, lineno: int) -> tuple[int, tuple[str, ...]]:
+def _macro_params(line: str, m: re.Match[str], lineno: int) -> tuple[int, tuple[str, ...]]:
     """The parameter list of ``#define NAME(a, b)``: (end of the list in
     ``line``, the names)."""
-    pos, params = m.end(), []
+    pos, params = m.end(), list[str]()
     rest = line[pos:]
     if rest.lstrip(" \t").startswith(")"):
         return pos + rest.index(")") + 1, ()
@@ -112,7 +125,7 @@ def _call_args(code: str, start: int, name: str, lineno: int) -> tuple[int, list
         i += 1
     if i >= len(code) or code[i] != "(":
         return None
-    depth, args, arg0, j = 0, [], i + 1, i
+    depth, args, arg0, j = 0, list[str](), i + 1, i
     in_string = False
     while j < len(code):
         c = code[j]
@@ -138,7 +151,7 @@ def _substitute(body: str, params: tuple[str, ...], args: list[str]) -> str:
     """``body`` with each parameter name (outside strings) replaced by its argument."""
     values = dict(zip(params, args))
     strings = _string_spans(body)
-    out, pos = [], 0
+    out, pos = list[str](), 0
     for m in _MACRO_USE.finditer(body):
         if m.group(0) in values and not any(a <= m.start() < b for a, b in strings):
             out.append(body[pos:m.start()])
@@ -148,8 +161,8 @@ def _substitute(body: str, params: tuple[str, ...], args: list[str]) -> str:
     return "".join(out)
 
 
-def expand(code: str, macros: dict[str, str], lineno: int,
-           active: frozenset = frozenset(), budget: list | None = None) -> tuple[str, list]:
+def expand(code: str, macros: Macros, lineno: int, active: frozenset[str] = frozenset(),
+           budget: Budget | _Budgets | None = None) -> tuple[str, list[Piece]]:
     """``code`` with every macro name replaced, and the pieces it was made of:
     ``(start in the result, start in code, length in code, from a macro)``.
 
@@ -159,10 +172,10 @@ def expand(code: str, macros: dict[str, str], lineno: int,
     nested in each other would otherwise cost exponential time for nothing)."""
     if budget is None:
         budget = [MAX_PROGRAM_EXPANSIONS, MAX_PROGRAM_EXPANSIONS]
-    if isinstance(budget, list):    # a new line: its own bound, within the program's
-        budget = (budget, [MAX_EXPANSIONS])
+    # a new line (a list): its own bound, within the program's
+    both = (budget, [MAX_EXPANSIONS]) if isinstance(budget, list) else budget
     out: list[str] = []
-    pieces: list[tuple[int, int, int, bool]] = []
+    pieces: list[Piece] = []
     pos = 0
     size = 0
     strings = _string_spans(code)
@@ -171,7 +184,7 @@ def expand(code: str, macros: dict[str, str], lineno: int,
         if m.start() < pos or name not in macros or name in active \
                 or any(a <= m.start() < b for a, b in strings):
             continue
-        use = _replacement(code, m, macros, lineno, active, budget)
+        use = _replacement(code, m, macros, lineno, active, both)
         if use is None:
             continue
         rep, use_end = use
@@ -191,19 +204,21 @@ def expand(code: str, macros: dict[str, str], lineno: int,
     return "".join(out), pieces
 
 
-def _replacement(code: str, m, macros: dict, lineno: int, active: frozenset,
-                 budget: tuple) -> tuple[str, int] | None:
+def _replacement(code: str, m: re.Match[str], macros: Macros, lineno: int,
+                 active: frozenset[str], budget: _Budgets) -> tuple[str, int] | None:
     """The expanded replacement of the macro used at ``m`` and the end of its
     use in ``code`` (None: a function-like macro without arguments, left alone)."""
     name = m.group(0)
-    rep, use_end = macros[name], m.end()
-    if isinstance(rep, ast.FunctionMacro):
+    macro, use_end = macros[name], m.end()
+    if isinstance(macro, ast.FunctionMacro):
         call = _call_args(code, m.end(), name, lineno)
         if call is None:
             return None
         use_end, args = call
-        rep = _apply_function_macro(rep, args, code[m.start():use_end], m.start(), name, lineno,
+        rep = _apply_function_macro(macro, args, code[m.start():use_end], m.start(), name, lineno,
                                     macros, active, budget)
+    else:
+        rep = macro
     _charge(budget, active, lineno, m.start(), name)
     if _MACRO_USE.search(rep) is not None:
         try:
@@ -214,8 +229,8 @@ def _replacement(code: str, m, macros: dict, lineno: int, active: frozenset,
 
 
 def _apply_function_macro(rep: ast.FunctionMacro, args: list[str], use: str, start: int,
-                          name: str, lineno: int, macros: dict, active: frozenset,
-                          budget: tuple) -> str:
+                          name: str, lineno: int, macros: Macros, active: frozenset[str],
+                          budget: _Budgets) -> str:
     """The body of a function-like macro with its (expanded) arguments."""
     if args == [""] and not rep.params:
         args = []
@@ -234,7 +249,8 @@ def _apply_function_macro(rep: ast.FunctionMacro, args: list[str], use: str, sta
     return text
 
 
-def _charge(budget: tuple, active: frozenset, lineno: int, start: int, name: str) -> None:
+def _charge(budget: _Budgets, active: frozenset[str], lineno: int, start: int,
+            name: str) -> None:
     """Count one replacement against the line's and the program's bounds."""
     program, line = budget
     line[0] -= 1
@@ -263,7 +279,7 @@ def _string_spans(code: str) -> list[tuple[int, int]]:
     return spans
 
 
-def origin(pieces: list, index: int) -> tuple[int, int | None]:
+def origin(pieces: list[Piece], index: int) -> tuple[int, int | None]:
     """1-based source column of character ``index`` of an expanded line, and
     the width to report when it came from a macro (else None)."""
     for start, src, length, macro in reversed(pieces):

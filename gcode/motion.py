@@ -11,17 +11,21 @@ unit, stored per second in the segments. Every G code is a row of
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from dataclasses import dataclass, field
+from typing import TypedDict
 
 import numpy as np
 
+from tipgeo.arrays import FloatArray
 from tipgeo.tolerances import tol
 
 from . import ast
 from .commands import G_CODES
+from .errors import GCodeError
 
-__all__ = ["Segment", "MachineState", "BlockContext", "apply_block", "compensate", "ARC_TOLERANCE",
-           "MAX_POSITION_MM", "MAX_ANGLE_DEG"]
+__all__ = ["Segment", "MachineState", "BlockContext", "Move", "apply_block", "compensate",
+           "ARC_TOLERANCE", "MAX_POSITION_MM", "MAX_ANGLE_DEG"]
 
 #: An arc's end must lie on the circle through its start within this many mm
 #: (relative to the radius above 1 mm); its radius must exceed it too.
@@ -31,6 +35,40 @@ ARC_TOLERANCE = tol.gcode.arc  # alias, imported by tests
 MAX_POSITION_MM = 1e6
 #: Largest |C|, degrees (about 2.8 million turns).
 MAX_ANGLE_DEG = 1e9
+
+#: A point of the machine's XY plane (mm).
+Point = tuple[float, float]
+#: The interpreter's evaluator: an expression at a statement → its value.
+Evaluate = Callable[[ast.Expr, ast.Span], float]
+#: The interpreter's error maker: a message at a statement → the error to raise.
+MakeError = Callable[[str, ast.Span], GCodeError]
+
+
+class Move(TypedDict, total=False):
+    """A programmed move before cutter compensation (machine frame, mm and
+    degrees; feeds per second): what :func:`apply_block` records and
+    :func:`compensate` turns into segments (:class:`Segment`). ``center`` and
+    ``ccw`` only for arcs; ``kind`` ``point`` for an arc collapsed to its
+    centre."""
+
+    kind: str
+    start: Point
+    end: Point
+    c0: float
+    c1: float
+    beam: bool
+    z0: float
+    z1: float
+    feed: float | None
+    rotary_feed: float | None
+    line: int
+    span: ast.Span
+    tool_r: float
+    comp_before: int
+    comp_after: int
+    center: Point
+    ccw: bool
+
 
 @dataclass
 class Segment:
@@ -94,16 +132,17 @@ class Segment:
         space, or a helix for an arc)."""
         return math.hypot(self.length, self.z1 - self.z0)
 
-    def points(self, chordal: float = 1e-4) -> np.ndarray:
+    def points(self, chordal: float = tol.gcode.sample_chordal) -> FloatArray:
         """(k, 2) points along the move (arcs within ``chordal`` mm)."""
-        if self.kind != "arc" or self.radius <= 0:
+        c = self.center
+        if self.kind != "arc" or c is None or self.radius <= 0:
             return np.array([self.start, self.end], float)
         r = self.radius
         step = 2 * math.acos(max(1 - chordal / r, -1.0)) if chordal < r else math.pi / 2
         n = max(2, math.ceil(abs(self.sweep) / max(step, tol.gcode.step_floor)))
-        a0 = math.atan2(self.start[1] - self.center[1], self.start[0] - self.center[0])
+        a0 = math.atan2(self.start[1] - c[1], self.start[0] - c[0])
         a = a0 + np.linspace(0, self.sweep, n + 1)
-        return np.stack([self.center[0] + r * np.cos(a), self.center[1] + r * np.sin(a)], 1)
+        return np.stack([c[0] + r * np.cos(a), c[1] + r * np.sin(a)], 1)
 
 
 _AXES = ("X", "Y", "Z", "C")
@@ -117,8 +156,10 @@ class MachineState:
     """Modal state of the machine while a program runs (mm, degrees, radians for
     the G84 rotation)."""
 
-    pos: dict = field(default_factory=lambda: {"X": 0.0, "Y": 0.0, "Z": 0.0, "C": 0.0})
-    offset: dict = field(default_factory=lambda: {"X": 0.0, "Y": 0.0, "Z": 0.0, "C": 0.0})
+    pos: dict[str, float] = field(default_factory=lambda: {"X": 0.0, "Y": 0.0, "Z": 0.0,
+                                                           "C": 0.0})
+    offset: dict[str, float] = field(default_factory=lambda: {"X": 0.0, "Y": 0.0, "Z": 0.0,
+                                                              "C": 0.0})
     absolute: bool = True
     scale: float = 1.0            # 25.4 in ENGLISH
     motion: str = "line"
@@ -132,28 +173,30 @@ class MachineState:
     on_us: float | None = None
     default_feed: float | None = None  # mm/s, for a feed move before any F
     rotation: float = 0.0         # G84 X Y F<deg>: program XY frame turned by this (rad)
-    warnings: list | None = None
+    warnings: list[str] = field(default_factory=list)
 
 
 @dataclass
 class _Words:
     """What one block's words asked for, before it is applied."""
 
-    target: dict = field(default_factory=dict)
-    center: dict = field(default_factory=dict)
+    target: dict[str, float] = field(default_factory=dict)
+    center: dict[str, float] = field(default_factory=dict)
     g4: bool = False
     g84: bool = False
     g92: bool = False
     comp_change: int | None = None
-    f_word: tuple | None = None
-    p_word: tuple | None = None
+    f_word: tuple[float, ast.Span] | None = None
+    p_word: tuple[float, ast.Span] | None = None
 
 
 class BlockContext:
     """The interpreter's services a block needs: evaluation, errors, the tool
     table, the list of programmed moves, the no-motion record and dwells."""
 
-    def __init__(self, ev, err, raw: list, tools: dict, note, dwell):
+    def __init__(self, ev: Evaluate, err: MakeError, raw: list[Move], tools: dict[int, float],
+                 note: Callable[[ast.Span, str, str], None],
+                 dwell: Callable[[float, ast.Span], None]):
         self.ev, self.err, self.raw, self.tools, self.note, self.dwell = \
             ev, err, raw, tools, note, dwell
 
@@ -205,73 +248,90 @@ def _g_word(st: MachineState, words: _Words, w: ast.Word, ctx: BlockContext) -> 
 
 
 # -- G codes (the handler column of gcode.commands.G_CODES) --------------------------------
-def _g_motion(st, words, code, w, ctx):
+def _g_motion(st: MachineState, words: _Words, code: int, w: ast.Word,
+        ctx: BlockContext) -> None:
     st.motion = _MOTION[code]
 
 
-def _g_compensation(st, words, code, w, ctx):
+def _g_compensation(st: MachineState, words: _Words, code: int, w: ast.Word,
+        ctx: BlockContext) -> None:
     words.comp_change = {40: 0, 41: 1, 42: -1}[code]
 
 
-def _g_distance(st, words, code, w, ctx):
+def _g_distance(st: MachineState, words: _Words, code: int, w: ast.Word,
+        ctx: BlockContext) -> None:
     st.absolute = code == 90
 
 
-def _g_preset(st, words, code, w, ctx):
+def _g_preset(st: MachineState, words: _Words, code: int, w: ast.Word,
+        ctx: BlockContext) -> None:
     words.g92 = True
 
 
-def _g_dwell(st, words, code, w, ctx):
+def _g_dwell(st: MachineState, words: _Words, code: int, w: ast.Word,
+        ctx: BlockContext) -> None:
     words.g4 = True
 
 
-def _g_rotation(st, words, code, w, ctx):
+def _g_rotation(st: MachineState, words: _Words, code: int, w: ast.Word,
+        ctx: BlockContext) -> None:
     words.g84 = True
 
 
-def _g_units(st, words, code, w, ctx):
+def _g_units(st: MachineState, words: _Words, code: int, w: ast.Word,
+        ctx: BlockContext) -> None:
     st.scale = 25.4 if code == 70 else 1.0
 
 
-def _g_time_base(st, words, code, w, ctx):
+def _g_time_base(st: MachineState, words: _Words, code: int, w: ast.Word,
+        ctx: BlockContext) -> None:
     st.time_per_unit = 60.0 if code == 75 else 1.0
 
 
-def _g_record(st, words, code, w, ctx):
+def _g_record(st: MachineState, words: _Words, code: int, w: ast.Word,
+        ctx: BlockContext) -> None:
     ctx.note(w.span, f"G{code}", G_CODES[code].effect)
 
 
-def _g_nothing(st, words, code, w, ctx):
+def _g_nothing(st: MachineState, words: _Words, code: int, w: ast.Word,
+        ctx: BlockContext) -> None:
     pass  # the XY plane (the only one) / compensation axes / as in Appendix C
 
 
-_G_HANDLERS = {"motion": _g_motion, "compensation": _g_compensation, "distance": _g_distance,
-               "preset": _g_preset, "dwell": _g_dwell, "rotation": _g_rotation,
-               "units": _g_units, "time_base": _g_time_base, "record": _g_record,
-               "nothing": _g_nothing}
+_GHandler = Callable[[MachineState, _Words, int, ast.Word, BlockContext], None]
+_G_HANDLERS: dict[str, _GHandler] = {
+    "motion": _g_motion, "compensation": _g_compensation, "distance": _g_distance,
+    "preset": _g_preset, "dwell": _g_dwell, "rotation": _g_rotation,
+    "units": _g_units, "time_base": _g_time_base, "record": _g_record,
+    "nothing": _g_nothing}
 
 
 # -- word letters (gcode.commands.WORD_LETTERS) ---------------------------------------------
-def _w_axis(st, words, w, val, ctx):
+def _w_axis(st: MachineState, words: _Words, w: ast.Word, val: float,
+        ctx: BlockContext) -> None:
     words.target[w.letter] = val * (st.scale if w.letter != "C" else 1.0)
 
 
-def _w_center(st, words, w, val, ctx):
+def _w_center(st: MachineState, words: _Words, w: ast.Word, val: float,
+        ctx: BlockContext) -> None:
     words.center[w.letter] = val * st.scale
 
 
-def _w_feed(st, words, w, val, ctx):
+def _w_feed(st: MachineState, words: _Words, w: ast.Word, val: float,
+        ctx: BlockContext) -> None:
     words.f_word = (val, w.span)
 
 
-def _w_rotary_feed(st, words, w, val, ctx):
+def _w_rotary_feed(st: MachineState, words: _Words, w: ast.Word, val: float,
+        ctx: BlockContext) -> None:
     if not val > 0:
         raise ctx.err(f"E{val:g}: the rotary feed rate E must be > 0 (degrees per time "
                       "unit)", w.span)
     st.rotary_feed = val
 
 
-def _w_tool(st, words, w, val, ctx):
+def _w_tool(st: MachineState, words: _Words, w: ast.Word, val: float,
+        ctx: BlockContext) -> None:
     if val != int(val) or val < 0:
         raise ctx.err(f"T{val:g}: the tool number T must be a whole number ≥ 0", w.span)
     t = int(val)
@@ -281,22 +341,26 @@ def _w_tool(st, words, w, val, ctx):
     st.tool = t
 
 
-def _w_dwell_time(st, words, w, val, ctx):
+def _w_dwell_time(st: MachineState, words: _Words, w: ast.Word, val: float,
+        ctx: BlockContext) -> None:
     words.p_word = (val, w.span)
 
 
-def _w_ignored(st, words, w, val, ctx):
+def _w_ignored(st: MachineState, words: _Words, w: ast.Word, val: float,
+        ctx: BlockContext) -> None:
     pass  # A, B: axes the simulation does not follow
 
 
-_LETTER_HANDLERS = {"X": _w_axis, "Y": _w_axis, "Z": _w_axis, "C": _w_axis,
-                    "I": _w_center, "J": _w_center, "K": _w_center, "F": _w_feed,
-                    "E": _w_rotary_feed, "T": _w_tool, "P": _w_dwell_time,
-                    "A": _w_ignored, "B": _w_ignored}
+_LetterHandler = Callable[[MachineState, _Words, ast.Word, float, BlockContext], None]
+_LETTER_HANDLERS: dict[str, _LetterHandler] = {
+    "X": _w_axis, "Y": _w_axis, "Z": _w_axis, "C": _w_axis,
+    "I": _w_center, "J": _w_center, "K": _w_center, "F": _w_feed,
+    "E": _w_rotary_feed, "T": _w_tool, "P": _w_dwell_time,
+    "A": _w_ignored, "B": _w_ignored}
 
 
 # -- what a block does ------------------------------------------------------------------------
-def _rotation(st: MachineState, words: _Words, b: ast.Block, err) -> None:
+def _rotation(st: MachineState, words: _Words, b: ast.Block, err: MakeError) -> None:
     """G84 X Y F<deg>: the program's XY frame turns (no F: back to 0)."""
     if words.target or words.center:
         raise err("G84 turns the XY frame: give only the axis names and F, the angle (deg)",
@@ -304,7 +368,7 @@ def _rotation(st: MachineState, words: _Words, b: ast.Block, err) -> None:
     st.rotation = math.radians(words.f_word[0]) if words.f_word is not None else 0.0
 
 
-def _set_feed(st: MachineState, words: _Words, err) -> None:
+def _set_feed(st: MachineState, words: _Words, err: MakeError) -> None:
     if words.f_word is None:
         return
     value, span = words.f_word
@@ -314,17 +378,18 @@ def _set_feed(st: MachineState, words: _Words, err) -> None:
 
 
 def _dwell_block(words: _Words, b: ast.Block, ctx: BlockContext) -> None:
-    if not words.g4:
-        raise ctx.err("P is the dwell time of G4 (s): give G4 in the same block",
-                      words.p_word[1])
-    if words.p_word is None:
+    """G4 P t (the block holds G4 or P: apply_block)."""
+    p = words.p_word
+    if p is None:
         raise ctx.err("G4 needs P, the dwell time (s)", b.span)
+    if not words.g4:
+        raise ctx.err("P is the dwell time of G4 (s): give G4 in the same block", p[1])
     if words.target or words.center:
         raise ctx.err("G4 dwells and moves nothing: no axis words in its block", b.span)
-    ctx.dwell(words.p_word[0], b.span)
+    ctx.dwell(p[0], b.span)
 
 
-def _preset(st: MachineState, words: _Words, b: ast.Block, err) -> None:
+def _preset(st: MachineState, words: _Words, b: ast.Block, err: MakeError) -> None:
     """G92: the current position takes the given values."""
     for a, v in words.target.items():
         _check_position(a, v, b.span, err)
@@ -348,10 +413,11 @@ def _move(st: MachineState, words: _Words, b: ast.Block, ctx: BlockContext) -> N
         raise err(f"T{st.tool}, the current tool, is not in the tool table (have "
                   f"{', '.join(f'T{k}' for k in sorted(tools)) or 'none'})", b.span)
     kind = "rapid" if motion == "rapid" else ("arc" if motion in ("cw", "ccw") else "line")
-    move = {"kind": kind, "start": (st.pos["X"], st.pos["Y"]), "end": (new["X"], new["Y"]),
+    feed = None if motion == "rapid" or st.feed is None else st.feed / st.time_per_unit
+    move: Move = {"kind": kind, "start": (st.pos["X"], st.pos["Y"]), "end": (new["X"], new["Y"]),
             "c0": st.pos["C"], "c1": new["C"], "beam": st.laser,
             "z0": st.pos["Z"], "z1": new["Z"],
-            "feed": None if motion == "rapid" else st.feed / st.time_per_unit,
+            "feed": feed,
             "rotary_feed": None if st.rotary_feed is None else st.rotary_feed / st.time_per_unit,
             "line": b.span.line, "span": b.span,
             "tool_r": tools[st.tool],
@@ -365,7 +431,7 @@ def _move(st: MachineState, words: _Words, b: ast.Block, ctx: BlockContext) -> N
     st.pos = new
 
 
-def _need_feed(st: MachineState, b: ast.Block, err) -> None:
+def _need_feed(st: MachineState, b: ast.Block, err: MakeError) -> None:
     """A feed move needs a feed: the last F, else the default feed (with a
     warning), else an error."""
     if st.feed is not None:
@@ -379,7 +445,7 @@ def _need_feed(st: MachineState, b: ast.Block, err) -> None:
                        f"feed {st.default_feed:g} mm/s is used until an F is given")
 
 
-def _arc(st: MachineState, words: _Words, move: dict, b: ast.Block, ctx: BlockContext) -> None:
+def _arc(st: MachineState, words: _Words, move: Move, b: ast.Block, ctx: BlockContext) -> None:
     err, center = ctx.err, words.center
     if "I" not in center and "J" not in center:
         raise err("arc without I or J (centre offset)", b.span)
@@ -409,7 +475,7 @@ def _arc(st: MachineState, words: _Words, move: dict, b: ast.Block, ctx: BlockCo
     move["ccw"] = ccw
 
 
-def _rotate_target(st: MachineState, target: dict, new: dict) -> None:
+def _rotate_target(st: MachineState, target: dict[str, float], new: dict[str, float]) -> None:
     """``new`` X, Y for a move programmed in the frame turned by G84: the
     programmed coordinates are in the turned frame (+ counter-clockwise)."""
     cr, sr = math.cos(st.rotation), math.sin(st.rotation)
@@ -422,7 +488,7 @@ def _rotate_target(st: MachineState, target: dict, new: dict) -> None:
     new["X"], new["Y"] = cr * px - sr * py, sr * px + cr * py
 
 
-def _check_position(axis: str, value: float, span: ast.Span, err) -> None:
+def _check_position(axis: str, value: float, span: ast.Span, err: MakeError) -> None:
     if axis == "C":
         if not abs(value) <= MAX_ANGLE_DEG:
             raise err(f"C position {value:.6g}° is beyond ±{MAX_ANGLE_DEG:g}° (MAX_ANGLE_DEG)",
@@ -433,23 +499,23 @@ def _check_position(axis: str, value: float, span: ast.Span, err) -> None:
 
 
 # -- cutter compensation --------------------------------------------------------------------------
-def _unit(v):
+def _unit(v: Point) -> Point:
     n = math.hypot(*v)
     return (v[0] / n, v[1] / n) if n > 0 else (0.0, 0.0)
 
 
-def _left(d):
+def _left(d: Point) -> Point:
     return (-d[1], d[0])
 
 
-def _offset(move, side: int, r_t: float, warnings: list[str]):
+def _offset(move: Move, side: int, r_t: float, warnings: list[str]) -> Move:
     """The move offset by r_t to ``side`` (+1 left, −1 right) of travel."""
     s, e = move["start"], move["end"]
     if move["kind"] != "arc":
         d = _unit((e[0] - s[0], e[1] - s[1]))
         n = _left(d)
         o = (side * r_t * n[0], side * r_t * n[1])
-        return dict(move, start=(s[0] + o[0], s[1] + o[1]), end=(e[0] + o[0], e[1] + o[1]))
+        return move | {"start": (s[0] + o[0], s[1] + o[1]), "end": (e[0] + o[0], e[1] + o[1])}
     c = move["center"]
     r = math.dist(s, c)
     # left of a CCW arc is towards the centre
@@ -460,77 +526,92 @@ def _offset(move, side: int, r_t: float, warnings: list[str]):
                         f"tool radius {r_t:.6g} mm; the compensated path collapses to its centre")
         rn = 0.0
 
-    def at(p):
+    def at(p: Point) -> Point:
         u = _unit((p[0] - c[0], p[1] - c[1]))
         return (c[0] + rn * u[0], c[1] + rn * u[1])
-    out = dict(move, start=at(s), end=at(e))
+    out = move | {"start": at(s), "end": at(e)}
     if rn == 0.0:
         out["kind"] = "point"
     return out
 
 
-def _intersect(a, b, corner):
+def _direction(m: Move) -> Point:
+    """Unit direction of a line move."""
+    return _unit((m["end"][0] - m["start"][0], m["end"][1] - m["start"][1]))
+
+
+def _line_line(p: Point, d: Point, q: Point, e: Point) -> list[Point]:
+    """Intersection of the lines p + t d and q + s e (none if parallel)."""
+    den = d[0] * e[1] - d[1] * e[0]
+    if abs(den) > tol.gcode.parallel:
+        t = ((q[0] - p[0]) * e[1] - (q[1] - p[1]) * e[0]) / den
+        return [(p[0] + t * d[0], p[1] + t * d[1])]
+    return []
+
+
+def _circle_circle(c0: Point, r0: float, c1: Point, r1: float) -> list[Point]:
+    """Intersections of two circles (none if apart, nested or concentric)."""
+    dd = math.dist(c0, c1)
+    if not (tol.gcode.length < dd <= r0 + r1 and dd >= abs(r0 - r1)):
+        return []
+    a_ = (r0 * r0 - r1 * r1 + dd * dd) / (2 * dd)
+    h = math.sqrt(max(r0 * r0 - a_ * a_, 0.0))
+    ex = ((c1[0] - c0[0]) / dd, (c1[1] - c0[1]) / dd)
+    m = (c0[0] + a_ * ex[0], c0[1] + a_ * ex[1])
+    return [(m[0] - h * ex[1], m[1] + h * ex[0]), (m[0] + h * ex[1], m[1] - h * ex[0])]
+
+
+def _line_circle(p: Point, d: Point, c: Point, r: float) -> list[Point]:
+    """Intersections of the line p + t d (d a unit vector) with a circle."""
+    f = (p[0] - c[0], p[1] - c[1])
+    bq = f[0] * d[0] + f[1] * d[1]
+    cq = f[0] ** 2 + f[1] ** 2 - r * r
+    disc = bq * bq - cq
+    pts: list[Point] = []
+    if disc >= 0:
+        for sgn in (-1, 1):
+            t = -bq + sgn * math.sqrt(disc)
+            pts.append((p[0] + t * d[0], p[1] + t * d[1]))
+    return pts
+
+
+def _intersect(a: Move, b: Move, corner: Point) -> Point | None:
     """Intersection of offset elements a, b (lines or circles) nearest the
     programmed corner, or None."""
-    def as_geo(m):
-        if m["kind"] == "arc":
-            return ("c", m["center"], math.dist(m["start"], m["center"]))
-        return ("l", m["start"], _unit((m["end"][0] - m["start"][0],
-                                        m["end"][1] - m["start"][1])))
-    ga, gb = as_geo(a), as_geo(b)
-    pts = []
-    if ga[0] == "l" and gb[0] == "l":
-        p, d = ga[1], ga[2]
-        q, e = gb[1], gb[2]
-        den = d[0] * e[1] - d[1] * e[0]
-        if abs(den) > tol.gcode.parallel:
-            t = ((q[0] - p[0]) * e[1] - (q[1] - p[1]) * e[0]) / den
-            pts.append((p[0] + t * d[0], p[1] + t * d[1]))
+    a_arc, b_arc = a["kind"] == "arc", b["kind"] == "arc"
+    if not a_arc and not b_arc:
+        pts = _line_line(a["start"], _direction(a), b["start"], _direction(b))
+    elif a_arc and b_arc:
+        pts = _circle_circle(a["center"], math.dist(a["start"], a["center"]),
+                             b["center"], math.dist(b["start"], b["center"]))
     else:
-        if ga[0] == "c" and gb[0] == "c":
-            (c0, r0), (c1, r1) = (ga[1], ga[2]), (gb[1], gb[2])
-            dd = math.dist(c0, c1)
-            if tol.gcode.length < dd <= r0 + r1 and dd >= abs(r0 - r1):
-                a_ = (r0 * r0 - r1 * r1 + dd * dd) / (2 * dd)
-                h = math.sqrt(max(r0 * r0 - a_ * a_, 0.0))
-                ex = ((c1[0] - c0[0]) / dd, (c1[1] - c0[1]) / dd)
-                m = (c0[0] + a_ * ex[0], c0[1] + a_ * ex[1])
-                pts += [(m[0] - h * ex[1], m[1] + h * ex[0]), (m[0] + h * ex[1], m[1] - h * ex[0])]
-        else:
-            line, circ = (ga, gb) if ga[0] == "l" else (gb, ga)
-            p, d = line[1], line[2]
-            c, r = circ[1], circ[2]
-            f = (p[0] - c[0], p[1] - c[1])
-            bq = f[0] * d[0] + f[1] * d[1]
-            cq = f[0] ** 2 + f[1] ** 2 - r * r
-            disc = bq * bq - cq
-            if disc >= 0:
-                for sgn in (-1, 1):
-                    t = -bq + sgn * math.sqrt(disc)
-                    pts.append((p[0] + t * d[0], p[1] + t * d[1]))
+        line, circ = (b, a) if a_arc else (a, b)
+        pts = _line_circle(line["start"], _direction(line), circ["center"],
+                           math.dist(circ["start"], circ["center"]))
     if not pts:
         return None
     return min(pts, key=lambda q: math.dist(q, corner))
 
 
-def compensate(raw: list[dict], warnings: list[str]) -> list[Segment]:
+def compensate(raw: list[Move], warnings: list[str]) -> list[Segment]:
     """Apply cutter compensation to the programmed moves; the segments."""
     n = len(raw)
-    offs = [None] * n
+    offs: list[Move | None] = [None] * n
     for i, m in enumerate(raw):
         side = m["comp_after"] if m["comp_before"] == m["comp_after"] else 0
         if side and m["tool_r"] > 0 and m["kind"] != "rapid":
             offs[i] = _offset(m, side, m["tool_r"], warnings)
-    out: list[dict] = []
+    out: list[Move] = []
     for i, m in enumerate(raw):
-        if offs[i] is not None:
-            _append_offset(out, dict(offs[i]), m, i > 0 and offs[i - 1] is not None)
+        off = offs[i]
+        if off is not None:
+            _append_offset(out, off.copy(), m, i > 0 and offs[i - 1] is not None)
         else:
             out.append(_uncompensated(m, out, offs[i + 1] if i + 1 < n else None))
     return [_segment(m) for m in out]
 
 
-def _append_offset(out: list[dict], cur: dict, m: dict, after_offset: bool) -> None:
+def _append_offset(out: list[Move], cur: Move, m: Move, after_offset: bool) -> None:
     """Append a compensated element, joined to the previous compensated one:
     trimmed at their intersection (concave) or by a round corner (convex)."""
     if after_offset and out:
@@ -542,15 +623,16 @@ def _append_offset(out: list[dict], cur: dict, m: dict, after_offset: bool) -> N
                 out[-1] = _trim_end(out[-1], q)
                 cur = _trim_start(cur, q)
             else:  # convex corner: round it about the programmed point
-                out.append(dict(m, kind="arc", start=p_end, end=cur["start"],
-                                center=m["start"], ccw=(m["comp_after"] < 0), z1=m["z0"]))
+                out.append(m | {"kind": "arc", "start": p_end, "end": cur["start"],
+                                "center": m["start"], "ccw": m["comp_after"] < 0,
+                                "z1": m["z0"]})
     out.append(cur)
 
 
-def _uncompensated(m: dict, out: list[dict], next_offset: dict | None) -> dict:
+def _uncompensated(m: Move, out: list[Move], next_offset: Move | None) -> Move:
     """A move without compensation; the ramps switching it on (off) end
     (start) at the offset path."""
-    mm = dict(m)
+    mm = m.copy()
     if m["comp_before"] != m["comp_after"] and m["comp_after"] and next_offset is not None:
         mm["end"] = next_offset["start"]
         if mm["kind"] == "arc":
@@ -563,21 +645,25 @@ def _uncompensated(m: dict, out: list[dict], next_offset: dict | None) -> dict:
     return mm
 
 
-def _segment(m: dict) -> Segment:
+def _point(p: Point) -> Point:
+    return (p[0], p[1])
+
+
+def _segment(m: Move) -> Segment:
     kind = m["kind"]
     if kind == "point":
         kind = "line"
-        m = dict(m, start=m["center"], end=m["center"], center=None)
-    return Segment(kind, tuple(m["start"]), tuple(m["end"]), bool(m["beam"]),
+        m = m | {"start": m["center"], "end": m["center"]}
+    return Segment(kind, _point(m["start"]), _point(m["end"]), bool(m["beam"]),
                    float(m["c0"]), float(m["c1"]), m["feed"], int(m["line"]),
-                   tuple(m["center"]) if kind == "arc" else None,
+                   _point(m["center"]) if kind == "arc" else None,
                    bool(m.get("ccw", True)), m.get("rotary_feed"),
                    float(m.get("z0", 0.0)), float(m.get("z1", 0.0)))
 
 
-def _trim_end(m, q):
-    return dict(m, end=q)
+def _trim_end(m: Move, q: Point) -> Move:
+    return m | {"end": q}
 
 
-def _trim_start(m, q):
-    return dict(m, start=q)
+def _trim_start(m: Move, q: Point) -> Move:
+    return m | {"start": q}

@@ -115,6 +115,7 @@ tokens.
 from __future__ import annotations
 
 import re
+from collections.abc import Callable
 
 from . import ast
 from .commands import COMMANDS, RECORDED, commands_by_parser
@@ -129,6 +130,9 @@ from .macros import (
     MAX_NESTING,
     MAX_PROGRAM_EXPANSIONS,
     SUB_NAME,
+    Budget,
+    Macros,
+    Piece,
     directive,
     expand,
     origin,
@@ -203,17 +207,26 @@ _ENSEMBLE = re.compile(
 _ENSEMBLE_START = frozenset("HhPpDdEe")
 
 
+#: ``FOR $var = start TO end [STEP step]``: the variable and the expressions.
+_ForHead = tuple[str, ast.Expr, ast.Expr, ast.Expr | None]
+#: What opens a block: REPEAT's count, WHILE's and IF's condition, FOR's head,
+#: DFS's name; None for the program's top level.
+_Head = ast.Expr | str | _ForHead | None
+#: The expression node types (:data:`gcode.ast.Expr`), for isinstance.
+_EXPR_TYPES = (ast.Num, ast.Var, ast.Neg, ast.BinOp, ast.Compare, ast.Logic, ast.Not)
+
+
 class _Open:
     """A line that opens a block: ``REPEAT``, ``WHILE``, ``IF``, ``FOR``, ``DFS``."""
 
-    def __init__(self, kind: str, head, span: ast.Span):
+    def __init__(self, kind: str, head: _Head, span: ast.Span):
         self.kind, self.head, self.span = kind, head, span
 
 
 class _Branch:
     """``ELSEIF cond THEN`` (head the condition) or ``ELSE`` (head None)."""
 
-    def __init__(self, head, span: ast.Span):
+    def __init__(self, head: ast.Expr | None, span: ast.Span):
         self.head, self.span = head, span
 
 
@@ -223,6 +236,9 @@ class _Close:
     def __init__(self, kind: str, span: ast.Span):
         self.kind, self.span = kind, span
 
+
+#: What one line reads as: a statement or a block marker.
+_Item = ast.Stmt | _Open | _Branch | _Close
 
 _CLOSERS = {"REPEAT": "END REPEAT", "WHILE": "ENDWHILE", "IF": "ENDIF", "DFS": "ENDDFS",
             "FOR": "NEXT"}
@@ -292,9 +308,9 @@ class _Program:
 
     def __init__(self, lenient: bool, max_statements: int, max_tokens: int):
         self.lenient, self.max_statements, self.max_tokens = lenient, max_statements, max_tokens
-        self.stack: list[_Frame] = [_Frame(None, None, None)]
+        self.stack: list[_Frame] = [_Frame(None, None, ast.Span(0, 0, ""))]
         self.subs: dict[str, ast.Sub] = {}
-        self.macros: dict[str, str] = {}
+        self.macros: Macros = {}
         self.warnings: list[str] = []
         self.count = 0
         self.tokens = 0
@@ -354,7 +370,7 @@ class _Program:
         self.charge_statement(err.line, err.column, err.text)
         self.warnings.append(f"{err} (statement skipped)")
 
-    def add(self, item) -> None:
+    def add(self, item: _Item) -> None:
         span = item.span
         self.charge_statement(span.line, span.col, span.text)
         if isinstance(item, _Open):
@@ -406,12 +422,13 @@ class _Program:
     def program(self) -> ast.Program:
         if len(self.stack) > 1:
             top = self.stack[-1]
-            raise GCodeError(f"{top.kind} without {_CLOSERS[top.kind]}", *_where(top.span))
+            raise GCodeError(f"{top.kind} without {_CLOSERS.get(top.kind or '')}",
+                             *_where(top.span))
         return ast.Program(tuple(self.stack[0].body), tuple(self.warnings),
                            tuple(self.subs.values()), tuple(self.macros.items()))
 
 
-def _ensemble_error(m, lineno: int) -> GCodeError:
+def _ensemble_error(m: re.Match[str], lineno: int) -> GCodeError:
     return GCodeError(
         f"this is Ensemble AeroBasic, not A3200 AeroBasic: {m.group(1).split()[0].upper()}"
         " belongs to the Ensemble dialect (HEADER … END HEADER, PROGRAM … END PROGRAM, "
@@ -421,27 +438,29 @@ def _ensemble_error(m, lineno: int) -> GCodeError:
 
 
 class _Frame:
-    """A block being parsed: its kind, header and branches of statements."""
+    """A block being parsed: its kind, header and branches of statements
+    (``(condition, statements)``; the condition is None but for IF's)."""
 
-    def __init__(self, kind: str | None, head, span: ast.Span | None):
-        self.kind, self.span = kind, span
-        self.branches: list[tuple] = [(head, [])]
+    def __init__(self, kind: str | None, head: _Head, span: ast.Span):
+        self.kind, self.head, self.span = kind, head, span
+        first = head if isinstance(head, _EXPR_TYPES) else None
+        self.branches: list[tuple[ast.Expr | None, list[ast.Stmt]]] = [(first, [])]
 
     @property
-    def body(self) -> list:
+    def body(self) -> list[ast.Stmt]:
         return self.branches[-1][1]
 
-    def node(self):
-        head, body = self.branches[0]
+    def node(self) -> ast.Stmt | ast.Sub:
+        head, body = self.head, tuple(self.branches[0][1])
+        if self.kind == "IF" or head is None:
+            return ast.If(tuple((c, tuple(b)) for c, b in self.branches), self.span)
+        if isinstance(head, str):                   # DFS name
+            return ast.Sub(head, body, self.span)
+        if isinstance(head, tuple):                 # FOR $var = start TO end STEP step
+            return ast.For(*head, body, self.span)
         if self.kind == "REPEAT":
-            return ast.Repeat(head, tuple(body), self.span)
-        if self.kind == "WHILE":
-            return ast.While(head, tuple(body), self.span)
-        if self.kind == "DFS":
-            return ast.Sub(head, tuple(body), self.span)
-        if self.kind == "FOR":
-            return ast.For(*head, tuple(body), self.span)
-        return ast.If(tuple((c, tuple(b)) for c, b in self.branches), self.span)
+            return ast.Repeat(head, body, self.span)
+        return ast.While(head, body, self.span)
 
 
 def parse_expression(text: str) -> ast.Expr:
@@ -522,10 +541,11 @@ def _check_count(count: int, limit: int, line: int, col: int, text: str) -> None
 
 class _Line(ExpressionParser):
     """Recursive-descent parser of the tokens of one line: the statement
-    parsers ``st_<name>``, one for each ``parser`` of the command table."""
+    parsers ``st_<name>``, one for each ``parser`` of the command table
+    (:data:`_STATEMENT_PARSERS`)."""
 
     def __init__(self, line: str, lineno: int, tokens: list[Token] | None = None,
-                 macros: dict[str, str] | None = None, expansions: list | None = None):
+                 macros: Macros | None = None, expansions: Budget | None = None):
         self.line, self.lineno = line, lineno
         self.cond = False           # inside an IF/WHILE condition: '=' compares
         self.pos = 0
@@ -540,21 +560,21 @@ class _Line(ExpressionParser):
         self.tokens = _expanded_tokens(code, pieces, lineno, tokens)
 
     # -- statements -------------------------------------------------------------
-    def statement(self):
+    def statement(self) -> _Item | None:
         """The line's statement, a block marker, or None for an empty line."""
         toks = self.tokens
         if not toks or (self.line_number() and self.peek() is None):
             return None
         span = ast.Span(self.lineno, toks[0].col, self.line[toks[0].col - 1:toks[-1].end])
-        start = self.peek()
+        start = self.tokens[self.pos]       # there is one: checked above
         if start.kind == "var":
             return self.assignment(span)
         if start.kind != "ident":
             raise self.error(f"expected a statement, found {start.text!r}", start)
-        cmd = COMMANDS.get(start.value)
+        cmd = COMMANDS.get(start.str_value)
         if cmd is not None:
-            return getattr(self, f"st_{cmd.parser}")(start, span)
-        if len(start.value) == 1:
+            return _STATEMENT_PARSERS[cmd.parser](self, start, span)
+        if len(start.str_value) == 1:
             return self.st_block(start, span)
         raise self.error(f"unknown keyword {start.text!r}", start, UnsupportedError)
 
@@ -573,7 +593,7 @@ class _Line(ExpressionParser):
     def next_word(self) -> str | None:
         """The identifier after the statement's first token, if any."""
         nxt = self.tokens[self.pos + 1] if self.pos + 1 < len(self.tokens) else None
-        return nxt.value if nxt is not None and nxt.kind == "ident" else None
+        return nxt.str_value if nxt is not None and nxt.kind == "ident" else None
 
     def st_dvar(self, start: Token, span: ast.Span) -> ast.DVar:
         return self.dvar(span)
@@ -586,9 +606,9 @@ class _Line(ExpressionParser):
         self.expect_end()
         return _Open("REPEAT", count, span)
 
-    def st_if(self, start: Token, span: ast.Span):
+    def st_if(self, start: Token, span: ast.Span) -> _Open | _Branch:
         """``IF``/``ELSEIF cond THEN``, ``WHILE cond [DO]``."""
-        kw = start.value
+        kw = start.str_value
         self.advance()
         if self.peek() is None:
             raise self.error(f"{kw} needs a condition", start)
@@ -598,9 +618,9 @@ class _Line(ExpressionParser):
             self.advance()
         elif kw != "WHILE":
             raise self.error(f"{kw} … needs THEN at the end of its line", self.peek() or start)
-        if self.peek() is not None:
-            raise self.error(f"unexpected {self.peek().text!r}: {kw} … {closing} ends its "
-                             "line; write the statements on the lines below", self.peek())
+        if (extra := self.peek()) is not None:
+            raise self.error(f"unexpected {extra.text!r}: {kw} … {closing} ends its "
+                             "line; write the statements on the lines below", extra)
         return _Open(kw, cond, span) if kw != "ELSEIF" else _Branch(cond, span)
 
     def st_else(self, start: Token, span: ast.Span) -> _Branch:
@@ -612,14 +632,14 @@ class _Line(ExpressionParser):
         """``ENDREPEAT``, ``ENDWHILE``, ``ENDIF``, ``ENDDFS``."""
         self.advance()
         self.expect_end()
-        return _Close(start.value[3:], span)
+        return _Close(start.str_value[3:], span)
 
     def st_for(self, start: Token, span: ast.Span) -> _Open:
         return self.for_head(start, span)
 
     def st_next(self, start: Token, span: ast.Span) -> _Close:
         self.advance()
-        if self.peek() is not None and self.peek().kind == "var":
+        if (var := self.peek()) is not None and var.kind == "var":
             self.advance()
         self.expect_end()
         return _Close("FOR", span)
@@ -655,27 +675,27 @@ class _Line(ExpressionParser):
         return ast.NoMotion("FREERUN", f"auxiliary axis {axis.value} runs free (not a path "
                             "axis: X Y Z C)", span)
 
-    def st_unsimulated(self, start: Token, span: ast.Span):
+    def st_unsimulated(self, start: Token, span: ast.Span) -> _Item:
         raise self.error(f"{start.value} moves axes in a way tipgeo cannot simulate; a move "
                          "that cannot be evaluated is an error in every mode", start)
 
     def st_no_motion(self, start: Token, span: ast.Span) -> ast.NoMotion:
-        kw = start.value
+        kw = start.str_value
         what = NO_MOTION[kw]
         after = self.next_word()
         toks, i = self.tokens, self.pos
         if kw in _TASK_WORD and after is None and len(toks) > i + 2 \
                 and toks[i + 1].kind == "num" and toks[i + 2].kind == "ident":
-            after = toks[i + 2].value       # PROGRAM 1 RUN "other.pgm"
+            after = toks[i + 2].str_value   # PROGRAM 1 RUN "other.pgm"
         self.pos = len(self.tokens)
         if after is not None and len(after) > 1:
             kw, what = f"{kw} {after}", f"{what}: {after}"
         return ast.NoMotion(kw, what, span)
 
-    def st_mode(self, start: Token, span: ast.Span):
-        if start.value == "END" and self.next_word() in _END_BLOCKS:
-            kind = self.next_word()          # END REPEAT, END WHILE, END IF, END DFS
-            self.pos += 2
+    def st_mode(self, start: Token, span: ast.Span) -> ast.Mode | _Close:
+        kind = self.next_word()
+        if start.value == "END" and kind is not None and kind in _END_BLOCKS:
+            self.pos += 2                    # END REPEAT, END WHILE, END IF, END DFS
             self.expect_end()
             return _Close(kind, span)
         return self.mode(span)
@@ -683,7 +703,7 @@ class _Line(ExpressionParser):
     def st_pso(self, start: Token, span: ast.Span) -> ast.Pso:
         return self.pso(span)
 
-    def st_block(self, start: Token, span: ast.Span):
+    def st_block(self, start: Token, span: ast.Span) -> ast.Block | ast.Mode:
         return self.block(span)
 
     def for_head(self, start: Token, span: ast.Span) -> _Open:
@@ -700,11 +720,11 @@ class _Line(ExpressionParser):
         end = self.keyword_expr("TO", start)
         step = self.keyword_expr("STEP", start) if self.peek() is not None else None
         self.expect_end()
-        return _Open("FOR", (var.value, first, end, step), span)
+        return _Open("FOR", (var.str_value, first, end, step), span)
 
     def keyword_expr(self, word: str, start: Token) -> ast.Expr:
         tok = self.peek()
-        if not self.is_word(word):
+        if tok is None or not self.is_word(word):
             raise self.error(f"FOR … needs {word}", tok or start)
         self.advance()
         return self.need_expr(tok)
@@ -717,7 +737,7 @@ class _Line(ExpressionParser):
         m = SUB_NAME.match(self.line, tok.col - 1) if tok.width is None else None
         text = m.group(0) if m is not None else tok.text
         stop = tok.col - 1 + len(text)
-        while self.peek() is not None and self.peek().col - 1 < stop:
+        while (nxt := self.peek()) is not None and nxt.col - 1 < stop:
             self.advance()
         return text.upper()
 
@@ -727,18 +747,18 @@ class _Line(ExpressionParser):
             self.advance()
             if tok.kind == "op" and tok.value == ",":
                 continue
-            if tok.kind != "ident" or len(tok.value) != 1:
+            if tok.kind != "ident" or len(tok.str_value) != 1:
                 raise self.error(f"CALL arguments are letter words (P1 Q$x), found {tok.text!r}",
                                  tok)
-            if self.peek() is None or self.peek().kind in ("ident", "str"):
+            if (arg := self.peek()) is None or arg.kind in ("ident", "str"):
                 raise self.error(f"the argument {tok.text} needs a value", tok)
             value, _ = self.unary(0)
             if any(letter == tok.value for letter, _ in args):
                 raise self.error(f"argument {tok.value} given twice", tok)
-            args.append((tok.value, value))
+            args.append((tok.str_value, value))
         return ast.Call(name, tuple(args), span)
 
-    def assignment(self, span: ast.Span):
+    def assignment(self, span: ast.Span) -> _Item:
         var = self.advance()
         index = self.index_suffix()
         if not self.is_op("="):
@@ -752,13 +772,13 @@ class _Line(ExpressionParser):
             return special
         expr, _ = self.expr(0)
         self.expect_end()
-        if index or IO_NAME.match(var.value):
-            return ast.SysAssign(var.value, tuple(index), expr, span)
-        return ast.Assign(var.value, expr, span)
+        if index or IO_NAME.match(var.str_value):
+            return ast.SysAssign(var.str_value, tuple(index), expr, span)
+        return ast.Assign(var.str_value, expr, span)
 
-    def index_suffix(self) -> list:
+    def index_suffix(self) -> list[ast.IndexPart]:
         """``[i]``, ``.X`` and glued ``.0`` parts after a system variable's name."""
-        index: list = []
+        index: list[ast.IndexPart] = []
         while (tok := self.peek()) is not None:
             if tok.kind == "op" and tok.value == "[":
                 index.append(self.bracket_index(tok))
@@ -768,7 +788,7 @@ class _Line(ExpressionParser):
                 if field is None or field.kind != "ident":
                     raise self.error("expected a field name after '.'", field or tok)
                 self.advance()
-                index.append(field.value)
+                index.append(field.str_value)
             elif tok.kind == "num" and tok.text.startswith(".") and tok.text[1:].isdigit():
                 self.advance()           # $DO0.0: output 0 of bank 0
                 index.append(tok.text)
@@ -786,24 +806,26 @@ class _Line(ExpressionParser):
         self.advance()
         return value
 
-    def special_assignment(self, var: Token, span: ast.Span):
+    def special_assignment(self, var: Token, span: ast.Span) -> ast.Stmt | None:
         """A status read, a string expression or a file/message function on
-        the right of ``$var =``, or None for an ordinary expression."""
-        tok = self.peek()
+        the right of ``$var =`` (a token follows it), or None for an ordinary
+        expression."""
+        tok = self.tokens[self.pos]
         rest = self.tokens[self.pos:]
-        if tok.kind == "ident" and tok.value in STATUS_FUNCTIONS:
+        if tok.kind == "ident" and tok.str_value in STATUS_FUNCTIONS:
             self.pos = len(self.tokens)     # $z = AXISSTATUS(Z, DATAITEM_…)
-            return ast.StatusRead(var.value, tok.value, span)
-        stringy = any(t.kind == "str" or (t.kind == "ident" and t.value in STRING_FUNCTIONS)
+            return ast.StatusRead(var.str_value, tok.str_value, span)
+        stringy = any(t.kind == "str" or (t.kind == "ident" and t.str_value in STRING_FUNCTIONS)
                       for t in rest)
-        evaluated = all(t.kind != "ident" or t.value in _EVALUATED_STRING_FUNCTIONS
+        evaluated = all(t.kind != "ident" or t.str_value in _EVALUATED_STRING_FUNCTIONS
                         for t in rest)
         if stringy and evaluated:
             tree = self.string_expr()
             self.expect_end()
-            return ast.StringAssign(var.value, tree, span)
-        if tok.kind == "ident" and tok.value in NO_MOTION and tok.value not in STRING_FUNCTIONS:
-            kw = self.advance().value       # $h = FILEOPEN "log.txt", 2
+            return ast.StringAssign(var.str_value, tree, span)
+        if tok.kind == "ident" and tok.str_value in NO_MOTION \
+                and tok.str_value not in STRING_FUNCTIONS:
+            kw = self.advance().str_value   # $h = FILEOPEN "log.txt", 2
             self.pos = len(self.tokens)
             return ast.NoMotion(kw, f"{NO_MOTION[kw]} (result in {self.source(var)})", span)
         if stringy:
@@ -818,7 +840,7 @@ class _Line(ExpressionParser):
         while (tok := self.peek()) is not None:
             self.advance()
             if tok.kind == "var":
-                names.append(tok.value)
+                names.append(tok.str_value)
                 if self.is_op("["):                 # an array: DVAR $pts[100]
                     self.advance()
                     if self.peek() is None:
@@ -839,8 +861,8 @@ class _Line(ExpressionParser):
         if head.value == "ENABLE":
             while (tok := self.peek()) is not None:
                 self.advance()
-                if tok.kind == "ident" and re.fullmatch(r"[A-Z][A-Z0-9_]*", tok.value):
-                    args.append(tok.value)      # any axis name: X Y Z C, D, U, AA …
+                if tok.kind == "ident" and re.fullmatch(r"[A-Z][A-Z0-9_]*", tok.str_value):
+                    args.append(tok.str_value)  # any axis name: X Y Z C, D, U, AA …
                 elif not (tok.kind == "op" and tok.value == ","):
                     raise self.error(f"ENABLE expects axis names, found {tok.text!r}", tok)
             if not args:
@@ -852,7 +874,7 @@ class _Line(ExpressionParser):
             self.expect_end()
         else:
             self.expect_end()
-        return ast.Mode(head.value, tuple(args), span)
+        return ast.Mode(head.str_value, tuple(args), span)
 
     def pso(self, span: ast.Span) -> ast.Pso:
         head = self.advance()
@@ -860,19 +882,19 @@ class _Line(ExpressionParser):
         if axis is None or axis.kind != "ident" or axis.value not in AXIS_LETTERS:
             raise self.error(f"{head.value} needs an axis letter", axis or head)
         self.advance()
-        args: list = []
+        args: list[ast.PsoArg] = []
         while (tok := self.peek()) is not None:
             if tok.kind == "op" and tok.value == ",":
                 self.advance()
             elif tok.kind == "ident":
                 self.advance()
-                args.append(tok.value)
+                args.append(tok.str_value)
             else:
                 expr, _ = self.expr(0)
                 args.append(expr)
-        return ast.Pso(head.value, axis.value, tuple(args), span)
+        return ast.Pso(head.str_value, axis.str_value, tuple(args), span)
 
-    def block(self, span: ast.Span) -> ast.Block:
+    def block(self, span: ast.Span) -> ast.Block | ast.Mode:
         words: list[ast.Word] = []
         keywords: list[str] = []
         while (tok := self.peek()) is not None:
@@ -881,10 +903,10 @@ class _Line(ExpressionParser):
                 if tok.kind == "op" and tok.value == ")":
                     raise self.error("unbalanced parenthesis: unexpected ')'", tok)
                 raise self.error(f"expected a word, found {tok.text!r}", tok)
-            if tok.value in MOTION_KEYWORDS:
-                keywords.append(tok.value)
+            if tok.str_value in MOTION_KEYWORDS:
+                keywords.append(tok.str_value)
                 continue
-            if len(tok.value) > 1:
+            if len(tok.str_value) > 1:
                 raise self.error(f"unknown keyword {tok.text!r}", tok, UnsupportedError)
             words.append(self.word(tok))
         ends = [w for w in words if w.letter == "M"]
@@ -892,20 +914,22 @@ class _Line(ExpressionParser):
             if len(words) - sum(w.letter == "N" for w in words) != 1 or keywords:
                 raise GCodeError(f"{ends[0].span.text} (end of program) must stand alone",
                                  *_where(ends[0].span))
-            return ast.Mode("END", (f"M{int(ends[0].value.value)}",), span)
+            end = ends[0].value             # M2 or M30: a number (word)
+            code = int(end.value) if isinstance(end, ast.Num) else 0
+            return ast.Mode("END", (f"M{code}",), span)
         return ast.Block(tuple(words), tuple(keywords), span)
 
     def word(self, letter: Token) -> ast.Word:
-        name = letter.value
+        name = letter.str_value
         first = self.pos
-        value = None
+        value: ast.Expr | None = None
         if (nxt := self.peek()) is not None and (
-                nxt.kind in ("num", "var") or (nxt.kind == "op" and nxt.value in "(+-")):
+                nxt.kind in ("num", "var") or (nxt.kind == "op" and nxt.str_value in "(+-")):
             value, _ = self.unary(0)
         text = self.source(letter)
         where = (self.lineno, letter.col, text)
         plain = self.tokens[first] if self.pos == first + 1 else None   # one token: G1, M30
-        if name == "M" and _end_word(plain):
+        if name == "M" and plain is not None and _end_word(plain):
             return ast.Word("M", ast.Num(float(plain.value)), ast.Span(*where))
         _check_letter(name, where)
         if name == "G":
@@ -920,7 +944,7 @@ def _end_word(tok: Token | None) -> bool:
     return tok is not None and tok.kind == "num" and tok.text.isdigit() and tok.value in (2, 30)
 
 
-def _check_letter(name: str, where: tuple) -> None:
+def _check_letter(name: str, where: tuple[int, int, str]) -> None:
     if name not in WORD_LETTERS:
         what = "M words other than M2 and M30 (end of program) are" if name == "M" else \
             f"{name} words are"
@@ -929,7 +953,7 @@ def _check_letter(name: str, where: tuple) -> None:
         raise GCodeError("a line number N must start the line", *where)
 
 
-def _g_code(tok: Token | None, text: str, where: tuple) -> ast.Num:
+def _g_code(tok: Token | None, text: str, where: tuple[int, int, str]) -> ast.Num:
     if tok is None or tok.kind != "num":
         raise GCodeError("a G code must be a plain number", *where)
     if not tok.text.isdigit() or tok.value not in G_CODES:
@@ -937,7 +961,8 @@ def _g_code(tok: Token | None, text: str, where: tuple) -> ast.Num:
     return ast.Num(float(tok.value))
 
 
-def _expanded_tokens(code: str, pieces: list, lineno: int, tokens: list | None) -> list[Token]:
+def _expanded_tokens(code: str, pieces: list[Piece], lineno: int,
+                     tokens: list[Token] | None) -> list[Token]:
     """Tokens of a macro-expanded line, located where their text was written
     (a replacement's tokens at the macro's use)."""
     raw: list[Token] = []
@@ -947,10 +972,20 @@ def _expanded_tokens(code: str, pieces: list, lineno: int, tokens: list | None) 
         col = origin(pieces, err.column - 1)[0] if err.column else 0
         raise type(err)(err.reason, lineno, col, err.text) from None
     finally:
-        mapped = []
+        mapped: list[Token] = []
         for tok in raw:
             col, width = origin(pieces, tok.col - 1)
             mapped.append(Token(tok.kind, tok.value, col, tok.text, width))
         if tokens is not None:
             tokens.extend(mapped)
     return mapped
+
+
+#: The statement parser of each ``parser`` of :data:`gcode.commands.COMMANDS`.
+_STATEMENT_PARSERS: dict[str, Callable[[_Line, Token, ast.Span], _Item]] = {
+    "dvar": _Line.st_dvar, "repeat": _Line.st_repeat, "if": _Line.st_if, "else": _Line.st_else,
+    "close": _Line.st_close, "for": _Line.st_for, "next": _Line.st_next, "dfs": _Line.st_dfs,
+    "call": _Line.st_call, "dwell": _Line.st_dwell, "freerun": _Line.st_freerun,
+    "unsimulated": _Line.st_unsimulated, "no_motion": _Line.st_no_motion,
+    "mode": _Line.st_mode, "pso": _Line.st_pso, "block": _Line.st_block,
+}

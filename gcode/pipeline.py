@@ -9,14 +9,21 @@ the simulated tip in the cannula frame). Used by ``tipgeo gcode`` and
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from . import ast
 from .errors import GCodeError
 from .interpreter import Limits, Toolpath, interpret
 from .parser import parse
+
+if TYPE_CHECKING:
+    from tipgeo.spec import TipSpec
+    from tipgeo.verdict import Verdict
+
+    from .ablation import AblationResult, Comparison
 
 __all__ = ["LaserCheck", "laser_check", "make_limits", "read_program", "write_laser_outputs"]
 
@@ -57,13 +64,13 @@ class LaserCheck:
 
     program: ast.Program
     toolpath: Toolpath
-    ablation: Any = None
-    comparison: dict | None = None
+    ablation: AblationResult | None = None
+    comparison: Comparison | None = None
     files: list[str] = field(default_factory=list)
-    failed: list[dict] = field(default_factory=list)
+    failed: list[dict[str, str]] = field(default_factory=list)
 
     @property
-    def verdict(self):
+    def verdict(self) -> Verdict | None:
         """:class:`tipgeo.verdict.Verdict` of the simulated part against the
         serration spec; None when nothing was compared (no spec, or a spec
         without serrations).
@@ -125,9 +132,10 @@ class LaserCheck:
                                "slugs_removed": res.slugs_removed,
                                "triangles": int(len(res.tip.faces)),
                                "watertight": res.tip.is_watertight}
-        if self.comparison is not None:
+        verdict = self.verdict
+        if self.comparison is not None and verdict is not None:
             out["comparison"] = self.comparison
-            out["verdict"] = self.verdict.to_dict()
+            out["verdict"] = verdict.to_dict()
         if self.files:
             out["pictures"] = [f for f in self.files if f.lower().endswith(".png")]
         out["wrote"] = list(self.files)
@@ -136,7 +144,7 @@ class LaserCheck:
         return out
 
 
-def make_limits(**bounds) -> Limits:
+def make_limits(**bounds: int | None) -> Limits:
     """:class:`Limits` from keyword bounds (None keeps the default); a bound
     that is not a whole number ≥ 0 is a GCodeError naming it."""
     kw = {k: v for k, v in bounds.items() if v is not None}
@@ -146,7 +154,8 @@ def make_limits(**bounds) -> Limits:
         raise GCodeError(f"interpreter limit: {e}") from None
 
 
-def laser_check(program: str | ast.Program, *, beam_diameter: float = 0.020, spec=None,
+def laser_check(program: str | ast.Program, *, beam_diameter: float = 0.020,
+                spec: TipSpec | None = None,
                 origin: tuple[float, float] = (0.0, 0.0), tolerance: float | None = None,
                 lenient: bool = False, limits: Limits | None = None,
                 max_tokens: int | None = None,
@@ -175,37 +184,39 @@ def laser_check(program: str | ast.Program, *, beam_diameter: float = 0.020, spe
     GCodeError — a program error, quoting its line and column.
     """
     if isinstance(program, str):
-        pkw = {} if max_tokens is None else {"max_tokens": max_tokens}
         try:
-            prog = parse(program, lenient=lenient, **pkw)
+            prog = (parse(program, lenient=lenient) if max_tokens is None else
+                    parse(program, lenient=lenient, max_tokens=max_tokens))
         except (TypeError, ValueError) as e:
             if isinstance(e, GCodeError):
                 raise
             raise GCodeError(f"parser limit: {e}") from None
     else:
         prog = program
-    kw = {} if limits is None else {"limits": limits}
-    if default_feed is not None:
-        kw["default_feed"] = default_feed
-    tp = interpret(prog, tool_radii={0: 0.0, 1: beam_diameter / 2}, **kw)
+    tp = interpret(prog, tool_radii={0: 0.0, 1: beam_diameter / 2},
+                   limits=Limits() if limits is None else limits, default_feed=default_feed)
     res = LaserCheck(prog, tp)
     if spec is not None:
         from tipgeo import progress as pg
 
         from .ablation import ablate, compare_with_cutter
 
-        res.ablation = ablate(tp, spec, beam_diameter=beam_diameter, origin=tuple(origin),
-                              tolerance=tolerance)
+        x0, y0 = origin
+        ablation = ablate(tp, spec, beam_diameter=beam_diameter, origin=(x0, y0),
+                          tolerance=tolerance)
+        res.ablation = ablation
         if any(c.process == "laser" for c in spec.cutters):
             with pg.stage("laser: compare with the spec"):
-                res.comparison = compare_with_cutter(res.ablation, spec,
+                res.comparison = compare_with_cutter(ablation, spec,
                                                      beam_diameter=beam_diameter)
     return res
 
 
-def write_laser_outputs(res: LaserCheck, spec=None, *, mesh: str | Path | None = None,
-                        plot: str | Path | None = None,
-                        rim: str | Path | None = None, on_error=None) -> list[str]:
+def write_laser_outputs(res: LaserCheck, spec: TipSpec | None = None, *,
+                        mesh: str | Path | None = None, plot: str | Path | None = None,
+                        rim: str | Path | None = None,
+                        on_error: Callable[[Path, Exception], None] | None = None,
+                        ) -> list[str]:
     """Write the simulated tip (any :mod:`tipgeo.io` format) and the toolpath
     picture, and with ``spec`` and a simulation the unwrapped rim picture
     (``rim``, default ``<plot>-rim.png``), each atomically.
@@ -218,13 +229,14 @@ def write_laser_outputs(res: LaserCheck, spec=None, *, mesh: str | Path | None =
     """
     from tipgeo.io import guarded_export
 
+    ablation = res.ablation
     if mesh is not None:
-        if res.ablation is None:
+        if ablation is None:
             raise GCodeError("mesh: nothing was simulated (give the punch's spec)")
-        if not guarded_export(res.ablation.tip, mesh, failed=res.failed, on_error=on_error,
+        if not guarded_export(ablation.tip, mesh, failed=res.failed, on_error=on_error,
                               dry_run=True):
             mesh = None
-    wrote = []
+    wrote: list[str] = []
     if plot is not None:
         from .plots import plot_toolpath
 
@@ -232,13 +244,13 @@ def write_laser_outputs(res: LaserCheck, spec=None, *, mesh: str | Path | None =
         wrote.append(str(plot))
         if rim is None:
             rim = Path(plot).with_name(Path(plot).stem + "-rim.png")
-    if rim is not None and res.ablation is not None and spec is not None:
+    if rim is not None and ablation is not None and spec is not None:
         from .plots import plot_rim
 
-        plot_rim(res.ablation.tip, spec, rim)
+        plot_rim(ablation.tip, spec, rim)
         wrote.append(str(rim))
-    if mesh is not None and guarded_export(res.ablation.tip, mesh, failed=res.failed,
-                                           on_error=on_error):
+    if mesh is not None and ablation is not None and guarded_export(
+            ablation.tip, mesh, failed=res.failed, on_error=on_error):
         wrote.append(str(mesh))
     res.files += wrote
     return wrote

@@ -5,16 +5,26 @@ cannula frame) against γ (deg)."""
 
 from __future__ import annotations
 
+from pathlib import Path
+from typing import TYPE_CHECKING
+
 import numpy as np
 
 from tipgeo.plot import styled
 from tipgeo.tolerances import tol
 
+if TYPE_CHECKING:
+    from tipgeo.spec import TipSpec
+    from tipgeo.tip import Tip
+
+    from .interpreter import Toolpath
+
 __all__ = ["plot_toolpath", "plot_rim"]
 
 
 @styled
-def plot_toolpath(toolpath, path, *, c_deg: float | None = None, chordal: float = 2e-4):
+def plot_toolpath(toolpath: Toolpath, path: str | Path, *, c_deg: float | None = None,
+                  chordal: float = tol.gcode.plot_chordal) -> Path:
     """Beam-centre path of one C position (default: the first that fires):
     beam on in red, off in grey; and the C angles that fire."""
     import matplotlib
@@ -53,9 +63,9 @@ def plot_toolpath(toolpath, path, *, c_deg: float | None = None, chordal: float 
         ax[1].set_aspect("equal")
         ax[1].set_title(f"{len(cs)} C positions with the beam on")
         ax[1].axis("off")
-    s = toolpath.summary()
-    fig.suptitle(f"path {s['path_length_mm']:.3f} mm, beam on {s['beam_on_length_mm']:.3f} mm, "
-                 f"time {s['time_s']:.1f} s, {s['pulses'] or 0:,} pulses", fontsize=10)
+    sm = toolpath.summary()
+    fig.suptitle(f"path {sm['path_length_mm']:.3f} mm, beam on {sm['beam_on_length_mm']:.3f} "
+                 f"mm, time {sm['time_s']:.1f} s, {sm['pulses'] or 0:,} pulses", fontsize=10)
     fig.tight_layout()
     out = save_figure(fig, path)
     plt.close(fig)
@@ -63,7 +73,8 @@ def plot_toolpath(toolpath, path, *, c_deg: float | None = None, chordal: float 
 
 
 @styled
-def plot_rim(sim_tip, spec, path, *, radii=None):
+def plot_rim(sim_tip: Tip, spec: TipSpec, path: str | Path, *,
+             radii: tuple[float, float] | None = None) -> Path:
     """Unwrapped inner-edge (cutting-edge) profile of the simulated tip
     against the serration cutter's exact edge."""
     import matplotlib

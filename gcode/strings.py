@@ -35,15 +35,19 @@ from __future__ import annotations
 
 import math
 import re
+from collections.abc import Callable, Mapping
 
+from . import ast
 from .errors import GCodeError
 from .expr import evaluate
+
+_Fail = Callable[[str], GCodeError]
 
 __all__ = ["FUNCTIONS", "MAX_STRING_LENGTH", "evaluate_string"]
 
 #: Evaluated string functions: name → kinds of their arguments (``num`` or
 #: ``str``) and the kind of their result.
-FUNCTIONS = {
+FUNCTIONS: dict[str, tuple[tuple[str, ...], str]] = {
     "DBLTOSTR": (("num", "num"), "str"),
     "STRLEN": (("str",), "num"),
     "STRUPR": (("str",), "str"),
@@ -55,7 +59,8 @@ MAX_STRING_LENGTH = 4096
 _NUMBER = re.compile(r"\s*[-+]?(?:[0-9]+\.?[0-9]*|\.[0-9]+)(?:[eE][-+]?[0-9]+)?\s*\Z")
 
 
-def evaluate_string(tree, numbers: dict, strings: dict, span) -> str | float:
+def evaluate_string(tree: ast.StringTree, numbers: Mapping[str, float],
+                    strings: Mapping[str, str], span: ast.Span) -> str | float:
     """Value of a string expression (a str, or a float for ``STRLEN`` …).
 
     Parameters
@@ -72,14 +77,14 @@ def evaluate_string(tree, numbers: dict, strings: dict, span) -> str | float:
     def fail(message: str) -> GCodeError:
         return GCodeError(message, span.line, span.col, span.text)
 
-    kind = tree[0]
-    if kind == "lit":
+    value: str | float
+    if tree[0] == "lit":
         value = tree[1]
-    elif kind == "num":
+    elif tree[0] == "num":
         value = evaluate(tree[1], numbers, span=span)
-    elif kind == "var":
+    elif tree[0] == "var":
         value = _variable(tree[1], numbers, strings, fail)
-    elif kind == "cat":
+    elif tree[0] == "cat":
         value = _join(evaluate_string(tree[1], numbers, strings, span),
                       evaluate_string(tree[2], numbers, strings, span), fail)
     else:
@@ -90,7 +95,8 @@ def evaluate_string(tree, numbers: dict, strings: dict, span) -> str | float:
     return value
 
 
-def _variable(name: str, numbers: dict, strings: dict, fail):
+def _variable(name: str, numbers: Mapping[str, float], strings: Mapping[str, str],
+              fail: _Fail) -> str | float:
     if name in strings:
         return strings[name]
     if name in numbers:
@@ -98,7 +104,7 @@ def _variable(name: str, numbers: dict, strings: dict, fail):
     raise fail(f"unknown variable ${name}")
 
 
-def _join(left, right, fail):
+def _join(left: str | float, right: str | float, fail: _Fail) -> str | float:
     if isinstance(left, str) and isinstance(right, str):
         return left + right
     if isinstance(left, float) and isinstance(right, float):
@@ -110,19 +116,19 @@ def _join(left, right, fail):
                "DBLTOSTR(value, digits) first")
 
 
-def _call(name: str, args: list, fail):
+def _call(name: str, args: list[str | float], fail: _Fail) -> str | float:
     kinds, _ = FUNCTIONS[name]
     for i, (want, value) in enumerate(zip(kinds, args)):
         if (want == "str") != isinstance(value, str):
             raise fail(f"{name}: argument {i + 1} must be a "
                        f"{'string' if want == 'str' else 'number'}")
     if name == "DBLTOSTR":
-        value, digits = args
+        value, digits = float(args[0]), float(args[1])   # numbers: checked above
         if digits != int(digits) or not 0 <= digits <= 15:
             raise fail(f"DBLTOSTR: the number of decimals must be a whole number 0–15, "
                        f"not {digits:g}")
         return f"{value:.{int(digits)}f}"
-    text = args[0]
+    text = str(args[0])                                  # a string: checked above
     if name == "STRLEN":
         return float(len(text))
     if name == "STRUPR":

@@ -367,6 +367,47 @@ def test_axisymmetric_within_20_percent_of_3d_for_the_punch(build_preset, tmp_pa
     assert np.all(np.abs(ratio - 1.0) <= 0.2), ratio
 
 
+def _deck_mesh(path):
+    """Nodes (X, Y) and the tissue's CAX4 elements of a 2D CalculiX deck."""
+    lines = path.read_text().splitlines()
+    i = lines.index("*NODE, NSET=NALL") + 1
+    nodes = {}
+    while not lines[i].startswith("*"):
+        k, x, y = lines[i].split(", ")
+        nodes[int(k)] = (float(x), float(y))
+        i += 1
+    i = lines.index("*ELEMENT, TYPE=CAX4, ELSET=TISSUE_CAX4") + 1
+    quads = []
+    while not lines[i].startswith("*"):
+        quads.append([int(n) for n in lines[i].split(", ")[1:]])
+        i += 1
+    return nodes, np.array([[nodes[n] for n in q] for q in quads])
+
+
+@pytest.mark.parametrize("fine", [0.6, 1.5])
+def test_cli_fine_depth_sets_the_fine_zone(tmp_path, capsys, fine):
+    """--fine-depth-mm: the deck's fine zone (elements of --mesh-um beside the
+    punch's edge at r = 1.0–1.07 mm) reaches the depth asked for, and no
+    further than the grading allows."""
+    from tipgeo.cli import main
+
+    h = 0.1
+    assert main(["fem", "punch-plain", "--depth-mm", "0.2", "--mesh-um", "100", "--deck-only",
+                 "--fine-depth-mm", str(fine), "--out-dir", str(tmp_path)]) == 0
+    deck = tmp_path / "punch-plain_axisymmetric.inp"
+    text = deck.read_text()
+    assert f"** fine_depth_mm: {fine}\n" in text
+    zone = [float(x) for x in text.split("** fine_zone_mm: [")[1].split("]")[0].split(", ")]
+    assert zone[2] == pytest.approx(-(fine + 0.4), abs=1e-9)  # the fine depth + a 4h pad
+    _, quads = _deck_mesh(deck)
+    cen, size = quads.mean(axis=1), np.ptp(quads[..., 1], axis=1)
+    beside = (np.abs(cen[:, 0] - 1.035) < 0.2)
+    inside = beside & (cen[:, 1] > -fine) & (cen[:, 1] < -0.05)
+    below = beside & (cen[:, 1] < -(fine + 1.5))
+    assert inside.sum() >= 5 and np.all(size[inside] <= 1.5 * h)
+    assert below.sum() >= 1 and np.all(size[below] > 1.5 * h)
+
+
 @pytest.mark.parametrize("args, word", [
     (["--depth-mm", "-1"], "--depth-mm"),
     (["--depth-mm", "nan"], "--depth-mm"),
@@ -376,6 +417,13 @@ def test_axisymmetric_within_20_percent_of_3d_for_the_punch(build_preset, tmp_pa
     (["--depth-mm", "1", "--stress-at-mm", "2"], "--stress-at-mm"),
     (["--depth-mm", "0.5", "--cut", "erosion", "--abaqus"], "erosion"),
     (["--depth-mm", "0.2", "--cut", "erosion", "--model", "3d"], "axisymmetric model only"),
+    (["--depth-mm", "0.2", "--fine-depth-mm", "0"], "--fine-depth-mm = 0 mm is out of range"),
+    (["--depth-mm", "0.2", "--fine-depth-mm", "-1"], "--fine-depth-mm = -1 mm"),
+    (["--depth-mm", "0.2", "--fine-depth-mm", "5.7"],
+     "--fine-depth-mm = 5.7 mm is out of range; allowed 0 < value ≤ 5.6 (mm)"),
+    (["--depth-mm", "0.2", "--fine-depth-mm", "nan"], "--fine-depth-mm"),
+    (["--depth-mm", "0.2", "--fine-depth-mm", "1", "--model", "3d"],
+     "--fine-depth-mm is for --model axisymmetric"),
 ])
 def test_cli_bad_input_exit_2(tmp_path, capsys, args, word):
     from tipgeo.cli import main

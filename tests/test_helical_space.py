@@ -74,15 +74,28 @@ def test_thesis_table_3_1_tip():
     _check_mesh(spec, 5e-5, _check_exact(spec))
 
 
-def test_steep_phi_validates_and_names_a_working_tolerance():
-    # the spec the issue quotes: refused before at validation
+def test_steep_phi_builds_at_the_default_tolerance():
+    """The spec the issue quotes (refused before, its uniform grid needing
+    1848×78 points): the grid refined only where the helicoid curves meets
+    0.05 µm within the cap."""
+    spec = _spec(10.0, 16.55)
+    tip = _check_mesh(spec, 5e-5, _check_exact(spec))
+    angles, radial = next(iter(spec.cutters[0]._grids.values()))
+    assert len(angles) * radial <= 80_000 < 1848 * 78
+    steps = np.diff(angles)
+    assert steps.max() / steps.min() >= 4.0   # adapted: not a uniform grid
+    assert len(angles) <= 0.5 * 1848
+    assert tip.is_watertight
+
+
+def test_too_fine_a_tolerance_names_one_that_builds():
     spec = _spec(10.0, 16.55)
     table = _check_exact(spec)
     with pytest.raises(BuildError) as e:
-        build_tip(spec, tolerance=5e-5)
+        build_tip(spec, tolerance=1e-5)
     msg = str(e.value)
     hit = re.search(r"a tolerance of about ([0-9.]+) µm", msg)
     assert hit, msg
     named = float(hit.group(1)) * 1e-3
-    assert named > 5e-5
+    assert 1e-5 < named <= 1.6e-4      # within four doublings
     _check_mesh(spec, named, table)

@@ -137,8 +137,8 @@ def _to_tip(solid: m3d.Manifold, ctx: BuildContext, spec: TipSpec, strict: bool,
             asked: float) -> Tip:
     mesh = solid.to_mesh64()
     verts = np.asarray(mesh.vert_properties, dtype=np.float64)[:, :3]
-    faces = np.asarray(mesh.tri_verts).astype(np.int64)
-    ids = np.asarray(mesh.face_id).astype(np.int64)
+    faces: IntArray = np.asarray(mesh.tri_verts).astype(np.int64)
+    ids: IntArray = np.asarray(mesh.face_id).astype(np.int64)
     if len(ids) != len(faces):
         raise BuildError("manifold3d lost the face provenance of the tip")
     names = ctx.labels.names

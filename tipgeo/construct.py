@@ -269,15 +269,27 @@ class BuildContext:
         return man
 
     def annular_heightfield(self, height: Callable[[FloatArray, FloatArray], FloatArray],
-                            label: str, angular: int, radial: int) -> m3d.Manifold:
+                            label: str, angular: int | FloatArray,
+                            radial: int) -> m3d.Manifold:
         """Solid {r_in ≤ ρ ≤ r_out, z_lo ≤ z ≤ height(x, y)} over an annulus a
         little wider than the tube wall, as a polygonal grid of ``angular`` ×
-        ``radial`` vertices (angles offset half a tube step so no vertex
-        coincides with a tube vertex). The top gets ``label``."""
+        ``radial`` vertices. ``angular``: a count (uniform angles offset half
+        a tube step so no vertex coincides with a tube vertex), or the grid's
+        angles themselves (rad about +z, increasing in [0, 2π): a grid
+        refined where the surface curves, :mod:`tipgeo.cutters.helical`).
+        The top gets ``label``."""
         ro, ri = self.cannula.r_o, self.cannula.r_i
         d = 0.1037 * (ro - ri)
         rad = np.linspace(max(ri - d, 0.5 * ri), ro + d, radial)
-        g = (np.arange(angular) + 0.5) * 2.0 * np.pi / angular
+        if isinstance(angular, (int, np.integer)) or np.ndim(angular) == 0:
+            g = (np.arange(int(angular)) + 0.5) * 2.0 * np.pi / int(angular)
+        else:
+            g = np.asarray(angular, dtype=float)
+            if not (g.ndim == 1 and len(g) >= 3 and np.all(np.diff(g) > 0)
+                    and g[0] >= 0.0 and g[-1] < 2.0 * np.pi):
+                raise BuildError(f"surface '{label}': its grid angles must increase "
+                                 "within [0, 2π)")
+        angular = len(g)
         rr, gg = np.meshgrid(rad, g, indexing="ij")  # (radial, angular)
         x, y = rr * np.cos(gg), rr * np.sin(gg)
         z = np.asarray(height(x.ravel(), y.ravel()), dtype=float).reshape(x.shape)

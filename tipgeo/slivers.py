@@ -34,15 +34,23 @@ Frame and units: whatever the input (tipgeo: cannula frame, mm).
 from __future__ import annotations
 
 import math
+from collections.abc import Iterable, Sequence
+from typing import Any
 
 import numpy as np
 
-__all__ = ["aspect_ratios", "remove_slivers", "remove_slivers_checked"]
+from .arrays import BoolArray, FloatArray, IntArray
+from .tolerances import tol
+
+__all__ = ["aspect_ratios", "remove_slivers", "remove_slivers_checked", "snap_float32"]
 
 _FOLD_COS = math.cos(math.radians(30.0))
 
+#: A point or a vector (mm).
+Vec = tuple[float, float, float]
 
-def aspect_ratios(vertices: np.ndarray, faces: np.ndarray) -> np.ndarray:
+
+def aspect_ratios(vertices: FloatArray, faces: IntArray) -> FloatArray:
     """(m,) longest edge / shortest altitude of every triangle
     (``L_max² / (2·area)``; ``inf`` for a zero-area triangle)."""
     t = np.asarray(vertices, float)[np.asarray(faces, np.int64)]
@@ -50,50 +58,51 @@ def aspect_ratios(vertices: np.ndarray, faces: np.ndarray) -> np.ndarray:
                    ((t[:, 0] - t[:, 2]) ** 2).sum(1)], 1)
     a2 = np.linalg.norm(np.cross(t[:, 1] - t[:, 0], t[:, 2] - t[:, 0]), axis=1)  # 2·area
     with np.errstate(divide="ignore", invalid="ignore"):
-        return np.where(a2 > 0, e2.max(1) / np.where(a2 > 0, a2, 1.0), np.inf)
+        out: FloatArray = np.where(a2 > 0, e2.max(1) / np.where(a2 > 0, a2, 1.0), np.inf)
+    return out
 
 
-def _ar(p0, p1, p2) -> float:
+def _ar(p0: Vec, p1: Vec, p2: Vec) -> float:
     e = max(_d2(p0, p1), _d2(p1, p2), _d2(p2, p0))
     a2 = _norm(_cross(_sub(p1, p0), _sub(p2, p0)))
     return e / a2 if a2 > 0 else math.inf
 
 
-def _sub(a, b):
+def _sub(a: Vec, b: Vec) -> Vec:
     return (a[0] - b[0], a[1] - b[1], a[2] - b[2])
 
 
-def _cross(a, b):
+def _cross(a: Vec, b: Vec) -> Vec:
     return (a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0])
 
 
-def _dot(a, b):
+def _dot(a: Vec, b: Vec) -> float:
     return a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
 
 
-def _norm(a):
+def _norm(a: Vec) -> float:
     return math.sqrt(a[0] * a[0] + a[1] * a[1] + a[2] * a[2])
 
 
-def _d2(a, b):
+def _d2(a: Vec, b: Vec) -> float:
     return (a[0] - b[0]) ** 2 + (a[1] - b[1]) ** 2 + (a[2] - b[2]) ** 2
 
 
-def _mid(a, b):
+def _mid(a: Vec, b: Vec) -> Vec:
     return (0.5 * (a[0] + b[0]), 0.5 * (a[1] + b[1]), 0.5 * (a[2] + b[2]))
 
 
-def _mid3(a, b, c):
+def _mid3(a: Vec, b: Vec, c: Vec) -> Vec:
     return ((a[0] + b[0] + c[0]) / 3.0, (a[1] + b[1] + c[1]) / 3.0, (a[2] + b[2] + c[2]) / 3.0)
 
 
-def _unit_normal(p0, p1, p2):
+def _unit_normal(p0: Vec, p1: Vec, p2: Vec) -> Vec | None:
     n = _cross(_sub(p1, p0), _sub(p2, p0))
     s = _norm(n)
     return None if s == 0 else (n[0] / s, n[1] / s, n[2] / s)
 
 
-def _point_triangle(p, a, b, c) -> float:
+def _point_triangle(p: Vec, a: Vec, b: Vec, c: Vec) -> float:
     """Distance from p to the triangle abc (Ericson, Real-Time Collision
     Detection §5.1.5)."""
     ab, ac, ap = _sub(b, a), _sub(c, a), _sub(p, a)
@@ -130,55 +139,59 @@ def _point_triangle(p, a, b, c) -> float:
     return math.sqrt(_d2(p, q))
 
 
+def _corners(tri: Sequence[int], p: Sequence[Vec]) -> tuple[Vec, Vec, Vec]:
+    """The three corner points of the triangle ``tri`` (indices into ``p``)."""
+    return p[tri[0]], p[tri[1]], p[tri[2]]
+
+
 class _Mesh:
     """Mutable triangle soup with vertex→faces incidence."""
 
-    def __init__(self, vertices, faces, labels, frozen=()):
+    def __init__(self, vertices: FloatArray, faces: IntArray, labels: IntArray,
+                 frozen: Iterable[int] = ()) -> None:
         self.frozen = set(int(x) for x in frozen)  # vertices no edit may touch
-        self.p = [tuple(map(float, v)) for v in vertices]
+        self.p: list[Vec] = [(float(v[0]), float(v[1]), float(v[2])) for v in vertices]
         self.f = [list(map(int, t)) for t in faces]
         self.lab = [int(x) for x in labels]
         self.alive = [True] * len(self.f)
         self.dev = [0.0] * len(self.f)  # how far edits have moved each face so far (mm)
         self.added = 0  # vertices added by splits
         self.dirty: set[int] = set()  # faces changed since the last pass
-        self.vf = [set() for _ in self.p]
+        self.vf: list[set[int]] = [set() for _ in self.p]
         for k, (a, b, c) in enumerate(self.f):
             self.vf[a].add(k)
             self.vf[b].add(k)
             self.vf[c].add(k)
 
     # -- queries ---------------------------------------------------------------
-    def ar(self, k) -> float:
-        a, b, c = self.f[k]
-        return _ar(self.p[a], self.p[b], self.p[c])
+    def ar(self, k: int) -> float:
+        return _ar(*_corners(self.f[k], self.p))
 
-    def normal(self, k):
-        a, b, c = self.f[k]
-        return _unit_normal(self.p[a], self.p[b], self.p[c])
+    def normal(self, k: int) -> Vec | None:
+        return _unit_normal(*_corners(self.f[k], self.p))
 
-    def edge_faces(self, a, b) -> list[int]:
+    def edge_faces(self, a: int, b: int) -> list[int]:
         return list(self.vf[a] & self.vf[b])
 
-    def labels_at(self, v) -> set[int]:
+    def labels_at(self, v: int) -> set[int]:
         return {self.lab[k] for k in self.vf[v]}
 
-    def neighbours(self, v) -> set[int]:
-        out = set()
+    def neighbours(self, v: int) -> set[int]:
+        out: set[int] = set()
         for k in self.vf[v]:
             out.update(self.f[k])
         out.discard(v)
         return out
 
     @staticmethod
-    def opposite(tri, a, b) -> int:
+    def opposite(tri: Sequence[int], a: int, b: int) -> int:
         for x in tri:
             if x != a and x != b:
                 return x
         raise ValueError("degenerate triangle")
 
     # -- edits -----------------------------------------------------------------
-    def _set(self, k, tri):
+    def _set(self, k: int, tri: Sequence[int]) -> None:
         self.dirty.add(k)
         for x in self.f[k]:
             self.vf[x].discard(k)
@@ -186,7 +199,7 @@ class _Mesh:
         for x in tri:
             self.vf[x].add(k)
 
-    def _add(self, tri, label, dev=0.0) -> int:
+    def _add(self, tri: Sequence[int], label: int, dev: float = 0.0) -> int:
         k = len(self.f)
         self.dirty.add(k)
         self.f.append(list(tri))
@@ -197,40 +210,50 @@ class _Mesh:
             self.vf[x].add(k)
         return k
 
-    def _kill(self, k):
+    def _kill(self, k: int) -> None:
         for x in self.f[k]:
             self.vf[x].discard(k)
         self.alive[k] = False
 
     @staticmethod
-    def _rot(tri, a):
+    def _rot(tri: list[int], a: int) -> list[int]:
         """tri rotated so that it starts at a."""
         i = tri.index(a)
         return tri[i:] + tri[:i]
 
-    def try_flip(self, a, b, max_dev) -> bool:
+    def _flip_quad(self, a: int, b: int) -> tuple[int, int, int, int] | None:
+        """The two faces (f, g) on the edge ab as f = (a, b, c), g = (b, a, d),
+        with c and d, when the edge may flip (one label, nothing frozen, the
+        new edge cd not there yet); else None."""
         fs = self.edge_faces(a, b)
         if len(fs) != 2:
-            return False
+            return None
         f, g = fs
         if self.lab[f] != self.lab[g]:
-            return False
+            return None
         tf = self._rot(self.f[f], a)
         if tf[1] != b:  # make f = (a, b, c), g = (b, a, d)
             f, g = g, f
             tf = self._rot(self.f[f], a)
             if tf[1] != b:
-                return False
+                return None
         c = tf[2]
         d = self.opposite(self.f[g], a, b)
         if self.frozen and self.frozen & {a, b, c, d}:
-            return False
+            return None
         if c == d or g in self.vf[c] or (self.vf[c] & self.vf[d]):
+            return None
+        return f, g, c, d
+
+    def try_flip(self, a: int, b: int, max_dev: float) -> bool:
+        quad = self._flip_quad(a, b)
+        if quad is None:
             return False
+        f, g, c, d = quad
         pa, pb, pc, pd = self.p[a], self.p[b], self.p[c], self.p[d]
         n1, n2 = _unit_normal(pa, pb, pc), _unit_normal(pb, pa, pd)
         m1, m2 = _unit_normal(pa, pd, pc), _unit_normal(pd, pb, pc)
-        if None in (n1, n2, m1, m2):
+        if n1 is None or n2 is None or m1 is None or m2 is None:
             return False
         for m in (m1, m2):
             if _dot(m, n1) < _FOLD_COS or _dot(m, n2) < _FOLD_COS:
@@ -246,12 +269,12 @@ class _Mesh:
         self.dev[f] = self.dev[g] = dev
         return True
 
-    def split(self, a, b, point) -> int:
+    def split(self, a: int, b: int, point: Vec) -> int:
         """Insert ``point`` (on the edge ab) as a new vertex; returns its index."""
         fs = self.edge_faces(a, b)
         v = len(self.p)
         self.added += 1
-        self.p.append(tuple(point))
+        self.p.append(point)
         self.vf.append(set())
         for k in fs:
             t = self.f[k]
@@ -264,52 +287,77 @@ class _Mesh:
             self._add(t2, self.lab[k], self.dev[k])
         return v
 
-    def try_collapse(self, u, v, max_dev) -> bool:
-        """Move vertex u onto v and remove it."""
+    def _collapse_allowed(self, u: int, v: int) -> list[int] | None:
+        """The two faces on the edge uv when u may move onto v (nothing
+        frozen, u on at most two labels and, on two, sliding along their
+        curve, the link condition); else None."""
         if u in self.frozen or v in self.frozen:
-            return False
+            return None
         fs = self.edge_faces(u, v)
         if len(fs) != 2:
-            return False
+            return None
         lu = self.labels_at(u)
         if len(lu) >= 3:
-            return False
+            return None
         if len(lu) == 2 and self.lab[fs[0]] == self.lab[fs[1]]:
-            return False  # u on a label curve may only slide along it
+            return None  # u on a label curve may only slide along it
         opp = {self.opposite(self.f[k], u, v) for k in fs}
         if self.neighbours(u) & self.neighbours(v) != opp:
-            return False  # link condition
-        pu = self.p[u]
-        moved = [k for k in self.vf[u] if k not in fs]
+            return None  # link condition
+        return fs
+
+    def _collapse_faces(self, u: int, v: int, fs: list[int]) -> list[tuple[int, list[int]]] | None:
+        """The faces around u (but the two on uv) re-made with v for u, when
+        none folds and each beats the star's worst aspect ratio; else None."""
         worst_old = max(self.ar(k) for k in self.vf[u])
         new = []
-        for k in moved:
+        for k in self.vf[u]:
+            if k in fs:
+                continue
             t = [v if x == u else x for x in self.f[k]]
-            q = [self.p[x] for x in t]
+            q = _corners(t, self.p)
             n_new = _unit_normal(*q)
             n_old = self.normal(k)
             if n_new is None or n_old is None or _dot(n_new, n_old) < _FOLD_COS:
-                return False
+                return None
             if _ar(*q) >= worst_old:
-                return False
+                return None
             new.append((k, t))
-        # deviation: distance of u from the new surface of each of its labels,
-        # and of the new triangles' edge midpoints and centroids from the old
-        # star, added to how far earlier edits moved these faces
-        star = [[self.p[x] for x in self.f[k]] for k in self.vf[u]]
+        return new
+
+    def _collapse_moves(self, u: int, v: int, fs: list[int],
+                        new: list[tuple[int, list[int]]]) -> float:
+        """How far moving u onto v moves the surface (mm; inf when a label
+        of u keeps no face): the distance of u from the new surface of each of
+        its labels, and of the new triangles' edge midpoints and centroids
+        from the old star."""
+        pu = self.p[u]
         moved_by = 0.0
-        for lab in lu:
+        for lab in self.labels_at(u):
             cand = [t for k, t in new if self.lab[k] == lab]
             cand += [self.f[k] for k in self.vf[v] if k not in fs and self.lab[k] == lab]
             if not cand:
-                return False
-            moved_by = max(moved_by, min(_point_triangle(pu, *(self.p[x] for x in t))
+                return math.inf
+            moved_by = max(moved_by, min(_point_triangle(pu, *_corners(t, self.p))
                                          for t in cand))
+        star = [_corners(self.f[k], self.p) for k in self.vf[u]]
         for _, t in new:
-            a, b, c = (self.p[x] for x in t)
+            a, b, c = _corners(t, self.p)
             for q in (_mid(a, b), _mid(b, c), _mid(c, a), _mid3(a, b, c)):
                 moved_by = max(moved_by, min(_point_triangle(q, *s) for s in star))
-        dev = max(self.dev[k] for k in self.vf[u]) + moved_by
+        return moved_by
+
+    def try_collapse(self, u: int, v: int, max_dev: float) -> bool:
+        """Move vertex u onto v and remove it, where that is allowed, folds
+        nothing, improves the star and keeps the deviation (added to how far
+        earlier edits moved these faces) within ``max_dev`` (mm)."""
+        fs = self._collapse_allowed(u, v)
+        if fs is None:
+            return False
+        new = self._collapse_faces(u, v, fs)
+        if new is None:
+            return False
+        dev = max(self.dev[k] for k in self.vf[u]) + self._collapse_moves(u, v, fs, new)
         if dev > max_dev:
             return False
         for k in fs:
@@ -320,14 +368,13 @@ class _Mesh:
         return True
 
     # -- the pass --------------------------------------------------------------
-    def fix(self, k, bound, max_dev) -> bool:
+    def fix(self, k: int, max_dev: float) -> bool:
         """One attempt to improve triangle k; True when the mesh changed."""
         t = self.f[k]
         if self.frozen and self.frozen.intersection(t):
             return False
-        pts = [self.p[x] for x in t]
-        el = [(_d2(pts[i], pts[(i + 1) % 3]), t[i], t[(i + 1) % 3]) for i in range(3)]
-        el.sort()
+        pts = _corners(t, self.p)
+        el = sorted((_d2(pts[i], pts[(i + 1) % 3]), t[i], t[(i + 1) % 3]) for i in range(3))
         (_, sa, sb), (_, la, lb) = el[0], el[2]
         if self.try_flip(la, lb, max_dev):
             return True
@@ -355,35 +402,44 @@ class _Mesh:
         self.flip_around(w, max_dev)
         return True
 
-    def try_relax(self, u) -> bool:
-        """Move u, inside one label and a flat star, to the mean of its
-        neighbours (in that plane: the surface does not move) where that
-        folds nothing and improves the star's worst triangle."""
-        if u in self.frozen or len(self.labels_at(u)) != 1:
-            return False
-        star = list(self.vf[u])
-        n0 = self.normal(star[0])
+    def _flat_star(self, u: int) -> bool:
+        """Every neighbour of u lies in the plane of u's first face (within
+        ``tol.sliver_flat`` of the star's size)."""
+        n0 = self.normal(next(iter(self.vf[u])))
         if n0 is None:
             return False
         pu = self.p[u]
         nb = self.neighbours(u)
         scale = max(math.sqrt(_d2(pu, self.p[x])) for x in nb)
-        for x in nb:  # flat star: every neighbour in the plane through u
-            if abs(_dot(_sub(self.p[x], pu), n0)) > 1e-12 * scale:
-                return False
-        q = tuple(sum(self.p[x][i] for x in nb) / len(nb) for i in range(3))
+        return all(abs(_dot(_sub(self.p[x], pu), n0)) <= tol.sliver_flat * scale for x in nb)
+
+    def try_relax(self, u: int) -> bool:
+        """Move u, inside one label and a flat star, to the mean of its
+        neighbours (in that plane: the surface does not move) where that
+        folds nothing and improves the star's worst triangle."""
+        if u in self.frozen or len(self.labels_at(u)) != 1 or not self._flat_star(u):
+            return False
+        star = list(self.vf[u])
+        pu = self.p[u]
+        nb = self.neighbours(u)
+        q = (sum(self.p[x][0] for x in nb) / len(nb), sum(self.p[x][1] for x in nb) / len(nb),
+             sum(self.p[x][2] for x in nb) / len(nb))
         old = [self.normal(k) for k in star]
         worst = max(self.ar(k) for k in star)
         self.p[u] = q
-        ok = all(nn is not None and self.normal(k) is not None
-                 and _dot(self.normal(k), nn) > _FOLD_COS for k, nn in zip(star, old))
-        if ok and max(self.ar(k) for k in star) < worst:
+        if all(self._unfolded(k, nn) for k, nn in zip(star, old)) and \
+                max(self.ar(k) for k in star) < worst:
             self.dirty.update(star)
             return True
         self.p[u] = pu
         return False
 
-    def flip_around(self, w, max_dev) -> None:
+    def _unfolded(self, k: int, before: Vec | None) -> bool:
+        """Face k's normal is within the fold angle of ``before``."""
+        now = self.normal(k)
+        return before is not None and now is not None and _dot(now, before) > _FOLD_COS
+
+    def flip_around(self, w: int, max_dev: float) -> None:
         """Flip the edges opposite w where that improves their triangles."""
         for kk in list(self.vf[w]):
             if self.alive[kk] and w in self.f[kk]:
@@ -391,10 +447,10 @@ class _Mesh:
                 self.try_flip(tt[1], tt[2], max_dev)
 
 
-def remove_slivers(vertices: np.ndarray, faces: np.ndarray, labels: np.ndarray, *,
+def remove_slivers(vertices: FloatArray, faces: IntArray, labels: IntArray, *,
                    bound: float, max_deviation: float, max_passes: int = 40,
-                   frozen: np.ndarray | None = None,
-                   ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+                   frozen: BoolArray | None = None,
+                   ) -> tuple[FloatArray, IntArray, IntArray]:
     """Improve the triangles whose aspect ratio exceeds ``bound``.
 
     Parameters
@@ -424,7 +480,7 @@ def remove_slivers(vertices: np.ndarray, faces: np.ndarray, labels: np.ndarray, 
     budget = len(m.p) // 4 + 16  # most vertices the splits may add
     ar = aspect_ratios(vertices, faces)
     cand = {int(k): float(ar[k]) for k in np.flatnonzero(ar > bound)}
-    history = []
+    history: list[int] = []
     for _ in range(max_passes):
         if not cand:
             break
@@ -436,7 +492,7 @@ def remove_slivers(vertices: np.ndarray, faces: np.ndarray, labels: np.ndarray, 
             if m.added > budget:
                 break
             if m.alive[k] and m.ar(k) > bound:
-                m.fix(k, bound, max_deviation)
+                m.fix(k, max_deviation)
         old, cand = cand, {}
         for k in m.dirty | set(old):
             if m.alive[k]:
@@ -447,12 +503,22 @@ def remove_slivers(vertices: np.ndarray, faces: np.ndarray, labels: np.ndarray, 
     f = np.asarray(m.f, dtype=np.int64)[keep]
     lab = np.asarray(m.lab, dtype=np.int64)[keep]
     used, inv = np.unique(f, return_inverse=True)
-    return np.asarray(m.p, float)[used], inv.reshape(-1, 3), lab
+    return np.asarray(m.p, np.float64)[used], inv.reshape(-1, 3).astype(np.int64), lab
 
 
-def remove_slivers_checked(vertices: np.ndarray, faces: np.ndarray, labels: np.ndarray, *,
+def _crossings(v: FloatArray, f: IntArray) -> IntArray:
+    """(k, 2) face pairs that cross (exact finder) or that open3d's tolerant
+    test takes for crossings; a pair may appear twice."""
+    from .meshcheck import self_intersections, tolerant_intersections
+
+    pairs = [self_intersections(v, f), tolerant_intersections(v, f)]
+    return np.concatenate(pairs) if len(pairs[0]) + len(pairs[1]) else pairs[0]
+
+
+def remove_slivers_checked(vertices: FloatArray, faces: IntArray, labels: IntArray, *,
                            bound: float, max_deviation: float, rounds: int = 6,
-                           ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+                           float32: bool = True,
+                           ) -> tuple[FloatArray, IntArray, IntArray]:
     """:func:`remove_slivers` that never makes two triangles cross.
 
     The pass's local checks (deviation, fold angle, link condition) do not
@@ -464,28 +530,28 @@ def remove_slivers_checked(vertices: np.ndarray, faces: np.ndarray, labels: np.n
     for crossings); the input vertices around the smaller triangle of each
     pair (within (round + 1) × its longest edge) are frozen and the pass
     re-run from the input, until no pair is left or after ``rounds`` rounds.
-    The result with the fewest pairs is returned when it has no more than
+    The result with the fewest pairs is kept when it has no more than
     the input had, else the input unchanged: the pass never adds a crossing.
+
+    With ``float32`` (the default) the vertices returned are float32 values
+    placed by :func:`snap_float32`, so that an STL (float32) stores them
+    exactly and open3d's tolerant test finds on the file what it finds on
+    the mesh.
 
     Parameters and returns as :func:`remove_slivers` (mm, any frame).
     """
     from scipy.spatial import cKDTree
 
-    from .meshcheck import self_intersections, tolerant_intersections
-
-    def crossings(v, f):
-        pairs = [self_intersections(v, f), tolerant_intersections(v, f)]
-        return np.concatenate(pairs) if len(pairs[0]) + len(pairs[1]) else pairs[0]
-
-    vertices = np.asarray(vertices, float)
-    base = len(crossings(vertices, faces))
+    vertices = np.asarray(vertices, np.float64)
+    base = len(_crossings(vertices, faces))
     frozen = np.zeros(len(vertices), bool)
-    tree = None
-    best = (base, vertices, np.asarray(faces, np.int64), np.asarray(labels, np.int64))
+    tree: Any = None  # scipy has no types
+    best: tuple[int, FloatArray, IntArray, IntArray] = (
+        base, vertices, np.asarray(faces, np.int64), np.asarray(labels, np.int64))
     for r in range(rounds):
         v, f, lab = remove_slivers(vertices, faces, labels, bound=bound,
                                    max_deviation=max_deviation, frozen=frozen)
-        pairs = crossings(v, f)
+        pairs = _crossings(v, f)
         if len(pairs) <= best[0]:
             best = (len(pairs), v, f, lab)
         if len(pairs) == 0:
@@ -496,4 +562,122 @@ def remove_slivers_checked(vertices: np.ndarray, faces: np.ndarray, labels: np.n
             edge = np.sqrt(((t - np.roll(t, 1, axis=1)) ** 2).sum(2)).max(1)
             k = int(np.argmin(edge))
             frozen[tree.query_ball_point(t[k].mean(0), (r + 1) * edge[k])] = True
-    return best[1], best[2], best[3]
+    out = snap_float32(best[1], best[2]) if float32 else best[1]
+    return out, best[2], best[3]
+
+
+# -- float32 (STL) coordinates ------------------------------------------------
+
+def _to32(x: FloatArray) -> FloatArray:
+    """Rounded to the nearest float32, as float64."""
+    out: FloatArray = np.asarray(x, np.float64).astype(np.float32).astype(np.float64)
+    return out
+
+
+def _moves(max_ulps: int) -> IntArray:
+    """Candidate float32 steps (in ulps per axis) of the repair, the
+    smallest first: along each axis up to ``max_ulps``, then ±1 on two and
+    three axes at once."""
+    out = [(0, 0, 0)]
+    for k in range(1, max_ulps + 1):
+        for ax in range(3):
+            for sg in (-k, k):
+                m = [0, 0, 0]
+                m[ax] = sg
+                out.append((m[0], m[1], m[2]))
+    out += [(a, b, c) for a in (-1, 0, 1) for b in (-1, 0, 1) for c in (-1, 0, 1)
+            if abs(a) + abs(b) + abs(c) >= 2]
+    return np.asarray(out, np.int64)
+
+
+def _incident(faces: IntArray, n: int) -> list[IntArray]:
+    """The faces around each of the n vertices."""
+    flat = np.asarray(faces, np.int64).ravel()
+    order = np.argsort(flat, kind="stable")
+    start = np.searchsorted(flat[order], np.arange(n + 1))
+    fid = order // 3
+    return [fid[start[i]:start[i + 1]] for i in range(n)]
+
+
+def _best_move(w: FloatArray, faces: IntArray, near: tuple[IntArray, IntArray],
+               x: int, star: IntArray, cands: FloatArray) -> tuple[int, FloatArray]:
+    """The first candidate position of vertex x (they come smallest move
+    first) that lowers the count of tolerant-test pairs around it: (the
+    lowering, the position); (0, where it is) when none does."""
+    from .meshcheck import count_tolerant
+
+    old = w[x].copy()
+    base = count_tolerant(w, faces, near, star)
+    for c in cands:
+        w[x] = c
+        gain = base - count_tolerant(w, faces, near, star)
+        if gain > 0:
+            w[x] = old
+            return gain, c.copy()
+    w[x] = old
+    return 0, old
+
+
+def snap_float32(vertices: FloatArray, faces: IntArray, *, max_ulps: int | None = None,
+                 rounds: int = 8) -> FloatArray:
+    """Vertices as a binary STL stores them (float32), placed so that
+    open3d's tolerant self-intersection test reports no pair that it did not
+    on the full-precision mesh, where a few float32 steps allow.
+
+    Rounding each coordinate to float32 (≈ 1e-7 of its size) tips coplanar
+    faces (a flat cut face, one strip of a tessellated cylinder) out of their
+    common plane by more than open3d's coplanarity tolerance, and its
+    Möller test then takes neighbours in that plane for crossings. For every
+    such pair (:func:`tipgeo.meshcheck.tolerant_intersections` on the rounded
+    coordinates), each of its six vertices is tried at the float32 points up
+    to ``max_ulps`` steps away along an axis (and one step on two or three
+    axes) and the move that most lowers the count of pairs around that
+    vertex is made; rounds repeat until none is left or no move helps.
+    No vertex moves further than ``max_ulps`` float32 steps (≈ 1e-6 of its
+    coordinates; default ``tol.float32_ulps``) nor than
+    ``tol.float32_move_share`` of its shortest edge. Should the moves add an
+    exact crossing (:func:`tipgeo.meshcheck.self_intersections`) to those of
+    plain rounding, plain rounding is returned.
+
+    Returns the (n, 3) vertices (float64 holding float32 values; mm, the
+    input's frame).
+    """
+    from .meshcheck import near_pairs, self_intersections, tolerant_intersections
+
+    v = np.asarray(vertices, np.float64)
+    f = np.asarray(faces, np.int64)
+    w = _to32(v)
+    pairs = tolerant_intersections(w, f)
+    if not len(pairs):
+        return w
+    ulps = tol.float32_ulps if max_ulps is None else max_ulps
+    step = np.spacing(np.abs(w).astype(np.float32)).astype(np.float64)  # (n, 3) mm
+    t = v[f]
+    edge = np.sqrt(((t - np.roll(t, 1, axis=1)) ** 2).sum(2))  # (m, 3)
+    shortest = np.full(len(v), np.inf)
+    for k in range(3):
+        np.minimum.at(shortest, f[:, k], np.minimum(edge[:, k], edge[:, (k + 2) % 3]))
+    limit = np.minimum(tol.float32_move_share * shortest, ulps * np.sqrt(3.0) * step.max(1))
+    near = near_pairs(w, f, float(limit.max()) if len(limit) else 0.0)
+    around = _incident(f, len(v))
+    moves = _moves(ulps).astype(np.float64)
+    for _ in range(rounds):
+        gained = 0
+        for a, b in pairs:
+            for x in np.unique(np.concatenate([f[a], f[b]])):
+                cands = _to32(w[x] + moves * step[x])  # w[x]: rounded at first
+                ok = np.linalg.norm(cands - v[x], axis=1) <= limit[x]
+                gain, pos = _best_move(w, f, near, int(x), around[x], cands[ok])
+                if gain > 0:
+                    w[x] = pos
+                    gained += gain
+                    break
+        pairs = tolerant_intersections(w, f)
+        if not len(pairs) or not gained:
+            break
+    # the moves are checked against the tolerant test only: keep them when
+    # they add no exact crossing to what plain rounding has
+    crossed = len(self_intersections(w, f))
+    if crossed and crossed > len(self_intersections(_to32(v), f)):
+        return _to32(v)
+    return w

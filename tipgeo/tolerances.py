@@ -368,6 +368,12 @@ class GCodeTolerances:
         beam's edge on the contour cuts within it (tipgeo's own programs: 0.05
         µm); a program whose lead-in drifts by a pass step or more (Appendix C
         as printed) does not.
+    sample_chordal : float
+        Default chordal tolerance when a move is sampled into points
+        (:meth:`gcode.Segment.points`, mm): 0.1 µm, far below the 20 µm beam.
+    plot_chordal : float
+        Chordal tolerance of the toolpath picture
+        (:func:`gcode.plots.plot_toolpath`, mm): 0.2 µm, finer than a pixel.
     """
 
     arc: float = 1.0e-6
@@ -380,6 +386,10 @@ class GCodeTolerances:
     whole: float = 1.0e-9
     half_floor: float = 1.0e-6
     laser_band: float = 1.0e-3
+    #: sampling a move into points: 0.1 µm, far below the 20 µm beam
+    sample_chordal: float = 1.0e-4
+    #: the toolpath picture: 0.2 µm, finer than a pixel
+    plot_chordal: float = 2.0e-4
 
 
 @dataclass
@@ -434,6 +444,39 @@ class CamTolerances:
         as deep; Z rounded up to the axis grid never gouges, so 1 µm is the
         planner's own bound (measured: 0 on the shipped tips at 2 µm, 0.54 µm
         on the helical tip with a 0.1 µm axis grid, which rounds up less).
+    mill_grid : float
+        A value within this many axis-resolution steps of a grid point counts
+        as on it when rounding to the axis grid (dimensionless; the round-off
+        of a coordinate divided by the resolution, so Z rounded up to the
+        grid does not step up a whole resolution for an ulp above it).
+    mill_travel : float
+        A programmed point (plus the work offset) may exceed a milling
+        machine's travel by this round-off (mm).
+    mill_ball : float
+        A ball mill's corner radius equals D/2 within this (mm).
+    mill_level : float
+        Roughing: a column is cut at a level only where its allowance surface
+        lies more than this (mm) below the previous level (round-off).
+    mill_inside : float
+        The simulator samples an edge this far (mm) inside the wall, so the
+        point is on the cut face and not on the wall's cylinder.
+    mill_sin_floor : float
+        Smallest |sin β| (β between the rim and the passes) the fitting
+        windows divide by: where the rim runs along a pass the scallop period
+        is infinite and the window its largest (dimensionless).
+    mill_reach : float
+        The simulator's reach beyond the farthest column asked for (mm), so
+        the column on the boundary is inside the tiles.
+    mill_word_integer : float
+        A G-code G word within this of an integer is that G code (G1.0 is
+        G01; G1.5 is refused).
+    dexel_horizontal : float
+        A move whose direction has 1 − u_z² at most this is vertical for the
+        ball's capsule (its cylinder has no lower root: the end spheres give
+        the lowest point; dimensionless).
+    dexel_vertical : float
+        A move whose horizontal length is at most this (mm) is vertical for
+        the bull-nose and flat kernels (the tool plunges on one column).
     """
 
     axial: float = 1.0e-9
@@ -449,6 +492,26 @@ class CamTolerances:
     mill_ridge_margin: float = 0.1
     mill_scallop_share: float = 0.95
     mill_gouge: float = 1.0e-3
+    #: round-off (resolution steps) of a coordinate / resolution before rounding to the grid
+    mill_grid: float = 1.0e-9
+    #: round-off (mm) of a programmed point plus the work offset against a travel end
+    mill_travel: float = 1.0e-9
+    #: round-off (mm) of a ball mill's corner radius against D/2
+    mill_ball: float = 1.0e-12
+    #: round-off (mm) of the allowance surface against the previous roughing level
+    mill_level: float = 1.0e-9
+    #: offset (mm) into the wall that puts an edge sample on the cut face, not the cylinder
+    mill_inside: float = 1.0e-9
+    #: |sin β| floor: a rim along a pass has an infinite scallop period (window capped)
+    mill_sin_floor: float = 1.0e-9
+    #: margin (mm) that keeps the farthest column asked for inside the simulator's tiles
+    mill_reach: float = 1.0e-6
+    #: a G word this close to an integer is that G code (text → float round-off)
+    mill_word_integer: float = 1.0e-9
+    #: 1 − u_z² of a move at most this: vertical for the capsule (no cylinder root)
+    dexel_horizontal: float = 1.0e-14
+    #: horizontal length (mm) at most this: a plunge on one column (bull nose, flat end)
+    dexel_vertical: float = 1.0e-12
 
 
 @dataclass
@@ -566,6 +629,36 @@ class FemTolerances:
     step_end: float = 1.0e-6
     monotone: float = 1.0e-3
     convergence_change: float = 0.02
+    #: A node lies on a plane of the block (top, base, axis, mirror plane) within
+    #: this fraction of the block radius: the mesh puts it there up to rounding.
+    plane_rel: float = 1.0e-9
+    #: A tip is mirror-symmetric when every mirrored vertex lies this close to a
+    #: vertex (mm): far below any feature, far above float32 mesh rounding.
+    mirror: float = 1.0e-6
+    #: A needle face lies on a mirror plane or its cut plane within this (mm):
+    #: gmsh's tetrahedra keep the clipped surface's float32 coordinates.
+    needle_plane: float = 1.0e-6
+    #: Layers stop once they reach the block height within this (mm): the sum
+    #: of the layer thicknesses rounds.
+    layer_end: float = 1.0e-12
+    #: Smallest time increment ccx may cut back to in the 3D model, as a
+    #: fraction of the step (CalculiX's own default is 1e-5 of the first one).
+    min_increment: float = 1.0e-6
+    #: Slack of a ceiling of a ratio that should be an integer (a depth over a
+    #: layer thickness, 1 over the largest increment): rounding must not add one.
+    ceil_slack: float = 1.0e-9
+    #: An .frd output is at a step time within this (step times are fractions
+    #: of 1; ccx prints them with about 6 significant digits).
+    frd_time: float = 1.0e-6
+    #: A run reached an output depth when its last converged depth is within
+    #: this of it (mm; depths are step times × the depth, rounded).
+    depth_reached: float = 1.0e-9
+    #: Three mesh sizes halve alike (Richardson) when their two ratios agree to
+    #: this relative difference.
+    ratio_equal: float = 1.0e-9
+    #: Smallest span of a stress contour's colour scale on either side of 0
+    #: (kPa): a field without tension (or compression) still gets a scale.
+    contour_floor: float = 1.0e-9
 
 
 @dataclass
@@ -770,6 +863,58 @@ class Tolerances:
     #: A helicoid's tilt direction ω (rad) is a named tilt when equal to it
     #: within round-off.
     tilt_match: float = 1.0e-12
+
+    # --- optimize / report ---
+    #: Default ``min_rcond`` of a GP: correlation matrices whose estimated
+    #: reciprocal condition number is below this are rejected during MLE; it
+    #: keeps interpolation round-off near 1e-11 of the response (dimensionless).
+    gp_min_rcond: float = 1.0e-12
+    #: An infill point within this of a training point (max norm on the unit
+    #: box) is not added: it would make the correlation matrix singular.
+    infill_duplicate: float = 1.0e-9
+    #: ``kernel = "auto"``: a correlation family replaces the best so far only
+    #: when its LOO log predictive density is higher by more than this (a tie,
+    #: round-off, keeps the earlier family).
+    kernel_choice: float = 1.0e-9
+    #: The optimum's region: designs whose scaled objective (in [0, 1]) is within
+    #: this of the optimum's are indistinguishable from it.
+    optimum_value: float = 1.0e-4
+    #: The optimum's region touches a bound when its extent is within this of
+    #: it (unit box).
+    optimum_edge: float = 1.0e-6
+    #: A report re-predicts an optimum from ``surrogate.json``; a difference
+    #: above this share of the response's training range means the file is not
+    #: the study's surrogate.
+    report_prediction: float = 1.0e-6
+    #: Smallest axis span of a report's 3D view (mm), so a flat cloud keeps an
+    #: aspect ratio.
+    report_span: float = 1.0e-9
+    #: A report's deviation histogram ends this far above the largest
+    #: deviation (µm), so that value falls inside the last bin.
+    report_bin_pad: float = 1.0e-9
+    #: Feed rates within this of each other are one feed in a report's toolpath
+    #: legend (mm/min; the program's feeds carry at most 6 decimals).
+    report_feed: float = 1.0e-6
+
+    # --- mesh (tipgeo.slivers, tipgeo.meshcheck) ---
+    #: A vertex star is flat (the sliver pass may relax its centre within the
+    #: plane) when every neighbour lies within this share of the star's
+    #: longest edge of the plane of one of its faces (dimensionless; float64
+    #: round-off of coordinates near 1 mm is about 1e-16).
+    sliver_flat: float = 1.0e-12
+    #: Two triangles are coplanar for the exact self-intersection finder when
+    #: each vertex of one lies within this × size³ (signed volume, size = the
+    #: pair's box) of the other's plane (dimensionless; float64 orient3d
+    #: round-off is about 1e-15 × size³).
+    mesh_coplanar_rel: float = 1.0e-13
+    #: Most float32 steps (ulps, ≈ 1.2e-7 of a coordinate each) by which the
+    #: float32 repair of a quality mesh (:func:`tipgeo.slivers.snap_float32`)
+    #: may move a vertex from its rounded position: about 1e-6 mm at 2 mm,
+    #: far below the chordal tolerance.
+    float32_ulps: int = 4
+    #: ... nor further than this share of the vertex's shortest edge (no
+    #: triangle folds or degenerates; dimensionless).
+    float32_move_share: float = 0.01
 
 
 #: The process-wide tolerance object. Tests set ``tol.strict = True``.

@@ -37,11 +37,21 @@ import math
 import numba as nb
 import numpy as np
 
+from tipgeo.arrays import BoolArray, FloatArray, IntArray
+from tipgeo.tolerances import tol
+
 __all__ = ["capsule_bottom", "tool_bottom", "tile_moves", "column_heights"]
 
 
+#: Read once: numba compiles module globals in as constants (see
+#: :class:`tipgeo.tolerances.CamTolerances`).
+_HORIZONTAL = tol.cam.dexel_horizontal
+_VERTICAL = tol.cam.dexel_vertical
+
+
 @nb.njit(cache=True, fastmath=False)
-def capsule_bottom(qx, qy, ax, ay, az, bx, by, bz, R):
+def capsule_bottom(qx: float, qy: float, ax: float, ay: float, az: float, bx: float, by: float,
+                   bz: float, R: float) -> float:
     """Lowest z over (qx, qy) of the ball of radius R swept with its centre
     from (ax, ay, az) to (bx, by, bz); +inf when the column misses it."""
     best = math.inf
@@ -61,7 +71,7 @@ def capsule_bottom(qx, qy, ax, ay, az, bx, by, bz, R):
         return best
     ux, uy, uz = ux / L, uy / L, uz / L
     a = 1.0 - uz * uz
-    if a <= 1e-14:
+    if a <= _HORIZONTAL:
         return best
     p = dxa * ux + dya * uy
     b = -2.0 * uz * p
@@ -79,7 +89,7 @@ def capsule_bottom(qx, qy, ax, ay, az, bx, by, bz, R):
 
 
 @nb.njit(cache=True)
-def _corner(rho, R, r):
+def _corner(rho: float, R: float, r: float) -> float:
     """T(ρ): height of the tool's lower surface above its tip at distance ρ
     from the axis (+inf beyond R)."""
     a = R - r
@@ -92,7 +102,8 @@ def _corner(rho, R, r):
 
 
 @nb.njit(cache=True)
-def tool_bottom(qx, qy, ax, ay, az, bx, by, bz, R, r):
+def tool_bottom(qx: float, qy: float, ax: float, ay: float, az: float, bx: float, by: float,
+                bz: float, R: float, r: float) -> float:
     """Lowest z over (qx, qy) of the end mill (radius R, corner radius r)
     swept with its tip from (ax, ay, az) to (bx, by, bz); +inf when the
     column misses it (see the module docstring)."""
@@ -100,7 +111,7 @@ def tool_bottom(qx, qy, ax, ay, az, bx, by, bz, R, r):
         return capsule_bottom(qx, qy, ax, ay, az + R, bx, by, bz + R, R)
     ex, ey = bx - ax, by - ay
     L = math.sqrt(ex * ex + ey * ey)
-    if L <= 1e-12:                                   # a vertical move
+    if L <= _VERTICAL:                               # a vertical move
         d = math.sqrt((qx - ax) ** 2 + (qy - ay) ** 2)
         return min(az, bz) + _corner(d, R, r)
     ex, ey = ex / L, ey / L
@@ -144,7 +155,8 @@ def tool_bottom(qx, qy, ax, ay, az, bx, by, bz, R, r):
 
 
 @nb.njit(cache=True)
-def _footprints(A, B, R, x0, y0, tile, nx, ny):
+def _footprints(A: FloatArray, B: FloatArray, R: float, x0: float, y0: float, tile: float,
+                nx: int, ny: int) -> IntArray:
     """(n, 4) tile index ranges i0, i1, j0, j1 of each move's footprint box
     (empty when i0 > i1 or j0 > j1)."""
     n = A.shape[0]
@@ -158,7 +170,9 @@ def _footprints(A, B, R, x0, y0, tile, nx, ny):
 
 
 @nb.njit(cache=True)
-def _segment_distance(px, py, ax, ay, bx, by):
+def _segment_distance(px: float, py: float, ax: float, ay: float, bx: float,
+                      by: float) -> float:
+    """Distance (mm) from (px, py) to the segment (ax, ay)–(bx, by)."""
     ex, ey = bx - ax, by - ay
     L2 = ex * ex + ey * ey
     t = 0.0
@@ -169,7 +183,9 @@ def _segment_distance(px, py, ax, ay, bx, by):
 
 
 @nb.njit(cache=True, parallel=True)
-def tile_moves(A, B, R, r, x0, y0, tile, nx, ny, need):
+def tile_moves(A: FloatArray, B: FloatArray, R: float, r: float, x0: float, y0: float,
+               tile: float, nx: int, ny: int,
+               need: BoolArray) -> tuple[IntArray, IntArray, FloatArray]:
     """CSR lists of the moves (rows of ``A``, ``B``: tool tips) whose
     footprint meets each needed tile (``need``: (nx·ny,) bool) of an
     nx × ny tiling from (x0, y0), each list sorted by the lower bound of the
@@ -219,7 +235,9 @@ def tile_moves(A, B, R, r, x0, y0, tile, nx, ny, need):
 
 
 @nb.njit(cache=True, parallel=True)
-def column_heights(qx, qy, A, B, R, r, z_top, start, idx, bound, x0, y0, tile, nx, ny):
+def column_heights(qx: FloatArray, qy: FloatArray, A: FloatArray, B: FloatArray, R: float,
+                   r: float, z_top: float, start: IntArray, idx: IntArray, bound: FloatArray,
+                   x0: float, y0: float, tile: float, nx: int, ny: int) -> FloatArray:
     """Milled height of each column (qx, qy): min(z_top, lowest swept tool)."""
     m = qx.shape[0]
     out = np.empty(m)

@@ -35,9 +35,13 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
 
 from tipgeo import validate as v
+from tipgeo.arrays import FloatArray
 from tipgeo.errors import SpecError
+from tipgeo.tolerances import tol
 
 from ..machine import AxisLimit, CamError, machine_toml
 
@@ -67,7 +71,7 @@ class EndMill:
     number: int = 1
     material: str = "carbide"
 
-    def __post_init__(self):
+    def __post_init__(self) -> None:
         if self.kind not in TOOL_KINDS:
             raise CamError(f"tool kind = {self.kind!r} is not known; expected one of: "
                            + ", ".join(TOOL_KINDS))
@@ -81,7 +85,7 @@ class EndMill:
         r = self.corner_radius
         if self.kind == "ball":
             r = 0.5 * d if r is None else r
-            if abs(r - 0.5 * d) > 1e-12:
+            if abs(r - 0.5 * d) > tol.cam.mill_ball:
                 raise CamError(f"tool corner_radius = {r:g} mm; a ball mill has r = D/2 = "
                                f"{0.5 * d:g} mm")
         elif self.kind == "flat":
@@ -100,13 +104,19 @@ class EndMill:
         """D/2 (mm)."""
         return 0.5 * self.diameter
 
+    @property
+    def corner(self) -> float:
+        """The corner radius r (mm) as the constructor settled it (D/2 for a
+        ball, 0 for a flat end)."""
+        return float(self.corner_radius or 0.0)
+
     def describe(self) -> str:
         """One line for sheets and program comments (ASCII)."""
         r = f" r{self.corner_radius:.3f}" if self.kind == "bull" else ""
         return (f"{self.material} {self.kind} end mill D{self.diameter:.3f}{r} mm, "
                 f"{self.flutes} flutes, reach {self.reach:g} mm")
 
-    def ocl_cutter(self, allowance: float = 0.0):
+    def ocl_cutter(self, allowance: float = 0.0) -> Any:
         """The OpenCAMLib cutter, grown by ``allowance`` (mm) all round (a
         ball of radius R + a; roughing: its CL lowered by a is the real
         tool's, a from the surface)."""
@@ -118,7 +128,7 @@ class EndMill:
             return ocl.BallCutter(d, length)
         if self.kind == "flat" and allowance == 0.0:
             return ocl.CylCutter(d, length)
-        return ocl.BullCutter(d, self.corner_radius + allowance, length)
+        return ocl.BullCutter(d, self.corner + allowance, length)
 
 
 #: The thesis's tool (§3.2).
@@ -137,14 +147,15 @@ def parse_tool(text: str, *, number: int = 1) -> EndMill:
     except ValueError:
         raise CamError(f"tool = {text!r}: DIAMETER, CORNER_RADIUS and REACH are numbers "
                        "in mm") from None
-    kw = {"kind": parts[0], "diameter": vals[0], "number": number}
-    if len(vals) > 1 and vals[1] is not None:
-        kw["corner_radius"] = vals[1]
-    if len(vals) > 2 and vals[2] is not None:
-        kw["reach"] = vals[2]
-    if kw["diameter"] is None:
+    diameter = vals[0]
+    if diameter is None:
         raise CamError(f"tool = {text!r}: DIAMETER is missing")
-    return EndMill(**kw)
+    corner = vals[1] if len(vals) > 1 else None
+    reach = vals[2] if len(vals) > 2 else None
+    if reach is None:
+        return EndMill(kind=parts[0], diameter=diameter, corner_radius=corner, number=number)
+    return EndMill(kind=parts[0], diameter=diameter, corner_radius=corner, reach=reach,
+                   number=number)
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -176,7 +187,7 @@ class MillMachine:
         return max(self.x.resolution, self.y.resolution, self.z.resolution)
 
     @classmethod
-    def from_toml(cls, path) -> MillMachine:
+    def from_toml(cls, path: str | Path) -> MillMachine:
         """A machine from a TOML file (sample: ``samples/machines/haas-vf2.toml``):
         top-level keys override the defaults; ``[x]``, ``[y]``, ``[z]`` tables
         give ``lo``, ``hi``, ``resolution`` (mm; a travel hi − lo of zero or
@@ -236,14 +247,15 @@ class MillMachine:
                            f"[{self.spindle_rpm_min:g}, {self.spindle_rpm_max:g}] rpm")
         return float(rpm)
 
-    def check_travel(self, lo, hi) -> None:
+    def check_travel(self, lo: FloatArray, hi: FloatArray) -> None:
         """Program-frame bounds ``lo``, ``hi`` (3,) mm inside the travels
         once the work offset is added, or a CamError naming the axis."""
+        slack = tol.cam.mill_travel
         for k, ax in enumerate("xyz"):
-            lim = getattr(self, ax)
-            for val in (lo[k], hi[k]):
+            lim: AxisLimit = getattr(self, ax)
+            for val in (float(lo[k]), float(hi[k])):
                 m = val + self.work_offset[k]
-                if not lim.lo - 1e-9 <= m <= lim.hi + 1e-9:
+                if not lim.lo - slack <= m <= lim.hi + slack:
                     raise CamError(f"axis {ax.upper()} = {m:.4f} mm (program {val:.4f} mm + "
                                    f"work offset {self.work_offset[k]:g} mm) is outside its "
                                    f"travel [{lim.lo:g}, {lim.hi:g}] mm")

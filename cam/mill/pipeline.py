@@ -10,41 +10,53 @@ from __future__ import annotations
 
 import math
 import time
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from tipgeo import progress as pg
 from tipgeo.tolerances import tol
 
+from .check import check_program
 from .machine import EndMill, MillMachine
 from .post import post_program
-from .toolpath import MillParams, MillToolpath, plan_toolpaths, progress_say
+from .simulate import GCodeMoves, MilledTip
+from .toolpath import MillParams, MillToolpath, ProgressFn, plan_toolpaths, progress_say
+
+if TYPE_CHECKING:
+    from tipgeo.spec import TipSpec
+    from tipgeo.verdict import Verdict
 
 __all__ = ["MillResult", "mill", "write_mill_outputs", "setup_sheet"]
 
 
 @dataclass
 class MillResult:
-    """What :func:`mill` made: the toolpath, its G-code, the simulated milled
-    tip (:class:`cam.mill.simulate.MilledTip`), its comparison with CAD and
-    the :attr:`verdict` on it."""
+    """What :func:`mill` made: the toolpath, its G-code and its moves as
+    read back and checked (:func:`cam.mill.check.check_program`), the
+    simulated milled tip (:class:`cam.mill.simulate.MilledTip`), its
+    comparison with CAD and the :attr:`verdict` on it; the files
+    :func:`write_mill_outputs` wrote and those it could not (``failed``:
+    ``path``, ``error``)."""
 
     toolpath: MillToolpath
     gcode: str
-    milled: Any = None
-    comparison: dict | None = None
-    cpu_s: dict = field(default_factory=dict)
+    milled: MilledTip | None = None
+    comparison: dict[str, Any] | None = None
+    cpu_s: dict[str, float] = field(default_factory=dict)
     files: list[str] = field(default_factory=list)
+    moves: GCodeMoves | None = None
+    failed: list[dict[str, str]] = field(default_factory=list)
 
     @property
-    def verdict(self):
+    def verdict(self) -> Verdict | None:
         """:class:`tipgeo.verdict.Verdict` of the comparison with CAD against
         the toolpath's own scallop target (:meth:`judge`); None when the run
         was not compared."""
         return self.judge()
 
-    def judge(self, scallop_um: float | None = None):
+    def judge(self, scallop_um: float | None = None) -> Verdict | None:
         """The milled part against a scallop target (µm; default the one the
         toolpath was planned for), or None without a comparison.
 
@@ -86,23 +98,29 @@ class MillResult:
         report units."""
         from .simulate import read_gcode
 
-        moves = self.milled.moves if self.milled is not None else read_gcode(self.gcode)
+        moves = self.moves or (self.milled.moves if self.milled is not None
+                               else read_gcode(self.gcode))
         out: dict[str, Any] = {"toolpath": self.toolpath.summary(),
                                "program": moves.summary(self.toolpath.machine.rapid)}
-        if self.comparison is not None:
+        verdict = self.verdict
+        if self.comparison is not None and verdict is not None:
             out["comparison"] = self.comparison
-            out["verdict"] = self.verdict.to_dict()
+            out["verdict"] = verdict.to_dict()
         out["cpu_s"] = dict(self.cpu_s)
         out["wrote"] = list(self.files)
+        if self.failed:
+            out["failed"] = list(self.failed)
         return out
 
 
-def mill(spec, *, tool: EndMill | None = None, machine: MillMachine | None = None,
+def mill(spec: TipSpec, *, tool: EndMill | None = None, machine: MillMachine | None = None,
          params: MillParams | None = None, simulate_tip: bool = True, compare: bool = True,
-         cell_um: tuple[float, float] = (20.0, 1.0), progress=None) -> MillResult:
-    """Mill ``spec`` tip-up: toolpaths, G-code, and (by default) the milled
-    tip simulated from the G-code text and compared with the CAD tip (then
-    :attr:`MillResult.verdict` judges it).
+         cell_um: tuple[float, float] = (20.0, 1.0),
+         progress: ProgressFn | None = None) -> MillResult:
+    """Mill ``spec`` tip-up: toolpaths, G-code checked as read back from its
+    text against the machine and the tool (:func:`cam.mill.check.check_program`),
+    and (by default) the milled tip simulated from the G-code text and
+    compared with the CAD tip (then :attr:`MillResult.verdict` judges it).
 
     ``progress``: a callable taking a line (a library user's printer); by
     default the stages report through :mod:`tipgeo.progress`.
@@ -111,14 +129,15 @@ def mill(spec, *, tool: EndMill | None = None, machine: MillMachine | None = Non
     """
     from .simulate import compare_milled, simulate_mill
 
-    cpu = {}
+    cpu: dict[str, float] = {}
     t0 = time.process_time()
     tp = plan_toolpaths(spec, tool=tool, machine=machine, params=params, progress=progress)
     t1 = time.process_time()
     text = post_program(tp)
+    moves = check_program(text, tp.machine, tp.tool)
     t2 = time.process_time()
     cpu["toolpath"], cpu["post"] = t1 - t0, t2 - t1
-    res = MillResult(tp, text, cpu_s=cpu)
+    res = MillResult(tp, text, cpu_s=cpu, moves=moves)
     if simulate_tip or compare:
         res.milled = simulate_mill(text, spec, tool=tp.tool, setup=tp.setup, cell_um=cell_um,
                                    progress=progress)
@@ -169,38 +188,58 @@ def setup_sheet(res: MillResult) -> str:
 def write_mill_outputs(res: MillResult, *, program: str | Path | None = None,
                        sheet: str | Path | None = None, mesh: str | Path | None = None,
                        deviation: str | Path | None = None,
-                       toolpath: str | Path | None = None) -> list[str]:
+                       toolpath: str | Path | None = None,
+                       on_error: Callable[[Path, Exception], None] | None = None) -> list[str]:
     """Write the files of a :func:`mill` result, each atomically: the G-code,
     the Markdown set-up sheet, the milled tip mesh (any :mod:`tipgeo.io`
-    format), the deviation map (PNG), the toolpath picture (PNG)."""
-    from tipgeo.atomic import write_text_atomic
-    from tipgeo.io import export_tip
+    format), the deviation map (PNG), the toolpath picture (PNG).
 
+    Everything is made and checked before the first file is written: the
+    texts, and the mesh export (:func:`tipgeo.io.check_export`: e.g. a STEP
+    file without OCP). If the mesh cannot be written, ``on_error(path,
+    exc)`` is called before any file is written, the other files are written
+    and ``res.failed`` records it; with ``on_error`` ``None`` the error is
+    raised before anything is written. A mesh or a deviation map asked of a
+    result without a simulated tip is a :class:`cam.CamError`, before any
+    file."""
+    from tipgeo.atomic import write_text_atomic
+    from tipgeo.io import guarded_export
+
+    from ..machine import CamError
     from .simulate import plot_deviation, plot_toolpath
 
+    milled = res.milled
+    if milled is None and (mesh is not None or deviation is not None):
+        raise CamError("the result has no simulated tip (mill(simulate_tip=True)); "
+                       "nothing was written")
+    texts = [(Path(p), t) for p, t in ((program, res.gcode),
+                                       (sheet, setup_sheet(res) if sheet is not None else ""))
+             if p is not None]
+    if milled is not None and mesh is not None and not guarded_export(
+            milled.tip, mesh, failed=res.failed, on_error=on_error, dry_run=True):
+        mesh = None
     wrote = []
-    if program is not None:
-        write_text_atomic(Path(program), res.gcode)
-        wrote.append(str(program))
-    if sheet is not None:
-        write_text_atomic(Path(sheet), setup_sheet(res))
-        wrote.append(str(sheet))
-    if mesh is not None or deviation is not None:
-        if res.milled is None:
-            raise ValueError("the result has no simulated tip (mill(simulate_tip=True))")
-    if mesh is not None:
-        export_tip(res.milled.tip, mesh)
+    for path, text in texts:
+        write_text_atomic(path, text)
+        wrote.append(str(path))
+    if milled is not None and mesh is not None and guarded_export(
+            milled.tip, mesh, failed=res.failed, on_error=on_error):
         wrote.append(str(mesh))
-    if deviation is not None:
-        c = res.comparison or {}
-        title = f"{res.toolpath.name}: milled − CAD (µm, normal)"
-        if c:
-            title += (f"\nscallop {c['scallop_measured_um']:.2f} µm (target "
-                      f"{c['scallop_target_um']:g}), gouge {c['gouge_um']:.2f} µm")
-        plot_deviation(res.milled, deviation, title=title)
+    if milled is not None and deviation is not None:
+        plot_deviation(milled, deviation, title=_deviation_title(res))
         wrote.append(str(deviation))
     if toolpath is not None:
         plot_toolpath(res.toolpath, toolpath)
         wrote.append(str(toolpath))
     res.files += wrote
     return wrote
+
+
+def _deviation_title(res: MillResult) -> str:
+    """The deviation map's title: the tip, and the scallop and gouge measured."""
+    c = res.comparison or {}
+    title = f"{res.toolpath.name}: milled − CAD (µm, normal)"
+    if c:
+        title += (f"\nscallop {c['scallop_measured_um']:.2f} µm (target "
+                  f"{c['scallop_target_um']:g}), gouge {c['gouge_um']:.2f} µm")
+    return title

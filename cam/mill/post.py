@@ -16,19 +16,44 @@ dialect; ASCII only; every comment through the one comment writer
 from __future__ import annotations
 
 import math
+from collections.abc import Iterator, Mapping, Sequence
+from typing import TYPE_CHECKING
 
 from gcode.dialects import DIALECTS, HAAS, Dialect, number_lines
 from gcode.dialects import comment as _comment
+from tipgeo.arrays import FloatArray
 
 from ..machine import CamError
+
+if TYPE_CHECKING:
+    from .toolpath import MillToolpath
 
 __all__ = ["Post", "POSTS", "HAAS", "post_program", "comment", "DECIMALS"]
 
 #: A post is a row of the dialect table :data:`gcode.dialects.DIALECTS`.
 Post = Dialect
 
+
+class _IsoPosts(Mapping[str, Dialect]):
+    """The ``iso`` rows of :data:`~gcode.dialects.DIALECTS`, read live: a
+    dialect registered later (:func:`gcode.dialects.register_dialect`) is a
+    post too."""
+
+    def __getitem__(self, key: str) -> Dialect:
+        row = DIALECTS[key]
+        if row.family != "iso":
+            raise KeyError(key)
+        return row
+
+    def __iter__(self) -> Iterator[str]:
+        return iter([k for k, d in DIALECTS.items() if d.family == "iso"])
+
+    def __len__(self) -> int:
+        return sum(1 for d in DIALECTS.values() if d.family == "iso")
+
+
 #: controller name -> post table (the ISO rows of the dialect table).
-POSTS: dict[str, Dialect] = {k: d for k, d in DIALECTS.items() if d.family == "iso"}
+POSTS: Mapping[str, Dialect] = _IsoPosts()
 
 #: Fixed decimals per word: 3 for X, Y, Z (the 0.002 mm grid), 1 for F.
 DECIMALS = {"X": 3, "Y": 3, "Z": 3, "F": 1}
@@ -48,7 +73,7 @@ def comment(post: Dialect | str, text: str) -> str:
     return _comment(post, text)
 
 
-def post_program(toolpath, post: Post | str | None = None) -> str:
+def post_program(toolpath: MillToolpath, post: Post | str | None = None) -> str:
     """The G-code of a :class:`~cam.mill.toolpath.MillToolpath` (program
     frame, mm, feeds mm/min)."""
     if isinstance(post, str) or post is None:
@@ -81,10 +106,10 @@ def post_program(toolpath, post: Post | str | None = None) -> str:
     if prm.coolant:
         out.append(post.coolant_on)
     rapid_in_offset = post.length_offset.split()[0] == post.rapid
-    state = {"X": None, "Y": None, "Z": _number("Z", st.z_safe), "F": None,
+    state: dict[str, str | None] = {"X": None, "Y": None, "Z": _number("Z", st.z_safe), "F": None,
              "G": post.rapid if rapid_in_offset else None}
 
-    def move(g: str, p, f=None):
+    def move(g: str, p: Sequence[float] | FloatArray, f: float | None = None) -> None:
         words = []
         for k, val in zip("XYZ", p):
             w = _number(k, val)

@@ -32,15 +32,24 @@ from __future__ import annotations
 
 import math
 import re
+from collections.abc import Callable
 from dataclasses import dataclass, field
+from pathlib import Path
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
+from tipgeo.arrays import BoolArray, FloatArray, IntArray
 from tipgeo.plot import styled
 from tipgeo.tolerances import tol
 
 from ..machine import CamError
-from .toolpath import cad_height, to_cannula, to_program
+from .machine import EndMill
+from .toolpath import MillSetup, MillToolpath, ProgressFn, cad_height, to_cannula, to_program
+
+if TYPE_CHECKING:
+    from tipgeo.spec import TipSpec
+    from tipgeo.tip import Tip
 
 __all__ = ["GCodeMoves", "read_gcode", "MilledTip", "simulate_mill", "sweep_heights",
            "compare_milled", "plot_deviation", "plot_toolpath"]
@@ -49,22 +58,31 @@ _WORD = re.compile(r"([A-Z])\s*([-+]?(?:\d+\.?\d*|\.\d+))")
 _ALLOWED_G = {0, 1, 17, 21, 28, 40, 43, 49, 54, 80, 90, 91, 94}
 _ALLOWED_M = {3, 5, 6, 8, 9, 30}
 
+#: How far (mm) above the higher of its start and the program zero a G28
+#: return is taken straight up: clear of everything.
+G28_LIFT = 100.0
+
 
 @dataclass
 class GCodeMoves:
     """Straight moves read from a program (program frame, mm; feeds mm/min).
 
     start, end : (n, 3) float; rapid : (n,) bool; feed : (n,) float (NaN for
-    rapids); tool : int or None; spindle_rpm : float or None
+    rapids); tool : int or None; spindle_rpm : float or None; lines : the
+    program's line count; line : (n,) int, the line of each move (1-based);
+    home : (n,) bool, the G28 returns (taken straight up, their end Z
+    :data:`G28_LIFT` above the start: not a programmed point)
     """
 
-    start: np.ndarray
-    end: np.ndarray
-    rapid: np.ndarray
-    feed: np.ndarray
+    start: FloatArray
+    end: FloatArray
+    rapid: BoolArray
+    feed: FloatArray
     tool: int | None
     spindle_rpm: float | None
     lines: int
+    line: IntArray | None = None
+    home: BoolArray | None = None
 
     def cycle_time(self, rapid_feed: float) -> float:
         """Seconds: feed moves at their F, rapids at ``rapid_feed`` (mm/min);
@@ -73,7 +91,10 @@ class GCodeMoves:
         f = np.where(self.rapid, rapid_feed, self.feed)
         return float(np.sum(length / f) * 60.0)
 
-    def summary(self, rapid_feed: float) -> dict:
+    def summary(self, rapid_feed: float) -> dict[str, Any]:
+        """Lines, moves, feed and rapid path lengths (mm), the cycle time (s)
+        at ``rapid_feed`` (mm/min) for the rapids, the tool and the spindle
+        speed (rpm)."""
         length = np.linalg.norm(self.end - self.start, axis=1)
         return {"lines": self.lines, "moves": int(len(self.start)),
                 "feed_length_mm": float(length[~self.rapid].sum()),
@@ -82,103 +103,160 @@ class GCodeMoves:
                 "spindle_rpm": self.spindle_rpm}
 
 
+@dataclass
+class _Reader:
+    """The G-code reader's modal state and the moves read so far (program
+    frame, mm); :meth:`block` reads one line's words through the word table
+    :data:`_WORDS`."""
+
+    pos: list[float | None] = field(default_factory=lambda: [None, None, None])
+    mode: int = 0
+    feed: float = math.nan
+    tool: int | None = None
+    rpm: float | None = None
+    absolute: bool = True
+    n: int = 0
+    target: list[float | None] = field(default_factory=list)
+    moved: bool = False
+    home: bool = False
+    starts: list[list[float | None]] = field(default_factory=list)
+    ends: list[list[float | None]] = field(default_factory=list)
+    rapids: list[bool] = field(default_factory=list)
+    feeds: list[float] = field(default_factory=list)
+    homes: list[bool] = field(default_factory=list)
+    at: list[int] = field(default_factory=list)
+
+    def block(self, n: int, words: list[tuple[str, float]]) -> None:
+        """Read the words of line ``n`` and record its move, if any."""
+        self.n, self.target, self.moved, self.home = n, list(self.pos), False, False
+        for a, val in words:
+            handler = _WORDS.get(a)
+            if handler is None:
+                raise CamError(f"line {n}: word {a} is not supported by the simulator")
+            handler(self, a, val)
+        if self.home:
+            if self.pos[2] is None:
+                return
+            self.target, self.moved = [self.pos[0], self.pos[1], math.inf], True
+        if self.moved:
+            self._record()
+
+    def _record(self) -> None:
+        if None not in self.pos and None not in self.target:
+            rapid = self.mode == 0 or self.home
+            if not rapid and not math.isfinite(self.feed):
+                raise CamError(f"line {self.n}: a G01 move with no feed yet")
+            self.starts.append(list(self.pos))
+            self.ends.append(list(self.target))
+            self.rapids.append(rapid)
+            self.feeds.append(math.nan if rapid else self.feed)
+            self.homes.append(self.home)
+            self.at.append(self.n)
+        self.pos = self.target
+
+    def moves(self) -> GCodeMoves:
+        """The moves read (a CamError when there is none)."""
+        if not self.starts:
+            raise CamError("the program has no move")
+        st = np.array(self.starts, float)
+        en = np.array(self.ends, float)
+        up = ~np.isfinite(en[:, 2])
+        en[up, 2] = np.maximum(st[up, 2], 0.0) + G28_LIFT   # straight up, clear of everything
+        return GCodeMoves(st, en, np.array(self.rapids, bool), np.array(self.feeds, float),
+                          self.tool, self.rpm, self.n, line=np.array(self.at, int),
+                          home=np.array(self.homes, bool))
+
+
+def _word_g(rd: _Reader, a: str, val: float) -> None:
+    g = int(round(val))
+    if g not in _ALLOWED_G or abs(val - g) > tol.cam.mill_word_integer:
+        allowed = ", ".join(f"G{x:02d}" for x in sorted(_ALLOWED_G))
+        raise CamError(f"line {rd.n}: G{val:g} is not supported by the simulator "
+                       f"(allowed: {allowed})")
+    if g in (0, 1):
+        rd.mode = g
+    elif g in (90, 91):
+        rd.absolute = g == 90
+    elif g == 28:
+        rd.home = True
+
+
+def _word_m(rd: _Reader, a: str, val: float) -> None:
+    if int(round(val)) not in _ALLOWED_M:
+        raise CamError(f"line {rd.n}: M{val:g} is not supported by the simulator")
+
+
+def _word_f(rd: _Reader, a: str, val: float) -> None:
+    if not val > 0:
+        raise CamError(f"line {rd.n}: F = {val:g} must be positive (mm/min)")
+    rd.feed = val
+
+
+def _word_s(rd: _Reader, a: str, val: float) -> None:
+    rd.rpm = val
+
+
+def _word_t(rd: _Reader, a: str, val: float) -> None:
+    rd.tool = int(val)
+
+
+def _word_axis(rd: _Reader, a: str, val: float) -> None:
+    if rd.home:
+        return
+    k = "XYZ".index(a)
+    if rd.absolute:
+        rd.target[k] = val
+    else:
+        p = rd.pos[k]
+        if p is None:
+            raise CamError(f"line {rd.n}: incremental {a} before the position is known")
+        rd.target[k] = p + val
+    rd.moved = True
+
+
+def _word_ignored(rd: _Reader, a: str, val: float) -> None:
+    """H (length offset), N (line number), D, P, O: nothing to simulate."""
+
+
+#: The reader's word table: letter → handler of (reader, letter, value).
+_WORDS: dict[str, Callable[[_Reader, str, float], None]] = {
+    "G": _word_g, "M": _word_m, "F": _word_f, "S": _word_s, "T": _word_t,
+    "X": _word_axis, "Y": _word_axis, "Z": _word_axis,
+    **{c: _word_ignored for c in "HNDPO"}}
+
+
+def _words(n: int, raw: str) -> list[tuple[str, float]]:
+    """The (letter, value) words of program line ``n`` (comments, ``%`` and
+    the ``O`` number dropped); a CamError for what is not a word."""
+    line = raw.strip().upper()
+    if "(" in line or ")" in line:
+        if line.count("(") != line.count(")") or re.search(r"\([^)]*\(", line):
+            raise CamError(f"line {n}: unbalanced or nested comment: {raw.strip()[:60]!r}")
+        line = re.sub(r"\([^)]*\)", " ", line)
+    line = line.split(";")[0].strip()
+    if not line or line == "%":
+        return []
+    if line.startswith("O") and re.fullmatch(r"O\d+", line.split()[0]):
+        line = " ".join(line.split()[1:])
+    rest = _WORD.sub(" ", line).strip()
+    if rest:
+        raise CamError(f"line {n}: cannot read {rest[:30]!r} in {raw.strip()[:60]!r}")
+    return [(a, float(b)) for a, b in _WORD.findall(line)]
+
+
 def read_gcode(text: str) -> GCodeMoves:
     """The straight moves of a G-code program (Haas/Fanuc subset: G00, G01,
     G17 G21 G28 G40 G43 G49 G54 G80 G90 G91 G94, T, S, F, H, M03 M05 M06 M08
-    M09 M30, comments in parentheses, ``%`` and ``O`` lines). G28 returns Z
-    home (the move is taken straight up). Anything else is a CamError naming
-    the line."""
-    starts, ends, rapids, feeds = [], [], [], []
-    pos = [None, None, None]
-    mode, feed, tool, rpm, absolute, inch = 0, math.nan, None, None, True, False
-    n = 0
+    M09 M30, comments in parentheses, ``%`` and ``O`` lines; program frame,
+    mm, feeds mm/min). G28 returns Z home (the move is taken straight up).
+    Anything else (G20 inch programs too) is a CamError naming the line."""
+    rd = _Reader()
     for n, raw in enumerate(text.splitlines(), 1):
-        line = raw.strip().upper()
-        if "(" in line or ")" in line:
-            if line.count("(") != line.count(")") or re.search(r"\([^)]*\(", line):
-                raise CamError(f"line {n}: unbalanced or nested comment: {raw.strip()[:60]!r}")
-            line = re.sub(r"\([^)]*\)", " ", line)
-        line = line.split(";")[0].strip()
-        if not line or line == "%":
-            continue
-        if line.startswith("O") and re.fullmatch(r"O\d+", line.split()[0]):
-            line = " ".join(line.split()[1:])
-        rest = _WORD.sub(" ", line).strip()
-        if rest:
-            raise CamError(f"line {n}: cannot read {rest[:30]!r} in {raw.strip()[:60]!r}")
-        words = [(a, float(b)) for a, b in _WORD.findall(line)]
-        target = list(pos)
-        moved = False
-        home = False
-        for a, val in words:
-            if a == "G":
-                g = int(round(val))
-                if g not in _ALLOWED_G or abs(val - g) > 1e-9:
-                    allowed = ", ".join(f"G{x:02d}" for x in sorted(_ALLOWED_G))
-                    raise CamError(f"line {n}: G{val:g} is not supported by the simulator "
-                                   f"(allowed: {allowed})")
-                if g in (0, 1):
-                    mode = g
-                elif g == 90:
-                    absolute = True
-                elif g == 91:
-                    absolute = False
-                elif g == 28:
-                    home = True
-                elif g == 20:
-                    inch = True
-            elif a == "M":
-                m = int(round(val))
-                if m not in _ALLOWED_M:
-                    raise CamError(f"line {n}: M{val:g} is not supported by the simulator")
-            elif a == "F":
-                if not val > 0:
-                    raise CamError(f"line {n}: F = {val:g} must be positive (mm/min)")
-                feed = val
-            elif a == "S":
-                rpm = val
-            elif a == "T":
-                tool = int(val)
-            elif a in "XYZ":
-                k = "XYZ".index(a)
-                if home:
-                    continue
-                if absolute:
-                    target[k] = val
-                else:
-                    if pos[k] is None:
-                        raise CamError(f"line {n}: incremental {a} before the position is known")
-                    target[k] = pos[k] + val
-                moved = True
-            elif a in "HNDPO":
-                continue
-            else:
-                raise CamError(f"line {n}: word {a} is not supported by the simulator")
-        if inch:
-            raise CamError(f"line {n}: G20 (inch) programs are not supported")
-        if home:
-            if pos[2] is not None:
-                target = [pos[0], pos[1], math.inf]
-                moved = True
-            else:
-                continue
-        if not moved:
-            continue
-        if None not in pos and None not in target:
-            if mode == 1 and not math.isfinite(feed):
-                raise CamError(f"line {n}: a G01 move with no feed yet")
-            starts.append(list(pos))
-            ends.append(list(target))
-            rapids.append(mode == 0 or home)
-            feeds.append(math.nan if (mode == 0 or home) else feed)
-        pos = target
-    if not starts:
-        raise CamError("the program has no move")
-    st = np.array(starts, float)
-    en = np.array(ends, float)
-    up = ~np.isfinite(en[:, 2])
-    en[up, 2] = np.maximum(st[up, 2], 0.0) + 100.0   # G28: straight up, clear of everything
-    return GCodeMoves(st, en, np.array(rapids), np.array(feeds, float), tool, rpm, n)
+        rd.n = n
+        words = _words(n, raw)
+        if words:
+            rd.block(n, words)
+    return rd.moves()
 
 
 class _Dexels:
@@ -187,10 +265,14 @@ class _Dexels:
     tiles that meet r_i ≤ r ≤ r_o + R, all the tool reaches outside the bore
     (columns elsewhere read the stock top)."""
 
-    def __init__(self, moves: GCodeMoves, tool, z_top: float, r_i: float, r_o: float):
+    #: Side (mm) of the square tiles the moves are binned in.
+    TILE = 0.05
+
+    def __init__(self, moves: GCodeMoves, tool: EndMill, z_top: float, r_i: float,
+                 r_o: float) -> None:
         from .dexel import tile_moves
 
-        R, r = tool.radius, tool.corner_radius
+        R, r = tool.radius, tool.corner
         reach = r_o + R
         a, b = moves.start, moves.end
         lowz = np.minimum(a[:, 2], b[:, 2])
@@ -204,7 +286,7 @@ class _Dexels:
         self.A = np.ascontiguousarray(a[use])
         self.B = np.ascontiguousarray(b[use])
         self.R, self.r, self.z_top = R, r, z_top
-        self.tile = 0.05
+        self.tile = self.TILE
         self.x0 = self.y0 = -reach
         self.n = int(math.ceil(2 * reach / self.tile)) + 1
         c = self.x0 + (np.arange(self.n) + 0.5) * self.tile
@@ -214,23 +296,24 @@ class _Dexels:
         self.start, self.idx, self.bound = tile_moves(self.A, self.B, R, r, self.x0, self.y0,
                                                       self.tile, self.n, self.n, need)
 
-    def heights(self, xy: np.ndarray) -> np.ndarray:
+    def heights(self, xy: FloatArray) -> FloatArray:
         """Milled heights (mm) of columns at program-frame points (m, 2)."""
         from .dexel import column_heights
 
         xy = np.ascontiguousarray(xy, dtype=float)
-        return column_heights(xy[:, 0].copy(), xy[:, 1].copy(), self.A, self.B, self.R, self.r,
-                              self.z_top, self.start, self.idx, self.bound, self.x0, self.y0,
-                              self.tile, self.n, self.n)
+        out: FloatArray = column_heights(xy[:, 0].copy(), xy[:, 1].copy(), self.A, self.B,
+                                         self.R, self.r, self.z_top, self.start, self.idx,
+                                         self.bound, self.x0, self.y0, self.tile, self.n, self.n)
+        return out
 
 
-def sweep_heights(gcode: str, tool, xy: np.ndarray, *, z_top: float) -> np.ndarray:
+def sweep_heights(gcode: str, tool: EndMill, xy: FloatArray, *, z_top: float) -> FloatArray:
     """Milled heights (mm, program frame) of the columns at ``xy`` (m, 2) of a
     block faced at ``z_top`` after the G-code program ``gcode`` with end mill
     ``tool``: the dexel sweep of :func:`simulate_mill` without a tip."""
     xy = np.asarray(xy, float).reshape(-1, 2)
     moves = read_gcode(gcode)
-    r_o = float(np.hypot(xy[:, 0], xy[:, 1]).max()) + 1e-6
+    r_o = float(np.hypot(xy[:, 0], xy[:, 1]).max()) + tol.cam.mill_reach
     return _Dexels(moves, tool, z_top, 0.0, r_o).heights(xy)
 
 
@@ -244,32 +327,40 @@ class MilledTip:
     normal's z component; moves : GCodeMoves; clocking : rad
     """
 
-    tip: object
-    x: np.ndarray
-    y: np.ndarray
-    height: np.ndarray
-    cad: np.ndarray
-    nz: np.ndarray
+    tip: Tip
+    x: FloatArray
+    y: FloatArray
+    height: FloatArray
+    cad: FloatArray
+    nz: FloatArray
     moves: GCodeMoves
     clocking: float
     radius: float
-    dexels: object = field(repr=False, default=None)
-    normals: np.ndarray | None = field(repr=False, default=None)
+    dexels: _Dexels = field(repr=False)
+    normals: FloatArray = field(repr=False)
     z_top: float = 0.0
 
-    def deviation(self) -> np.ndarray:
+    def deviation(self) -> FloatArray:
         """(ny, nx) signed normal deviation milled − CAD (mm; + material left)."""
-        return (self.height - self.cad) * self.nz
+        out: FloatArray = (self.height - self.cad) * self.nz
+        return out
 
-    def heights_at(self, spec, p_cannula_xy: np.ndarray) -> np.ndarray:
+    def heights_at(self, spec: TipSpec, p_cannula_xy: FloatArray) -> FloatArray:
         """Milled heights (mm) at cannula-frame points (m, 2)."""
-        xy = to_program(np.column_stack([p_cannula_xy, np.zeros(len(p_cannula_xy))]),
-                        self.clocking)[:, :2]
-        return self.dexels.heights(xy)
+        return _heights_at(self.dexels, self.clocking, p_cannula_xy)
 
 
-def simulate_mill(gcode: str, spec, *, tool, setup, cell_um: tuple[float, float] = (20.0, 1.0),
-                  rings: int = 13, around: int = 1440, progress=None) -> MilledTip:
+def _heights_at(dexels: _Dexels, clocking: float, p_cannula_xy: FloatArray) -> FloatArray:
+    """Milled heights (mm) at cannula-frame points (m, 2) of the moves
+    ``dexels`` in a set-up clocked by ``clocking`` (rad)."""
+    xy = to_program(np.column_stack([p_cannula_xy, np.zeros(len(p_cannula_xy))]),
+                    clocking)[:, :2]
+    return dexels.heights(xy)
+
+
+def simulate_mill(gcode: str, spec: TipSpec, *, tool: EndMill, setup: MillSetup,
+                  cell_um: tuple[float, float] = (20.0, 1.0), rings: int = 13,
+                  around: int = 1440, progress: ProgressFn | None = None) -> MilledTip:
     """Mill the stock of ``spec`` (the tube faced at ``setup.z_top``) with the
     G-code ``gcode`` and end mill ``tool`` (ball, bull nose or flat) in set-up
     ``setup``.
@@ -298,9 +389,9 @@ def simulate_mill(gcode: str, spec, *, tool, setup, cell_um: tuple[float, float]
         raise CamError(f"the program calls T{moves.tool}; the tool given is T{tool.number}")
     can = spec.cannula
     R = tool.radius
-    dx, dy = (float(c) * 1e-3 for c in cell_um)
-    if not (0.1e-3 <= dx <= 0.05 and 0.1e-3 <= dy <= 0.05):
+    if not all(0.1 <= float(c) <= 50.0 for c in cell_um):
         raise CamError(f"cell_um = {tuple(cell_um)}: each between 0.1 and 50 µm")
+    dx, dy = (float(c) * 1e-3 for c in cell_um)
     with pg.stage("mill: simulate (tiling the moves)"):
         dex = _Dexels(moves, tool, setup.z_top, can.r_i, can.r_o)
     say(f"simulate: {len(dex.A)} moves reach the stock")
@@ -325,14 +416,18 @@ def simulate_mill(gcode: str, spec, *, tool, setup, cell_um: tuple[float, float]
     H[on], C[on], NZ[on] = h, zc, nc[:, 2]
     N = np.full(X.shape + (3,), np.nan)
     N[on] = nc
-    res = MilledTip(None, x, y, H, C, NZ, moves, setup.clocking, R, dexels=dex,
-                    z_top=setup.z_top, normals=N)
     with pg.stage("mill: simulate (milled tip mesh)"):
-        res.tip = _milled_tip(res, spec, rings, around)
-    return res
+        tip = _milled_tip(dex, setup.clocking, spec, rings, around)
+    return MilledTip(tip, x, y, H, C, NZ, moves, setup.clocking, R, dexels=dex,
+                     z_top=setup.z_top, normals=N)
 
 
-def _milled_tip(res: MilledTip, spec, rings: int, around: int):
+def _milled_tip(dex: _Dexels, clocking: float, spec: TipSpec, rings: int,
+                around: int) -> Tip:
+    """The milled tip (cannula frame, mm): the milled heights of ``dex`` on
+    a polar grid of ``rings`` radii × ``around`` angles over the wall, closed
+    by the walls and a base; each top triangle labelled with the CAD face
+    under it."""
     from tipgeo import Tip
     from tipgeo.edges import lowest_cut
 
@@ -341,7 +436,7 @@ def _milled_tip(res: MilledTip, spec, rings: int, around: int):
     g = np.linspace(0.0, 2 * math.pi, around, endpoint=False)
     rr, gg = np.meshgrid(r, g, indexing="ij")          # (rings, around)
     pxy = np.column_stack([(rr * np.cos(gg)).ravel(), (rr * np.sin(gg)).ravel()])
-    z = res.heights_at(spec, pxy)
+    z = _heights_at(dex, clocking, pxy)
     zb = min(-1.0, float(z.min()) - 1.0)
     top = np.column_stack([pxy, z])
     nt = rings * around
@@ -351,10 +446,11 @@ def _milled_tip(res: MilledTip, spec, rings: int, around: int):
     j = np.arange(around)
     j1 = (j + 1) % around
 
-    def vid(i, jj):
+    def vid(i: int, jj: IntArray) -> IntArray:
         return i * around + jj
 
-    faces, labels = [], []
+    faces: list[IntArray] = []
+    labels: list[IntArray] = []
     # the CAD face under each ring band (between rings i, i+1) at mid-angle
     names = ["outer", "inner", "base"]
     gm = g + math.pi / around
@@ -387,9 +483,9 @@ def _milled_tip(res: MilledTip, spec, rings: int, around: int):
     return tip
 
 
-def compare_milled(res: MilledTip, spec, *, scallop: float, stepover: float,
+def compare_milled(res: MilledTip, spec: TipSpec, *, scallop: float, stepover: float,
                    margin: float | None = None, kink_margin_deg: float = 6.0,
-                   heel_margin_deg: float = 5.0) -> dict:
+                   heel_margin_deg: float = 5.0) -> dict[str, Any]:
     """Milled versus CAD (report units: µm, degrees).
 
     Deviation (signed, normal to the CAD surface, + = material left) over the
@@ -442,7 +538,8 @@ def compare_milled(res: MilledTip, spec, *, scallop: float, stepover: float,
     rc = analyze(spec, method="exact")
     rcm = analyze(build_tip(spec), method="mesh")
     rm = analyze(res.tip, method="mesh", radii=(can.r_o, can.r_i), name="milled")
-    g = np.radians(np.arange(heel_margin_deg, 360.0 - heel_margin_deg + 1e-9, 0.5))
+    steps = math.floor((360.0 - 2.0 * heel_margin_deg) / 0.5 + tol.cam.mill_grid)
+    g = np.radians(heel_margin_deg + 0.5 * np.arange(steps + 1))
     kinks = [k.gamma for w in (rc.outer, rc.inner) for k in w.edge.kinks]
     # away from the rim corners: by kink_margin_deg, and so far that the
     # normal's fitting window (a step-over each side) keeps the ridge margin
@@ -502,7 +599,7 @@ def compare_milled(res: MilledTip, spec, *, scallop: float, stepover: float,
     return out
 
 
-def _near_ridges(res: MilledTip, width: float) -> np.ndarray:
+def _near_ridges(res: MilledTip, width: float) -> BoolArray:
     """(ny, nx) bool: grid columns within ``width`` mm (in X and Y) of a
     ridge between two CAD faces (where the CAD normal turns by more than 1°
     from one column to the next)."""
@@ -523,18 +620,21 @@ def _near_ridges(res: MilledTip, width: float) -> np.ndarray:
         return turn
     kx = int(math.ceil(width / (res.x[1] - res.x[0])))
     ky = int(math.ceil(width / (res.y[1] - res.y[0])))
-    out = binary_dilation(turn, structure=np.ones((1, 2 * kx + 1), bool))
-    return binary_dilation(out, structure=np.ones((2 * ky + 1, 1), bool))
+    wide = binary_dilation(turn, structure=np.ones((1, 2 * kx + 1), bool))
+    out: BoolArray = binary_dilation(wide, structure=np.ones((2 * ky + 1, 1), bool))
+    return out
 
 
-def _window(res, gamma, radius, stepover, kinks, ridge, periods: float = 4.0):
+def _window(res: MilledTip, gamma: FloatArray, radius: float, stepover: float,
+            kinks: FloatArray, ridge: float, periods: float = 4.0) -> FloatArray:
     """Arc lengths (m,) mm of the windows along the rim at cannula angles
     ``gamma`` that span ``periods`` scallop periods P = stepover / |sin β|
     (β between the rim and the passes), at most a quarter of the rim, and
     kept ``ridge`` mm from the rim corners at cannula angles ``kinks``."""
     phi = gamma - res.clocking                      # program-frame angle of the rim point
     sin_b = np.abs(np.cos(phi))                     # rim tangent (−sin φ, cos φ) against X
-    L = np.minimum(periods * stepover / np.maximum(sin_b, 1e-9), 0.5 * math.pi * radius)
+    L = np.minimum(periods * stepover / np.maximum(sin_b, tol.cam.mill_sin_floor),
+                   0.5 * math.pi * radius)
     if len(kinks):
         d = np.min(np.abs(np.angle(np.exp(1j * (gamma[:, None] - np.asarray(kinks)[None])))),
                    axis=1)
@@ -542,7 +642,8 @@ def _window(res, gamma, radius, stepover, kinks, ridge, periods: float = 4.0):
     return L
 
 
-def _edge_deviation_slope(res, spec, gamma, radius, side, length):
+def _edge_deviation_slope(res: MilledTip, spec: TipSpec, gamma: FloatArray, radius: float,
+                          side: float, length: FloatArray) -> FloatArray:
     """d(milled − CAD)/ds along an edge (mm/mm; s the arc length at ``radius``
     towards +γ, just inside the wall: ``side`` −1 outer, +1 inner) at cannula
     angles ``gamma`` (rad), averaged over whole scallops.
@@ -561,15 +662,17 @@ def _edge_deviation_slope(res, spec, gamma, radius, side, length):
     u = np.linspace(-0.5, 0.5, k)[None, :] * length[:, None]       # (m, k) arc offsets
     w = np.cos(math.pi * np.linspace(-0.5, 0.5, k)) ** 2            # Hann
     ga = gamma[:, None] + u / radius
-    rr = radius + side * 1e-9
+    rr = radius + side * tol.cam.mill_inside
     xy = np.column_stack([(rr * np.cos(ga)).ravel(), (rr * np.sin(ga)).ravel()])
     dev = (res.heights_at(spec, xy) - cad_height(spec, xy[:, 0], xy[:, 1])).reshape(ga.shape)
     um = np.sum(w * u, 1, keepdims=True) / w.sum()
     dm = np.sum(w * dev, 1, keepdims=True) / w.sum()
-    return np.sum(w * (u - um) * (dev - dm), 1) / np.sum(w * (u - um) ** 2, 1)
+    out: FloatArray = np.sum(w * (u - um) * (dev - dm), 1) / np.sum(w * (u - um) ** 2, 1)
+    return out
 
 
-def _fit_normals(res, spec, gamma, radius, side, length, into):
+def _fit_normals(res: MilledTip, spec: TipSpec, gamma: FloatArray, radius: float, side: float,
+                 length: FloatArray, into: float) -> FloatArray:
     """Unit normals (cannula frame) of the milled surface at the edge points
     (γ rad, radius mm): the exact CAD normal there, tilted by the gradient of
     the deviation milled − CAD fitted as c₀ + c_u u + c_r ρ over a band along
@@ -597,16 +700,18 @@ def _fit_normals(res, spec, gamma, radius, side, length, into):
     c, s_ = np.cos(gamma), np.sin(gamma)
     gx = coef[:, 1] * -s_ + coef[:, 2] * c
     gy = coef[:, 1] * c + coef[:, 2] * s_
-    inward = radius + side * 1e-9
+    inward = radius + side * tol.cam.mill_inside
     _, n0 = cad_height(spec, inward * c, inward * s_, normals=True)
     gx = -n0[:, 0] / n0[:, 2] + gx
     gy = -n0[:, 1] / n0[:, 2] + gy
     n = np.stack([-gx, -gy, np.ones_like(gx)], 1)
-    return n / np.linalg.norm(n, axis=1, keepdims=True)
+    out: FloatArray = n / np.linalg.norm(n, axis=1, keepdims=True)
+    return out
 
 
 @styled
-def plot_deviation(res: MilledTip, path, *, title: str = "", limit_um: float | None = None):
+def plot_deviation(res: MilledTip, path: str | Path, *, title: str = "",
+                   limit_um: float | None = None) -> str | Path:
     """PNG of the signed deviation map (µm, program frame) — written atomically."""
     import matplotlib
 
@@ -632,7 +737,7 @@ def plot_deviation(res: MilledTip, path, *, title: str = "", limit_um: float | N
 
 
 @styled
-def plot_toolpath(toolpath, path, *, title: str = ""):
+def plot_toolpath(toolpath: MillToolpath, path: str | Path, *, title: str = "") -> str | Path:
     """PNG of the planned passes (program frame, mm), written atomically:
     the plan view (finishing passes coloured by Z, roughing grey, the wall's
     rims) and the side view X–Z of the finishing passes."""
@@ -656,7 +761,7 @@ def plot_toolpath(toolpath, path, *, title: str = ""):
                                              linewidths=0.6, label="roughing"))
         segs = np.concatenate([np.stack([p[:-1, :2], p[1:, :2]], 1) for p in fin])
         zc = np.concatenate([0.5 * (p[:-1, 2] + p[1:, 2]) for p in fin])
-        lc = LineCollection(segs, array=zc, cmap="viridis", linewidths=0.9)
+        lc = LineCollection(list(segs), array=zc, cmap="viridis", linewidths=0.9)
         lc.set_clim(zall.min(), zall.max())
         ax.add_collection(lc)
         t = np.linspace(0, 2 * math.pi, 361)

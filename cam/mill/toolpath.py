@@ -64,20 +64,32 @@ from __future__ import annotations
 
 import math
 import os
+from collections.abc import Callable
 from dataclasses import dataclass, field
-from typing import Any
+from typing import TYPE_CHECKING, Any, Literal, overload
 
 import numpy as np
 
 from tipgeo import progress as pg
+from tipgeo.arrays import ArrayLike, BoolArray, FloatArray, IntArray
 from tipgeo.errors import SpecError
 from tipgeo.tolerances import tol
 
 from ..machine import CamError
 from .machine import DEFAULT_TOOL, EndMill, MillMachine
 
+if TYPE_CHECKING:
+    from tipgeo.cannula import Cannula
+    from tipgeo.spec import TipSpec
+
 __all__ = ["MillParams", "MillSetup", "Pass", "MillToolpath", "cad_height", "plan_toolpaths",
-           "planar_stepover", "to_program", "to_cannula"]
+           "planar_stepover", "to_program", "to_cannula", "ProgressFn"]
+
+#: A progress printer: takes one line of text.
+ProgressFn = Callable[[str], None]
+
+#: The finest scallop target a plan takes (mm: 0.1 µm).
+MIN_SCALLOP = 1.0e-4
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -106,11 +118,11 @@ class MillParams:
     coolant: bool = True
     program_number: int = 1402
 
-    def __post_init__(self):
+    def __post_init__(self) -> None:
         try:
             from tipgeo import validate as v
 
-            v.real("scallop", self.scallop, lo=1e-4, hi=0.1, unit="mm")
+            v.real("scallop", self.scallop, lo=MIN_SCALLOP, hi=0.1, unit="mm")
             v.real("allowance", self.allowance, lo=0.0, hi=1.0, unit="mm")
             v.real("stepdown", self.stepdown, lo=0.01, hi=5.0, unit="mm")
             v.real("rough_stepover", self.rough_stepover, lo=0.01, hi=10.0, unit="mm")
@@ -148,7 +160,7 @@ class Pass:
     when its first point has the tool clear of the wall (rapid down to it)."""
 
     kind: str
-    points: np.ndarray
+    points: FloatArray
     feed: float
     clear_start: bool = True
 
@@ -163,9 +175,9 @@ class MillToolpath:
     machine: MillMachine
     params: MillParams
     passes: list[Pass]
-    stats: dict = field(default_factory=dict)
+    stats: dict[str, Any] = field(default_factory=dict)
 
-    def summary(self) -> dict:
+    def summary(self) -> dict[str, Any]:
         """Plain numbers (report units: mm, deg, µm)."""
         s = self.setup
         fin = [p for p in self.passes if p.kind == "finish"]
@@ -178,29 +190,40 @@ class MillToolpath:
                 "points": int(sum(len(p.points) for p in self.passes)), **self.stats}
 
 
-def progress_say(progress=None):
+def progress_say(progress: ProgressFn | None = None) -> ProgressFn:
     """The progress-line callable: ``progress`` when a caller gives one (a
     library user's printer), else :func:`tipgeo.progress.note` (shown when
     progress is on, see :mod:`tipgeo.progress`)."""
     return progress if progress is not None else pg.note
 
 
-def to_program(p: np.ndarray, clocking: float) -> np.ndarray:
+def to_program(p: ArrayLike, clocking: float) -> FloatArray:
     """Cannula-frame points (n, 3) → program frame (mm)."""
     c, s = math.cos(clocking), math.sin(clocking)
     p = np.asarray(p, float)
-    out = p.copy()
+    out: FloatArray = p.copy()
     out[..., 0] = c * p[..., 0] + s * p[..., 1]
     out[..., 1] = -s * p[..., 0] + c * p[..., 1]
     return out
 
 
-def to_cannula(p: np.ndarray, clocking: float) -> np.ndarray:
+def to_cannula(p: ArrayLike, clocking: float) -> FloatArray:
     """Program-frame points (n, 3) → cannula frame (mm)."""
     return to_program(p, -clocking)
 
 
-def cad_height(spec, x, y, *, normals: bool = False):
+@overload
+def cad_height(spec: TipSpec, x: ArrayLike, y: ArrayLike, *,
+               normals: Literal[False] = False) -> FloatArray: ...
+
+
+@overload
+def cad_height(spec: TipSpec, x: ArrayLike, y: ArrayLike, *,
+               normals: Literal[True]) -> tuple[FloatArray, FloatArray]: ...
+
+
+def cad_height(spec: TipSpec, x: ArrayLike, y: ArrayLike, *,
+               normals: bool = False) -> FloatArray | tuple[FloatArray, FloatArray]:
     """The CAD cut surface z = Z(x, y) (mm, cannula frame) over points of
     the annulus, from the cutters' exact implicit functions (Newton in z);
     with ``normals`` also the unit outward normals (n, 3).
@@ -249,24 +272,32 @@ def cad_height(spec, x, y, *, normals: bool = False):
     return best
 
 
-def _annulus_samples(can, rings: int = 9, around: int = 720):
+def _annulus_samples(can: Cannula, rings: int = 9,
+                     around: int = 720) -> tuple[FloatArray, FloatArray]:
+    """Cannula-frame sample points (x, y) (mm) over the wall's annulus:
+    ``rings`` radii × ``around`` angles."""
     r = np.linspace(can.r_i, can.r_o, rings)
     g = np.linspace(0.0, 2 * math.pi, around, endpoint=False)
     rr, gg = np.meshgrid(r, g)
     return (rr * np.cos(gg)).ravel(), (rr * np.sin(gg)).ravel()
 
 
-def _ratio(grad: np.ndarray, clocking) -> np.ndarray:
+def _ratio(grad: FloatArray, clocking: ArrayLike) -> FloatArray:
     """Worst surface/plan spacing ratio of passes along direction
     ``clocking`` (array of rad): √((1 + |g|²)/(1 + (g·d)²))."""
     c = np.atleast_1d(clocking)
     d = np.stack([np.cos(c), np.sin(c)], 1)
     ga = grad @ d.T
     g2 = np.sum(grad ** 2, axis=1)[:, None]
-    return np.sqrt((1 + g2) / (1 + ga ** 2)).max(axis=0)
+    out: FloatArray = np.sqrt((1 + g2) / (1 + ga ** 2)).max(axis=0)
+    return out
 
 
-def _clocking(spec):
+def _clocking(spec: TipSpec) -> tuple[float, float, FloatArray]:
+    """The clocking (rad in [0, π)) whose worst surface/plan ratio of the
+    passes over the annulus is smallest, that ratio, and the surface's
+    gradients at the annulus samples (a CamError where the surface is too
+    steep for a three-axis mill)."""
     x, y = _annulus_samples(spec.cannula)
     _, n = cad_height(spec, x, y, normals=True)
     nz = n[:, 2]
@@ -286,7 +317,7 @@ def _clocking(spec):
     return float(np.mod(fine[k], math.pi)), float(rf[k]), grad
 
 
-def _skirts(tri: np.ndarray, verts: np.ndarray, faces: np.ndarray) -> np.ndarray:
+def _skirts(tri: FloatArray, verts: FloatArray, faces: IntArray) -> FloatArray:
     """Strips continuing the cut faces across their boundary (the rims, where
     the mesh's polygon lies inside the true circle by up to its chordal
     tolerance): each boundary edge extended by ``SKIRT`` mm in its triangle's
@@ -304,7 +335,9 @@ def _skirts(tri: np.ndarray, verts: np.ndarray, faces: np.ndarray) -> np.ndarray
     o /= np.linalg.norm(o, axis=1, keepdims=True)
     o *= np.where(np.sum(o * (c - a), axis=1) > 0, -1.0, 1.0)[:, None]   # away from the face
     a2, b2 = a + SKIRT * o, b + SKIRT * o
-    return np.stack([np.stack([a, b, b2], 1), np.stack([a, b2, a2], 1)], 1).reshape(-1, 3, 3)
+    out: FloatArray = np.stack([np.stack([a, b, b2], 1), np.stack([a, b2, a2], 1)],
+                               1).reshape(-1, 3, 3)
+    return out
 
 
 #: Width (mm) of the strips that continue the cut faces across the rims.
@@ -315,7 +348,7 @@ class _Surface:
     """An OpenCAMLib STL surface of the tip's cut faces (program frame); the
     Python objects are kept alive with it."""
 
-    def __init__(self, spec, clocking: float, tolerance: float):
+    def __init__(self, spec: TipSpec, clocking: float, tolerance: float) -> None:
         import opencamlib as ocl
 
         from tipgeo import build_tip
@@ -329,13 +362,13 @@ class _Surface:
         self.z_min = float(tip.bounds[0, 2])
         self.z_max = float(tip.bounds[1, 2])
         self.stl = ocl.STLSurf()
-        self._keep = []
+        self._keep: list[Any] = []
         for a, b, c in tri:
             t = ocl.Triangle(ocl.Point(*a), ocl.Point(*b), ocl.Point(*c))
             self._keep.append(t)
             self.stl.addTriangle(t)
 
-    def drop(self, cutter, xy: np.ndarray) -> np.ndarray:
+    def drop(self, cutter: Any, xy: FloatArray) -> FloatArray:
         """Drop-cutter tip heights (mm) at program-frame points (n, 2);
         NaN where the cutter touches nothing."""
         import opencamlib as ocl
@@ -347,33 +380,47 @@ class _Surface:
         bdc.setSTL(self.stl)
         bdc.setCutter(cutter)
         bdc.setThreads(max(1, min(2, os.cpu_count() or 1)))
-        keep = []
+        keep: list[Any] = []
         for x, y in xy:
             p = ocl.CLPoint(float(x), float(y), floor)
             keep.append(p)
             bdc.appendPoint(p)
         bdc.run()
-        z = np.array([p.z for p in bdc.getCLPoints()])
-        return np.where(z <= floor + 1.0, np.nan, z)
+        z = np.array([p.z for p in bdc.getCLPoints()], float)
+        out: FloatArray = np.where(z <= floor + 1.0, np.nan, z)
+        return out
 
 
-def _runs(mask: np.ndarray) -> list[tuple[int, int]]:
+def _runs(mask: BoolArray) -> list[tuple[int, int]]:
     """(start, end) inclusive index runs where ``mask`` is True."""
     m = np.concatenate([[False], mask, [False]]).astype(int)
     d = np.diff(m)
-    return list(zip(np.flatnonzero(d == 1), np.flatnonzero(d == -1) - 1))
+    return [(int(a), int(b)) for a, b in zip(np.flatnonzero(d == 1),
+                                             np.flatnonzero(d == -1) - 1)]
 
 
-def _contact(x, y, r_lo, r_hi):
+def _contact(x: ArrayLike, y: float, r_lo: float, r_hi: float) -> BoolArray:
+    """Where a tool at (x, y) (mm, program frame) has its axis strictly
+    between the radii ``r_lo`` and ``r_hi`` (mm)."""
     r = np.hypot(x, y)
-    return (r < r_hi) & (r > r_lo)
+    out: BoolArray = (r < r_hi) & (r > r_lo)
+    return out
 
 
-def _ceil(z, res):
-    return np.ceil(z / res - 1e-9) * res
+def _ceil(z: FloatArray, res: float) -> FloatArray:
+    """``z`` (mm) rounded up to the axis grid ``res`` (a value an ulp above
+    a grid point stays on it)."""
+    out: FloatArray = np.ceil(z / res - tol.cam.mill_grid) * res
+    return out
 
 
-def _finish_lines(surf, cutter, ys, x_half, r_lo, r_hi, res, chord, chord_up, bar=None):
+#: The finishing runs of each line: (y, [(x (m,), z (m,)), …]) (mm, program frame).
+FinishLines = list[tuple[float, list[tuple[FloatArray, FloatArray]]]]
+
+
+def _finish_lines(surf: _Surface, cutter: Any, ys: FloatArray, x_half: float, r_lo: float,
+                  r_hi: float, res: float, chord: float, chord_up: float,
+                  bar: Any = None) -> tuple[FinishLines, int]:
     """Adaptive drop-cutter along each line y = const (program frame).
 
     Returns ([(y, [(x (m,), z (m,)), …]), …] per line — runs of the line where
@@ -381,16 +428,16 @@ def _finish_lines(surf, cutter, ys, x_half, r_lo, r_hi, res, chord, chord_up, ba
     it —, drop-cutter calls). ``bar`` (a :func:`tipgeo.progress.bar`) is
     given the count of passes (runs) and advanced as each is refined."""
     coarse = 32
-    runs: list[dict] = []
-    pending: list[tuple] = []          # (run, grid index j)
+    runs: list[tuple[float, dict[int, float]]] = []     # (y, grid index j → z)
+    pending: list[tuple[int, int]] = []                  # (run, grid index j)
     for y in ys:
         jmax = int(math.floor(x_half / res)) + 1
         j = np.arange(-jmax, jmax + 1)
-        inside = _contact(j * res, y, r_lo, r_hi)
+        inside = _contact(j * res, float(y), r_lo, r_hi)
         for a, b in _runs(inside):
             idx = np.arange(a, b + 1)
             keep = idx[(j[idx] % coarse == 0) | (idx == a) | (idx == b)]
-            runs.append({"y": float(y), "z": {}})
+            runs.append((float(y), {}))
             pending += [(len(runs) - 1, int(j[i])) for i in keep]
     calls = 0
     if bar is not None:
@@ -398,18 +445,18 @@ def _finish_lines(surf, cutter, ys, x_half, r_lo, r_hi, res, chord, chord_up, ba
     done = 0
     rounds = 0
     while pending:
-        xy = np.array([(jj * res, runs[ri]["y"]) for ri, jj in pending])
+        xy = np.array([(jj * res, runs[ri][0]) for ri, jj in pending])
         zs = surf.drop(cutter, xy)
         calls += len(pending)
         rounds += 1
         for (ri, jj), zz in zip(pending, zs):
-            runs[ri]["z"][jj] = zz
+            runs[ri][1][jj] = float(zz)
         pending = []
         for ri, r_ in enumerate(runs):
-            js = np.array(sorted(r_["z"]))
+            js = np.array(sorted(r_[1]))
             if len(js) < 3:
                 continue
-            z = np.array([r_["z"][jj] for jj in js])
+            z = np.array([r_[1][jj] for jj in js])
             x = js * res
             hgt = np.diff(x)
             slope = np.diff(z) / hgt
@@ -433,46 +480,48 @@ def _finish_lines(surf, cutter, ys, x_half, r_lo, r_hi, res, chord, chord_up, ba
             bar.update(now - done)
             done = now
             bar.set_postfix_str(f"round {rounds}, {calls} points")
-    out = {}
-    for r_ in runs:
-        js = np.array(sorted(r_["z"]))
-        z = np.array([r_["z"][jj] for jj in js])
+    out: dict[float, list[tuple[FloatArray, FloatArray]]] = {}
+    for y_, zj in runs:
+        js = np.array(sorted(zj))
+        z = np.array([zj[jj] for jj in js])
         good = np.isfinite(z)
         if good.any():
-            out.setdefault(r_["y"], []).append((js[good] * res, _ceil(z[good], res)))
+            out.setdefault(y_, []).append((js[good] * res, _ceil(z[good], res)))
     return [(y, out.get(float(y), [])) for y in ys], calls
 
 
-def _grid_values(lo: float, hi: float, step: float, res: float) -> np.ndarray:
+def _grid_values(lo: float, hi: float, step: float, res: float) -> FloatArray:
     """Multiples of ``step`` (itself a multiple of ``res``) covering (lo, hi)."""
     k0 = math.ceil(lo / step)
     k1 = math.floor(hi / step)
-    return np.round(np.arange(k0, k1 + 1) * step / res) * res
+    out: FloatArray = np.round(np.arange(k0, k1 + 1) * step / res) * res
+    return out
 
 
-def _with_leads(x, z, y, r_hi, lead, res, feed, kind):
+def _with_leads(x: FloatArray, z: FloatArray, y: float, r_hi: float, lead: float, res: float,
+                feed: float, kind: str) -> Pass:
     """A pass from a run: straight leads at the run's end heights out to
     points where the tool is clear (outside the footprint circle, or the next
     clear grid point in the bore)."""
-    pts = [(x[0], y, z[0])] if len(x) else []
-    xs, zs = list(x), list(z)
+    xs, zs = [float(a) for a in x], [float(a) for a in z]
+
     # lead-in / lead-out along X to the clear side
-    def clear_x(x_end, direction):
+    def clear_x(x_end: float, direction: float) -> float:
         xe = x_end + direction * res
         if math.hypot(xe, y) >= r_hi:   # outer side: go on by ``lead``
             return x_end + direction * (res + math.ceil(lead / res) * res)
         return xe
-    x_in = clear_x(xs[0], -1.0 if xs[0] < 0 or len(xs) == 1 else -1.0)
+    x_in = clear_x(xs[0], -1.0)
     x_out = clear_x(xs[-1], 1.0)
     pts = [(x_in, y, zs[0])] + list(zip(xs, [y] * len(xs), zs)) + [(x_out, y, zs[-1])]
     return Pass(kind, np.round(np.array(pts) / res) * res, feed, True)
 
 
-def _envelope(tool, g_along: np.ndarray, w: np.ndarray) -> np.ndarray:
+def _envelope(tool: EndMill, g_along: FloatArray, w: FloatArray) -> FloatArray:
     """(k, m) min over d of [T(√(d² + w²)) + g d]: the height of the tool's
     swept lower envelope over a plane rising at g along the pass, at lateral
     offsets w (relative; T the tool's profile above its tip, mm)."""
-    R, r = tool.radius, tool.corner_radius
+    R, r = tool.radius, tool.corner
     a = R - r
     # d over the chord |d| ≤ √(R² − w²) where the tool covers the column,
     # ends included (a flat end's minimum lies on them)
@@ -482,10 +531,11 @@ def _envelope(tool, g_along: np.ndarray, w: np.ndarray) -> np.ndarray:
     e = np.clip(rho - a, 0.0, None)
     T = np.where(np.abs(w)[None, :, None] <= R, r - np.sqrt(np.clip(r * r - e * e, 0.0, None)),
                  np.inf)
-    return np.min(T + g_along[:, None, None] * d, axis=2)
+    out: FloatArray = np.min(T + g_along[:, None, None] * d, axis=2)
+    return out
 
 
-def planar_stepover(tool, grad: np.ndarray, clocking: float, h: float, *,
+def planar_stepover(tool: EndMill, grad: FloatArray, clocking: float, h: float, *,
                     lift: float = 0.0) -> float:
     """The largest plan step-over (mm) whose scallop between neighbouring
     passes along ``clocking`` stays within ``h`` (mm, normal to the surface)
@@ -513,7 +563,7 @@ def planar_stepover(tool, grad: np.ndarray, clocking: float, h: float, *,
     E -= np.nanmin(np.where(np.isfinite(E), E, np.nan), axis=1, keepdims=True)
     k0 = np.argmin(E, axis=1)                           # where each pass touches its plane
 
-    def scallop(s):
+    def scallop(s: float) -> float:
         worst = 0.0
         for e, k, nz_ in zip(E, k0, n):
             fin = np.isfinite(e)
@@ -550,7 +600,8 @@ def planar_stepover(tool, grad: np.ndarray, clocking: float, h: float, *,
     return lo
 
 
-def _cross_curvature(spec, x, y, clocking: float, grad: np.ndarray) -> np.ndarray:
+def _cross_curvature(spec: TipSpec, x: FloatArray, y: FloatArray, clocking: float,
+                     grad: FloatArray) -> FloatArray:
     """Normal curvature (1/mm; < 0 convex: the surface falls away from the
     tool) of the CAD cut surface at cannula-frame points (x, y), in the
     direction across passes along ``clocking`` (in the tangent plane, at right
@@ -576,11 +627,12 @@ def _cross_curvature(spec, x, y, clocking: float, grad: np.ndarray) -> np.ndarra
     c /= np.linalg.norm(c, axis=1, keepdims=True)
     w = np.sqrt(1.0 + np.sum(grad ** 2, axis=1))
     k = (hxx * c[:, 0] ** 2 + 2 * hxy * c[:, 0] * c[:, 1] + hyy * c[:, 1] ** 2) / w
-    return np.where(ridge, 0.0, k)
+    out: FloatArray = np.where(ridge, 0.0, k)
+    return out
 
 
-def _ball_stepover(spec, R: float, grad: np.ndarray, clocking: float, budget: np.ndarray,
-                   lift: np.ndarray) -> tuple[float, Any]:
+def _ball_stepover(spec: TipSpec, R: float, grad: FloatArray, clocking: float,
+                   budget: FloatArray, lift: FloatArray) -> tuple[float, Callable[[float], float]]:
     """The plan step-over (mm) of a ball mill of radius R whose cusp stays
     within ``budget`` (n,) mm normal to the surface at each annulus sample of
     :func:`_clocking` (gradients ``grad``), and the scallop it plans (mm): the
@@ -599,7 +651,7 @@ def _ball_stepover(spec, R: float, grad: np.ndarray, clocking: float, budget: np
     s_surf = 2.0 * np.sqrt(np.clip(2.0 * R * hc - hc * hc, 0.0, None))
     s = float(np.min(s_surf / q))
 
-    def planned(step):
+    def planned(step: float) -> float:
         ss = step * q
         return float(np.max((R - np.sqrt(np.clip(R * R - ss * ss / 4.0, 0.0, None))) * grow
                             + lift))
@@ -607,15 +659,17 @@ def _ball_stepover(spec, R: float, grad: np.ndarray, clocking: float, budget: np
     return s, planned
 
 
-def _ratio_each(grad: np.ndarray, clocking: float) -> np.ndarray:
+def _ratio_each(grad: FloatArray, clocking: float) -> FloatArray:
     """Surface/plan spacing ratio of passes along ``clocking`` (rad) at each
     gradient (n, 2): √((1 + |g|²)/(1 + (g·d)²))."""
     d = np.array([math.cos(clocking), math.sin(clocking)])
-    return np.sqrt((1.0 + np.sum(grad ** 2, axis=1)) / (1.0 + (grad @ d) ** 2))
+    out: FloatArray = np.sqrt((1.0 + np.sum(grad ** 2, axis=1)) / (1.0 + (grad @ d) ** 2))
+    return out
 
 
-def plan_toolpaths(spec, *, tool: EndMill | None = None, machine: MillMachine | None = None,
-                   params: MillParams | None = None, progress=None) -> MillToolpath:
+def plan_toolpaths(spec: TipSpec, *, tool: EndMill | None = None,
+                   machine: MillMachine | None = None, params: MillParams | None = None,
+                   progress: ProgressFn | None = None) -> MillToolpath:
     """Roughing and finishing passes that mill ``spec`` tip-up on ``machine``
     (see the module docstring).
 
@@ -633,21 +687,63 @@ def plan_toolpaths(spec, *, tool: EndMill | None = None, machine: MillMachine | 
     ------
     CamError — not a height field, scallop unreachable, tool reach, travel,
         spindle or feed limits (naming the axis or parameter, value and limit).
+
+    The stages: the machine's limits on the request (:func:`_check_request`),
+    the clocking and the finishing step-over (:func:`_finish_stepover`), the
+    set-up (stock top, safe height), roughing (:func:`_rough_passes`),
+    finishing (:func:`_finish_passes`), and the tool's reach and the travels
+    on the passes (:func:`_check_passes`).
     """
     tool = tool or DEFAULT_TOOL
     mach = machine or MillMachine()
     prm = params or MillParams()
     say = progress_say(progress)
+    _check_request(mach, prm)
+    res = mach.resolution
+    can = spec.cannula
+    clock, _, grad = _clocking(spec)
+    step = _finish_stepover(spec, tool, prm, res, grad, clock)
+    with pg.stage("mill: tip mesh for the drop-cutter"):
+        surf = _Surface(spec, clock, tol.cam.mill_mesh)
+    z_top = float(_ceil(np.array([surf.z_max + prm.top_stock]), res)[0])
+    setup = MillSetup(clock, z_top, float(_ceil(np.array([z_top + prm.safe]), res)[0]),
+                      step.stepover, step.ratio, can.r_o, can.r_i)
+    stats: dict[str, Any] = {"scallop_planned_um": step.planned * 1e3,
+                             "scallop_rounding_um": step.rounding * 1e3}
+    passes: list[Pass] = []
+    if prm.rough and prm.allowance > 0:
+        passes += _rough_passes(spec, tool, prm, setup, res, say, stats)
+    passes += _finish_passes(surf, tool, prm, setup, res, say, stats)
+    _check_passes(passes, setup, tool, mach)
+    return MillToolpath(spec.name or "tip", setup, tool, mach, prm, passes, stats)
+
+
+def _check_request(mach: MillMachine, prm: MillParams) -> None:
+    """The spindle speed and the feeds of ``prm`` inside the machine's ranges,
+    or a CamError naming them."""
     mach.check_spindle(prm.spindle_rpm)
     for k in ("finish_feed", "rough_feed", "plunge_feed"):
         mach.check_feed(k, getattr(prm, k))
-    res = mach.resolution
-    can = spec.cannula
-    R = tool.radius
-    clock, _, grad = _clocking(spec)
-    # finishing step-over from the scallop target
+
+
+@dataclass(frozen=True)
+class _Step:
+    """The finishing step-over (mm, plan, on the axis grid), its worst
+    surface/plan ratio, the scallop it plans and the Z round-up's share of
+    it (mm, normal to the surface)."""
+
+    stepover: float
+    ratio: float
+    planned: float
+    rounding: float
+
+
+def _finish_stepover(spec: TipSpec, tool: EndMill, prm: MillParams, res: float,
+                     grad: FloatArray, clock: float) -> _Step:
+    """The finishing step-over for the scallop target ``prm.scallop`` with
+    the Z round-up to the axis resolution ``res`` (mm) budgeted (see the
+    module docstring); a CamError when the target cannot be held."""
     h = prm.scallop
-    rc = tool.corner_radius
     ratio = float(_ratio(grad, np.array([clock]))[0])
     nz = 1.0 / np.sqrt(1.0 + np.sum(grad ** 2, axis=1))
     share = tol.cam.mill_scallop_share
@@ -658,93 +754,122 @@ def plan_toolpaths(spec, *, tool: EndMill | None = None, machine: MillMachine | 
                        f"resolution {res:g} mm, which alone leaves up to {res * nz[k] * 1e3:.3g} "
                        f"µm normal to the surface where its normal has n_z = {nz[k]:.3g}; "
                        f"allowed scallop > {res * nz.max() / share * 1e3:.3g} µm")
+    planned: Callable[[float], float] | None = None
     if tool.kind == "ball":
-        s, planned = _ball_stepover(spec, rc, grad, clock, budget, res * nz)
+        s, planned = _ball_stepover(spec, tool.corner, grad, clock, budget, res * nz)
     else:   # bull nose, flat end: the scallop of the tool's swept profile on planes
         s = planar_stepover(tool, grad, clock, share * h, lift=res)
-        planned = None                      # bounded by share · h
     s = min(s, 0.8 * tool.diameter)
-    s = math.floor(s / res + 1e-9) * res
+    s = math.floor(s / res + tol.cam.mill_grid) * res
     if s < res:
         raise CamError(f"scallop = {h * 1e3:g} µm needs a step-over below the axis resolution "
-                       f"{res:g} mm with this tool (corner radius {rc:g} mm)")
-    with pg.stage("mill: tip mesh for the drop-cutter"):
-        surf = _Surface(spec, clock, tol.cam.mill_mesh)
-    z_top = _ceil(np.array([surf.z_max + prm.top_stock]), res)[0]
-    setup = MillSetup(clock, float(z_top), float(_ceil(np.array([z_top + prm.safe]), res)[0]),
-                      float(s), ratio, can.r_o, can.r_i)
+                       f"{res:g} mm with this tool (corner radius {tool.corner:g} mm)")
+    # bull nose and flat end: bounded by share · h
+    return _Step(float(s), ratio, planned(s) if planned else share * h, float(res * nz.max()))
+
+
+def _rough_passes(spec: TipSpec, tool: EndMill, prm: MillParams, setup: MillSetup,
+                  res: float, say: ProgressFn, stats: dict[str, Any]) -> list[Pass]:
+    """Z-level roughing passes (see the module docstring): lines
+    ``rough_stepover`` apart, the drop-cutter of the tool grown by the
+    allowance along them, cut level by level ``stepdown`` apart from the
+    stock top."""
+    a = prm.allowance
+    can = spec.cannula
+    Ra = tool.radius + a
+    with pg.stage("mill: roughing mesh"):
+        rsurf = _Surface(spec, setup.clocking, 10 * tol.cam.mill_mesh)
+    step = max(res, math.floor(prm.rough_stepover / res) * res)
+    dx = max(res, math.floor(prm.rough_sample / res) * res)
+    lines: list[tuple[float, FloatArray, BoolArray]] = []
+    for y in _grid_values(-(can.r_o + Ra), can.r_o + Ra, step, res):
+        xh = math.sqrt(max((can.r_o + Ra) ** 2 - y * y, 0.0))
+        x = _grid_values(-xh - dx, xh + dx, dx, res)
+        lines.append((float(y), x, _contact(x, float(y), can.r_i - Ra, can.r_o + Ra)))
+    xy = np.concatenate([np.stack([x[m], np.full(m.sum(), y)], 1) for y, x, m in lines])
+    say(f"roughing: {len(xy)} drop-cutter points")
+    with pg.stage("mill: roughing drop-cutter"):
+        zall = rsurf.drop(tool.ocl_cutter(a), xy) + a
+    stats["rough_drop_points"] = int(len(xy))
+    zr_lines = []
+    off = 0
+    for _y, x, m in lines:
+        z = np.full(len(x), np.nan)
+        z[m] = zall[off:off + m.sum()]
+        off += int(m.sum())
+        zr_lines.append(z)
     passes: list[Pass] = []
-    stats = {"scallop_planned_um": float((planned(s) if planned else share * h) * 1e3),
-             "scallop_rounding_um": float(res * nz.max() * 1e3)}
-    # roughing
-    if prm.rough and prm.allowance > 0:
-        a = prm.allowance
-        Ra = R + a
-        with pg.stage("mill: roughing mesh"):
-            rsurf = _Surface(spec, clock, 10 * tol.cam.mill_mesh)
-        cut_a = tool.ocl_cutter(a)
-        step = max(res, math.floor(prm.rough_stepover / res) * res)
-        dx = max(res, math.floor(prm.rough_sample / res) * res)
-        ys = _grid_values(-(can.r_o + Ra), can.r_o + Ra, step, res)
-        lines = []
-        for y in ys:
-            xh = math.sqrt(max((can.r_o + Ra) ** 2 - y * y, 0.0))
-            x = _grid_values(-xh - dx, xh + dx, dx, res)
-            inside = _contact(x, y, can.r_i - Ra, can.r_o + Ra)
-            lines.append((y, x, inside))
-        xy = np.concatenate([np.stack([x[m], np.full(m.sum(), y)], 1) for y, x, m in lines])
-        say(f"roughing: {len(xy)} drop-cutter points")
-        with pg.stage("mill: roughing drop-cutter"):
-            zall = rsurf.drop(cut_a, xy) + a
-        stats["rough_drop_points"] = int(len(xy))
-        off = 0
-        zr_lines = []
-        for _y, x, m in lines:
-            z = np.full(len(x), np.nan)
-            z[m] = zall[off:off + m.sum()]
-            off += m.sum()
-            zr_lines.append(z)
-        zmin = np.nanmin(zall)
-        levels = []
-        lev = z_top
-        while lev > zmin:
-            lev = max(lev - prm.stepdown, zmin)
-            levels.append(lev)
-        prev = z_top
-        for lev in levels:
-            for (y, x, m), z in zip(lines, zr_lines):
-                todo = m & (z < prev - 1e-9)
-                for i0, i1 in _runs(todo):
-                    j0, j1 = max(i0 - 1, 0), min(i1 + 1, len(x) - 1)
-                    zz = np.maximum(lev, z[j0:j1 + 1])
-                    xx = x[j0:j1 + 1]
-                    clear0 = not m[j0]
-                    zz = np.where(np.isnan(zz), np.nan, zz)
-                    # clear ends: at the neighbouring pass height
-                    if np.isnan(zz[0]):
-                        zz[0] = zz[1]
-                    if np.isnan(zz[-1]):
-                        zz[-1] = zz[-2]
-                    zz = _ceil(zz, res)
-                    passes.append(Pass("rough", np.stack([xx, np.full(len(xx), y), zz], 1),
-                                       prm.rough_feed, bool(clear0)))
-            prev = lev
-    # finishing
-    r_lo, r_hi = can.r_i - R, can.r_o + R
+    prev = setup.z_top
+    for lev in _rough_levels(setup.z_top, float(np.nanmin(zall)), prm.stepdown):
+        for (y, x, m), z in zip(lines, zr_lines):
+            passes += _level_passes(x, y, z, m, m & (z < prev - tol.cam.mill_level), lev,
+                                    res, prm.rough_feed)
+        prev = lev
+    return passes
+
+
+def _rough_levels(z_top: float, zmin: float, stepdown: float) -> list[float]:
+    """The roughing levels (mm): ``stepdown`` apart below ``z_top``, the last
+    at ``zmin``."""
+    levels = []
+    lev = z_top
+    while lev > zmin:
+        lev = max(lev - stepdown, zmin)
+        levels.append(lev)
+    return levels
+
+
+def _level_passes(x: FloatArray, y: float, z: FloatArray, inside: BoolArray, todo: BoolArray,
+                  lev: float, res: float, feed: float) -> list[Pass]:
+    """The roughing passes of one line y = const at level ``lev``: each run
+    of ``todo`` columns, one grid point wider each side, at max(level, the
+    allowance surface ``z``) rounded up to the grid (mm); a pass starts
+    clear where its first column is not ``inside`` the tool's contact."""
+    passes = []
+    for i0, i1 in _runs(todo):
+        j0, j1 = max(i0 - 1, 0), min(i1 + 1, len(x) - 1)
+        zz = np.maximum(lev, z[j0:j1 + 1])
+        xx = x[j0:j1 + 1]
+        # clear ends: at the neighbouring pass height
+        if np.isnan(zz[0]):
+            zz[0] = zz[1]
+        if np.isnan(zz[-1]):
+            zz[-1] = zz[-2]
+        zz = _ceil(zz, res)
+        passes.append(Pass("rough", np.stack([xx, np.full(len(xx), y), zz], 1), feed,
+                           not bool(inside[j0])))
+    return passes
+
+
+def _finish_passes(surf: _Surface, tool: EndMill, prm: MillParams, setup: MillSetup,
+                   res: float, say: ProgressFn, stats: dict[str, Any]) -> list[Pass]:
+    """The finishing passes: lines ``setup.stepover`` apart across the
+    annulus grown by the tool radius, refined by the adaptive drop-cutter
+    (:func:`_finish_lines`), with leads to the clear side."""
+    R = tool.radius
+    r_lo, r_hi = setup.r_i - R, setup.r_o + R
+    s = setup.stepover
     ys = _grid_values(-r_hi, r_hi, s, res)
-    say(f"finishing: {len(ys)} passes, step-over {s * 1e3:.0f} µm (scallop {h * 1e3:g} µm)")
+    say(f"finishing: {len(ys)} passes, step-over {s * 1e3:.0f} µm "
+        f"(scallop {prm.scallop * 1e3:g} µm)")
     with pg.bar(len(ys), "mill: finishing drop-cutter", unit="pass") as bar:
         lines, calls = _finish_lines(surf, tool.ocl_cutter(), ys, r_hi, r_lo, r_hi, res,
                                      tol.cam.mill_chord, tol.cam.mill_chord_up, bar=bar)
     stats["finish_drop_points"] = int(calls)
-    zlow = math.inf
-    for y, runs in lines:
-        for x, z in runs:
-            passes.append(_with_leads(x, z, y, r_hi, prm.lead, res, prm.finish_feed, "finish"))
-            zlow = min(zlow, float(z.min()))
-    if not any(p.kind == "finish" for p in passes):
+    passes = [_with_leads(x, z, y, r_hi, prm.lead, res, prm.finish_feed, "finish")
+              for y, runs in lines for x, z in runs]
+    if not passes:
         raise CamError("no finishing pass touches the tip")
-    depth = z_top - zlow
+    return passes
+
+
+def _check_passes(passes: list[Pass], setup: MillSetup, tool: EndMill,
+                  mach: MillMachine) -> None:
+    """The tool's reach below the stock top and the machine's travels (with
+    the safe height) over every point of ``passes``, or a CamError naming the
+    axis, the value and the limit."""
+    zlow = min(float(p.points[:, 2].min()) for p in passes if p.kind == "finish")
+    depth = setup.z_top - zlow
     if depth > tool.reach:
         raise CamError(f"axis Z: the tool must reach {depth:.3f} mm below the stock top; its "
                        f"reach is {tool.reach:g} mm (tool reach limit)")
@@ -752,4 +877,3 @@ def plan_toolpaths(spec, *, tool: EndMill | None = None, machine: MillMachine | 
     lo, hi = allp.min(axis=0), allp.max(axis=0)
     hi[2] = setup.z_safe
     mach.check_travel(lo, hi)
-    return MillToolpath(spec.name or "tip", setup, tool, mach, prm, passes, stats)

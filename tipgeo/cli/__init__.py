@@ -20,7 +20,7 @@ from typing import NoReturn
 from .common import add_common_flags, check_files, declare_files
 
 __all__ = ["main", "build_parser", "declare_files", "check_files", "STAGES", "COMMANDS",
-           "EXIT_CODES"]
+           "EXIT_CODES", "extra_stages"]
 
 #: The exit codes of every command.
 EXIT_CODES = {0: "the result is within its targets",
@@ -52,9 +52,28 @@ COMMANDS = {"build": "design", "gauges": "design", "samples": "design",
             "compare": "inspect", "scan-synth": "inspect", "demo": "demo", "report": "report"}
 
 
+def extra_stages() -> tuple[str, ...]:
+    """The modules of this package beyond :data:`STAGES` that register
+    commands: a new command is one module in ``tipgeo/cli/`` with a
+    ``register(subparsers)`` function (CONTRIBUTING.md), found here without
+    any table to edit; sorted by name, after the built-in stages in ``--help``."""
+    import importlib
+    import pkgutil
+
+    found = []
+    for info in pkgutil.iter_modules(__path__):
+        if info.name in STAGES or info.name in ("common", "__main__") or info.ispkg:
+            continue
+        mod = importlib.import_module(f".{info.name}", __name__)
+        if callable(getattr(mod, "register", None)):
+            found.append(info.name)
+    return tuple(sorted(found))
+
+
 def build_parser(command: str | None = None) -> argparse.ArgumentParser:
     """The ``tipgeo`` argument parser: every stage's commands registered, or
-    with ``command`` (a key of :data:`COMMANDS`) only its stage's."""
+    with ``command`` (a key of :data:`COMMANDS`) only its stage's; a command
+    of no built-in stage is looked for in :func:`extra_stages`."""
     import importlib
 
     from .. import __version__
@@ -64,7 +83,8 @@ def build_parser(command: str | None = None) -> argparse.ArgumentParser:
                 epilog="exit status: " + "; ".join(f"{k} {v}" for k, v in EXIT_CODES.items()))
     p.add_argument("--version", action="version", version=f"tipgeo {__version__}")
     sub = p.add_subparsers(dest="command", required=True)
-    for stage in (COMMANDS[command],) if command in COMMANDS else STAGES:
+    stages = (COMMANDS[command],) if command in COMMANDS else STAGES + extra_stages()
+    for stage in stages:
         importlib.import_module(f".{stage}", __name__).register(sub)
     for sp in sub.choices.values():
         add_common_flags(sp)

@@ -7,16 +7,26 @@ fails with how to install it; ``--deck-only`` still writes the decks.
 
 from __future__ import annotations
 
+import argparse
+from typing import TYPE_CHECKING, Any
+
 from ..jsonio import dumps as _dumps
 from .common import declare_files, deprecated, spec_arg, verdict_status
 
+if TYPE_CHECKING:
+    from ..fem.study import FemResult
+
 __all__ = ["register", "cmd_fem"]
 
+#: kPa per MPa (stresses in the plain output).
+KPA_PER_MPA = 1e3
 
-def _um(name: str, x):
+
+def _um(name: str, x: float) -> float:
+    """An element size flag (µm, 1–1000) in mm."""
     from .. import validate as v
 
-    return None if x is None else v.real(name, x, lo=1.0, hi=1000.0, unit="µm") * 1e-3
+    return v.real(name, x, lo=1.0, hi=1000.0, unit="µm") * 1e-3
 
 
 #: The files ``fem`` writes in --out-dir (named after the spec): patterns.
@@ -24,7 +34,23 @@ FEM_FILES = ("*.inp", "*.frd", "*.dat", "*.sta", "*.cvg", "*.json", "*.csv", "*.
              "mesh_*um/*")
 
 
-def cmd_fem(args) -> int:
+def _fine_depth(args: argparse.Namespace) -> dict[str, Any]:
+    """``fine_depth`` (mm) for the model from ``--fine-depth-mm``: positive, at
+    most 0.8 × the axisymmetric block's height; axisymmetric models only."""
+    from .. import validate as v
+    from ..errors import InputError
+    from ..fem.axisym import BLOCK_2D
+
+    if args.fine_depth_mm is None:
+        return {}
+    if args.model != "axisymmetric":
+        raise InputError(f"--fine-depth-mm is for --model axisymmetric; --model {args.model} "
+                         "meshes its layers fine down to the depth itself")
+    return {"fine_depth": v.real("--fine-depth-mm", args.fine_depth_mm, lo=0.0, lo_open=True,
+                                 hi=0.8 * BLOCK_2D[1], unit="mm")}
+
+
+def cmd_fem(args: argparse.Namespace) -> int:
     """Build, write and run the finite-element model of one tip."""
     from .. import validate as v
     from ..fem.study import convergence_study, run_fem
@@ -38,6 +64,7 @@ def cmd_fem(args) -> int:
     friction = None if args.friction is None else v.real("--friction", args.friction, lo=0.0,
                                                           hi=2.0)
     limit = v.real("--time-limit-s", args.time_limit_s, lo=1.0, unit="s")
+    fine = _fine_depth(args)
 
     from .. import progress
 
@@ -46,74 +73,36 @@ def cmd_fem(args) -> int:
         meshes = tuple(_um("--convergence-um", x) for x in args.convergence_um)
         out = convergence_study(spec, model=args.model, depth=depth, meshes=meshes,
                                 out_dir=args.out_dir, tissue=args.tissue, friction=friction,
-                                time_limit_s=limit, progress=say)
+                                time_limit_s=limit, progress=say, **fine)
         status = verdict_status(out.get("verdict"), args)
         if args.json:
             print(_dumps(out))
-            return status
-        print(f"force at depth {out['depth_mm']:g} mm; far elements {out['far_element_um']} µm "
-              f"and contact stiffness {out['contact_stiffness_MPa_per_mm']:.6g} MPa/mm "
-              "held fixed")
-        print(f"eq. 4.22 (analytical column, β = 2.5) at {out['depth_mm']:g} mm: "
-              f"{out['eq_4_22_N']:.6f} N")
-        print("element_um  elements  force_N       change_%  vs_eq_4.22_%  increments  cpu_s")
-        for r in out["rows"]:
-            ch = "" if r["change_percent"] is None else f"{r['change_percent']:+.2f}"
-            print(f"{r['element_size_um']:>10g}  {r['elements']:>8}  "
-                  f"{r['force_at_depth_N']:12.6f}  {ch:>8}  "
-                  f"{r['gap_to_eq_4_22_percent']:+12.2f}  {r['increments']:>10}  "
-                  f"{r['cpu_s']:.1f}")
-        ri = out["richardson"]
-        if ri["extrapolated"] is not None:
-            print(f"Richardson: observed order {ri['order']:.3g}, extrapolated force "
-                  f"{ri['extrapolated']:.6f} N ({ri['gap_to_eq_4_22_percent']:+.2f} % from "
-                  f"eq. 4.22; finest mesh {ri['finest_error_estimate_percent']:+.2f} % from "
-                  "the limit)")
         else:
-            print("Richardson: no estimate (the changes are not in the asymptotic range)")
-        if out.get("verdict") is not None:
-            v = out["verdict"]
-            print(("PASS " if v["ok"] else "FAIL ") + v["subject"]
-                  + ("" if v["ok"] else ": " + "; ".join(v["reasons"])))
+            _print_convergence(out)
         return status
     outs = tuple(v.real("--stress-at-mm", d, lo=0.0, hi=depth, lo_open=True, unit="mm")
                  for d in args.stress_at_mm) if args.stress_at_mm else None
     res = run_fem(spec, model=args.model, depth=depth, out_dir=args.out_dir,
-                  tissue=args.tissue, friction=friction, mesh=_um("--mesh-um", args.mesh_um),
+                  tissue=args.tissue, friction=friction,
+                  mesh=None if args.mesh_um is None else _um("--mesh-um", args.mesh_um),
                   deck_only=args.deck_only, abaqus=args.abaqus, time_limit_s=limit,
                   output_depths=outs, progress=say, pictures=not args.no_pictures,
-                  **({} if args.cut == "none" else {"cut": args.cut}))
+                  **fine, **({} if args.cut == "none" else {"cut": args.cut}))
     if args.html and res.run is not None:
         from pathlib import Path
 
         from .report import write_html
 
-        res.files.append(Path(write_html(args, [spec, args.out_dir], say=False)))
+        html = write_html(args, [spec, args.out_dir], say=False)
+        if html is not None:
+            res.files.append(Path(html))
     d = res.to_dict()
     verdict = getattr(res, "verdict", None)
     status = verdict_status(verdict, args)
     if args.json:
         print(_dumps(d))
         return status
-    m = res.model
-    print(f"{m.name} ({m.kind}): {m.n_elements} elements, {len(m.nodes)} nodes, "
-          f"{m.info['element_size_um']:g} µm at the edge; tissue {m.material.name} "
-          f"({m.material.model}, ν {m.material.nu:g}), friction {m.friction:.4g}")
-    if res.run is not None:
-        print(f"ccx: {res.run.increments} increments ({res.run.cutbacks} cut back), "
-              f"{res.run.cpu_s:.1f} s CPU, {res.run.wall_s:.1f} s wall; force rises "
-              f"monotonically: {'yes' if res.monotonic else 'NO'}")
-        print("depth_mm  force_N     analytical_N")
-        for row in d["curve"]:
-            print(f"{row['depth_mm']:8.4f}  {row['force_N']:10.6f}  {row['analytical_N']:10.6f}")
-        e = d.get("eq_4_22_at_end")
-        if e:
-            print(f"at {e['depth_mm']:g} mm: {e['force_N']:.6f} N against eq. 4.22's "
-                  f"{e['eq_4_22_N']:.6f} N ({e['gap_percent']:+.2f} %); one mesh — "
-                  "--convergence-um A B C gives the discretisation error (Richardson)")
-        for k, s in res.stress.items():
-            print(f"at {k:g} mm: max principal stress {s['max_principal_MPa'] * 1e3:.4g} kPa, "
-                  f"near the edge {s['max_principal_near_edge_MPa'] * 1e3:.4g} kPa")
+    _print_run(res, d)
     if verdict is not None:
         print(verdict.line())
     for p in res.files:
@@ -121,7 +110,59 @@ def cmd_fem(args) -> int:
     return status
 
 
-def register(sub) -> None:
+def _print_convergence(out: dict[str, Any]) -> None:
+    """The plain text of a mesh-convergence study."""
+    print(f"force at depth {out['depth_mm']:g} mm; far elements {out['far_element_um']} µm "
+          f"and contact stiffness {out['contact_stiffness_MPa_per_mm']:.6g} MPa/mm "
+          "held fixed")
+    print(f"eq. 4.22 (analytical column, β = 2.5) at {out['depth_mm']:g} mm: "
+          f"{out['eq_4_22_N']:.6f} N")
+    print("element_um  elements  force_N       change_%  vs_eq_4.22_%  increments  cpu_s")
+    for r in out["rows"]:
+        ch = "" if r["change_percent"] is None else f"{r['change_percent']:+.2f}"
+        print(f"{r['element_size_um']:>10g}  {r['elements']:>8}  "
+              f"{r['force_at_depth_N']:12.6f}  {ch:>8}  "
+              f"{r['gap_to_eq_4_22_percent']:+12.2f}  {r['increments']:>10}  "
+              f"{r['cpu_s']:.1f}")
+    ri = out["richardson"]
+    if ri["extrapolated"] is not None:
+        print(f"Richardson: observed order {ri['order']:.3g}, extrapolated force "
+              f"{ri['extrapolated']:.6f} N ({ri['gap_to_eq_4_22_percent']:+.2f} % from "
+              f"eq. 4.22; finest mesh {ri['finest_error_estimate_percent']:+.2f} % from "
+              "the limit)")
+    else:
+        print("Richardson: no estimate (the changes are not in the asymptotic range)")
+    if out.get("verdict") is not None:
+        v = out["verdict"]
+        print(("PASS " if v["ok"] else "FAIL ") + v["subject"]
+              + ("" if v["ok"] else ": " + "; ".join(v["reasons"])))
+
+
+def _print_run(res: FemResult, d: dict[str, Any]) -> None:
+    """The plain text of one run (or its decks)."""
+    m = res.model
+    print(f"{m.name} ({m.kind}): {m.n_elements} elements, {len(m.nodes)} nodes, "
+          f"{m.info['element_size_um']:g} µm at the edge; tissue {m.material.name} "
+          f"({m.material.model}, ν {m.material.nu:g}), friction {m.friction:.4g}")
+    if res.run is None:
+        return
+    print(f"ccx: {res.run.increments} increments ({res.run.cutbacks} cut back), "
+          f"{res.run.cpu_s:.1f} s CPU, {res.run.wall_s:.1f} s wall; force rises "
+          f"monotonically: {'yes' if res.monotonic else 'NO'}")
+    print("depth_mm  force_N     analytical_N")
+    for row in d["curve"]:
+        print(f"{row['depth_mm']:8.4f}  {row['force_N']:10.6f}  {row['analytical_N']:10.6f}")
+    e = d.get("eq_4_22_at_end")
+    if e:
+        print(f"at {e['depth_mm']:g} mm: {e['force_N']:.6f} N against eq. 4.22's "
+              f"{e['eq_4_22_N']:.6f} N ({e['gap_percent']:+.2f} %); one mesh — "
+              "--convergence-um A B C gives the discretisation error (Richardson)")
+    for k, s in res.stress.items():
+        print(f"at {k:g} mm: max principal stress {s['max_principal_MPa'] * KPA_PER_MPA:.4g} "
+              f"kPa, near the edge {s['max_principal_near_edge_MPa'] * KPA_PER_MPA:.4g} kPa")
+
+
+def register(sub: Any) -> None:
     """Add ``fem`` to the ``tipgeo`` sub-command parsers."""
     from ..fem.axisym import CUTS
     from ..fem.study import MODEL_KINDS
@@ -151,6 +192,10 @@ def register(sub) -> None:
     f.add_argument("--convergence-um", type=float, nargs=3, default=None,
                    metavar=("UM1", "UM2", "UM3"),
                    help="mesh-convergence study: three element sizes (µm), coarse to fine")
+    f.add_argument("--fine-depth-mm", type=float, default=None, metavar="D",
+                   help="axisymmetric: mesh the contact zone fine down to this depth (mm; "
+                        "default the larger of 3 mm and --depth-mm, at most 5.6 mm): one mesh "
+                        "for every depth up to it")
     f.add_argument("--cut", choices=CUTS, default="none",
                    help="axisymmetric: 'erosion' removes the tissue under the needle's front "
                         "layer by layer as it advances (a predefined cut path; default none)")

@@ -4,8 +4,10 @@ milling on the Haas VF-2; mm, degrees, µm, feeds mm/min for milling)."""
 
 from __future__ import annotations
 
+import argparse
 import sys
 from pathlib import Path
+from typing import TYPE_CHECKING, Any
 
 from ..jsonio import dumps as _dumps
 from .common import (
@@ -20,10 +22,20 @@ from .common import (
     write_text,
 )
 
+if TYPE_CHECKING:
+    from cam import GrindResult
+    from cam.mill import EndMill, MillMachine, MillParams, MillResult
+    from gcode.emitter import LaserParams
+    from gcode.pipeline import LaserCheck
+    from tipgeo.verdict import Verdict
+
 __all__ = ["register", "cmd_laser", "cmd_gcode", "cmd_grind", "cmd_mill"]
 
+#: µm per mm (flags in µm, lengths in mm inside).
+UM_PER_MM = 1e3
 
-def _laser_params(args):
+
+def _laser_params(args: argparse.Namespace) -> LaserParams:
     """The laser station (``--machine`` file, else the defaults) with the
     flags given on top of it."""
     import dataclasses
@@ -31,10 +43,10 @@ def _laser_params(args):
     from gcode.emitter import LaserParams
 
     base = LaserParams.from_toml(args.machine) if args.machine else LaserParams()
-    kw = {}
-    for opt, key, scale in (("beam_diameter_um", "beam_diameter", 1e-3),
+    kw: dict[str, Any] = {}
+    for opt, key, scale in (("beam_diameter_um", "beam_diameter", 1 / UM_PER_MM),
                             ("overlap", "overlap", 1.0),
-                            ("roughing_depth_um", "roughing_depth", 1e-3),
+                            ("roughing_depth_um", "roughing_depth", 1 / UM_PER_MM),
                             ("finishing_passes", "finishing_passes", None),
                             ("pulse_period_us", "pulse_period_us", 1.0),
                             ("pulse_on_us", "pulse_on_us", 1.0),
@@ -48,53 +60,80 @@ def _laser_params(args):
     return dataclasses.replace(base, **kw) if kw else base
 
 
-def cmd_laser(args) -> int:
+def _not_written(verdict: Verdict) -> int:
+    """A made program outside its targets: the failing figures on stderr,
+    nothing written, exit status 1."""
+    print(f"tipgeo: fail: {'; '.join(verdict.reasons) or 'outside its targets'} (nothing "
+          "was written: a program outside its targets is not written)", file=sys.stderr)
+    return 1
+
+
+def _failed(verdict: Verdict | None) -> bool:
+    return verdict is not None and not verdict.ok
+
+
+def cmd_laser(args: argparse.Namespace) -> int:
+    """``tipgeo laser``: the AeroBasic program of a serration spec, checked
+    by the interpreter (and, with ``--html``, simulated and judged against
+    its spec) before it is written."""
     from gcode.emitter import emit_program
+    from gcode.pipeline import laser_check
 
     from ..errors import InputError
 
     spec = spec_arg(args.spec)
     params = _laser_params(args)
+    if args.output == "-" and (args.html or args.json):
+        raise InputError("--html needs -o FILE (the program it simulates is written there), "
+                         "not -o -" if args.html else "-o - writes the program on stdout; with "
+                         "--json, stdout holds the JSON: give -o FILE")
     text = emit_program(spec, params)
+    # the program as it will be written, interpreted (and simulated for --html)
+    res = laser_check(text, beam_diameter=params.beam_diameter,
+                      spec=spec if args.html else None)
+    verdict = res.verdict if args.html else None
+    if _failed(verdict):
+        assert verdict is not None
+        return _not_written(verdict)
     if args.output == "-":
-        if args.html:
-            raise InputError("--html needs -o FILE (the program it simulates is written "
-                             "there), not -o -")
-        if args.json:
-            raise InputError("-o - writes the program on stdout; with --json, stdout holds "
-                             "the JSON: give -o FILE")
         sys.stdout.write(text)
         return 0
     write_text(args.output, text)
     html = None
-    if args.html:  # the program as written, simulated against its spec
-        from gcode.pipeline import laser_check
-
+    if args.html:
         from ..report import LaserSource
         from .report import write_html
 
-        res = laser_check(text, beam_diameter=params.beam_diameter, spec=spec)
         src = LaserSource(res, name=f"{spec.name}: {Path(args.output).name}")
         html = write_html(args, [spec, src], say=False)
+    _print_laser(args, spec.name, text, params, html, verdict)
+    return verdict_status(verdict, args)
+
+
+def _print_laser(args: argparse.Namespace, name: str, text: str, params: LaserParams,
+                 html: str | None, verdict: Verdict | None) -> None:
+    """What ``tipgeo laser`` wrote: JSON or plain lines."""
     if args.json:
         from dataclasses import asdict
 
-        out = {"spec": spec.name, "program": str(args.output),
-               "lines": len(text.splitlines()), "params": asdict(params)}
+        out: dict[str, Any] = {"spec": name, "program": str(args.output),
+                               "lines": len(text.splitlines()), "params": asdict(params)}
         if html:
             out["html"] = html
-            out["verdict"] = res.verdict.to_dict() if res.verdict is not None else None
+            out["verdict"] = verdict.to_dict() if verdict is not None else None
         print(_dumps(out))
-    else:
-        print(f"wrote {args.output} ({len(text.splitlines())} lines)")
-        if html:
-            if res.verdict is not None:
-                print(f"  {res.verdict.line()}")
-            print(f"  wrote {html}")
-    return verdict_status(res.verdict, args) if html else 0
+        return
+    print(f"wrote {args.output} ({len(text.splitlines())} lines)")
+    if html:
+        if verdict is not None:
+            print(f"  {verdict.line()}")
+        print(f"  wrote {html}")
 
 
-def cmd_gcode(args) -> int:
+def cmd_gcode(args: argparse.Namespace) -> int:
+    """``tipgeo gcode check|sim``: a laser program read, interpreted within
+    its bounds and (sim) simulated against a spec; every check runs before
+    the simulated tip and the pictures are written."""
     from gcode.emitter import LaserParams
     from gcode.pipeline import laser_check, make_limits, read_program, write_laser_outputs
 
@@ -102,7 +141,7 @@ def cmd_gcode(args) -> int:
 
     station = LaserParams.from_toml(args.machine) if args.machine else LaserParams()
     beam = station.beam_diameter if args.beam_diameter_um is None else \
-        args.beam_diameter_um * 1e-3
+        args.beam_diameter_um / UM_PER_MM
     if args.html and (args.action != "sim" or args.spec is None):
         raise InputError(f"--html = '{args.html}' needs 'gcode sim' with --spec (the part the "
                          "moves are drawn on)")
@@ -120,17 +159,30 @@ def cmd_gcode(args) -> int:
         from ..report import LaserSource
         from .report import write_html
 
-        res.files.append(write_html(args, [spec, LaserSource(res, origin=tuple(args.origin_mm),
-                                                             name=Path(args.program).name)],
-                                    say=False))
+        html = write_html(args, [spec, LaserSource(res, origin=tuple(args.origin_mm),
+                                                   name=Path(args.program).name)], say=False)
+        if html is not None:
+            res.files.append(html)
     out = res.summary(source=args.program)
-    prog, tp, s = res.program, res.toolpath, out["toolpath"]
-    verdict = getattr(res, "verdict", None)
+    verdict = res.verdict
     status = 1 if res.failed else verdict_status(verdict, args)
     if args.json:
         print(_dumps(out))
-        return status
-    print(f"{args.program}: {len(prog.body)} statements, {s['segments']} moves")
+    else:
+        _print_gcode(args.program, res, out)
+    return status
+
+
+def _um(x: float | None) -> str:
+    """A length in mm as µm with 3 decimals ("n/a" for None)."""
+    return "n/a" if x is None else f"{x * UM_PER_MM:.3f}"
+
+
+def _print_gcode(source: str, res: LaserCheck, out: dict[str, Any]) -> None:
+    """The plain-text report of ``tipgeo gcode``: the program, its moves and
+    times, the ablation and the comparison with the spec, the files."""
+    prog, tp, s = res.program, res.toolpath, out["toolpath"]
+    print(f"{source}: {len(prog.body)} statements, {s['segments']} moves")
     print(f"  path {s['path_length_mm']:.4f} mm, beam on {s['beam_on_length_mm']:.4f} mm, "
           f"time {s['time_s']:.2f} s (beam on {s['beam_on_time_s']:.2f} s), "
           f"pulses {s['pulses'] if s['pulses'] is not None else 'n/a'}")
@@ -150,24 +202,29 @@ def cmd_gcode(args) -> int:
     if "comparison" in out:
         c = out["comparison"]
         rad = c["radius_mm"]
-
-        def um(x):
-            return "n/a" if x is None else f"{x * 1e3:.3f}"
-
-        print(f"  vs spec: radius {um(rad['fitted_mean'])} µm fitted (spec {um(rad['spec'])}, "
-              f"max error {um(rad['fitted_max_error'])} µm), spacing max error "
+        print(f"  vs spec: radius {_um(rad['fitted_mean'])} µm fitted (spec {_um(rad['spec'])}, "
+              f"max error {_um(rad['fitted_max_error'])} µm), spacing max error "
               f"{c['spacing_deg']['fitted_max_error']}°, Hausdorff "
-              f"{um(c['hausdorff_mm'])} µm")
+              f"{_um(c['hausdorff_mm'])} µm")
+    _print_files(res.verdict, res.files, res.failed)
+
+
+def _print_files(verdict: Verdict | None, files: list[str],
+                 failed: list[dict[str, Any]]) -> None:
+    """The verdict's line, the files written and those that could not be."""
     if verdict is not None:
         print(f"  {verdict.line()}")
-    for o in res.files:
+    for o in files:
         print(f"  wrote {o}")
-    for f in res.failed:
+    for f in failed:
         print(f"  NOT written: {f['path']}")
-    return status
 
 
-def cmd_grind(args) -> int:
+def cmd_grind(args: argparse.Namespace) -> int:
+    """``tipgeo grind``: the five-axis program, checked against the
+    machine's limits, simulated and (``--compare``) judged against CAD
+    before any file is written; a program outside its targets is not
+    written (exit status 1)."""
     from cam import Machine, grind, write_grind_outputs
 
     spec = spec_arg(args.spec)
@@ -177,18 +234,29 @@ def cmd_grind(args) -> int:
                 needle_rpm=args.needle_rpm,
                 simulate_tip=bool(args.mesh or args.compare or args.html),
                 compare=args.compare, tolerance=tolerance_arg(args))
+    verdict = res.verdict
+    if _failed(verdict):
+        _print_grind(args, res)
+        assert verdict is not None
+        return _not_written(verdict)
     write_grind_outputs(res, program=args.output, gcode=args.gcode, sheet=args.sheet,
                         mesh=args.mesh, on_error=cannot_write)
     if args.html:
         from .report import write_html
 
-        res.files.append(write_html(args, [spec, res], say=False))
+        html = write_html(args, [spec, res], say=False)
+        if html is not None:
+            res.files.append(html)
+    _print_grind(args, res)
+    return 1 if res.failed else verdict_status(verdict, args)
+
+
+def _print_grind(args: argparse.Namespace, res: GrindResult) -> None:
+    """What ``tipgeo grind`` made: JSON or plain lines."""
     out = res.summary()
-    verdict = getattr(res, "verdict", None)
-    status = 1 if res.failed else verdict_status(verdict, args)
     if args.json:
         print(_dumps(out))
-        return status
+        return
     s = out["program"]
     print(f"{s['name']}: faces {s['faces']}, {s['rows']} program rows, time {s['time_s']:.1f} s, "
           f"feed {s['feed_mm_s'] * 60:g} mm/min")
@@ -196,67 +264,76 @@ def cmd_grind(args) -> int:
         print(f"  {f['face']:<22} ξ {f['xi_deg']:8.4f}°  r5=ϕ_g {f['r5_phi_g_deg']:8.4f}°  "
               f"r4 {f['r4_deg']:8.4f}°  t1 {f['t1_mm']:8.4f} mm  OC {f['OC_mm']:.3f} mm"
               + (f"  spin {f['spin_rpm']:.0f} rpm" if f["spin_rpm"] else ""))
-    if res.comparison is not None:
-        worst, worst_m = res.worst_angle_diff_deg()
-        print(f"  ground vs CAD: Hausdorff {res.comparison['hausdorff_mm'] * 1e3:.4f} µm, angles "
-              f"within {worst:.2e}° (exact surfaces), {worst_m:.3f}° (mesh path)")
-    if verdict is not None:
-        print(f"  {verdict.line()}")
-    for w in res.files:
-        print(f"  wrote {w}")
-    for f in res.failed:
-        print(f"  NOT written: {f['path']}")
-    return status
+    worst = res.worst_angle_diff_deg()
+    if res.comparison is not None and worst is not None:
+        print(f"  ground vs CAD: Hausdorff {res.comparison['hausdorff_mm'] * UM_PER_MM:.4f} µm, "
+              f"angles within {worst[0]:.2e}° (exact surfaces), {worst[1]:.3f}° (mesh path)")
+    _print_files(res.verdict, res.files, res.failed)
 
 
-def cmd_mill(args) -> int:
-    from cam.mill import (
-        DEFAULT_TOOL,
-        MillMachine,
-        MillParams,
-        mill,
-        parse_tool,
-        write_mill_outputs,
-    )
-
-    spec = spec_arg(args.spec)
-    machine = MillMachine.from_toml(args.machine) if args.machine else MillMachine()
-    tool = parse_tool(args.tool) if args.tool else DEFAULT_TOOL
+def _mill_request(args: argparse.Namespace) -> tuple[MillMachine, EndMill, MillParams]:
+    """The machine, the tool and the parameters of ``tipgeo mill`` from its
+    flags (the µm scallop checked in µm, so the error names what the user
+    typed)."""
+    from cam.mill import DEFAULT_TOOL, MillMachine, MillParams, parse_tool
     from tipgeo import validate as v
 
-    # the µm parameter is checked in µm, so the error names what the user typed
+    machine = MillMachine.from_toml(args.machine) if args.machine else MillMachine()
+    tool = parse_tool(args.tool) if args.tool else DEFAULT_TOOL
     scallop_um = v.real("--scallop-um", args.scallop_um, lo=0.1, hi=100.0, unit="µm")
-    kw = {"scallop": scallop_um * 1e-3}
+    kw: dict[str, Any] = {"scallop": scallop_um / UM_PER_MM}
     for opt, key in (("feed_mm_min", "finish_feed"), ("rough_feed_mm_min", "rough_feed"),
                      ("spindle_rpm", "spindle_rpm"), ("allowance_mm", "allowance")):
         if getattr(args, opt) is not None:
             kw[key] = getattr(args, opt)
     if args.no_rough:
         kw["rough"] = False
-    params = MillParams(**kw)
-    simulate = bool(args.mesh or args.compare or args.deviation_png or args.html)
+    return machine, tool, MillParams(**kw)
+
+
+def cmd_mill(args: argparse.Namespace) -> int:
+    """``tipgeo mill``: toolpaths and the G-code, the program read back and
+    checked against the machine and the tool, simulated and (``--compare``)
+    judged against CAD — all before any file is written; a program outside
+    its targets is not written (exit status 1)."""
+    from cam.mill import mill, write_mill_outputs
+
     from .. import progress
 
+    spec = spec_arg(args.spec)
+    machine, tool, params = _mill_request(args)
+    simulate = bool(args.mesh or args.compare or args.deviation_png or args.html)
     res = mill(spec, tool=tool, machine=machine, params=params, simulate_tip=simulate,
                compare=bool(args.compare or args.deviation_png), progress=progress.note)
+    verdict = res.verdict
+    if _failed(verdict):
+        _print_mill(args, res)
+        assert verdict is not None
+        return _not_written(verdict)
     write_mill_outputs(res, program=args.output, sheet=args.sheet, mesh=args.mesh,
-                       deviation=args.deviation_png, toolpath=args.png)
+                       deviation=args.deviation_png, toolpath=args.png, on_error=cannot_write)
     if args.html:
         from .report import write_html
 
-        res.files.append(write_html(args, [spec, res], say=False))
+        html = write_html(args, [spec, res], say=False)
+        if html is not None:
+            res.files.append(html)
+    _print_mill(args, res)
+    return 1 if res.failed else verdict_status(verdict, args)
+
+
+def _print_mill(args: argparse.Namespace, res: MillResult) -> None:
+    """What ``tipgeo mill`` made: JSON or plain lines."""
     out = res.summary()
-    verdict = getattr(res, "verdict", None)
-    status = verdict_status(verdict, args)
     if args.json:
         print(_dumps(out))
-        return status
+        return
     t, p = out["toolpath"], out["program"]
     print(f"{t['name']}: {t['tool']}; clocking {t['clocking_deg']:.2f}°, finishing step-over "
-          f"{t['stepover_mm'] * 1e3:.0f} µm for a {t['scallop_um']:g} µm scallop, "
+          f"{t['stepover_mm'] * UM_PER_MM:.0f} µm for a {t['scallop_um']:g} µm scallop, "
           f"{t['finish_passes']} finishing + {t['rough_passes']} roughing passes")
     print(f"  program: {p['lines']} lines, {p['moves']} moves, cycle time "
-          f"{p['cycle_time_s'] / 60:.1f} min on {machine.name.split(' (')[0]}")
+          f"{p['cycle_time_s'] / 60:.1f} min on {res.toolpath.machine.name.split(' (')[0]}")
     if res.comparison is not None:
         c = res.comparison
         a = c["angles"]["outer"]
@@ -265,14 +342,10 @@ def cmd_mill(args) -> int:
         print(f"  outer edge: λ within {a['lambda_max_diff_deg']:.3f}°, θ within "
               f"{a['theta_max_diff_deg']:.3f}°, α within {a['alpha_max_diff_deg']:.3f}° "
               f"({c['gamma_compared']})")
-    if verdict is not None:
-        print(f"  {verdict.line()}")
-    for w in res.files:
-        print(f"  wrote {w}")
-    return status
+    _print_files(res.verdict, res.files, res.failed)
 
 
-def gcode_derived(args) -> list[str]:
+def gcode_derived(args: argparse.Namespace) -> list[str]:
     """``gcode sim --png FILE`` also writes FILE-rim.png."""
     if args.action == "sim" and args.png:
         p = Path(args.png)
@@ -280,7 +353,7 @@ def gcode_derived(args) -> list[str]:
     return []
 
 
-def register(sub) -> None:
+def register(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
     """Add this stage's commands to the ``tipgeo`` sub-command parsers."""
     la = sub.add_parser("laser", help="write the AeroBasic laser program of a serration spec")
     la.add_argument("spec", metavar="SPEC", help="spec file or preset with a serration cutter")

@@ -9,16 +9,23 @@ main dispatcher prints it and exits 2).
 
 from __future__ import annotations
 
+import argparse
 import math
 from pathlib import Path
+from typing import TYPE_CHECKING, Any
 
 from ..jsonio import dumps as _dumps
 from .common import declare_files, deprecated, spec_arg
 
+if TYPE_CHECKING:
+    from ..arrays import FloatArray
+    from ..mechanics.report import TipForces
+    from ..mechanics.tissue import FitResult
+
 __all__ = ["register", "cmd_forces", "cmd_tissue"]
 
 
-def _sweep(args):
+def _sweep(args: argparse.Namespace) -> FloatArray | None:
     import numpy as np
 
     from .. import validate as v
@@ -32,13 +39,13 @@ def _sweep(args):
     return np.linspace(s0, s1, n)
 
 
-def cmd_forces(args) -> int:
-    """Fracture forces along the edges of one or more tips."""
+def _forces_inputs(args: argparse.Namespace) -> tuple[FloatArray | None, float | None,
+                                                      float | None]:
+    """The S values of the sweep (or of the picture), R (N/mm) and θ (rad)."""
     import numpy as np
 
     from .. import validate as v
     from ..mechanics import J_PER_M2
-    from ..mechanics.report import tip_forces
 
     S_values = _sweep(args)
     if args.png and S_values is None:
@@ -49,6 +56,14 @@ def cmd_forces(args) -> int:
     if args.theta_deg is not None:
         theta = math.radians(v.real("--theta-deg", args.theta_deg, lo=0.0, hi=90.0,
                                     lo_open=True, hi_open=True))
+    return S_values, R, theta
+
+
+def cmd_forces(args: argparse.Namespace) -> int:
+    """Fracture forces along the edges of one or more tips."""
+    from ..mechanics.report import tip_forces
+
+    S_values, R, theta = _forces_inputs(args)
     results = []
     for arg in args.spec:
         spec = spec_arg(arg)
@@ -69,61 +84,61 @@ def cmd_forces(args) -> int:
         table = table_3_3_prediction()
     if args.json:
         data = [r.to_dict(args.step_deg) for r in results]
-        out = {"tips": data, "wrote": wrote}
+        out: dict[str, Any] = {"tips": data, "wrote": wrote}
         if table is not None:
             out["table_3_3"] = table
         print(_dumps(out))
         return 0
     for r in results:
-        s = r.forces.summary()
-        print(f"{r.label} ({r.geometry.wall} edge, {r.geometry.method}): S {s['S']:g}, "
-              f"tissue {r.tissue}, R {s['R_J_m2']:g} J/m², μ_d {s['mu_d']}, G {s['G']:g}, "
-              f"θ {s['theta_deg']:.4f}°")
-        print(f"  mean F⊥ {s['mean_F_perp_N']:.5f} N  F∥ {s['mean_F_par_N']:.5f} N  "
-              f"axial {s['mean_F_axial_N']:.5f} N  tangential {s['mean_F_tangential_N']:.5f} N")
-        kmax = "inf" if math.isinf(s["k_max"]) else f"{s['k_max']:.4g}"
-        print(f"  max F⊥ {s['max_F_perp_N']:.5f} N at γ {s['gamma_of_max_F_perp_deg']:.2f}°; "
-              f"k {s['k_min']:.4g}…{kmax}")
-        if r.sweep is not None and args.sweep is not None:
-            print("  S        mean_F_perp_N  mean_F_par_N  mean_F_axial_N  mean_F_tangential_N")
-            sw = r.sweep
-            for j in range(len(sw["S"])):
-                print(f"  {sw['S'][j]:<8.4g} {sw['perp'][j]:13.5f}  {sw['par'][j]:12.5f}  "
-                      f"{sw['axial'][j]:14.5f}  {sw['tangential'][j]:19.5f}")
+        _print_tip_forces(r, with_sweep=args.sweep is not None)
     if table is not None:
-        print("thesis Table 3.3 (axial force, helical vs bevel; measured at 23 mm, S/P = 0.25) "
-              "beside the §3.1.5 fracture model (one θ = 14.5°, R 45 J/m², μ_d 0.4, means "
-              "over γ):")
-        for row in table:
-            print(f"  S {row['S']:g}: measured {row['measured_delta_percent']:+.2f} %, model "
-                  f"{row['model_delta_percent_thesis_G']:+.2f} % (helical G × 0.9), "
-                  f"{row['model_delta_percent_same_G']:+.2f} % (same G)")
+        _print_table_3_3(table)
     for w in wrote:
         print(f"wrote {w}")
     return 0
 
 
-def _fit_text(res) -> list[str]:
+def _print_tip_forces(r: TipForces, *, with_sweep: bool) -> None:
+    """One tip's force summary (and its sweep table) as plain text."""
+    s = r.forces.summary()
+    print(f"{r.label} ({r.geometry.wall} edge, {r.geometry.method}): S {s['S']:g}, "
+          f"tissue {r.tissue}, R {s['R_J_m2']:g} J/m², μ_d {s['mu_d']}, G {s['G']:g}, "
+          f"θ {s['theta_deg']:.4f}°")
+    print(f"  mean F⊥ {s['mean_F_perp_N']:.5f} N  F∥ {s['mean_F_par_N']:.5f} N  "
+          f"axial {s['mean_F_axial_N']:.5f} N  tangential {s['mean_F_tangential_N']:.5f} N")
+    kmax = "inf" if math.isinf(s["k_max"]) else f"{s['k_max']:.4g}"
+    print(f"  max F⊥ {s['max_F_perp_N']:.5f} N at γ {s['gamma_of_max_F_perp_deg']:.2f}°; "
+          f"k {s['k_min']:.4g}…{kmax}")
+    if r.sweep is not None and with_sweep:
+        print("  S        mean_F_perp_N  mean_F_par_N  mean_F_axial_N  mean_F_tangential_N")
+        sw = r.sweep
+        for j in range(len(sw["S"])):
+            print(f"  {sw['S'][j]:<8.4g} {sw['perp'][j]:13.5f}  {sw['par'][j]:12.5f}  "
+                  f"{sw['axial'][j]:14.5f}  {sw['tangential'][j]:19.5f}")
+
+
+def _print_table_3_3(table: list[dict[str, Any]]) -> None:
+    """Table 3.3 beside the §3.1.5 model, as plain text."""
+    print("thesis Table 3.3 (axial force, helical vs bevel; measured at 23 mm, S/P = 0.25) "
+          "beside the §3.1.5 fracture model (one θ = 14.5°, R 45 J/m², μ_d 0.4, means "
+          "over γ):")
+    for row in table:
+        print(f"  S {row['S']:g}: measured {row['measured_delta_percent']:+.2f} %, model "
+              f"{row['model_delta_percent_thesis_G']:+.2f} % (helical G × 0.9), "
+              f"{row['model_delta_percent_same_G']:+.2f} % (same G)")
+
+
+def _fit_text(res: FitResult) -> list[str]:
     s = res.summary()
-    p = s["params"]
     lines = [f"{s['model']}: n {s['n']}, stretch {s['stretch_range'][0]:.4f}…"
              f"{s['stretch_range'][1]:.4f}, R² {s['r2']:.6f}, RMSE {s['rmse_MPa']:.6g} MPa"]
-    if s["model"] == "ogden":
-        for i, (m, a) in enumerate(zip(p["mu_MPa"], p["alpha"]), 1):
-            lines.append(f"  μ{i} {m:.6g} MPa (± {s['stderr']['mu_MPa'][i - 1]:.2g})  "
-                         f"α{i} {a:.6g} (± {s['stderr']['alpha'][i - 1]:.2g})")
-    else:
-        lines.append(f"  μ {p['mu_MPa']:.6g} MPa (± {s['stderr']['mu_MPa']:.2g})")
-        if "lambda_m" in p:
-            lm = p["lambda_m"]
-            lines.append("  λ_m " + ("∞ (neo-Hookean)" if lm is None else
-                                     f"{lm:.6g} (± {s['stderr']['lambda_m']:.2g})"))
+    lines += res.model.report_lines(s["stderr"])
     lines.append(f"  initial shear modulus μ₀ {s['initial_shear_modulus_MPa']:.6g} MPa, "
                  f"E₀ = 3μ₀ {s['E0_kPa']:.4g} kPa")
     return lines
 
 
-def cmd_tissue(args) -> int:
+def cmd_tissue(args: argparse.Namespace) -> int:
     """``tissue fit``, ``tissue list`` and ``tissue show``."""
     from ..errors import SpecError
     from ..mechanics.materials import TISSUES, tissue
@@ -168,9 +183,10 @@ def cmd_tissue(args) -> int:
     return 0
 
 
-def register(subparsers) -> None:
+def register(subparsers: Any) -> None:
     """Add ``forces`` and ``tissue`` to the main parser's subparsers."""
     from ..mechanics.fracture import DEFAULT_G
+    from ..mechanics.models import tissue_model_names
 
     f = subparsers.add_parser(
         "forces", help="fracture forces along the cutting edge (thesis eq. 3.19–3.23)",
@@ -217,7 +233,7 @@ def register(subparsers) -> None:
     t.add_argument("action", choices=("fit", "list", "show"))
     t.add_argument("target", nargs="?", metavar="DATA|NAME",
                    help="fit: the CSV file; show: the tissue name")
-    t.add_argument("--law", action="append", choices=("arruda-boyce", "ogden", "neo-hookean"),
+    t.add_argument("--law", action="append", choices=tissue_model_names(),
                    help="hyperelastic law to fit (repeatable; default arruda-boyce)")
     t.add_argument("--terms", type=int, default=3, metavar="N",
                    help="Ogden terms (default 3, as the thesis)")

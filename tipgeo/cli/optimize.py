@@ -9,12 +9,19 @@ files, a plain summary (or ``--json``) to stdout, progress to stderr.
 
 from __future__ import annotations
 
+import argparse
 import math
 import sys
+from collections.abc import Sequence
 from pathlib import Path
+from typing import TYPE_CHECKING, Any
 
 from ..jsonio import dumps as _dumps
 from .common import declare_files, deprecated, verdict_status
+
+if TYPE_CHECKING:
+    from ..optimize.config import Objective, StudyConfig
+    from ..optimize.executors import Executor
 
 __all__ = ["register", "cmd_sweep", "cmd_optimize", "DRY_RUN_CHECKS"]
 
@@ -22,21 +29,23 @@ __all__ = ["register", "cmd_sweep", "cmd_optimize", "DRY_RUN_CHECKS"]
 DRY_RUN_CHECKS = 10_000
 
 
-def _config(arg: str):
+def _config(arg: str) -> StudyConfig:
     from ..optimize.presets import resolve_study
 
     return resolve_study(arg)
 
 
-def _check_outputs(config_arg: str, outs: list) -> None:
+def _check_outputs(config_arg: str, outs: Sequence[tuple[str, str | Path]]) -> None:
     """Refuse outputs that are the config file or a file it makes the command
     read (its base spec, that spec's mesh files): :func:`.common.refuse_overwrite`."""
     from .common import command_reads, refuse_overwrite
 
-    refuse_overwrite(command_reads([("the command's input CONFIG", config_arg)]), outs)
+    reads: list[tuple[str, str | Path]] = list(
+        command_reads([("the command's input CONFIG", config_arg)]))
+    refuse_overwrite(reads, list(outs))
 
 
-def _executor(args, config):
+def _executor(args: argparse.Namespace, config: StudyConfig) -> Executor:
     from ..errors import SpecError
     from ..optimize.executors import DaskExecutor, check_workers, make_executor
 
@@ -50,15 +59,15 @@ def _executor(args, config):
     return make_executor(args.workers if args.workers is not None else config.workers)
 
 
-def _cache(args):
+def _cache(args: argparse.Namespace) -> str | bool | None:
     if args.no_cache:
         return False
     if args.cache_dir:
-        return args.cache_dir
+        return str(args.cache_dir)
     return None  # the config's
 
 
-def cmd_sweep(args) -> int:
+def cmd_sweep(args: argparse.Namespace) -> int:
     """Run a design sweep and write its table."""
     from ..optimize.sweep import run_sweep, write_table
 
@@ -90,7 +99,7 @@ def cmd_sweep(args) -> int:
     return status
 
 
-def _print_design(s: dict) -> None:
+def _print_design(s: dict[str, Any]) -> None:
     d = s.get("design", {})
     if d.get("method") != "maximin":
         return
@@ -101,7 +110,7 @@ def _print_design(s: dict) -> None:
         print(f"  {g['count']} refused, e.g.: {g['example']}")
 
 
-def _dry_run(cfg, args) -> int:
+def _dry_run(cfg: StudyConfig, args: argparse.Namespace) -> int:
     """Validate the config and every configuration's spec; compute nothing.
 
     A ``maximin`` design is chosen by screening its candidate grid (one
@@ -153,14 +162,12 @@ def _dry_run(cfg, args) -> int:
     return 0
 
 
-def cmd_optimize(args) -> int:
+def cmd_optimize(args: argparse.Namespace) -> int:
     """Sweep (cached), fit the GP, optimise every objective, verify the optima."""
-    from ..optimize.objective import term_summary
+    from .. import progress
     from ..optimize.study import run_study
 
     cfg = _config(args.config)
-    from .. import progress
-
     out = Path(args.out_dir or cfg.name)
     table = "sweep.parquet" if args.parquet else "sweep.csv"
     names = [table, "surrogate.json", "report.json", "loo.png"]
@@ -179,11 +186,37 @@ def cmd_optimize(args) -> int:
     if args.json:
         print(_dumps(rep))
         return status
+    _print_study(cfg, rep)
+    return status
+
+
+def _print_study(cfg: StudyConfig, rep: dict[str, Any]) -> None:
+    """The plain-text summary of a study's report."""
     s = rep["sweep"]
     print(f"{cfg.name}: {s['configurations']} configurations ({s['ok']} ok, {s['invalid']} "
           f"invalid, {s['failed']} failed) in {s['seconds']:.2f} s; GP "
           f"{rep['surrogate']['mode']}, fitted in {rep['surrogate']['fit_seconds']:.2f} s")
     _print_design(s)
+    _print_surrogate(rep)
+    inf = rep["infill"]
+    print(f"infill: {inf['added']} point(s) added in {inf['rounds']} round(s) (at most "
+          f"{inf['max_rounds']}), " + ("converged" if inf["converged"] else "NOT converged")
+          + f": GP within {inf['threshold']:.2%} of each checked response's range at every "
+          "optimum")
+    objs = {o.name: o for o in cfg.objectives}
+    for o in rep["optima"]:
+        _print_optimum(o, objs[o["objective"]])
+    print()
+    v = rep.get("verdict")
+    if v is not None:
+        print(("PASS " if v["ok"] else "FAIL ") + v["subject"]
+              + ("" if v["ok"] else ": " + "; ".join(v["reasons"])))
+    for f in rep["files"]:
+        print(f"wrote {f}")
+
+
+def _print_surrogate(rep: dict[str, Any]) -> None:
+    """Training points, the LOO table and the constant responses."""
     cal = " (σ̂ calibrated on LOO)" if rep["surrogate"].get("calibrate") else ""
     print(f"{rep['surrogate']['training_points']} training points{cal}")
     print(f"{'response':<18}{'LOO RMSE':>12}{'NRMSE':>10}{'in 95 %':>9}")
@@ -195,62 +228,57 @@ def cmd_optimize(args) -> int:
         items = const.items() if isinstance(const, dict) else ((c, None) for c in const)
         print("constant over the design (not fitted): " + ", ".join(
             k if v is None else f"{k} = {v:g}" for k, v in items))
-    inf = rep["infill"]
-    print(f"infill: {inf['added']} point(s) added in {inf['rounds']} round(s) (at most "
-          f"{inf['max_rounds']}), " + ("converged" if inf["converged"] else "NOT converged")
-          + f": GP within {inf['threshold']:.2%} of each checked response's range at every "
-          "optimum")
-    objs = {o.name: o for o in cfg.objectives}
-    for o in rep["optima"]:
-        print(f"\n{o['objective']} ({term_summary(objs[o['objective']])}, {o['combine']}): "
-              + ", ".join(f"{k} = {v:.4f}" for k, v in o["x"].items()))
-        sr = o.get("search", {})
-        if sr:
-            print(f"  search: {sr['starts']} local start(s) from {sr['candidates']} candidates")
-        for e in o.get("on_box_edge", []):
-            print(f"  on the box edge: {e['variable']} = {e['side']}")
-        rg = o.get("region") or {}
-        if rg.get("shape"):
-            flat = (f", flat along {', '.join(rg['flat_along'])}" if rg["flat_along"] else "")
-            print(f"  flatness: {rg['shape']}{flat} — objective {rg['value']:.4g} ± "
-                  f"{rg['std']:.2g} (GP sd, scaled units); {rg['members']} of "
-                  f"{rg['candidates']} box designs ({rg['share']:.1%}) as good within the "
-                  f"GP's 95 %; at the box's {rg['box_position']}")
-            print("  region: " + ", ".join(
-                f"{k} {a:.4g}…{b:.4g} ({rg['extent_fraction'][k]:.0%} of range)"
-                for k, (a, b) in rg["extent"].items()))
-        elif rg.get("note"):
-            print(f"  flatness: {rg['note']}")
-        if o.get("on_buildable_boundary"):
-            print("  on the buildable region's boundary; a step further: "
-                  + o.get("buildable_boundary_reason", "refused"))
-        if o["status"] != "ok":
-            print(f"  {o['status']}: {o['error']}")
-            continue
-        b = o.get("build")
-        if b:
-            print("  built: " + (f"{b['triangles']} triangles, {b['volume_mm3']:.4f} mm³, "
-                                 f"watertight {b['watertight']}, {b['cpu_seconds']:.2f} s CPU"
-                                 if "error" not in b else b["error"]))
-        print(f"  {'response':<18}{'GP prediction ± 95 %':>26}{'actual':>12}{'error':>11}"
-              f"{'% of range':>12}")
-        for name, r in o["responses"].items():
-            fr = r.get("error_frac")
-            print(f"  {name:<18}{r['predicted']:>14.5f} ± {r['hi95'] - r['predicted']:<9.5f}"
-                  f"{r['actual']:>12.5f}{r['error']:>11.2e}"
-                  + (f"{fr:>12.3%}" if fr is not None and math.isfinite(fr) else f"{'—':>12}")
-                  + ("" if r["inside95"] else "  (outside 95 %)"))
-    print()
-    v = rep.get("verdict")
-    if v is not None:
-        print(("PASS " if v["ok"] else "FAIL ") + v["subject"]
-              + ("" if v["ok"] else ": " + "; ".join(v["reasons"])))
-    for f in rep["files"]:
-        print(f"wrote {f}")
-    return status
 
 
-def _common(p) -> None:
+def _print_optimum(o: dict[str, Any], obj: Objective) -> None:
+    """One objective's optimum: where, how found, how flat, and its check."""
+    from ..optimize.objective import term_summary
+
+    print(f"\n{o['objective']} ({term_summary(obj)}, {o['combine']}): "
+          + ", ".join(f"{k} = {v:.4f}" for k, v in o["x"].items()))
+    sr = o.get("search", {})
+    if sr:
+        print(f"  search: {sr['starts']} local start(s) from {sr['candidates']} candidates")
+    for e in o.get("on_box_edge", []):
+        print(f"  on the box edge: {e['variable']} = {e['side']}")
+    _print_region(o.get("region") or {})
+    if o.get("on_buildable_boundary"):
+        print("  on the buildable region's boundary; a step further: "
+              + o.get("buildable_boundary_reason", "refused"))
+    if o["status"] != "ok":
+        print(f"  {o['status']}: {o['error']}")
+        return
+    b = o.get("build")
+    if b:
+        print("  built: " + (f"{b['triangles']} triangles, {b['volume_mm3']:.4f} mm³, "
+                             f"watertight {b['watertight']}, {b['cpu_seconds']:.2f} s CPU"
+                             if "error" not in b else b["error"]))
+    print(f"  {'response':<18}{'GP prediction ± 95 %':>26}{'actual':>12}{'error':>11}"
+          f"{'% of range':>12}")
+    for name, r in o["responses"].items():
+        fr = r.get("error_frac")
+        print(f"  {name:<18}{r['predicted']:>14.5f} ± {r['hi95'] - r['predicted']:<9.5f}"
+              f"{r['actual']:>12.5f}{r['error']:>11.2e}"
+              + (f"{fr:>12.3%}" if fr is not None and math.isfinite(fr) else f"{'—':>12}")
+              + ("" if r["inside95"] else "  (outside 95 %)"))
+
+
+def _print_region(rg: dict[str, Any]) -> None:
+    """How flat the objective is at its optimum (issue 28)."""
+    if rg.get("shape"):
+        flat = (f", flat along {', '.join(rg['flat_along'])}" if rg["flat_along"] else "")
+        print(f"  flatness: {rg['shape']}{flat} — objective {rg['value']:.4g} ± "
+              f"{rg['std']:.2g} (GP sd, scaled units); {rg['members']} of "
+              f"{rg['candidates']} box designs ({rg['share']:.1%}) as good within the "
+              f"GP's 95 %; at the box's {rg['box_position']}")
+        print("  region: " + ", ".join(
+            f"{k} {a:.4g}…{b:.4g} ({rg['extent_fraction'][k]:.0%} of range)"
+            for k, (a, b) in rg["extent"].items()))
+    elif rg.get("note"):
+        print(f"  flatness: {rg['note']}")
+
+
+def _common(p: argparse.ArgumentParser) -> None:
     p.add_argument("config", metavar="CONFIG",
                    help="study file (.toml) or built-in study (helical-study, bevel-study)")
     p.add_argument("--workers", type=int, default=None, metavar="N",
@@ -264,7 +292,7 @@ def _common(p) -> None:
     p.add_argument("--json", action="store_true", help="machine-readable summary on stdout")
 
 
-def register(subparsers) -> None:
+def register(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
     """Add ``sweep`` and ``optimize`` to the ``tipgeo`` sub-command parsers."""
     s = subparsers.add_parser("sweep", help="design sweep: angle analysis over a design of "
                               "experiments (grid, LHS, Sobol)")

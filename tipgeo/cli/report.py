@@ -4,7 +4,10 @@ command line. Lengths mm, angles degrees, deviations µm in the page."""
 
 from __future__ import annotations
 
+import argparse
 import time
+from collections.abc import Iterable
+from typing import Any
 
 from ..jsonio import dumps as _dumps
 from .common import declare_files
@@ -18,7 +21,7 @@ HTML_EXTS = (".html", ".htm")
 HTML_HELP = "also write an interactive offline HTML report of the result (tipgeo report)"
 
 
-def cmd_report(args) -> int:
+def cmd_report(args: argparse.Namespace) -> int:
     from ..report import html_report
 
     t0 = time.perf_counter()
@@ -32,13 +35,14 @@ def cmd_report(args) -> int:
     return 0
 
 
-def add_html_flag(parser) -> None:
+def add_html_flag(parser: argparse.ArgumentParser) -> None:
     """Add ``--html FILE`` to a command (declare ``html`` among its outputs
     with the extensions of :data:`tipgeo.report.REPORT_EXTS`)."""
     parser.add_argument("--html", metavar="FILE", help=HTML_HELP)
 
 
-def write_html(args, sources, *, say: bool = True) -> str | None:
+def write_html(args: argparse.Namespace, sources: Iterable[Any], *,
+               say: bool = True) -> str | None:
     """Write ``--html`` (if given) from ``sources``; returns its path."""
     if not getattr(args, "html", None):
         return None
@@ -47,10 +51,10 @@ def write_html(args, sources, *, say: bool = True) -> str | None:
     info = html_report(sources, args.html)
     if say and not args.json:
         print(f"  wrote {info['output']} ({info['bytes'] / 1e6:.2f} MB)")
-    return info["output"]
+    return str(info["output"])
 
 
-def register(sub) -> None:
+def register(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
     """Add ``report`` to the ``tipgeo`` sub-command parsers."""
     r = sub.add_parser("report", help="one interactive offline HTML page (3D tip, edges and "
                        "angles, deviations, FEM forces, response surfaces) of specs, presets "

@@ -33,6 +33,7 @@ CAM handle it through this protocol.
 from __future__ import annotations
 
 from abc import ABC, abstractmethod
+from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any, ClassVar, TypeVar
 
 import manifold3d as m3d
@@ -47,7 +48,8 @@ from .surfaces import Surface
 if TYPE_CHECKING:  # pragma: no cover
     from .toml import CutterTable
 
-__all__ = ["Cutter", "CUTTER_KINDS", "register_cutter", "cutter_kind", "check_name"]
+__all__ = ["Cutter", "CUTTER_KINDS", "register_cutter", "cutter_kind", "check_name",
+           "OptimizerKey"]
 
 #: kind -> cutter class: every concrete cutter class that sets ``kind``.
 CUTTER_KINDS: dict[str, type[Cutter]] = {}
@@ -77,6 +79,22 @@ def cutter_kind(kind: str) -> type[Cutter]:
         raise SpecError(f"kind = {kind!r} is not a valid tip kind; expected one of: "
                         + ", ".join(CUTTER_KINDS))
     return cls
+
+
+@dataclass(frozen=True)
+class OptimizerKey:
+    """A TOML key of a cutter that a study may vary (a design variable of
+    ``tipgeo optimize``), in the key's own unit (``*_mm`` mm, ``*_deg`` degrees).
+
+    Attributes
+    ----------
+    integer : bool — an integer key (``count``, ``planes``): values are rounded
+    replaces : tuple of str — the keys that setting it drops (the spec takes one
+        of each pair, e.g. ``theta_deg`` instead of ``xi_deg``)
+    """
+
+    integer: bool = False
+    replaces: tuple[str, ...] = ()
 
 
 def check_name(name: object) -> None:
@@ -112,6 +130,10 @@ class Cutter(ABC):
 
     #: True when the cutter is a surface of revolution about +z.
     axisymmetric: ClassVar[bool] = False
+
+    #: TOML keys a study may vary (``tipgeo optimize`` design variables), in
+    #: the order listed to the user: key -> :class:`OptimizerKey`. Empty: none.
+    optimizer_keys: ClassVar[dict[str, OptimizerKey]] = {}
 
     def __init_subclass__(cls, **kwargs: Any) -> None:
         super().__init_subclass__(**kwargs)

@@ -33,7 +33,7 @@ from ..cannula import Cannula
 from ..construct import BuildContext
 from ..errors import SpecError
 from ..tolerances import tol
-from .base import Cutter, check_name
+from .base import Cutter, OptimizerKey, check_name
 from .surfaces import ConeSurface, Plane, Surface
 from .toml import round_for_toml as _r
 
@@ -68,6 +68,9 @@ class ConicalCutter(Cutter):
                  "phi_g_deg": "grinding-wheel angle ϕ_g (eq. 2.37), instead of theta_deg",
                  "varphi_deg": "needle–spindle angle φ, default 10",
                  "bevel_length_mm": "axial length of the cone"}
+    optimizer_keys = {"theta_deg": OptimizerKey(replaces=("phi_g_deg", "varphi_deg")),
+                      "phi_g_deg": OptimizerKey(replaces=("theta_deg",)),
+                      "varphi_deg": OptimizerKey(), "bevel_length_mm": OptimizerKey()}
 
     @classmethod
     def from_dict(cls, t: CutterTable) -> Cutter:

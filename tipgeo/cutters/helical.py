@@ -74,10 +74,10 @@ Validation and resolution
 region, or where the helicoid meets the wall steeper than
 ``tol.helical_max_steep_deg`` from the needle's cross-section. It builds no
 mesh: exact analysis (edges, angles) works on the surface at any design.
-The mesh grid is chosen adaptively when a tip is built, for the asked
-chordal tolerance, and capped at ``tol.helical_max_grid`` points (about a
-second); a tolerance needing more is a BuildError that names a tolerance that
-would work.
+The mesh grid is chosen when a tip is built, for the asked chordal
+tolerance: its angles refine where the helicoid curves (not a uniform grid),
+and it is capped at ``tol.helical_max_grid`` points (about a second); a
+tolerance needing more is a BuildError that names a tolerance that would work.
 """
 
 from __future__ import annotations
@@ -90,12 +90,12 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from .. import validate as v
-from ..arrays import ArrayLike, FloatArray
+from ..arrays import ArrayLike, FloatArray, IntArray
 from ..cannula import Cannula
 from ..construct import BuildContext
 from ..errors import BuildError, SpecError
 from ..tolerances import tol
-from .base import Cutter, check_name
+from .base import Cutter, OptimizerKey, check_name
 from .surfaces import HeightSurface, ImplicitSurface, Surface
 from .toml import round_for_toml as _r
 
@@ -176,6 +176,9 @@ class HelicalCutter(Cutter):
                  "ruling": "perpendicular, cone-normal, reverse-cone-normal or angle",
                  "ruling_angle_deg": "β for ruling = angle, (−90, 90)",
                  "tip": "+z or -z (along the helix axis)", "rotation_deg": ""}
+    optimizer_keys = {k: OptimizerKey() for k in (
+        "pitch_mm", "helix_angle_deg", "phi_deg", "helix_position_deg", "axis_offset_mm",
+        "tilt_direction_deg", "ruling_angle_deg", "rotation_deg")}
     _frame: tuple[Any, ...] = field(init=False, repr=False, compare=False, hash=False, default=())
 
     @classmethod
@@ -503,15 +506,14 @@ class HelicalCutter(Cutter):
     def solid(self, ctx: BuildContext) -> Any:
         cannula = ctx.cannula
         self.check(cannula)
-        key = (cannula.r_o, cannula.r_i, ctx.chordal)
+        key = (cannula.r_o, cannula.r_i, ctx.chordal, ctx.segments)
         grids = self.__dict__.setdefault("_grids", {})
         if key not in grids:
             grids[key] = _resolution(lambda x, y, z0=None: self.height(x, y, cannula, z0),
-                                     cannula, ctx.chordal, tol.min_segments)
-        angular, radial = grids[key]
-        angular = max(angular, ctx.segments)
+                                     cannula, ctx.chordal, ctx.segments)
+        angles, radial = grids[key]
         return ctx.annular_heightfield(lambda x, y: self.height(x, y, cannula), self.label,
-                                       angular, radial)
+                                       angles, radial)
 
 
 def _margin(cannula: Cannula) -> float:
@@ -519,11 +521,67 @@ def _margin(cannula: Cannula) -> float:
     return 0.1037 * (cannula.r_o - cannula.r_i)
 
 
-def _resolution(height: Callable[..., FloatArray], cannula: Cannula, chordal: float,
-                start: int) -> tuple[int, int]:
-    """Grid (angular, radial) over the wall annulus whose triangulation (each
-    cell split along its diagonal) interpolates ``height(x, y, z0)`` within
-    ``chordal`` (mm) of the surface, measured along the surface normal.
+#: Finest angular refinement of the helicoid's grid: down to 1/2**level of a
+#: tube step (2**8: 256 grid steps per tube step, far below any chordal need).
+_MAX_LEVEL = 8
+
+
+def _cyclic_gaps(index: IntArray, n_fine: int) -> IntArray:
+    """Fine steps from each grid angle to the next, around the circle."""
+    return np.diff(np.append(index, index[0] + n_fine))
+
+
+def _grid_errors(height: Callable[..., FloatArray], rad: FloatArray, g: FloatArray,
+                 dg: FloatArray) -> tuple[FloatArray, float, float]:
+    """(per angular interval, radial, the radial share) of the gap between the
+    grid's triangles and ``height`` (mm along the surface normal) at the
+    midpoints of the three edge families of the triangles (angular, radial,
+    diagonal). Grid: radii ``rad`` (uniform), angles ``g`` (increasing, rad)
+    with ``dg`` to the next (cyclic)."""
+    dr = rad[1] - rad[0]
+    gm = g + 0.5 * dg
+    rm = 0.5 * (rad[:-1] + rad[1:])
+    z = height(np.outer(rad, np.cos(g)), np.outer(rad, np.sin(g)))
+    # slopes of the grid's edges: angular (radial, angular), radial (radial − 1, angular)
+    slope_a = np.abs(np.roll(z, -1, axis=1) - z) / np.outer(rad, dg)
+    slope_r = np.abs(z[1:] - z[:-1]) / dr
+    # the other direction's slope at each edge: the least of the neighbouring
+    # edges' (conservative: a smaller slope tilts the normal less)
+    node_r = np.vstack([slope_r[:1], np.minimum(slope_r[:-1], slope_r[1:]), slope_r[-1:]])
+    node_a = np.minimum(slope_a, np.roll(slope_a, 1, axis=1))
+    across_a = np.minimum(node_r, np.roll(node_r, -1, axis=1))
+    across_r = np.minimum(node_a[:-1], node_a[1:])
+    # angular midpoints (Newton starts from the linear interpolation)
+    lin_a = 0.5 * (z + np.roll(z, -1, axis=1))
+    za = height(np.outer(rad, np.cos(gm)), np.outer(rad, np.sin(gm)), lin_a)
+    err_a = np.abs(za - lin_a) / np.sqrt(1 + slope_a ** 2 + across_a ** 2)
+    # radial midpoints
+    lin_r = 0.5 * (z[:-1] + z[1:])
+    zr = height(np.outer(rm, np.cos(g)), np.outer(rm, np.sin(g)), lin_r)
+    err_r = np.abs(zr - lin_r) / np.sqrt(1 + slope_r ** 2 + across_r ** 2)
+    # diagonal midpoints, (j, k)–(j + 1, k + 1) as the builder splits the cells
+    lin_d = 0.5 * (z[:-1] + np.roll(z[1:], -1, axis=1))
+    zd = height(np.outer(rm, np.cos(gm)), np.outer(rm, np.sin(gm)), lin_d)
+    sa = np.minimum(slope_a[:-1], slope_a[1:])
+    sr = np.minimum(slope_r, np.roll(slope_r, -1, axis=1))
+    err_d = np.abs(zd - lin_d) / np.sqrt(1 + sa ** 2 + sr ** 2)
+    per_interval = np.maximum(err_a.max(axis=0), err_d.max(axis=0))
+    return per_interval, float(err_r.max()), float(max(err_r.max(), err_d.max()))
+
+
+def _adapt(height: Callable[..., FloatArray], cannula: Cannula, chordal: float, segments: int
+           ) -> tuple[FloatArray, int] | None:
+    """The heightfield grid over the wall annulus — its angles (rad about +z,
+    increasing) and its count of radii — whose triangulation (each cell split
+    along its diagonal) interpolates ``height(x, y, z0)`` within ``chordal``
+    (mm) of the surface, measured along the surface normal.
+
+    The radii are uniform; the angles adapt to the surface: starting from one
+    per tube step (``segments``), an interval whose gap exceeds the target is
+    halved, down to 1/2**8 of a tube step, so the grid is fine only where the
+    helicoid curves (a steep placement: 5–10 times fewer points than a
+    uniform grid). Every angle lies on the fine grid (i + ½)·2π/(segments·2**8),
+    so no grid vertex coincides with a tube vertex (j·2π/segments).
 
     The gap is checked at the midpoints of all three edge families of the
     triangles (angular, radial, diagonal): the vertical gap there divided by
@@ -531,61 +589,56 @@ def _resolution(height: Callable[..., FloatArray], cannula: Cannula, chordal: fl
     helicoid needs far fewer points than its vertical gaps suggest). For a
     locally quadratic surface the gap inside a triangle is at most 4/3 of the
     largest at its edge midpoints, so those are held to 3/4 of ``chordal``.
-    A grid of more than ``tol.helical_max_grid`` points is a BuildError."""
+    None when no grid of at most ``tol.helical_max_grid`` points meets it."""
     ro, ri = cannula.r_o, cannula.r_i
-    angular, radial = start, 3
+    n_fine = segments * 2 ** _MAX_LEVEL
+    index = np.arange(segments) * 2 ** _MAX_LEVEL + 2 ** (_MAX_LEVEL - 1)
+    radial = 3
     cap = tol.helical_max_grid
     target = 0.75 * chordal
-    workable = None
-    for _ in range(10):
-        d = _margin(cannula)
+    d = _margin(cannula)
+    for _ in range(4 * _MAX_LEVEL + 16):
         rad = np.linspace(max(ri - d, 0.5 * ri), ro + d, radial)
-        dr = rad[1] - rad[0]
-        g = (np.arange(angular) + 0.5) * 2 * np.pi / angular
-        gm = g + np.pi / angular
-        rm = 0.5 * (rad[:-1] + rad[1:])
-        z = height(np.outer(rad, np.cos(g)), np.outer(rad, np.sin(g)))
-        # slopes of the grid's edges: angular (radial, angular), radial (radial − 1, angular)
-        chord = np.outer(rad, np.ones_like(g)) * (2 * np.pi / angular)
-        slope_a = np.abs(np.roll(z, -1, axis=1) - z) / chord
-        slope_r = np.abs(z[1:] - z[:-1]) / dr
-        # the other direction's slope at each edge: the least of the neighbouring
-        # edges' (conservative: a smaller slope tilts the normal less)
-        node_r = np.vstack([slope_r[:1], np.minimum(slope_r[:-1], slope_r[1:]), slope_r[-1:]])
-        node_a = np.minimum(slope_a, np.roll(slope_a, 1, axis=1))
-        across_a = np.minimum(node_r, np.roll(node_r, -1, axis=1))
-        across_r = np.minimum(node_a[:-1], node_a[1:])
-        # angular midpoints (Newton starts from the linear interpolation)
-        lin_a = 0.5 * (z + np.roll(z, -1, axis=1))
-        za = height(np.outer(rad, np.cos(gm)), np.outer(rad, np.sin(gm)), lin_a)
-        err_a = np.max(np.abs(za - lin_a) / np.sqrt(1 + slope_a ** 2 + across_a ** 2))
-        # radial midpoints
-        lin_r = 0.5 * (z[:-1] + z[1:])
-        zr = height(np.outer(rm, np.cos(g)), np.outer(rm, np.sin(g)), lin_r)
-        err_r = np.max(np.abs(zr - lin_r) / np.sqrt(1 + slope_r ** 2 + across_r ** 2))
-        # diagonal midpoints, (j, k)–(j + 1, k + 1) as the builder splits the cells
-        lin_d = 0.5 * (z[:-1] + np.roll(z[1:], -1, axis=1))
-        zd = height(np.outer(rm, np.cos(gm)), np.outer(rm, np.sin(gm)), lin_d)
-        sa = np.minimum(slope_a[:-1], slope_a[1:])
-        sr = np.minimum(slope_r, np.roll(slope_r, -1, axis=1))
-        err_d = np.max(np.abs(zd - lin_d) / np.sqrt(1 + sa ** 2 + sr ** 2))
-        if max(err_a, err_r, err_d) <= target:
-            return angular, radial
-        fa, fr = max(err_a, err_d) / target, max(err_r, err_d) / target
-        # the gap falls as 1/points (h² per direction): the tolerance this
-        # grid's error scaled to the cap would meet, with 50 % to spare
-        workable = 1.5 * max(err_a, err_r, err_d) * angular * radial / (0.75 * cap)
-        if fa > 1:
-            angular = int(math.ceil(angular * 1.1 * math.sqrt(fa) / 24) * 24)
-        if fr > 1:
+        g = (index + 0.5) * (2 * np.pi / n_fine)
+        gaps = _cyclic_gaps(index, n_fine)
+        per_interval, err_r, err_rd = _grid_errors(height, rad, g, gaps * (2 * np.pi / n_fine))
+        bad = per_interval > target
+        if not bad.any() and err_r <= target:
+            return g, radial
+        if np.any(bad & (gaps < 2)):
+            break  # finer than the finest level: no grid of this kind meets it
+        if bad.any():
+            index = np.sort(np.concatenate([index, (index[bad] + gaps[bad] // 2) % n_fine]))
+        if err_r > target:
+            fr = err_rd / target
             radial = int(math.ceil((radial - 1) * 1.1 * math.sqrt(fr))) + 1
-        if angular * radial > cap:
+        if len(index) * radial > cap:
             break
-    hint = ("raise the tolerance" if workable is None else
-            f"a tolerance of about {_round_up_um(max(workable, chordal * 1.5))} µm "
-            "(--tolerance-um) would work")
+    return None
+
+
+def _resolution(height: Callable[..., FloatArray], cannula: Cannula, chordal: float,
+                segments: int) -> tuple[FloatArray, int]:
+    """:func:`_adapt`'s grid for ``chordal`` (mm), or a BuildError naming a
+    tolerance whose grid was found within the cap (tried, not estimated:
+    doubling from ``chordal``, the tube's segments following it)."""
+    from ..construct import segments_for
+
+    grid = _adapt(height, cannula, chordal, segments)
+    if grid is not None:
+        return grid
+    hint = "raise the tolerance"
+    trial = chordal
+    for _ in range(12):
+        trial *= 2.0
+        if trial > 0.1 * cannula.wall:  # the coarsest tolerance a build takes (build_tip)
+            break
+        if _adapt(height, cannula, trial, segments_for(cannula.r_o, trial)) is not None:
+            hint = (f"a tolerance of about {_round_up_um(trial)} µm (--tolerance-um) "
+                    "would work")
+            break
     raise BuildError(f"its mesh at tolerance {chordal * 1e3:.3g} µm would need a grid of "
-                     f"{angular}×{radial} points; allowed at most {cap} (the helicoid is too "
+                     f"more than {tol.helical_max_grid} points, the cap (the helicoid is too "
                      f"steep or curved over the wall; {hint})")
 
 

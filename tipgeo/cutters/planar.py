@@ -29,7 +29,7 @@ from ..cannula import Cannula
 from ..construct import BuildContext
 from ..errors import SpecError
 from ..tolerances import MAX_PLANES, tol
-from .base import Cutter, check_name
+from .base import Cutter, OptimizerKey, check_name
 from .surfaces import Plane, Surface
 from .toml import round_for_toml as _r
 
@@ -130,6 +130,7 @@ class BevelCutter(PlanarCutter):
     kind = "bevel"
     angle_field = "xi"
     toml_keys = {"xi_deg": "bevel angle ξ, (0, 90]", "rotation_deg": "heel direction about +z"}
+    optimizer_keys = {"xi_deg": OptimizerKey(), "rotation_deg": OptimizerKey()}
 
     @classmethod
     def from_dict(cls, t: CutterTable) -> Cutter:
@@ -190,6 +191,9 @@ class MultiPlaneCutter(PlanarCutter):
                  "planes": "P_l ≥ 2 (symmetric)",
                  "rotations_deg": "explicit heel directions (asymmetric)",
                  "rotation_deg": "rotation of the whole cutter"}
+    optimizer_keys = {"xi_deg": OptimizerKey(replaces=("theta_deg",)),
+                      "theta_deg": OptimizerKey(replaces=("xi_deg",)),
+                      "planes": OptimizerKey(integer=True), "rotation_deg": OptimizerKey()}
 
     @classmethod
     def from_dict(cls, t: CutterTable) -> Cutter:
@@ -334,6 +338,8 @@ class LancetCutter(PlanarCutter):
     angle_field = "primary_xi"
     toml_keys = {"primary_xi_deg": "(0, 90)", "secondary_xi_deg": "(0, 90)",
                  "secondary_rotation_deg": "(0, 90)", "rotation_deg": ""}
+    optimizer_keys = {k: OptimizerKey() for k in ("primary_xi_deg", "secondary_xi_deg",
+                                                  "secondary_rotation_deg", "rotation_deg")}
 
     @classmethod
     def from_dict(cls, t: CutterTable) -> Cutter:

@@ -41,14 +41,15 @@ from ..cannula import Cannula
 from ..construct import AUX, BuildContext
 from ..errors import SpecError
 from ..tolerances import tol
-from .base import Cutter, check_name
+from .base import Cutter, OptimizerKey, check_name
 from .surfaces import NotchPrism, Surface
 from .toml import round_for_toml as _r
 
 if TYPE_CHECKING:  # pragma: no cover
     from .toml import CutterTable
 
-__all__ = ["SerrationCutter", "SerrationProfile", "SERRATION_PRESETS", "MAX_SERRATIONS"]
+__all__ = ["SerrationCutter", "SerrationProfile", "SerrationFacts", "SERRATION_PRESETS",
+           "MAX_SERRATIONS"]
 
 #: Most serrations on one rim: each is a boolean cut and an edge piece, so the
 #: cost of a build grows with the count (Appendix C cuts 16; 256 builds in
@@ -241,6 +242,30 @@ class SerrationProfile:
         return np.where(inside, -d, d)
 
 
+@dataclass(frozen=True)
+class SerrationFacts:
+    """What a laser program needs to know of a serration cutter
+    (:meth:`SerrationCutter.serration_facts`); mm and radians, cannula frame
+    (+z along the axis toward the tip, γ about +z from the heel).
+
+    Attributes
+    ----------
+    arc_radius : float — r_c, the notch arc's radius (mm)
+    depth : float — the notch's depth below the rim (mm)
+    count : int — n_s, the number of serrations
+    spacing : float — ρ, the angle between consecutive serrations (rad)
+    rotation : float — γ of the first serration (rad)
+    edge_radius : float — r_s, the rounding of the serration edges (mm)
+    """
+
+    arc_radius: float
+    depth: float
+    count: int
+    spacing: float
+    rotation: float
+    edge_radius: float
+
+
 @dataclass(frozen=True, kw_only=True)
 class SerrationCutter(Cutter):
     """Serration arcs on a punch rim (see the module docstring).
@@ -276,6 +301,11 @@ class SerrationCutter(Cutter):
     toml_keys = {"arc_radius_mm": "r_c", "count": "n_s", "spacing_deg": "ρ, instead of count",
                  "depth_mm": "default r_c", "edge_radius_mm": "r_s, default 0",
                  "rotation_deg": "γ of the first"}
+    optimizer_keys = {"arc_radius_mm": OptimizerKey(),
+                      "count": OptimizerKey(integer=True, replaces=("spacing_deg",)),
+                      "spacing_deg": OptimizerKey(replaces=("count",)),
+                      "depth_mm": OptimizerKey(), "edge_radius_mm": OptimizerKey(),
+                      "rotation_deg": OptimizerKey()}
 
     @classmethod
     def from_dict(cls, t: CutterTable) -> Cutter:
@@ -356,6 +386,23 @@ class SerrationCutter(Cutter):
     def _depth(self) -> float:
         """Depth (mm): ``__post_init__`` replaces None by the arc radius."""
         return cast(float, self.depth)
+
+    def serration_facts(self) -> SerrationFacts:
+        """The serrations as a laser program cuts them (:class:`SerrationFacts`:
+        r_c, depth, n_s, ρ, first γ, r_s; mm and rad): what :mod:`gcode`
+        asks of the cutter instead of reading its fields."""
+        depth = self.depth if self.depth is not None else self.arc_radius
+        return SerrationFacts(arc_radius=self.arc_radius, depth=depth, count=self.n,
+                              spacing=self.rho, rotation=self.rotation,
+                              edge_radius=self.edge_radius)
+
+    def sharp(self) -> SerrationCutter:
+        """The same serrations with sharp edges (r_s = 0): what the laser cuts,
+        its beam leaving no edge fillet (the CAD that
+        :func:`gcode.ablation.compare_with_cutter` compares a simulated cut with)."""
+        return SerrationCutter(arc_radius=self.arc_radius, count=self.count,
+                               spacing=self.spacing, depth=self.depth, edge_radius=0.0,
+                               rotation=self.rotation, name=self.name)
 
     def angles(self) -> FloatArray:
         """γ_k of every serration (rad)."""

@@ -13,7 +13,7 @@ from ..paths import inside
 __all__ = ["demo_outputs"]
 
 
-def demo_outputs(out_dir: Path, log: Callable[[str], object] | None = None) -> list[str]:
+def demo_outputs(out_dir: Path, log: Callable[[str], None] | None = None) -> list[str]:
     """Run the thesis's helical study into ``out_dir/helical-study/`` in this
     process, without a cache; return the files written.
 

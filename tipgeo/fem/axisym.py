@@ -11,15 +11,26 @@ its base fixed and its axis held radially; the other faces are free.
 
 from __future__ import annotations
 
+from dataclasses import dataclass
+
 import numpy as np
 
 from .. import validate as v
+from ..arrays import FloatArray, IntArray
 from ..errors import SpecError
 from ..tip import Tip
 from ..tolerances import tol
-from .material import DEFAULT_NU, fem_material, friction_coefficient
+from .material import DEFAULT_NU, fem_material, model_friction
 from .mesh import mesh_2d
-from .model import FACE_NODES, ElementBlock, FemModel, boundary_faces
+from .model import (
+    FACE_NODES,
+    UM_PER_MM,
+    ElementBlock,
+    FemModel,
+    boundary_faces,
+    check_output_depths,
+    contact_penalty,
+)
 from .profile import clip_profile, round_corners, wall_profile
 
 __all__ = ["axisymmetric_model", "BLOCK_2D", "AXISYMMETRIC_FORCE_SCALE", "CUTS"]
@@ -46,6 +57,12 @@ FINE_DEPTH = 3.0
 
 #: Limits on the model size, checked before meshing (elements).
 MAX_ELEMENTS = 400_000
+
+#: Smallest element size and cut step (mm): 1 µm.
+MIN_ELEMENT_MM = 0.001
+
+#: Floor of the smallest increment as a needle advance (mm): 1 nm.
+MIN_INCREMENT_MM = 1e-6
 
 
 def _estimate_elements(h: float, band: float, grade: float, h_far: float,
@@ -127,16 +144,84 @@ def axisymmetric_model(tip: Tip, *, depth: float, tissue: str = "pvc-sp0",
     """
     R, H = (v.length("block radius", block[0]), v.length("block height", block[1]))
     depth = v.real("depth", depth, lo=0.0, hi=0.8 * H, lo_open=True, unit="mm")
-    h = v.real("mesh", mesh, lo=0.001, hi=0.5, unit="mm")
+    h = v.real("mesh", mesh, lo=MIN_ELEMENT_MM, hi=0.5, unit="mm")
+    prof, needle, r_e = _needle_section(tip, R, H, depth, edge_radius)
+    z = _zones(needle, R=R, H=H, depth=depth, h=h, far=far, nose_refine=nose_refine,
+               fine_depth=fine_depth)
+    if cut not in CUTS:
+        raise SpecError(f"cut = {cut!r} is not valid; expected one of: " + ", ".join(CUTS))
+    column, dz, lead = None, 0.0, 0
+    if cut == "erosion":
+        column, dz, lead = _erosion_column(needle, H=H, depth=depth, h=h, r_e=r_e,
+                                           cut_step=cut_step, cut_lead=cut_lead)
+    nodes, parts = mesh_2d(needle, block=(R, H), boxes=[(z.box, h), (z.nose, z.h_nose)],
+                           h_far=z.h_far, grade=z.grade, column=column)
+    blocks, eid = [], 1
+    for part in ("tissue", "needle"):
+        for et, conn in sorted(parts[part].items()):
+            blocks.append(ElementBlock(et, part, np.arange(eid, eid + len(conn)), conn))
+            eid += len(conn)
+    eps = tol.fem.plane_rel * R
+    tb = [b for b in blocks if b.part == "tissue"]
+    nb = [b for b in blocks if b.part == "needle"]
+    surfaces = _contact_surfaces(nodes, tb, nb, float(needle[:, 1].max()), eps)
+    tissue_nodes = np.unique(np.concatenate([b.conn.ravel() for b in tb]))
+    tn = nodes[tissue_nodes - 1]
+    nsets = {"BASE": tissue_nodes[np.abs(tn[:, 1] + H) <= eps],
+             "AXIS": tissue_nodes[np.abs(tn[:, 0]) <= eps],
+             "NEEDLE": np.unique(np.concatenate([b.conn.ravel() for b in nb]))}
+    mat = fem_material(tissue, material_model, nu)
+    mu, mu_src = model_friction(tissue, friction)
+    dmax = min(MAX_STEP, 2 * h, depth) if max_increment is None else v.real(
+        "max_increment", max_increment, lo=0.0, lo_open=True, unit="mm")
+    dmax = min(dmax, depth)
+    d0 = min(dmax, 0.1 * h)
+    out = check_output_depths(output_depths, depth)
+    info = {"element_size_um": round(h * UM_PER_MM, 6),
+            "element_size_far_um": round(z.h_far * UM_PER_MM, 6),
+            "element_size_front_um": round(z.h_nose * UM_PER_MM, 6),
+            "fine_zone_mm": [round(x, 6) for x in z.box], "nodes": len(nodes),
+            "tissue_elements": int(sum(len(b.ids) for b in tb)),
+            "needle_elements": int(sum(len(b.ids) for b in nb)),
+            "block_mm": [R, H], "edge_r_mm": [z.r_lo, z.r_hi], "tip": tip.spec.name if tip.spec
+            else "imported", "tissue": mat.name, "material": mat.model,
+            "material_source": mat.source, "edge_radius_um": round(r_e * UM_PER_MM, 6),
+            "inner_diameter_mm": 2 * float(prof[:, 0].min()),
+            "_needle_section": needle.tolist(), "contact": contact, "nu": nu, "friction": mu,
+            "friction_source": mu_src, "fine_depth_mm": round(z.d_fine, 9),
+            "first_increment_mm": round(d0, 9), "max_increment_mm": round(dmax, 9)}
+    stages: tuple[tuple[float, IntArray, str], ...] = ()
+    node_surfaces: dict[str, IntArray] = {}
+    if column is not None:
+        stages, node_surfaces = _erosion_stages(nodes, tb, column, dz, lead, depth, out,
+                                                surfaces, eps)
+        info.update({"cut": cut, "cut_step_um": round(dz * UM_PER_MM, 6), "cut_lead": lead,
+                     "cut_r_mm": [column[0], column[1]], "steps": len(stages)})
+    return FemModel(kind="axisymmetric", name=info["tip"], nodes=nodes, blocks=blocks,
+                    nsets=nsets, fixed={"BASE": (1, 2), "AXIS": (1,)}, stages=stages,
+                    node_surfaces=node_surfaces,
+                    surfaces=surfaces, material=mat, friction=mu,
+                    depth=depth, penalty=contact_penalty(penalty_factor, mat.E0, h,
+                                                         contact_stiffness),
+                    force_scale=AXISYMMETRIC_FORCE_SCALE,
+                    # a 1 nm floor on the smallest increment
+                    increments=(d0 / depth, MIN_INCREMENT_MM * min(1.0, 1.0 / depth),
+                                dmax / depth),
+                    output_depths=out, contact=contact,
+                    slave="tissue" if stages else "needle", info=info)
+
+
+def _needle_section(tip: Tip, R: float, H: float, depth: float, edge_radius: float
+                    ) -> tuple[FloatArray, FloatArray, float]:
+    """The tip's wall profile (r, z), the needle's section in the model frame
+    (X = r, Y = z_max − z; its front's corners rounded to ``edge_radius``)
+    and the checked edge radius (mm)."""
     prof = wall_profile(tip)
     r_max = float(prof[:, 0].max())
     if r_max >= 0.5 * R:
         raise SpecError(f"the needle's outer radius {r_max:.6g} mm does not fit the block "
                         f"radius {R:g} mm; allowed up to half of it")
     z_max = float(prof[:, 1].max())
-    d_fine = max(FINE_DEPTH, depth) if fine_depth is None else v.real(
-        "fine_depth", fine_depth, lo=0.0, unit="mm")
-    d_fine = min(d_fine, 0.8 * H)
     d_needle = min(max(FINE_DEPTH, depth), 0.8 * H)
     margin = max(1.0, 0.5 * d_needle)
     sec = clip_profile(prof, z_max - d_needle - margin)
@@ -146,6 +231,30 @@ def axisymmetric_model(tip: Tip, *, depth: float, tissue: str = "pvc-sp0",
         front_ids = np.flatnonzero(needle[:, 1] <= tol.fem.profile + r_e)
         needle = round_corners(needle, front_ids, r_e)
         needle[:, 1] -= needle[:, 1].min()
+    return prof, needle, r_e
+
+
+@dataclass(frozen=True)
+class _Zones:
+    """The mesh zones (mm): the fine box (r₀, r₁, y₀, y₁) at h, the nose box
+    and its size, the far size, the grading width, the edge's radii."""
+
+    box: tuple[float, float, float, float]
+    nose: tuple[float, float, float, float]
+    h_nose: float
+    h_far: float
+    grade: float
+    d_fine: float
+    r_lo: float
+    r_hi: float
+
+
+def _zones(needle: FloatArray, *, R: float, H: float, depth: float, h: float,
+           far: float | None, nose_refine: float, fine_depth: float | None) -> _Zones:
+    """The mesh zones around the needle's front; the model's size checked."""
+    d_fine = max(FINE_DEPTH, depth) if fine_depth is None else v.real(
+        "fine_depth", fine_depth, lo=0.0, unit="mm")
+    d_fine = min(d_fine, 0.8 * H)
     # the edge: the section's points within h of the most advanced height
     front = needle[needle[:, 1] <= h]
     r_lo, r_hi = float(front[:, 0].min()), float(front[:, 0].max())
@@ -158,140 +267,107 @@ def axisymmetric_model(tip: Tip, *, depth: float, tissue: str = "pvc-sp0",
                                                                    unit="mm")
     n_est = _estimate_elements(h, band, grade, h_far, d_fine, R, H)
     if n_est > MAX_ELEMENTS:
-        raise SpecError(f"mesh = {h * 1e3:g} µm, meshed fine to {d_fine:g} mm, needs about "
-                        f"{n_est:.0f} elements; allowed up to {MAX_ELEMENTS} "
-                        "(a coarser --mesh-um, or a shallower fine_depth in the API)")
+        raise SpecError(f"mesh = {h * UM_PER_MM:g} µm, meshed fine to {d_fine:g} mm, needs "
+                        f"about {n_est:.0f} elements; allowed up to {MAX_ELEMENTS} "
+                        "(a coarser --mesh-um, or a shallower --fine-depth-mm)")
     # the tissue that wraps the needle's front: finer still (h / nose_refine)
     h_nose = h / nose_refine
     nose = (r_lo - 2 * h, r_hi + 2 * h, -3 * h, h_nose)
-    if cut not in CUTS:
-        raise SpecError(f"cut = {cut!r} is not valid; expected one of: " + ", ".join(CUTS))
-    column = None
-    if cut == "erosion":
-        dz = h if cut_step is None else v.real("cut_step", cut_step, lo=0.001, hi=depth,
-                                               unit="mm")
-        lead = int(v.real("cut_lead", cut_lead, lo=0, hi=3))
-        tip_pts = needle[needle[:, 1] <= r_e + tol.fem.profile]
-        r_a, r_b = float(tip_pts[:, 0].min()), float(tip_pts[:, 0].max())
-        n_y = int(np.ceil(depth / dz - 1e-9)) + 2
-        if n_y * dz >= 0.9 * H:
-            raise SpecError(f"the cut path to depth {n_y * dz:g} mm does not fit the block "
-                            f"height {H:g} mm")
-        column = (r_a, r_b, -n_y * dz, max(2, int(np.ceil((r_b - r_a) / h - 1e-9))), n_y)
-    nodes, parts = mesh_2d(needle, block=(R, H), boxes=[(box, h), (nose, h_nose)],
-                           h_far=h_far, grade=grade, column=column)
-    blocks, eid = [], 1
-    for part in ("tissue", "needle"):
-        for et, conn in sorted(parts[part].items()):
-            blocks.append(ElementBlock(et, part, np.arange(eid, eid + len(conn)), conn))
-            eid += len(conn)
-    eps = 1e-9 * R
-    tb = [b for b in blocks if b.part == "tissue"]
-    nb = [b for b in blocks if b.part == "needle"]
+    return _Zones(box, nose, h_nose, h_far, grade, d_fine, r_lo, r_hi)
+
+
+def _erosion_column(needle: FloatArray, *, H: float, depth: float, h: float, r_e: float,
+                    cut_step: float | None, cut_lead: int
+                    ) -> tuple[tuple[float, float, float, int, int], float, int]:
+    """The erosion's cut column (r_a, r_b, y_bottom, elements across, layers),
+    its layer thickness (mm) and lead (layers)."""
+    dz = h if cut_step is None else v.real("cut_step", cut_step, lo=MIN_ELEMENT_MM, hi=depth,
+                                           unit="mm")
+    lead = int(v.real("cut_lead", cut_lead, lo=0, hi=3))
+    tip_pts = needle[needle[:, 1] <= r_e + tol.fem.profile]
+    r_a, r_b = float(tip_pts[:, 0].min()), float(tip_pts[:, 0].max())
+    n_y = int(np.ceil(depth / dz - tol.fem.ceil_slack)) + 2
+    if n_y * dz >= 0.9 * H:
+        raise SpecError(f"the cut path to depth {n_y * dz:g} mm does not fit the block "
+                        f"height {H:g} mm")
+    n_x = max(2, int(np.ceil((r_b - r_a) / h - tol.fem.ceil_slack)))
+    return (r_a, r_b, -n_y * dz, n_x, n_y), dz, lead
+
+
+def _contact_surfaces(nodes: FloatArray, tb: list[ElementBlock], nb: list[ElementBlock],
+                      y_cut: float, eps: float) -> dict[str, list[tuple[int, int]]]:
+    """TISSUE: the block's top faces; NEEDLE: the needle's faces below its cut
+    at Y = ``y_cut``."""
     top = [(e, f) for e, f, ns in boundary_faces(tb)
            if np.all(np.abs(nodes[np.asarray(ns) - 1, 1]) <= eps)]
-    y_cut = float(needle[:, 1].max())
     master = [(e, f) for e, f, ns in boundary_faces(nb)
               if np.any(nodes[np.asarray(ns) - 1, 1] < y_cut - eps)]
-    tissue_nodes = np.unique(np.concatenate([b.conn.ravel() for b in tb]))
-    tn = nodes[tissue_nodes - 1]
-    nsets = {"BASE": tissue_nodes[np.abs(tn[:, 1] + H) <= eps],
-             "AXIS": tissue_nodes[np.abs(tn[:, 0]) <= eps],
-             "NEEDLE": np.unique(np.concatenate([b.conn.ravel() for b in nb]))}
-    mat = fem_material(tissue, material_model, nu)
-    if friction is None:
-        mu, mu_src = friction_coefficient(tissue, 0.0)
-    else:
-        mu, mu_src = v.real("friction", friction, lo=0.0, hi=2.0), "given"
-    dmax = min(MAX_STEP, 2 * h, depth) if max_increment is None else v.real(
-        "max_increment", max_increment, lo=0.0, lo_open=True, unit="mm")
-    dmax = min(dmax, depth)
-    d0 = min(dmax, 0.1 * h)
-    out = tuple(v.real("output depth", d, lo=0.0, hi=depth, lo_open=True, unit="mm")
-                for d in output_depths)
-    info = {"element_size_um": round(h * 1e3, 6), "element_size_far_um": round(h_far * 1e3, 6),
-            "element_size_front_um": round(h_nose * 1e3, 6),
-            "fine_zone_mm": [round(x, 6) for x in box], "nodes": len(nodes),
-            "tissue_elements": int(sum(len(b.ids) for b in tb)),
-            "needle_elements": int(sum(len(b.ids) for b in nb)),
-            "block_mm": [R, H], "edge_r_mm": [r_lo, r_hi], "tip": tip.spec.name if tip.spec
-            else "imported", "tissue": mat.name, "material": mat.model,
-            "material_source": mat.source, "edge_radius_um": round(r_e * 1e3, 6),
-            "inner_diameter_mm": 2 * float(prof[:, 0].min()),
-            "_needle_section": needle.tolist(), "contact": contact, "nu": nu, "friction": mu,
-            "friction_source": mu_src, "fine_depth_mm": round(d_fine, 9),
-            "first_increment_mm": round(d0, 9), "max_increment_mm": round(dmax, 9)}
-    surfaces, stages, node_surfaces = {"TISSUE": top, "NEEDLE": master}, (), {}
-    if column is not None:
-        stages, node_surfaces = _erosion_stages(nodes, tb, column, dz, lead, depth, out,
-                                                surfaces, eps)
-        info.update({"cut": cut, "cut_step_um": round(dz * 1e3, 6), "cut_lead": lead,
-                     "cut_r_mm": [column[0], column[1]], "steps": len(stages)})
-    return FemModel(kind="axisymmetric", name=info["tip"], nodes=nodes, blocks=blocks,
-                    nsets=nsets, fixed={"BASE": (1, 2), "AXIS": (1,)}, stages=stages,
-                    node_surfaces=node_surfaces,
-                    surfaces=surfaces, material=mat, friction=mu,
-                    depth=depth, penalty=penalty_factor * mat.E0 / h if contact_stiffness is None
-                    else v.real("contact_stiffness", contact_stiffness, lo=0.0, lo_open=True,
-                                unit="MPa/mm"),
-                    force_scale=AXISYMMETRIC_FORCE_SCALE,
-                    # a 1 nm floor on the smallest increment
-                    increments=(d0 / depth, 1e-6 * min(1.0, 1.0 / depth), dmax / depth),
-                    output_depths=out, contact=contact,
-                    slave="tissue" if stages else "needle", info=info)
+    return {"TISSUE": top, "NEEDLE": master}
 
 
+_Column = tuple[float, float, float, int, int]
+_Face = tuple[int, int, list[int]]
 
-def _erosion_stages(nodes, tb, column, dz, lead, depth, out, surfaces, eps):
-    """The steps of the erosion model (see :class:`~tipgeo.fem.model.FemModel`
-    ``stages``) and its node surfaces: ``TISSUE`` (the block's top outside
-    the cut column and the column's walls, which are never removed; it takes
-    the place of the element surface ``TISSUE`` in ``surfaces``) and
-    ``EXPOSED<n>``, the inner nodes of the top of layer n (0 at the top),
-    the contact of the steps after n layers are gone."""
+
+def _column_faces(nodes: FloatArray, tb: list[ElementBlock], column: _Column, dz: float,
+                  eps: float) -> tuple[dict[int, int], list[_Face], dict[int, int],
+                                       set[tuple[int, int]]]:
+    """The cut column's elements with their layer (0 at the top), every
+    tissue face (element, face, node ids), the face on top of each column
+    element and the faces of the column's walls."""
     r_a, r_b, y_b = column[:3]
-    cid, layer = [], []
-    faces = []  # (element, face, node ids) of every tissue element
+    layer_of: dict[int, int] = {}
+    faces: list[_Face] = []
     for b in tb:
         for f, loc in enumerate(FACE_NODES[b.etype], 1):
             for e, row in zip(b.ids.tolist(), b.conn[:, loc].tolist()):
                 faces.append((e, f, row))
         c = nodes[b.conn - 1].mean(axis=1)
         inside = (c[:, 0] > r_a) & (c[:, 0] < r_b) & (c[:, 1] > y_b)
-        cid += b.ids[inside].tolist()
-        layer += np.floor(-c[inside, 1] / dz).astype(int).tolist()
-    col = set(cid)
-    layer_of = dict(zip(cid, layer))
-    xy = nodes
-    top_of, walls = {}, []
+        layer_of.update(zip(b.ids[inside].tolist(),
+                            np.floor(-c[inside, 1] / dz).astype(int).tolist()))
+    near = eps * 10
+    top_of, walls = {}, set()
     for e, f, ns in faces:
-        p = xy[np.asarray(ns) - 1]
-        if e in col:
-            y_top = -layer_of[e] * dz
-            if np.all(np.abs(p[:, 1] - y_top) <= eps * 10):
+        p = nodes[np.asarray(ns) - 1]
+        if e in layer_of:
+            if np.all(np.abs(p[:, 1] + layer_of[e] * dz) <= near):
                 top_of[e] = f
-        elif np.all(np.abs(p[:, 0] - r_a) <= eps * 10) or np.all(np.abs(p[:, 0] - r_b)
-                                                                 <= eps * 10):
-            if np.all(p[:, 1] >= y_b - eps):
-                walls.append((e, f, float(p[:, 1].min())))
+        elif (np.all(np.abs(p[:, 0] - r_a) <= near) or np.all(np.abs(p[:, 0] - r_b) <= near)) \
+                and np.all(p[:, 1] >= y_b - eps):
+            walls.add((e, f))
+    return layer_of, faces, top_of, walls
+
+
+def _erosion_stages(nodes: FloatArray, tb: list[ElementBlock], column: _Column, dz: float,
+                    lead: int, depth: float, out: tuple[float, ...],
+                    surfaces: dict[str, list[tuple[int, int]]], eps: float
+                    ) -> tuple[tuple[tuple[float, IntArray, str], ...], dict[str, IntArray]]:
+    """The steps of the erosion model (see :class:`~tipgeo.fem.model.FemModel`
+    ``stages``) and its node surfaces: ``TISSUE`` (the block's top outside
+    the cut column and the column's walls, which are never removed; it takes
+    the place of the element surface ``TISSUE`` in ``surfaces``) and
+    ``EXPOSED<n>``, the inner nodes of the top of layer n (0 at the top),
+    the contact of the steps after n layers are gone."""
+    layer_of, faces, top_of, walls = _column_faces(nodes, tb, column, dz, eps)
+    cid = list(layer_of)
     # every contact of the erosion model has the tissue's nodes slave to the
     # needle's faces: the block's top and the cut's walls (never removed),
     # and each step the nodes of the layer top it exposes
-    keep = {(e, f) for e, f in surfaces.pop("TISSUE") if e not in col} | {
-        (e, f) for e, f, _ in walls}
+    keep = {(e, f) for e, f in surfaces.pop("TISSUE") if e not in layer_of} | walls
     kept = [ns for e, f, ns in faces if (e, f) in keep]
     wall_nodes = np.unique(np.asarray(kept, dtype=int))
     node_surfaces = {"TISSUE": wall_nodes}
+    slack = tol.fem.ceil_slack
     ends = sorted({round(min(k * dz, depth), 12) for k in range(1, int(np.ceil(
-        depth / dz - 1e-9)) + 1)} | {round(d, 12) for d in out})
+        depth / dz - slack)) + 1)} | {round(d, 12) for d in out})
     stages, gone, prev = [], 0, 0.0
     for d in ends:
-        n_gone = max(gone, int(np.ceil((prev + lead * dz) / dz - 1e-9)))
+        n_gone = max(gone, int(np.ceil((prev + lead * dz) / dz - slack)))
         removed = np.array(sorted(e for e in cid if gone <= layer_of[e] < n_gone), dtype=int)
         name = f"EXPOSED{n_gone}"
         if name not in node_surfaces:
-            exposed = [ns for e, f, ns in faces if e in top_of and top_of[e] == f
-                       and layer_of[e] == n_gone]
+            exposed = [ns for e, f, ns in faces if top_of.get(e) == f and layer_of[e] == n_gone]
             node_surfaces[name] = np.setdiff1d(np.unique(np.asarray(exposed, dtype=int)),
                                                wall_nodes)
         stages.append((d, removed, name))

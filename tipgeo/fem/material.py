@@ -4,7 +4,8 @@ Units: MPa (stresses, moduli), 1/MPa (the compressibility D), mm–N–s as in
 the thesis's Abaqus decks (Appendix B). The hyperelastic constants come from
 :mod:`tipgeo.mechanics.materials` (Table 4.1 and Tables A1–A3, with the
 ERRATA applied there, e.g. S/P = 0.25 μ = 0.0238 MPa). CalculiX and Abaqus
-share the keyword and the constants' meaning for the three models used here:
+share the keyword and the constants' meaning; each tissue model writes its own
+(:meth:`tipgeo.mechanics.models.TissueModel.hyperelastic_card`), the built-in ones:
 
 - ``*HYPERELASTIC, ARRUDA-BOYCE``: μ, λ_m, D;
 - ``*HYPERELASTIC, NEO HOOKE``: C10 = μ/2, D1;
@@ -24,13 +25,10 @@ from dataclasses import dataclass
 from .. import validate as v
 from ..errors import SpecError
 from ..mechanics import Tissue, tissue
-from ..mechanics.tissue import ArrudaBoyce, NeoHookean, Ogden
+from ..mechanics.models import TissueModel, tissue_model
 
 __all__ = ["FemMaterial", "fem_material", "compressibility", "friction_coefficient",
-           "MODELS", "DEFAULT_NU"]
-
-#: Hyperelastic models a deck can carry.
-MODELS = ("arruda-boyce", "ogden", "neo-hookean")
+           "model_friction", "DEFAULT_NU"]
 
 #: Poisson ratio of the thesis's 2D model (§4.4.1.2: "helps the convergence").
 DEFAULT_NU = 0.475
@@ -50,13 +48,13 @@ class FemMaterial:
     Attributes
     ----------
     name : str — the tissue's name
-    model : str — one of :data:`MODELS`
+    model : str — a registered tissue model (:mod:`tipgeo.mechanics.models`)
     constants : tuple of float — the ``*HYPERELASTIC`` data line (MPa, 1/MPa)
     nu : float — Poisson ratio the D was computed from
     mu0 : float — initial shear modulus, MPa
     source : str — where the constants come from
-    law : object — the :mod:`tipgeo.mechanics` model (uniaxial stress, for
-        the analytical comparison)
+    law : TissueModel — the :mod:`tipgeo.mechanics` model (uniaxial stress,
+        for the analytical comparison; its ``*HYPERELASTIC`` keyword)
     """
 
     name: str
@@ -65,7 +63,7 @@ class FemMaterial:
     nu: float
     mu0: float
     source: str
-    law: object
+    law: TissueModel
 
     @property
     def E0(self) -> float:
@@ -75,8 +73,7 @@ class FemMaterial:
     def card(self) -> str:
         """The ``*HYPERELASTIC`` card (keyword line and data lines), the same
         for CalculiX and Abaqus."""
-        kw = {"arruda-boyce": "ARRUDA-BOYCE", "neo-hookean": "NEO HOOKE"}.get(
-            self.model, f"OGDEN, N={len(self.constants) // 3}")
+        kw = self.law.hyperelastic_card(0.0)[0]
         vals = [f"{c:.8g}" for c in self.constants]
         rows = [", ".join(vals[i:i + 8]) for i in range(0, len(vals), 8)]
         return f"*HYPERELASTIC, {kw}\n" + "\n".join(rows) + "\n"
@@ -89,35 +86,18 @@ def fem_material(name: str | Tissue, model: str = "arruda-boyce",
     Parameters
     ----------
     name : str or Tissue — a tissue of :func:`tipgeo.mechanics.tissue_names`
-    model : ``arruda-boyce`` | ``ogden`` | ``neo-hookean`` (the latter from
-        the Arruda–Boyce fit's initial shear modulus)
+    model : str — a registered tissue model with a deck card: ``arruda-boyce``,
+        ``ogden``, ``neo-hookean`` (the latter from the Arruda–Boyce fit's
+        initial shear modulus), … (:mod:`tipgeo.mechanics.models`)
     nu : float — Poisson ratio, 0 ≤ ν < 0.5 (thesis: 0.475 in 2D, 0.495 in 3D)
     """
     t = tissue(name) if isinstance(name, str) else name
-    if model not in MODELS:
-        raise SpecError(f"material model = {model!r} is not valid; expected one of: "
-                        + ", ".join(MODELS))
+    kind = tissue_model(model, "material model")
     nu = v.real("nu", nu, lo=0.0, hi=0.5, hi_open=True)
-    if model == "ogden":
-        og = t.model("ogden")
-        if not isinstance(og, Ogden):
-            raise SpecError(f"tissue '{t.name}' has no Ogden fit")
-        mu0 = og.initial_shear_modulus
-        D = compressibility(mu0, nu)
-        consts = tuple(x for m, a in zip(og.mu, og.alpha) for x in (m, a)) + \
-            (D,) + (0.0,) * (len(og.mu) - 1)
-        return FemMaterial(t.name, model, consts, nu, mu0,
-                           t.sources.get("ogden", ""), og)
-    ab = t.model("arruda-boyce")
-    if not isinstance(ab, ArrudaBoyce):
-        raise SpecError(f"tissue '{t.name}' has no Arruda–Boyce fit")
-    mu0 = ab.initial_shear_modulus
-    D = compressibility(mu0, nu)
-    src = t.sources.get("arruda_boyce", "")
-    if model == "neo-hookean":
-        return FemMaterial(t.name, model, (0.5 * mu0, D), nu, mu0,
-                           f"{src}, μ₀ of the Arruda–Boyce fit", NeoHookean(mu=mu0))
-    return FemMaterial(t.name, model, (ab.mu, ab.lambda_m, D), nu, mu0, src, ab)
+    law, source = kind.from_tissue(t)
+    mu0 = law.initial_shear_modulus
+    _, consts = law.hyperelastic_card(compressibility(mu0, nu))
+    return FemMaterial(t.name, model, consts, nu, mu0, source, law)
 
 
 def friction_coefficient(name: str | Tissue, k: float = 0.0) -> tuple[float, str]:
@@ -136,3 +116,11 @@ def friction_coefficient(name: str | Tissue, k: float = 0.0) -> tuple[float, str
     if t.mu_d is not None:
         return float(t.mu_d), t.sources.get("mu_d", "tissue μ_d")
     raise SpecError(f"tissue '{t.name}' has no friction data; give --friction explicitly")
+
+
+def model_friction(name: str | Tissue, friction: float | None) -> tuple[float, str]:
+    """A model's friction coefficient and its source: ``friction`` (0–2) when
+    given, else the tissue's at k = 0 (:func:`friction_coefficient`)."""
+    if friction is None:
+        return friction_coefficient(name, 0.0)
+    return v.real("friction", friction, lo=0.0, hi=2.0), "given"

@@ -11,9 +11,12 @@ from __future__ import annotations
 
 import contextlib
 import threading
+from collections.abc import Iterator, Sequence
+from typing import Any
 
 import numpy as np
 
+from ..arrays import FloatArray, IntArray
 from ..errors import FemError
 
 __all__ = ["gmsh_session", "mesh_2d"]
@@ -22,8 +25,9 @@ _LOCK = threading.Lock()
 
 
 @contextlib.contextmanager
-def gmsh_session():
-    """An initialised, quiet gmsh (one at a time: gmsh is global state)."""
+def gmsh_session() -> Iterator[Any]:
+    """An initialised, quiet gmsh (one at a time: gmsh is global state); the
+    module itself (gmsh has no type information: ``Any``)."""
     try:
         import gmsh
     except ImportError as e:  # pragma: no cover - a runtime dependency
@@ -39,7 +43,11 @@ def gmsh_session():
             gmsh.finalize()
 
 
-def _size_field(gmsh, boxes, h_far: float, grade: float) -> None:
+#: A fine zone: ((xmin, xmax, ymin, ymax), element size), mm.
+Box = tuple[tuple[float, float, float, float], float]
+
+
+def _size_field(gmsh: Any, boxes: Sequence[Box], h_far: float, grade: float) -> None:
     """Element size h inside each box ``((xmin, xmax, ymin, ymax), h)``,
     growing linearly to h_far over ``grade`` outside it (the smallest wins)."""
     f = gmsh.model.mesh.field
@@ -61,8 +69,8 @@ def _size_field(gmsh, boxes, h_far: float, grade: float) -> None:
         gmsh.option.setNumber(k, 0)
 
 
-def _elements_2d(gmsh, tag: int) -> dict[str, tuple[np.ndarray, np.ndarray]]:
-    out = {}
+def _elements_2d(gmsh: Any, tag: int) -> dict[str, IntArray]:
+    out: dict[str, IntArray] = {}
     types, _, nodes = gmsh.model.mesh.getElements(2, tag)
     for t, n in zip(types, nodes):
         k = {2: 3, 3: 4}.get(int(t))
@@ -73,10 +81,10 @@ def _elements_2d(gmsh, tag: int) -> dict[str, tuple[np.ndarray, np.ndarray]]:
     return out
 
 
-def mesh_2d(needle: np.ndarray, *, block: tuple[float, float], boxes,
+def mesh_2d(needle: FloatArray, *, block: tuple[float, float], boxes: Sequence[Box],
             h_far: float, grade: float,
             column: tuple[float, float, float, int, int] | None = None
-            ) -> tuple[np.ndarray, dict[str, dict[str, np.ndarray]]]:
+            ) -> tuple[FloatArray, dict[str, dict[str, IntArray]]]:
     """Mesh the axisymmetric tissue block [0, R] × [−H, 0] with quadrilaterals
     (triangles where recombination leaves them) and the needle polygon with
     triangles.

@@ -8,17 +8,32 @@ are drawn on the deformed mesh. matplotlib is imported here.
 
 from __future__ import annotations
 
+from collections.abc import Callable, Sequence
 from pathlib import Path
+from typing import Any, ParamSpec, Protocol, TypeVar
 
 import numpy as np
 
+from ..arrays import FloatArray, IntArray
 from ..atomic import write_atomic
 from ..plot import styled
+from ..tolerances import tol
+
+_P = ParamSpec("_P")
+_R = TypeVar("_R")
+
+
+class _Decorator(Protocol):
+    def __call__(self, func: Callable[_P, _R], /) -> Callable[_P, _R]: ...
+
+
+#: :func:`tipgeo.plot.styled` as the signature-keeping decorator it is.
+_styled: _Decorator = styled
 
 __all__ = ["plot_force_curves", "plot_stress_contour"]
 
 
-def _save(fig, path) -> Path:
+def _save(fig: Any, path: str | Path) -> Path:
     import matplotlib.pyplot as plt
 
     def w(tmp: Path) -> None:
@@ -29,8 +44,14 @@ def _save(fig, path) -> Path:
         plt.close(fig)
 
 
-@styled
-def plot_force_curves(curves, path, *, title: str = "", focus: int = 0) -> Path:
+#: One curve of :func:`plot_force_curves`: label, depth (k,) mm, force (k,) N,
+#: matplotlib format string or None.
+Curve = tuple[str, FloatArray, FloatArray, "str | None"]
+
+
+@_styled
+def plot_force_curves(curves: Sequence[Curve], path: str | Path, *, title: str = "",
+                      focus: int = 0) -> Path:
     """Axial force against depth, one line per ``(label, depth (k,), force
     (k,), style)``; style is a matplotlib format string or None.
 
@@ -64,9 +85,11 @@ def plot_force_curves(curves, path, *, title: str = "", focus: int = 0) -> Path:
     return _save(fig, path)
 
 
-@styled
-def plot_stress_contour(xy: np.ndarray, tris: np.ndarray, s1: np.ndarray, path, *,
-                        needle: np.ndarray | None = None, window=None, title: str = "",
+@_styled
+def plot_stress_contour(xy: FloatArray, tris: IntArray, s1: FloatArray, path: str | Path, *,
+                        needle: FloatArray | None = None,
+                        window: tuple[float, float, float, float] | None = None,
+                        title: str = "",
                         xlabel: str = "r (mm)", ylabel: str = "Y (mm)") -> Path:
     """Filled contours of the maximum principal stress ``s1`` (MPa, drawn in
     kPa) on triangles ``tris`` over deformed nodes ``xy`` (k, 2); the needle's
@@ -82,10 +105,10 @@ def plot_stress_contour(xy: np.ndarray, tris: np.ndarray, s1: np.ndarray, path, 
     fig, ax = plt.subplots(figsize=(6.4, 5.6))
     kpa = s1 * 1e3
     lo, hi = float(np.min(kpa)), float(np.max(kpa))
-    hi = max(hi, 1e-9)
+    hi = max(hi, tol.fem.contour_floor)
     # the compression under the edge dwarfs the tension that matters: the
     # scale stops at −3× the largest tension (darker beyond)
-    lo_shown = min(max(lo, -3.0 * hi), -1e-9)
+    lo_shown = min(max(lo, -3.0 * hi), -tol.fem.contour_floor)
     norm = TwoSlopeNorm(vcenter=0.0, vmin=lo_shown, vmax=hi)
     levels = np.r_[np.linspace(lo_shown, 0.0, 13)[:-1], np.linspace(0.0, hi, 13)]
     cs = ax.tricontourf(Triangulation(xy[:, 0], xy[:, 1], tris), np.clip(kpa, lo_shown, hi),

@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from ..arrays import ArrayLike, FloatArray
 from ..errors import SpecError
 from ..tip import Tip
 from ..tolerances import tol
@@ -20,13 +21,13 @@ from ..tolerances import tol
 __all__ = ["wall_profile", "is_axisymmetric", "clip_profile", "polygon_area", "round_corners"]
 
 
-def polygon_area(p: np.ndarray) -> float:
+def polygon_area(p: FloatArray) -> float:
     """Signed area of a closed polygon ``(n, 2)`` (positive counter-clockwise)."""
     x, y = p[:, 0], p[:, 1]
     return 0.5 * float(np.dot(x, np.roll(y, -1)) - np.dot(np.roll(x, -1), y))
 
 
-def _section(tip: Tip, gamma: float) -> np.ndarray:
+def _section(tip: Tip, gamma: float) -> FloatArray:
     """The cross-section of ``tip`` by the half-plane at azimuth γ (rad), as
     one closed (r, z) polygon, counter-clockwise, without repeated points."""
     m = tip.to_trimesh()
@@ -75,7 +76,7 @@ def is_axisymmetric(tip: Tip) -> bool:
     return True
 
 
-def wall_profile(tip: Tip) -> np.ndarray:
+def wall_profile(tip: Tip) -> FloatArray:
     """The wall profile of an axisymmetric ``tip``.
 
     Returns
@@ -99,7 +100,7 @@ def wall_profile(tip: Tip) -> np.ndarray:
     return _section(tip, 0.0)
 
 
-def clip_profile(p: np.ndarray, z_min: float) -> np.ndarray:
+def clip_profile(p: FloatArray, z_min: float) -> FloatArray:
     """The part of polygon ``p`` (r, z) with z ≥ ``z_min`` (Sutherland–Hodgman
     against one half-plane), closed polygon, counter-clockwise."""
     out = []
@@ -120,7 +121,8 @@ def clip_profile(p: np.ndarray, z_min: float) -> np.ndarray:
     return q
 
 
-def round_corners(p: np.ndarray, which: np.ndarray, radius: float, n_arc: int = 6) -> np.ndarray:
+def round_corners(p: FloatArray, which: ArrayLike, radius: float, n_arc: int = 6
+                  ) -> FloatArray:
     """Polygon ``p`` (k, 2) with its convex corners ``which`` (indices)
     replaced by circular arcs of ``radius`` (mm), ``n_arc`` segments each; a
     corner whose neighbouring edges are too short for the radius gets the
@@ -128,11 +130,11 @@ def round_corners(p: np.ndarray, which: np.ndarray, radius: float, n_arc: int = 
     p = np.asarray(p, dtype=float)
     ccw = polygon_area(p) > 0
     out = []
-    which = set(int(i) for i in which)
+    corners = set(int(i) for i in np.asarray(which).ravel())
     n = len(p)
     for i in range(n):
         P, A, B = p[i], p[i - 1], p[(i + 1) % n]
-        if i not in which:
+        if i not in corners:
             out.append(P)
             continue
         u, w = A - P, B - P

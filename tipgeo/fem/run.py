@@ -89,7 +89,7 @@ def read_sta(path: str | Path) -> list[tuple[int, int, int, bool, int, float, fl
     """Rows of a ``.sta`` file: (step, increment, attempt, converged,
     iterations, total time, step time, increment)."""
     p = Path(path)
-    rows = []
+    rows: list[tuple[int, int, int, bool, int, float, float, float]] = []
     if not p.is_file():
         return rows
     for line in p.read_text(errors="replace").splitlines():
@@ -168,6 +168,28 @@ def run_ccx(job: str | Path, *, time_limit_s: float = 600.0, threads: int = 1,
         end of the step (unless ``partial``), or left no results.
     """
     exe = require_ccx()
+    job = _job(job)
+    log = job.with_suffix(".log")
+    cpu0, t0 = _child_cpu(), time.monotonic()
+    returncode = _run_watched(exe, job, log, threads=threads, time_limit_s=time_limit_s,
+                              progress=progress, poll_s=poll_s)
+    wall, cpu = time.monotonic() - t0, _child_cpu() - cpu0
+    text = log.read_text(errors="replace").splitlines()
+    stopped = _stopped_line(text, job, log, partial)
+    rows = read_sta(job.with_suffix(".sta"))
+    done = [r for r in rows if r[3]]
+    warnings = [s.strip() for s in text if "*WARNING" in s]
+    if stopped:
+        return CcxRun(job=job, wall_s=wall, cpu_s=cpu, increments=len(done),
+                      cutbacks=len(rows) - len(done), warnings=warnings,
+                      reached=done[-1][5], stopped=stopped)
+    _check_finished(text, returncode, job, done)
+    return CcxRun(job=job, wall_s=wall, cpu_s=cpu, increments=len(done),
+                  cutbacks=len(rows) - len(done), warnings=warnings)
+
+
+def _job(job: str | Path) -> Path:
+    """The job path without ``.inp``; its deck must exist; old results go."""
     job = Path(job)
     if job.suffix == ".inp":
         job = job.with_suffix("")
@@ -175,10 +197,21 @@ def run_ccx(job: str | Path, *, time_limit_s: float = 600.0, threads: int = 1,
         raise FemError(f"{job.with_suffix('.inp')}: no such deck")
     for ext in (".dat", ".frd", ".sta", ".cvg"):
         job.with_suffix(ext).unlink(missing_ok=True)
+    return job
+
+
+def _converged(job: Path) -> list[tuple[int, int, int, bool, int, float, float, float]]:
+    return [r for r in read_sta(job.with_suffix(".sta")) if r[3]]
+
+
+def _run_watched(exe: str, job: Path, log: Path, *, threads: int, time_limit_s: float,
+                 progress: Callable[[float, int], None] | None, poll_s: float) -> int:
+    """Run ccx with its output in ``log``, reporting converged increments and
+    killing it (its whole process group) after ``time_limit_s`` or on any
+    exception; its exit status."""
     env = {**os.environ, "OMP_NUM_THREADS": str(threads),
            "CCX_NPROC_EQUATION_SOLVER": str(threads)}
-    log = job.with_suffix(".log")
-    cpu0, t0 = _child_cpu(), time.monotonic()
+    t0 = time.monotonic()
     with open(log, "w") as out:
         proc = subprocess.Popen([exe, "-i", job.name], cwd=job.parent, stdout=out,
                                 stderr=subprocess.STDOUT, env=env, start_new_session=True)
@@ -186,19 +219,18 @@ def run_ccx(job: str | Path, *, time_limit_s: float = 600.0, threads: int = 1,
         try:
             while True:
                 try:
-                    proc.wait(timeout=poll_s)
-                    break
+                    return proc.wait(timeout=poll_s)
                 except subprocess.TimeoutExpired:
                     pass
                 if progress is not None:
-                    done = [r for r in read_sta(job.with_suffix(".sta")) if r[3]]
+                    done = _converged(job)
                     if len(done) > seen:
                         seen = len(done)
                         progress(done[-1][5], seen)
                 if time.monotonic() - t0 > time_limit_s:
                     os.killpg(proc.pid, signal.SIGKILL)
                     proc.wait()
-                    done = [r for r in read_sta(job.with_suffix(".sta")) if r[3]]
+                    done = _converged(job)
                     last = done[-1][5] if done else 0.0
                     raise FemError(f"ccx ran over the time limit of {time_limit_s:g} s "
                                    f"(killed at time {last:.4g}; {log.name} has its "
@@ -208,39 +240,37 @@ def run_ccx(job: str | Path, *, time_limit_s: float = 600.0, threads: int = 1,
                 os.killpg(proc.pid, signal.SIGKILL)
                 proc.wait()
             raise
-    wall, cpu = time.monotonic() - t0, _child_cpu() - cpu0
-    text = log.read_text(errors="replace").splitlines()
+
+
+def _stopped_line(text: list[str], job: Path, log: Path, partial: bool) -> str:
+    """ccx's first ``*ERROR`` line when the run is kept as stopped early
+    (``partial``), empty without errors; any other error a FemError quoting ccx."""
     errors = [i for i, s in enumerate(text) if "*ERROR" in s]
-    stopped = ""
-    if errors:
-        i = errors[0]
-        quote = [text[i].strip()]
-        for s in text[i + 1:i + 4]:  # ccx continues its message on the next lines
-            if not s.strip() or "*ERROR" in s or "*WARNING" in s:
-                break
-            quote.append(s.strip())
-        done = [r for r in read_sta(job.with_suffix(".sta")) if r[3]]
-        dat = job.with_suffix(".dat")
-        if (partial and len(errors) == 1 and STOP_PATTERN.search(" ".join(quote)) and done
-                and dat.is_file() and dat.stat().st_size > 0):
-            stopped = quote[0]
-        else:
-            raise FemError(f"ccx: {' '.join(quote)} ({len(errors)} *ERROR line(s); {log.name} "
-                           "has the whole output)")
-    if stopped:
-        rows = read_sta(job.with_suffix(".sta"))
-        done = [r for r in rows if r[3]]
-        return CcxRun(job=job, wall_s=wall, cpu_s=cpu, increments=len(done),
-                      cutbacks=len(rows) - len(done),
-                      warnings=[s.strip() for s in text if "*WARNING" in s],
-                      reached=done[-1][5], stopped=stopped)
-    if proc.returncode != 0:
-        raise FemError(f"ccx exited with status {proc.returncode}: "
+    if not errors:
+        return ""
+    i = errors[0]
+    quote = [text[i].strip()]
+    for s in text[i + 1:i + 4]:  # ccx continues its message on the next lines
+        if not s.strip() or "*ERROR" in s or "*WARNING" in s:
+            break
+        quote.append(s.strip())
+    dat = job.with_suffix(".dat")
+    if (partial and len(errors) == 1 and STOP_PATTERN.search(" ".join(quote))
+            and _converged(job) and dat.is_file() and dat.stat().st_size > 0):
+        return quote[0]
+    raise FemError(f"ccx: {' '.join(quote)} ({len(errors)} *ERROR line(s); {log.name} "
+                   "has the whole output)")
+
+
+def _check_finished(text: list[str], returncode: int, job: Path,
+                    done: list[tuple[int, int, int, bool, int, float, float, float]]) -> None:
+    """A FemError unless ccx exited 0, said 'Job finished', converged to the
+    end of the step and wrote results."""
+    if returncode != 0:
+        raise FemError(f"ccx exited with status {returncode}: "
                        f"{text[-1].strip() if text else '(no output)'}")
     if not any("Job finished" in s for s in text):
         raise FemError(f"ccx did not say 'Job finished': {text[-1].strip() if text else ''}")
-    rows = read_sta(job.with_suffix(".sta"))
-    done = [r for r in rows if r[3]]
     if not done:
         raise FemError(f"ccx converged no increment ({job.with_suffix('.sta').name})")
     if done[-1][5] < 1.0 - tol.fem.step_end:  # total time: 1 at the end of the last step
@@ -250,6 +280,3 @@ def run_ccx(job: str | Path, *, time_limit_s: float = 600.0, threads: int = 1,
         p = job.with_suffix(ext)
         if not p.is_file() or p.stat().st_size == 0:
             raise FemError(f"ccx wrote no results to {p.name}")
-    return CcxRun(job=job, wall_s=wall, cpu_s=cpu, increments=len(done),
-                  cutbacks=len(rows) - len(done),
-                  warnings=[s.strip() for s in text if "*WARNING" in s])

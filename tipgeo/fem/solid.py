@@ -20,15 +20,26 @@ displacements.
 
 from __future__ import annotations
 
+from dataclasses import dataclass
+from typing import Any
+
 import numpy as np
 
 from .. import validate as v
+from ..arrays import FloatArray, IntArray
 from ..errors import FemError, SpecError
 from ..tip import Tip
-from ..tolerances import MAX_FEM_ELEMENTS_3D, MAX_NEEDLE_FACES_3D
-from .material import DEFAULT_NU, fem_material, friction_coefficient
+from ..tolerances import MAX_FEM_ELEMENTS_3D, MAX_NEEDLE_FACES_3D, tol
+from .material import DEFAULT_NU, fem_material, model_friction
 from .mesh import gmsh_session
-from .model import ElementBlock, FemModel, boundary_faces
+from .model import (
+    UM_PER_MM,
+    ElementBlock,
+    FemModel,
+    boundary_faces,
+    check_output_depths,
+    contact_penalty,
+)
 
 __all__ = ["indentation_model", "mirror_planes", "BLOCK_3D"]
 
@@ -40,6 +51,9 @@ MAX_ELEMENTS_3D = MAX_FEM_ELEMENTS_3D
 
 _GMSH_3D = {4: ("C3D4", 4), 5: ("C3D8", 8), 6: ("C3D6", 6)}
 
+#: Smallest element size at the footprint (mm): 5 µm.
+MIN_ELEMENT_MM = 0.005
+
 
 def _gmsh_msg(e: BaseException) -> str:
     """The first line of a gmsh error (gmsh raises a bare Exception)."""
@@ -47,11 +61,13 @@ def _gmsh_msg(e: BaseException) -> str:
     return text.splitlines()[0][:200] if text else type(e).__name__
 
 
-def mirror_planes(tip: Tip, tolerance: float = 1e-6) -> tuple[bool, bool]:
+def mirror_planes(tip: Tip, tolerance: float | None = None) -> tuple[bool, bool]:
     """Whether the tip's mesh maps onto itself under x → −x and under
-    y → −y (every mirrored vertex within ``tolerance`` mm of a vertex)."""
+    y → −y (every mirrored vertex within ``tolerance`` mm of a vertex;
+    default ``tol.fem.mirror``)."""
     from scipy.spatial import cKDTree
 
+    tolerance = tol.fem.mirror if tolerance is None else tolerance
     tree = cKDTree(tip.vertices)
     out = []
     for axis in (0, 1):
@@ -62,7 +78,7 @@ def mirror_planes(tip: Tip, tolerance: float = 1e-6) -> tuple[bool, bool]:
     return out[0], out[1]
 
 
-def _clip_front(tip: Tip, z_cut: float) -> tuple[np.ndarray, np.ndarray]:
+def _clip_front(tip: Tip, z_cut: float) -> tuple[FloatArray, IntArray]:
     """The tip's solid above z = z_cut as a closed triangle mesh (vertices
     (n, 3), faces (m, 3)), cannula frame, mm."""
     import manifold3d as m3d
@@ -83,7 +99,7 @@ def _clip_front(tip: Tip, z_cut: float) -> tuple[np.ndarray, np.ndarray]:
     return v_, f_
 
 
-def _needle_tets(gmsh, verts: np.ndarray, faces: np.ndarray, h: float) -> None:
+def _needle_tets(gmsh: Any, verts: FloatArray, faces: IntArray, h: float) -> None:
     """Add the closed surface (model frame) as a discrete volume and mesh it
     with tetrahedra (the surface mesh kept)."""
     s = gmsh.model.addDiscreteEntity(2)
@@ -119,9 +135,78 @@ def indentation_model(tip: Tip, *, depth: float, tissue: str = "pvc-sp0",
     hexahedron : ``C3D8I`` (incompatible modes: less volumetric and shear
         locking of the nearly incompressible tissue) | ``C3D8``
     """
+    g = _geometry(tip, depth=depth, mesh=mesh, block=block, far=far, hexahedron=hexahedron)
+    _check_size(g)
+    fv, ff = _clip_front(tip, g.z_max - g.depth - g.margin)
+    if len(ff) > MAX_NEEDLE_FACES_3D:  # before gmsh: its tetrahedra cost grows steeply
+        raise SpecError(f"depth = {g.depth:g} mm: the needle's front has {len(ff)} surface "
+                        f"triangles; the 3D model meshes at most {MAX_NEEDLE_FACES_3D} (a "
+                        "shallower --depth-mm, a coarser tolerance, or the axisymmetric model "
+                        "for a round tip)")
+    nv = np.column_stack([fv[:, 0], g.z_max - fv[:, 2], fv[:, 1]])
+    tags, tissue_xyz, tissue_conn = _mesh_block(g, hexahedron)
+    ntags, nxyz, needle_conn = _mesh_needle(g, nv, ff)
+    allnodes, blocks = _assemble(g, (tags, tissue_xyz, tissue_conn), (ntags, nxyz, needle_conn))
+    eps = tol.fem.plane_rel * g.R
+    tb = [b for b in blocks if b.part == "tissue"]
+    nb = [b for b in blocks if b.part == "needle"]
+    surfaces = _contact_surfaces(g, allnodes, tb, nb, eps)
+    nsets, fixed = _node_sets(g, allnodes, tb, nb, eps)
+    mat = fem_material(tissue, material_model, nu)
+    mu, mu_src = model_friction(tissue, friction)
+    dmax = depth / 10 if max_increment is None else v.real(
+        "max_increment", max_increment, lo=0.0, hi=g.depth, lo_open=True, unit="mm")
+    out = check_output_depths(output_depths, g.depth)
+    sym_axis = 2 if g.sy else 0 if g.sx else None
+    scale = (2.0 if g.sx else 1.0) * (2.0 if g.sy else 1.0)
+    r_in, r_out = g.r_in, g.r_out
+    name = tip.spec.name if tip.spec else "imported"
+    info = {"element_size_um": round(g.h * UM_PER_MM, 6),
+            "element_size_far_um": round(g.far * UM_PER_MM, 6),
+            "layers": len(g.layers), "nodes": len(allnodes),
+            "tissue_elements": int(sum(len(b.ids) for b in tb)),
+            "needle_elements": int(sum(len(b.ids) for b in nb)),
+            "symmetry": ("x " if g.sx else "") + ("y" if g.sy else "") or "none",
+            "block_mm": [g.R, g.H], "edge_r_mm": [r_in, r_out],
+            "tip": name, "tissue": mat.name,
+            "material": mat.model, "material_source": mat.source,
+            "inner_diameter_mm": 2 * r_in, "contact": contact, "nu": nu, "friction": mu,
+            "friction_source": mu_src,
+            "_symmetry_tris": _symmetry_tris(allnodes, tb, sym_axis, eps),
+            "symmetry_plane": None if sym_axis is None else "XYZ"[sym_axis]}
+    return FemModel(kind="3d", name=name, nodes=allnodes, blocks=blocks, nsets=nsets,
+                    fixed=fixed, surfaces=surfaces, material=mat,
+                    friction=mu, depth=g.depth,
+                    penalty=contact_penalty(penalty_factor, mat.E0, g.h, contact_stiffness),
+                    force_scale=scale,
+                    increments=(dmax / g.depth / 2, tol.fem.min_increment, dmax / g.depth),
+                    output_depths=out, contact=contact, slave="needle", info=info)
+
+
+@dataclass(frozen=True)
+class _Geometry:
+    """The checked sizes of a 3D model (mm) and the tip's mirror planes."""
+
+    R: float
+    H: float
+    depth: float
+    h: float
+    far: float
+    sx: bool
+    sy: bool
+    z_max: float
+    r_in: float
+    r_out: float
+    margin: float
+    layers: tuple[float, ...]
+
+
+def _geometry(tip: Tip, *, depth: float, mesh: float, block: tuple[float, float], far: float,
+              hexahedron: str) -> _Geometry:
+    """Check the sizes against the block and the tip; the extrusion layers."""
     R, H = (v.length("block radius", block[0]), v.length("block height", block[1]))
     depth = v.real("depth", depth, lo=0.0, hi=0.8 * H, lo_open=True, unit="mm")
-    h = v.real("mesh", mesh, lo=0.005, hi=1.0, unit="mm")
+    h = v.real("mesh", mesh, lo=MIN_ELEMENT_MM, hi=1.0, unit="mm")
     far = v.real("far", far, lo=h, hi=R, unit="mm")
     if hexahedron not in ("C3D8I", "C3D8"):
         raise SpecError(f"hexahedron = {hexahedron!r} is not valid; expected one of: C3D8I, "
@@ -134,74 +219,86 @@ def indentation_model(tip: Tip, *, depth: float, tissue: str = "pvc-sp0",
         raise SpecError(f"the needle's outer radius {r_out:.6g} mm does not fit the block "
                         f"radius {R:g} mm; allowed up to half of it")
     margin = max(0.3, 3 * h)
-    # layers: h down to below the depth, then growing by 1.5 to `far`
-    t, layers = 0.0, []
-    while t < H - 1e-12:
-        dz = h if t < depth + margin else min(far, 1.5 * layers[-1])
+    return _Geometry(R, H, depth, h, far, sx, sy, z_max, r_in, r_out, margin,
+                     _layers(H, depth + margin, h, far))
+
+
+def _layers(H: float, fine: float, h: float, far: float) -> tuple[float, ...]:
+    """Layer thicknesses (mm): h down to below ``fine``, then growing by 1.5
+    up to ``far``, to the block height H."""
+    t, layers = 0.0, list[float]()
+    while t < H - tol.fem.layer_end:
+        dz = h if t < fine else min(far, 1.5 * layers[-1])
         dz = min(dz, H - t)
         layers.append(dz)
         t += dz
-    ring = 2 * np.pi * 0.5 * (r_in + r_out) * (0.25 if sx and sy else 0.5 if sx or sy else 1)
-    n_est = (ring * (r_out - r_in + 2 * margin) / h ** 2 + np.pi * R ** 2 / far ** 2) * len(
-        layers)
+    return tuple(layers)
+
+
+def _check_size(g: _Geometry) -> None:
+    """Refuse a model above :data:`MAX_ELEMENTS_3D` before meshing."""
+    frac = 0.25 if g.sx and g.sy else 0.5 if g.sx or g.sy else 1.0
+    ring = 2 * np.pi * 0.5 * (g.r_in + g.r_out) * frac
+    n_est = (ring * (g.r_out - g.r_in + 2 * g.margin) / g.h ** 2
+             + np.pi * g.R ** 2 / g.far ** 2) * len(g.layers)
     # the needle's tetrahedra: its front's volume at size h (≈ 6 per h³)
-    frac = 0.25 if sx and sy else 0.5 if sx or sy else 1.0
-    n_est += 6.0 * frac * np.pi * (r_out ** 2 - r_in ** 2) * (depth + margin) / h ** 3
+    n_est += 6.0 * frac * np.pi * (g.r_out ** 2 - g.r_in ** 2) * (g.depth + g.margin) / g.h ** 3
     if n_est > MAX_ELEMENTS_3D:
-        raise SpecError(f"mesh = {h * 1e3:g} µm needs about {n_est:.0f} elements; allowed up "
-                        f"to {MAX_ELEMENTS_3D} (a coarser --mesh-um, a shallower --depth-mm)")
-    fv, ff = _clip_front(tip, z_max - depth - margin)
-    if len(ff) > MAX_NEEDLE_FACES_3D:  # before gmsh: its tetrahedra cost grows steeply
-        raise SpecError(f"depth = {depth:g} mm: the needle's front has {len(ff)} surface "
-                        f"triangles; the 3D model meshes at most {MAX_NEEDLE_FACES_3D} (a "
-                        "shallower --depth-mm, a coarser tolerance, or the axisymmetric model "
-                        "for a round tip)")
-    nv = np.column_stack([fv[:, 0], z_max - fv[:, 2], fv[:, 1]])
-    X0, Z0 = (0.0 if sx else -R), (0.0 if sy else -R)
+        raise SpecError(f"mesh = {g.h * UM_PER_MM:g} µm needs about {n_est:.0f} elements; "
+                        f"allowed up to {MAX_ELEMENTS_3D} (a coarser --mesh-um, a shallower "
+                        "--depth-mm)")
+
+
+def _block_size_field(gmsh: Any, g: _Geometry) -> None:
+    """Element size h near the footprint's circles r_in, r_out, growing to ``far``."""
+    occ = gmsh.model.occ
+    f = gmsh.model.mesh.field
+    c1 = occ.addCircle(0, 0, 0, g.r_in)
+    c2 = occ.addCircle(0, 0, 0, g.r_out)
+    occ.synchronize()
+    d = f.add("Distance")
+    f.setNumbers(d, "CurvesList", [c1, c2])
+    f.setNumber(d, "Sampling", 400)
+    th = f.add("Threshold")
+    f.setNumber(th, "InField", d)
+    f.setNumber(th, "SizeMin", g.h)
+    f.setNumber(th, "SizeMax", g.far)
+    f.setNumber(th, "DistMin", g.margin)
+    f.setNumber(th, "DistMax", g.margin + 4 * g.far)
+    bx = f.add("Box")
+    for key, val in (("VIn", g.h), ("VOut", g.far), ("XMin", -g.r_in), ("XMax", g.r_in),
+                     ("YMin", -g.r_in), ("YMax", g.r_in), ("ZMin", -1), ("ZMax", 1)):
+        f.setNumber(bx, key, val)
+    mn = f.add("Min")
+    f.setNumbers(mn, "FieldsList", [th])
+    f.setAsBackgroundMesh(mn)
+    for k in ("Mesh.MeshSizeExtendFromBoundary", "Mesh.MeshSizeFromPoints",
+              "Mesh.MeshSizeFromCurvature"):
+        gmsh.option.setNumber(k, 0)
+    occ.remove([(1, c1), (1, c2)])
+    occ.synchronize()
+
+
+def _mesh_block(g: _Geometry, hexahedron: str
+                ) -> tuple[IntArray, FloatArray, dict[str, IntArray]]:
+    """The tissue block: node tags, coordinates (model frame) and connectivity
+    by element type (gmsh node tags)."""
+    X0, Z0 = (0.0 if g.sx else -g.R), (0.0 if g.sy else -g.R)
     with gmsh_session() as gmsh:
         occ = gmsh.model.occ
-        disk = occ.addDisk(0, 0, 0, R, R)
-        keep = occ.addRectangle(X0, Z0, 0, R - X0, R - Z0)
+        disk = occ.addDisk(0, 0, 0, g.R, g.R)
+        keep = occ.addRectangle(X0, Z0, 0, g.R - X0, g.R - Z0)
         top, _ = occ.intersect([(2, disk)], [(2, keep)])
         occ.synchronize()
-        f = gmsh.model.mesh.field
-        c1 = occ.addCircle(0, 0, 0, r_in)
-        c2 = occ.addCircle(0, 0, 0, r_out)
-        occ.synchronize()
-        d = f.add("Distance")
-        f.setNumbers(d, "CurvesList", [c1, c2])
-        f.setNumber(d, "Sampling", 400)
-        th = f.add("Threshold")
-        f.setNumber(th, "InField", d)
-        f.setNumber(th, "SizeMin", h)
-        f.setNumber(th, "SizeMax", far)
-        f.setNumber(th, "DistMin", margin)
-        f.setNumber(th, "DistMax", margin + 4 * far)
-        bx = f.add("Box")
-        f.setNumber(bx, "VIn", h)
-        f.setNumber(bx, "VOut", far)
-        f.setNumber(bx, "XMin", -r_in)
-        f.setNumber(bx, "XMax", r_in)
-        f.setNumber(bx, "YMin", -r_in)
-        f.setNumber(bx, "YMax", r_in)
-        f.setNumber(bx, "ZMin", -1)
-        f.setNumber(bx, "ZMax", 1)
-        mn = f.add("Min")
-        f.setNumbers(mn, "FieldsList", [th])
-        f.setAsBackgroundMesh(mn)
-        for k in ("Mesh.MeshSizeExtendFromBoundary", "Mesh.MeshSizeFromPoints",
-                  "Mesh.MeshSizeFromCurvature"):
-            gmsh.option.setNumber(k, 0)
-        occ.remove([(1, c1), (1, c2)])
-        occ.synchronize()
+        _block_size_field(gmsh, g)
         gmsh.option.setNumber("Mesh.Algorithm", 8)
         gmsh.option.setNumber("Mesh.RecombinationAlgorithm", 1)
         gmsh.option.setNumber("Mesh.RecombineAll", 1)
         # the top face lies in the x-y plane of gmsh here; extrude along −z, map
         # (x, y, z) of gmsh to model (X, Z, Y) afterwards
-        heights = np.cumsum(layers) / H
-        occ.extrude(top, 0, 0, -H, numElements=[1] * len(layers), heights=heights.tolist(),
-                    recombine=True)
+        heights = np.cumsum(g.layers) / g.H
+        occ.extrude(top, 0, 0, -g.H, numElements=[1] * len(g.layers),
+                    heights=heights.tolist(), recombine=True)
         occ.synchronize()
         try:
             gmsh.model.mesh.generate(3)
@@ -211,7 +308,7 @@ def indentation_model(tip: Tip, *, depth: float, tissue: str = "pvc-sp0",
         tags, xyz, _ = gmsh.model.mesh.getNodes()
         tags = np.asarray(tags, dtype=np.int64)
         xyz = np.asarray(xyz).reshape(-1, 3)
-        tissue_conn = {}
+        tissue_conn: dict[str, IntArray] = {}
         for et, _, nodes in zip(*gmsh.model.mesh.getElements(3)):
             name, k = _GMSH_3D.get(int(et), (None, 0))
             if name is None:
@@ -220,40 +317,49 @@ def indentation_model(tip: Tip, *, depth: float, tissue: str = "pvc-sp0",
             if name == "C3D8":
                 name = hexahedron
             tissue_conn[name] = np.asarray(nodes, dtype=np.int64).reshape(-1, k)
-    tissue_xyz = np.column_stack([xyz[:, 0], xyz[:, 2], xyz[:, 1]])
-    # needle: tetrahedralise the clipped front in a second session
+    return tags, np.column_stack([xyz[:, 0], xyz[:, 2], xyz[:, 1]]), tissue_conn
+
+
+def _mesh_needle(g: _Geometry, nv: FloatArray, ff: IntArray
+                 ) -> tuple[IntArray, FloatArray, dict[str, IntArray]]:
+    """The needle's clipped front (model frame) in tetrahedra: node tags,
+    coordinates and connectivity (gmsh node tags)."""
     with gmsh_session() as gmsh:
-        _needle_tets(gmsh, nv, ff, h)
-        gmsh.option.setNumber("Mesh.MeshSizeMax", max(h, 0.5 * (r_out - r_in)))
+        _needle_tets(gmsh, nv, ff, g.h)
+        gmsh.option.setNumber("Mesh.MeshSizeMax", max(g.h, 0.5 * (g.r_out - g.r_in)))
         try:
             gmsh.model.mesh.generate(3)
         except Exception as e:  # gmsh raises a bare Exception with its last error
             raise FemError(f"gmsh could not tetrahedralise the needle's front to depth "
-                           f"{depth:g} mm ({_gmsh_msg(e)}); try another --depth-mm or "
+                           f"{g.depth:g} mm ({_gmsh_msg(e)}); try another --depth-mm or "
                            "--mesh-um") from None
         ntags, nxyz, _ = gmsh.model.mesh.getNodes()
         ntags = np.asarray(ntags, dtype=np.int64)
         nxyz = np.asarray(nxyz).reshape(-1, 3)
-        needle_conn = {}
+        needle_conn: dict[str, IntArray] = {}
         for et, _, nodes in zip(*gmsh.model.mesh.getElements(3)):
             if int(et) != 4:
                 raise FemError(f"gmsh made needle elements of type {et}; expected tetrahedra")
             needle_conn["C3D4"] = np.asarray(nodes, dtype=np.int64).reshape(-1, 4)
     if not needle_conn:
         raise FemError("gmsh could not tetrahedralise the needle's front")
-    # the needle's reduced part, by whole elements (centroids on the kept side)
-    def keep_rule(P):
-        ok = np.ones(len(P), dtype=bool)
-        if sx:
-            ok &= P[..., 0].mean(axis=1) >= 0
-        if sy:
-            ok &= P[..., 2].mean(axis=1) >= 0
-        return ok
+    return ntags, nxyz, needle_conn
 
-    nodes, blocks, eid = [], [], 1
 
-    def add(part, conn_by_type, tg, xyz_):
-        nonlocal eid
+_Part = tuple[IntArray, FloatArray, dict[str, IntArray]]
+
+
+def _assemble(g: _Geometry, tissue: _Part, needle: _Part
+              ) -> tuple[FloatArray, list[ElementBlock]]:
+    """Both parts numbered into one model (the needle reduced by the mirror
+    planes, by whole elements: centroids on the kept side), every element
+    with a positive volume."""
+    nodes: list[FloatArray] = []
+    blocks: list[ElementBlock] = []
+
+    def add(part: str, conn_by_type: dict[str, IntArray], tg: IntArray,
+            xyz_: FloatArray) -> None:
+        eid = 1 + sum(len(b.ids) for b in blocks)
         pos = np.full(int(tg.max()) + 1, -1, dtype=np.int64)
         pos[tg] = np.arange(len(tg))
         base = sum(len(n) for n in nodes)
@@ -265,85 +371,87 @@ def indentation_model(tip: Tip, *, depth: float, tissue: str = "pvc-sp0",
             blocks.append(ElementBlock(et, part, np.arange(eid, eid + len(c)), new[c]))
             eid += len(c)
 
-    add("tissue", tissue_conn, tags, tissue_xyz)
-    P = nxyz[np.searchsorted(ntags, needle_conn["C3D4"])] if np.all(np.diff(ntags) > 0) else None
-    if P is None:
+    add("tissue", tissue[2], tissue[0], tissue[1])
+    ntags, nxyz, needle_conn = needle
+    if np.all(np.diff(ntags) > 0):
+        P = nxyz[np.searchsorted(ntags, needle_conn["C3D4"])]
+    else:
         order = np.argsort(ntags)
         P = nxyz[order][np.searchsorted(ntags[order], needle_conn["C3D4"])]
-    kept = needle_conn["C3D4"][keep_rule(P)]
-    add("needle", {"C3D4": kept}, ntags, nxyz)
+    ok = np.ones(len(P), dtype=bool)
+    if g.sx:
+        ok &= P[..., 0].mean(axis=1) >= 0
+    if g.sy:
+        ok &= P[..., 2].mean(axis=1) >= 0
+    add("needle", {"C3D4": needle_conn["C3D4"][ok]}, ntags, nxyz)
     allnodes = np.vstack(nodes)
     _fix_orientation(allnodes, blocks)
-    eps = 1e-9 * R
-    tb = [b for b in blocks if b.part == "tissue"]
-    nb = [b for b in blocks if b.part == "needle"]
+    return allnodes, blocks
+
+
+def _contact_surfaces(g: _Geometry, allnodes: FloatArray, tb: list[ElementBlock],
+                      nb: list[ElementBlock], eps: float) -> dict[str, list[tuple[int, int]]]:
+    """TISSUE: the block's top faces; NEEDLE: the needle's faces below its
+    cut, not on a mirror plane."""
     top = [(e, fc) for e, fc, ns in boundary_faces(tb)
            if np.all(np.abs(allnodes[np.asarray(ns) - 1, 1]) <= eps)]
     y_cut = float(allnodes[np.unique(np.concatenate([b.conn.ravel() for b in nb])) - 1, 1].max())
+    near = tol.fem.needle_plane
+
+    def on(ns: tuple[int, ...], axis: int) -> bool:
+        return bool(np.all(np.abs(allnodes[np.asarray(ns) - 1, axis]) <= near))
+
     master = [(e, fc) for e, fc, ns in boundary_faces(nb)
-              if np.any(allnodes[np.asarray(ns) - 1, 1] < y_cut - 1e-6)
-              and not (sx and np.all(np.abs(allnodes[np.asarray(ns) - 1, 0]) <= 1e-6))
-              and not (sy and np.all(np.abs(allnodes[np.asarray(ns) - 1, 2]) <= 1e-6))]
+              if np.any(allnodes[np.asarray(ns) - 1, 1] < y_cut - near)
+              and not (g.sx and on(ns, 0)) and not (g.sy and on(ns, 2))]
+    return {"TISSUE": top, "NEEDLE": master}
+
+
+def _node_sets(g: _Geometry, allnodes: FloatArray, tb: list[ElementBlock],
+               nb: list[ElementBlock], eps: float
+               ) -> tuple[dict[str, IntArray], dict[str, tuple[int, ...]]]:
+    """The node sets (BASE, SYMX, SYMZ, NEEDLE) and the directions each fixed
+    set is held in."""
     tn = np.unique(np.concatenate([b.conn.ravel() for b in tb]))
     T = allnodes[tn - 1]
-    nsets = {"BASE": tn[np.abs(T[:, 1] + H) <= eps]}
-    fixed = {"BASE": (1, 2, 3)}
-    if sx:
+    nsets = {"BASE": tn[np.abs(T[:, 1] + g.H) <= eps]}
+    fixed: dict[str, tuple[int, ...]] = {"BASE": (1, 2, 3)}
+    if g.sx:
         nsets["SYMX"] = tn[np.abs(T[:, 0]) <= eps]
         fixed["SYMX"] = (1,)
-    if sy:
+    if g.sy:
         nsets["SYMZ"] = tn[np.abs(T[:, 2]) <= eps]
         fixed["SYMZ"] = (3,)
     nsets["NEEDLE"] = np.unique(np.concatenate([b.conn.ravel() for b in nb]))
-    mat = fem_material(tissue, material_model, nu)
-    if friction is None:
-        mu, mu_src = friction_coefficient(tissue, 0.0)
-    else:
-        mu, mu_src = v.real("friction", friction, lo=0.0, hi=2.0), "given"
-    dmax = depth / 10 if max_increment is None else v.real(
-        "max_increment", max_increment, lo=0.0, hi=depth, lo_open=True, unit="mm")
-    out = tuple(v.real("output depth", dd, lo=0.0, hi=depth, lo_open=True, unit="mm")
-                for dd in output_depths)
-    sym_tris, sym_axis = None, (2 if sy else 0 if sx else None)
-    if sym_axis is not None:  # tissue faces on the symmetry plane, for the contour picture
-        sym_tris = []
-        for _e, _fc, ns in boundary_faces(tb):
-            ns = list(ns)
-            if np.all(np.abs(allnodes[np.asarray(ns) - 1, sym_axis]) <= eps):
-                sym_tris += [[ns[0], ns[i], ns[i + 1]] for i in range(1, len(ns) - 1)]
-    scale = (2.0 if sx else 1.0) * (2.0 if sy else 1.0)
-    info = {"element_size_um": round(h * 1e3, 6), "element_size_far_um": round(far * 1e3, 6),
-            "layers": len(layers), "nodes": len(allnodes),
-            "tissue_elements": int(sum(len(b.ids) for b in tb)),
-            "needle_elements": int(sum(len(b.ids) for b in nb)),
-            "symmetry": ("x " if sx else "") + ("y" if sy else "") or "none",
-            "block_mm": [R, H], "edge_r_mm": [r_in, r_out],
-            "tip": tip.spec.name if tip.spec else "imported", "tissue": mat.name,
-            "material": mat.model, "material_source": mat.source,
-            "inner_diameter_mm": 2 * r_in, "contact": contact, "nu": nu, "friction": mu,
-            "friction_source": mu_src, "_symmetry_tris": sym_tris,
-            "symmetry_plane": None if sym_axis is None else "XYZ"[sym_axis]}
-    return FemModel(kind="3d", name=info["tip"], nodes=allnodes, blocks=blocks, nsets=nsets,
-                    fixed=fixed, surfaces={"TISSUE": top, "NEEDLE": master}, material=mat,
-                    friction=mu, depth=depth,
-                    penalty=penalty_factor * mat.E0 / h if contact_stiffness is None else
-                    v.real("contact_stiffness", contact_stiffness, lo=0.0, lo_open=True,
-                           unit="MPa/mm"),
-                    force_scale=scale, increments=(dmax / depth / 2, 1e-6, dmax / depth),
-                    output_depths=out, contact=contact, slave="needle", info=info)
+    return nsets, fixed
 
 
-def _signed_volumes(P: np.ndarray, etype: str) -> np.ndarray:
+def _symmetry_tris(allnodes: FloatArray, tb: list[ElementBlock], sym_axis: int | None,
+                   eps: float) -> list[list[int]] | None:
+    """Tissue faces on the symmetry plane as triangles (node numbers), for the
+    contour picture; None without a symmetry plane."""
+    if sym_axis is None:
+        return None
+    sym_tris = []
+    for _e, _fc, ns in boundary_faces(tb):
+        ns_ = list(ns)
+        if np.all(np.abs(allnodes[np.asarray(ns_) - 1, sym_axis]) <= eps):
+            sym_tris += [[ns_[0], ns_[i], ns_[i + 1]] for i in range(1, len(ns_) - 1)]
+    return sym_tris
+
+
+def _signed_volumes(P: FloatArray, etype: str) -> FloatArray:
     if etype == "C3D4":
         a, b, c, d = P[:, 0], P[:, 1], P[:, 2], P[:, 3]
     elif etype == "C3D6":
         a, b, c, d = P[:, 0], P[:, 1], P[:, 2], P[:, 3]
     else:
         a, b, c, d = P[:, 0], P[:, 1], P[:, 3], P[:, 4]
-    return np.einsum("ij,ij->i", b - a, np.cross(c - a, d - a))
+    vol: FloatArray = np.einsum("ij,ij->i", b - a, np.cross(c - a, d - a))
+    return vol
 
 
-def _fix_orientation(nodes: np.ndarray, blocks: list[ElementBlock]) -> None:
+def _fix_orientation(nodes: FloatArray, blocks: list[ElementBlock]) -> None:
     """Renumber elements with a negative volume (mirror their node order)."""
     flip = {"C3D4": [0, 2, 1, 3], "C3D6": [0, 2, 1, 3, 5, 4],
             "C3D8": [0, 3, 2, 1, 4, 7, 6, 5], "C3D8I": [0, 3, 2, 1, 4, 7, 6, 5]}

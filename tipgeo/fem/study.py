@@ -21,20 +21,26 @@ import time
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
 from .. import progress as pg
 from .. import validate as v
+from ..arrays import ArrayLike, FloatArray, IntArray
 from ..atomic import staging_dir, write_bytes_atomic, write_text_atomic
 from ..errors import FemError, SpecError
 from ..jsonio import dumps
 from ..paths import inside
+from ..tip import Tip
 from ..tolerances import tol
 from .model import FemModel
-from .results import max_principal, read_dat_totals, read_frd
+from .results import FrdResults, max_principal, read_dat_totals, read_frd
 from .run import CcxRun, require_ccx, run_ccx
+
+if TYPE_CHECKING:
+    from ..spec import TipSpec
+    from ..verdict import Verdict
 
 __all__ = ["MODEL_KINDS", "FemResult", "build_model", "run_model", "run_fem",
            "convergence_study", "convergence_verdict", "richardson", "analytical_force",
@@ -44,13 +50,12 @@ __all__ = ["MODEL_KINDS", "FemResult", "build_model", "run_model", "run_fem",
 MODEL_KINDS = ("axisymmetric", "3d")
 
 
-def build_model(tip, kind: str, *, depth: float, tissue: str = "pvc-sp0",
+def build_model(tip: Tip | TipSpec, kind: str, *, depth: float, tissue: str = "pvc-sp0",
                 mesh: float | None = None, friction: float | None = None,
                 material_model: str = "arruda-boyce", nu: float | None = None,
-                output_depths: tuple[float, ...] = (), **kw) -> FemModel:
+                output_depths: tuple[float, ...] = (), **kw: Any) -> FemModel:
     """The ``axisymmetric`` or ``3d`` model of ``tip`` (a Tip or a spec)."""
     from ..build import build_tip
-    from ..tip import Tip
 
     if kind not in MODEL_KINDS:
         raise SpecError(f"model = {kind!r} is not valid; expected one of: "
@@ -76,7 +81,7 @@ def build_model(tip, kind: str, *, depth: float, tissue: str = "pvc-sp0",
                              **kw)
 
 
-def is_monotonic(force: np.ndarray) -> bool:
+def is_monotonic(force: ArrayLike) -> bool:
     """Whether ``force`` never falls below an earlier value by more than
     ``tol.fem.monotone`` of its peak."""
     f = np.asarray(force, dtype=float)
@@ -86,8 +91,8 @@ def is_monotonic(force: np.ndarray) -> bool:
     return bool(np.all(f >= np.maximum.accumulate(f) - slack))
 
 
-def analytical_force(model: FemModel, depth: np.ndarray, *, beta: float | None = None,
-                     d_i: float | None = None) -> np.ndarray:
+def analytical_force(model: FemModel, depth: ArrayLike, *, beta: float | None = None,
+                     d_i: float | None = None) -> FloatArray:
     """The analytical axial force (eq. 4.18–4.22, N) for the model's tissue
     law at ``depth`` (mm): column of radius β d_i / 2, initial length the
     block height."""
@@ -123,8 +128,8 @@ class FemResult:
     """
 
     model: FemModel
-    depth: np.ndarray = field(default_factory=lambda: np.zeros(0))
-    force: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    depth: FloatArray = field(default_factory=lambda: np.zeros(0))
+    force: FloatArray = field(default_factory=lambda: np.zeros(0))
     run: CcxRun | None = None
     files: list[Path] = field(default_factory=list)
     stress: dict[float, dict[str, Any]] = field(default_factory=dict)
@@ -145,7 +150,7 @@ class FemResult:
         return None if self.run is None else float(self.run.reached * self.model.depth)
 
     @property
-    def verdict(self):
+    def verdict(self) -> Verdict | None:
         """:class:`tipgeo.verdict.Verdict`: the run reached the requested depth
         (to ``tol.fem.step_end`` of the step); None for decks only (nothing
         was run, nothing judged)."""
@@ -189,7 +194,7 @@ class FemResult:
                                                               "A B C for its Richardson figure"}
                                          if len(self.depth) > 1 and ana[-1] > 0 else None),
                       "stress": {f"{k:g}": s for k, s in self.stress.items()},
-                      "verdict": self.verdict.to_dict()})
+                      "verdict": None if self.verdict is None else self.verdict.to_dict()})
         return d
 
     def summary(self) -> dict[str, Any]:
@@ -197,7 +202,7 @@ class FemResult:
         return self.to_dict()
 
 
-def _curve_csv(depth, force, ana) -> str:
+def _curve_csv(depth: FloatArray, force: FloatArray, ana: FloatArray) -> str:
     s = io.StringIO()
     w = csv.writer(s, lineterminator="\n")
     w.writerow(["depth_mm", "force_N", "analytical_force_N"])
@@ -206,8 +211,8 @@ def _curve_csv(depth, force, ana) -> str:
     return s.getvalue()
 
 
-def _tissue_tris(model: FemModel) -> np.ndarray:
-    tris = []
+def _tissue_tris(model: FemModel) -> IntArray:
+    tris: list[IntArray] = []
     for b in model.blocks:
         if b.part != "tissue":
             continue
@@ -218,19 +223,21 @@ def _tissue_tris(model: FemModel) -> np.ndarray:
     return np.vstack(tris) - 1
 
 
-def _stress_pictures(model: FemModel, frd, out: Path, stem: str,
-                     reached: float = math.inf) -> tuple[list[Path], dict]:
+def _stress_pictures(model: FemModel, frd: FrdResults, out: Path, stem: str,
+                     reached: float = math.inf
+                     ) -> tuple[list[Path], dict[float, dict[str, Any]]]:
     """Max principal stress contours (2D: the r–Y plane; 3D: the symmetry
     plane X = 0) at each output depth the run reached (mm), and the stress
     summary."""
-    files, summary = [], {}
+    files: list[Path] = []
+    summary: dict[float, dict[str, Any]] = {}
     pos = np.full(int(frd.node_ids.max()) + 1, -1)
     pos[frd.node_ids] = np.arange(len(frd.node_ids))
     from .plots import plot_stress_contour
 
     tissue = model.part_nodes("tissue")
     for d in model.output_depths:
-        if d > reached + 1e-9:         # the run stopped before it
+        if d > reached + tol.fem.depth_reached:  # the run stopped before it
             continue
         t = d / model.depth
         nid, u = frd.field_at("DISP", t)
@@ -360,15 +367,15 @@ def run_model(model: FemModel, out_dir: str | Path, *, stem: str | None = None,
     return res
 
 
-def _finish(res: FemResult, frd, t: np.ndarray, f: np.ndarray, out: Path, stem: str,
-            pictures: bool) -> None:
+def _finish(res: FemResult, frd: FrdResults | None, t: FloatArray, f: FloatArray, out: Path,
+            stem: str, pictures: bool) -> None:
     """The force curve, stresses, pictures and JSON of a checked run."""
     model = res.model
     res.depth = np.r_[0.0, t * model.depth]
     res.force = np.r_[0.0, -f[:, 1] * model.force_scale]
-    if frd is not None:
-        pngs, res.stress = (_stress_pictures(model, frd, out, stem,
-                                             res.run.reached * model.depth + 1e-9)
+    if frd is not None and res.run is not None:
+        reached = res.run.reached * model.depth + tol.fem.depth_reached
+        pngs, res.stress = (_stress_pictures(model, frd, out, stem, reached)
                             if pictures else ([], {}))
         res.files += pngs
     ana = analytical_force(model, res.depth)
@@ -396,12 +403,12 @@ def _remove(files: list[Path], folder: Path | None) -> None:
             folder.rmdir()
 
 
-def run_fem(spec, *, model: str = "axisymmetric", depth: float, out_dir: str | Path,
+def run_fem(spec: Tip | TipSpec, *, model: str = "axisymmetric", depth: float, out_dir: str | Path,
             tissue: str = "pvc-sp0", friction: float | None = None, mesh: float | None = None,
             deck_only: bool = False, abaqus: bool = False, time_limit_s: float = 600.0,
             output_depths: tuple[float, ...] | None = None,
             progress: Callable[[str], None] | None = None, partial: bool = True,
-            pictures: bool = True, **kw) -> FemResult:
+            pictures: bool = True, **kw: Any) -> FemResult:
     """Build, write and (unless ``deck_only``) run the ``model`` of tip
     ``spec`` pushed ``depth`` mm into ``tissue`` (see :func:`run_model`).
     Stresses are written at ``output_depths`` (default: the final depth and,
@@ -433,7 +440,8 @@ def richardson(values: tuple[float, float, float], ratio: float) -> dict[str, fl
     return {"order": p, "extrapolated": f3 + e2 / (ratio ** p - 1.0)}
 
 
-def convergence_verdict(study: dict[str, Any], target_change: float | None = None):
+def convergence_verdict(study: dict[str, Any], target_change: float | None = None
+                        ) -> Verdict:
     """:class:`tipgeo.verdict.Verdict` of a :func:`convergence_study` result:
     the relative change of the force at depth from the middle to the finest
     mesh within ``target_change`` (a fraction; default the study's own
@@ -452,12 +460,12 @@ def convergence_verdict(study: dict[str, Any], target_change: float | None = Non
                                  100.0 * target_change, what=what)])
 
 
-def convergence_study(spec, *, model: str = "axisymmetric", depth: float,
-                      meshes: tuple[float, float, float], out_dir: str | Path,
+def convergence_study(spec: Tip | TipSpec, *, model: str = "axisymmetric", depth: float,
+                      meshes: tuple[float, ...], out_dir: str | Path,
                       tissue: str = "pvc-sp0", friction: float | None = None,
                       time_limit_s: float = 1800.0,
                       progress: Callable[[str], None] | None = None,
-                      target_change: float | None = None, **kw) -> dict[str, Any]:
+                      target_change: float | None = None, **kw: Any) -> dict[str, Any]:
     """Run the same insertion, to the same ``depth``, at three element sizes
     of the contact zone (mm, coarse to fine) and report the force of each at
     that depth (its peak: the curves rise), the relative change from the
@@ -487,11 +495,12 @@ def convergence_study(spec, *, model: str = "axisymmetric", depth: float,
     require_ccx()
     probe = build_model(spec, model, depth=depth, tissue=tissue, mesh=meshes[0],
                         friction=friction, **kw)
-    fixed = {"contact_stiffness": probe.penalty}
+    fixed: dict[str, Any] = {"contact_stiffness": probe.penalty}
     if model == "axisymmetric":
         fixed["far"] = float(probe.info["element_size_far_um"]) * 1e-3
     grid = np.linspace(0.1, 1.0, 10) * depth
-    rows, curves = [], []
+    rows: list[dict[str, Any]] = []
+    curves: list[FloatArray] = []
     bar = pg.bar(len(meshes), "fem: convergence study", unit="mesh")
     for h in meshes:
         sub = Path(out_dir) / f"mesh_{h * 1e3:g}um"
@@ -504,6 +513,7 @@ def convergence_study(spec, *, model: str = "axisymmetric", depth: float,
             bar.close()
             raise
         bar.update()
+        assert r.run is not None  # run_fem ran ccx (not deck_only)
         f_end = float(np.interp(depth, r.depth, r.force))
         curves.append(np.interp(grid, r.depth, r.force))
         prev = rows[-1]["force_at_depth_N"] if rows else None
@@ -514,18 +524,20 @@ def convergence_study(spec, *, model: str = "axisymmetric", depth: float,
                      "change_percent": None if prev is None else 100.0 * (f_end - prev) / prev})
     bar.close()
     ratios = meshes[0] / meshes[1], meshes[1] / meshes[2]
-    rich = richardson(tuple(r["force_at_depth_N"] for r in rows), ratios[0]) \
-        if abs(ratios[0] - ratios[1]) <= 1e-9 * ratios[0] else {"order": None,
-                                                                 "extrapolated": None}
+    f1, f2, f3 = (float(row["force_at_depth_N"]) for row in rows)
+    rich: dict[str, float | None] = richardson((f1, f2, f3), ratios[0]) \
+        if abs(ratios[0] - ratios[1]) <= tol.fem.ratio_equal * ratios[0] else {
+            "order": None, "extrapolated": None}
     # eq. 4.22 (the analytical column, β = 2.5) beside every mesh and the
     # Richardson limit: the gap a finer mesh would not close
     ana = float(analytical_force(probe, np.array([depth]))[0])
-    for r in rows:
-        r["gap_to_eq_4_22_percent"] = 100.0 * (r["force_at_depth_N"] / ana - 1.0)
-    if rich.get("extrapolated") is not None:
-        rich["gap_to_eq_4_22_percent"] = 100.0 * (rich["extrapolated"] / ana - 1.0)
+    for row in rows:
+        row["gap_to_eq_4_22_percent"] = 100.0 * (row["force_at_depth_N"] / ana - 1.0)
+    limit = rich.get("extrapolated")
+    if limit is not None:
+        rich["gap_to_eq_4_22_percent"] = 100.0 * (limit / ana - 1.0)
         rich["finest_error_estimate_percent"] = 100.0 * (
-            rows[-1]["force_at_depth_N"] / rich["extrapolated"] - 1.0)
+            rows[-1]["force_at_depth_N"] / limit - 1.0)
     out = {"model": model, "depth_mm": depth, "tissue": tissue, "eq_4_22_N": ana,
            "far_element_um": probe.info.get("element_size_far_um"),
            "contact_stiffness_MPa_per_mm": fixed["contact_stiffness"], "rows": rows,

@@ -13,6 +13,7 @@ Modules, one per model family:
 ``cutting``    friction and cutting forces (eq. 2.18–2.29), friction
                regressions (Tables 2.5, 4.2) and force surfaces (Tables 2.6,
                2.7) as presets with validity ranges
+``models``     the registry of tissue models (a new model is one module)
 ``tissue``     Arruda–Boyce, Ogden, neo-Hookean uniaxial stress; fits
 ``materials``  the PVC phantoms and the §3.1.5 soft tissue
 ``insertion``  analytical insertion forces (eq. 4.18–4.34)
@@ -47,6 +48,14 @@ from .fracture import (
 )
 from .insertion import column_radius, column_stretch, insertion_force, insertion_with_rotation
 from .materials import TISSUES, Tissue, tissue, tissue_names
+from .models import (
+    TISSUE_MODELS,
+    Parameter,
+    TissueModel,
+    register_tissue_model,
+    tissue_model,
+    tissue_model_names,
+)
 from .report import TipForces, helical_vs_bevel, tip_forces, write_helical_vs_bevel
 from .slicepush import (
     EdgeGeometry,
@@ -79,6 +88,8 @@ __all__ = [
     "FrictionRegression", "ForceSurface", "FRICTION_PRESETS", "FORCE_SURFACES",
     "friction_preset", "force_surface", "normal_force", "cutting_forces",
     "measured_cutting_force", "optimal_slice_push_ratio",
+    "TissueModel", "Parameter", "TISSUE_MODELS", "register_tissue_model", "tissue_model",
+    "tissue_model_names",
     "NeoHookean", "ArrudaBoyce", "Ogden", "FitResult", "fit_uniaxial", "fit_engineering",
     "true_from_engineering", "engineering_from_true", "synthetic_uniaxial",
     "read_uniaxial_csv",

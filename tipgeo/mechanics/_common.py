@@ -12,6 +12,7 @@ import warnings
 
 import numpy as np
 
+from ..arrays import ArrayLike, FloatArray
 from ..errors import SpecError
 
 __all__ = ["ValidityWarning", "J_PER_M2", "KPA", "warn_outside", "finite_array"]
@@ -27,7 +28,7 @@ class ValidityWarning(UserWarning):
     force surface) was measured; the value is an extrapolation."""
 
 
-def warn_outside(name: str, values, lo: float, hi: float, *, unit: str = "",
+def warn_outside(name: str, values: ArrayLike, lo: float, hi: float, *, unit: str = "",
                  source: str = "", stacklevel: int = 3) -> None:
     """Warn (:class:`ValidityWarning`) if any of ``values`` lies outside
     [lo, hi]; the message names the quantity, the offending extreme and the
@@ -45,15 +46,15 @@ def warn_outside(name: str, values, lo: float, hi: float, *, unit: str = "",
                       ValidityWarning, stacklevel=stacklevel)
 
 
-def finite_array(name: str, values, *, lo: float | None = None, lo_open: bool = False,
-                 unit: str = "", min_size: int = 1) -> np.ndarray:
+def finite_array(name: str, values: ArrayLike, *, lo: float | None = None,
+                 lo_open: bool = False, unit: str = "", min_size: int = 1) -> FloatArray:
     """``values`` as a float array with every element finite (and > or ≥ lo).
 
     Raises :class:`SpecError` naming ``name``, the first bad index and value
     and the allowed range — never a numpy error from deep inside.
     """
     try:
-        a = np.asarray(values, dtype=float)
+        a = np.asarray(values, dtype=np.float64)
     except (TypeError, ValueError):
         raise SpecError(f"{name} = {values!r} is not an array of numbers") from None
     u = f" {unit}" if unit else ""

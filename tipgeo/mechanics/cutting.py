@@ -22,10 +22,12 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
+from typing import Any
 
 import numpy as np
 
 from .. import validate as v
+from ..arrays import ArrayLike, FloatArray
 from ..errors import SpecError
 from ..tolerances import tol
 from ._common import KPA, finite_array, warn_outside
@@ -34,6 +36,11 @@ from .fracture import rupture_forces
 __all__ = ["FrictionRegression", "ForceSurface", "FRICTION_PRESETS", "FORCE_SURFACES",
            "friction_preset", "force_surface", "normal_force", "cutting_forces",
            "measured_cutting_force", "optimal_slice_push_ratio"]
+
+
+def _poly(coefficients: tuple[float, ...], x: FloatArray) -> FloatArray:
+    """The polynomial with ``coefficients`` (highest power first) at ``x``."""
+    return np.asarray(np.polyval(coefficients, x), dtype=np.float64)
 
 
 @dataclass(frozen=True)
@@ -59,34 +66,37 @@ class FrictionRegression:
     r2: tuple[float, float] = (math.nan, math.nan)
     rmse: tuple[float, float] = (math.nan, math.nan)
 
-    def _k(self, k) -> np.ndarray:
+    def _k(self, k: ArrayLike) -> FloatArray:
         kk = finite_array("k", k, lo=0.0)
         warn_outside("k", kk, *self.k_range, source=f"friction regression {self.name}",
                      stacklevel=4)
         return kk
 
-    def mu_da(self, k) -> np.ndarray:
+    def mu_da(self, k: ArrayLike) -> FloatArray:
         """μ_da(k), the axial dynamic friction coefficient."""
-        return np.polyval(self.axial, self._k(k))
+        return _poly(self.axial, self._k(k))
 
-    def mu_dr(self, k) -> np.ndarray:
+    def mu_dr(self, k: ArrayLike) -> FloatArray:
         """μ_dr(k), the rotational dynamic friction coefficient."""
-        return np.polyval(self.rotational, self._k(k))
+        return _poly(self.rotational, self._k(k))
 
-    def mu_d(self, k) -> np.ndarray:
+    def mu_d(self, k: ArrayLike) -> FloatArray:
         """μ_d(k) = √(μ_da² + μ_dr²) (eq. 2.25)."""
         kk = self._k(k)
-        return np.hypot(np.polyval(self.axial, kk), np.polyval(self.rotational, kk))
+        return np.hypot(_poly(self.axial, kk), _poly(self.rotational, kk))
 
-    def mu_d_held(self, k) -> np.ndarray:
+    def mu_d_held(self, k: ArrayLike) -> FloatArray:
         """μ_d(k) with k held inside the measured range (no warning): the
         value at the range's end beyond it. For along-edge models, where k
         runs to ∞ where the edge moves along itself and the polynomials
         would grow without bound; callers say so
         (:func:`tipgeo.mechanics.report.tip_forces` warns once)."""
         kk = np.clip(finite_array("k", k, lo=0.0), *self.k_range)
-        return np.hypot(np.polyval(self.axial, kk), np.polyval(self.rotational, kk))
+        return np.hypot(_poly(self.axial, kk), _poly(self.rotational, kk))
 
+
+#: Table 4.2's k² coefficient of μ_da(k) (thesis, as printed).
+TABLE_4_2_AXIAL_K2 = 0.00087
 
 #: Friction regressions (thesis, coefficients as printed; k tested 0–4 in
 #: §2.5.1: k = 0, 0.25, 0.5, 1, 1.5, 2, 3, 4).
@@ -99,7 +109,7 @@ FRICTION_PRESETS: dict[str, FrictionRegression] = {
     "table-4.2": FrictionRegression(
         name="table-4.2", source="thesis Table 4.2 (§4.4.3)",
         tissue="PVC of the FE models (S/P = 0, Table 4.1; harder than S/P = 0.5)",
-        axial=(0.00087, -0.0194, 0.328), rotational=(-0.03382, 0.2726, 0.1243),
+        axial=(TABLE_4_2_AXIAL_K2, -0.0194, 0.328), rotational=(-0.03382, 0.2726, 0.1243),
         r2=(0.823, 0.99), rmse=(0.018, 0.022)),
 }
 
@@ -138,7 +148,7 @@ class ForceSurface:
     r2: float
     rmse: float
 
-    def __call__(self, k, **y) -> np.ndarray:
+    def __call__(self, k: ArrayLike, **y: ArrayLike) -> FloatArray:
         """The force (N) at slice/push ratio ``k`` and ``<y_name>=value``
         (internal units: mm/s for v_t, MPa for E). Broadcasts arrays."""
         if set(y) != {self.y_name}:
@@ -150,14 +160,17 @@ class ForceSurface:
         warn_outside(self.y_name, yy, *self.y_range, unit=self.y_internal_unit,
                      source=f"force surface {self.name}", stacklevel=3)
         yt = yy * self.y_scale
-        return sum(c * kk ** i * yt ** j for (i, j), c in self.terms.items())
+        out = np.zeros(np.broadcast_shapes(kk.shape, yt.shape))
+        for (i, j), c in self.terms.items():
+            out = out + c * kk ** i * yt ** j
+        return out
 
 
-_VT = dict(y_name="v_t", y_unit="mm/s", y_internal_unit="mm/s", y_scale=1.0,
+_VT: dict[str, Any] = dict(y_name="v_t", y_unit="mm/s", y_internal_unit="mm/s", y_scale=1.0,
            k_range=(0.0, 4.0), y_range=(0.5, 6.0),
            tissue="PVC S/P = 0.5, 14G conical θ = 15° (§2.5.2)")
 # Table 2.7's E is in kPa (Table 2.1: 4.88–32.96 kPa); tipgeo passes MPa.
-_E = dict(y_name="E", y_unit="kPa", y_internal_unit="MPa", y_scale=1.0 / KPA,
+_E: dict[str, Any] = dict(y_name="E", y_unit="kPa", y_internal_unit="MPa", y_scale=1.0 / KPA,
           k_range=(0.0, 4.0), y_range=(4.88 * KPA, 32.96 * KPA),
           tissue="PVC S/P = 0, 0.25, 0.5, 1 (Table 2.1), 14G conical θ = 15°, "
                  "v_t = 1 mm/s (§2.5.3)")
@@ -204,7 +217,8 @@ def force_surface(name: str) -> ForceSurface:
     return FORCE_SURFACES[name]
 
 
-def normal_force(x, *, r_i: float, r_o: float, E: float, eta: float = 0.5) -> np.ndarray:
+def normal_force(x: ArrayLike, *, r_i: float, r_o: float, E: float,
+                 eta: float = 0.5) -> FloatArray:
     """Tissue's normal force on the cannula walls after insertion depth x
     (eq. 2.18): F_N = π (r_i + r_o) E x / (1 + η).
 
@@ -227,9 +241,9 @@ def normal_force(x, *, r_i: float, r_o: float, E: float, eta: float = 0.5) -> np
     return math.pi * (r_i + r_o) * E / (1.0 + eta) * xx
 
 
-def cutting_forces(k, x, *, R: float, r_i: float, r_o: float, theta: float, E: float,
-                   friction: FrictionRegression | tuple[float, float],
-                   eta: float = 0.5) -> dict[str, np.ndarray]:
+def cutting_forces(k: ArrayLike, x: ArrayLike, *, R: float, r_i: float, r_o: float,
+                   theta: float, E: float, friction: FrictionRegression | tuple[float, float],
+                   eta: float = 0.5) -> dict[str, FloatArray]:
     """Axial and tangential insertion forces of a rotating cannula (eq.
     2.18–2.27).
 

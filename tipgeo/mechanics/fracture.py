@@ -53,6 +53,7 @@ from typing import Any
 import numpy as np
 
 from .. import validate as v
+from ..arrays import ArrayLike, FloatArray
 from ..errors import SpecError
 from ..tolerances import tol
 from ._common import J_PER_M2, finite_array
@@ -65,7 +66,7 @@ __all__ = ["rupture_forces", "fracture_denominator", "max_included_angle", "edge
 #: the middle of that range.
 DEFAULT_G = 0.35
 
-MuD = float | Callable[[np.ndarray], np.ndarray]
+MuD = float | Callable[[FloatArray], FloatArray]
 
 
 def max_included_angle(mu_d: float) -> float:
@@ -85,7 +86,7 @@ def _theta(theta: float, mu_max: float) -> float:
     return th
 
 
-def _mu_values(mu_d: MuD, k: np.ndarray) -> np.ndarray:
+def _mu_values(mu_d: MuD, k: FloatArray) -> FloatArray:
     """μ_d at each k (constant, or a callable of k evaluated where k is finite)."""
     if callable(mu_d):
         mu = np.zeros_like(k)
@@ -95,17 +96,20 @@ def _mu_values(mu_d: MuD, k: np.ndarray) -> np.ndarray:
     return np.full_like(k, v.real("mu_d", mu_d, lo=0.0))
 
 
-def fracture_denominator(v_par, v_perp, theta: float, mu) -> np.ndarray:
+def fracture_denominator(v_par: ArrayLike, v_perp: ArrayLike, theta: float,
+                         mu: float | FloatArray) -> FloatArray:
     """D · v_⊥² of eq. 2.16 written with the velocity components
     (|v_∥|, v_⊥ in any common unit; θ rad; μ_d scalar or per point)."""
     a = np.abs(np.asarray(v_par, float))
     b = np.asarray(v_perp, float)
     c, s = math.cos(theta), math.sin(theta)
     a2 = b * b + (a * c) ** 2
-    return b * b + a * a - mu * b * a2 / (c * (mu * c * b + s * np.sqrt(a2)))
+    out: FloatArray = b * b + a * a - mu * b * a2 / (c * (mu * c * b + s * np.sqrt(a2)))
+    return out
 
 
-def _unit_forces(v_par, v_perp, theta, mu) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+def _unit_forces(v_par: ArrayLike, v_perp: ArrayLike, theta: float, mu: float | FloatArray
+                 ) -> tuple[FloatArray, FloatArray, FloatArray]:
     """(F_⊥, F_∥, F_⊥ / v_⊥) per unit R·w·G; the last is the size of the
     resultant per unit |v| along v (finite where v_⊥ = 0)."""
     a = np.abs(np.asarray(v_par, float))
@@ -114,8 +118,8 @@ def _unit_forces(v_par, v_perp, theta, mu) -> tuple[np.ndarray, np.ndarray, np.n
     return b * b / den, a * b / den, b / den
 
 
-def rupture_forces(k, *, R: float, d_i: float, theta: float,
-                   mu_d: MuD) -> tuple[np.ndarray, np.ndarray]:
+def rupture_forces(k: ArrayLike, *, R: float, d_i: float, theta: float,
+                   mu_d: MuD) -> tuple[FloatArray, FloatArray]:
     """Fracture forces F_Vrup and F_Hrup of a cannula (eq. 2.14, 2.16, 2.17).
 
     Parameters
@@ -169,12 +173,12 @@ class EdgeForces:
     G: float
     theta: float
     wall: str
-    gamma: np.ndarray
-    k: np.ndarray
-    F_perp: np.ndarray
-    F_par: np.ndarray
-    F_axial: np.ndarray
-    F_tangential: np.ndarray
+    gamma: FloatArray
+    k: FloatArray
+    F_perp: FloatArray
+    F_par: FloatArray
+    F_axial: FloatArray
+    F_tangential: FloatArray
     means: dict[str, float] = field(default_factory=dict)
 
     def summary(self) -> dict[str, Any]:
@@ -204,7 +208,8 @@ class EdgeForces:
 
 
 def _forces_at(geom: EdgeGeometry, S: float, R: float, mu_d: MuD, G: float,
-               theta: float | None):
+               theta: float | None
+               ) -> tuple[FloatArray, FloatArray, FloatArray, FloatArray, FloatArray, float]:
     sp = slice_push(geom.gamma, geom.tangent, S)
     mu = _mu_values(mu_d, sp.k)
     th = _theta(geom.theta_tip if theta is None else theta, float(mu.max()))
@@ -216,13 +221,13 @@ def _forces_at(geom: EdgeGeometry, S: float, R: float, mu_d: MuD, G: float,
     return sp.k, scale * fperp, scale * fpar, f_axial, S * f_axial, th
 
 
-def _geom(geom) -> None:
+def _geom(geom: object) -> None:
     if not isinstance(geom, EdgeGeometry):
         raise SpecError(f"geom = {type(geom).__name__} is not an EdgeGeometry; make one with "
                         "tipgeo.mechanics.edge_geometry(spec)")
 
 
-def _inputs(R, G, S):
+def _inputs(R: float, G: float, S: float) -> tuple[float, float, float]:
     return (v.real("R", R, lo=0.0, lo_open=True, unit="N/mm"),
             v.real("G", G, lo=0.0, lo_open=True),
             v.real("S", S))
@@ -260,9 +265,9 @@ def edge_forces(geom: EdgeGeometry, S: float, *, R: float, mu_d: MuD, G: float =
                       F_par=fpar, F_axial=fax, F_tangential=ftan, means=means)
 
 
-def mean_forces_vs_speed_ratio(geom: EdgeGeometry, S_values, *, R: float, mu_d: MuD,
-                               G: float = DEFAULT_G,
-                               theta: float | None = None) -> dict[str, np.ndarray]:
+def mean_forces_vs_speed_ratio(geom: EdgeGeometry, S_values: ArrayLike, *, R: float,
+                               mu_d: MuD, G: float = DEFAULT_G,
+                               theta: float | None = None) -> dict[str, FloatArray]:
     """Means over γ of F_⊥, F_∥ and their axial/tangential projections for
     each S (like thesis Fig. 3.12b).
 

@@ -34,8 +34,10 @@ import math
 import numpy as np
 
 from .. import validate as v
+from ..arrays import ArrayLike, FloatArray
 from ..errors import SpecError
 from ._common import finite_array
+from .models import TissueModel
 from .tissue import ArrudaBoyce, NeoHookean
 
 __all__ = ["column_radius", "column_stretch", "insertion_force", "insertion_with_rotation",
@@ -54,7 +56,7 @@ def column_radius(d_i: float, beta: float = DEFAULT_BETA) -> float:
     return 0.5 * beta * d_i
 
 
-def column_stretch(x, l_init: float) -> np.ndarray:
+def column_stretch(x: ArrayLike, l_init: float) -> FloatArray:
     """λ₃ = (l_init − x) / l_init (eq. 4.21) for 0 ≤ x < l_init (mm)."""
     l_init = v.length("l_init", l_init)
     xx = finite_array("x", x, lo=0.0, unit="mm")
@@ -64,8 +66,8 @@ def column_stretch(x, l_init: float) -> np.ndarray:
     return (l_init - xx) / l_init
 
 
-def insertion_force(model, x, *, d_i: float, l_init: float,
-                    beta: float = DEFAULT_BETA) -> np.ndarray:
+def insertion_force(model: TissueModel, x: ArrayLike, *, d_i: float, l_init: float,
+                    beta: float = DEFAULT_BETA) -> FloatArray:
     """Axial force of a needle pushed x into tissue, without rotation
     (eq. 4.18–4.22).
 
@@ -86,9 +88,10 @@ def insertion_force(model, x, *, d_i: float, l_init: float,
     return -model.stress(lam) * math.pi * r_t ** 2
 
 
-def insertion_with_rotation(model, x, K: float, *, d_i: float, l_init: float,
+def insertion_with_rotation(model: TissueModel, x: ArrayLike, K: float, *, d_i: float,
+                            l_init: float,
                             beta: float = DEFAULT_BETA, mu_d: float | None = None,
-                            method: str = "integral") -> dict[str, np.ndarray]:
+                            method: str = "integral") -> dict[str, FloatArray]:
     """Axial force and torque of a needle pushed x into tissue while it
     twists the column by K (eq. 4.23–4.34).
 

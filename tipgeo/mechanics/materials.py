@@ -42,9 +42,11 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 from typing import Any
 
+from ..arrays import ArrayLike, FloatArray
 from ..errors import SpecError
 from ._common import J_PER_M2, KPA
 from .cutting import FRICTION_PRESETS, FrictionRegression
+from .models import TissueModel
 from .tissue import ArrudaBoyce, Ogden
 
 __all__ = ["Tissue", "TISSUES", "tissue", "tissue_names"]
@@ -64,6 +66,8 @@ class Tissue:
     mu_d : float or None — constant dynamic friction coefficient
     friction : FrictionRegression or None — μ_da(k), μ_dr(k)
     arruda_boyce, ogden : fitted models or None
+    models : dict — fits of further registered tissue models
+        (:mod:`tipgeo.mechanics.models`) by model name
     fits : dict — the thesis's R² and RMSE (MPa) of each fit
     sources : dict — where each value comes from
     E_characterised : float or None — Table 2.1's modulus (MPa) where the
@@ -82,20 +86,26 @@ class Tissue:
     fits: dict[str, dict[str, float]] = field(default_factory=dict, hash=False)
     sources: dict[str, str] = field(default_factory=dict, hash=False)
     E_characterised: float | None = None
+    models: dict[str, TissueModel] = field(default_factory=dict, hash=False)
 
-    def __post_init__(self):
+    def __post_init__(self) -> None:
         from ..names import check_name
 
         check_name("tissue name", self.name)  # it reaches decks, file names and reports
 
-    def model(self, name: str):
-        """The fitted model ``arruda-boyce`` or ``ogden``."""
-        m = {"arruda-boyce": self.arruda_boyce, "ogden": self.ogden}.get(name)
-        if m is None:
+    def fitted_models(self) -> dict[str, TissueModel]:
+        """The tissue's fitted models by model name."""
+        fitted: dict[str, TissueModel | None] = {
+            "arruda-boyce": self.arruda_boyce, "ogden": self.ogden, **self.models}
+        return {k: m for k, m in fitted.items() if m is not None}
+
+    def model(self, name: str) -> TissueModel:
+        """The fitted model called ``name`` (``arruda-boyce``, ``ogden``, …)."""
+        fitted = self.fitted_models()
+        if name not in fitted:
             raise SpecError(f"tissue '{self.name}' has no {name!r} model; it has: "
-                            + (", ".join(k for k, x in (("arruda-boyce", self.arruda_boyce),
-                                                        ("ogden", self.ogden)) if x) or "none"))
-        return m
+                            + (", ".join(fitted) or "none"))
+        return fitted[name]
 
     def summary(self) -> dict[str, Any]:
         """Values in report units: E in kPa, R in J/m², constants in MPa."""
@@ -113,25 +123,29 @@ class Tissue:
             **({} if self.E_characterised is None else
                {"E_characterised_kPa": self.E_characterised / KPA})}
 
-    def cutting_forces(self, k, x, *, r_i: float, r_o: float, theta: float) -> dict:
+    def cutting_forces(self, k: ArrayLike, x: ArrayLike, *, r_i: float, r_o: float,
+                       theta: float) -> dict[str, FloatArray]:
         """Eq. 2.16–2.27 with this tissue's own set: R, E, η and the
         friction regression μ_da(k), μ_dr(k) (for ``pvc-sp0.5``: Table 2.4
         with Table 2.5). k ≥ 0; x, r_i, r_o in mm; θ in rad; forces in N
         (see :func:`tipgeo.mechanics.cutting.cutting_forces`)."""
         from .cutting import cutting_forces
 
-        missing = [n for n, val in (("R", self.R), ("E", self.E), ("eta", self.eta),
-                                     ("friction", self.friction)) if val is None]
-        if missing:
+        R, E, eta, friction = self.R, self.E, self.eta, self.friction
+        if R is None or E is None or eta is None or friction is None:
+            missing = [n for n, val in (("R", R), ("E", E), ("eta", eta),
+                                         ("friction", friction)) if val is None]
             raise SpecError(f"tissue '{self.name}' lacks {', '.join(missing)} for the "
                             "cutting-force model (eq. 2.16–2.27); tissues with the full set: "
                             + ", ".join(t.name for t in TISSUES.values()
                                         if None not in (t.R, t.E, t.eta, t.friction)))
-        return cutting_forces(k, x, R=self.R, r_i=r_i, r_o=r_o, theta=theta, E=self.E,
-                              friction=self.friction, eta=self.eta)
+        return cutting_forces(k, x, R=R, r_i=r_i, r_o=r_o, theta=theta, E=E,
+                              friction=friction, eta=eta)
 
 
-def _pvc(sp: str, E_kpa: float, ab, ab_fit, og, og_fit, src_tab: str, **kw) -> Tissue:
+def _pvc(sp: str, E_kpa: float, ab: ArrudaBoyce, ab_fit: tuple[float, float],
+         og: Ogden | None, og_fit: tuple[float, float] | None, src_tab: str,
+         **kw: Any) -> Tissue:
     srcs = kw.pop("sources", {})
     return Tissue(
         name=f"pvc-sp{sp}",
@@ -145,13 +159,19 @@ def _pvc(sp: str, E_kpa: float, ab, ab_fit, og, og_fit, src_tab: str, **kw) -> T
         **kw)
 
 
+#: Table A1's Ogden μ₃ for S/P = 0.25 (MPa, as printed).
+TABLE_A1_OGDEN_MU3 = 0.00053
+#: Table A3's Arruda–Boyce μ for S/P = 1 (MPa, as printed).
+TABLE_A3_AB_MU = 0.0008
+
 TISSUES: dict[str, Tissue] = {t.name: t for t in (
     _pvc("0", 32.96, ArrudaBoyce(mu=0.00418, lambda_m=1.15), (0.967, 0.0298),
          Ogden(mu=(-0.0255, 0.0088, 0.0249), alpha=(-3.91, 4.74, -4.09)), (0.9606, 0.0328),
          "Table 4.1", mu_d=0.4, friction=FRICTION_PRESETS["table-4.2"],
          sources={"mu_d": "§4.4.3 (k = 0.5)", "friction": "Table 4.2"}),
     _pvc("0.25", 20.30, ArrudaBoyce(mu=0.0238, lambda_m=2.024), (0.9776, 0.0206),
-         Ogden(mu=(-0.0136, 0.0143, 0.00053), alpha=(4.538, 4.658, -5.94)), (0.9647, 0.0206),
+         Ogden(mu=(-0.0136, 0.0143, TABLE_A1_OGDEN_MU3), alpha=(4.538, 4.658, -5.94)),
+         (0.9647, 0.0206),
          "Table A1 (μ 0.238 → 0.0238, ERRATA)", mu_d=0.28,
          sources={"mu_d": "Appendix B4 (*Friction)"}),
     _pvc("0.5", 12.9, ArrudaBoyce(mu=0.0058, lambda_m=1.35), (0.984, 0.0058),
@@ -162,7 +182,7 @@ TISSUES: dict[str, Tissue] = {t.name: t for t in (
                        "13.60 kPa, kept as E_characterised)",
                   "R": "Table 2.4", "eta": "Table 2.4", "friction": "Table 2.5",
                   "E_characterised": "Table 2.1"}),
-    _pvc("1", 4.88, ArrudaBoyce(mu=0.0008, lambda_m=1.198), (0.834, 0.018), None, None,
+    _pvc("1", 4.88, ArrudaBoyce(mu=TABLE_A3_AB_MU, lambda_m=1.198), (0.834, 0.018), None, None,
          "Table A3"),
     Tissue(name="soft-tissue-3.1.5",
            description="generic soft tissue of the helical-versus-bevel fracture model "

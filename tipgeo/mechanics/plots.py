@@ -14,17 +14,35 @@ Units on the axes: N, J/m², MPa, degrees (γ from the heel).
 from __future__ import annotations
 
 import math
+from collections.abc import Callable, Iterable
 from pathlib import Path
+from typing import TYPE_CHECKING, Any, ParamSpec, Protocol, TypeVar
 
 import numpy as np
 
+from ..arrays import ArrayLike, FloatArray
 from ..plot import styled
 from ._common import J_PER_M2
+
+if TYPE_CHECKING:
+    from .fracture import EdgeForces
+    from .tissue import FitResult
+
+_P = ParamSpec("_P")
+_R = TypeVar("_R")
+
+
+class _Decorator(Protocol):
+    def __call__(self, func: Callable[_P, _R], /) -> Callable[_P, _R]: ...
+
+
+#: :func:`tipgeo.plot.styled` as the signature-keeping decorator it is.
+_styled: _Decorator = styled
 
 __all__ = ["plot_fracture_vs_k", "plot_edge_forces", "plot_tissue_fit"]
 
 
-def _plt():
+def _plt() -> Any:
     import matplotlib
 
     matplotlib.use("Agg")
@@ -33,10 +51,12 @@ def _plt():
     return plt
 
 
-@styled
-def plot_fracture_vs_k(path, *, d_i: float, theta: float, R: float = 35 * J_PER_M2,
-                       mu_d: float = 0.4, mu_values=(0.1, 0.2, 0.3, 0.4, 0.5),
-                       R_values=(25 * J_PER_M2, 35 * J_PER_M2, 45 * J_PER_M2),
+@_styled
+def plot_fracture_vs_k(path: str | Path, *, d_i: float, theta: float,
+                       R: float = 35 * J_PER_M2, mu_d: float = 0.4,
+                       mu_values: Iterable[float] = (0.1, 0.2, 0.3, 0.4, 0.5),
+                       R_values: Iterable[float] = (25 * J_PER_M2, 35 * J_PER_M2,
+                                                    45 * J_PER_M2),
                        k_max: float = 4.0) -> Path:
     """F_Vrup and F_Hrup (eq. 2.16–2.17) against k: (a) for ``mu_values`` at
     ``R``, (b) for ``R_values`` at ``mu_d``. R in N/mm, d_i mm, θ rad. The
@@ -75,8 +95,9 @@ def plot_fracture_vs_k(path, *, d_i: float, theta: float, R: float = 35 * J_PER_
     return out
 
 
-@styled
-def plot_edge_forces(entries, path, *, title: str | None = None) -> Path:
+@_styled
+def plot_edge_forces(entries: Iterable[tuple[str, EdgeForces, dict[str, FloatArray] | None]],
+                     path: str | Path, *, title: str | None = None) -> Path:
     """Fracture forces along the edge and their means against S.
 
     Parameters
@@ -88,13 +109,13 @@ def plot_edge_forces(entries, path, *, title: str | None = None) -> Path:
     from ..plot import save_figure
 
     plt = _plt()
-    entries = list(entries)
-    has_sweep = any(e[2] is not None for e in entries)
+    rows = list(entries)
+    has_sweep = any(e[2] is not None for e in rows)
     fig, ax = plt.subplots(1, 2 if has_sweep else 1, figsize=(13 if has_sweep else 7, 4.6),
                            squeeze=False)
     ax = ax[0]
     colors = plt.rcParams["axes.prop_cycle"].by_key()["color"]
-    for j, (label, ef, sweep) in enumerate(entries):
+    for j, (label, ef, sweep) in enumerate(rows):
         c = colors[j % len(colors)]
         gd = np.degrees(ef.gamma)
         ax[0].plot(gd, ef.F_perp, "-", color=c, lw=1.3, label=f"F⊥ {label}")
@@ -104,7 +125,7 @@ def plot_edge_forces(entries, path, *, title: str | None = None) -> Path:
                        label=f"mean F⊥ {label}")
             ax[1].plot(sweep["S"], sweep["par"], "--", color=c, lw=1.3,
                        label=f"mean F∥ {label}")
-    S = sorted({e[1].S for e in entries})
+    S = sorted({e[1].S for e in rows})
     ax[0].set_title(f"(a) along the edge, S = {', '.join(f'{s:g}' for s in S)}", fontsize=10)
     ax[0].set_xlabel("γ (deg from the heel)")
     ax[0].set_xlim(0, 360)
@@ -117,7 +138,7 @@ def plot_edge_forces(entries, path, *, title: str | None = None) -> Path:
     for a in ax:
         a.grid(True, alpha=0.3)
         a.legend(fontsize=7)
-    e0 = entries[0][1]
+    e0 = rows[0][1]
     fig.suptitle(title or (f"Fracture forces along the cutting edge (eq. 3.19–3.23), "
                            f"R = {e0.R / J_PER_M2:g} J/m², μ_d = {e0.mu_d}"), fontsize=10)
     fig.tight_layout()
@@ -126,8 +147,9 @@ def plot_edge_forces(entries, path, *, title: str | None = None) -> Path:
     return out
 
 
-@styled
-def plot_tissue_fit(stretch, stress, fits, path, *, title: str | None = None) -> Path:
+@_styled
+def plot_tissue_fit(stretch: ArrayLike, stress: ArrayLike, fits: Iterable[FitResult],
+                    path: str | Path, *, title: str | None = None) -> Path:
     """True stress against stretch: data points and fitted curves, with the
     residuals below (like thesis Fig. 4.4).
 
@@ -149,15 +171,7 @@ def plot_tissue_fit(stretch, stress, fits, path, *, title: str | None = None) ->
     colors = plt.rcParams["axes.prop_cycle"].by_key()["color"]
     for j, f in enumerate(fits):
         c = colors[j % len(colors)]
-        p = f.model.params()
-        if f.model.name == "ogden":
-            desc = f"Ogden N = {len(p['alpha'])}"
-        elif f.model.name == "arruda-boyce":
-            lm = p["lambda_m"]
-            desc = (f"Arruda–Boyce μ = {p['mu_MPa']:.4g} MPa, λ_m = "
-                    f"{'∞' if math.isinf(lm) else f'{lm:.4g}'}")
-        else:
-            desc = f"neo-Hookean μ = {p['mu_MPa']:.4g} MPa"
+        desc = f.model.legend()
         ax[0].plot(grid, f.model.stress(grid) * 1e3, "-", color=c,
                    label=f"{desc}  (R² {f.r2:.4f}, RMSE {f.rmse * 1e3:.3g} kPa)")
         ax[1].plot(lam, (sig - f.model.stress(lam)) * 1e3, ".", ms=3, color=c)

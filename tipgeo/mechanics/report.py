@@ -12,17 +12,24 @@ import math
 import warnings
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
 from .. import validate as v
+from ..arrays import ArrayLike, FloatArray
 from ..errors import SpecError
 from ..jsonio import dumps as _dumps
 from ._common import J_PER_M2, ValidityWarning
-from .fracture import DEFAULT_G, EdgeForces, edge_forces, mean_forces_vs_speed_ratio
+from .cutting import FrictionRegression
+from .fracture import DEFAULT_G, EdgeForces, MuD, edge_forces, mean_forces_vs_speed_ratio
 from .materials import Tissue, tissue
 from .slicepush import EdgeGeometry, edge_geometry
+
+if TYPE_CHECKING:
+    from ..angles import AngleReport
+    from ..spec import TipSpec
+    from ..tip import Tip
 
 __all__ = ["TipForces", "tip_forces", "helical_vs_bevel", "write_helical_vs_bevel",
            "HELICAL", "BEVEL", "THESIS_HELICAL_G_FACTOR", "THETA_MODES", "table_3_3_prediction",
@@ -65,7 +72,7 @@ class TipForces:
     label: str
     geometry: EdgeGeometry
     forces: EdgeForces
-    sweep: dict[str, np.ndarray] | None
+    sweep: dict[str, FloatArray] | None
     tissue: str
     notes: list[str]
 
@@ -82,26 +89,30 @@ class TipForces:
         return out
 
 
-def _friction(t: Tissue | None, mu_d: float | None, notes: list[str]):
+def _friction(t: Tissue | None, mu_d: float | None, notes: list[str]
+              ) -> tuple[MuD, FrictionRegression | None]:
+    """μ_d (a constant, or μ_d(k) of the tissue's regression, returned with it)."""
     if mu_d is not None:
         notes.append(f"μ_d = {mu_d:g} (given)")
-        return v.real("mu_d", mu_d, lo=0.0)
+        return v.real("mu_d", mu_d, lo=0.0), None
     if t is not None and t.mu_d is not None:
         notes.append(f"μ_d = {t.mu_d:g} ({t.sources.get('mu_d', t.name)})")
-        return t.mu_d
+        return t.mu_d, None
     if t is not None and t.friction is not None:
         fr = t.friction
         notes.append(f"μ_d(k) = √(μ_da² + μ_dr²) from {fr.source} at the local k, held at its "
                      f"value at k = {fr.k_range[1]:g} beyond the measured range")
-        return fr.mu_d_held
+        return fr.mu_d_held, fr
     raise SpecError(f"mu_d: tissue '{t.name if t else None}' gives no friction coefficient; "
                     "pass mu_d (CLI: --mu-d)")
 
 
-def tip_forces(source, S: float, *, tissue_name: str | None = "soft-tissue-3.1.5",
+def tip_forces(source: TipSpec | Tip | AngleReport | EdgeGeometry, S: float, *,
+               tissue_name: str | None = "soft-tissue-3.1.5",
                R: float | None = None, mu_d: float | None = None, G: float = DEFAULT_G,
                theta: float | None = None, wall: str = "outer", method: str = "exact",
-               S_values=None, label: str | None = None, samples: int = 3600) -> TipForces:
+               S_values: ArrayLike | None = None, label: str | None = None,
+               samples: int = 3600) -> TipForces:
     """Fracture forces along the edge of one tip in one tissue.
 
     Parameters
@@ -132,17 +143,17 @@ def tip_forces(source, S: float, *, tissue_name: str | None = "soft-tissue-3.1.5
         notes.append(f"R = {R / J_PER_M2:g} J/m² ({t.sources.get('R', t.name)})")
     else:
         notes.append(f"R = {R / J_PER_M2:g} J/m² (given)")
-    mu = _friction(t, mu_d, notes)
+    mu, fr = _friction(t, mu_d, notes)
     geom = source if isinstance(source, EdgeGeometry) else edge_geometry(
         source, wall=wall, samples=samples, method=method)
     ef = edge_forces(geom, S, R=R, mu_d=mu, G=G, theta=theta)
-    if callable(mu):
-        held = float(np.mean(ef.k > mu.__self__.k_range[1]))
+    if fr is not None:
+        held = float(np.mean(ef.k > fr.k_range[1]))
         if held > 0:
             warnings.warn(f"k exceeds the friction regression's range (k ≤ "
-                          f"{mu.__self__.k_range[1]:g}) on {held:.1%} of the edge at S = {S:g}; "
+                          f"{fr.k_range[1]:g}) on {held:.1%} of the edge at S = {S:g}; "
                           "μ_d held at its end value there", ValidityWarning, stacklevel=2)
-        ef.mu_d = f"μ_d(k), {mu.__self__.name}"
+        ef.mu_d = f"μ_d(k), {fr.name}"
     sweep = None
     if S_values is not None:
         with warnings.catch_warnings():
@@ -155,7 +166,7 @@ def tip_forces(source, S: float, *, tissue_name: str | None = "soft-tissue-3.1.5
                      tissue=tissue_name or "(given)", notes=notes)
 
 
-def helical_vs_bevel(S: float = 0.3, S_values=None, *, G: float = DEFAULT_G,
+def helical_vs_bevel(S: float = 0.3, S_values: ArrayLike | None = None, *, G: float = DEFAULT_G,
                      tissue_name: str = "soft-tissue-3.1.5",
                      theta: str = "common") -> list[TipForces]:
     """The thesis's helical needle against the ξ = 14.5° bevel of equal edge
@@ -217,29 +228,36 @@ def table_3_3_prediction(theta: str = "common", *, G: float = DEFAULT_G) -> list
     fracture force; the model gives the fracture force alone. Both G
     choices are given (same G; helical G × 0.9)."""
     entries = helical_vs_bevel(0.0, sorted(TABLE_3_3), G=G, theta=theta)
-    bev, same, thesis = entries
+    bev, same, thesis = (_swept(e) for e in entries)
     out = []
-    for j, S in enumerate(bev.sweep["S"]):
+    for j, S in enumerate(bev["S"]):
         m = TABLE_3_3[float(S)]
-        b = float(bev.sweep["axial"][j])
+        b = float(bev["axial"][j])
         out.append({"S": float(S), "measured_delta_percent": m["delta_percent"],
                     "measured_bevel_N": m["bevel_N"], "measured_helical_N": m["helical_N"],
                     "model_bevel_axial_N": b,
-                    "model_delta_percent_same_G": 100 * (float(same.sweep["axial"][j]) / b - 1),
-                    "model_delta_percent_thesis_G": 100 * (float(thesis.sweep["axial"][j]) / b
+                    "model_delta_percent_same_G": 100 * (float(same["axial"][j]) / b - 1),
+                    "model_delta_percent_thesis_G": 100 * (float(thesis["axial"][j]) / b
                                                            - 1)})
     return out
 
 
+def _swept(e: TipForces) -> dict[str, FloatArray]:
+    """The means over γ against S of a result made with ``S_values``."""
+    if e.sweep is None:
+        raise ValueError(f"{e.label}: no sweep over S (made without S_values)")
+    return e.sweep
+
+
 def _compare(entries: list[TipForces]) -> dict[str, Any]:
     """Where the helical means lie below/above the bevel's (S values)."""
-    bevel, same, thesis = entries
-    S = bevel.sweep["S"]
+    bevel, same, thesis = (_swept(e) for e in entries)
+    S = bevel["S"]
     out = {}
     for key, h in (("same_G", same), ("thesis_G", thesis)):
         d = {}
         for q in ("perp", "par"):
-            diff = h.sweep[q] - bevel.sweep[q]
+            diff = h[q] - bevel[q]
             d[f"helical_minus_bevel_{q}_N"] = diff.tolist()
             d[f"S_where_helical_{q}_lower"] = S[diff < 0].tolist()
         out[key] = d
@@ -253,13 +271,16 @@ def _reverse(entries: list[TipForces]) -> dict[str, Any]:
     out: dict[str, Any] = {"S": S.tolist()}
     for e in entries[:2]:
         t = tissue(e.tissue)
+        if t.R is None or t.mu_d is None:
+            raise SpecError(f"tissue '{t.name}' lacks R or mu_d for the fracture model")
         sw = mean_forces_vs_speed_ratio(e.geometry, S, R=t.R, mu_d=t.mu_d, G=e.forces.G,
                                         theta=e.forces.theta)
         out[e.label] = {"perp": sw["perp"].tolist(), "par": sw["par"].tolist()}
     return out
 
 
-def write_helical_vs_bevel(out_dir, *, S: float = 0.3, pictures: bool = True) -> list[str]:
+def write_helical_vs_bevel(out_dir: str | Path, *, S: float = 0.3,
+                           pictures: bool = True) -> list[str]:
     """Write ``forces-helical-vs-bevel.json`` and (``pictures``) ``.png`` — the
     along-edge forces at S and the means over S = 0…3 (Fig. 3.12) — and
     ``fracture-vs-k.png`` (Fig. 2.8) into ``out_dir``. Returns the paths."""

@@ -28,12 +28,18 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from typing import NamedTuple
+from typing import TYPE_CHECKING, NamedTuple
 
 import numpy as np
 
 from .. import validate as v
+from ..arrays import ArrayLike, FloatArray
 from ..errors import SpecError
+
+if TYPE_CHECKING:
+    from ..angles import AngleReport
+    from ..spec import TipSpec
+    from ..tip import Tip
 
 __all__ = ["EdgeGeometry", "SlicePush", "edge_geometry", "velocity", "slice_push",
            "bevel_slice_push_ratio", "bevel_tangent", "WALLS"]
@@ -51,9 +57,9 @@ class SlicePush(NamedTuple):
     k : (m,) float — slice/push ratio |v_∥| / v_⊥ (inf where v_⊥ = 0)
     """
 
-    v_parallel: np.ndarray
-    v_perpendicular: np.ndarray
-    k: np.ndarray
+    v_parallel: FloatArray
+    v_perpendicular: FloatArray
+    k: FloatArray
 
 
 @dataclass(frozen=True)
@@ -85,17 +91,17 @@ class EdgeGeometry:
     radius: float
     r_o: float
     r_i: float
-    gamma: np.ndarray
-    z: np.ndarray
-    dz: np.ndarray
-    tangent: np.ndarray
-    theta: np.ndarray
+    gamma: FloatArray
+    z: FloatArray
+    dz: FloatArray
+    tangent: FloatArray
+    theta: FloatArray
     theta_tip: float
     gamma_tip: float
     method: str
 
 
-def edge_geometry(source, *, wall: str = "outer", samples: int = 3600,
+def edge_geometry(source: TipSpec | Tip | AngleReport, *, wall: str = "outer", samples: int = 3600,
                   method: str = "exact") -> EdgeGeometry:
     """Sample one cutting edge of a tip for the force models.
 
@@ -142,7 +148,7 @@ def edge_geometry(source, *, wall: str = "outer", samples: int = 3600,
                         method=rep.method)
 
 
-def velocity(gamma, S: float) -> np.ndarray:
+def velocity(gamma: ArrayLike, S: float) -> FloatArray:
     """The velocity of edge points per unit axial speed, v / v_a =
     [−S sin γ, S cos γ, 1] (analysis frame; S = v_r / v_a).
 
@@ -157,7 +163,7 @@ def velocity(gamma, S: float) -> np.ndarray:
     return np.stack([-S * np.sin(g), S * np.cos(g), np.ones_like(g)], 1)
 
 
-def slice_push(gamma, tangent, S: float) -> SlicePush:
+def slice_push(gamma: ArrayLike, tangent: ArrayLike, S: float) -> SlicePush:
     """Velocity components along and across the edge and k = v_∥ / v_⊥.
 
     Parameters
@@ -182,17 +188,18 @@ def slice_push(gamma, tangent, S: float) -> SlicePush:
     return SlicePush(vpar, vperp, k)
 
 
-def bevel_tangent(gamma, xi: float) -> np.ndarray:
+def bevel_tangent(gamma: ArrayLike, xi: float) -> FloatArray:
     """Unit edge tangent of a one-plane bevel (eq. 3.21 as corrected in the
     errata): t_u = [−sin γ, cos γ, sin γ cot ξ] / √(1 + cot²ξ sin²γ)."""
     xi = v.angle("xi", xi, lo=0.0, hi=0.5 * math.pi, lo_open=True)
     g = np.atleast_1d(np.asarray(gamma, float))
     c = math.cos(xi) / math.sin(xi)
     t = np.stack([-np.sin(g), np.cos(g), np.sin(g) * c], 1)
-    return t / np.sqrt(1.0 + (c * np.sin(g)) ** 2)[:, None]
+    out: FloatArray = t / np.sqrt(1.0 + (c * np.sin(g)) ** 2)[:, None]
+    return out
 
 
-def bevel_slice_push_ratio(gamma, S: float, xi: float) -> np.ndarray:
+def bevel_slice_push_ratio(gamma: ArrayLike, S: float, xi: float) -> FloatArray:
     """Eq. 3.23: k = |S + cot ξ sin γ| / |1 − S cot ξ sin γ| for a one-plane
     bevel of bevel angle ξ (rad); inf where the denominator vanishes."""
     S = v.real("S", S)

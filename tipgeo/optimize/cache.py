@@ -32,8 +32,12 @@ import hashlib
 import json
 import os
 import stat
+from collections.abc import Callable
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any, NoReturn, cast
+
+if TYPE_CHECKING:
+    from ..spec import TipSpec
 
 __all__ = ["ResultCache", "spec_hash", "spec_key", "key_from_hash", "code_fingerprint",
            "default_cache_dir"]
@@ -53,7 +57,7 @@ def _version() -> str:
     return __version__
 
 
-def _no_constant(name: str):
+def _no_constant(name: str) -> NoReturn:
     raise ValueError(f"{name} is not allowed in a cache entry")
 
 
@@ -152,8 +156,11 @@ def _canonical(spec_dict: dict[str, Any]) -> dict[str, Any]:
             if not 0 < tu <= 100:
                 raise SpecError(f"tolerance_um = {tu:g} is out of range")
             tolerance = tu * 1e-3
-        d = S.spec_to_dict(SimpleNamespace(cannula=cannula, cutters=tuple(cutters), name="",
-                                           description="", tolerance=tolerance))
+        # spec_to_dict reads only these attributes; a TipSpec would also check
+        # the tip as a whole, and a key that parses is hashed canonically either way
+        d = S.spec_to_dict(cast("TipSpec", SimpleNamespace(
+            cannula=cannula, cutters=tuple(cutters), name="", description="",
+            tolerance=tolerance)))
     except SpecError:
         d = dict(spec_dict)  # keys that do not parse: hash it as written
     d.pop("name", None)
@@ -192,7 +199,8 @@ class ResultCache:
     hits, misses, writes : int — counters since construction
     """
 
-    def __init__(self, folder: str | Path, *, warn=None):
+    def __init__(self, folder: str | Path, *,
+                 warn: Callable[[str], None] | None = None) -> None:
         self.folder = Path(folder)
         self.hits = self.misses = self.writes = self.rejected = 0
         self._warn = warn
@@ -219,6 +227,20 @@ class ResultCache:
         is a reported miss). ``content_hash``, when given, must be the
         entry's (the caller's :func:`spec_hash` of the inputs)."""
         path = self._path(key)
+        raw = self._read(path)
+        if raw is None:
+            return None
+        try:
+            result = _entry_result(raw, key, content_hash)
+        except ValueError as e:
+            self._reject(path, str(e))
+            return None
+        self.hits += 1
+        return result
+
+    def _read(self, path: Path) -> bytes | None:
+        """The entry's bytes, or ``None`` once counted as a miss (no entry) or
+        a rejection (not a regular file, too large, unreadable)."""
         try:
             # stat first (it does not block): a FIFO, device or socket planted
             # in the cache would hang or never end a read; a huge file is not read
@@ -229,50 +251,13 @@ class ResultCache:
             if st.st_size > 1 << 20:
                 self._reject(path, "larger than 1 MB")
                 return None
-            raw = path.read_bytes()
+            return path.read_bytes()
         except FileNotFoundError:
             self.misses += 1
             return None
         except OSError as e:
             self._reject(path, f"cannot be read: {e.strerror or e}")
             return None
-        try:
-            if len(raw) > 1 << 20:
-                raise ValueError("larger than 1 MB")
-            try:
-                data = json.loads(raw.decode("utf-8"), parse_constant=_no_constant)
-            except UnicodeDecodeError:
-                raise ValueError("not UTF-8") from None
-            except RecursionError:
-                raise ValueError("nested too deeply") from None
-            except json.JSONDecodeError as e:
-                raise ValueError(f"not JSON: {e.msg}") from None
-            if not isinstance(data, dict):
-                raise ValueError("not a JSON object")
-            missing = _ENTRY_KEYS - set(data)
-            if missing:
-                raise ValueError(f"key {sorted(missing)[0]!r} is missing")
-            extra = set(data) - _ENTRY_KEYS
-            if extra:
-                raise ValueError(f"unknown key {sorted(extra)[0]!r}")
-            if data["format"] != CACHE_FORMAT or isinstance(data["format"], bool):
-                raise ValueError(f"format is not {CACHE_FORMAT}")
-            if data["key"] != key:
-                raise ValueError("its key is not its file name")
-            if data["tipgeo_version"] != _version():
-                raise ValueError(f"written by tipgeo {str(data['tipgeo_version'])[:20]}, "
-                                 f"not {_version()}")
-            h = data["content_hash"]
-            if not _is_hex64(h) or key_from_hash(h) != key:
-                raise ValueError("its content hash does not give its key")
-            if content_hash is not None and h != content_hash:
-                raise ValueError("its content hash is not the inputs' hash")
-            result = _check_result(data["result"])
-        except ValueError as e:
-            self._reject(path, str(e))
-            return None
-        self.hits += 1
-        return result
 
     def put(self, key: str, result: dict[str, Any], content_hash: str | None = None) -> bool:
         """Store a result (atomically) with the content hash of its inputs
@@ -297,3 +282,44 @@ class ResultCache:
         write_text_atomic(path, text)
         self.writes += 1
         return True
+
+
+def _entry_result(raw: bytes, key: str, content_hash: str | None) -> dict[str, Any]:
+    """The result of the cache entry ``raw`` stored under ``key``, or a
+    ValueError saying why the entry is not valid."""
+    if len(raw) > 1 << 20:
+        raise ValueError("larger than 1 MB")
+    try:
+        data = json.loads(raw.decode("utf-8"), parse_constant=_no_constant)
+    except UnicodeDecodeError:
+        raise ValueError("not UTF-8") from None
+    except RecursionError:
+        raise ValueError("nested too deeply") from None
+    except json.JSONDecodeError as e:
+        raise ValueError(f"not JSON: {e.msg}") from None
+    if not isinstance(data, dict):
+        raise ValueError("not a JSON object")
+    _check_entry(data, key, content_hash)
+    return _check_result(data["result"])
+
+
+def _check_entry(data: dict[str, Any], key: str, content_hash: str | None) -> None:
+    """The entry's keys, format, key, version and content hash, or a ValueError."""
+    missing = _ENTRY_KEYS - set(data)
+    if missing:
+        raise ValueError(f"key {sorted(missing)[0]!r} is missing")
+    extra = set(data) - _ENTRY_KEYS
+    if extra:
+        raise ValueError(f"unknown key {sorted(extra)[0]!r}")
+    if data["format"] != CACHE_FORMAT or isinstance(data["format"], bool):
+        raise ValueError(f"format is not {CACHE_FORMAT}")
+    if data["key"] != key:
+        raise ValueError("its key is not its file name")
+    if data["tipgeo_version"] != _version():
+        raise ValueError(f"written by tipgeo {str(data['tipgeo_version'])[:20]}, "
+                         f"not {_version()}")
+    h = data["content_hash"]
+    if not _is_hex64(h) or key_from_hash(h) != key:
+        raise ValueError("its content hash does not give its key")
+    if content_hash is not None and h != content_hash:
+        raise ValueError("its content hash is not the inputs' hash")

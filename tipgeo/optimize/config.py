@@ -60,15 +60,20 @@ from __future__ import annotations
 import copy
 import math
 import re
+from collections.abc import Collection, Iterable
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
+from ..cutters.base import CUTTER_KINDS, Cutter, OptimizerKey
 from ..errors import SpecError
 from ..names import MAX_NAME_LEN, safe_name
 from ..validate import brief, finite_float
 from .design import DESIGN_METHODS
 from .responses import FORCE_RESPONSES, RESPONSES, THESIS
+
+if TYPE_CHECKING:
+    from ..spec import TipSpec
 
 __all__ = ["Variable", "Term", "Objective", "StudyConfig", "load_config", "loads_config",
            "config_from_dict", "ANALYSIS_METHODS", "GOALS", "COMBINE"]
@@ -101,14 +106,6 @@ _PATH = re.compile(r"^(?:(?P<top>tolerance_um)|cannula\.(?P<ckey>\w+)|"
                    r"cutters\[(?P<k>\d+)\]\.(?P<key>\w+))$")
 _CANNULA_NUMERIC = {"gauge": int, "outer_diameter_mm": float, "inner_diameter_mm": float,
                     "length_mm": float}
-_INT_KEYS = {"count", "planes"}
-#: varying a key drops the keys it replaces (spec files give one of each pair)
-_ALTERNATIVES = {("multiplane", "xi_deg"): ("theta_deg",),
-                 ("multiplane", "theta_deg"): ("xi_deg",),
-                 ("conical", "theta_deg"): ("phi_g_deg", "varphi_deg"),
-                 ("conical", "phi_g_deg"): ("theta_deg",),
-                 ("serration", "count"): ("spacing_deg",),
-                 ("serration", "spacing_deg"): ("count",)}
 
 
 @dataclass(frozen=True)
@@ -190,23 +187,23 @@ class StudyConfig:
 
     name: str
     base_name: str
-    base: dict
+    base: dict[str, Any]
     variables: tuple[Variable, ...]
-    design: dict
-    analysis: dict
+    design: dict[str, Any]
+    analysis: dict[str, Any]
     responses: tuple[str, ...]
     workers: int | None = None
     cache: str | bool = True
-    surrogate: dict = field(default_factory=dict)
-    infill: dict = field(default_factory=lambda: {"rounds": 0, "threshold": 0.01,
+    surrogate: dict[str, Any] = field(default_factory=dict)
+    infill: dict[str, Any] = field(default_factory=lambda: {"rounds": 0, "threshold": 0.01,
                                                   "responses": ()})
     objectives: tuple[Objective, ...] = ()
-    plots: dict = field(default_factory=dict)
+    plots: dict[str, Any] = field(default_factory=dict)
     description: str = ""
     source: Path | None = None
 
     # -- configurations -----------------------------------------------------------
-    def spec_dict(self, x, index: int | None = None) -> dict[str, Any]:
+    def spec_dict(self, x: Iterable[float], index: int | None = None) -> dict[str, Any]:
         """The spec (TOML form) with the variables set to the values ``x``."""
         d = copy.deepcopy(self.base)
         d.pop("description", None)  # the base tip's; this is a variant of it
@@ -216,7 +213,7 @@ class StudyConfig:
             d["name"] = f"{self.name}-{index:04d}"
         return d
 
-    def spec(self, x):
+    def spec(self, x: Iterable[float]) -> TipSpec:
         """The :class:`~tipgeo.TipSpec` at the values ``x`` (raises SpecError if invalid)."""
         from ..spec import spec_from_dict
 
@@ -252,8 +249,21 @@ class StudyConfig:
 
 
 # -----------------------------------------------------------------------------
-def _set(d: dict, v: Variable, value) -> None:
+def _optimizer_keys(kind: object) -> dict[str, OptimizerKey]:
+    """The keys a study may vary on a cutter of ``kind``: what its class
+    declares (:attr:`~tipgeo.cutters.base.Cutter.optimizer_keys`); none for an
+    unknown kind."""
+    cls = CUTTER_KINDS.get(kind) if isinstance(kind, str) else None
+    if cls is None or not issubclass(cls, Cutter):
+        return {}
+    return dict(cls.optimizer_keys)
+
+
+def _set(d: dict[str, Any], v: Variable, value: float) -> None:
     m = _PATH.match(v.path)
+    if m is None:
+        raise SpecError(f"variable {v.name!r}: path = {v.path!r} is not a spec key; expected "
+                        "'tolerance_um', 'cannula.<key>' or 'cutters[<k>].<key>'")
     if m["top"]:
         d["tolerance_um"] = value
         return
@@ -261,7 +271,8 @@ def _set(d: dict, v: Variable, value) -> None:
         d["cannula"][m["ckey"]] = value
         return
     c = d["cutters"][int(m["k"])]
-    for other in _ALTERNATIVES.get((c.get("kind"), m["key"]), ()):
+    declared = _optimizer_keys(c.get("kind")).get(m["key"])
+    for other in declared.replaces if declared is not None else ():
         c.pop(other, None)
     c[m["key"]] = value
 
@@ -282,14 +293,14 @@ def _str(key: str, value: Any) -> str:
     return value
 
 
-def _choice(key: str, value: Any, allowed) -> str:
+def _choice(key: str, value: Any, allowed: Collection[str]) -> str:
     if not isinstance(value, str) or value not in allowed:
         raise SpecError(f"{key} = {brief(value)} is not valid; expected one of: "
                         + ", ".join(allowed))
     return value
 
 
-def _table(key: str, value: Any, allowed: tuple[str, ...]) -> dict:
+def _table(key: str, value: Any, allowed: tuple[str, ...]) -> dict[str, Any]:
     if not isinstance(value, dict):
         raise SpecError(f"{key} = {brief(value)} is not a table; expected a TOML table")
     for k in value:
@@ -298,7 +309,7 @@ def _table(key: str, value: Any, allowed: tuple[str, ...]) -> dict:
     return value
 
 
-def _list(key: str, value: Any) -> list:
+def _list(key: str, value: Any) -> list[Any]:
     if not isinstance(value, list):
         raise SpecError(f"{key} = {brief(value)} is not a list; expected an array")
     if len(value) > MAX_CONFIG_LIST:
@@ -307,14 +318,14 @@ def _list(key: str, value: Any) -> list:
     return value
 
 
-def _responses(key: str, value: Any, allowed=None) -> tuple[str, ...]:
-    allowed = tuple(RESPONSES) if allowed is None else tuple(allowed)
+def _responses(key: str, value: Any, allowed: Iterable[str] | None = None) -> tuple[str, ...]:
+    names = tuple(RESPONSES) if allowed is None else tuple(allowed)
     items = _list(key, value)
     if not items:
-        raise SpecError(f"{key} = [] is empty; expected at least one of: " + ", ".join(allowed))
-    out = []
+        raise SpecError(f"{key} = [] is empty; expected at least one of: " + ", ".join(names))
+    out: list[str] = []
     for j, r in enumerate(items):
-        out.append(_choice(f"{key}[{j}]", r, allowed))
+        out.append(_choice(f"{key}[{j}]", r, names))
     if len(set(out)) != len(out):
         raise SpecError(f"{key} = {out!r} repeats a response; allowed each once")
     return tuple(out)
@@ -338,7 +349,7 @@ def _forces(value: Any) -> dict[str, Any]:
     return {"speed_ratio": S, "tissue": tissue}
 
 
-def _base(value: Any, base_dir: Path | None) -> tuple[str, dict]:
+def _base(value: Any, base_dir: Path | None) -> tuple[str, dict[str, Any]]:
     from ..presets import PRESETS, preset
     from ..spec import spec_to_dict
 
@@ -369,48 +380,10 @@ def _base(value: Any, base_dir: Path | None) -> tuple[str, dict]:
     return name, spec_to_dict(preset(name))
 
 
-def _variable(k: int, t: Any, base: dict) -> Variable:
+def _variable(k: int, t: Any, base: dict[str, Any]) -> Variable:
     where = f"variables[{k}]"
     t = _table(where, t, ("name", "path", "min", "max", "levels"))
-    if "path" not in t:
-        raise SpecError(f"{where}.path is missing; expected a spec key such as "
-                        "'cutters[0].helix_angle_deg' or 'cannula.length_mm'")
-    path = _str(f"{where}.path", t["path"])
-    m = _PATH.match(path)
-    if not m:
-        raise SpecError(f"{where}.path = {path!r} is not a spec key; expected 'tolerance_um', "
-                        "'cannula.<key>' or 'cutters[<k>].<key>'")
-    integer = False
-    if m["ckey"]:
-        if m["ckey"] not in _CANNULA_NUMERIC:
-            raise SpecError(f"{where}.path = {path!r}: cannula.{m['ckey']} is not a numeric "
-                            "key; allowed: " + ", ".join(f"cannula.{c}" for c in _CANNULA_NUMERIC))
-        if "preset" in base["cannula"] or (
-                "gauge" in base["cannula"] and m["ckey"].endswith("diameter_mm")):
-            raise SpecError(f"{where}.path = {path!r}: the base cannula is given by "
-                            f"{'preset' if 'preset' in base['cannula'] else 'gauge'}; write it "
-                            "with outer_diameter_mm and inner_diameter_mm to vary a diameter")
-        if m["ckey"] == "gauge" and "gauge" not in base["cannula"]:
-            raise SpecError(f"{where}.path = {path!r}: the base cannula is given by "
-                            "diameters; allowed cannula.outer_diameter_mm, "
-                            "cannula.inner_diameter_mm or cannula.length_mm")
-        integer = _CANNULA_NUMERIC[m["ckey"]] is int
-    elif m["key"]:
-        from ..spec import CUTTER_KINDS
-
-        cutters = base["cutters"]
-        ci = int(m["k"])
-        if ci >= len(cutters):
-            raise SpecError(f"{where}.path = {path!r}: the base spec has {len(cutters)} "
-                            f"cutter(s); allowed cutters[0]–cutters[{len(cutters) - 1}]")
-        kind = cutters[ci].get("kind")
-        key = m["key"]
-        numeric = [c for c in CUTTER_KINDS[kind]
-                   if (c.endswith(("_mm", "_deg")) and c != "rotations_deg") or c in _INT_KEYS]
-        if key not in numeric:
-            raise SpecError(f"{where}.path = {path!r}: '{key}' is not a numeric key of a "
-                            f"{kind} cutter; allowed: " + ", ".join(numeric))
-        integer = key in _INT_KEYS
+    path, integer = _variable_path(where, t, base)
     name = _str(f"{where}.name", t.get("name", path.rsplit(".", 1)[-1]))
     if not _is_name(name):
         raise SpecError(f"{where}.name = {brief(name)} is not a valid column name; allowed 1–"
@@ -426,6 +399,59 @@ def _variable(k: int, t: Any, base: dict) -> Variable:
         raise SpecError(f"{where}: '{path}' is an integer key; allowed integer min and max "
                         f"(got {lo:g}, {hi:g})")
     return Variable(name=name, path=path, lo=lo, hi=hi, levels=levels, integer=integer)
+
+
+def _variable_path(where: str, t: dict[str, Any], base: dict[str, Any]) -> tuple[str, bool]:
+    """``<where>.path`` checked against the base spec, and whether it is an integer key."""
+    if "path" not in t:
+        raise SpecError(f"{where}.path is missing; expected a spec key such as "
+                        "'cutters[0].helix_angle_deg' or 'cannula.length_mm'")
+    path = _str(f"{where}.path", t["path"])
+    m = _PATH.match(path)
+    if not m:
+        raise SpecError(f"{where}.path = {path!r} is not a spec key; expected 'tolerance_um', "
+                        "'cannula.<key>' or 'cutters[<k>].<key>'")
+    if m["ckey"]:
+        return path, _cannula_key(where, path, m["ckey"], base)
+    if m["key"]:
+        return path, _cutter_key(where, path, int(m["k"]), m["key"], base)
+    return path, False
+
+
+def _cannula_key(where: str, path: str, ckey: str, base: dict[str, Any]) -> bool:
+    """Check that ``cannula.<ckey>`` can be varied on the base cannula; True for
+    an integer key (``gauge``)."""
+    if ckey not in _CANNULA_NUMERIC:
+        raise SpecError(f"{where}.path = {path!r}: cannula.{ckey} is not a numeric "
+                        "key; allowed: " + ", ".join(f"cannula.{c}" for c in _CANNULA_NUMERIC))
+    cannula = base["cannula"]
+    if "preset" in cannula or ("gauge" in cannula and ckey.endswith("diameter_mm")):
+        raise SpecError(f"{where}.path = {path!r}: the base cannula is given by "
+                        f"{'preset' if 'preset' in cannula else 'gauge'}; write it "
+                        "with outer_diameter_mm and inner_diameter_mm to vary a diameter")
+    if ckey == "gauge" and "gauge" not in cannula:
+        raise SpecError(f"{where}.path = {path!r}: the base cannula is given by "
+                        "diameters; allowed cannula.outer_diameter_mm, "
+                        "cannula.inner_diameter_mm or cannula.length_mm")
+    return _CANNULA_NUMERIC[ckey] is int
+
+
+def _cutter_key(where: str, path: str, ci: int, key: str, base: dict[str, Any]) -> bool:
+    """Check that ``cutters[<ci>].<key>`` is a key its kind lets a study vary
+    (:attr:`~tipgeo.cutters.base.Cutter.optimizer_keys`); True for an integer key."""
+    cutters = base["cutters"]
+    if ci >= len(cutters):
+        raise SpecError(f"{where}.path = {path!r}: the base spec has {len(cutters)} "
+                        f"cutter(s); allowed cutters[0]–cutters[{len(cutters) - 1}]")
+    kind = cutters[ci].get("kind")
+    keys = _optimizer_keys(kind)
+    if not keys:
+        raise SpecError(f"{where}.path = {path!r}: a {kind} cutter has no key a study may "
+                        "vary")
+    if key not in keys:
+        raise SpecError(f"{where}.path = {path!r}: '{key}' is not a numeric key of a "
+                        f"{kind} cutter; allowed: " + ", ".join(keys))
+    return keys[key].integer
 
 
 def _objective(k: int, t: Any, responses: tuple[str, ...]) -> Objective:
@@ -461,11 +487,15 @@ def _objective(k: int, t: Any, responses: tuple[str, ...]) -> Objective:
 
 _TOP = ("name", "description", "base", "variables", "design", "analysis", "sweep",
         "surrogate", "infill", "objectives", "plots")
+_DESIGN_KEYS = ("method", "levels", "points", "seed", "candidates")
+_ANALYSIS_KEYS = ("method", "harmonics", "samples", "responses", "forces")
+_SURROGATE_KEYS = ("nugget", "mode", "starts", "seed", "responses", "calibrate", "kernel",
+                   "response_kernels")
 
 
 def config_from_dict(data: Any, *, base_dir: str | Path | None = None,
                      source: Path | None = None) -> StudyConfig:
-    """Validate a parsed study TOML document.
+    """Validate a parsed study TOML document, one reader per section.
 
     Parameters
     ----------
@@ -475,26 +505,58 @@ def config_from_dict(data: Any, *, base_dir: str | Path | None = None,
     """
     t = _table("config", data, _TOP)
     bdir = None if base_dir is None else Path(base_dir)
+    name = _study_name(t, source)
+    description = _str("description", t.get("description", ""))
+    if "base" not in t:
+        raise SpecError("base is missing; expected a preset name or a spec file (.toml)")
+    base_name, base = _base(t["base"], bdir)
+    design = _design(t.get("design", {}))
+    variables = _variables(t.get("variables", []), base)
+    design = _design_for(design, variables)
+    analysis, responses = _analysis(t.get("analysis", {}))
+    workers, cache = _sweep(t.get("sweep", {}), bdir)
+    sg = _table("surrogate", t.get("surrogate", {}), _SURROGATE_KEYS)
+    surrogate = _surrogate(sg, responses)
+    inf = _table("infill", t.get("infill", {}), ("rounds", "threshold", "responses"))
+    threshold = _threshold(inf)
+    objs = tuple(_objective(k, o, surrogate["responses"])
+                 for k, o in enumerate(_list("objectives", t.get("objectives", []))))
+    infill = _infill(inf, threshold, objs, surrogate["responses"])
+    if len({o.name for o in objs}) != len(objs):
+        raise SpecError("objectives: two objectives share a name; allowed unique names")
+    pl = _table("plots", t.get("plots", {}), ("responses", "variables", "resolution"))
+    plots = _plots(pl, [v.name for v in variables], surrogate["responses"])
+    # responses the config names to be modelled beyond the objectives' own
+    surrogate["requested"] = tuple(dict.fromkeys(
+        (surrogate["responses"] if "responses" in sg else ())
+        + (infill["responses"] if "responses" in inf else ())
+        + (plots["responses"] if "responses" in pl else ())))
+    return StudyConfig(name=name, description=description, base_name=base_name, base=base,
+                       variables=variables, design=design, analysis=analysis,
+                       responses=responses, workers=workers, cache=cache, surrogate=surrogate,
+                       infill=infill, objectives=objs, plots=plots, source=source)
+
+
+def _study_name(t: dict[str, Any], source: Path | None) -> str:
+    """``name``: default the config file's stem, else ``study``."""
     name = _str("name", t.get("name", safe_name(source.stem) if source else "study"))
     # its configurations are named <name>-<index> (up to 7 more characters)
     if not _is_name(name) or len(name) > MAX_STUDY_NAME_LEN:
         raise SpecError(f"name = {brief(name)} is not a valid study name; allowed 1–"
                         f"{MAX_STUDY_NAME_LEN} ASCII letters, digits, '_', '.', '-' (not "
                         "first)")
-    description = _str("description", t.get("description", ""))
-    if "base" not in t:
-        raise SpecError("base is missing; expected a preset name or a spec file (.toml)")
-    base_name, base = _base(t["base"], bdir)
+    return name
 
-    design = _table("design", t.get("design", {}), ("method", "levels", "points", "seed",
-                                                    "candidates"))
+
+def _design(value: Any) -> dict[str, Any]:
+    """``[design]`` on its own (checked against the variables by :func:`_design_for`)."""
+    design = _table("design", value, _DESIGN_KEYS)
     method = _choice("design.method", design.get("method", "grid"), tuple(DESIGN_METHODS))
     levels = design.get("levels")
-    if levels is not None:
-        if isinstance(levels, list):
-            levels = [_int(f"design.levels[{j}]", x, 2, 10_000) for j, x in enumerate(levels)]
-        else:
-            levels = _int("design.levels", levels, 2, 10_000)
+    if isinstance(levels, list):
+        levels = [_int(f"design.levels[{j}]", x, 2, 10_000) for j, x in enumerate(levels)]
+    elif levels is not None:
+        levels = _int("design.levels", levels, 2, 10_000)
     points = design.get("points")
     if points is not None:
         points = _int("design.points", points, 2, 1_000_000)
@@ -506,53 +568,79 @@ def config_from_dict(data: Any, *, base_dir: str | Path | None = None,
                             "for method 'maximin'")
         # every candidate costs a spec validation (~0.05 s): bounded here
         candidates = _int("design.candidates", candidates, 2, MAX_CANDIDATES)
+    return {"method": method, "levels": levels, "points": points, "seed": seed,
+            "candidates": candidates}
 
-    raw_vars = _list("variables", t.get("variables", []))
-    if not raw_vars:
+
+def _variables(value: Any, base: dict[str, Any]) -> tuple[Variable, ...]:
+    """``[[variables]]``: at least one, names and paths unique."""
+    raw = _list("variables", value)
+    if not raw:
         raise SpecError("variables is missing or empty; expected at least one [[variables]] "
                         "table with path, min and max")
-    variables = tuple(_variable(k, v, base) for k, v in enumerate(raw_vars))
+    variables = tuple(_variable(k, v, base) for k, v in enumerate(raw))
     names = [v.name for v in variables]
+    paths = [v.path for v in variables]
     for v in variables:
         if names.count(v.name) > 1:
             raise SpecError(f"variables: name {v.name!r} is used twice; allowed unique names")
-        if [w.path for w in variables].count(v.path) > 1:
+        if paths.count(v.path) > 1:
             raise SpecError(f"variables: path {v.path!r} is varied twice; allowed once")
+    return variables
+
+
+def _design_for(design: dict[str, Any], variables: tuple[Variable, ...]) -> dict[str, Any]:
+    """``[design]`` checked against the variables: a grid's levels, the other
+    methods' points, a maximin design's candidates (default filled in)."""
+    method, levels, points = design["method"], design["levels"], design["points"]
     if method == "grid":
-        if isinstance(levels, list) and len(levels) != len(variables):
-            raise SpecError(f"design.levels = {levels!r} has {len(levels)} entries for "
-                            f"{len(variables)} variables; expected one integer or "
-                            f"{len(variables)}")
-        if levels is None and any(v.levels is None for v in variables):
-            raise SpecError("design.levels is missing; method 'grid' needs levels (in [design] "
-                            "or per variable)")
-        if points is not None:
-            raise SpecError("design.points is not used by method 'grid'; give levels instead")
-        lv = levels if isinstance(levels, list) else [v.levels or levels for v in variables]
-        total = math.prod(lv)
-        if total > 1_000_000:
-            raise SpecError(f"design.levels give {total} grid points; allowed ≤ 1000000")
-    else:
-        if points is None:
-            raise SpecError(f"design.points is missing; method '{method}' needs a number of "
-                            "points (≥ 2)")
-        if levels is not None:
-            raise SpecError(f"design.levels is not used by method '{method}'; give points")
+        _check_grid(levels, points, variables)
+        return design
+    if points is None:
+        raise SpecError(f"design.points is missing; method '{method}' needs a number of "
+                        "points (≥ 2)")
+    if levels is not None:
+        raise SpecError(f"design.levels is not used by method '{method}'; give points")
     if method == "maximin":
-        from .design import candidate_pool_size, default_candidates
+        return {**design, "candidates": _maximin_candidates(design["candidates"], points,
+                                                            variables)}
+    return design
 
-        if candidates is None:
-            candidates = min(default_candidates(points, len(variables)), MAX_CANDIDATES)
-        size = candidate_pool_size(variables, candidates)
-        if size < points:
-            raise SpecError(f"design.candidates = {candidates} gives a grid of {size} "
-                            f"candidates for design.points = {points}; allowed candidates "
-                            "giving at least as many grid points as design points")
-    design = {"method": method, "levels": levels, "points": points, "seed": seed,
-              "candidates": candidates}
 
-    an = _table("analysis", t.get("analysis", {}), ("method", "harmonics", "samples",
-                                                    "responses", "forces"))
+def _check_grid(levels: int | list[int] | None, points: int | None,
+                variables: tuple[Variable, ...]) -> None:
+    n = len(variables)
+    if isinstance(levels, list) and len(levels) != n:
+        raise SpecError(f"design.levels = {levels!r} has {len(levels)} entries for "
+                        f"{n} variables; expected one integer or {n}")
+    if levels is None and any(v.levels is None for v in variables):
+        raise SpecError("design.levels is missing; method 'grid' needs levels (in [design] "
+                        "or per variable)")
+    if points is not None:
+        raise SpecError("design.points is not used by method 'grid'; give levels instead")
+    lv = levels if isinstance(levels, list) else [v.levels or levels or 0 for v in variables]
+    total = math.prod(lv)
+    if total > 1_000_000:
+        raise SpecError(f"design.levels give {total} grid points; allowed ≤ 1000000")
+
+
+def _maximin_candidates(candidates: int | None, points: int,
+                        variables: tuple[Variable, ...]) -> int:
+    from .design import candidate_pool_size, default_candidates
+
+    if candidates is None:
+        candidates = min(default_candidates(points, len(variables)), MAX_CANDIDATES)
+    size = candidate_pool_size(variables, candidates)
+    if size < points:
+        raise SpecError(f"design.candidates = {candidates} gives a grid of {size} "
+                        f"candidates for design.points = {points}; allowed candidates "
+                        "giving at least as many grid points as design points")
+    return candidates
+
+
+def _analysis(value: Any) -> tuple[dict[str, Any], tuple[str, ...]]:
+    """``[analysis]``: the analysis settings and the recorded responses."""
+    an = _table("analysis", value, _ANALYSIS_KEYS)
     analysis = {"method": _choice("analysis.method", an.get("method", "exact"),
                                   ANALYSIS_METHODS),
                 "harmonics": _int("analysis.harmonics", an.get("harmonics", 5), 1, 50),
@@ -564,40 +652,39 @@ def config_from_dict(data: Any, *, base_dir: str | Path | None = None,
         if r in FORCE_RESPONSES and "forces" not in analysis:
             raise SpecError(f"analysis.responses[{j}] = {r!r} is a force; it needs "
                             "[analysis.forces] with speed_ratio and tissue")
+    return analysis, responses
 
-    sw = _table("sweep", t.get("sweep", {}), ("workers", "cache"))
+
+def _sweep(value: Any, bdir: Path | None) -> tuple[int | None, str | bool]:
+    """``[sweep]``: the worker count (None: all CPUs) and the cache (a folder,
+    relative to ``bdir``, or a bool)."""
+    sw = _table("sweep", value, ("workers", "cache"))
     workers = _int("sweep.workers", sw["workers"], 1, 4096) if "workers" in sw else None
     cache = sw.get("cache", True)
-    if not isinstance(cache, bool):
-        cache = _str("sweep.cache", cache)
-        if not cache:
-            raise SpecError("sweep.cache = '' is empty; expected true, false or a folder")
-        p = Path(cache)
-        cache = str(p if p.is_absolute() or bdir is None else bdir / p)
+    if isinstance(cache, bool):
+        return workers, cache
+    folder = _str("sweep.cache", cache)
+    if not folder:
+        raise SpecError("sweep.cache = '' is empty; expected true, false or a folder")
+    p = Path(folder)
+    return workers, str(p if p.is_absolute() or bdir is None else bdir / p)
 
-    sg = _table("surrogate", t.get("surrogate", {}), ("nugget", "mode", "starts", "seed",
-                                                      "responses", "calibrate", "kernel",
-                                                      "response_kernels"))
+
+def _surrogate(sg: dict[str, Any], responses: tuple[str, ...]) -> dict[str, Any]:
+    """``[surrogate]`` (already a checked table); ``requested`` is added by the caller."""
     calibrate = sg.get("calibrate", False)
     if not isinstance(calibrate, bool):
         raise SpecError(f"surrogate.calibrate = {brief(calibrate)} is not valid; allowed "
                         "true or false")
-    nug = sg.get("nugget", False)
-    if not isinstance(nug, bool):
-        nug = _num("surrogate.nugget", nug)
-        if not 0 <= nug < 1:
-            raise SpecError(f"surrogate.nugget = {nug:g} is out of range; allowed false, true "
-                            "or a number 0 ≤ δ < 1")
-    surrogate = {"nugget": nug,
-                 "mode": _choice("surrogate.mode", sg.get("mode", "independent"),
-                                 SURROGATE_MODES),
-                 "starts": _int("surrogate.starts", sg.get("starts", 12), 1, 1000),
-                 "seed": _int("surrogate.seed", sg.get("seed", 0), 0, 2**32 - 1),
-                 "calibrate": calibrate,
-                 "kernel": _choice("surrogate.kernel", sg.get("kernel", "gaussian"),
-                                   SURROGATE_KERNELS),
-                 "responses": (_responses("surrogate.responses", sg["responses"], responses)
-                               if "responses" in sg else responses)}
+    surrogate: dict[str, Any] = {
+        "nugget": _nugget(sg.get("nugget", False)),
+        "mode": _choice("surrogate.mode", sg.get("mode", "independent"), SURROGATE_MODES),
+        "starts": _int("surrogate.starts", sg.get("starts", 12), 1, 1000),
+        "seed": _int("surrogate.seed", sg.get("seed", 0), 0, 2**32 - 1),
+        "calibrate": calibrate,
+        "kernel": _choice("surrogate.kernel", sg.get("kernel", "gaussian"), SURROGATE_KERNELS),
+        "responses": (_responses("surrogate.responses", sg["responses"], responses)
+                      if "responses" in sg else responses)}
     rk = _table("surrogate.response_kernels", sg.get("response_kernels", {}),
                 tuple(surrogate["responses"]))
     surrogate["response_kernels"] = {k: _choice(f"surrogate.response_kernels.{k}", v,
@@ -605,48 +692,53 @@ def config_from_dict(data: Any, *, base_dir: str | Path | None = None,
     if surrogate["response_kernels"] and surrogate["mode"] == "separable":
         raise SpecError("surrogate.response_kernels needs mode = 'independent'; the separable "
                         "model (eq. 3.33) has one correlation for all responses")
+    return surrogate
 
-    inf = _table("infill", t.get("infill", {}), ("rounds", "threshold", "responses"))
+
+def _nugget(value: Any) -> bool | float:
+    """``surrogate.nugget``: false, true (MLE) or a fixed δ in [0, 1)."""
+    if isinstance(value, bool):
+        return value
+    nug = _num("surrogate.nugget", value)
+    if not 0 <= nug < 1:
+        raise SpecError(f"surrogate.nugget = {nug:g} is out of range; allowed false, true "
+                        "or a number 0 ≤ δ < 1")
+    return nug
+
+
+def _threshold(inf: dict[str, Any]) -> float:
+    """``infill.threshold``: a fraction of each response's training range, (0, 1]."""
     threshold = _num("infill.threshold", inf.get("threshold", 0.01))
     if not 0 < threshold <= 1:
         raise SpecError(f"infill.threshold = {threshold:g} is out of range; allowed a fraction "
                         "of the response's training range, 0 < t ≤ 1")
-    objs = tuple(_objective(k, o, surrogate["responses"])
-                 for k, o in enumerate(_list("objectives", t.get("objectives", []))))
-    used = tuple(dict.fromkeys(tt.response for o in objs for tt in o.terms))
-    infill = {"rounds": _int("infill.rounds", inf.get("rounds", 8), 0, 100),
-              "threshold": threshold,
-              "responses": (_responses("infill.responses", inf["responses"],
-                                       surrogate["responses"])
-                            if "responses" in inf else used or surrogate["responses"])}
-    if len({o.name for o in objs}) != len(objs):
-        raise SpecError("objectives: two objectives share a name; allowed unique names")
+    return threshold
 
-    pl = _table("plots", t.get("plots", {}), ("responses", "variables", "resolution"))
-    # responses the config names to be modelled beyond the objectives' own
-    requested = tuple(dict.fromkeys(
-        (surrogate["responses"] if "responses" in sg else ())
-        + (infill["responses"] if "responses" in inf else ())
-        + (_responses("plots.responses", pl["responses"], surrogate["responses"])
-           if "responses" in pl else ())))
-    surrogate["requested"] = requested
-    pvars = pl.get("variables", names[:2])
-    pvars = _list("plots.variables", pvars)
+
+def _infill(inf: dict[str, Any], threshold: float, objs: tuple[Objective, ...],
+            modelled: tuple[str, ...]) -> dict[str, Any]:
+    """``[infill]``: checked on the objectives' responses unless it names its own."""
+    used = tuple(dict.fromkeys(tt.response for o in objs for tt in o.terms))
+    return {"rounds": _int("infill.rounds", inf.get("rounds", 8), 0, 100),
+            "threshold": threshold,
+            "responses": (_responses("infill.responses", inf["responses"], modelled)
+                          if "responses" in inf else used or modelled)}
+
+
+def _plots(pl: dict[str, Any], names: list[str], modelled: tuple[str, ...]) -> dict[str, Any]:
+    """``[plots]``: responses (default: the modelled ones), one or two variables
+    (default the first two), resolution."""
+    responses = (_responses("plots.responses", pl["responses"], modelled)
+                 if "responses" in pl else modelled)
+    pvars = _list("plots.variables", pl.get("variables", names[:2]))
     if not 1 <= len(pvars) <= 2 or len(pvars) > len(names):
         raise SpecError(f"plots.variables = {pvars!r}; allowed one or two of: "
                         + ", ".join(names))
-    pvars = tuple(_choice(f"plots.variables[{j}]", x, names) for j, x in enumerate(pvars))
-    if len(set(pvars)) != len(pvars):
-        raise SpecError(f"plots.variables = {list(pvars)!r} repeats a variable")
-    plots = {"responses": (_responses("plots.responses", pl["responses"],
-                                      surrogate["responses"])
-                           if "responses" in pl else surrogate["responses"]),
-             "variables": pvars,
-             "resolution": _int("plots.resolution", pl.get("resolution", 61), 5, 401)}
-    return StudyConfig(name=name, description=description, base_name=base_name, base=base,
-                       variables=variables, design=design, analysis=analysis,
-                       responses=responses, workers=workers, cache=cache, surrogate=surrogate,
-                       infill=infill, objectives=objs, plots=plots, source=source)
+    chosen = tuple(_choice(f"plots.variables[{j}]", x, names) for j, x in enumerate(pvars))
+    if len(set(chosen)) != len(chosen):
+        raise SpecError(f"plots.variables = {list(chosen)!r} repeats a variable")
+    return {"responses": responses, "variables": chosen,
+            "resolution": _int("plots.resolution", pl.get("resolution", 61), 5, 401)}
 
 
 def loads_config(text: str, *, base_dir: str | Path | None = None,

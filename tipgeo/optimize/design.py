@@ -42,11 +42,18 @@ from __future__ import annotations
 import itertools
 import math
 import warnings
+from collections.abc import Sequence
+from typing import TYPE_CHECKING
 
 import numpy as np
 
+from ..arrays import ArrayLike, FloatArray, IntArray
 from ..errors import SpecError
 from ..tolerances import tol
+
+if TYPE_CHECKING:
+    from .config import Variable
+    from .objective import Feasible
 
 __all__ = ["DESIGN_METHODS", "MAXIMIN_P", "make_design", "unit_design", "candidate_pool",
            "candidate_levels", "candidate_pool_size", "default_candidates", "maximin_select",
@@ -73,11 +80,12 @@ def default_candidates(points: int, dims: int) -> int:
     of ``points`` points (when there is one) are among the candidates — for
     25 points in 2 variables, 21 × 21."""
     k = 4 * int(math.ceil(points ** (1.0 / dims) - tol.rel)) + 1
-    return k ** dims
+    return int(k ** dims)
 
 
-def unit_design(method: str, dims: int, *, levels=None, points: int | None = None,
-                seed: int = 0, candidates: int | None = None) -> np.ndarray:
+def unit_design(method: str, dims: int, *, levels: int | Sequence[int] | None = None,
+                points: int | None = None, seed: int = 0,
+                candidates: int | None = None) -> FloatArray:
     """Design points in the unit box [0, 1]^dims.
 
     Parameters
@@ -102,27 +110,33 @@ def unit_design(method: str, dims: int, *, levels=None, points: int | None = Non
             raise SpecError("design.points is missing; method 'maximin' needs a number of points")
         pool = _pool_unit(dims, default_candidates(points, dims) if candidates is None
                           else candidates)
-        return pool[maximin_select(pool, points, seed=seed)]
+        chosen: FloatArray = pool[maximin_select(pool, points, seed=seed)]
+        return chosen
     if method == "grid":
         lv = [levels] * dims if isinstance(levels, int) else list(levels or [])
         if len(lv) != dims:
             raise SpecError(f"design.levels = {levels!r} gives {len(lv)} level counts for "
                             f"{dims} variables; expected one integer or {dims}")
         axes = [np.linspace(0.0, 1.0, k) for k in lv]
-        return np.array(list(itertools.product(*axes)), float).reshape(-1, dims)
+        grid: FloatArray = np.array(list(itertools.product(*axes)), float).reshape(-1, dims)
+        return grid
     if points is None:
         raise SpecError(f"design.points is missing; method '{method}' needs a number of points")
     from scipy.stats import qmc
 
     if method == "lhs":
-        return qmc.LatinHypercube(dims, seed=seed).random(points)
+        lhs: FloatArray = qmc.LatinHypercube(dims, seed=seed).random(points)
+        return lhs
     with warnings.catch_warnings():  # balance note for non-powers of 2; documented above
         warnings.simplefilter("ignore", UserWarning)
-        return qmc.Sobol(dims, scramble=True, seed=seed).random(points)
+        sobol: FloatArray = qmc.Sobol(dims, scramble=True, seed=seed).random(points)
+        return sobol
 
 
-def make_design(variables, method: str, *, levels=None, points: int | None = None,
-                seed: int = 0, candidates: int | None = None, feasible=None) -> np.ndarray:
+def make_design(variables: Sequence[Variable], method: str, *,
+                levels: int | Sequence[int] | None = None, points: int | None = None,
+                seed: int = 0, candidates: int | None = None,
+                feasible: Feasible | None = None) -> FloatArray:
     """Design points in the variables' units.
 
     Parameters
@@ -146,33 +160,44 @@ def make_design(variables, method: str, *, levels=None, points: int | None = Non
                               if candidates is None else candidates)
         ok = (np.ones(len(pool), bool) if feasible is None
               else np.asarray(feasible(pool), bool).reshape(len(pool)))
-        return pool[ok][maximin_select(_to_unit(variables, pool[ok]), points, seed=seed)]
+        chosen: FloatArray = pool[ok][maximin_select(_to_unit(variables, pool[ok]), points,
+                                                     seed=seed)]
+        return chosen
     if method == "grid":
-        if levels is not None and not isinstance(levels, int):
-            levels = list(levels)
-            if len(levels) != len(variables):
-                raise SpecError(f"design.levels = {levels!r} gives {len(levels)} level counts "
-                                f"for {len(variables)} variables; expected one per variable")
-        per = levels if isinstance(levels, list) else [levels] * len(variables)
-        levels = [v.levels if v.levels is not None else k for v, k in zip(variables, per)]
-        if any(k is None for k in levels):
-            raise SpecError("design.levels is missing; a grid needs levels (per variable or "
-                            "in [design])")
+        levels = _grid_levels(variables, levels)
     return _from_unit(variables, unit_design(method, len(variables), levels=levels,
                                              points=points, seed=seed))
 
 
-def _to_unit(variables, X) -> np.ndarray:
+def _grid_levels(variables: Sequence[Variable],
+                 levels: int | Sequence[int] | None) -> list[int]:
+    """Grid levels per variable: a variable's own, else ``levels`` (one for
+    all, or one per variable)."""
+    if levels is not None and not isinstance(levels, int):
+        levels = list(levels)
+        if len(levels) != len(variables):
+            raise SpecError(f"design.levels = {levels!r} gives {len(levels)} level counts "
+                            f"for {len(variables)} variables; expected one per variable")
+    per = levels if isinstance(levels, list) else [levels] * len(variables)
+    out = [v.levels if v.levels is not None else k for v, k in zip(variables, per)]
+    if any(k is None for k in out):
+        raise SpecError("design.levels is missing; a grid needs levels (per variable or "
+                        "in [design])")
+    return [int(k) for k in out if k is not None]
+
+
+def _to_unit(variables: Sequence[Variable], X: ArrayLike) -> FloatArray:
     lo = np.array([v.lo for v in variables], float)
     hi = np.array([v.hi for v in variables], float)
-    return (np.asarray(X, float) - lo) / (hi - lo)
+    U: FloatArray = (np.asarray(X, float) - lo) / (hi - lo)
+    return U
 
 
-def _from_unit(variables, U) -> np.ndarray:
+def _from_unit(variables: Sequence[Variable], U: ArrayLike) -> FloatArray:
     """Unit-box rows ``U`` in the variables' units, integer variables rounded."""
     lo = np.array([v.lo for v in variables], float)
     hi = np.array([v.hi for v in variables], float)
-    X = lo + np.asarray(U, float) * (hi - lo)
+    X: FloatArray = lo + np.asarray(U, float) * (hi - lo)
     for j, v in enumerate(variables):
         if v.integer:
             X[:, j] = np.round(X[:, j])
@@ -188,23 +213,23 @@ def _levels(dims: int, candidates: int) -> int:
     return k
 
 
-def _pool_unit(dims: int, candidates: int) -> np.ndarray:
+def _pool_unit(dims: int, candidates: int) -> FloatArray:
     k = _levels(dims, candidates)
     return unit_design("grid", dims, levels=k)
 
 
-def candidate_levels(variables, candidates: int) -> list[int]:
+def candidate_levels(variables: Sequence[Variable], candidates: int) -> list[int]:
     """Levels per variable of :func:`candidate_pool`."""
     k = _levels(len(variables), candidates)
     return [min(k, int(round(v.hi - v.lo)) + 1) if v.integer else k for v in variables]
 
 
-def candidate_pool_size(variables, candidates: int) -> int:
+def candidate_pool_size(variables: Sequence[Variable], candidates: int) -> int:
     """Rows of :func:`candidate_pool` (without building it)."""
     return math.prod(candidate_levels(variables, candidates))
 
 
-def candidate_pool(variables, candidates: int) -> np.ndarray:
+def candidate_pool(variables: Sequence[Variable], candidates: int) -> FloatArray:
     """The ``maximin`` candidates: a full grid of about ``candidates`` points.
 
     Parameters
@@ -223,28 +248,30 @@ def candidate_pool(variables, candidates: int) -> np.ndarray:
                                              levels=candidate_levels(variables, candidates)))
 
 
-def _dist_to(U, x) -> np.ndarray:
-    return np.sqrt(((U - x) ** 2).sum(1))
+def _dist_to(U: FloatArray, x: FloatArray) -> FloatArray:
+    d: FloatArray = np.sqrt(((U - x) ** 2).sum(1))
+    return d
 
 
-def min_distance(U) -> float:
+def min_distance(U: ArrayLike) -> float:
     """Smallest pairwise distance of the rows of ``U`` ((n, d) float, unit box)."""
-    U = np.asarray(U, float)
-    return float(min(_dist_to(U[i + 1:], U[i]).min() for i in range(len(U) - 1)))
+    A: FloatArray = np.asarray(U, float)
+    return float(min(_dist_to(A[i + 1:], A[i]).min() for i in range(len(A) - 1)))
 
 
-def fill_distance(U, region) -> float:
+def fill_distance(U: ArrayLike, region: ArrayLike) -> float:
     """Largest distance from a point of ``region`` ((m, d), unit box) to its
     nearest row of ``U`` ((n, d)): the covering radius of the design."""
-    U, R = np.asarray(U, float), np.asarray(region, float)
+    A: FloatArray = np.asarray(U, float)
+    R: FloatArray = np.asarray(region, float)
     near = np.full(len(R), np.inf)
-    for u in U:
+    for u in A:
         near = np.minimum(near, _dist_to(R, u))
     return float(near.max())
 
 
-def maximin_select(U, points: int, *, seed: int = 0,
-                   starts: int | None = None) -> np.ndarray:
+def maximin_select(U: ArrayLike, points: int, *, seed: int = 0,
+                   starts: int | None = None) -> IntArray:
     """Indices of ``points`` rows of ``U`` forming a maximin design (see the
     module docstring: farthest-point starts, then φ_p point exchange).
 
@@ -262,27 +289,30 @@ def maximin_select(U, points: int, *, seed: int = 0,
 
     Memory and time are O(m) per exchange step: no m × m distance matrix.
     """
-    U = np.asarray(U, float)
-    m = len(U)
+    A: FloatArray = np.asarray(U, float)
+    m = len(A)
     if not 2 <= points <= m:
         raise SpecError(f"design.points = {points} is out of range; only {m} admissible "
                         f"candidates; allowed 2–{m} (raise design.candidates, or shrink the "
                         "box to its buildable part)")
     rng = np.random.default_rng(seed)
-    best, best_v = None, np.inf
-    greedy = _greedy(U, points)
-    ref = min_distance(U[greedy])  # distances are scaled by it: terms (ref/d)^p stay finite
+    best: IntArray | None = None
+    best_v = np.inf
+    greedy = _greedy(A, points)
+    ref = min_distance(A[greedy])  # distances are scaled by it: terms (ref/d)^p stay finite
     if not ref > 0:
         raise SpecError("design candidates repeat a point; allowed distinct candidates")
     for s in range(MAXIMIN_STARTS if starts is None else starts):
-        sel = greedy.copy() if s == 0 else rng.choice(m, points, replace=False)
-        sel, v = _exchange(U, sel, rng, ref)
+        start = greedy.copy() if s == 0 else rng.choice(m, points, replace=False)
+        sel, v = _exchange(A, start, rng, ref)
         if best is None or v < best_v * (1 - tol.maximin_improve):
             best, best_v = sel, v
+    if best is None:
+        raise SpecError(f"maximin starts = {starts}; allowed at least 1")
     return np.sort(best)
 
 
-def _greedy(U, points: int) -> np.ndarray:
+def _greedy(U: FloatArray, points: int) -> IntArray:
     """Farthest-point sequence from the candidate farthest from the centroid."""
     sel = [int(np.argmax(((U - U.mean(0)) ** 2).sum(1)))]
     near = _dist_to(U, U[sel[0]])
@@ -294,27 +324,28 @@ def _greedy(U, points: int) -> np.ndarray:
     return np.array(sel)
 
 
-def _terms(U, x, ref) -> np.ndarray:
+def _terms(U: FloatArray, x: FloatArray, ref: float) -> FloatArray:
     """(ref/d)^p from every candidate to ``x`` (0 at ``x`` itself)."""
     d = _dist_to(U, x)
     with np.errstate(divide="ignore", over="ignore"):
-        t = (ref / d) ** MAXIMIN_P
+        t: FloatArray = (ref / d) ** MAXIMIN_P
     t[d == 0] = 0.0
     return t
 
 
-def _phi(U, sel, ref) -> float:
+def _phi(U: FloatArray, sel: IntArray, ref: float) -> float:
     """Σ_{i<j} (ref/d_ij)^p of the design ``sel`` (φ_p^p, scaled)."""
     return float(sum(_terms(U[sel[i + 1:]], U[sel[i]], ref).sum()
                      for i in range(len(sel) - 1)))
 
 
-def _exchange(U, sel, rng, ref) -> tuple[np.ndarray, float]:
+def _exchange(U: FloatArray, start: IntArray, rng: np.random.Generator,
+              ref: float) -> tuple[IntArray, float]:
     """Point exchange lowering φ_p. Row k of ``E`` holds (ref/d)^p from design
     point k to every candidate, so a trial move of point i to each candidate
     costs one sum over the other rows (summed afresh: subtracting row i from
     a running total would cancel catastrophically next to point i)."""
-    sel = np.array(sel)
+    sel = np.array(start)
     n = len(sel)
     E = np.array([_terms(U, U[k], ref) for k in sel])
     current = _phi(U, sel, ref)

@@ -10,13 +10,15 @@ the sweep.
 
 from __future__ import annotations
 
+import multiprocessing.context
 import os
 from collections.abc import Callable, Sequence
-from typing import Any
+from typing import Any, Protocol
 
 from ..errors import MissingToolError, SpecError
 
-__all__ = ["SerialExecutor", "ProcessExecutor", "DaskExecutor", "make_executor", "MissingDask",
+__all__ = ["Executor", "SerialExecutor", "ProcessExecutor", "DaskExecutor", "make_executor",
+           "MissingDask",
            "one_blas_thread", "process_context", "MAX_WORKERS_PER_CPU", "max_workers",
            "check_workers"]
 
@@ -43,6 +45,25 @@ def check_workers(key: str, workers: object) -> int:
     return workers
 
 
+#: A task's result (``evaluate_spec`` form: ``status``, ``responses`` …).
+Result = dict[str, Any]
+#: A task's function, its arguments, and the callback ``on_done(i, result)``.
+TaskFn = Callable[..., Result]
+OnDone = Callable[[int, Result], None]
+
+
+class Executor(Protocol):
+    """What a sweep needs of an executor: a ``name``, its ``workers`` and
+    :meth:`run`, which evaluates ``fn(*args)`` per task, calls ``on_done(i,
+    result)`` as each finishes and returns the results in task order."""
+
+    name: str
+    workers: int
+
+    def run(self, fn: TaskFn, tasks: Sequence[tuple[Any, ...]],
+            on_done: OnDone) -> list[Result]: ...
+
+
 class MissingDask(MissingToolError, SpecError):
     """Dask (``distributed``) is not installed: a missing tool (exit code 3),
     and a :class:`~tipgeo.errors.SpecError` as it was before that family existed."""
@@ -57,10 +78,11 @@ class SerialExecutor:
     """Evaluate in this process, one task after another."""
 
     name = "serial"
-    workers = 1
+    workers: int = 1
 
-    def run(self, fn: Callable, tasks: Sequence[tuple], on_done: Callable) -> list:
-        out = []
+    def run(self, fn: TaskFn, tasks: Sequence[tuple[Any, ...]],
+            on_done: OnDone) -> list[Result]:
+        out: list[Result] = []
         for i, args in enumerate(tasks):
             r = fn(*args)
             on_done(i, r)
@@ -86,14 +108,15 @@ class ProcessExecutor:
 
     name = "processes"
 
-    def __init__(self, workers: int | None = None):
+    def __init__(self, workers: int | None = None) -> None:
         self.workers = workers or os.cpu_count() or 1
 
-    def run(self, fn: Callable, tasks: Sequence[tuple], on_done: Callable) -> list:
+    def run(self, fn: TaskFn, tasks: Sequence[tuple[Any, ...]],
+            on_done: OnDone) -> list[Result]:
         from concurrent.futures import ProcessPoolExecutor, as_completed
 
         ctx = process_context()
-        out: list = [None] * len(tasks)
+        out: list[Any] = [None] * len(tasks)
         with ProcessPoolExecutor(max_workers=min(self.workers, max(len(tasks), 1)),
                                  mp_context=ctx, initializer=one_blas_thread) as pool:
             futs = {pool.submit(fn, *args): i for i, args in enumerate(tasks)}
@@ -121,7 +144,7 @@ def one_blas_thread() -> None:
 _PRELOAD = ("tipgeo.angles", "tipgeo.optimize.responses")
 
 
-def process_context():
+def process_context() -> multiprocessing.context.BaseContext:
     """The multiprocessing context for local worker pools: ``fork`` when this
     process has one thread (the heavy modules imported once, here), else
     ``forkserver`` with them preloaded, else ``spawn``."""
@@ -158,13 +181,15 @@ class DaskExecutor:
 
     name = "dask"
 
-    def __init__(self, address: str | None = None, *, client=None, timeout_s: float = 10.0):
+    def __init__(self, address: str | None = None, *, client: Any = None,
+                 timeout_s: float = 10.0) -> None:
         if (address is None) == (client is None):
             raise SpecError("DaskExecutor needs exactly one of address and client")
         self.address, self.client, self.timeout_s = address, client, timeout_s
         self.workers = 0  # known once connected
 
-    def run(self, fn: Callable, tasks: Sequence[tuple], on_done: Callable) -> list:
+    def run(self, fn: TaskFn, tasks: Sequence[tuple[Any, ...]],
+            on_done: OnDone) -> list[Result]:
         try:
             from distributed import Client, as_completed
         except ImportError:
@@ -173,17 +198,18 @@ class DaskExecutor:
         own = self.client is None
         if own:
             try:
-                self.client = Client(self.address, timeout=self.timeout_s)
+                self.client = Client(  # type: ignore[no-untyped-call]  # distributed is untyped
+                    self.address, timeout=self.timeout_s)
             except (OSError, TimeoutError, ValueError) as e:
                 raise SpecError(f"--scheduler = {self.address!r}: cannot connect ({e}); "
                                 "expected the address of a running Dask scheduler, e.g. "
                                 "tcp://host:8786") from None
         try:
             self.workers = len(self.client.scheduler_info().get("workers", {}))
-            out: list = [None] * len(tasks)
+            out: list[Any] = [None] * len(tasks)
             futs = [self.client.submit(fn, *args, pure=False) for args in tasks]
             index = {f.key: i for i, f in enumerate(futs)}
-            for f in as_completed(futs):
+            for f in as_completed(futs):  # type: ignore[no-untyped-call]  # distributed is untyped
                 i = index[f.key]
                 try:
                     r = f.result()
@@ -199,7 +225,7 @@ class DaskExecutor:
                 self.client = None
 
 
-def make_executor(workers: int | None = None, scheduler: str | None = None):
+def make_executor(workers: int | None = None, scheduler: str | None = None) -> Executor:
     """The executor for ``workers`` local processes (1: in this process) or a
     Dask ``scheduler`` address."""
     if scheduler:

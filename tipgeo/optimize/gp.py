@@ -51,9 +51,11 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
+from typing import Any, Literal, overload
 
 import numpy as np
 
+from ..arrays import ArrayLike, FloatArray
 from ..errors import SpecError
 from ..tolerances import tol
 
@@ -67,18 +69,18 @@ Z95 = 1.959963984540054
 _LN10 = math.log(10.0)
 
 
-def length_scales(omega, kernel: str = "gaussian") -> np.ndarray:
+def length_scales(omega: ArrayLike, kernel: str = "gaussian") -> FloatArray:
     """Length scales ℓᵢ equivalent to the roughness ω, as scikit-learn's kernels
     define them (same units as the GP's inputs).
 
     Gaussian: ``exp(−10^ω Δ²) = exp(−Δ² / (2ℓ²))``, ℓ = 1/√(2·10^ω) (RBF);
     Matérn: h = |Δ|/ℓ, ℓ = 10^(−ω/2).
     """
-    w = 10.0 ** np.asarray(omega, float)
+    w: FloatArray = 10.0 ** np.asarray(omega, float)
     return 1.0 / np.sqrt(2.0 * w) if kernel == "gaussian" else 1.0 / np.sqrt(w)
 
 
-def correlation(h2, kernel: str = "gaussian"):
+def correlation(h2: FloatArray, kernel: str = "gaussian") -> tuple[FloatArray, FloatArray]:
     """Correlation r and its derivative dr/d(h²) at squared scaled distances h².
 
     Parameters
@@ -126,10 +128,10 @@ class FitResult:
     starts : int — optimiser starts tried
     """
 
-    omega: np.ndarray
+    omega: FloatArray
     nugget: float
-    beta: np.ndarray
-    sigma: np.ndarray
+    beta: FloatArray
+    sigma: FloatArray
     objective: float
     starts: int
 
@@ -179,11 +181,21 @@ class GaussianProcess:
     omega_bounds: tuple[float, float] = (-20.0, 5.0)
     start_box: tuple[float, float] = (-2.0, 3.0)
     nugget_bounds: tuple[float, float] = (-12.0, 0.0)
-    min_rcond: float = 1e-12
+    min_rcond: float = tol.gp_min_rcond
     seed: int = 0
     fit_: FitResult | None = field(default=None, init=False, repr=False)
+    # set by fit/set_params: the training set, its pairwise squared
+    # differences per input (d, n, n), and the factorisation at the fit
+    X_: FloatArray = field(init=False, repr=False, compare=False)
+    Y_: FloatArray = field(init=False, repr=False, compare=False)
+    _D: FloatArray = field(init=False, repr=False, compare=False)
+    _vector: bool = field(default=False, init=False, repr=False, compare=False)
+    _cf: tuple[FloatArray, bool] = field(init=False, repr=False, compare=False)
+    _Ci1: FloatArray = field(init=False, repr=False, compare=False)
+    _A: FloatArray = field(init=False, repr=False, compare=False)
+    _one_Ci1: float = field(default=0.0, init=False, repr=False, compare=False)
 
-    def __post_init__(self):
+    def __post_init__(self) -> None:
         if isinstance(self.nugget, bool):
             pass
         elif isinstance(self.nugget, (int, float)) and math.isfinite(self.nugget) \
@@ -201,7 +213,7 @@ class GaussianProcess:
                             "1–1000")
 
     # -- fitting ----------------------------------------------------------------
-    def fit(self, X, Y, *, init=None) -> GaussianProcess:
+    def fit(self, X: ArrayLike, Y: ArrayLike, *, init: ArrayLike | None = None) -> GaussianProcess:
         """Fit by maximum likelihood (eq. 3.27–3.30).
 
         Parameters
@@ -258,19 +270,20 @@ class GaussianProcess:
         self._set(omega, delta)
         return self
 
-    def _corr(self, omega, delta, *, deriv: bool = False):
+    def _corr(self, omega: FloatArray, delta: float) -> tuple[FloatArray, FloatArray]:
+        """C_δ at ω and dr/dh² (n × n each)."""
         C, dC = correlation(np.tensordot(10.0 ** omega, self._D, axes=1), self.kernel)
         if delta:
             C = C + delta * np.eye(len(C))
-        return (C, dC) if deriv else C
+        return C, dC
 
-    def _delta(self, theta):
+    def _delta(self, theta: FloatArray) -> float:
         d = self.X_.shape[1]
         if self.nugget is True:
-            return 10.0 ** theta[d]
+            return float(10.0 ** theta[d])
         return 0.0 if self.nugget is False else float(self.nugget)
 
-    def _objective(self, theta, grad: bool = True):
+    def _objective(self, theta: FloatArray, grad: bool = True) -> Any:
         """L(ω, δ) of eq. 3.30 (separable: eq. 3.33 form) and, with ``grad``, its
         gradient."""
         d = self.X_.shape[1]
@@ -278,18 +291,20 @@ class GaussianProcess:
         if not grad:
             return r[0]
         L, g_omega, g_delta = r
+        assert g_omega is not None and g_delta is not None  # grad asked for
         if self.nugget is True:
             return L, np.append(g_omega, g_delta)
         return L, g_omega
 
-    def _profile(self, omega, delta, *, keep: bool = False, grad: bool = True):
+    def _profile(self, omega: FloatArray, delta: float, *, keep: bool = False,
+                 grad: bool = True) -> tuple[float, FloatArray | None, float | None]:
         """L, dL/dω and dL/dlog10 δ at (ω, δ); β̂ and Σ̂ profiled out."""
         from scipy.linalg import lapack
 
         n, q = self.Y_.shape
         d = len(omega)
         bad = (_BAD, np.zeros(d), 0.0)
-        C, dC = self._corr(omega, delta, deriv=True)
+        C, dC = self._corr(omega, delta)
         Lc, info = lapack.dpotrf(C, lower=1, clean=1)
         if info != 0:
             return bad
@@ -322,35 +337,36 @@ class GaussianProcess:
                       for k in range(d)])
         return L, g, float(_LN10 * delta * np.trace(W))
 
-    def _set(self, omega, delta):
+    def _set(self, omega: FloatArray, delta: float) -> None:
         L, _, _ = self._profile(np.asarray(omega, float), float(delta), keep=True)
         if L >= _BAD:
             raise SpecError(f"omega = {np.round(omega, 4).tolist()}, nugget = {delta:.3g}: "
                             "the correlation matrix is singular or too ill-conditioned "
                             f"(reciprocal condition < {self.min_rcond:g}); add a nugget")
 
-    def _prepare(self, X, Y):
-        X = np.asarray(X, float)
-        Y = np.asarray(Y, float)
-        if X.ndim != 2:
-            raise SpecError(f"X has shape {X.shape}; expected (n, d)")
-        self._vector = Y.ndim == 1
-        Y = Y.reshape(len(Y), -1)
-        n = len(X)
-        if len(Y) != n:
-            raise SpecError(f"X has {n} rows but Y has {len(Y)}; expected the same")
+    def _prepare(self, X: ArrayLike, Y: ArrayLike) -> None:
+        Xa = np.asarray(X, float)
+        Ya = np.asarray(Y, float)
+        if Xa.ndim != 2:
+            raise SpecError(f"X has shape {Xa.shape}; expected (n, d)")
+        self._vector = Ya.ndim == 1
+        Ya = Ya.reshape(len(Ya), -1)
+        n = len(Xa)
+        if len(Ya) != n:
+            raise SpecError(f"X has {n} rows but Y has {len(Ya)}; expected the same")
         if n < 2:
             raise SpecError(f"{n} training point(s); a GP needs at least 2")
-        if not (np.all(np.isfinite(X)) and np.all(np.isfinite(Y))):
+        if not (np.all(np.isfinite(Xa)) and np.all(np.isfinite(Ya))):
             raise SpecError("X or Y holds NaN or infinity; drop failed points first")
-        if Y.shape[1] > 1 and not self.separable:
-            raise SpecError(f"Y has {Y.shape[1]} responses; fit one GaussianProcess per "
+        if Ya.shape[1] > 1 and not self.separable:
+            raise SpecError(f"Y has {Ya.shape[1]} responses; fit one GaussianProcess per "
                             "response, or pass separable=True (eq. 3.33)")
-        self.X_, self.Y_ = X, Y
+        self.X_, self.Y_ = Xa, Ya
         # pairwise squared differences per input, shape (d, n, n)
-        self._D = (X[:, None, :] - X[None, :, :]).transpose(2, 0, 1) ** 2
+        self._D = (Xa[:, None, :] - Xa[None, :, :]).transpose(2, 0, 1) ** 2
 
-    def set_params(self, X, Y, omega, nugget: float = 0.0) -> GaussianProcess:
+    def set_params(self, X: ArrayLike, Y: ArrayLike, omega: ArrayLike,
+                   nugget: float = 0.0) -> GaussianProcess:
         """Condition on (X, Y) with given ω and δ (no MLE); β̂ and Σ̂ profiled.
 
         Parameters
@@ -363,11 +379,28 @@ class GaussianProcess:
         return self
 
     # -- prediction ---------------------------------------------------------------
-    def _check_fitted(self):
+    def _check_fitted(self) -> FitResult:
+        """The fit, or a SpecError when there is none yet."""
         if self.fit_ is None:
             raise SpecError("the GP is not fitted; call fit(X, Y) first")
+        return self.fit_
 
-    def predict(self, Xs, *, return_std: bool = False, noise: bool = False):
+    @property
+    def fitted(self) -> FitResult:
+        """The fit's hyperparameters and estimates (a SpecError when the GP is
+        not fitted yet)."""
+        return self._check_fitted()
+
+    @overload
+    def predict(self, Xs: ArrayLike, *, return_std: Literal[False] = False,
+                noise: bool = False) -> FloatArray: ...
+
+    @overload
+    def predict(self, Xs: ArrayLike, *, return_std: Literal[True],
+                noise: bool = False) -> tuple[FloatArray, FloatArray]: ...
+
+    def predict(self, Xs: ArrayLike, *, return_std: bool = False,
+                noise: bool = False) -> FloatArray | tuple[FloatArray, FloatArray]:
         """Predictive mean (eq. 3.31) and standard deviation (√ of eq. 3.32).
 
         Parameters
@@ -383,9 +416,8 @@ class GaussianProcess:
         """
         from scipy.linalg import cho_solve
 
-        self._check_fitted()
+        f = self._check_fitted()
         Xs = np.atleast_2d(np.asarray(Xs, float))
-        f = self.fit_
         diff2 = (Xs[:, None, :] - self.X_[None, :, :]) ** 2  # (m, n, d)
         r, _ = correlation(diff2 @ (10.0 ** f.omega), self.kernel)  # (m, n)
         mean = f.beta + r @ self._A
@@ -402,7 +434,8 @@ class GaussianProcess:
         std = np.sqrt(var)
         return mean, (std[:, 0] if self._vector else std)
 
-    def covariance_with(self, Xs, x0):
+    def covariance_with(self, Xs: ArrayLike,
+                        x0: ArrayLike) -> tuple[FloatArray, FloatArray, float]:
         """Posterior (latent) variances at ``Xs`` and covariances with one
         point ``x0``, per unit σ̂² (multiply by the process variance Σ̂ of a
         response, or aᵀΣ̂a for a linear combination of responses): eq. 3.32
@@ -414,10 +447,9 @@ class GaussianProcess:
         Returns (var (m,), cov (m,), var0 float), all per unit σ̂²."""
         from scipy.linalg import cho_solve
 
-        self._check_fitted()
+        f = self._check_fitted()
         Xs = np.atleast_2d(np.asarray(Xs, float))
         x0 = np.atleast_2d(np.asarray(x0, float))
-        f = self.fit_
         w = 10.0 ** f.omega
         P = np.vstack([Xs, x0])
         r, _ = correlation(((P[:, None, :] - self.X_[None, :, :]) ** 2) @ w, self.kernel)
@@ -430,7 +462,7 @@ class GaussianProcess:
         var = np.maximum(var, 0.0)
         return var[:-1], cov[:-1], float(var[-1])
 
-    def interval(self, Xs, level: float = 0.95):
+    def interval(self, Xs: ArrayLike, level: float = 0.95) -> tuple[FloatArray, FloatArray]:
         """(lower, upper) bounds of the two-sided ``level`` interval (normal)."""
         from scipy.stats import norm
 
@@ -438,7 +470,7 @@ class GaussianProcess:
         z = Z95 if level == 0.95 else float(norm.ppf(0.5 + level / 2))
         return mean - z * std, mean + z * std
 
-    def loo(self):
+    def loo(self) -> tuple[FloatArray, FloatArray]:
         """Leave-one-out residuals with ω, δ kept, β̂ re-estimated (closed form).
 
         Uses the top-left block Q of the inverse of [[C, 1], [1ᵀ, 0]]: the
@@ -452,13 +484,13 @@ class GaussianProcess:
         """
         from scipy.linalg import cho_solve
 
-        self._check_fitted()
+        f = self._check_fitted()
         n = len(self.X_)
         Ci = cho_solve(self._cf, np.eye(n))
         Q = Ci - np.outer(self._Ci1, self._Ci1) / self._one_Ci1
         qd = np.diag(Q)
         res = (Q @ self.Y_) / qd[:, None]
-        std = np.sqrt(np.outer(1.0 / qd, np.diag(self.fit_.sigma)))
+        std = np.sqrt(np.outer(1.0 / qd, np.diag(f.sigma)))
         if self._vector:
             return res[:, 0], std[:, 0]
         return res, std

@@ -19,17 +19,26 @@ from __future__ import annotations
 
 import math
 import warnings
+from collections.abc import Callable
 from dataclasses import dataclass, field
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
+from ..arrays import ArrayLike, BoolArray, FloatArray
 from ..errors import SpecError
 from ..tolerances import tol
-from .config import Objective, Term
+from .config import Objective, StudyConfig, Term
+
+if TYPE_CHECKING:
+    from .surrogate import Surrogate
 
 __all__ = ["Optimum", "scaled_terms", "optimize_objective", "pareto_front", "verify_optimum",
-           "term_summary", "optimum_region", "FLAT_EXTENT"]
+           "term_summary", "optimum_region", "FLAT_EXTENT", "Feasible"]
+
+#: A feasibility test: (m, d) configurations (the variables' units) -> (m,)
+#: bool, True where the spec validates (:func:`~tipgeo.optimize.study.feasibility`).
+Feasible = Callable[[FloatArray], BoolArray]
 
 #: A region of designs indistinguishable from the optimum that spans at
 #: least this share of a variable's range is flat along that variable.
@@ -53,40 +62,42 @@ class Optimum:
     """
 
     objective: Objective
-    x: np.ndarray
+    x: FloatArray
     value: float
-    predicted: dict
-    std: dict
-    front: dict | None = None
-    verified: dict | None = field(default=None)
-    search: dict = field(default_factory=dict)
-    region: dict | None = field(default=None)
+    predicted: dict[str, float]
+    std: dict[str, float]
+    front: dict[str, FloatArray] | None = None
+    verified: dict[str, Any] | None = field(default=None)
+    search: dict[str, int] = field(default_factory=dict)
+    region: dict[str, Any] | None = field(default=None)
 
 
-def _ranges(surrogate, names) -> tuple[np.ndarray, np.ndarray]:
+def _ranges(surrogate: Surrogate, names: list[str]) -> tuple[FloatArray, FloatArray]:
     idx = [surrogate.responses.index(n) for n in names]
     Y = surrogate.Y_[:, idx]
     lo, hi = Y.min(0), Y.max(0)
-    span = np.where(hi > lo, hi - lo, 1.0)
+    span: FloatArray = np.where(hi > lo, hi - lo, 1.0)
     return lo, span
 
 
-def scaled_terms(surrogate, objective: Objective, mean: np.ndarray) -> np.ndarray:
+def scaled_terms(surrogate: Surrogate, objective: Objective, mean: FloatArray) -> FloatArray:
     """(m, t) scaled term values sₖ (0 best, 1 worst over the training set)."""
     names = [t.response for t in objective.terms]
     lo, span = _ranges(surrogate, names)
     cols = [surrogate.responses.index(n) for n in names]
     s = (mean[:, cols] - lo) / span
     flip = np.array([t.goal == "max" for t in objective.terms])
-    return np.where(flip, 1.0 - s, s)
+    out: FloatArray = np.where(flip, 1.0 - s, s)
+    return out
 
 
-def _weights(objective: Objective) -> np.ndarray:
+def _weights(objective: Objective) -> FloatArray:
     w = np.array([t.weight for t in objective.terms], float)
-    return w / w.sum()
+    out: FloatArray = w / w.sum()
+    return out
 
 
-def pareto_front(F: np.ndarray) -> np.ndarray:
+def pareto_front(F: ArrayLike) -> BoolArray:
     """(m,) bool — rows of F (m, t; all minimised) that no other row dominates."""
     F = np.asarray(F, float)
     keep = np.ones(len(F), bool)
@@ -98,15 +109,34 @@ def pareto_front(F: np.ndarray) -> np.ndarray:
     return keep
 
 
-def _thin(U: np.ndarray, S: np.ndarray, most: int) -> tuple[np.ndarray, np.ndarray]:
-    """At most ``most`` points of a front, evenly spaced along its first term."""
-    if len(U) <= most:
-        return U, S
-    idx = np.argsort(S[:, 0], kind="stable")[np.linspace(0, len(U) - 1, most).astype(int)]
-    return U[idx], S[idx]
+def _feasible_front(U: FloatArray, S: FloatArray, check: Callable[[FloatArray], BoolArray],
+                    most: int) -> tuple[FloatArray, FloatArray]:
+    """The front of the *feasible* rows (at most ``most`` points, thinned
+    evenly along the first term): the non-dominated rows are checked (``check``: unit
+    points -> bool), the infeasible ones dropped and the front taken again
+    among the rest, until every point of it is feasible. Only front points are
+    checked, each once: where the GP's best predictions lie past the buildable
+    boundary, the front peels back to it instead of being lost there. Empty
+    when no row is feasible."""
+    alive = np.ones(len(U), bool)
+    known = np.zeros(len(U), bool)
+    while alive.any():
+        idx = np.flatnonzero(alive)
+        front = idx[pareto_front(S[idx])]
+        if len(front) > most:
+            front = front[np.argsort(S[front, 0], kind="stable")[
+                np.linspace(0, len(front) - 1, most).astype(int)]]
+        todo = front[~known[front]]
+        ok = np.asarray(check(U[todo]), bool) if len(todo) else np.ones(0, bool)
+        alive[todo[~ok]] = False
+        known[todo[ok]] = True
+        if ok.all():
+            return U[front], S[front]
+    return U[:0], S[:0]
 
 
-def optimize_objective(surrogate, objective: Objective, *, feasible=None,
+def optimize_objective(surrogate: Surrogate, objective: Objective, *,
+                       feasible: Feasible | None = None,
                        candidates: int = 4096, polish: int = 6, refine: int = 4,
                        max_front: int = 200, seed: int = 0) -> Optimum:
     """Minimise an objective of the surrogate's predictions over its box.
@@ -136,42 +166,48 @@ def optimize_objective(surrogate, objective: Objective, *, feasible=None,
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", UserWarning)
         U = qmc.Sobol(d, scramble=True, seed=seed).random(candidates)
-    corners = np.array(np.meshgrid(*[[0.0, 1.0]] * d)).reshape(d, -1).T if d <= 12 else []
+    corners = (np.array(np.meshgrid(*[[0.0, 1.0]] * d)).reshape(d, -1).T if d <= 12
+               else np.zeros((0, d)))
     U = np.vstack([U, corners, surrogate.unit(surrogate.X_)])
     X = lo + U * span
     w = _weights(objective)
 
-    def value(u):
+    def value(u: FloatArray) -> FloatArray:
         m = surrogate.predict(lo + np.atleast_2d(u) * span)
-        return scaled_terms(surrogate, objective, m) @ w
+        out: FloatArray = scaled_terms(surrogate, objective, m) @ w
+        return out
 
     front = None
+    best_x: FloatArray | None = None
+    best_v = math.inf
     if objective.combine == "pareto":
         S = scaled_terms(surrogate, objective, surrogate.predict(X))
-        mask = pareto_front(S)
-        # thinned before it is refined: where the whole box is the front (one
-        # variable, two conflicting monotone terms) the 8-fold resampling of
-        # every candidate would make the dominance test quadratic in ~37 000 points
-        Uf, Sf = _thin(U[mask], S[mask], max_front)
-        # refine: resample around the front at shrinking scales, keep the non-dominated
+
+        def check(Uc: FloatArray) -> BoolArray:
+            if feasible is None:
+                return np.ones(len(Uc), bool)
+            return np.asarray(feasible(lo + Uc * span), bool)
+
+        # the front of the feasible candidates, thinned before it is refined:
+        # where the whole box is the front (one variable, two conflicting
+        # monotone terms) the 8-fold resampling of every candidate would make
+        # the dominance test quadratic in ~37 000 points
+        Uf, Sf = _feasible_front(U, S, check, max_front)
+        if not len(Uf):
+            raise SpecError(f"objective '{objective.name}': no feasible configuration "
+                            "on the front")
+        # refine: resample around the front at shrinking scales, keep the
+        # non-dominated feasible points
         rng = np.random.default_rng(seed)
         scale = 0.5 / len(U) ** (1.0 / d)
         for _ in range(refine):
             Un = np.clip(np.repeat(Uf, 8, axis=0)
                          + rng.normal(0.0, scale, (8 * len(Uf), d)), 0.0, 1.0)
-            Uf = np.vstack([Uf, Un])
-            Sf = np.vstack([Sf, scaled_terms(surrogate, objective,
-                                             surrogate.predict(lo + Un * span))])
-            keep = pareto_front(Sf)
-            Uf, Sf = _thin(Uf[keep], Sf[keep], max_front)
+            Sn = scaled_terms(surrogate, objective, surrogate.predict(lo + Un * span))
+            Uf, Sf = _feasible_front(np.vstack([Uf, Un]), np.vstack([Sf, Sn]), check,
+                                     max_front)
             scale *= 0.5
         Xf = lo + Uf * span
-        if feasible is not None:  # validations are costly: only the front's points
-            ok = np.asarray(feasible(Xf), bool)
-            if not ok.any():
-                raise SpecError(f"objective '{objective.name}': no feasible configuration "
-                                "on the front")
-            Xf, Uf, Sf = Xf[ok], Uf[ok], Sf[ok]
         # distance to the ideal point, each term scaled by its range on the front
         flo, fhi = Sf.min(0), Sf.max(0)
         Sn = (Sf - flo) / np.where(fhi > flo, fhi - flo, 1.0)
@@ -185,8 +221,7 @@ def optimize_objective(surrogate, objective: Objective, *, feasible=None,
         # feasibility (a spec validation, ~0.1 s) is checked lazily, best candidates first
         v = value(U)
         best = np.argsort(v)
-        best_x, best_v = None, math.inf
-        seen: list[np.ndarray] = []
+        seen: list[FloatArray] = []
         for i in best:
             if len(seen) >= polish:
                 break
@@ -212,8 +247,9 @@ def optimize_objective(surrogate, objective: Objective, *, feasible=None,
                    search={"candidates": int(len(U)), "starts": int(n_starts)})
 
 
-def verify_optimum(config, optimum: Optimum, *, build: bool = True,
-                   result: dict | None = None, ranges: dict | None = None) -> dict[str, Any]:
+def verify_optimum(config: StudyConfig, optimum: Optimum, *, build: bool = True,
+                   result: dict[str, Any] | None = None,
+                   ranges: dict[str, float] | None = None) -> dict[str, Any]:
     """Build and analyse the optimum for real; compare with the GP.
 
     Parameters
@@ -261,7 +297,7 @@ def verify_optimum(config, optimum: Optimum, *, build: bool = True,
                             "cpu_seconds": time.process_time() - t0}
         except Exception as e:  # reported, not raised: the analysis may still hold
             out["build"] = {"error": f"{type(e).__name__}: {e}"}
-    resp = {}
+    resp: dict[str, dict[str, Any]] = {}
     for name, pred in optimum.predicted.items():
         sd = optimum.std[name]
         act = r["responses"].get(name, math.nan) if r["status"] == "ok" else math.nan
@@ -286,7 +322,7 @@ def term_summary(objective: Objective) -> str:
     return " & ".join(one(t) for t in objective.terms)
 
 
-def _objective_coefficients(surrogate, objective: Objective) -> np.ndarray:
+def _objective_coefficients(surrogate: Surrogate, objective: Objective) -> FloatArray:
     """(q,) a with f(x) = const + Σⱼ aⱼ ŷⱼ(x) for a ``weighted`` objective."""
     names = [t.response for t in objective.terms]
     _, span = _ranges(surrogate, names)
@@ -296,7 +332,8 @@ def _objective_coefficients(surrogate, objective: Objective) -> np.ndarray:
     return a
 
 
-def _objective_covariance(surrogate, a, U, u0):
+def _objective_covariance(surrogate: Surrogate, a: FloatArray, U: FloatArray,
+                          u0: FloatArray) -> tuple[FloatArray, FloatArray, float]:
     """Variance of f at unit points U, its covariance with f at u0, and its
     variance at u0 (latent GP posterior, σ̂ calibration included)."""
     scale = np.asarray(surrogate.scale_, float)
@@ -304,24 +341,24 @@ def _objective_covariance(surrogate, a, U, u0):
         m = surrogate.models[0]
         var, cov, var0 = m.covariance_with(U, u0)
         b = a * scale
-        k = float(b @ np.asarray(m.fit_.sigma) @ b)
+        k = float(b @ np.asarray(m.fitted.sigma) @ b)
         return k * var, k * cov, k * var0
-    tot = [np.zeros(len(U)), np.zeros(len(U)), 0.0]
+    tot_var, tot_cov, tot_var0 = np.zeros(len(U)), np.zeros(len(U)), 0.0
     for j, m in enumerate(surrogate.models):
         if a[j] == 0.0:
             continue
         var, cov, var0 = m.covariance_with(U, u0)
-        k = (a[j] * scale[j]) ** 2 * float(np.asarray(m.fit_.sigma).reshape(-1)[0])
-        tot[0] += k * var
-        tot[1] += k * cov
-        tot[2] += k * var0
-    return tot[0], tot[1], float(tot[2])
+        k = (a[j] * scale[j]) ** 2 * float(np.asarray(m.fitted.sigma).reshape(-1)[0])
+        tot_var += k * var
+        tot_cov += k * cov
+        tot_var0 += k * var0
+    return tot_var, tot_cov, float(tot_var0)
 
 
-def optimum_region(surrogate, objective: Objective, x_opt, *, feasible=None,
-                   candidates: int = 2048, seed: int = 1, z: float | None = None,
-                   flat_extent: float = FLAT_EXTENT,
-                   value_tol: float = 1e-4) -> dict[str, Any]:
+def optimum_region(surrogate: Surrogate, objective: Objective, x_opt: ArrayLike, *,
+                   feasible: Feasible | None = None, candidates: int = 2048, seed: int = 1,
+                   z: float | None = None, flat_extent: float = FLAT_EXTENT,
+                   value_tol: float | None = None) -> dict[str, Any]:
     """How flat a ``weighted`` objective is at its optimum: the designs the GP
     cannot tell from it.
 
@@ -334,8 +371,9 @@ def optimum_region(surrogate, objective: Objective, x_opt, *, feasible=None,
     variance var(x) + var(x*) − 2 cov(x, x*) with the joint posterior (near
     x* it vanishes: the region is not inflated by the optimum's own
     uncertainty) — or when the advantage is below ``value_tol`` (in the
-    objective's scaled units, where 1 is its training range: 10⁻⁴ by
-    default), which a GP certain of a flat direction (sd → 0 along it) needs.
+    objective's scaled units, where 1 is its training range:
+    ``tol.optimum_value``, 10⁻⁴, by default), which a GP certain of a flat
+    direction (sd → 0 along it) needs.
     Designs: a scrambled Sobol set of the box (``candidates``) plus x*;
     ``feasible`` (optional) drops the region's infeasible members.
 
@@ -360,10 +398,10 @@ def optimum_region(surrogate, objective: Objective, x_opt, *, feasible=None,
         return {"shape": None, "note": "a Pareto objective: its front shows the trade-off; no "
                                        "region of one scalar value"}
     z = Z95 if z is None else float(z)
+    value_tol = tol.optimum_value if value_tol is None else float(value_tol)
     lo, span = surrogate._lo, surrogate._span
     d = len(lo)
-    x_opt = np.asarray(x_opt, float).reshape(d)
-    u0 = (x_opt - lo) / span
+    u0 = (np.asarray(x_opt, float).reshape(d) - lo) / span
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", UserWarning)
         U = qmc.Sobol(d, scramble=True, seed=seed).random(candidates)
@@ -388,7 +426,7 @@ def optimum_region(surrogate, objective: Objective, x_opt, *, feasible=None,
     frac = (ext_hi - ext_lo) / span
     flat = [n for n, f in zip(names, frac) if f >= flat_extent]
     shape = "sharp" if not flat else ("flat" if len(flat) == d else "ridge")
-    edge = 1e-6
+    edge = tol.optimum_edge
     at = [{"variable": n, "side": "min" if u <= edge else "max"}
           for n, u in zip(names, u0) if u <= edge or u >= 1.0 - edge]
     pos = "interior" if not at else ("corner" if len(at) == d else "boundary")

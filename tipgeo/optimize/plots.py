@@ -5,16 +5,24 @@ fronts. Axes in the variables' and responses' units; PNGs written atomically.
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from pathlib import Path
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
+from ..arrays import ArrayLike, BoolArray, FloatArray
 from ..plot import styled
+
+if TYPE_CHECKING:
+    from .config import StudyConfig
+    from .objective import Feasible, Optimum
+    from .surrogate import Surrogate
 
 __all__ = ["plot_response", "plot_loo", "plot_pareto"]
 
 
-def _plt():
+def _plt() -> Any:
     import matplotlib
 
     matplotlib.use("Agg")
@@ -23,7 +31,8 @@ def _plt():
     return plt
 
 
-def _grid(surrogate, config, resolution: int, fixed):
+def _grid(config: StudyConfig, resolution: int,
+          fixed: ArrayLike | None) -> tuple[FloatArray, list[int], Any, FloatArray]:
     names = [v.name for v in config.variables]
     pv = list(config.plots["variables"])
     ia = [names.index(n) for n in pv]
@@ -41,32 +50,35 @@ def _grid(surrogate, config, resolution: int, fixed):
     return X, ia, (A, B), base
 
 
-def _feasible_mask(surrogate, config, resolution: int, fixed, feasible,
-                   coarse: int = 16) -> np.ndarray:
+def _feasible_mask(config: StudyConfig, resolution: int, fixed: ArrayLike | None,
+                   feasible: Feasible, coarse: int = 16) -> BoolArray:
     """Feasibility of the plot grid's points, (resolution², or resolution,)
     bool: each validation costs ~0.1 s, so it is evaluated on a coarse grid of
     at most ``coarse`` points per axis and each plotted point takes its nearest
     coarse node's verdict (the blank region's outline is approximate to one
     coarse step; optima and training points are checked exactly elsewhere)."""
     n = min(resolution, coarse)
-    Xc, _, _, _ = _grid(surrogate, config, n, fixed)
+    Xc, _, _, _ = _grid(config, n, fixed)
     okc = np.asarray(feasible(Xc), bool)
     if n == resolution:
         return okc
     near = np.rint(np.linspace(0, n - 1, resolution)).astype(int)
     if okc.size == n:  # one plotted variable
-        return okc[near]
-    return okc.reshape(n, n)[np.ix_(near, near)].ravel()
+        one: BoolArray = okc[near]
+        return one
+    two: BoolArray = okc.reshape(n, n)[np.ix_(near, near)].ravel()
+    return two
 
 
-def _label(config, i):
+def _label(config: StudyConfig, i: int) -> str:
     v = config.variables[i]
     return v.name
 
 
-@styled
-def plot_response(surrogate, config, response: str, path, *, optima=(), feasible=None,
-                  fixed=None, resolution: int | None = None) -> Path:
+@styled  # type: ignore[untyped-decorator,unused-ignore]  # tipgeo.plot: typed by its owner
+def plot_response(surrogate: Surrogate, config: StudyConfig, response: str, path: str | Path,
+                  *, optima: Sequence[Optimum] = (), feasible: Feasible | None = None,
+                  fixed: ArrayLike | None = None, resolution: int | None = None) -> Path:
     """One response's GP surface (Fig. 3.17 style) with the training points.
 
     Two plotted variables: (a) the predicted surface in 3D with the training
@@ -89,11 +101,11 @@ def plot_response(surrogate, config, response: str, path, *, optima=(), feasible
     plt = _plt()
     res = resolution or config.plots["resolution"]
     j = surrogate.responses.index(response)
-    X, ia, axes, base = _grid(surrogate, config, res, fixed)
+    X, ia, axes, base = _grid(config, res, fixed)
     mean, std = surrogate.predict(X, return_std=True)
     m, hw = mean[:, j].copy(), Z95 * std[:, j]
     if feasible is not None:
-        bad = ~_feasible_mask(surrogate, config, res, fixed, feasible)
+        bad = ~_feasible_mask(config, res, fixed, feasible)
         m[bad] = np.nan
         hw = hw.copy()
         hw[bad] = np.nan
@@ -168,8 +180,8 @@ def plot_response(surrogate, config, response: str, path, *, optima=(), feasible
         plt.close(fig)
 
 
-@styled
-def plot_loo(surrogate, path) -> Path:
+@styled  # type: ignore[untyped-decorator,unused-ignore]  # tipgeo.plot: typed by its owner
+def plot_loo(surrogate: Surrogate, path: str | Path) -> Path:
     """Leave-one-out errors (prediction from the other n − 1 points minus the
     true value) against the true value, one panel per response, with the LOO
     95 % intervals as error bars (response units)."""
@@ -206,14 +218,16 @@ def plot_loo(surrogate, path) -> Path:
         plt.close(fig)
 
 
-@styled
-def plot_pareto(optimum, path) -> Path:
+@styled  # type: ignore[untyped-decorator,unused-ignore]  # tipgeo.plot: typed by its owner
+def plot_pareto(optimum: Optimum, path: str | Path) -> Path:
     """The Pareto front of a two- or more-term objective (first two terms) and
     the chosen compromise."""
     from ..plot import save_figure
 
     plt = _plt()
     f = optimum.front
+    if f is None:
+        raise ValueError(f"objective {optimum.objective.name!r} has no Pareto front to draw")
     t = optimum.objective.terms
     fig, ax = plt.subplots(figsize=(5.5, 4.5))
     ax.plot(f["terms"][:, 0], f["terms"][:, 1], ".", ms=4, label="non-dominated (GP)")

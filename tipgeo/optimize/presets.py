@@ -6,7 +6,13 @@ Units: see :mod:`tipgeo.optimize.config` (variables in their spec keys' units).
 
 from __future__ import annotations
 
+from pathlib import Path
+from typing import TYPE_CHECKING
+
 from ..errors import SpecError
+
+if TYPE_CHECKING:
+    from .config import StudyConfig
 
 __all__ = ["STUDIES", "study_preset", "resolve_study", "HELICAL_STUDY_TOML",
            "BEVEL_STUDY_TOML"]
@@ -198,7 +204,7 @@ terms = [{ response = "l_c_mm", goal = "min" },
 STUDIES = {"helical-study": HELICAL_STUDY_TOML, "bevel-study": BEVEL_STUDY_TOML}
 
 
-def study_preset(name: str):
+def study_preset(name: str) -> StudyConfig:
     """The built-in study ``name`` as a :class:`~tipgeo.optimize.config.StudyConfig`."""
     from .config import loads_config
 
@@ -208,7 +214,7 @@ def study_preset(name: str):
     return loads_config(STUDIES[name])
 
 
-def resolve_study(arg):
+def resolve_study(arg: str | Path | StudyConfig) -> StudyConfig:
     """A study config from what a user typed: a StudyConfig as it is, a study
     file (``.toml``, or any existing file) or a built-in study name.
 
@@ -218,6 +224,8 @@ def resolve_study(arg):
     from ..tomlio import resolve_file_or_name
     from .config import StudyConfig, load_config
 
-    return resolve_file_or_name(arg, kind=StudyConfig, load=load_config, named=study_preset,
-                                names=STUDIES, what="CONFIG", file_word="study file (.toml)",
-                                named_as="built-in study", listing="built-in")
+    config: StudyConfig = resolve_file_or_name(  # type: ignore[no-untyped-call,unused-ignore]  # tomlio: typed by its owner
+        arg, kind=StudyConfig, load=load_config, named=study_preset, names=STUDIES,
+        what="CONFIG", file_word="study file (.toml)", named_as="built-in study",
+        listing="built-in")
+    return config

@@ -10,7 +10,10 @@ measured about +z from the heel (cannula frame).
 from __future__ import annotations
 
 import math
-from typing import Any
+from typing import TYPE_CHECKING, Any
+
+if TYPE_CHECKING:
+    from ..angles import AngleReport
 
 __all__ = ["RESPONSES", "THESIS", "FORCE_RESPONSES", "responses_from_summary", "evaluate_spec"]
 
@@ -105,7 +108,7 @@ def evaluate_spec(spec_dict: dict[str, Any], analysis: dict[str, Any]) -> dict[s
     return {"status": "ok", "error": "", "responses": resp}
 
 
-def _forces(report, forces: dict[str, Any]) -> dict[str, float]:
+def _forces(report: AngleReport, forces: dict[str, Any]) -> dict[str, float]:
     import warnings
 
     from ..mechanics import tip_forces

@@ -7,13 +7,18 @@ intervals are in the responses' own units (``*_mm``, ``*_deg``).
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass, field
-from typing import Any
+from typing import TYPE_CHECKING, Any, Literal, overload
 
 import numpy as np
 
+from ..arrays import ArrayLike, FloatArray
 from ..errors import SpecError
 from .gp import KERNELS, Z95, GaussianProcess
+
+if TYPE_CHECKING:
+    from .sweep import SweepResult
 
 __all__ = ["Surrogate", "fit_surrogate", "loo_log_density"]
 
@@ -58,19 +63,31 @@ class Surrogate:
         construction: judge them on points outside the training set.
     """
 
-    bounds: list
-    responses: list
+    bounds: list[tuple[float, float]]
+    responses: list[str]
     mode: str = "independent"
     nugget: bool | float = False
     kernel: str = "gaussian"
-    response_kernels: dict = field(default_factory=dict)
+    response_kernels: dict[str, str] = field(default_factory=dict)
     starts: int = 12
     seed: int = 0
-    variables: list = field(default_factory=list)
+    variables: list[str] = field(default_factory=list)
     calibrate: bool = False
-    models: list = field(default_factory=list, init=False, repr=False)
+    models: list[GaussianProcess] = field(default_factory=list, init=False, repr=False)
+    # set by __post_init__ and fit: the box (lo, span per variable), the family
+    # per response, the training set (variables', responses' units), the
+    # interval scale per response and the last LOO residuals and sd
+    _lo: FloatArray = field(init=False, repr=False, compare=False)
+    _span: FloatArray = field(init=False, repr=False, compare=False)
+    kernels_by_response: dict[str, str] = field(default_factory=dict, init=False, repr=False,
+                                                compare=False)
+    X_: FloatArray = field(init=False, repr=False, compare=False)
+    Y_: FloatArray = field(init=False, repr=False, compare=False)
+    scale_: FloatArray = field(init=False, repr=False, compare=False)
+    loo_residuals_: FloatArray = field(init=False, repr=False, compare=False)
+    loo_std_: FloatArray = field(init=False, repr=False, compare=False)
 
-    def __post_init__(self):
+    def __post_init__(self) -> None:
         b = np.asarray(self.bounds, float).reshape(-1, 2)
         if not np.all(b[:, 1] > b[:, 0]):
             raise SpecError(f"bounds = {self.bounds!r}; allowed hi > lo for every variable")
@@ -97,11 +114,12 @@ class Surrogate:
                             "for all responses")
         self.variables = list(self.variables) or [f"x{k}" for k in range(len(b))]
 
-    def unit(self, X) -> np.ndarray:
+    def unit(self, X: ArrayLike) -> FloatArray:
         """(m, d) inputs scaled to the unit box."""
-        return (np.atleast_2d(np.asarray(X, float)) - self._lo) / self._span
+        U: FloatArray = (np.atleast_2d(np.asarray(X, float)) - self._lo) / self._span
+        return U
 
-    def fit(self, X, Y, *, warm: Surrogate | None = None) -> Surrogate:
+    def fit(self, X: ArrayLike, Y: ArrayLike, *, warm: Surrogate | None = None) -> Surrogate:
         """Fit by MLE on X (n, d; variables' units) and Y (n, q; responses' units).
 
         ``warm``: a surrogate fitted before to part of these points; its ω
@@ -112,7 +130,7 @@ class Surrogate:
             raise SpecError(f"Y has {Y.shape[1]} columns for {len(self.responses)} responses")
         self.X_, self.Y_ = X, Y
         U = self.unit(X)
-        kw = {"nugget": self.nugget, "starts": self.starts, "seed": self.seed}
+        kw: dict[str, Any] = {"nugget": self.nugget, "starts": self.starts, "seed": self.seed}
         if self.mode == "separable":
             rank = np.linalg.matrix_rank(np.column_stack([np.ones(len(Y)), Y]))
             if rank < Y.shape[1] + 1:
@@ -134,46 +152,63 @@ class Surrogate:
                                     for j in range(Y.shape[1])])
         return self
 
-    def _fit_one(self, U, y, warm, kernel: str, **kw) -> GaussianProcess:
+    def _fit_one(self, U: FloatArray, y: FloatArray, warm: GaussianProcess | None,
+                 kernel: str, **kw: Any) -> GaussianProcess:
         """One model of family ``kernel``; with ``'auto'`` the family of highest
-        LOO log predictive density (a warm start's own family is tried with its ω)."""
+        LOO log predictive density (a warm start's own family is tried with its ω;
+        a family must beat the best so far by ``tol.kernel_choice``)."""
+        from ..tolerances import tol
+
         fams = KERNELS if kernel == "auto" else (kernel,)
-        best, best_lpd = None, -np.inf
+        best: GaussianProcess | None = None
+        best_lpd = -np.inf
         for fam in fams:
-            init = [warm.fit_.omega] if warm is not None and warm.kernel == fam else None
+            init = ([warm.fit_.omega] if warm is not None and warm.fit_ is not None
+                    and warm.kernel == fam else None)
             m = GaussianProcess(kernel=fam, **kw).fit(U, y, init=init)
             if len(fams) == 1:
                 return m
             lpd = loo_log_density(*m.loo())
-            if lpd > best_lpd + 1e-9:
+            if best is None or lpd > best_lpd + tol.kernel_choice:
                 best, best_lpd = m, lpd
+        assert best is not None  # KERNELS is not empty
         return best
 
-    def _loo_raw(self):
+    def _loo_raw(self) -> tuple[FloatArray, FloatArray]:
         if self.mode == "separable":
             return self.models[0].loo()
         pairs = [m.loo() for m in self.models]
         return np.column_stack([p[0] for p in pairs]), np.column_stack([p[1] for p in pairs])
 
-    def predict(self, X, *, return_std: bool = False):
+    @overload
+    def predict(self, X: ArrayLike, *, return_std: Literal[False] = False) -> FloatArray: ...
+
+    @overload
+    def predict(self, X: ArrayLike, *,
+                return_std: Literal[True]) -> tuple[FloatArray, FloatArray]: ...
+
+    def predict(self, X: ArrayLike, *,
+                return_std: bool = False) -> FloatArray | tuple[FloatArray, FloatArray]:
         """Mean (m, q) and, with ``return_std``, standard deviation (m, q) of a
         new analysis at X (the nugget's noise included when there is one)."""
         U = self.unit(X)
-        if self.mode == "separable":
-            out = self.models[0].predict(U, return_std=return_std, noise=True)
-            return (out[0], out[1] * self.scale_) if return_std else out
-        outs = [m.predict(U, return_std=return_std, noise=True) for m in self.models]
         if not return_std:
-            return np.column_stack(outs)
+            if self.mode == "separable":
+                return self.models[0].predict(U, noise=True)
+            return np.column_stack([m.predict(U, noise=True) for m in self.models])
+        if self.mode == "separable":
+            mean, std = self.models[0].predict(U, return_std=True, noise=True)
+            return mean, std * self.scale_
+        outs = [m.predict(U, return_std=True, noise=True) for m in self.models]
         return (np.column_stack([o[0] for o in outs]),
                 np.column_stack([o[1] for o in outs]) * self.scale_)
 
-    def interval95(self, X):
+    def interval95(self, X: ArrayLike) -> tuple[FloatArray, FloatArray]:
         """(lower, upper) of the 95 % interval (eq. 3.31–3.32), (m, q) each."""
         mean, std = self.predict(X, return_std=True)
         return mean - Z95 * std, mean + Z95 * std
 
-    def loo(self) -> dict[str, dict[str, float]]:
+    def loo(self) -> dict[str, dict[str, Any]]:
         """Leave-one-out errors per response (ω kept, β̂ re-estimated).
 
         Returns
@@ -186,7 +221,7 @@ class Surrogate:
         """
         res, std = self._loo_raw()
         std = std * self.scale_
-        out = {}
+        out: dict[str, dict[str, Any]] = {}
         for j, name in enumerate(self.responses):
             r = res[:, j]
             sd_y = float(np.std(self.Y_[:, j]))
@@ -214,7 +249,7 @@ class Surrogate:
         models = []
         names = [self.responses] if self.mode == "separable" else [[r] for r in self.responses]
         for m, resp in zip(self.models, names):
-            f = m.fit_
+            f = m.fitted
             ls = length_scales(f.omega, m.kernel)
             models.append({"responses": resp, "kernel": m.kernel, "omega": f.omega.tolist(),
                            "length_scales_unit": ls.tolist(),
@@ -229,15 +264,15 @@ class Surrogate:
                 "models": models}
 
 
-def loo_log_density(res, std) -> float:
+def loo_log_density(res: ArrayLike, std: ArrayLike) -> float:
     """Σᵢ log N(resᵢ; 0, stdᵢ²): the leave-one-out log predictive density of
     residuals ``res`` with predictive standard deviations ``std`` (same units)."""
-    res = np.asarray(res, float)
-    std = np.maximum(np.asarray(std, float), np.finfo(float).tiny)
-    return float(np.sum(-0.5 * (res / std) ** 2 - np.log(std) - 0.5 * np.log(2 * np.pi)))
+    r = np.asarray(res, float)
+    sd = np.maximum(np.asarray(std, float), np.finfo(float).tiny)
+    return float(np.sum(-0.5 * (r / sd) ** 2 - np.log(sd) - 0.5 * np.log(2 * np.pi)))
 
 
-def _interval_scale(res: np.ndarray, std: np.ndarray) -> float:
+def _interval_scale(res: FloatArray, std: FloatArray) -> float:
     """Factor on the LOO standard deviations that puts round(0.95 n) (at most
     n − 1) of the |residuals| inside their 95 % intervals (see Surrogate)."""
     z = np.sort(np.abs(res) / np.maximum(std, np.finfo(float).tiny)) / Z95
@@ -249,7 +284,8 @@ def _interval_scale(res: np.ndarray, std: np.ndarray) -> float:
     return float(c) if c > 0 else 1.0
 
 
-def fit_surrogate(sweep, *, responses=None) -> Surrogate:
+def fit_surrogate(sweep: SweepResult, *,
+                  responses: Sequence[str] | None = None) -> Surrogate:
     """Fit the config's surrogate to a sweep's successful configurations.
 
     Parameters

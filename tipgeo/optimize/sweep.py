@@ -19,6 +19,7 @@ import math
 import re
 import sys
 import time
+from collections.abc import Callable, Iterable, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -26,12 +27,13 @@ from typing import Any
 import numpy as np
 
 from .. import progress as _progress
+from ..arrays import AnyArray, ArrayLike, BoolArray, FloatArray, IntArray
 from ..atomic import write_bytes_atomic
 from ..errors import MissingToolError, SpecError
 from .cache import ResultCache, code_fingerprint, default_cache_dir, key_from_hash, spec_hash
 from .config import StudyConfig
 from .design import make_design
-from .executors import SerialExecutor, make_executor
+from .executors import Executor, SerialExecutor, make_executor
 
 __all__ = ["SweepResult", "run_sweep", "design_points", "write_table", "read_table",
            "STATUSES", "MissingPyarrow"]
@@ -44,7 +46,7 @@ class MissingPyarrow(MissingToolError, SpecError):
     3), and a :class:`~tipgeo.errors.SpecError` as it was before that family existed."""
 
 
-def _pyarrow(p: Path):
+def _pyarrow(p: Path) -> tuple[Any, Any]:
     try:
         import pyarrow as pa
         import pyarrow.parquet as pq
@@ -111,41 +113,44 @@ class SweepResult:
     """
 
     config: StudyConfig
-    X: np.ndarray
-    results: list
-    keys: list
-    specs: list
-    hashes: list = field(default_factory=list)
+    X: FloatArray
+    results: list[dict[str, Any]]
+    keys: list[str]
+    specs: list[dict[str, Any]]
+    hashes: list[str] = field(default_factory=list)
     seconds: float = 0.0
     computed: int = 0
     cached: int = 0
     executor: str = "serial"
     workers: int = 1
-    extra: dict = field(default_factory=dict)
-    design: dict = field(default_factory=dict)
-    screen: dict | None = field(default=None, repr=False)
+    extra: dict[str, Any] = field(default_factory=dict)
+    design: dict[str, Any] = field(default_factory=dict)
+    screen: dict[str, Any] | None = field(default=None, repr=False)
 
     @property
-    def status(self) -> np.ndarray:
+    def status(self) -> AnyArray:
         """(n,) str — status per configuration."""
         return np.array([r["status"] for r in self.results])
 
     @property
-    def ok(self) -> np.ndarray:
+    def ok(self) -> BoolArray:
         """(n,) bool — configurations whose analysis succeeded."""
-        return self.status == "ok"
+        ok: BoolArray = self.status == "ok"
+        return ok
 
-    def responses(self, names=None) -> np.ndarray:
+    def responses(self, names: Sequence[str] | None = None) -> FloatArray:
         """(n, q) float — responses (NaN where not ok), columns ``names``
         (default: the config's responses)."""
-        names = list(names or self.config.responses)
-        return np.array([[r["responses"].get(k, math.nan) if r["status"] == "ok" else math.nan
-                          for k in names] for r in self.results], float).reshape(-1, len(names))
+        cols = list(names or self.config.responses)
+        Y: FloatArray = np.array([[r["responses"].get(k, math.nan) if r["status"] == "ok"
+                                   else math.nan for k in cols] for r in self.results],
+                                 float).reshape(-1, len(cols))
+        return Y
 
-    def columns(self) -> dict[str, list]:
+    def columns(self) -> dict[str, list[Any]]:
         """The table as columns (see the module docstring)."""
         cfg = self.config
-        cols: dict[str, list] = {"index": list(range(len(self.results))),
+        cols: dict[str, list[Any]] = {"index": list(range(len(self.results))),
                                  "status": [r["status"] for r in self.results]}
         for k, v in enumerate(cfg.variables):
             cols[v.name] = [int(x) if v.integer else float(x) for x in self.X[:, k]]
@@ -198,17 +203,18 @@ def write_table(result: SweepResult, path: str | Path) -> Path:
     return p
 
 
-def read_table(path: str | Path) -> dict[str, list]:
+def read_table(path: str | Path) -> dict[str, list[Any]]:
     """Read a sweep table back as columns (CSV or Parquet); numbers as floats."""
     p = Path(path)
     if p.suffix.lower() in (".parquet", ".pq"):
         _, pq = _pyarrow(p)
-        return pq.read_table(p).to_pydict()
+        table: dict[str, list[Any]] = pq.read_table(p).to_pydict()
+        return table
     with open(p, newline="", encoding="utf-8") as f:
         rows = list(csv.reader(f))
     head, body = rows[0], rows[1:]
     text = {"status", "error", "spec_hash", "spec"}
-    out: dict[str, list] = {}
+    out: dict[str, list[Any]] = {}
     for j, h in enumerate(head):
         vals = [r[j] for r in body]
         if h in text:
@@ -220,7 +226,8 @@ def read_table(path: str | Path) -> dict[str, list]:
     return out
 
 
-def run_sweep(config: StudyConfig, *, X=None, executor=None, cache: Any = None,
+def run_sweep(config: StudyConfig, *, X: ArrayLike | None = None,
+              executor: Executor | None = None, cache: Any = None,
               progress: bool = True) -> SweepResult:
     """Evaluate every configuration of the config's design.
 
@@ -247,16 +254,17 @@ def run_sweep(config: StudyConfig, *, X=None, executor=None, cache: Any = None,
     cache = _resolve_cache(config, cache)
     if executor is None:
         executor = make_executor(config.workers)
-    design, screen = {"method": "given"}, None
+    design: dict[str, Any] = {"method": "given"}
+    screen: dict[str, Any] | None = None
     if X is None:
         X, design, screen = _design(config, executor=executor, cache=cache,
                                     progress=progress)
-    X = np.asarray(X, float).reshape(-1, len(config.variables))
+    Xa: FloatArray = np.asarray(X, float).reshape(-1, len(config.variables))
     analysis = dict(config.analysis)
-    specs = [config.spec_dict(x, i) for i, x in enumerate(X)]
+    specs = [config.spec_dict(x, i) for i, x in enumerate(Xa)]
     hashes: list[str] = []
     keys: list[str] = []
-    results: list = [None] * len(specs)
+    results: list[Any] = [None] * len(specs)
     bar = _Bar(len(specs), f"sweep {config.name}", "config", progress)
     todo: dict[str, list[int]] = {}
     n_cached = 0
@@ -274,9 +282,9 @@ def run_sweep(config: StudyConfig, *, X=None, executor=None, cache: Any = None,
     tasks = [(specs[todo[k][0]], analysis) for k in order]
 
     here = code_fingerprint()
-    foreign = []
+    foreign: list[str] = []
 
-    def done(j: int, r: dict) -> None:
+    def done(j: int, r: dict[str, Any]) -> None:
         k = order[j]
         code = r.pop("code", here)
         if code != here:  # a worker runs other tipgeo code: keep, but never cache
@@ -299,7 +307,7 @@ def run_sweep(config: StudyConfig, *, X=None, executor=None, cache: Any = None,
         print(f"tipgeo: warning: {len(foreign)} configurations were evaluated by workers "
               "running different tipgeo code than this machine; they were not cached "
               "(restart or update the workers)", file=sys.stderr)
-    return SweepResult(config=config, X=X, results=results, keys=keys, specs=specs,
+    return SweepResult(config=config, X=Xa, results=results, keys=keys, specs=specs,
                        hashes=hashes,
                        seconds=time.perf_counter() - t0, computed=len(tasks), cached=n_cached,
                        executor=ex.name, workers=ex.workers,
@@ -307,7 +315,7 @@ def run_sweep(config: StudyConfig, *, X=None, executor=None, cache: Any = None,
                        design=design, screen=screen)
 
 
-def _resolve_cache(config: StudyConfig, cache: Any):
+def _resolve_cache(config: StudyConfig, cache: Any) -> ResultCache | None:
     if cache is None:
         cache = config.cache
     if cache is True:
@@ -317,8 +325,8 @@ def _resolve_cache(config: StudyConfig, cache: Any):
     return cache if isinstance(cache, ResultCache) else ResultCache(cache)
 
 
-def design_points(config: StudyConfig, *, executor=None, cache: Any = None,
-                  progress: bool = False) -> tuple[np.ndarray, dict]:
+def design_points(config: StudyConfig, *, executor: Executor | None = None, cache: Any = None,
+                  progress: bool = False) -> tuple[FloatArray, dict[str, Any]]:
     """The config's design, and how it was made.
 
     For ``maximin`` every candidate is screened by the spec's validation
@@ -352,82 +360,119 @@ def design_points(config: StudyConfig, *, executor=None, cache: Any = None,
     return X, info
 
 
-def _design(config: StudyConfig, *, executor, cache, progress):
-    from .design import (
-        candidate_levels,
-        candidate_pool,
-        fill_distance,
-        maximin_select,
-        min_distance,
-    )
-
+def _design(config: StudyConfig, *, executor: Executor, cache: ResultCache | None,
+            progress: bool) -> tuple[FloatArray, dict[str, Any], dict[str, Any] | None]:
     d = config.design
     if d["method"] != "maximin":
         X = make_design(config.variables, d["method"], levels=d["levels"], points=d["points"],
                         seed=d["seed"])
         return X, {"method": d["method"], "points": int(len(X))}, None
+    return _maximin_design(config, executor=executor, cache=cache, progress=progress)
+
+
+def _maximin_design(config: StudyConfig, *, executor: Executor, cache: ResultCache | None,
+                    progress: bool) -> tuple[FloatArray, dict[str, Any], dict[str, Any]]:
+    """A ``maximin`` design on its screened candidate grid: the design, its
+    info (see :func:`design_points`) and the screen (validated nodes and the
+    grid's verdicts)."""
+    from .design import candidate_levels, candidate_pool
+
+    d = config.design
     t0 = time.perf_counter()
     pool = candidate_pool(config.variables, d["candidates"])
     levels = candidate_levels(config.variables, d["candidates"])
     n = len(pool)
-    errors: list = [None] * n  # validation message ('' = admissible); None: not validated
+    errors: list[str | None] = [None] * n  # message ('' = admissible); None: not validated
     # one bar for the whole screening: the coarse nodes, then the mixed cells,
     # then any chosen point whose verdict was inferred
     bar = _Bar(0, f"screen {config.name}", "spec", progress, failed_word="refused")
 
-    def screen(idx) -> None:
-        idx = [int(i) for i in idx if errors[i] is None]
-        if idx:
-            bar.grow(len(idx))
-            for i, e in zip(idx, _screen(config, pool[idx], executor=executor, cache=cache,
-                                         bar=bar)):
+    def screen(idx: Iterable[int]) -> None:
+        todo = [int(i) for i in idx if errors[i] is None]
+        if todo:
+            bar.grow(len(todo))
+            for i, e in zip(todo, _screen(config, pool[todo], executor=executor, cache=cache,
+                                          bar=bar)):
                 errors[i] = e
 
     try:
-        # coarse to fine: every other node, then the nodes whose coarse cell disagrees
-        grid = np.array(np.unravel_index(np.arange(n), levels)).T  # (n, d) level indices
-        coarse = (np.all(grid % 2 == 0, axis=1) if all(k >= 3 and k % 2 for k in levels)
-                  else np.ones(n, bool))
-        screen(np.flatnonzero(coarse))
-        inferred = np.zeros(n, bool)
-        ok = np.array([e == "" for e in errors])
-        mixed = []
-        for i in np.flatnonzero(~coarse):
-            corners = itertools.product(*[(g,) if g % 2 == 0 else (g - 1, g + 1) for g in grid[i]])
-            votes = {bool(ok[np.ravel_multi_index(c, levels)]) for c in corners}
-            if len(votes) == 1:
-                ok[i], inferred[i] = votes.pop(), True
-            else:
-                mixed.append(i)
-        screen(mixed)
-        lo = np.array([v.lo for v in config.variables], float)
-        span = np.array([v.hi - v.lo for v in config.variables], float)
-        while True:
-            ok = np.array([e == "" if e is not None else bool(ok[i])
-                           for i, e in enumerate(errors)])
-            if ok.sum() < d["points"]:
-                raise SpecError(f"design.points = {d['points']} is out of range; only "
-                                f"{int(ok.sum())} of the {n} candidates (design.candidates = "
-                                f"{d['candidates']}) pass validation; allowed at most that many "
-                                "(raise design.candidates, or move the box onto the buildable "
-                                "region)")
-            cand = np.flatnonzero(ok)
-            U = (pool[cand] - lo) / span
-            sel = maximin_select(U, d["points"], seed=d["seed"])
-            unchecked = [int(cand[j]) for j in sel if errors[cand[j]] is None]
-            if not unchecked:
-                break
-            screen(unchecked)  # chosen on an inferred verdict: validate before use
-            inferred[unchecked] = False
+        ok = _coarse_to_fine(levels, errors, screen)
+        ok, cand, sel, U = _select_admissible(config, pool, errors, ok, screen)
     finally:
         bar.close()
-    groups: dict[str, dict] = {}
+    info = _maximin_info(config, levels, errors, ok, U, sel, t0)
+    known = np.array([e is not None for e in errors])
+    return pool[cand[sel]], info, {"X": pool[known], "ok": ok[known], "levels": levels,
+                                   "grid_ok": ok}
+
+
+def _coarse_to_fine(levels: Sequence[int], errors: list[str | None],
+                    screen: Callable[[Iterable[int]], None]) -> BoolArray:
+    """Screen every other node of the grid, then the nodes whose coarse cell
+    disagrees; a node whose coarse cell agrees takes its verdict. Returns the
+    verdict of every node (validated or inferred)."""
+    n = len(errors)
+    grid = np.array(np.unravel_index(np.arange(n), levels)).T  # (n, d) level indices
+    coarse = (np.all(grid % 2 == 0, axis=1) if all(k >= 3 and k % 2 for k in levels)
+              else np.ones(n, bool))
+    screen(np.flatnonzero(coarse).tolist())
+    ok = np.array([e == "" for e in errors])
+    mixed = []
+    for i in np.flatnonzero(~coarse):
+        corners = itertools.product(*[(g,) if g % 2 == 0 else (g - 1, g + 1) for g in grid[i]])
+        votes = {bool(ok[np.ravel_multi_index(c, levels)]) for c in corners}
+        if len(votes) == 1:
+            ok[i] = votes.pop()
+        else:
+            mixed.append(int(i))
+    screen(mixed)
+    return ok
+
+
+def _select_admissible(config: StudyConfig, pool: FloatArray, errors: list[str | None],
+                       ok: BoolArray, screen: Callable[[Iterable[int]], None]
+                       ) -> tuple[BoolArray, IntArray, IntArray, FloatArray]:
+    """Pick the maximin points among the admissible candidates, validating any
+    chosen on an inferred verdict and picking again until every chosen point
+    was validated. Returns the final verdicts, the admissible candidates'
+    indices, the chosen ones among them and the candidates on the unit box."""
+    from .design import maximin_select
+
+    d = config.design
+    n = len(pool)
+    lo = np.array([v.lo for v in config.variables], float)
+    span = np.array([v.hi - v.lo for v in config.variables], float)
+    while True:
+        ok = np.array([e == "" if e is not None else bool(ok[i])
+                       for i, e in enumerate(errors)])
+        if ok.sum() < d["points"]:
+            raise SpecError(f"design.points = {d['points']} is out of range; only "
+                            f"{int(ok.sum())} of the {n} candidates (design.candidates = "
+                            f"{d['candidates']}) pass validation; allowed at most that many "
+                            "(raise design.candidates, or move the box onto the buildable "
+                            "region)")
+        cand = np.flatnonzero(ok)
+        U = (pool[cand] - lo) / span
+        sel = np.asarray(maximin_select(U, d["points"], seed=d["seed"]))
+        unchecked = [int(cand[j]) for j in sel if errors[cand[j]] is None]
+        if not unchecked:
+            return ok, cand, sel, U
+        screen(unchecked)  # chosen on an inferred verdict: validate before use
+
+
+def _maximin_info(config: StudyConfig, levels: Sequence[int], errors: list[str | None],
+                  ok: BoolArray, U: FloatArray, sel: IntArray, t0: float) -> dict[str, Any]:
+    """The ``maximin`` design's info (see :func:`design_points`)."""
+    from .design import fill_distance, min_distance
+
+    d = config.design
+    groups: dict[str, dict[str, Any]] = {}
     for e in errors:
         if e:
             g = groups.setdefault(_NUMBER.sub("#", e), {"count": 0, "example": e})
             g["count"] += 1
-    info = {"method": "maximin", "points": int(d["points"]), "seed": int(d["seed"]),
-            "candidates": int(n), "levels": [int(k) for k in levels],
+    return {"method": "maximin", "points": int(d["points"]), "seed": int(d["seed"]),
+            "candidates": int(len(errors)), "levels": [int(k) for k in levels],
             "validated": int(sum(e is not None for e in errors)),
             "admissible": int(ok.sum()), "buildable_fraction": float(ok.mean()),
             "refused_inferred": int(np.sum(~ok & (np.array([e is None for e in errors])))),
@@ -435,9 +480,6 @@ def _design(config: StudyConfig, *, executor, cache, progress):
             "min_distance_unit": min_distance(U[sel]),
             "fill_distance_unit": fill_distance(U[sel], U),
             "seconds": time.perf_counter() - t0}
-    known = np.array([e is not None for e in errors])
-    return pool[cand[sel]], info, {"X": pool[known], "ok": ok[known], "levels": levels,
-                                   "grid_ok": ok}
 
 
 _NUMBER = re.compile(r"[-+]?\d+(?:\.\d+)?(?:e[-+]?\d+)?")
@@ -445,15 +487,16 @@ _NUMBER = re.compile(r"[-+]?\d+(?:\.\d+)?(?:e[-+]?\d+)?")
 _SCREEN = {"screen": "validate"}
 
 
-def _screen(config: StudyConfig, X, *, executor, cache, bar: _Bar) -> list[str]:
+def _screen(config: StudyConfig, X: FloatArray, *, executor: Executor,
+            cache: ResultCache | None, bar: _Bar) -> list[str]:
     """Validation message per row of X ('' when the spec validates): cached
     verdicts read back (keyed by a hash of the spec's keys: no validation),
     the others validated on the executor."""
     specs = [config.spec_dict(x) for x in X]
     keys: list[str] = []
     hashes: list[str] = []
-    out: list = [None] * len(specs)
-    todo = []
+    out: list[Any] = [None] * len(specs)
+    todo: list[int] = []
     for i, s in enumerate(specs):
         hashes.append(spec_hash(s, _SCREEN))
         keys.append(k := key_from_hash(hashes[-1]))
@@ -465,7 +508,7 @@ def _screen(config: StudyConfig, X, *, executor, cache, bar: _Bar) -> list[str]:
             todo.append(i)
     here = code_fingerprint()
 
-    def done(j: int, r: dict) -> None:
+    def done(j: int, r: dict[str, Any]) -> None:
         i = todo[j]
         if r.get("status") not in ("ok", "invalid"):  # a worker died: refuse, say why
             r = {"status": "invalid", "error": f"validation failed: {r.get('error', '')}"}
@@ -480,7 +523,7 @@ def _screen(config: StudyConfig, X, *, executor, cache, bar: _Bar) -> list[str]:
     return out
 
 
-def evaluate_spec_task(spec_dict: dict, analysis: dict) -> dict:
+def evaluate_spec_task(spec_dict: dict[str, Any], analysis: dict[str, Any]) -> dict[str, Any]:
     """Worker entry point: :func:`~tipgeo.optimize.responses.evaluate_spec`
     (looked up at call time, so it can be instrumented), tagged with this
     process's code fingerprint."""
@@ -491,7 +534,7 @@ def evaluate_spec_task(spec_dict: dict, analysis: dict) -> dict:
     return r
 
 
-def validate_spec_task(spec_dict: dict) -> dict:
+def validate_spec_task(spec_dict: dict[str, Any]) -> dict[str, Any]:
     """Worker entry point: does the spec validate? ``status`` ``ok`` or
     ``invalid`` with the ``error`` message, tagged with the code fingerprint."""
     from ..spec import spec_from_dict

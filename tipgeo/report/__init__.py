@@ -36,9 +36,12 @@ statistics.
 from __future__ import annotations
 
 import json
+from collections.abc import Callable, Iterable
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
+
+from ..arrays import AnyArray, FloatArray, IntArray
 
 __all__ = ["html_report", "read_compare_folder", "TipSource", "LaserSource", "REPORT_EXTS",
            "MAX_SCAN_POINTS"]
@@ -80,7 +83,7 @@ class LaserSource:
     name: str | None = None
 
 
-def _check_out(out) -> Path:
+def _check_out(out: str | Path) -> Path:
     from ..errors import InputError
 
     p = Path(out)
@@ -95,7 +98,8 @@ def _check_out(out) -> Path:
     return p
 
 
-def read_compare_folder(folder) -> tuple[dict, Any, Any, Any, list[str]]:
+def read_compare_folder(folder: str | Path) -> tuple[dict[str, Any], AnyArray, FloatArray,
+                                                     IntArray, list[str]]:
     """A ``tipgeo compare --out-dir`` folder: (report dict, points (n, 3) mm
     cannula frame, deviation (n,) mm, face index (n,), face labels). Raises
     :class:`~tipgeo.errors.InputError` naming the file when it is not one."""
@@ -109,16 +113,35 @@ def read_compare_folder(folder) -> tuple[dict, Any, Any, Any, list[str]]:
         if not f.is_file():
             raise InputError(f"SOURCE = '{folder}' is a folder without {f.name}; allowed: "
                              + _SOURCE_FORMS)
+    data = _compare_json(rj)
+    head, offset = _ply_header(ply)
+    n, fields, labels = _ply_vertex_fields(ply, head)
+    arr = np.fromfile(ply, dtype=np.dtype(fields), count=n, offset=offset)
+    if len(arr) != n:
+        raise InputError(f"'{ply}' is truncated: {len(arr)} of {n} points")
+    pts = np.stack([arr["x"], arr["y"], arr["z"]], 1)  # the file's dtype (float32)
+    return data, pts, arr["deviation_mm"].astype(float), arr["face"].astype(int), labels
+
+
+def _compare_json(rj: Path) -> dict[str, Any]:
+    """A compare folder's report.json, or an InputError naming it."""
+    from ..errors import InputError
+
     try:
         data = json.loads(rj.read_text(encoding="utf-8"))
     except (OSError, UnicodeDecodeError, json.JSONDecodeError) as e:
         raise InputError(f"'{rj}' is not a compare report: {e}") from None
     if not isinstance(data, dict) or "deviation" not in data:
         raise InputError(f"'{rj}' is not a compare report (no 'deviation' key)")
-    types = {"float": "<f4", "float32": "<f4", "double": "<f8", "float64": "<f8",
-             "uchar": "u1", "uint8": "u1", "int": "<i4", "int32": "<i4"}
+    return data
+
+
+def _ply_header(ply: Path) -> tuple[list[str], int]:
+    """The header lines of tipgeo compare's binary PLY and the data's byte offset."""
+    from ..errors import InputError
+
     with open(ply, "rb") as fh:
-        head = []
+        head: list[str] = []
         for _ in range(200):
             line = fh.readline(4096)
             if not line:
@@ -130,13 +153,28 @@ def read_compare_folder(folder) -> tuple[dict, Any, Any, Any, list[str]]:
     if not head or head[0] != "ply" or head[-1] != "end_header" or \
             "format binary_little_endian 1.0" not in head:
         raise InputError(f"'{ply}' is not a binary little-endian PLY written by tipgeo compare")
-    n, fields, labels = None, [], []
+    return head, offset
+
+
+_PLY_TYPES = {"float": "<f4", "float32": "<f4", "double": "<f8", "float64": "<f8",
+              "uchar": "u1", "uint8": "u1", "int": "<i4", "int32": "<i4"}
+
+
+def _ply_vertex_fields(ply: Path, head: list[str]) -> tuple[int, list[tuple[str, str]],
+                                                            list[str]]:
+    """From the header: the vertex count (checked against MAX_SCAN_POINTS),
+    the vertex properties (name, numpy dtype) and the face labels."""
+    from ..errors import InputError
+
+    n: int | None = None
+    fields: list[tuple[str, str]] = []
+    labels: list[str] = []
     for h in head:
         w = h.split()
         if w[:2] == ["element", "vertex"]:
             n = int(w[2])
-        elif w[:1] == ["property"] and len(w) == 3 and w[1] in types:
-            fields.append((w[2], types[w[1]]))
+        elif w[:1] == ["property"] and len(w) == 3 and w[1] in _PLY_TYPES:
+            fields.append((w[2], _PLY_TYPES[w[1]]))
         elif h.startswith("comment face: "):
             labels = [kv.split("=", 1)[1] for kv in h[len("comment face: "):].split(", ")]
     need = {"x", "y", "z", "deviation_mm", "face"}
@@ -144,17 +182,13 @@ def read_compare_folder(folder) -> tuple[dict, Any, Any, Any, list[str]]:
         raise InputError(f"'{ply}' lacks the vertex properties {sorted(need)}")
     if not 0 < n <= MAX_SCAN_POINTS:
         raise InputError(f"'{ply}' holds {n} points; allowed 1 … {MAX_SCAN_POINTS:,}")
-    arr = np.fromfile(ply, dtype=np.dtype(fields), count=n, offset=offset)
-    if len(arr) != n:
-        raise InputError(f"'{ply}' is truncated: {len(arr)} of {n} points")
-    pts = np.stack([arr["x"], arr["y"], arr["z"]], 1)
-    return data, pts, arr["deviation_mm"].astype(float), arr["face"].astype(int), labels
+    return n, fields, labels
 
 
-def _fem_runs(folder: Path) -> list[tuple[str, dict]]:
+def _fem_runs(folder: Path) -> list[tuple[str, dict[str, Any]]]:
     """The FEM runs in a ``tipgeo fem --out-dir`` folder: (file name, run
     dict) of every ``*.json`` holding a force ``curve``."""
-    out = []
+    out: list[tuple[str, dict[str, Any]]] = []
     for f in sorted(folder.glob("*.json")):
         if f.stat().st_size > 50_000_000:
             continue
@@ -169,7 +203,8 @@ def _fem_runs(folder: Path) -> list[tuple[str, dict]]:
     return out
 
 
-def _study(folder: Path):
+def _study(folder: Path) -> tuple[dict[str, Any], dict[str, FloatArray],
+                                  dict[str, Predictor] | None] | None:
     """(report, sweep table {column: array}) of a ``tipgeo optimize``
     folder (report.json with optima, sweep.csv), or None."""
     import csv
@@ -198,52 +233,81 @@ def _study(folder: Path):
     return rep, table, _study_gp(folder, rep, rows)
 
 
-def _study_gp(folder: Path, rep: dict, rows: list[dict]):
+#: A rebuilt GP of a study: (m, d) designs (the variables' units) -> mean and
+#: standard deviation (m,) each, in the response's unit.
+Predictor = Callable[[FloatArray], tuple[FloatArray, FloatArray]]
+
+
+def _study_gp(folder: Path, rep: dict[str, Any],
+              rows: list[dict[str, str]]) -> dict[str, Predictor] | None:
     """The study's own GP models, rebuilt from surrogate.json's
     hyperparameters (ω, kernel; no search) on the sweep's designs, as
     {response: predict(X) → (mean, std)} — only when they reproduce every
-    optimum's recorded prediction (to 1e-6 of the response's range); else
-    None (the page then shows the designs only)."""
+    optimum's recorded prediction (to ``tol.report_prediction`` of the
+    response's range); else None (the page then shows the designs only)."""
     import numpy as np
-
-    from ..optimize.gp import GaussianProcess
 
     try:
         sj = json.loads((folder / "surrogate.json").read_text(encoding="utf-8"))
         if sj.get("mode") != "independent" or sj.get("calibrate"):
             return None
         names = [v["name"] for v in rep["variables"]]
-        lo = np.array([float(b[0]) for b in sj["bounds"]])
-        hi = np.array([float(b[1]) for b in sj["bounds"]])
         X = np.array([[float(r[n]) for n in names] for r in rows])
         models = {}
         for m in sj["models"]:
             (name,) = m["responses"]
             y = np.array([float(r[name]) for r in rows])
-            g = GaussianProcess(kernel=m["kernel"], nugget=m.get("nugget") or False, starts=1,
-                                seed=0).fit((X - lo) / (hi - lo), y, init=[m["omega"]])
-            scale = float((sj.get("interval_scale") or {}).get(name, 1.0))
-
-            def predict(Xq, g=g, scale=scale):
-                mean, std = g.predict((np.atleast_2d(Xq) - lo) / (hi - lo), return_std=True,
-                                      noise=True)
-                return np.ravel(mean), np.ravel(std) * scale
-
+            predict = _rebuilt_gp(sj, m, X, y)
+            if not _reproduces(predict, name, rep, names, float(np.ptp(y)) or 1.0):
+                return None
             models[name] = predict
-            rng = float(np.ptp(y)) or 1.0
-            for o in rep.get("optima") or []:
-                want = ((o.get("responses") or {}).get(name) or {}).get("predicted")
-                if want is None or not all(n in (o.get("x") or {}) for n in names):
-                    continue
-                got = predict(np.array([[o["x"][n] for n in names]]))[0][0]
-                if abs(got - want) > 1e-6 * rng:
-                    return None
         return models
     except Exception:  # noqa: BLE001 — any mismatch: the designs alone are shown
         return None
 
 
-def _resolve(src: Any):
+def _rebuilt_gp(sj: dict[str, Any], m: dict[str, Any], X: FloatArray,
+                y: FloatArray) -> Predictor:
+    """One response's GP from its surrogate.json model ``m`` (its ω, kernel
+    and nugget; the study's bounds and interval scale), fitted to (X, y)."""
+    import numpy as np
+
+    from ..optimize.gp import GaussianProcess
+
+    lo = np.array([float(b[0]) for b in sj["bounds"]])
+    hi = np.array([float(b[1]) for b in sj["bounds"]])
+    (name,) = m["responses"]
+    g = GaussianProcess(kernel=m["kernel"], nugget=m.get("nugget") or False, starts=1,
+                        seed=0).fit((X - lo) / (hi - lo), y, init=[m["omega"]])
+    scale = float((sj.get("interval_scale") or {}).get(name, 1.0))
+
+    def predict(Xq: FloatArray) -> tuple[FloatArray, FloatArray]:
+        mean, std = g.predict((np.atleast_2d(Xq) - lo) / (hi - lo), return_std=True,
+                              noise=True)
+        return np.ravel(mean), np.ravel(std) * scale
+
+    return predict
+
+
+def _reproduces(predict: Predictor, name: str, rep: dict[str, Any], names: list[str],
+                rng: float) -> bool:
+    """Does ``predict`` give every optimum's recorded prediction of ``name``
+    to ``tol.report_prediction`` × ``rng``?"""
+    import numpy as np
+
+    from ..tolerances import tol
+
+    for o in rep.get("optima") or []:
+        want = ((o.get("responses") or {}).get(name) or {}).get("predicted")
+        if want is None or not all(n in (o.get("x") or {}) for n in names):
+            continue
+        got = predict(np.array([[o["x"][n] for n in names]]))[0][0]
+        if abs(got - want) > tol.report_prediction * rng:
+            return False
+    return True
+
+
+def _resolve(src: Any) -> tuple[str, Any]:
     """(kind, object) of one source."""
     from ..errors import InputError
     from ..spec import TipSpec
@@ -290,29 +354,30 @@ def _resolve(src: Any):
                      "Comparison")
 
 
-def _name(kind: str, obj) -> str:
+def _name(kind: str, obj: Any) -> str:
     """What a source is called on the page."""
     if kind == "tip":
-        return obj.name or getattr(obj.spec, "name", None) or getattr(obj.tip, "source", None) \
-            or "tip"
+        return str(obj.name or getattr(obj.spec, "name", None)
+                   or getattr(obj.tip, "source", None) or "tip")
     if kind == "mill":
-        return obj.toolpath.name
+        return str(obj.toolpath.name)
     if kind == "grind":
-        return obj.program.summary().get("name") or "grind"
+        return str(obj.program.summary().get("name") or "grind")
     if kind == "laser":
-        return obj.name or "laser program"
+        return str(obj.name or "laser program")
     if kind == "compare":
-        return obj.cad.summary().get("name") or "compare"
+        return str(obj.cad.summary().get("name") or "compare")
     if kind == "compare-folder":
-        return obj.name
+        return str(obj.name)
     if kind == "fem-folder":
         return ", ".join(d.get("name", n) for n, d in obj)
     if kind == "study-folder":
-        return obj[0].get("name") or "study"
-    return obj.name or "spec"
+        return str(obj[0].get("name") or "study")
+    return str(obj.name or "spec")
 
 
-def html_report(sources, out, *, title: str | None = None) -> dict[str, Any]:
+def html_report(sources: Iterable[Any], out: str | Path, *,
+                title: str | None = None) -> dict[str, Any]:
     """Write one self-contained offline HTML report of ``sources`` to ``out``.
 
     Parameters
@@ -339,11 +404,11 @@ def html_report(sources, out, *, title: str | None = None) -> dict[str, Any]:
     from . import sections as S
     from .page import Page
 
-    sources = list(sources)
-    if not sources:
+    items = list(sources)
+    if not items:
         raise InputError("sources = []; allowed one or more: " + _SOURCE_FORMS)
     path = _check_out(out)
-    resolved = [_resolve(s) for s in sources]  # every source checked before any work
+    resolved = [_resolve(s) for s in items]  # every source checked before any work
     names = [_name(kind, obj) for kind, obj in resolved]
     page = Page(title or "tipgeo report: " + ", ".join(dict.fromkeys(names)),
                 "tipgeo — interactive, offline; mm, degrees and µm; cannula frame, +z toward "

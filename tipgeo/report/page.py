@@ -74,9 +74,12 @@ class Section:
     blocks: list[str] = field(default_factory=list)
     page: Page | None = field(default=None, repr=False)
 
-    def figure(self, fig, *, height: int = 520, name: str = "plot") -> str:
+    def figure(self, fig: Any, *, height: int = 520, name: str = "plot") -> str:
         """Add a plotly figure; returns its div id (the page's script finds it
         by that id)."""
+        if self.page is None:
+            raise ValueError(f"section {self.title!r} belongs to no page; make it with "
+                             "Page.section")
         div = self.page._id(name)
         spec = fig.to_plotly_json()
         layout = spec.get("layout", {})
@@ -111,7 +114,7 @@ class Section:
         """Add a paragraph (escaped)."""
         self.blocks.append(f'<p class="{cls}">{html.escape(s)}</p>')
 
-    def verdict(self, v: dict | None) -> None:
+    def verdict(self, v: dict[str, Any] | None) -> None:
         """Add a verdict dict (:meth:`tipgeo.verdict.Verdict.to_dict`): the
         line and its checks as a table."""
         if not v:
@@ -135,10 +138,10 @@ class Section:
 class Page:
     """The report page: a title, sections and the data its script links."""
 
-    def __init__(self, title: str, subtitle: str = ""):
+    def __init__(self, title: str, subtitle: str = "") -> None:
         self.title, self.subtitle = title, subtitle
         self.sections: list[Section] = []
-        self.links: list[dict] = []  # what the page script wires (see _script.js)
+        self.links: list[dict[str, Any]] = []  # what the page script wires (see _script.js)
         self._n = 0
 
     def _id(self, name: str) -> str:
@@ -151,7 +154,7 @@ class Page:
         self.sections.append(s)
         return s
 
-    def link(self, **kw) -> None:
+    def link(self, **kw: Any) -> None:
         """Record an interaction for the page script (hover, slider, pick)."""
         self.links.append(kw)
 

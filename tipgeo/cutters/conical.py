@@ -165,7 +165,7 @@ class ConicalCutter(Cutter):
             g[land] = (0.0, 0.0, 1.0)
         return f, g
 
-    def edge_faces(self, gamma: FloatArray, radius: float, cannula: Cannula,
+    def edge_faces(self, gamma: FloatArray, radius: float | FloatArray, cannula: Cannula,
                    previous: tuple[Cutter, ...] = ()) -> tuple[FloatArray, AnyArray] | None:
         g = np.asarray(gamma, float)
         zc = (cannula.r_o - radius) / math.tan(self.theta)
@@ -174,7 +174,8 @@ class ConicalCutter(Cutter):
                                                                 dtype=object)
         return np.full(g.shape, zc), np.full(g.shape, self.label, dtype=object)
 
-    def edge_z(self, gamma: FloatArray, radius: float, cannula: Cannula) -> FloatArray | None:
+    def edge_z(self, gamma: FloatArray, radius: float | FloatArray,
+               cannula: Cannula) -> FloatArray | None:
         z = (cannula.r_o - radius) / math.tan(self.theta)
         if self.bevel_length is not None:
             z = min(z, self.bevel_length)

@@ -485,7 +485,8 @@ class HelicalCutter(Cutter):
         start = None if z0 is None else np.asarray(z0, float).ravel() + zh
         return (self._solve_z_needle(pn[:, 0], pn[:, 1], start) - zh).reshape(xa.shape)
 
-    def edge_z(self, gamma: FloatArray, radius: float, cannula: Cannula) -> FloatArray | None:
+    def edge_z(self, gamma: FloatArray, radius: float | FloatArray,
+               cannula: Cannula) -> FloatArray | None:
         g = np.asarray(gamma, float)
         return self.height(radius * np.cos(g), radius * np.sin(g), cannula)
 

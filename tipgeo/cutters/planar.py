@@ -86,12 +86,13 @@ class PlanarCutter(Cutter):
         k = np.argmax(f, axis=1)
         return f[np.arange(len(pts)), k], n[k]
 
-    def edge_z(self, gamma: FloatArray, radius: float, cannula: Cannula) -> FloatArray | None:
+    def edge_z(self, gamma: FloatArray, radius: float | FloatArray,
+               cannula: Cannula) -> FloatArray | None:
         g = np.asarray(gamma, dtype=float)
         return np.asarray(np.min([p.z_on_cylinder(g, radius) for p in self.planes(cannula)],
                                  axis=0), dtype=np.float64)
 
-    def edge_faces(self, gamma: FloatArray, radius: float, cannula: Cannula,
+    def edge_faces(self, gamma: FloatArray, radius: float | FloatArray, cannula: Cannula,
                    previous: tuple[Cutter, ...] = ()) -> tuple[FloatArray, AnyArray] | None:
         g = np.asarray(gamma, dtype=float)
         planes = self.planes(cannula)

@@ -528,7 +528,7 @@ class SerrationCutter(Cutter):
         grad = np.stack([(f(p + h * e) - f(p - h * e)) / (2 * h) for e in np.eye(3)], 1)
         return val, grad
 
-    def edge_faces(self, gamma: FloatArray, radius: float, cannula: Cannula,
+    def edge_faces(self, gamma: FloatArray, radius: float | FloatArray, cannula: Cannula,
                    previous: tuple[Cutter, ...] = ()) -> tuple[FloatArray, AnyArray] | None:
         """Notch bottoms on the cylinder: face ``cut:<name>.arc`` or
         ``cut:<name>.fillet`` (+inf between notches; the straight sides are
@@ -555,7 +555,7 @@ class SerrationCutter(Cutter):
         _, g = self.implicit(points, cannula, previous=previous)
         return np.asarray(g / np.linalg.norm(g, axis=1, keepdims=True), dtype=np.float64)
 
-    def edge_z(self, gamma: FloatArray, radius: float, cannula: Cannula,
+    def edge_z(self, gamma: FloatArray, radius: float | FloatArray, cannula: Cannula,
                previous: tuple[Cutter, ...] = ()) -> FloatArray | None:
         """Lowest z of the notches on the cylinder of ``radius`` (+inf between
         notches); needs the preceding cutters for the rim heights."""

@@ -47,7 +47,7 @@ class Plane:
         """n·p ≤ offset on the kept side (mm)."""
         return self.height * math.sin(self.xi)
 
-    def z_on_cylinder(self, gamma: FloatArray, radius: float) -> FloatArray:
+    def z_on_cylinder(self, gamma: FloatArray, radius: float | FloatArray) -> FloatArray:
         """Height (mm) where the plane meets the cylinder of ``radius``."""
         if self.xi >= HALF_PI:
             return np.full(np.shape(gamma), self.height)

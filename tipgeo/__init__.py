@@ -28,7 +28,11 @@ open3d and scipy only with the functions that need them.
 """
 
 import importlib as _importlib
+from types import ModuleType as _ModuleType
+from typing import Any as _Any
 
+from .arrays import FloatArray as _FloatArray
+from .arrays import IntArray as _IntArray
 from .build import build_tip
 from .cannula import GAUGES, Cannula
 from .cutters import (
@@ -42,13 +46,40 @@ from .cutters import (
     SDFCutter,
     SerrationCutter,
 )
+from .cutters.custom import set_mesh_reader as _set_mesh_reader
 from .errors import BuildError, ExportError, InputError, ScanError, SpecError, TipGeoError
 from .presets import preset, preset_names, resolve_spec
 from .spec import TipSpec, dumps_spec, load_spec, loads_spec, save_spec
 from .tip import Tip
+from .tip import set_tip_writer as _set_tip_writer
 from .tolerances import tol
 
 __version__ = "0.1.0"
+
+
+# The I/O layer plugged into the slots of the layers below it: cutters and the
+# Tip never import tipgeo.io (it imports them), so the import graph has no
+# circle (tests/test_import_graph.py). Python runs this file before any
+# tipgeo module, so the slots are filled before anything can use them; the
+# I/O package itself still loads on first use.
+def _read_mesh(path: str, units: str | None) -> tuple[_FloatArray, _IntArray]:
+    """A mesh file's vertices (mm, cannula frame) and faces, for
+    :meth:`MeshCutter.from_file`."""
+    from .io import load_tip
+
+    tip = load_tip(path, units=units)
+    return tip.vertices, tip.faces
+
+
+def _write_tip(tip: Tip, path: str, **options: _Any) -> None:
+    """:meth:`Tip.export`: :func:`tipgeo.io.export_tip`."""
+    from .io import export_tip
+
+    export_tip(tip, path, **options)
+
+
+_set_mesh_reader(_read_mesh)
+_set_tip_writer(_write_tip)
 
 __all__ = ["build_tip", "Cannula", "GAUGES", "Cutter", "BevelCutter", "MultiPlaneCutter",
            "LancetCutter", "ConicalCutter", "HelicalCutter", "SerrationCutter", "MeshCutter",
@@ -61,7 +92,7 @@ _LAZY = ("angles", "closedforms", "edges", "fourier", "io", "inspect", "mechanic
          "plot", "demo", "cli")
 
 
-def __getattr__(name: str):
+def __getattr__(name: str) -> _ModuleType:
     if name in _LAZY:
         module = _importlib.import_module(f".{name}", __name__)
         globals()[name] = module
@@ -69,5 +100,5 @@ def __getattr__(name: str):
     raise AttributeError(f"module 'tipgeo' has no attribute {name!r}")
 
 
-def __dir__():
+def __dir__() -> list[str]:
     return sorted(set(globals()) | set(_LAZY))

@@ -12,13 +12,14 @@ from __future__ import annotations
 import ctypes
 import importlib
 import sys
+from typing import Any
 
 from .errors import TipGeoError
 
 __all__ = ["import_open3d"]
 
 
-def import_open3d():
+def import_open3d() -> Any:
     """Return the ``open3d`` module, preloading libusb-1.0 from the
     ``libusb-package`` wheel when the system lacks it."""
     if "open3d" in sys.modules:

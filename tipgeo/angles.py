@@ -31,19 +31,33 @@ from __future__ import annotations
 import csv
 import io
 import math
+from collections.abc import Callable
 from dataclasses import dataclass, field
-from typing import Any
+from typing import TYPE_CHECKING, Any, cast
 
 import numpy as np
 from scipy.integrate import simpson
 
 from . import validate as v
 from ._threads import small_linalg
+from .arrays import AnyArray, ArrayLike, FloatArray, IntArray
 from .edges import Edge, EdgePiece, exact_edges, lowest_cut, mesh_edges, rotate_z
 from .errors import SpecError
 from .fourier import FourierFit, fit_fourier
 from .jsonio import dumps
 from .tolerances import tol
+
+if TYPE_CHECKING:  # pragma: no cover
+    from .spec import TipSpec
+    from .tip import Tip
+
+#: ``evaluate(γ (m,) rad) -> {"z", "dz", "lambda", "theta", "alpha", "face"}``
+#: (mm, mm/rad, rad, face keys) along one edge, analysis frame.
+Evaluator = Callable[[FloatArray], dict[str, AnyArray]]
+
+#: ``normal_at(piece, γ) -> (m, 3)`` unit normals on one edge piece (the
+#: piece is an EdgePiece; the mesh path's pieces know their segment normals).
+NormalAt = Callable[[Any, FloatArray], FloatArray]
 
 __all__ = ["AngleReport", "WallAngles", "analyze", "analyze_edges", "edge_angles", "METHODS"]
 
@@ -51,7 +65,8 @@ METHODS = ("exact", "fourier", "mesh")
 EZ = np.array([0.0, 0.0, 1.0])
 
 
-def edge_angles(gamma, tangent, normal, wall: str):
+def edge_angles(gamma: ArrayLike, tangent: ArrayLike, normal: ArrayLike,
+                wall: str) -> tuple[FloatArray, FloatArray, FloatArray]:
     """λ, θ and α (rad) at edge points (analysis frame).
 
     Parameters
@@ -93,10 +108,11 @@ class WallAngles:
     length: float
     _eval: Any = field(repr=False, default=None)
 
-    def at(self, gamma) -> dict[str, np.ndarray]:
+    def at(self, gamma: ArrayLike) -> dict[str, AnyArray]:
         """z (mm), z′ (mm/rad), λ, θ, α (rad) and the face at γ (rad, wrapped
         to [0, 2π)). At a kink the piece starting there answers."""
-        return self._eval(np.mod(np.asarray(gamma, float), 2 * np.pi))
+        evaluate: Evaluator = self._eval
+        return evaluate(np.mod(np.asarray(gamma, dtype=np.float64), 2 * np.pi))
 
 
 @dataclass
@@ -114,7 +130,7 @@ class AngleReport:
     radii: tuple[float, float]
     n_harmonics: int
 
-    def table(self, step_deg: float = 1.0) -> dict[str, np.ndarray]:
+    def table(self, step_deg: float = 1.0) -> dict[str, AnyArray]:
         """Columns on γ = 0, step, … < 360°: ``gamma_deg``, ``z_o_mm``,
         ``z_i_mm``, ``lambda_o_deg``, ``lambda_i_deg``, ``theta_deg`` (outer,
         eq. 3.14), ``theta_i_deg``, ``alpha_o_deg``, ``alpha_i_deg``."""
@@ -128,7 +144,7 @@ class AngleReport:
                 "theta_deg": d(o["theta"]), "theta_i_deg": d(i["theta"]),
                 "alpha_o_deg": d(o["alpha"]), "alpha_i_deg": d(i["alpha"])}
 
-    def dense(self, wall: str, samples: int = 3601) -> dict[str, np.ndarray]:
+    def dense(self, wall: str, samples: int = 3601) -> dict[str, AnyArray]:
         """Values on a fine γ grid over [0, 2π) for plots (one wall)."""
         g = np.linspace(0.0, 2 * np.pi, samples, endpoint=False)
         w = self.outer if wall == "outer" else self.inner
@@ -138,7 +154,7 @@ class AngleReport:
 
     def summary(self) -> dict[str, Any]:
         """Min/max of each angle (deg), l_c, kinks, jumps and fit coefficients."""
-        def rng(x):
+        def rng(x: FloatArray) -> list[float]:
             x = np.degrees(x[np.isfinite(x)])
             return [float(x.min()), float(x.max())]
 
@@ -186,7 +202,7 @@ class AngleReport:
 
 
 # -----------------------------------------------------------------------------
-def analyze(source, *, method: str = "exact", n_harmonics: int = 5,
+def analyze(source: TipSpec | Tip, *, method: str = "exact", n_harmonics: int = 5,
             samples: int = 3600, radii: tuple[float, float] | None = None,
             name: str | None = None) -> AngleReport:
     """Edges and cutting angles of a tip.
@@ -226,10 +242,10 @@ def analyze(source, *, method: str = "exact", n_harmonics: int = 5,
         if tip is None:
             from .build import build_tip
 
-            tip = build_tip(spec)
+            tip = build_tip(cast("TipSpec", spec))  # the source was a TipSpec
         if radii is None and spec is None:
             raise SpecError("radii = None: a tip without a spec needs radii=(r_o, r_i) in mm")
-        r = radii or (spec.cannula.r_o, spec.cannula.r_i)
+        r = radii or (cast("TipSpec", spec).cannula.r_o, cast("TipSpec", spec).cannula.r_i)
         edges = mesh_edges(tip, radii=r)
         with small_linalg():  # many tiny least-squares solves: one BLAS thread
             walls = [_mesh_wall(e, n_harmonics) for e in edges]
@@ -245,14 +261,14 @@ def analyze(source, *, method: str = "exact", n_harmonics: int = 5,
     return AngleReport(label, method, walls[0], walls[1], r, n_harmonics)
 
 
-def _length_pieces(pieces_dz, radius) -> float:
+def _length_pieces(pieces_dz: list[tuple[FloatArray, FloatArray]], radius: float) -> float:
     total = 0.0
     for g, dz in pieces_dz:
         total += float(simpson(np.sqrt(radius ** 2 + dz ** 2), x=g))
     return total
 
 
-def _find_piece(pieces: list[EdgePiece], g: np.ndarray) -> np.ndarray:
+def _find_piece(pieces: list[EdgePiece], g: FloatArray) -> IntArray:
     """Index of the piece whose γ span holds each γ (γ in [0, 2π))."""
     idx = np.full(g.shape, -1)
     for k, p in enumerate(pieces):
@@ -263,7 +279,7 @@ def _find_piece(pieces: list[EdgePiece], g: np.ndarray) -> np.ndarray:
     return idx
 
 
-def _unwrap_to(p: EdgePiece, g: np.ndarray) -> np.ndarray:
+def _unwrap_to(p: EdgePiece, g: FloatArray) -> FloatArray:
     """γ shifted by a whole turn into the piece's span."""
     out = g.copy()
     out[out < p.gamma[0] - tol.angle] += 2 * np.pi
@@ -271,7 +287,7 @@ def _unwrap_to(p: EdgePiece, g: np.ndarray) -> np.ndarray:
     return out
 
 
-def _exact_wall(edge: Edge, spec, *, fourier: bool, n: int) -> WallAngles:
+def _exact_wall(edge: Edge, spec: TipSpec, *, fourier: bool, n: int) -> WallAngles:
     cannula, cutters = spec.cannula, tuple(spec.cutters)
     gh, zh = edge.heel
     r = edge.radius
@@ -284,12 +300,12 @@ def _exact_wall(edge: Edge, spec, *, fourier: bool, n: int) -> WallAngles:
             dz_pieces.append((p.gamma, f.derivative(p.gamma)))
         else:
             fits.append(None)
-            t = p.tangent
+            t = cast(FloatArray, p.tangent)  # the exact path's pieces carry tangents
             e_g = np.stack([-np.sin(p.gamma), np.cos(p.gamma), np.zeros_like(p.gamma)], 1)
             dz_pieces.append((p.gamma, r * t[:, 2] / np.einsum("ij,ij->i", t, e_g)))
     length = _length_pieces(dz_pieces, r) + sum(abs(j.z1 - j.z0) for j in edge.jumps)
 
-    def evaluate(g):
+    def evaluate(g: FloatArray) -> dict[str, AnyArray]:
         g = np.atleast_1d(g)
         z, face, owner = lowest_cut(cutters, g + gh, r, cannula)
         k_piece = _find_piece(edge.pieces, g)
@@ -315,8 +331,9 @@ def _exact_wall(edge: Edge, spec, *, fourier: bool, n: int) -> WallAngles:
                 s = k_piece == k
                 if np.any(s):
                     gg = _unwrap_to(p, g[s])
-                    zz[s] = fits[k](gg)
-                    dz[s] = fits[k].derivative(gg)
+                    fit = cast(FourierFit, fits[k])  # the fourier method fits every piece
+                    zz[s] = fit(gg)
+                    dz[s] = fit.derivative(gg)
             t = np.stack([-r * np.sin(g), r * np.cos(g), dz], 1)
             t /= np.linalg.norm(t, axis=1, keepdims=True)
         else:
@@ -407,9 +424,10 @@ def _basis_w(basis: AngleReport | None, edge: Edge) -> list[float | None]:
 
 def _sampled_wall(edge: Edge, n: int, ws: list[float | None]) -> WallAngles:
     r = edge.radius
-    fits = [fit_fourier(p.gamma, p.z, n=n, w=w) for p, w in zip(edge.pieces, ws)]
+    fitted = [fit_fourier(p.gamma, p.z, n=n, w=w) for p, w in zip(edge.pieces, ws)]
+    fits: list[FourierFit | None] = list(fitted)
     dz_pieces = []
-    for p, f in zip(edge.pieces, fits):
+    for p, f in zip(edge.pieces, fitted):
         g = np.linspace(p.gamma[0], p.gamma[-1], max(4 * len(p.gamma), 721))
         dz_pieces.append((g, f.derivative(g)))
     length = _length_pieces(dz_pieces, r) + sum(abs(j.z1 - j.z0) for j in edge.jumps)
@@ -417,13 +435,14 @@ def _sampled_wall(edge: Edge, n: int, ws: list[float | None]) -> WallAngles:
                       _fitted_evaluator(edge, fits, _interpolated_normal))
 
 
-def _interpolated_normal(p: EdgePiece, g: np.ndarray) -> np.ndarray:
+def _interpolated_normal(p: EdgePiece, g: FloatArray) -> FloatArray:
     """The piece's per-sample normals interpolated linearly at γ, renormalised."""
     nn = np.stack([np.interp(g, p.gamma, p.normal[:, j]) for j in range(3)], 1)
-    return nn / np.linalg.norm(nn, axis=1, keepdims=True)
+    return np.asarray(nn / np.linalg.norm(nn, axis=1, keepdims=True), dtype=np.float64)
 
 
-def _fitted_evaluator(edge: Edge, fits: list[FourierFit | None], normal_at):
+def _fitted_evaluator(edge: Edge, fits: list[FourierFit | None],
+                      normal_at: NormalAt) -> Evaluator:
     """``evaluate(γ)`` of an edge whose pieces' z(γ) are fitted with eq. 3.12
     (the ``mesh`` path and :func:`analyze_edges`): z and z′ from the piece's
     fit (linear in the samples where a piece has too few for one), the
@@ -431,7 +450,7 @@ def _fitted_evaluator(edge: Edge, fits: list[FourierFit | None], normal_at):
     these (analysis frame, rad, mm)."""
     r = edge.radius
 
-    def evaluate(g):
+    def evaluate(g: FloatArray) -> dict[str, AnyArray]:
         g = np.atleast_1d(g)
         k_piece = _find_piece(edge.pieces, g)
         z = np.full(len(g), np.nan)

@@ -23,7 +23,7 @@ import stat
 import threading
 import time
 import zlib
-from collections.abc import Callable
+from collections.abc import Callable, Iterator
 from pathlib import Path
 
 __all__ = ["write_atomic", "write_text_atomic", "write_bytes_atomic", "remove_stale_temporaries",
@@ -58,7 +58,7 @@ def remove_stale_temporaries(folder: str | Path) -> list[Path]:
     docstring); returns what was removed. Never raises for a file that went
     away or cannot be removed."""
     folder = Path(folder) if str(folder) else Path(".")
-    removed = []
+    removed: list[Path] = []
     now = time.time()
     try:
         entries = list(os.scandir(folder))
@@ -96,7 +96,7 @@ def _fsync_dir(folder: Path) -> None:
             os.close(dfd)
 
 
-def write_atomic(path: str | os.PathLike, write: Callable[[Path], None]) -> Path:
+def write_atomic(path: str | os.PathLike[str], write: Callable[[Path], None]) -> Path:
     """Fill ``path`` atomically: ``write(tmp)`` writes a fresh temporary file
     (a :class:`~pathlib.Path` in the same folder, already created, empty),
     which is then fsynced and renamed over ``path``.
@@ -145,7 +145,7 @@ def write_atomic(path: str | os.PathLike, write: Callable[[Path], None]) -> Path
     return path
 
 
-def write_bytes_atomic(path: str | os.PathLike, data: bytes) -> Path:
+def write_bytes_atomic(path: str | os.PathLike[str], data: bytes) -> Path:
     """Write ``data`` to ``path`` atomically and durably."""
     def w(tmp: Path) -> None:
         with open(tmp, "wb") as f:
@@ -153,7 +153,7 @@ def write_bytes_atomic(path: str | os.PathLike, data: bytes) -> Path:
     return write_atomic(path, w)
 
 
-def write_text_atomic(path: str | os.PathLike, text: str) -> Path:
+def write_text_atomic(path: str | os.PathLike[str], text: str) -> Path:
     """Write ``text`` (UTF-8, ``\\n`` line ends) to ``path`` atomically and durably."""
     def w(tmp: Path) -> None:
         with open(tmp, "w", encoding="utf-8", newline="\n") as f:
@@ -173,7 +173,7 @@ def remove_stale_staging(parent: str | Path, tag: str) -> list[Path]:
     import shutil
 
     parent = Path(parent)
-    removed = []
+    removed: list[Path] = []
     now = time.time()
     try:
         entries = list(os.scandir(parent))
@@ -199,7 +199,7 @@ def remove_stale_staging(parent: str | Path, tag: str) -> list[Path]:
 
 
 @contextlib.contextmanager
-def staging_dir(parent: str | Path, tag: str):
+def staging_dir(parent: str | Path, tag: str) -> Iterator[Path]:
     """A fresh folder ``<tag>-<host>-<pid>-<hex>`` in ``parent``, removed on
     exit whatever happens; the stale ones of killed runs (SIGKILL, power
     loss) are removed first (:func:`remove_stale_staging`)."""

@@ -7,21 +7,32 @@ z = 0, γ about +z from +x); mm.
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
+from typing import TYPE_CHECKING
 
 import manifold3d as m3d
 import numpy as np
 
 from . import validate as v
+from .arrays import FloatArray, IntArray
 from .construct import AUX, BuildContext, segments_for
 from .errors import BuildError, SpecError
 from .slivers import remove_slivers_checked
 from .tip import Tip
 from .tolerances import MAX_ASPECT_RATIO, MAX_TIP_HEIGHT_MM, SLIVER_DEVIATION_SHARE, tol
 
+if TYPE_CHECKING:  # pragma: no cover
+    from .construct import Labels
+    from .cutters.base import Cutter
+    from .spec import TipSpec
+
+#: ``fn(points (k, 3) mm) -> (k,)`` signed distance (mm) from one exact surface.
+Distance = Callable[[FloatArray], FloatArray]
+
 __all__ = ["build_tip", "exact_surfaces"]
 
 
-def build_tip(spec, *, tolerance: float | None = None, strict: bool | None = None,
+def build_tip(spec: TipSpec, *, tolerance: float | None = None, strict: bool | None = None,
               quality: bool = False) -> Tip:
     """Build the labelled, watertight mesh of a tip.
 
@@ -92,7 +103,7 @@ def build_tip(spec, *, tolerance: float | None = None, strict: bool | None = Non
     return _to_tip(solid, ctx, spec, strict, asked)
 
 
-def _check_aux(man: m3d.Manifold, labels, what: str) -> None:
+def _check_aux(man: m3d.Manifold, labels: Labels, what: str) -> None:
     mesh = man.to_mesh64()
     ids = np.asarray(mesh.face_id)
     if np.any(ids == labels.id(AUX)):
@@ -101,7 +112,7 @@ def _check_aux(man: m3d.Manifold, labels, what: str) -> None:
 
 
 def _check(man: m3d.Manifold, what: str, strict: bool, genus: int | None = 1,
-           labels=None) -> None:
+           labels: Labels | None = None) -> None:
     if man.status() != m3d.Error.NoError:
         raise BuildError(f"{what}: manifold3d reports {man.status()}")
     if man.is_empty():
@@ -122,11 +133,12 @@ def _check(man: m3d.Manifold, what: str, strict: bool, genus: int | None = 1,
             raise BuildError(f"{what}: genus {man.genus()}, expected {genus}{hint}")
 
 
-def _to_tip(solid: m3d.Manifold, ctx: BuildContext, spec, strict: bool, asked: float) -> Tip:
+def _to_tip(solid: m3d.Manifold, ctx: BuildContext, spec: TipSpec, strict: bool,
+            asked: float) -> Tip:
     mesh = solid.to_mesh64()
     verts = np.asarray(mesh.vert_properties, dtype=np.float64)[:, :3]
-    faces = np.asarray(mesh.tri_verts).astype(np.int64)
-    ids = np.asarray(mesh.face_id).astype(np.int64)
+    faces: IntArray = np.asarray(mesh.tri_verts).astype(np.int64)
+    ids: IntArray = np.asarray(mesh.face_id).astype(np.int64)
     if len(ids) != len(faces):
         raise BuildError("manifold3d lost the face provenance of the tip")
     names = ctx.labels.names
@@ -146,14 +158,14 @@ def _to_tip(solid: m3d.Manifold, ctx: BuildContext, spec, strict: bool, asked: f
     return tip
 
 
-def _area(v: np.ndarray, f: np.ndarray) -> float:
+def _area(v: FloatArray, f: IntArray) -> float:
     t = v[f]
     return float(0.5 * np.linalg.norm(np.cross(t[:, 1] - t[:, 0], t[:, 2] - t[:, 0]), axis=1).sum())
 
 
 
 
-def exact_surfaces(tip: Tip) -> dict:
+def exact_surfaces(tip: Tip) -> dict[str, Distance]:
     """label -> ``fn(points (k, 3) mm) -> (k,)`` signed distance (mm, to
     first order) of each point from the exact surface of that label of a
     built tip: the tube's cylinders ρ = r_o, ρ = r_i and its base plane
@@ -163,16 +175,21 @@ def exact_surfaces(tip: Tip) -> dict:
     from .construct import BASE, INNER, OUTER
 
     spec = tip.spec
+    if spec is None:
+        raise SpecError(f"tip '{tip.source}' has no spec; exact surfaces need the spec it was "
+                        "built from")
     cannula = spec.cannula
-    out = {OUTER: lambda p: np.hypot(p[:, 0], p[:, 1]) - cannula.r_o,
+    out: dict[str, Distance] = {OUTER: lambda p: np.hypot(p[:, 0], p[:, 1]) - cannula.r_o,
            INNER: lambda p: np.hypot(p[:, 0], p[:, 1]) - cannula.r_i,
            BASE: lambda p: p[:, 2] + cannula.length}
     for k, cutter in enumerate(spec.cutters):
         previous = tuple(spec.cutters[:k])
 
-        def fn(p, cutter=cutter, previous=previous):
-            if cutter.needs_previous:
-                return cutter.implicit(p, cannula, previous)[0]
+        def fn(p: FloatArray, cutter: Cutter = cutter,
+               previous: tuple[Cutter, ...] = previous) -> FloatArray:
+            if cutter.needs_previous:  # its implicit takes the cutters before it
+                implicit: Callable[..., tuple[FloatArray, FloatArray]] = cutter.implicit
+                return implicit(p, cannula, previous)[0]
             return cutter.implicit(p, cannula)[0]
         try:
             fn(np.zeros((1, 3)))

@@ -28,13 +28,17 @@ from __future__ import annotations
 
 import itertools
 import math
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field, replace
+from typing import Any
 
 import numpy as np
 
+from .arrays import ArrayLike, FloatArray
 from .cannula import Cannula
 from .cutters.helical import RULINGS, TIPS, HelicalCutter
 from .errors import SpecError
+from .tolerances import tol
 
 __all__ = ["TABLE_3_1", "TABLE_3_1_SOURCE", "table_3_1_edge", "EdgeDeviation",
            "edge_deviation", "Reading", "READINGS", "ReadingFit", "fit_reading",
@@ -48,7 +52,7 @@ TABLE_3_1_SOURCE = ("Giovannini, PhD thesis, Table 3.1, helical needle column: e
                     "its own lowest point; the inner b5 is not printed, taken as 0)")
 
 #: Table 3.1, helical column: z(γ) = a0 + Σ_k a_k cos(k w γ) + b_k sin(k w γ), mm.
-TABLE_3_1 = {
+TABLE_3_1: dict[str, dict[str, Any]] = {
     "outer": {"a": (3.535, -3.884, 0.339, 0.033, -0.0378, 0.0205),
               "b": (0.696, -0.551, 0.161, -0.0325, -0.002), "w": 0.999},
     "inner": {"a": (2.675, -2.866, 0.2, -0.001, -0.009, 0.003),
@@ -56,7 +60,8 @@ TABLE_3_1 = {
 }
 
 #: What the thesis states and the calibration keeps fixed (mm, deg, gauge).
-THESIS_FIXED = {"pitch_mm": 100.0, "helix_angle_deg": 10.0, "phi_deg": 13.5, "gauge": 14}
+THESIS_FIXED: dict[str, float] = {"pitch_mm": 100.0, "helix_angle_deg": 10.0, "phi_deg": 13.5,
+                                  "gauge": 14}
 
 #: Issue 13's targets for the outer edge, and the aim for the inner (µm).
 CALIBRATION_TARGETS_UM = {"outer_rms": 15.0, "outer_max": 40.0, "inner_rms": 50.0}
@@ -64,7 +69,8 @@ CALIBRATION_TARGETS_UM = {"outer_rms": 15.0, "outer_max": 40.0, "inner_rms": 50.
 _SAMPLES = 360
 
 
-def table_3_1_edge(gamma, wall: str = "outer", *, b4: float | None = None) -> np.ndarray:
+def table_3_1_edge(gamma: ArrayLike, wall: str = "outer", *,
+                   b4: float | None = None) -> FloatArray:
     """Table 3.1's helical edge z(γ) (mm) at γ (rad, from its lowest point).
 
     ``b4`` replaces the table's b4 (for the inner edge's misprint).
@@ -97,26 +103,27 @@ class EdgeDeviation:
     shift_z_mm: float
     b4: float | None = None
 
-    def as_dict(self) -> dict:
+    def as_dict(self) -> dict[str, Any]:
         return {"wall": self.wall, "rms_um": self.rms_um, "max_um": self.max_um,
                 "shift_gamma_deg": self.shift_gamma_deg, "shift_z_mm": self.shift_z_mm,
                 "b4_mm": self.b4}
 
 
-def _shift_fit(edge, wall: str, g: np.ndarray, x0=(0.0, 0.0)):
+def _shift_fit(edge: Callable[[FloatArray], FloatArray], wall: str, g: FloatArray,
+               x0: tuple[float, float] = (0.0, 0.0)) -> Any:
     """Least squares over (Δγ, Δz[, b4]) of edge(g + Δγ) − Δz − table."""
     from scipy.optimize import least_squares
 
     inner = wall == "inner"
 
-    def res(p):
+    def res(p: FloatArray) -> FloatArray:
         b4 = p[2] if inner else None
         r = edge(g + p[0]) - p[1] - table_3_1_edge(g, wall, b4=b4)
         return np.where(np.isfinite(r), r, 1e3)
 
     p0 = list(x0) + ([0.0] if inner else [])
     return least_squares(res, p0, x_scale=[0.1, 1.0] + ([0.1] if inner else []),
-                         xtol=1e-12, ftol=1e-12)
+                         xtol=tol.calib_fit, ftol=tol.calib_fit)
 
 
 def edge_deviation(cutter: HelicalCutter, wall: str = "outer", *,
@@ -130,12 +137,12 @@ def edge_deviation(cutter: HelicalCutter, wall: str = "outer", *,
     cannula : Cannula — default 14G
     samples : int — γ samples over [0, 2π)
     """
-    cannula = cannula or Cannula.from_gauge(THESIS_FIXED["gauge"])
+    cannula = cannula or Cannula.from_gauge(int(THESIS_FIXED["gauge"]))
     r = cannula.r_o if wall == "outer" else cannula.r_i
     g = np.linspace(0.0, 2 * math.pi, samples, endpoint=False)
 
-    def edge(gg):
-        return cutter.edge_z(gg, r, cannula)
+    def edge(gg: FloatArray) -> FloatArray:
+        return cutter.height(r * np.cos(gg), r * np.sin(gg), cannula)
 
     # start from the lowest points of both edges
     zt = table_3_1_edge(g, wall)
@@ -166,8 +173,8 @@ class Reading:
         return f"{self.ruling}/{self.tilt}/tip{self.tip}"
 
 
-TILTS = {"sideways": -0.5 * math.pi, "toward-axis": math.pi, "away-from-axis": 0.0,
-         "free": None}
+TILTS: dict[str, float | None] = {"sideways": -0.5 * math.pi, "toward-axis": math.pi,
+                                  "away-from-axis": 0.0, "free": None}
 
 #: Every reading the calibration compares.
 READINGS = tuple(Reading(r, t, s) for r, t, s in itertools.product(RULINGS, TILTS, TIPS))
@@ -182,9 +189,9 @@ class ReadingFit:
     outer: EdgeDeviation
     inner: EdgeDeviation | None = None
     starts: int = 0
-    extra: dict = field(default_factory=dict)
+    extra: dict[str, Any] = field(default_factory=dict)
 
-    def as_dict(self) -> dict:
+    def as_dict(self) -> dict[str, Any]:
         c = self.cutter
         return {"reading": self.reading.name, "axis_offset_mm": c.axis_offset_mm,
                 "tilt_direction_deg": math.degrees(c.tilt_direction),
@@ -199,9 +206,9 @@ def _base() -> HelicalCutter:
                          phi=math.radians(THESIS_FIXED["phi_deg"]), axis_offset=5.0)
 
 
-def _unpack(reading: Reading, p) -> dict:
-    p = list(p)
-    kw = {"axis_offset": p.pop(0), "tip": reading.tip, "ruling": reading.ruling}
+def _unpack(reading: Reading, values: ArrayLike) -> dict[str, Any]:
+    p = [float(x) for x in np.asarray(values, dtype=np.float64).ravel()]
+    kw: dict[str, Any] = {"axis_offset": p.pop(0), "tip": reading.tip, "ruling": reading.ruling}
     kw["tilt_direction"] = p.pop(0) if TILTS[reading.tilt] is None else TILTS[reading.tilt]
     if reading.ruling == "angle":
         kw["ruling_angle"] = p.pop(0)
@@ -209,7 +216,7 @@ def _unpack(reading: Reading, p) -> dict:
 
 
 def fit_reading(reading: Reading, *, cannula: Cannula | None = None,
-                starts: list | None = None, samples: int = 180) -> ReadingFit:
+                starts: list[list[float]] | None = None, samples: int = 180) -> ReadingFit:
     """Fit the free quantities of one reading to Table 3.1's outer edge.
 
     Free: D (``axis_offset``), ω when ``tilt = "free"``, β when ``ruling =
@@ -221,26 +228,27 @@ def fit_reading(reading: Reading, *, cannula: Cannula | None = None,
     """
     from scipy.optimize import least_squares
 
-    cannula = cannula or Cannula.from_gauge(THESIS_FIXED["gauge"])
+    cannula = cannula or Cannula.from_gauge(int(THESIS_FIXED["gauge"]))
     base = _base()
     g = np.linspace(0.0, 2 * math.pi, samples, endpoint=False)
     zt = table_3_1_edge(g, "outer")
     if starts is None:
         starts = [[d] for d in (3.0, 5.0, 8.0, 14.0)]
         if TILTS[reading.tilt] is None:
-            starts = [s + [w] for s in starts for w in np.radians([-150, -90, -30, 30, 90, 150])]
+            starts = [s + [float(w)] for s in starts
+                      for w in np.radians([-150, -90, -30, 30, 90, 150])]
         if reading.ruling == "angle":
-            starts = [s + [b] for s in starts for b in np.radians([-10.0, 0.0, 10.0])]
+            starts = [s + [float(b)] for s in starts for b in np.radians([-10.0, 0.0, 10.0])]
     ro = cannula.r_o
 
-    def model(p):
+    def model(p: FloatArray) -> FloatArray | None:
         try:
             cut = replace(base, **_unpack(reading, p[:-2]))
         except SpecError:
             return None
-        return cut.needle_edge(g + p[-2], ro) - p[-1]
+        return np.asarray(cut.needle_edge(g + p[-2], ro) - p[-1], dtype=np.float64)
 
-    def res(p):
+    def res(p: FloatArray) -> FloatArray:
         z = model(p)
         if z is None:
             return np.full(len(g), 1e2)
@@ -255,7 +263,8 @@ def fit_reading(reading: Reading, *, cannula: Cannula | None = None,
             continue
         p0 = list(s) + [float(g[np.argmin(z)] - g[np.argmin(zt)]), float(z.min() - zt.min())]
         with np.errstate(all="ignore"):
-            fit = least_squares(res, p0, max_nfev=300, xtol=1e-10, ftol=1e-12)
+            fit = least_squares(res, p0, max_nfev=300, xtol=tol.calib_reading_step,
+                                ftol=tol.calib_fit)
         if best is None or fit.cost < best.cost:
             best = fit
     if best is None:
@@ -274,8 +283,10 @@ def fit_reading(reading: Reading, *, cannula: Cannula | None = None,
                       starts=len(starts))
 
 
-def calibrate_thesis_helical(readings=READINGS, *, cannula: Cannula | None = None,
-                             progress=None) -> list[ReadingFit]:
+def calibrate_thesis_helical(readings: Sequence[Reading] = READINGS, *,
+                             cannula: Cannula | None = None,
+                             progress: Callable[[int, int, ReadingFit], object] | None = None
+                             ) -> list[ReadingFit]:
     """Fit every reading (:data:`READINGS`) and return them best first (by
     the outer edge's RMS residual). ``progress(i, n, fit)`` is called after
     each reading."""
@@ -294,12 +305,12 @@ def reading_of(cutter: HelicalCutter) -> Reading:
     tilt = "free"
     for name, w in TILTS.items():
         if w is not None and math.isclose(math.remainder(cutter.tilt_direction - w, 2 * math.pi),
-                                          0.0, abs_tol=1e-12):
+                                          0.0, abs_tol=tol.tilt_match):
             tilt = name
     return Reading(cutter.ruling, tilt, cutter.tip)
 
 
-def thesis_calibration_report(fits: list[ReadingFit] | None = None) -> dict:
+def thesis_calibration_report(fits: list[ReadingFit] | None = None) -> dict[str, Any]:
     """The stored thesis needle (:func:`~tipgeo.cutters.helical.thesis_helical`)
     against Table 3.1, and (``fits`` from :func:`calibrate_thesis_helical`)
     every reading's fit, best first, with how distinct the best two are.
@@ -316,7 +327,8 @@ def thesis_calibration_report(fits: list[ReadingFit] | None = None) -> dict:
     inner = edge_deviation(cut, "inner")
     t = CALIBRATION_TARGETS_UM
     ok = outer.rms_um <= t["outer_rms"] and outer.max_um <= t["outer_max"]
-    rep = {"source": TABLE_3_1_SOURCE, "targets_um": dict(t), "fixed": dict(THESIS_FIXED),
+    rep: dict[str, Any] = {
+           "source": TABLE_3_1_SOURCE, "targets_um": dict(t), "fixed": dict(THESIS_FIXED),
            "stored": {"reading": reading_of(cut).name, "axis_offset_mm": cut.axis_offset_mm,
                       "tilt_direction_deg": math.degrees(cut.tilt_direction),
                       "ruling_angle_deg": math.degrees(cut.ruling_beta),
@@ -342,7 +354,7 @@ def thesis_calibration_report(fits: list[ReadingFit] | None = None) -> dict:
             rep["second"] = others[0].reading.name
             rep["ratio_second_to_best"] = others[0].outer.rms_um / sel.outer.rms_um
         for what in ("ruling", "tilt", "tip"):
-            by = {}
+            by: dict[str, float] = {}
             for f in good:
                 k = getattr(f.reading, what)
                 by[k] = min(by.get(k, math.inf), f.outer.rms_um)

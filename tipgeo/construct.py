@@ -15,10 +15,12 @@ from __future__ import annotations
 import math
 from collections.abc import Callable
 from dataclasses import dataclass, field
+from typing import Any
 
 import manifold3d as m3d
 import numpy as np
 
+from .arrays import FloatArray, IntArray
 from .cannula import Cannula
 from .errors import BuildError, SpecError
 from .tolerances import MAX_ASPECT_RATIO, MIN_TOLERANCE_FRACTION, tol
@@ -73,7 +75,7 @@ def ring_spacing(radius: float, segments: int) -> float:
     return 0.9 * MAX_ASPECT_RATIO * 2.0 * math.pi * radius / segments
 
 
-def _manifold(verts: np.ndarray, tris: np.ndarray, face_ids: np.ndarray, what: str) -> m3d.Manifold:
+def _manifold(verts: FloatArray, tris: IntArray, face_ids: IntArray, what: str) -> m3d.Manifold:
     # nanobind wants writable, owned, C-ordered arrays
     mesh = m3d.Mesh64(np.array(verts, dtype=np.float64, order="C", copy=True),
                       np.array(tris, dtype=np.uint64, order="C", copy=True),
@@ -84,7 +86,7 @@ def _manifold(verts: np.ndarray, tris: np.ndarray, face_ids: np.ndarray, what: s
     return man
 
 
-def _ring_quads(a: np.ndarray, b: np.ndarray, flip: bool) -> np.ndarray:
+def _ring_quads(a: IntArray, b: IntArray, flip: bool) -> IntArray:
     """Triangles joining two closed vertex rings a, b (index arrays, same length)."""
     a1, b1 = np.roll(a, -1), np.roll(b, -1)
     t = np.concatenate([np.stack([a, a1, b1], 1), np.stack([a, b1, b], 1)])
@@ -121,7 +123,7 @@ class BuildContext:
     z_bottom: float
     z_top: float
     labels: Labels = field(default_factory=Labels)
-    previous: tuple = ()
+    previous: tuple[Any, ...] = ()  # the cutters applied before the current one
     rings: bool = False
 
     @property
@@ -156,7 +158,8 @@ class BuildContext:
         g = 2.0 * np.pi * np.arange(n) / n
         c, s = np.cos(g), np.sin(g)
         zb, zt = self.z_bottom, self.z_top
-        verts, rings = [], []
+        verts: list[FloatArray] = []
+        rings: list[list[IntArray]] = []
         for r in (self.cannula.r_o, self.cannula.r_i):
             bands = math.ceil((zt - zb) / ring_spacing(r, n)) if self.rings else 1
             zs = np.linspace(zb, zt, max(1, bands) + 1)
@@ -174,7 +177,7 @@ class BuildContext:
         return _manifold(np.concatenate(verts), np.concatenate(tris), ids, "tube")
 
     # -- primitives for cutters --------------------------------------------
-    def labelled(self, man: m3d.Manifold, classify: Callable[[np.ndarray, np.ndarray], np.ndarray],
+    def labelled(self, man: m3d.Manifold, classify: Callable[[FloatArray, FloatArray], IntArray],
                  what: str) -> m3d.Manifold:
         """Re-make ``man`` as an original solid whose triangles carry the label
         ids returned by ``classify(centroids, unit_normals)``."""
@@ -193,7 +196,7 @@ class BuildContext:
         return m3d.Manifold.cube((2 * r, 2 * r, self.z_hi - self.z_lo)).translate(
             (-r, -r, self.z_lo))
 
-    def halfspace(self, normal: np.ndarray, offset: float, label: str) -> m3d.Manifold:
+    def halfspace(self, normal: FloatArray, offset: float, label: str) -> m3d.Manifold:
         """Box ∩ {p : normal·p ≤ offset}; the plane's triangles get ``label``."""
         nrm = np.asarray(normal, dtype=float)
         nrm = nrm / np.linalg.norm(nrm)
@@ -203,7 +206,7 @@ class BuildContext:
         lid, aux = self.labels.id(label), self.labels.id(AUX)
         scale = max(self.reach, abs(self.z_lo), abs(self.z_hi))
 
-        def classify(cent, nr):
+        def classify(cent: FloatArray, nr: FloatArray) -> IntArray:
             on = ((np.abs(cent @ nrm - offset) <= 1e3 * tol.plane * scale)
                   & (nr @ nrm > 1 - tol.parallel))
             return np.where(on, lid, aux)
@@ -231,7 +234,7 @@ class BuildContext:
         rings = [j * n + np.arange(n) for j in range(len(zs))]
         sides = [_ring_quads(a, b, False) for a, b in zip(rings, rings[1:])]
         cb = len(zs) * n
-        verts.append([[0, 0, z0], [0, 0, z1]])
+        verts.append(np.array([[0.0, 0.0, z0], [0.0, 0.0, z1]]))
         b, t = rings[0], rings[-1]
         bcap = np.stack([np.full(n, cb), np.roll(b, -1), b], 1)
         if r1 > 0:
@@ -240,13 +243,13 @@ class BuildContext:
         else:
             sides.append(np.stack([t, np.roll(t, -1), np.full(n, cb + 1)], 1))
             caps, cap_ids = [bcap], [self.labels.id(AUX)]
-        sides = np.concatenate(sides)
-        tris = np.concatenate([sides] + caps)
-        ids = np.concatenate([np.full(len(sides), self.labels.id(side))]
+        side_tris = np.concatenate(sides)
+        tris = np.concatenate([side_tris] + caps)
+        ids = np.concatenate([np.full(len(side_tris), self.labels.id(side))]
                              + [np.full(n, k) for k in cap_ids])
         return _manifold(np.concatenate(verts), tris, ids, side)
 
-    def prism(self, polygon: np.ndarray, thickness: float, side: str) -> m3d.Manifold:
+    def prism(self, polygon: FloatArray, thickness: float, side: str) -> m3d.Manifold:
         """Right prism over a simple CCW polygon (k, 2) in the XY plane, from
         Z = 0 to Z = thickness, vertices exactly as given (no simplification).
         Side triangles get ``side``, the caps ``aux``."""
@@ -265,8 +268,8 @@ class BuildContext:
             raise BuildError(f"prism of '{side}' is inside out (polygon not CCW)")
         return man
 
-    def annular_heightfield(self, height: Callable[[np.ndarray, np.ndarray], np.ndarray],
-                            label: str, angular: int | np.ndarray,
+    def annular_heightfield(self, height: Callable[[FloatArray, FloatArray], FloatArray],
+                            label: str, angular: int | FloatArray,
                             radial: int) -> m3d.Manifold:
         """Solid {r_in ≤ ρ ≤ r_out, z_lo ≤ z ≤ height(x, y)} over an annulus a
         little wider than the tube wall, as a polygonal grid of ``angular`` ×
@@ -278,7 +281,7 @@ class BuildContext:
         ro, ri = self.cannula.r_o, self.cannula.r_i
         d = 0.1037 * (ro - ri)
         rad = np.linspace(max(ri - d, 0.5 * ri), ro + d, radial)
-        if np.ndim(angular) == 0:
+        if isinstance(angular, (int, np.integer)) or np.ndim(angular) == 0:
             g = (np.arange(int(angular)) + 0.5) * 2.0 * np.pi / int(angular)
         else:
             g = np.asarray(angular, dtype=float)
@@ -286,7 +289,7 @@ class BuildContext:
                     and g[0] >= 0.0 and g[-1] < 2.0 * np.pi):
                 raise BuildError(f"surface '{label}': its grid angles must increase "
                                  "within [0, 2π)")
-            angular = len(g)
+        angular = len(g)
         rr, gg = np.meshgrid(rad, g, indexing="ij")  # (radial, angular)
         x, y = rr * np.cos(gg), rr * np.sin(gg)
         z = np.asarray(height(x.ravel(), y.ravel()), dtype=float).reshape(x.shape)

@@ -25,13 +25,21 @@ Three ways to get an edge:
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 from dataclasses import dataclass, field
+from typing import TYPE_CHECKING
 
 import numpy as np
 
+from .arrays import AnyArray, ArrayLike, BoolArray, FloatArray, IntArray
 from .cannula import Cannula
 from .errors import SpecError, TipGeoError
 from .tolerances import tol
+
+if TYPE_CHECKING:  # pragma: no cover
+    from .cutters.base import Cutter
+    from .spec import TipSpec
+    from .tip import Tip
 
 __all__ = ["EdgePiece", "Edge", "Kink", "Jump", "exact_edges", "mesh_edges",
            "label_by_geometry", "heel_of", "lowest_cut", "rotate_z"]
@@ -55,10 +63,10 @@ class EdgePiece:
     """
 
     face: str
-    gamma: np.ndarray
-    z: np.ndarray
-    tangent: np.ndarray | None
-    normal: np.ndarray
+    gamma: FloatArray
+    z: FloatArray
+    tangent: FloatArray | None
+    normal: FloatArray
 
     @property
     def span(self) -> tuple[float, float]:
@@ -112,15 +120,15 @@ class Edge:
     heel: tuple[float, float] = (0.0, 0.0)
 
     @property
-    def gamma(self) -> np.ndarray:
+    def gamma(self) -> FloatArray:
         return np.concatenate([p.gamma for p in self.pieces])
 
     @property
-    def z(self) -> np.ndarray:
+    def z(self) -> FloatArray:
         return np.concatenate([p.z for p in self.pieces])
 
     @property
-    def points(self) -> np.ndarray:
+    def points(self) -> FloatArray:
         """(m, 3) edge points in the analysis frame (mm)."""
         g, z = self.gamma, self.z
         return np.stack([self.radius * np.cos(g), self.radius * np.sin(g), z], 1)
@@ -128,9 +136,11 @@ class Edge:
 
 # -----------------------------------------------------------------------------
 # exact path
-def lowest_cut(cutters, gamma, radius, cannula):
-    """The lowest cut surface over each γ on the cylinder of ``radius`` (mm;
-    γ in rad, cannula frame): (z (mm), face key, index of the cutter)."""
+def lowest_cut(cutters: Sequence[Cutter], gamma: ArrayLike, radius: float | FloatArray,
+               cannula: Cannula) -> tuple[FloatArray, AnyArray, IntArray]:
+    """The lowest cut surface over each γ on the cylinder of ``radius`` (mm,
+    or one radius per γ; γ in rad, cannula frame): (z (mm), face key, index
+    of the cutter)."""
     g = np.atleast_1d(np.asarray(gamma, float))
     zbest = np.full(g.shape, np.inf)
     face = np.full(g.shape, "", dtype=object)
@@ -150,7 +160,7 @@ def lowest_cut(cutters, gamma, radius, cannula):
     return zbest, face, owner
 
 
-def heel_of(cutters, cannula: Cannula) -> tuple[float, float]:
+def heel_of(cutters: Sequence[Cutter], cannula: Cannula) -> tuple[float, float]:
     """Cannula-frame (γ, z) of the outer edge's lowest point (rad, mm)."""
     r = cannula.r_o
     g = np.linspace(0.0, 2 * np.pi, 7200, endpoint=False)
@@ -175,7 +185,7 @@ def heel_of(cutters, cannula: Cannula) -> tuple[float, float]:
     return float(np.mod(gh, 2 * np.pi)), zh
 
 
-def _dz(cutters, cannula, r, g: np.ndarray) -> np.ndarray:
+def _dz(cutters: Sequence[Cutter], cannula: Cannula, r: float, g: FloatArray) -> FloatArray:
     """Exact z′(γ) = −r n_γ / n_z on the cylinder of radius r."""
     z, _, owner = lowest_cut(cutters, g, r, cannula)
     pts = np.stack([r * np.cos(g), r * np.sin(g), z], 1)
@@ -188,7 +198,8 @@ def _dz(cutters, cannula, r, g: np.ndarray) -> np.ndarray:
     return out
 
 
-def _flat_point(cutters, cannula, r, g0: float, width: float) -> float:
+def _flat_point(cutters: Sequence[Cutter], cannula: Cannula, r: float, g0: float,
+                width: float) -> float:
     """Refine a smooth minimum of z(γ) to z′(γ) = 0 by bisection (the golden
     section alone stops at √ε ≈ 1e-8 rad)."""
     a, b = g0 - 2 * width - tol.bracket_pad, g0 + 2 * width + tol.bracket_pad
@@ -205,7 +216,8 @@ def _flat_point(cutters, cannula, r, g0: float, width: float) -> float:
     return 0.5 * (a + b)
 
 
-def _breaks(cutters, radius, cannula, g0: float, n: int):
+def _breaks(cutters: Sequence[Cutter], radius: float, cannula: Cannula, g0: float,
+            n: int) -> FloatArray:
     """Face changes around the wall: sorted cannula-frame γ (rad), refined
     by bisection to 1e-13 rad."""
     g = g0 + np.linspace(0.0, 2 * np.pi, n, endpoint=False)
@@ -226,7 +238,7 @@ def _breaks(cutters, radius, cannula, g0: float, n: int):
     return np.sort(np.mod(0.5 * (lo + hi) - g0, 2 * np.pi)) + g0
 
 
-def exact_edges(spec, *, samples: int = DEFAULT_SAMPLES) -> tuple[Edge, Edge]:
+def exact_edges(spec: TipSpec, *, samples: int = DEFAULT_SAMPLES) -> tuple[Edge, Edge]:
     """Outer and inner edges of ``spec`` on the exact surfaces.
 
     Parameters
@@ -246,12 +258,15 @@ def exact_edges(spec, *, samples: int = DEFAULT_SAMPLES) -> tuple[Edge, Edge]:
     return out[0], out[1]
 
 
-def _exact_wall(cutters, cannula, wall, r, gh, zh, samples) -> Edge:
+def _exact_wall(cutters: Sequence[Cutter], cannula: Cannula, wall: str, r: float, gh: float,
+                zh: float, samples: int) -> Edge:
     eps = tol.break_gap  # pieces stop this short of a break (rad)
     br = _breaks(cutters, r, cannula, gh, max(samples, 720))
     # pieces run between face changes (one piece may wrap past the heel)
     bounds = np.append(br, br[0] + 2 * np.pi) if len(br) else np.array([gh, gh + 2 * np.pi])
-    pieces, kinks, jumps = [], [], []
+    pieces: list[EdgePiece] = []
+    kinks: list[Kink] = []
+    jumps: list[Jump] = []
     for a, b in zip(bounds[:-1], bounds[1:]):
         if b - a <= 4 * eps:
             continue
@@ -291,7 +306,7 @@ def _exact_wall(cutters, cannula, wall, r, gh, zh, samples) -> Edge:
     return Edge(wall, r, pieces, kinks, jumps, "exact", (gh, zh))
 
 
-def rotate_z(v: np.ndarray, a: float) -> np.ndarray:
+def rotate_z(v: FloatArray, a: float) -> FloatArray:
     """Vectors (n, 3) rotated by ``a`` (rad) about +z (cannula frame)."""
     c, s = math.cos(a), math.sin(a)
     out = v.copy()
@@ -302,7 +317,7 @@ def rotate_z(v: np.ndarray, a: float) -> np.ndarray:
 
 # -----------------------------------------------------------------------------
 # mesh path
-def _loop(tip, wall: str):
+def _loop(tip: Tip, wall: str) -> tuple[IntArray, IntArray]:
     """Mesh edges between ``wall`` triangles and cut triangles, as one
     ordered loop: (vertex ids (k,), cut triangle per segment (k,))."""
     faces = tip.faces
@@ -311,27 +326,27 @@ def _loop(tip, wall: str):
     is_cut = np.array([str(x).startswith("cut:") for x in labels])
     # directed half-edges of cut triangles, keyed by undirected edge
     he = faces[:, [0, 1, 1, 2, 2, 0]].reshape(-1, 3, 2)
-    wall_edges = {}
+    wall_edges: dict[tuple[int, int], int] = {}
     for t in np.flatnonzero(is_wall):
         for a, b in he[t]:
-            wall_edges[(min(a, b), max(a, b))] = t
+            wall_edges[(int(min(a, b)), int(max(a, b)))] = int(t)
     seg = []
     for t in np.flatnonzero(is_cut):
         for a, b in he[t]:
-            key = (min(a, b), max(a, b))
+            key = (int(min(a, b)), int(max(a, b)))
             if key in wall_edges:
                 seg.append((int(a), int(b), int(t)))
     if not seg:
         raise TipGeoError(f"no edge between the {wall} wall and a cut face")
-    nxt = {}
-    for a, b, t in seg:
-        nxt.setdefault(a, []).append((b, t))
+    nxt: dict[int, list[tuple[int, int]]] = {}
+    for a, b, tri in seg:
+        nxt.setdefault(a, []).append((b, tri))
     start = seg[0][0]
     order, tris = [start], []
     cur = start
     for _ in range(len(seg)):
-        b, t = nxt[cur][0]
-        tris.append(t)
+        b, tri = nxt[cur][0]
+        tris.append(tri)
         if b == start:
             break
         order.append(b)
@@ -342,7 +357,7 @@ def _loop(tip, wall: str):
     return np.array(order), np.array(tris)
 
 
-def mesh_edges(tip, *, radii: tuple[float, float] | None = None) -> tuple[Edge, Edge]:
+def mesh_edges(tip: Tip, *, radii: tuple[float, float] | None = None) -> tuple[Edge, Edge]:
     """Outer and inner edges of a labelled tip mesh (cannula frame in,
     analysis frame out: heel at γ = 0, z = 0).
 
@@ -391,7 +406,8 @@ def mesh_edges(tip, *, radii: tuple[float, float] | None = None) -> tuple[Edge, 
     return out[0], out[1]
 
 
-def _mesh_pieces(wall, r, g, z, seg_face, seg_n, heel) -> Edge:
+def _mesh_pieces(wall: str, r: float, g: FloatArray, z: FloatArray, seg_face: AnyArray,
+                 seg_n: FloatArray, heel: tuple[float, float]) -> Edge:
     """Split the ordered loop (segment i joins vertex i to i + 1) into runs of
     one face; vertical segments become jumps."""
     gv = np.append(g, g[0] + 2 * np.pi)
@@ -402,13 +418,14 @@ def _mesh_pieces(wall, r, g, z, seg_face, seg_n, heel) -> Edge:
                           "around the axis")
     vertical = dg < tol.angle
     keys = [(str(f), bool(vv)) for f, vv in zip(seg_face, vertical)]
-    runs, s0 = [], 0
+    runs: list[tuple[int, int]] = []
+    s0 = 0
     for i in range(1, len(keys) + 1):
         if i == len(keys) or keys[i] != keys[s0]:
             runs.append((s0, i - 1))
             s0 = i
-    pieces, kinks, jumps = [], [], []
-    items = []
+    kinks: list[Kink] = []
+    items: list[_MeshPiece | Jump] = []
     for s_, e_ in runs:
         face, vert = keys[s_]
         if vert:
@@ -417,14 +434,15 @@ def _mesh_pieces(wall, r, g, z, seg_face, seg_n, heel) -> Edge:
             items.append(_MeshPiece(face, gv[s_:e_ + 2].copy(), zv[s_:e_ + 2].copy(), None,
                                     seg_n[s_:e_ + 1].copy()))
     # a face that wraps past γ = 0 is one piece
-    if (len(items) > 1 and isinstance(items[0], _MeshPiece) and isinstance(items[-1], _MeshPiece)
-            and items[0].face == items[-1].face):
-        last, first = items.pop(), items[0]
+    last, first = items[-1], items[0]
+    if (len(items) > 1 and isinstance(first, _MeshPiece) and isinstance(last, _MeshPiece)
+            and first.face == last.face):
+        items.pop()
         items[0] = _MeshPiece(first.face, np.concatenate([last.gamma[:-1] - 2 * np.pi,
                                                           first.gamma]),
                               np.concatenate([last.z[:-1], first.z]), None,
                               np.concatenate([last.normal, first.normal]))
-    pieces = [x for x in items if isinstance(x, _MeshPiece)]
+    pieces: list[EdgePiece] = [x for x in items if isinstance(x, _MeshPiece)]
     jumps = [x for x in items if isinstance(x, Jump)]
     for p, q in zip(pieces, pieces[1:] + pieces[:1]):
         if p.face != q.face and abs(p.z[-1] - q.z[0]) < tol.join:
@@ -438,7 +456,7 @@ def _mesh_pieces(wall, r, g, z, seg_face, seg_n, heel) -> Edge:
 class _MeshPiece(EdgePiece):
     """A mesh piece: vertices (gamma, z) and one normal per segment."""
 
-    def normal_at(self, gamma: np.ndarray) -> np.ndarray:
+    def normal_at(self, gamma: FloatArray) -> FloatArray:
         """The normal of the segment containing each γ."""
         k = np.clip(np.searchsorted(self.gamma, gamma, side="right") - 1, 0,
                     len(self.normal) - 1)
@@ -446,9 +464,10 @@ class _MeshPiece(EdgePiece):
 
 
 # -----------------------------------------------------------------------------
-def label_by_geometry(tip, *, r_o: float, r_i: float, axis_point=(0.0, 0.0, 0.0),
-                      axis_dir=(0.0, 0.0, 1.0), radial_tol: float | None = None,
-                      crease_deg: float = 10.0):
+def label_by_geometry(tip: Tip, *, r_o: float, r_i: float,
+                      axis_point: ArrayLike = (0.0, 0.0, 0.0),
+                      axis_dir: ArrayLike = (0.0, 0.0, 1.0), radial_tol: float | None = None,
+                      crease_deg: float = 10.0) -> Tip:
     """Label an imported (unlabelled) tip by its geometry.
 
     The mesh is moved into the cannula frame (``axis_point`` to the origin,
@@ -496,7 +515,8 @@ def label_by_geometry(tip, *, r_o: float, r_i: float, axis_point=(0.0, 0.0, 0.0)
                segments=None, source=tip.source, meta=dict(tip.meta))
 
 
-def _smooth_components(faces, normals, mask, crease):
+def _smooth_components(faces: IntArray, normals: FloatArray, mask: BoolArray,
+                       crease: float) -> IntArray:
     from scipy.sparse import coo_matrix
     from scipy.sparse.csgraph import connected_components
 

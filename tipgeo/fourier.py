@@ -10,11 +10,13 @@ base frequency w and the analytic derivative (ERRATA.md's corrected eq. 3.13).
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 from scipy.optimize import minimize_scalar
 
 from . import validate as v
+from .arrays import ArrayLike, FloatArray
 from .errors import SpecError
 from .tolerances import tol
 
@@ -36,8 +38,8 @@ class FourierFit:
     """
 
     a0: float
-    a: np.ndarray
-    b: np.ndarray
+    a: FloatArray
+    b: FloatArray
     w: float
     r2: float
     rmse: float
@@ -48,41 +50,73 @@ class FourierFit:
         """Number of harmonics."""
         return len(self.a)
 
-    def __call__(self, gamma) -> np.ndarray:
+    def __call__(self, gamma: ArrayLike) -> FloatArray:
         """z(γ) (mm)."""
         g = np.asarray(gamma, float)
         k = np.arange(1, self.n + 1)
         kwg = np.multiply.outer(g, k * self.w)
-        return self.a0 + np.cos(kwg) @ self.a + np.sin(kwg) @ self.b
+        return np.asarray(self.a0 + np.cos(kwg) @ self.a + np.sin(kwg) @ self.b,
+                          dtype=np.float64)
 
-    def derivative(self, gamma) -> np.ndarray:
+    def derivative(self, gamma: ArrayLike) -> FloatArray:
         """z′(γ) (mm/rad), ERRATA.md's eq. 3.13."""
         g = np.asarray(gamma, float)
         k = np.arange(1, self.n + 1)
         kw = k * self.w
         kwg = np.multiply.outer(g, kw)
-        return (-np.sin(kwg)) @ (kw * self.a) + np.cos(kwg) @ (kw * self.b)
+        return np.asarray((-np.sin(kwg)) @ (kw * self.a) + np.cos(kwg) @ (kw * self.b),
+                          dtype=np.float64)
 
-    def to_dict(self) -> dict:
+    def to_dict(self) -> dict[str, Any]:
         """Plain numbers (for JSON)."""
         return {"a0": self.a0, "a": self.a.tolist(), "b": self.b.tolist(), "w": self.w,
                 "r2": self.r2, "rmse_mm": self.rmse,
                 "gamma_range_deg": [float(np.degrees(x)) for x in self.gamma_range]}
 
 
-def _design(g: np.ndarray, n: int, w: float) -> np.ndarray:
+def _design(g: FloatArray, n: int, w: float) -> FloatArray:
     kwg = np.multiply.outer(g, w * np.arange(1, n + 1))
     return np.concatenate([np.ones((len(g), 1)), np.cos(kwg), np.sin(kwg)], axis=1)
 
 
-def _solve(g, z, n, w):
+def _solve(g: FloatArray, z: FloatArray, n: int, w: float) -> tuple[FloatArray, float]:
     A = _design(g, n, w)
     coef, *_ = np.linalg.lstsq(A, z, rcond=None)
     res = z - A @ coef
-    return coef, float(res @ res)
+    return np.asarray(coef, dtype=np.float64), float(res @ res)
 
 
-def fit_fourier(gamma, z, *, n: int = 5, w: float | None = None) -> FourierFit:
+def _search_w(g: FloatArray, zz: FloatArray, n: int, span: float) -> float:
+    """The base frequency w (1/rad) by variable projection over a grid of
+    [0.2, 1.5]·2π/span, every local minimum refined (see :func:`fit_fourier`)."""
+    w0 = 2 * np.pi / span
+    grid = w0 * np.geomspace(0.2, 1.5, 40)
+    grss = np.array([_solve(g, zz, n, wi)[1] for wi in grid])
+    # refine every local minimum of the grid, keep the best; among equally
+    # good w (a series with w/2 can mimic one with w) keep the largest
+    tss0 = float(((zz - zz.mean()) ** 2).sum())
+    left = np.r_[np.inf, grss[:-1]]
+    right = np.r_[grss[1:], np.inf]
+    at = np.flatnonzero((grss <= left) & (grss <= right) & ((grss < left) | (grss < right)))
+    minima = [int(k) for k in at[np.argsort(grss[at])][:n + 1]]  # w/k mimics w: n valleys + 1
+    cand: list[tuple[float, float]] = []
+    # a constant profile: w = 2π/span
+    if tss0 <= tol.fourier_constant * g.size or len(minima) == 0:
+        cand.append((w0, _solve(g, zz, n, w0)[1]))
+        minima = []
+    for k in minima:
+        lo, hi = grid[max(k - 1, 0)], grid[min(k + 1, len(grid) - 1)]
+        r = minimize_scalar(lambda x: _solve(g, zz, n, x)[1], bounds=(lo, hi),
+                            method="bounded", options={"xatol": tol.fourier_xatol * w0})
+        cand.append((float(r.x), float(r.fun)) if r.fun <= grss[k] else
+                    (float(grid[k]), float(grss[k])))
+    best = min(c[1] for c in cand)
+    floor = best * (1 + tol.fourier_tie) + tol.fourier_floor * tss0
+    return max(c[0] for c in cand if c[1] <= floor)
+
+
+def fit_fourier(gamma: ArrayLike, z: ArrayLike, *, n: int = 5,
+                w: float | None = None) -> FourierFit:
     """Least-squares fit of z(γ) with ``n`` harmonics.
 
     Parameters
@@ -110,40 +144,17 @@ def fit_fourier(gamma, z, *, n: int = 5, w: float | None = None) -> FourierFit:
         raise SpecError("gamma spans no interval")
     refine = w is None      # a given w stays fixed
     if refine:
-        w0 = 2 * np.pi / span
-        grid = w0 * np.geomspace(0.2, 1.5, 40)
-        rss = np.array([_solve(g, zz, n, wi)[1] for wi in grid])
-        # refine every local minimum of the grid, keep the best; among equally
-        # good w (a series with w/2 can mimic one with w) keep the largest
-        tss0 = float(((zz - zz.mean()) ** 2).sum())
-        left = np.r_[np.inf, rss[:-1]]
-        right = np.r_[rss[1:], np.inf]
-        minima = np.flatnonzero((rss <= left) & (rss <= right) & ((rss < left) | (rss < right)))
-        minima = minima[np.argsort(rss[minima])][:n + 1]  # w/k mimics w: n valleys + 1
-        cand = []
-        # a constant profile: w = 2π/span
-        if tss0 <= tol.fourier_constant * g.size or len(minima) == 0:
-            cand.append((w0, _solve(g, zz, n, w0)[1]))
-            minima = []
-        for k in minima:
-            lo, hi = grid[max(k - 1, 0)], grid[min(k + 1, len(grid) - 1)]
-            r = minimize_scalar(lambda x: _solve(g, zz, n, x)[1], bounds=(lo, hi),
-                                method="bounded", options={"xatol": tol.fourier_xatol * w0})
-            cand.append((float(r.x), float(r.fun)) if r.fun <= rss[k] else
-                        (float(grid[k]), float(rss[k])))
-        best = min(c[1] for c in cand)
-        floor = best * (1 + tol.fourier_tie) + tol.fourier_floor * tss0
-        w = max(c[0] for c in cand if c[1] <= floor)
+        w = _search_w(g, zz, n, span)
     else:
         w = v.real("w", w, lo=0.0, lo_open=True)
     coef, rss = _solve(g, zz, n, w)
     # Gauss–Newton on (coefficients, w) jointly: the scalar search stops at
     # √ε in w because the residual is flat there; two or three steps reach ε
     for _ in range(6 if refine else 0):
-        k = np.arange(1, n + 1)
-        kwg = np.multiply.outer(g, k * w)
-        dzdw = (np.sin(kwg) * (-g[:, None] * k)) @ coef[1:n + 1] + \
-            (np.cos(kwg) * (g[:, None] * k)) @ coef[n + 1:]
+        ks = np.arange(1, n + 1)
+        kwg = np.multiply.outer(g, ks * w)
+        dzdw = (np.sin(kwg) * (-g[:, None] * ks)) @ coef[1:n + 1] + \
+            (np.cos(kwg) * (g[:, None] * ks)) @ coef[n + 1:]
         J = np.concatenate([_design(g, n, w), dzdw[:, None]], axis=1)
         res = zz - _design(g, n, w) @ coef
         step, *_ = np.linalg.lstsq(J, res, rcond=None)

@@ -6,11 +6,24 @@ lowest cut point minus a little).
 
 from __future__ import annotations
 
+import os
+from collections.abc import Callable, Iterable, Sequence
 from pathlib import Path
+from typing import TYPE_CHECKING, Any, ParamSpec, TypeVar
 
 import numpy as np
 
+from .arrays import AnyArray, BoolArray, FloatArray
 from .tolerances import tol
+
+if TYPE_CHECKING:  # pragma: no cover
+    from matplotlib.typing import RcKeyType
+
+    from .angles import AngleReport
+    from .tip import Tip
+
+_P = ParamSpec("_P")
+_R = TypeVar("_R")
 
 __all__ = ["render_tip", "save_figure", "check_picture_path", "PICTURE_EXTS", "STYLE",
            "styled"]
@@ -19,7 +32,7 @@ __all__ = ["render_tip", "save_figure", "check_picture_path", "PICTURE_EXTS", "S
 #: same fonts and sizes, light grid, white background, tight saves. Every
 #: function that draws a figure runs under it (:func:`styled`; a test checks
 #: that each one is decorated).
-STYLE = {
+STYLE: dict[RcKeyType, Any] = {
     "font.family": "DejaVu Sans",
     "font.size": 9.0,
     "axes.titlesize": 10.0,
@@ -44,13 +57,13 @@ STYLE = {
 }
 
 
-def styled(func):
+def styled(func: Callable[_P, _R]) -> Callable[_P, _R]:
     """Run a picture-drawing function under :data:`STYLE` (matplotlib's
     ``rc_context``, so a caller's own settings are untouched)."""
     import functools
 
     @functools.wraps(func)
-    def wrapper(*args, **kwargs):
+    def wrapper(*args: _P.args, **kwargs: _P.kwargs) -> _R:
         import matplotlib
 
         matplotlib.use("Agg")
@@ -67,7 +80,7 @@ _CUT = ["#d1495b", "#2e86ab", "#edae49", "#66a182", "#8d6a9f", "#f49d37", "#0079
 PICTURE_EXTS = (".png", ".pdf", ".svg")
 
 
-def check_picture_path(path, what: str = "path") -> Path:
+def check_picture_path(path: str | os.PathLike[str], what: str = "path") -> Path:
     """``path`` as a Path if its extension is one of :data:`PICTURE_EXTS`,
     else a :class:`~tipgeo.errors.SpecError` naming it."""
     from .errors import SpecError
@@ -79,21 +92,22 @@ def check_picture_path(path, what: str = "path") -> Path:
     return p
 
 
-def save_figure(fig, path) -> Path:
+def save_figure(fig: Any, path: str | os.PathLike[str]) -> Path:
     """Save a matplotlib figure to ``path`` atomically (format by extension:
     :data:`PICTURE_EXTS`), at the style's resolution and margins."""
     from .atomic import write_atomic
 
-    path = check_picture_path(path)
-    fmt = path.suffix.lower().lstrip(".")
-    return write_atomic(path, lambda tmp: fig.savefig(
+    out = check_picture_path(path)
+    fmt = out.suffix.lower().lstrip(".")
+    return write_atomic(out, lambda tmp: fig.savefig(
         tmp, dpi=STYLE["savefig.dpi"], bbox_inches="tight",
         pad_inches=0.08, format=fmt))
 
 
 @styled
-def render_tip(tip, path, *, views=((20, -60), (20, 30), (80, -90)), title: str | None = None,
-               z_below: float | None = None) -> Path:
+def render_tip(tip: Tip, path: str | os.PathLike[str], *,
+               views: Sequence[tuple[float, float]] = ((20, -60), (20, 30), (80, -90)),
+               title: str | None = None, z_below: float | None = None) -> Path:
     """Write a PNG of ``tip`` from several views, faces coloured by label.
 
     The box of each view is the shown part's in true proportions (x, y over
@@ -111,6 +125,7 @@ def render_tip(tip, path, *, views=((20, -60), (20, 30), (80, -90)), title: str 
     """
     import matplotlib
     import matplotlib.pyplot as plt
+    from matplotlib.patches import Rectangle
     from matplotlib.ticker import MaxNLocator
     from mpl_toolkits.mplot3d.art3d import Poly3DCollection
 
@@ -162,7 +177,7 @@ def render_tip(tip, path, *, views=((20, -60), (20, 30), (80, -90)), title: str 
         else:
             ax.set_zlabel("z (mm)", labelpad=9)
         ax.tick_params(labelsize=7, pad=0)
-    handles = [plt.Rectangle((0, 0), 1, 1, color=colors[n]) for n in names]
+    handles = [Rectangle((0, 0), 1, 1, color=colors[n]) for n in names]
     fig.legend(handles, names, loc="lower center", ncol=min(len(names), 6), frameon=False,
                bbox_to_anchor=(0.5, -0.02))
     views_txt = "; ".join(f"elev. {el:g}°, azim. {az:g}°" + (" (z compressed)" if el >= 60
@@ -177,7 +192,8 @@ def render_tip(tip, path, *, views=((20, -60), (20, 30), (80, -90)), title: str 
 
 
 @styled
-def plot_angles(reports, path, *, samples: int = 3601) -> Path:
+def plot_angles(reports: Iterable[AngleReport], path: str | os.PathLike[str], *,
+                samples: int = 3601) -> Path:
     """Write a PNG of edge profiles and cutting angles of one or more tips,
     overlaid (like thesis Figs. 3.5, 3.6, 3.9, 3.10).
 
@@ -190,17 +206,17 @@ def plot_angles(reports, path, *, samples: int = 3601) -> Path:
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    reports = list(reports)
+    reps = list(reports)
     fig, ax = plt.subplots(2, 4, figsize=(17, 8))
     colors = plt.rcParams["axes.prop_cycle"].by_key()["color"]
-    for k, rep in enumerate(reports):
+    for k, rep in enumerate(reps):
         c = colors[k % len(colors)]
         for wall, ls in (("outer", "-"), ("inner", "--")):
             d = rep.dense(wall, samples)
             gd = np.degrees(d["gamma"])
             brk = np.r_[False, d["face"][1:] != d["face"][:-1]]
 
-            def br(y, brk=brk):
+            def br(y: AnyArray, brk: BoolArray = brk) -> FloatArray:
                 y = np.asarray(y, float).copy()
                 y[brk] = np.nan
                 return y
@@ -226,7 +242,7 @@ def plot_angles(reports, path, *, samples: int = 3601) -> Path:
         a.grid(True, alpha=0.3)
     ax[0, 0].legend(fontsize=7, loc="upper left", bbox_to_anchor=(0.0, -0.16), ncol=2,
                     frameon=False)
-    method = ", ".join(sorted({r.method for r in reports}))
+    method = ", ".join(sorted({r.method for r in reps}))
     fig.suptitle(f"Cutting edges and angles — solid: outer edge, dashed: inner edge "
                  f"(method: {method})", fontsize=11)
     fig.tight_layout()

@@ -11,7 +11,10 @@ included angle below 60°, so θ there is the grinding (bevel) angle.
 
 from __future__ import annotations
 
+import functools
 import math
+import os
+from collections.abc import Callable
 
 from .cannula import Cannula
 from .cutters import (
@@ -50,7 +53,7 @@ def _punch_serrated(cid: str) -> TipSpec:
                     f"n_s = {n}, r_s = 15 µm (thesis Table 5.1)")
 
 
-PRESETS: dict[str, callable] = {
+PRESETS: dict[str, Callable[[], TipSpec]] = {
     "bevel-14G-xi14.5": lambda: _bevel(14.5),
     "bevel-14G-xi15": lambda: _bevel(15.0),
     "bevel-14G-xi45": lambda: _bevel(45.0),
@@ -80,7 +83,7 @@ PRESETS: dict[str, callable] = {
         cannula=_PUNCH, cutters=[_PUNCH_CONE], name="punch-plain",
         description="biopsy punch d_e 2.4 / d_i 2.0 mm, θ = 13°, bevel length 0.6 mm "
                     "(thesis Fig. 4.7)"),
-    **{f"punch-{cid}": (lambda cid=cid: _punch_serrated(cid)) for cid in SERRATION_PRESETS},
+    **{f"punch-{cid}": functools.partial(_punch_serrated, cid) for cid in SERRATION_PRESETS},
 }
 
 
@@ -97,7 +100,7 @@ def preset(name: str) -> TipSpec:
     return PRESETS[name]()
 
 
-def resolve_spec(arg) -> TipSpec:
+def resolve_spec(arg: TipSpec | str | os.PathLike[str]) -> TipSpec:
     """A spec from what a user typed: a :class:`TipSpec` as it is, a path to a
     spec file (``.toml``, or any existing file), or a preset name.
 

@@ -31,9 +31,18 @@ import os
 import sys
 from collections.abc import Iterator
 from contextlib import contextmanager
-from typing import Any
+from typing import Any, Protocol
 
-__all__ = ["MODES", "configure", "mode", "enabled", "bar", "note", "stage"]
+__all__ = ["MODES", "configure", "mode", "enabled", "bar", "note", "stage", "LineSink"]
+
+
+class LineSink(Protocol):
+    """Where a long job's progress lines go (``log=``): a text stream such as
+    ``sys.stderr`` or ``io.StringIO``, or anything with these two methods."""
+
+    def write(self, text: str, /) -> int: ...
+
+    def flush(self) -> None: ...
 
 #: The modes of :func:`configure`.
 MODES = ("auto", "on", "off")
@@ -83,9 +92,6 @@ class _Silent:
         self.n += n
 
     def set_postfix_str(self, s: str = "", refresh: bool = True) -> None:
-        pass
-
-    def set_description_str(self, s: str = "", refresh: bool = True) -> None:
         pass
 
     def close(self) -> None:

@@ -28,7 +28,7 @@ from __future__ import annotations
 
 import math
 import re
-from collections.abc import Mapping
+from collections.abc import Iterator, Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -62,12 +62,12 @@ class TipSpec:
     """
 
     cannula: Cannula
-    cutters: tuple
+    cutters: Sequence[Cutter]
     name: str = ""
     description: str = ""
     tolerance: float | None = None
 
-    def __post_init__(self):
+    def __post_init__(self) -> None:
         if not isinstance(self.cannula, Cannula):
             raise SpecError(f"cannula = {self.cannula!r} is not a Cannula")
         cutters = tuple(self.cutters)
@@ -106,7 +106,7 @@ class TipSpec:
 
             object.__setattr__(self, "tolerance", length("tolerance", self.tolerance, hi=0.1))
 
-    def with_(self, **changes) -> TipSpec:
+    def with_(self, **changes: Any) -> TipSpec:
         """A copy with some fields replaced."""
         from dataclasses import replace
 
@@ -134,7 +134,7 @@ def _str(key: str, value: Any) -> str:
     return value
 
 
-def _keys(where: str, table: Any, allowed: dict[str, str]) -> dict:
+def _keys(where: str, table: Any, allowed: Mapping[str, str]) -> dict[str, Any]:
     if not isinstance(table, dict):
         raise SpecError(f"{where} = {brief(table)} is not a table; expected a TOML table")
     unknown = [k for k in table if k not in allowed]
@@ -144,15 +144,7 @@ def _keys(where: str, table: Any, allowed: dict[str, str]) -> dict:
     return table
 
 
-def _one_of(where: str, table: dict, a: str, b: str) -> str:
-    has_a, has_b = a in table, b in table
-    if has_a == has_b:
-        raise SpecError(f"{where}: give exactly one of {a} and {b}"
-                        + (" (both given)" if has_a else " (neither given)"))
-    return a if has_a else b
-
-
-def _need(where: str, table: dict, key: str) -> Any:
+def _need(where: str, table: dict[str, Any], key: str) -> Any:
     if key not in table:
         raise SpecError(f"{where}.{key} is missing; it is required")
     return table[key]
@@ -162,18 +154,18 @@ _CANNULA_KEYS = {"gauge": "needle gauge 10–30", "outer_diameter_mm": "d_e (mm)
                  "inner_diameter_mm": "d_i (mm)", "length_mm": "tube below the heel (mm)",
                  "preset": "'biopsy-punch'", "name": "label"}
 
-class _KindKeys(Mapping):
+class _KindKeys(Mapping[str, dict[str, str]]):
     """kind -> {TOML key: description} of every registered cutter kind that
     has a TOML form (read live from :data:`tipgeo.cutters.base.CUTTER_KINDS`)."""
 
-    def _kinds(self) -> dict[str, type]:
+    def _kinds(self) -> dict[str, type[Cutter]]:
         return {k: c for k, c in _REGISTRY.items() if c.toml_keys}
 
     def __getitem__(self, kind: str) -> dict[str, str]:
         cls = self._kinds()[kind]
         return {"kind": "", "name": "face label", **cls.toml_keys}
 
-    def __iter__(self):
+    def __iter__(self) -> Iterator[str]:
         return iter(self._kinds())
 
     def __len__(self) -> int:

@@ -2,15 +2,23 @@
 
 Frame and units: cannula frame (+z along the needle axis towards the tip, the
 heel at z = 0, γ about +z from +x), lengths in mm.
+
+:meth:`Tip.export` writes through the installed :data:`TipWriter`: the I/O
+layer's :func:`tipgeo.io.export_tip`, plugged in by ``tipgeo/__init__.py``
+(which Python runs before any ``tipgeo`` module), so this module does not
+import :mod:`tipgeo.io` — which imports it (``tests/test_import_graph.py``).
 """
 
 from __future__ import annotations
 
+import os
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
+from .arrays import AnyArray, BoolArray, FloatArray, IntArray
 from .tolerances import tol
 
 if TYPE_CHECKING:  # pragma: no cover
@@ -18,7 +26,23 @@ if TYPE_CHECKING:  # pragma: no cover
 
     from .spec import TipSpec
 
-__all__ = ["Tip"]
+__all__ = ["Tip", "TipWriter", "set_tip_writer"]
+
+#: Writes a tip to a file: ``writer(tip, path, **options)``, the format from
+#: the extension of ``path`` (options as :func:`tipgeo.io.export_tip`).
+TipWriter = Callable[..., object]
+
+#: The installed writer (at most one, under the key ``"writer"``).
+_TIP_WRITER: dict[str, TipWriter] = {}
+
+
+def set_tip_writer(writer: TipWriter) -> None:
+    """Install the function :meth:`Tip.export` writes with (the I/O layer's
+    :func:`tipgeo.io.export_tip`; ``tipgeo/__init__.py`` installs it).
+    Replaces any earlier one."""
+    if not callable(writer):
+        raise TypeError(f"writer = {writer!r} is not callable")
+    _TIP_WRITER["writer"] = writer
 
 
 @dataclass(eq=False)
@@ -37,9 +61,9 @@ class Tip:
     source : str — where the tip came from (``cad``, a file name, a simulator)
     """
 
-    vertices: np.ndarray
-    faces: np.ndarray
-    label_ids: np.ndarray
+    vertices: FloatArray
+    faces: IntArray
+    label_ids: IntArray
     label_names: tuple[str, ...]
     spec: TipSpec | None = None
     tolerance: float | None = None
@@ -47,7 +71,7 @@ class Tip:
     source: str = "cad"
     meta: dict[str, Any] = field(default_factory=dict)
 
-    def __post_init__(self):
+    def __post_init__(self) -> None:
         self.vertices = np.ascontiguousarray(self.vertices, dtype=np.float64)
         self.faces = np.ascontiguousarray(self.faces, dtype=np.int64)
         self.label_ids = np.ascontiguousarray(self.label_ids, dtype=np.int64)
@@ -55,9 +79,10 @@ class Tip:
 
     # -- labels -----------------------------------------------------------
     @property
-    def labels(self) -> np.ndarray:
+    def labels(self) -> AnyArray:
         """(m,) str — the label of every triangle."""
-        return np.asarray(self.label_names, dtype=object)[self.label_ids]
+        names: AnyArray = np.asarray(self.label_names, dtype=object)
+        return names[self.label_ids]
 
     def present_labels(self) -> tuple[str, ...]:
         """Labels that at least one triangle carries, in registry order."""
@@ -69,7 +94,7 @@ class Tip:
         ids, cnt = np.unique(self.label_ids, return_counts=True)
         return {self.label_names[i]: int(c) for i, c in zip(ids, cnt)}
 
-    def mask(self, label: str) -> np.ndarray:
+    def mask(self, label: str) -> BoolArray:
         """(m,) bool — triangles carrying ``label`` (or, for ``cut:<name>``,
         also its sub-faces ``cut:<name>.<k>``)."""
         ids = [k for k, n in enumerate(self.label_names)
@@ -78,22 +103,25 @@ class Tip:
 
     # -- geometry ---------------------------------------------------------
     @property
-    def triangles(self) -> np.ndarray:
+    def triangles(self) -> FloatArray:
         """(m, 3, 3) float — triangle corners (mm)."""
         return self.vertices[self.faces]
 
     @property
-    def face_normals(self) -> np.ndarray:
+    def face_normals(self) -> FloatArray:
         """(m, 3) float — unit outward normals."""
         t = self.triangles
         n = np.cross(t[:, 1] - t[:, 0], t[:, 2] - t[:, 0])
-        return n / np.maximum(np.linalg.norm(n, axis=1, keepdims=True), tol.tiny)
+        return np.asarray(n / np.maximum(np.linalg.norm(n, axis=1, keepdims=True), tol.tiny),
+                          dtype=np.float64)
 
     @property
-    def face_areas(self) -> np.ndarray:
+    def face_areas(self) -> FloatArray:
         """(m,) float — triangle areas (mm²)."""
         t = self.triangles
-        return 0.5 * np.linalg.norm(np.cross(t[:, 1] - t[:, 0], t[:, 2] - t[:, 0]), axis=1)
+        return np.asarray(
+            0.5 * np.linalg.norm(np.cross(t[:, 1] - t[:, 0], t[:, 2] - t[:, 0]), axis=1),
+            dtype=np.float64)
 
     @property
     def volume(self) -> float:
@@ -107,15 +135,9 @@ class Tip:
         return float(self.face_areas.sum())
 
     @property
-    def bounds(self) -> np.ndarray:
+    def bounds(self) -> FloatArray:
         """(2, 3) float — min and max corner (mm)."""
         return np.stack([self.vertices.min(axis=0), self.vertices.max(axis=0)])
-
-    def edge_use(self) -> np.ndarray:
-        """Counts of how many triangles use each undirected edge."""
-        e = np.sort(self.faces[:, [0, 1, 1, 2, 2, 0]].reshape(-1, 2), axis=1)
-        _, cnt = np.unique(e, axis=0, return_counts=True)
-        return cnt
 
     @property
     def is_watertight(self) -> bool:
@@ -152,18 +174,19 @@ class Tip:
         mesh.metadata["units"] = "mm"
         return mesh
 
-    def submesh(self, label: str) -> tuple[np.ndarray, np.ndarray]:
+    def submesh(self, label: str) -> tuple[FloatArray, IntArray]:
         """Vertices and faces (re-indexed) of the triangles carrying ``label``."""
         f = self.faces[self.mask(label)]
         used, inv = np.unique(f, return_inverse=True)
         return self.vertices[used], inv.reshape(-1, 3)
 
-    def export(self, path, **kwargs) -> None:
+    def export(self, path: str | os.PathLike[str], **kwargs: Any) -> None:
         """Write the tip to ``path``; the format follows the extension
         (see :func:`tipgeo.io.export_tip`). Written atomically."""
-        from .io.export import export_tip
-
-        export_tip(self, path, **kwargs)
+        writer = _TIP_WRITER.get("writer")
+        if writer is None:  # pragma: no cover - tipgeo/__init__.py installs it
+            raise RuntimeError("no tip writer installed; import tipgeo first")
+        writer(self, path, **kwargs)
 
     def summary(self) -> dict[str, Any]:
         """Plain numbers describing the tip (for reports and ``--json``)."""

@@ -884,6 +884,19 @@ class Tolerances:
     helical_max_steep_deg: float = 88.0
     helical_max_grid: int = 80_000
     maximin_improve: float = 1.0e-12
+    # --- core (calibrate) ---
+    #: Step and cost tolerance of the least-squares fits of the helical
+    #: calibration (Table 3.1 edges and readings; mm residuals of µm size):
+    #: stop at round-off, the optimum is smooth.
+    calib_fit: float = 1.0e-12
+    #: Step tolerance of a reading's helicoid parameter fit (mixed mm and rad
+    #: parameters of order 1): 1e-10 is far below the reading's µm residual
+    #: and keeps the multi-start fit bounded (max_nfev 300).
+    calib_reading_step: float = 1.0e-10
+    #: A helicoid's tilt direction ω (rad) is a named tilt when equal to it
+    #: within round-off.
+    tilt_match: float = 1.0e-12
+
     # --- optimize / report ---
     #: Default ``min_rcond`` of a GP: correlation matrices whose estimated
     #: reciprocal condition number is below this are rejected during MLE; it

@@ -7,10 +7,13 @@ from __future__ import annotations
 import os
 import stat
 import sys
+from collections.abc import Callable, Collection
 from pathlib import Path
-from typing import Any
+from typing import Any, TypeVar
 
 from .errors import SpecError
+
+_T = TypeVar("_T")
 
 if sys.version_info >= (3, 11):
     import tomllib
@@ -106,8 +109,9 @@ def loads_toml(text: str, what: str) -> dict[str, Any]:
     return data
 
 
-def resolve_file_or_name(arg, *, kind: type, load, named, names, what: str, file_word: str,
-                         named_as: str, listing: str):
+def resolve_file_or_name(arg: object, *, kind: type[_T], load: Callable[[Path], _T],
+                         named: Callable[[str], _T], names: Collection[str], what: str,
+                         file_word: str, named_as: str, listing: str) -> _T:
     """What a user typed for a TOML input: an object of ``kind`` as it is, a
     file (``.toml``, or any existing file) read by ``load(path)``, or one of
     ``names`` made by ``named(name)``; else a SpecError naming ``what`` (the
@@ -120,7 +124,7 @@ def resolve_file_or_name(arg, *, kind: type, load, named, names, what: str, file
     p = Path(arg)
     if p.exists() or str(arg).endswith(".toml"):
         return load(p)
-    if arg in names:
+    if str(arg) in names and isinstance(arg, str):
         return named(arg)
     raise SpecError(f"{what} = '{arg}' is neither a {file_word} nor a {named_as}; {listing}: "
                     + ", ".join(names))

@@ -116,8 +116,8 @@ def _unit(unit: str) -> str:
     return f" ({unit})" if unit else ""
 
 
-def _range(lo, hi, lo_open, hi_open) -> str:
-    def f(x):
+def _range(lo: object, hi: object, lo_open: bool, hi_open: bool) -> str:
+    def f(x: object) -> str:
         return f"{x:.6g}" if isinstance(x, float) else str(x)
     if lo is not None and hi is not None:
         return f"{f(lo)} {'<' if lo_open else '≤'} value {'<' if hi_open else '≤'} {f(hi)}"

@@ -15,6 +15,7 @@ from __future__ import annotations
 
 import argparse
 import sys
+from typing import NoReturn
 
 from .common import add_common_flags, check_files, declare_files
 
@@ -32,7 +33,7 @@ EXIT_CODES = {0: "the result is within its targets",
 class _Parser(argparse.ArgumentParser):
     """argparse with one-line errors (``tipgeo build: error: …``), exit 2."""
 
-    def error(self, message: str):  # type: ignore[override]
+    def error(self, message: str) -> NoReturn:
         self.exit(2, f"{self.prog}: error: {message} (see '{self.prog} --help')\n")
 
 #: The stages whose commands ``tipgeo`` offers, in the order of ``--help``.
@@ -125,7 +126,8 @@ def main(argv: list[str] | None = None) -> int:
         progress.configure("off" if args.quiet else "on" if args.progress else "auto")
 
         with small_linalg(getattr(args, "_blas_threads", 1)):
-            return args.func(args)
+            status: int = args.func(args)
+            return status
     except BrokenPipeError:  # the reader went away (`tipgeo … | head`): quietly
         import os
 

@@ -3,17 +3,28 @@ line (angles degrees, lengths mm)."""
 
 from __future__ import annotations
 
+import argparse
 import json
 import sys
 from pathlib import Path
+from typing import TYPE_CHECKING, Any
 
 from ..jsonio import dumps as _dumps
-from .common import declare_files, deprecated, spec_arg
+from .common import SubParsers, declare_files, deprecated, spec_arg
+
+if TYPE_CHECKING:  # pragma: no cover
+    from ..angles import AngleReport
+    from ..calibrate import ReadingFit
+    from ..spec import TipSpec
+    from ..tip import Tip
 
 __all__ = ["register", "cmd_angles", "cmd_calibrate"]
 
+#: One tip to analyse: (spec or labelled mesh, (r_o, r_i) mm for a mesh, name).
+Source = tuple["TipSpec | Tip", "tuple[float, float] | None", str]
 
-def _angle_source(arg: str, args):
+
+def _angle_source(arg: str, args: argparse.Namespace) -> Source:
     """A spec/preset, or a mesh file labelled by geometry (needs diameters)."""
     from ..edges import label_by_geometry
     from ..errors import SpecError
@@ -39,7 +50,7 @@ def _angle_source(arg: str, args):
 MIN_STEP_DEG = 0.01
 
 
-def _check_angles_costs(args) -> None:
+def _check_angles_costs(args: argparse.Namespace) -> None:
     from ..errors import InputError
 
     step = args.step_deg
@@ -50,13 +61,29 @@ def _check_angles_costs(args) -> None:
                          "(finer than any angle measurement; the extremes are in the summary)")
 
 
-def cmd_angles(args) -> int:
+def cmd_angles(args: argparse.Namespace) -> int:
+    _check_angles_costs(args)
+    sources = [_angle_source(arg, args) for arg in args.spec]  # every input checked first
+    reports = _analyse_sources(args, sources)
+    _write_angle_files(args, sources, reports)
+    if args.json:
+        data = [json.loads(r.to_json(args.step_deg)) for r in reports]
+        print(_dumps({"tips": data} if len(data) > 1 else data[0]))
+        return 0
+    for r in reports:
+        _print_angle_report(r)
+    for o in (args.csv, args.png, args.html):
+        if o:
+            print(f"wrote {o}")
+    return 0
+
+
+def _analyse_sources(args: argparse.Namespace, sources: list[Source]) -> list[AngleReport]:
+    """The angle report of each (source, radii, name), with a progress bar."""
     from .. import progress
     from ..angles import analyze
 
-    _check_angles_costs(args)
     reports = []
-    sources = [_angle_source(arg, args) for arg in args.spec]  # every input checked first
     with progress.bar(len(sources), "angles", unit="tip") as pb:
         for src, radii, name in sources:
             pb.set_postfix_str(name)
@@ -64,6 +91,12 @@ def cmd_angles(args) -> int:
             reports.append(analyze(src, method=method, n_harmonics=args.harmonics, radii=radii,
                                    name=name))
             pb.update()
+    return reports
+
+
+def _write_angle_files(args: argparse.Namespace, sources: list[Source],
+                       reports: list[AngleReport]) -> None:
+    """The --csv, --png and --html outputs asked for."""
     if args.csv:
         from ..atomic import write_text_atomic
 
@@ -82,38 +115,37 @@ def cmd_angles(args) -> int:
         write_html(args, [TipSource(src if radii is None else None,
                                     None if radii is None else src, rep, name)
                           for (src, radii, name), rep in zip(sources, reports)], say=False)
-    if args.json:
-        data = [json.loads(r.to_json(args.step_deg)) for r in reports]
-        print(_dumps({"tips": data} if len(data) > 1 else data[0]))
-        return 0
-    for r in reports:
-        s = r.summary()
-        print(f"{r.name} (method {r.method}"
-              + (")" if r.method == "exact" else f", {r.n_harmonics} harmonics)"))
-        for wall, key in (("outer", "o"), ("inner", "i")):
-            w = s[wall]
-            th = w["theta_deg"] if key == "o" else w["theta_i_deg"]
-            print(f"  {wall:<5} l_c {w['l_c_mm']:9.5f} mm  top z {w['z_max_mm']:8.5f} mm at "
-                  f"γ {w['gamma_of_z_max_deg']:7.2f}°  λ {w[f'lambda_{key}_deg'][0]:6.2f}…"
-                  f"{w[f'lambda_{key}_deg'][1]:6.2f}°  θ {th[0]:6.2f}…{th[1]:6.2f}°  "
-                  f"α {w[f'alpha_{key}_deg'][0]:6.2f}…{w[f'alpha_{key}_deg'][1]:6.2f}°")
-            for p in w["pieces"]:
-                if "fit" in p:
-                    f = p["fit"]
-                    print(f"        fit {p['face']:<22} R² {f['r2']:.9f}  RMSE "
-                          f"{f['rmse_mm'] * 1e3:8.4f} µm  w {f['w']:.6f}")
-            for kk in w["kinks"]:
-                print(f"        kink at γ {kk['gamma_deg']:7.2f}°: θ {kk['theta_deg']:.4f}° "
-                      f"({kk['faces'][0]} | {kk['faces'][1]})")
-            if w["jumps"]:
-                print(f"        {len(w['jumps'])} vertical stretches")
-    for o in (args.csv, args.png, args.html):
-        if o:
-            print(f"wrote {o}")
-    return 0
 
 
-def cmd_calibrate(args) -> int:
+def _print_angle_report(r: AngleReport) -> None:
+    """One tip's angle summary, plain text (both walls)."""
+    s = r.summary()
+    print(f"{r.name} (method {r.method}"
+          + (")" if r.method == "exact" else f", {r.n_harmonics} harmonics)"))
+    for wall, key in (("outer", "o"), ("inner", "i")):
+        _print_wall(wall, key, s[wall])
+
+
+def _print_wall(wall: str, key: str, w: dict[str, Any]) -> None:
+    """One wall's line, its fits, kinks and vertical stretches."""
+    th = w["theta_deg"] if key == "o" else w["theta_i_deg"]
+    print(f"  {wall:<5} l_c {w['l_c_mm']:9.5f} mm  top z {w['z_max_mm']:8.5f} mm at "
+          f"γ {w['gamma_of_z_max_deg']:7.2f}°  λ {w[f'lambda_{key}_deg'][0]:6.2f}…"
+          f"{w[f'lambda_{key}_deg'][1]:6.2f}°  θ {th[0]:6.2f}…{th[1]:6.2f}°  "
+          f"α {w[f'alpha_{key}_deg'][0]:6.2f}…{w[f'alpha_{key}_deg'][1]:6.2f}°")
+    for p in w["pieces"]:
+        if "fit" in p:
+            f = p["fit"]
+            print(f"        fit {p['face']:<22} R² {f['r2']:.9f}  RMSE "
+                  f"{f['rmse_mm'] * 1e3:8.4f} µm  w {f['w']:.6f}")
+    for kk in w["kinks"]:
+        print(f"        kink at γ {kk['gamma_deg']:7.2f}°: θ {kk['theta_deg']:.4f}° "
+              f"({kk['faces'][0]} | {kk['faces'][1]})")
+    if w["jumps"]:
+        print(f"        {len(w['jumps'])} vertical stretches")
+
+
+def cmd_calibrate(args: argparse.Namespace) -> int:
     from ..calibrate import (
         CALIBRATION_TARGETS_UM,
         READINGS,
@@ -133,12 +165,12 @@ def cmd_calibrate(args) -> int:
 
                 raise SpecError(f"--reading = {bad[0]!r} is not valid; expected one of: "
                                 + ", ".join(known))
-            readings = [known[n] for n in args.reading]
+            readings = tuple(known[n] for n in args.reading)
 
         from .. import progress
 
         with progress.bar(len(readings), "calibrate", unit="reading") as pb:
-            def step(i, n, f):
+            def step(i: int, n: int, f: ReadingFit) -> None:
                 pb.set_postfix_str(f"{f.reading.name}: outer RMS {f.outer.rms_um:.2f} µm")
                 pb.update()
 
@@ -181,7 +213,7 @@ def cmd_calibrate(args) -> int:
     return 0 if s["meets_targets"] else 1
 
 
-def register(sub) -> None:
+def register(sub: SubParsers) -> None:
     """Add this stage's commands to the ``tipgeo`` sub-command parsers."""
     a = sub.add_parser("angles", help="cutting edges and angles (λ, θ, α, l_c) of tips")
     a.add_argument("spec", metavar="SPEC", nargs="+",

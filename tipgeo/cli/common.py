@@ -8,16 +8,25 @@ from __future__ import annotations
 
 import argparse
 import sys
+from collections.abc import Callable, Mapping, Sequence
 from pathlib import Path
+from typing import TYPE_CHECKING, Any, TypeAlias
 
 from ..plot import PICTURE_EXTS  # the formats every --plot/--png accepts
+
+if TYPE_CHECKING:  # pragma: no cover
+    from ..spec import TipSpec
 
 __all__ = ["declare_files", "check_files", "refuse_overwrite", "command_reads",
            "refuse_special_file", "LIST_CAPS", "check_list_caps",
            "INPUT_CAPS", "check_input_caps", "same_file",
            "file_id", "spec_arg", "tolerance_arg", "write_text",
            "export_exts", "PICTURE_EXTS", "COMMON_FLAGS", "add_common_flags", "deprecated",
-           "DEPRECATED", "VOCABULARY", "verdict_status", "feed_mm_min_arg"]
+           "DEPRECATED", "VOCABULARY", "verdict_status", "feed_mm_min_arg", "SubParsers"]
+
+#: What a stage module's ``register(sub)`` adds its commands to (the type of
+#: ``ArgumentParser.add_subparsers()``).
+SubParsers: TypeAlias = "argparse._SubParsersAction[argparse.ArgumentParser]"
 
 #: The flags every command takes, with their help.
 COMMON_FLAGS = {
@@ -73,12 +82,14 @@ def add_common_flags(parser: argparse.ArgumentParser) -> None:
 class _Deprecated(argparse.Action):
     """An old spelling: warns on stderr, converts, stores into the new flag's dest."""
 
-    def __init__(self, option_strings, dest, *, new: str, convert=None, note: str = "",
-                 append: bool = False, **kw):
+    def __init__(self, option_strings: Sequence[str], dest: str, *, new: str,
+                 convert: Callable[[Any], Any] | None = None, note: str = "",
+                 append: bool = False, **kw: Any) -> None:
         self.new, self.convert, self.note, self.append = new, convert, note, append
         super().__init__(option_strings, dest, **kw)
 
-    def __call__(self, parser, namespace, values, option_string=None):
+    def __call__(self, parser: argparse.ArgumentParser, namespace: argparse.Namespace,
+                 values: Any, option_string: str | None = None) -> None:
         print(f"tipgeo: warning: {option_string} is deprecated and goes in the next "
               f"release; use {self.new}{self.note}", file=sys.stderr)
         if self.nargs == 0:
@@ -91,21 +102,31 @@ class _Deprecated(argparse.Action):
 
 
 def deprecated(parser: argparse.ArgumentParser, old: str | tuple[str, ...], new: str, *,
-               convert=None, note: str = "") -> None:
+               convert: Callable[[Any], Any] | None = None, note: str = "") -> None:
     """Keep ``old`` working as a hidden alias of the already declared ``new``
     (same arguments; ``convert`` maps an old value to the new flag's units)."""
     olds = (old,) if isinstance(old, str) else tuple(old)
     target = next(a for a in parser._actions if new in a.option_strings)
     flag = isinstance(target, (argparse._StoreTrueAction, argparse._StoreConstAction))
-    parser.add_argument(*olds, dest=target.dest, action=_Deprecated, new=new, convert=convert,
-                        note=note, append=isinstance(target, argparse._AppendAction),
-                        nargs=0 if flag else target.nargs, type=None if flag else target.type,
-                        metavar=target.metavar, default=argparse.SUPPRESS,
-                        help=argparse.SUPPRESS)
+    opts: dict[str, Any] = dict(
+        dest=target.dest, action=_Deprecated, new=new, convert=convert, note=note,
+        append=isinstance(target, argparse._AppendAction), nargs=0 if flag else target.nargs,
+        type=None if flag else target.type, metavar=target.metavar, default=argparse.SUPPRESS,
+        help=argparse.SUPPRESS)
+    parser.add_argument(*olds, **opts)
     DEPRECATED.append((parser.prog.split(" ", 1)[-1], "/".join(olds), new))
 
 
-def feed_mm_min_arg(name: str, value: float | None, lo: float = 1e-4, hi: float = 1e5):
+#: Slowest feed a command accepts (mm/min): 0.1 µm/min, below any machine's
+#: feed resolution; it keeps a typo like 0 from meaning "stand still".
+MIN_FEED_MM_MIN = 1.0e-4
+#: Fastest feed a command accepts (mm/min): 100 m/min, above any grinder's or
+#: laser stage's rapid.
+MAX_FEED_MM_MIN = 1.0e5
+
+
+def feed_mm_min_arg(name: str, value: float | None, lo: float = MIN_FEED_MM_MIN,
+                    hi: float = MAX_FEED_MM_MIN) -> float | None:
     """A feed given in mm/min at the command line, checked, in mm/s (None if not given)."""
     if value is None:
         return None
@@ -114,7 +135,7 @@ def feed_mm_min_arg(name: str, value: float | None, lo: float = 1e-4, hi: float 
     return v.real(name, value, lo=lo, hi=hi, unit="mm/min") / 60.0
 
 
-def verdict_status(verdict, args) -> int:
+def verdict_status(verdict: Any, args: argparse.Namespace) -> int:
     """The exit status of a judged result: 0 when the verdict (a
     :class:`~tipgeo.verdict.Verdict` or its dict) holds or there is none,
     else 1 with the failing figures named on stderr."""
@@ -128,8 +149,12 @@ def verdict_status(verdict, args) -> int:
     return 1
 
 
-def declare_files(parser, *, inputs=(), outputs=(), pictures=(), exts=None, derived=None,
-                  folders=None, blas_threads: int | None = 1) -> None:
+def declare_files(parser: argparse.ArgumentParser, *, inputs: Sequence[str] = (),
+                  outputs: Sequence[str] = (), pictures: Sequence[str] = (),
+                  exts: Mapping[str, Sequence[str]] | None = None,
+                  derived: Callable[[argparse.Namespace], Any] | None = None,
+                  folders: Mapping[str, Callable[[argparse.Namespace], Any]] | None = None,
+                  blas_threads: int | None = 1) -> None:
     """Declare a sub-command's file arguments (by ``dest``) for :func:`check_files`.
 
     ``inputs`` are read, ``outputs`` written (``pictures`` too, limited to
@@ -145,7 +170,7 @@ def declare_files(parser, *, inputs=(), outputs=(), pictures=(), exts=None, deri
                         _blas_threads=blas_threads)
 
 
-def _values(args, dest) -> list[str]:
+def _values(args: argparse.Namespace, dest: str) -> list[str]:
     v = getattr(args, dest, None)
     if v is None:
         return []
@@ -220,7 +245,7 @@ def derived_inputs(path: str | Path, *, _depth: int = 0) -> list[tuple[str, Path
     return out
 
 
-def command_reads(inputs: list[tuple[str, str | Path]]) -> list[tuple[str, Path]]:
+def command_reads(inputs: Sequence[tuple[str, str | Path]]) -> list[tuple[str, Path]]:
     """Everything a command reads, as (what, path): its ``inputs`` (what,
     path) — a folder or glob pattern (``compare --batch``) as the files it
     holds — and, for each, the files it names (:func:`derived_inputs`)."""
@@ -241,8 +266,8 @@ def command_reads(inputs: list[tuple[str, str | Path]]) -> list[tuple[str, Path]
     return out
 
 
-def refuse_overwrite(reads: list[tuple[str, str | Path]],
-                     writes: list[tuple[str, str | Path]]) -> None:
+def refuse_overwrite(reads: Sequence[tuple[str, str | Path]],
+                     writes: Sequence[tuple[str, str | Path]]) -> None:
     """The one check that no command overwrites what it reads: each file
     written (``writes``: (option, path)) is compared with each file read
     (``reads``: (what, path), see :func:`command_reads`) by resolved path and
@@ -270,12 +295,6 @@ def refuse_overwrite(reads: list[tuple[str, str | Path]],
                                  "was written)")
 
 
-def check_derived_inputs(inputs: list[str | Path], outs: list[tuple[str, Path]]) -> None:
-    """Refuse an output that is a file one of ``inputs`` makes the command read
-    (:func:`derived_inputs`), naming both."""
-    refuse_overwrite([r for src in inputs for r in derived_inputs(src)], outs)
-
-
 def refuse_special_file(what: str, path: str | Path) -> None:
     """Refuse an input that is a FIFO, a device or a socket — reading one
     could block forever or never end — before anything opens it (``stat``
@@ -298,7 +317,7 @@ def refuse_special_file(what: str, path: str | Path) -> None:
                      "to a file and give that)")
 
 
-def folder_outputs(args) -> list[tuple[str, Path]]:
+def folder_outputs(args: argparse.Namespace) -> list[tuple[str, Path]]:
     """The files a command will write inside its output folders (declared
     with ``folders=``): each name as a path, each glob pattern as the files
     in the folder it matches now."""
@@ -340,7 +359,7 @@ INPUT_CAPS = {
 }
 
 
-def check_input_caps(args) -> None:
+def check_input_caps(args: argparse.Namespace) -> None:
     """Refuse an input over its :data:`INPUT_CAPS` size, naming the size, the
     cap and the way out."""
     import os
@@ -360,7 +379,7 @@ def check_input_caps(args) -> None:
                                  f"{cap:,} ({way})")
 
 
-def check_list_caps(args) -> None:
+def check_list_caps(args: argparse.Namespace) -> None:
     """Refuse a many-valued argument over its :data:`LIST_CAPS` cap, naming
     the count, the cap and the way out."""
     from ..errors import InputError
@@ -374,7 +393,7 @@ def check_list_caps(args) -> None:
             raise InputError(f"{opt} is given {len(v):,} values; allowed at most {cap} ({way})")
 
 
-def check_files(args) -> None:
+def check_files(args: argparse.Namespace) -> None:
     """Refuse, before any work, outputs with a wrong extension, an output named
     twice, and an output that is one of the command's own inputs, direct or
     indirect (:func:`refuse_overwrite`), including the files it writes in its
@@ -411,7 +430,7 @@ def check_files(args) -> None:
     refuse_overwrite(command_reads(direct), outs + folder_outputs(args))
 
 
-def spec_arg(arg: str):
+def spec_arg(arg: str) -> TipSpec:
     """A spec from a SPEC argument: a spec file or a preset name
     (:func:`tipgeo.resolve_spec`)."""
     from ..presets import resolve_spec
@@ -419,7 +438,7 @@ def spec_arg(arg: str):
     return resolve_spec(arg)
 
 
-def tolerance_arg(args) -> float | None:
+def tolerance_arg(args: argparse.Namespace) -> float | None:
     """``--tolerance-um`` in mm (None when not given); out of (0, 100] µm is a
     SpecError."""
     from ..errors import InputError
@@ -429,10 +448,10 @@ def tolerance_arg(args) -> float | None:
     if not 0 < args.tolerance_um <= 100:
         raise InputError(f"--tolerance-um = {args.tolerance_um:g} is out of range; allowed "
                         "0 < value ≤ 100")
-    return args.tolerance_um * 1e-3
+    return float(args.tolerance_um) * 1e-3
 
 
-def cannot_write(path, exc) -> None:
+def cannot_write(path: str | Path, exc: BaseException) -> None:
     """The ``on_error`` of a multi-output command: one line on stderr naming
     the file that cannot be written, said before the others are written."""
     import sys
@@ -440,7 +459,7 @@ def cannot_write(path, exc) -> None:
     print(f"tipgeo: failed: cannot write {path}: {exc}", file=sys.stderr)
 
 
-def write_text(path, text: str) -> None:
+def write_text(path: str | Path, text: str) -> None:
     """Write a text output atomically (:func:`tipgeo.atomic.write_text_atomic`)."""
     from ..atomic import write_text_atomic
 

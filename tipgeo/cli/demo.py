@@ -2,10 +2,11 @@
 
 from __future__ import annotations
 
+import argparse
 import sys
 
 from ..jsonio import dumps as _dumps
-from .common import deprecated, tolerance_arg
+from .common import SubParsers, deprecated, tolerance_arg
 
 __all__ = ["register", "cmd_demo"]
 
@@ -30,7 +31,7 @@ class _Notes:
         pass
 
 
-def cmd_demo(args) -> int:
+def cmd_demo(args: argparse.Namespace) -> int:
     from ..demo import run_demo
 
     summary = run_demo(args.out_dir, tolerance=tolerance_arg(args), log=_Notes(),
@@ -49,7 +50,7 @@ def cmd_demo(args) -> int:
     return 1 if leaky else 0
 
 
-def register(sub) -> None:
+def register(sub: SubParsers) -> None:
     """Add this stage's commands to the ``tipgeo`` sub-command parsers."""
     d = sub.add_parser("demo", help="build every thesis needle: meshes, pictures, summary")
     d.add_argument("--out-dir", default="tipgeo-demo", metavar="DIR",

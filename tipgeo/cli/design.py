@@ -3,6 +3,7 @@
 
 from __future__ import annotations
 
+import argparse
 import sys
 import time
 from pathlib import Path
@@ -10,6 +11,7 @@ from pathlib import Path
 from ..jsonio import dumps as _dumps
 from ..paths import inside
 from .common import (
+    SubParsers,
     cannot_write,
     declare_files,
     deprecated,
@@ -21,7 +23,7 @@ from .common import (
 __all__ = ["register", "cmd_build", "cmd_gauges", "cmd_samples"]
 
 
-def cmd_build(args) -> int:
+def cmd_build(args: argparse.Namespace) -> int:
     from .. import progress
     from ..build import build_tip
     from ..io import export_many
@@ -35,7 +37,7 @@ def cmd_build(args) -> int:
 
     report = export_many(tip, args.output, on_error=cannot_write, gltf_units=args.gltf_units,
                          gltf_up=args.gltf_up, step_form=args.step_form)
-    outs = list(report.written)
+    outs: list[Path | str | None] = list(report.written)
     if args.png:
         from ..plot import render_tip
 
@@ -63,7 +65,7 @@ def cmd_build(args) -> int:
     return status
 
 
-def cmd_gauges(args) -> int:
+def cmd_gauges(args: argparse.Namespace) -> int:
     from ..cannula import GAUGE_SOURCE, gauge_table
 
     rows = gauge_table()
@@ -78,7 +80,7 @@ def cmd_gauges(args) -> int:
     return 0
 
 
-def cmd_samples(args) -> int:
+def cmd_samples(args: argparse.Namespace) -> int:
     from ..presets import preset, preset_names
     from ..spec import dumps_spec, save_spec
 
@@ -108,7 +110,7 @@ def cmd_samples(args) -> int:
     return 0
 
 
-def register(sub) -> None:
+def register(sub: SubParsers) -> None:
     """Add this stage's commands to the ``tipgeo`` sub-command parsers."""
     b = sub.add_parser("build", help="build a tip from a TOML spec (or preset name)")
     b.add_argument("spec", metavar="SPEC", help="spec file (.toml) or preset name")

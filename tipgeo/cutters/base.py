@@ -34,23 +34,30 @@ from __future__ import annotations
 
 from abc import ABC, abstractmethod
 from dataclasses import dataclass
-from typing import Any, ClassVar
+from typing import TYPE_CHECKING, Any, ClassVar, TypeVar
 
 import manifold3d as m3d
 import numpy as np
 
+from ..arrays import AnyArray, FloatArray
 from ..cannula import Cannula
 from ..construct import BuildContext
 from ..errors import SpecError
+from .surfaces import Surface
+
+if TYPE_CHECKING:  # pragma: no cover
+    from .toml import CutterTable
 
 __all__ = ["Cutter", "CUTTER_KINDS", "register_cutter", "cutter_kind", "check_name",
            "OptimizerKey"]
 
 #: kind -> cutter class: every concrete cutter class that sets ``kind``.
-CUTTER_KINDS: dict[str, type] = {}
+CUTTER_KINDS: dict[str, type[Cutter]] = {}
+
+_C = TypeVar("_C", bound="Cutter")
 
 
-def register_cutter(cls: type) -> type:
+def register_cutter(cls: type[_C]) -> type[_C]:
     """Register ``cls`` under ``cls.kind`` (done automatically for subclasses of
     :class:`Cutter` that set ``kind``). Re-defining a class of the same module
     and name replaces it; another class claiming a taken kind is an error."""
@@ -65,7 +72,7 @@ def register_cutter(cls: type) -> type:
     return cls
 
 
-def cutter_kind(kind: str) -> type:
+def cutter_kind(kind: str) -> type[Cutter]:
     """The cutter class of a spec ``kind``, or a SpecError listing the kinds."""
     cls = CUTTER_KINDS.get(kind)
     if cls is None:
@@ -128,14 +135,14 @@ class Cutter(ABC):
     #: the order listed to the user: key -> :class:`OptimizerKey`. Empty: none.
     optimizer_keys: ClassVar[dict[str, OptimizerKey]] = {}
 
-    def __init_subclass__(cls, **kwargs):
+    def __init_subclass__(cls, **kwargs: Any) -> None:
         super().__init_subclass__(**kwargs)
         if cls.__dict__.get("kind"):
             register_cutter(cls)
 
     # -- TOML form -------------------------------------------------------------
     @classmethod
-    def from_dict(cls, table) -> Cutter:
+    def from_dict(cls, table: CutterTable) -> Cutter:
         """The cutter of a ``[[cutters]]`` table.
 
         Parameters
@@ -153,14 +160,15 @@ class Cutter(ABC):
         raise SpecError(f"cutter kind '{self.kind}' has no TOML form (Python-only cutter)")
 
     # -- analytic faces --------------------------------------------------------
-    def surfaces(self, cannula: Cannula) -> tuple | None:
+    def surfaces(self, cannula: Cannula) -> tuple[Surface, ...] | None:
         """The analytic faces of the kept material (Plane, ConeSurface or
         ImplicitSurface of :mod:`tipgeo.cutters.surfaces`, labelled as in the
         built tip), or None when the cutter has no face-wise description
         (consumers then fall back to the mesh)."""
         return None
 
-    def exact_bounds(self, cannula: Cannula, previous: tuple = ()) -> tuple | None:
+    def exact_bounds(self, cannula: Cannula,
+                     previous: tuple[Cutter, ...] = ()) -> tuple[Surface, ...] | None:
         """The exact surfaces (Plane, ConeSurface, HeightSurface of
         :mod:`tipgeo.cutters.surfaces`) whose kept sides intersect to the kept
         material around the tube wall (cannula frame, mm), or None when the
@@ -187,7 +195,7 @@ class Cutter(ABC):
     def z_upper(self, cannula: Cannula) -> float:
         """An upper bound (mm) of z of the kept material over the tube wall."""
 
-    def implicit(self, points: np.ndarray, cannula: Cannula) -> tuple[np.ndarray, np.ndarray]:
+    def implicit(self, points: FloatArray, cannula: Cannula) -> tuple[FloatArray, FloatArray]:
         """Exact implicit function of the surface.
 
         Parameters
@@ -222,13 +230,14 @@ class Cutter(ABC):
             raise SpecError(f"{what}: the cut reaches z = {z:.3g} mm above the heel; allowed "
                             f"at most {MAX_TIP_HEIGHT_MM:g} mm (the angle is too close to 0)")
 
-    def edge_z(self, gamma: np.ndarray, radius: float, cannula: Cannula) -> np.ndarray | None:
+    def edge_z(self, gamma: FloatArray, radius: float | FloatArray,
+               cannula: Cannula) -> FloatArray | None:
         """Height z (mm) of the cut surface on the cylinder of ``radius`` at
         angles ``gamma`` (rad, cannula frame), or ``None`` if unknown."""
         return None
 
-    def edge_faces(self, gamma: np.ndarray, radius: float, cannula: Cannula,
-                   previous: tuple = ()) -> tuple[np.ndarray, np.ndarray] | None:
+    def edge_faces(self, gamma: FloatArray, radius: float | FloatArray, cannula: Cannula,
+                   previous: tuple[Cutter, ...] = ()) -> tuple[FloatArray, AnyArray] | None:
         """Exact edge height and the face that forms it on the cylinder of
         ``radius`` at angles ``gamma`` (rad, cannula frame).
 
@@ -239,13 +248,14 @@ class Cutter(ABC):
         z = self.edge_z(gamma, radius, cannula)
         if z is None:
             return None
-        z = np.asarray(z, float)
+        z = np.asarray(z, dtype=np.float64)
         return z, np.full(z.shape, self.label, dtype=object)
 
-    def normals(self, points: np.ndarray, cannula: Cannula, previous: tuple = ()) -> np.ndarray:
+    def normals(self, points: FloatArray, cannula: Cannula,
+                previous: tuple[Cutter, ...] = ()) -> FloatArray:
         """Unit outward normals (n, 3) of the surface at points on it."""
         _, g = self.implicit(points, cannula)
-        return g / np.linalg.norm(g, axis=1, keepdims=True)
+        return np.asarray(g / np.linalg.norm(g, axis=1, keepdims=True), dtype=np.float64)
 
     @property
     def label(self) -> str:

@@ -23,15 +23,22 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
 from .. import validate as v
+from ..arrays import AnyArray, FloatArray
+from ..cannula import Cannula
+from ..construct import BuildContext
 from ..errors import SpecError
 from ..tolerances import tol
 from .base import Cutter, OptimizerKey, check_name
-from .surfaces import ConeSurface, Plane
+from .surfaces import ConeSurface, Plane, Surface
 from .toml import round_for_toml as _r
+
+if TYPE_CHECKING:  # pragma: no cover
+    from .toml import CutterTable
 
 __all__ = ["ConicalCutter"]
 
@@ -66,38 +73,40 @@ class ConicalCutter(Cutter):
                       "varphi_deg": OptimizerKey(), "bevel_length_mm": OptimizerKey()}
 
     @classmethod
-    def from_dict(cls, t):
+    def from_dict(cls, t: CutterTable) -> Cutter:
         which = t.one_of("theta_deg", "phi_g_deg")
-        kw = {"bevel_length": t.mm("bevel_length_mm"), "name": t.str("name", "cone")}
+        kw: dict[str, Any] = {"bevel_length": t.mm("bevel_length_mm"),
+                              "name": t.str("name", "cone")}
         if which == "theta_deg":
             if "varphi_deg" in t:
                 raise SpecError(f"{t.where}.varphi_deg only goes with phi_g_deg")
-            return cls(theta=t.deg("theta_deg"), **kw)
-        return cls.from_grinding(phi_g=t.deg("phi_g_deg"),
+            return cls(theta=t.deg("theta_deg", required=True), **kw)
+        return cls.from_grinding(phi_g=t.deg("phi_g_deg", required=True),
                                  varphi=t.deg("varphi_deg", default=10.0), **kw)
 
-    def to_dict(self):
+    def to_dict(self) -> dict[str, Any]:
         d = {"theta_deg": _r(math.degrees(self.theta))}
         if self.bevel_length is not None:
             d["bevel_length_mm"] = self.bevel_length
         return d
 
-    def surfaces(self, cannula):
-        out = [ConeSurface(self.theta, cannula.r_o, self.label)]
+    def surfaces(self, cannula: Cannula) -> tuple[Surface, ...] | None:
+        out: list[Surface] = [ConeSurface(self.theta, cannula.r_o, self.label)]
         if self.bevel_length is not None and self.bevel_length < (
                 cannula.r_o - cannula.r_i) / math.tan(self.theta):  # the land exists
             out.append(Plane(0.5 * math.pi, 0.0, self.bevel_length, self.land_label))
         return tuple(out)
 
-    def exact_bounds(self, cannula, previous=()):
+    def exact_bounds(self, cannula: Cannula,
+                     previous: tuple[Cutter, ...] = ()) -> tuple[Surface, ...] | None:
         """The cone ρ ≤ r_o − z tan θ and, with a bevel length, the plane
         z ≤ l_b (whether or not the land reaches the wall)."""
-        out = [ConeSurface(self.theta, cannula.r_o, self.label)]
+        out: list[Surface] = [ConeSurface(self.theta, cannula.r_o, self.label)]
         if self.bevel_length is not None:
             out.append(Plane(0.5 * math.pi, 0.0, self.bevel_length, self.land_label))
         return tuple(out)
 
-    def __post_init__(self):
+    def __post_init__(self) -> None:
         object.__setattr__(self, "theta", v.angle("theta", self.theta, lo=0.0, hi=0.5 * math.pi,
                                                   lo_open=True, hi_open=True))
         if self.bevel_length is not None:
@@ -121,20 +130,20 @@ class ConicalCutter(Cutter):
     def land_label(self) -> str:
         return f"{self.label}.land"
 
-    def face_labels(self):
+    def face_labels(self) -> tuple[str, ...]:
         return (self.label, self.land_label) if self.bevel_length is not None else (self.label,)
 
-    def _z_cone_top(self, cannula) -> float:
+    def _z_cone_top(self, cannula: Cannula) -> float:
         z_apex = cannula.r_o / math.tan(self.theta)
         return z_apex if self.bevel_length is None else min(self.bevel_length, z_apex)
 
-    def check(self, cannula):
+    def check(self, cannula: Cannula) -> None:
         self.check_height(cannula, "theta")
 
-    def z_upper(self, cannula):
+    def z_upper(self, cannula: Cannula) -> float:
         return float(min(self._z_cone_top(cannula), (cannula.r_o - 0.0) / math.tan(self.theta)))
 
-    def solid(self, ctx):
+    def solid(self, ctx: BuildContext) -> Any:
         ro, t = ctx.cannula.r_o, math.tan(self.theta)
         z0 = ctx.z_lo
         r0 = ro - z0 * t
@@ -142,7 +151,7 @@ class ConicalCutter(Cutter):
         r1 = max(ro - z1 * t, 0.0)
         return ctx.frustum(z0, r0, z1, r1, self.label, self.land_label if r1 > 0 else self.label)
 
-    def implicit(self, points, cannula):
+    def implicit(self, points: FloatArray, cannula: Cannula) -> tuple[FloatArray, FloatArray]:
         p = np.asarray(points, dtype=float).reshape(-1, 3)
         rho = np.hypot(p[:, 0], p[:, 1])
         c, s = math.cos(self.theta), math.sin(self.theta)
@@ -156,7 +165,8 @@ class ConicalCutter(Cutter):
             g[land] = (0.0, 0.0, 1.0)
         return f, g
 
-    def edge_faces(self, gamma, radius, cannula, previous=()):
+    def edge_faces(self, gamma: FloatArray, radius: float | FloatArray, cannula: Cannula,
+                   previous: tuple[Cutter, ...] = ()) -> tuple[FloatArray, AnyArray] | None:
         g = np.asarray(gamma, float)
         zc = (cannula.r_o - radius) / math.tan(self.theta)
         if self.bevel_length is not None and self.bevel_length < zc:
@@ -164,7 +174,8 @@ class ConicalCutter(Cutter):
                                                                 dtype=object)
         return np.full(g.shape, zc), np.full(g.shape, self.label, dtype=object)
 
-    def edge_z(self, gamma, radius, cannula):
+    def edge_z(self, gamma: FloatArray, radius: float | FloatArray,
+               cannula: Cannula) -> FloatArray | None:
         z = (cannula.r_o - radius) / math.tan(self.theta)
         if self.bevel_length is not None:
             z = min(z, self.bevel_length)

@@ -7,27 +7,66 @@ cover the tube's cross-section below the cut and end it above.
 A mesh-defined cutter gives only its solid (protocol item 1): analysis falls
 back to the tip's mesh. An SDF cutter also gives its implicit function (by
 central differences for the gradient).
+
+Reading a mesh file is the I/O layer's job, not the cutters': this module
+defines the slot (:data:`MeshReader`, :func:`set_mesh_reader`) and
+``tipgeo/__init__.py`` — which Python runs before any ``tipgeo`` module —
+plugs :func:`tipgeo.io.load_tip` into it. So ``tipgeo.cutters`` never imports
+``tipgeo.io`` (which imports :mod:`tipgeo.tip`, which names
+:class:`~tipgeo.spec.TipSpec`, which imports the cutters): the import graph
+has no circle (``tests/test_import_graph.py``).
 """
 
 from __future__ import annotations
 
 import math
+import os
 from collections.abc import Callable
 from dataclasses import dataclass, field
+from typing import TYPE_CHECKING, Any, NamedTuple
 
 import manifold3d as m3d
 import numpy as np
 
 from .. import validate as v
+from ..arrays import ArrayLike, FloatArray, IntArray
+from ..cannula import Cannula
 from ..construct import AUX, BuildContext
 from ..errors import SpecError
 from ..tolerances import tol
 from .base import Cutter, check_name
 
-__all__ = ["MeshCutter", "SDFCutter"]
+if TYPE_CHECKING:  # pragma: no cover
+    from .toml import CutterTable
+
+__all__ = ["MeshCutter", "SDFCutter", "MeshReader", "set_mesh_reader"]
+
+#: Reads a mesh file: ``reader(path, units)`` → (vertices (n, 3) float mm in
+#: the cannula frame, faces (m, 3) int). ``units`` None means the unit the file
+#: declares, else mm. Bad files raise :class:`~tipgeo.errors.SpecError`.
+MeshReader = Callable[[str, str | None], tuple[FloatArray, IntArray]]
+
+#: The installed reader (at most one, under the key ``"reader"``).
+_MESH_READER: dict[str, MeshReader] = {}
 
 
-def _as_manifold(solid) -> m3d.Manifold:
+class _Mesh(NamedTuple):
+    """A read mesh, as :func:`_as_manifold` takes it."""
+
+    vertices: FloatArray
+    faces: IntArray
+
+
+def set_mesh_reader(reader: MeshReader) -> None:
+    """Install the function :meth:`MeshCutter.from_file` reads mesh files
+    with (the I/O layer's :func:`tipgeo.io.load_tip`; ``tipgeo/__init__.py``
+    installs it). Replaces any earlier one."""
+    if not callable(reader):
+        raise TypeError(f"reader = {reader!r} is not callable")
+    _MESH_READER["reader"] = reader
+
+
+def _as_manifold(solid: Any) -> Any:
     if isinstance(solid, m3d.Manifold):
         man = solid
     else:
@@ -56,7 +95,7 @@ class MeshCutter(Cutter):
     ``source`` records where the solid came from (a file path) for specs.
     """
 
-    solid_: object = field(repr=False)
+    solid_: Any = field(repr=False)
     name: str = "custom"
     source: str | None = None
     kind = "mesh"
@@ -64,39 +103,39 @@ class MeshCutter(Cutter):
                  "units": "mm, um or m; default the file's own (a tipgeo GLB says), else mm"}
 
     @classmethod
-    def from_dict(cls, t):
+    def from_dict(cls, t: CutterTable) -> Cutter:
         return cls.from_file(t.path("path"), units=t.str("units"),
                              name=t.str("name", "custom"))
 
-    def to_dict(self):
+    def to_dict(self) -> dict[str, Any]:
         if not self.source:
             raise SpecError(f"mesh cutter '{self.name}' has no source file; it has no TOML form")
         return {"path": self.source}
 
-    def __post_init__(self):
+    def __post_init__(self) -> None:
         object.__setattr__(self, "solid_", _as_manifold(self.solid_))
         check_name(self.name)
 
     @classmethod
-    def from_file(cls, path, *, name: str = "custom", units: str | None = None) -> MeshCutter:
+    def from_file(cls, path: str | os.PathLike[str], *, name: str = "custom",
+                  units: str | None = None) -> MeshCutter:
         """Load the kept solid from a mesh file (STL, PLY, OBJ, …) in
         ``units`` (default: the unit the file declares, else mm; see
-        :func:`tipgeo.io.load_tip`)."""
-        from ..io import load_tip
+        :func:`tipgeo.io.load_tip`), through the installed
+        :data:`MeshReader`."""
+        reader = _MESH_READER.get("reader")
+        if reader is None:  # pragma: no cover - tipgeo/__init__.py installs it
+            raise RuntimeError("no mesh reader installed; import tipgeo first")
+        verts, faces = reader(str(path), units)
+        return cls(solid_=_Mesh(verts, faces), name=name, source=str(path))
 
-        tip = load_tip(path, units=units)
-
-        class _M:
-            vertices, faces = tip.vertices, tip.faces
-        return cls(solid_=_M(), name=name, source=str(path))
-
-    def face_labels(self):
+    def face_labels(self) -> tuple[str, ...]:
         return (self.label,)
 
-    def z_upper(self, cannula):
+    def z_upper(self, cannula: Cannula) -> float:
         return float(self.solid_.bounding_box()[5])
 
-    def solid(self, ctx: BuildContext):
+    def solid(self, ctx: BuildContext) -> Any:
         lid = ctx.labels.id(self.label)
         return ctx.labelled(self.solid_, lambda c, n: np.full(len(c), lid), self.label)
 
@@ -119,13 +158,13 @@ class SDFCutter(Cutter):
     name : str
     """
 
-    sdf: Callable[[np.ndarray], np.ndarray] = field(repr=False)
+    sdf: Callable[[FloatArray], ArrayLike] = field(repr=False)
     z_range: tuple[float, float]
     edge_length: float | None = None
     name: str = "sdf"
     kind = "sdf"
 
-    def __post_init__(self):
+    def __post_init__(self) -> None:
         if not callable(self.sdf):
             raise SpecError(f"sdf = {self.sdf!r} is not callable; expected f(points) -> values")
         try:
@@ -139,13 +178,13 @@ class SDFCutter(Cutter):
             v.feature_length("edge_length", self.edge_length, hi=10.0)
         check_name(self.name)
 
-    def face_labels(self):
+    def face_labels(self) -> tuple[str, ...]:
         return (self.label,)
 
-    def z_upper(self, cannula):
+    def z_upper(self, cannula: Cannula) -> float:
         return self.z_range[1]
 
-    def _values(self, pts: np.ndarray) -> np.ndarray:
+    def _values(self, pts: FloatArray) -> FloatArray:
         val = np.asarray(self.sdf(pts), dtype=float).reshape(-1)
         if val.shape[0] != len(pts):
             raise SpecError(f"sdf returned {val.shape[0]} values for {len(pts)} points")
@@ -153,7 +192,7 @@ class SDFCutter(Cutter):
             raise SpecError("sdf returned non-finite values; expected finite distances (mm)")
         return val
 
-    def implicit(self, points, cannula):
+    def implicit(self, points: FloatArray, cannula: Cannula) -> tuple[FloatArray, FloatArray]:
         p = np.asarray(points, float).reshape(-1, 3)
         h = tol.fd_step
         f = self._values(p)
@@ -161,7 +200,7 @@ class SDFCutter(Cutter):
                       for e in np.eye(3)], 1)
         return f, g
 
-    def solid(self, ctx: BuildContext):
+    def solid(self, ctx: BuildContext) -> Any:
         lo, hi = self.z_range
         if lo <= ctx.z_lo:
             raise SpecError(f"z_range[0] = {lo:.6g} mm is below the tube base; allowed above "
@@ -172,8 +211,8 @@ class SDFCutter(Cutter):
         pad = 2 * edge
         band = (lo - pad, hi + pad)
 
-        def f(x, y, z):  # manifold3d: positive inside; clip to the box band
-            val = -self._values(np.array([[x, y, z]]))[0]
+        def f(x: float, y: float, z: float) -> float:  # manifold3d: positive inside; clip to
+            val = float(-self._values(np.array([[x, y, z]]))[0])  # the box band
             return min(val, z - band[0], band[1] - z, r - abs(x), r - abs(y))
         ls = m3d.Manifold.level_set(f, [-r - pad, -r - pad, band[0] - pad, r + pad, r + pad,
                                         band[1] + pad], edge, 0.0, ctx.chordal)

@@ -83,17 +83,24 @@ tolerance needing more is a BuildError that names a tolerance that would work.
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from dataclasses import dataclass, field
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
 from .. import validate as v
+from ..arrays import ArrayLike, FloatArray, IntArray
 from ..cannula import Cannula
+from ..construct import BuildContext
 from ..errors import BuildError, SpecError
 from ..tolerances import tol
 from .base import Cutter, OptimizerKey, check_name
-from .surfaces import HeightSurface, ImplicitSurface
+from .surfaces import HeightSurface, ImplicitSurface, Surface
 from .toml import round_for_toml as _r
+
+if TYPE_CHECKING:  # pragma: no cover
+    from .toml import CutterTable
 
 __all__ = ["HelicalCutter", "RULINGS", "TIPS", "THESIS_HELIX_POSITION_DEG", "THESIS_AXIS_OFFSET_MM",
            "thesis_helical", "old_thesis_helical"]
@@ -172,10 +179,10 @@ class HelicalCutter(Cutter):
     optimizer_keys = {k: OptimizerKey() for k in (
         "pitch_mm", "helix_angle_deg", "phi_deg", "helix_position_deg", "axis_offset_mm",
         "tilt_direction_deg", "ruling_angle_deg", "rotation_deg")}
-    _frame: tuple = field(init=False, repr=False, compare=False, hash=False, default=())
+    _frame: tuple[Any, ...] = field(init=False, repr=False, compare=False, hash=False, default=())
 
     @classmethod
-    def from_dict(cls, t):
+    def from_dict(cls, t: CutterTable) -> Cutter:
         for key in ("pitch_mm", "helix_angle_deg", "phi_deg"):
             t.need(key)
         offset = t.mm("axis_offset_mm")
@@ -187,8 +194,10 @@ class HelicalCutter(Cutter):
         elif "ruling_angle_deg" in t:
             raise SpecError(f"{t.key('ruling_angle_deg')} is given but ruling = {ruling!r}; "
                             "it is allowed only with ruling = 'angle'")
-        return cls(pitch=t.mm("pitch_mm"), helix_angle=t.deg("helix_angle_deg"),
-                   phi=t.deg("phi_deg"), helix_position=t.deg("helix_position_deg", default=0.0),
+        return cls(pitch=t.mm("pitch_mm", required=True),
+                   helix_angle=t.deg("helix_angle_deg", required=True),
+                   phi=t.deg("phi_deg", required=True),
+                   helix_position=t.deg("helix_position_deg", default=0.0),
                    axis_offset=offset,
                    tilt_direction=t.deg("tilt_direction_deg",
                                         default=math.degrees(_DEFAULT_TILT)),
@@ -196,10 +205,11 @@ class HelicalCutter(Cutter):
                    tip=t.str("tip", "+z"),
                    rotation=t.deg("rotation_deg", default=0.0), name=t.str("name", "helix"))
 
-    def to_dict(self):
-        d = {"pitch_mm": self.pitch, "helix_angle_deg": _r(math.degrees(self.helix_angle)),
-             "phi_deg": _r(math.degrees(self.phi)),
-             "helix_position_deg": _r(math.degrees(self.helix_position))}
+    def to_dict(self) -> dict[str, Any]:
+        d: dict[str, Any] = {
+            "pitch_mm": self.pitch, "helix_angle_deg": _r(math.degrees(self.helix_angle)),
+            "phi_deg": _r(math.degrees(self.phi)),
+            "helix_position_deg": _r(math.degrees(self.helix_position))}
         if self.axis_offset is not None:
             d["axis_offset_mm"] = _r(self.axis_offset)
         if self.tilt_direction != _DEFAULT_TILT:
@@ -214,10 +224,11 @@ class HelicalCutter(Cutter):
             d["rotation_deg"] = _r(math.degrees(self.rotation))
         return d
 
-    def surfaces(self, cannula):
+    def surfaces(self, cannula: Cannula) -> tuple[Surface, ...] | None:
         return (ImplicitSurface(self, cannula, self.label),)
 
-    def exact_bounds(self, cannula, previous=()):
+    def exact_bounds(self, cannula: Cannula,
+                     previous: tuple[Cutter, ...] = ()) -> tuple[Surface, ...] | None:
         """The helicoid as the height field :meth:`height` (no closed form in
         the cannula frame: exporters fit it), over the largest disc around the
         needle axis, up to 2 r_o, on which the height converges everywhere (the
@@ -235,7 +246,7 @@ class HelicalCutter(Cutter):
             radius = float(r)
         return (HeightSurface(lambda x, y: self.height(x, y, cannula), radius, self.label),)
 
-    def __post_init__(self):
+    def __post_init__(self) -> None:
         v.feature_length("pitch", self.pitch, hi=1e5)
         v.angle("helix_angle", self.helix_angle, lo=0.0, hi=0.5 * math.pi, lo_open=True,
                 hi_open=True)
@@ -294,14 +305,14 @@ class HelicalCutter(Cutter):
     def axis_offset_mm(self) -> float:
         """D (mm): distance of P* (where the needle axis crosses the helicoid)
         from the helix axis, also for the old construction."""
-        return self._frame[2]
+        return float(self._frame[2])
 
     @property
     def axial_pitch(self) -> float:
         """2π c′ (mm): the helicoid's advance per turn along its axis."""
-        return 2 * math.pi * self._frame[1]
+        return 2 * math.pi * float(self._frame[1])
 
-    def needle_edge(self, gamma: np.ndarray, radius: float) -> np.ndarray:
+    def needle_edge(self, gamma: FloatArray, radius: float) -> FloatArray:
         """Edge height (mm) in the needle frame N, before the heel placement.
 
         Parameters
@@ -320,12 +331,13 @@ class HelicalCutter(Cutter):
         return z.reshape(g.shape)
 
     # -- geometry in the needle frame -------------------------------------------
-    def _f_needle(self, pn: np.ndarray):
+    def _f_needle(self, pn: FloatArray) -> tuple[FloatArray, FloatArray]:
         """f and ∇f (needle-frame coordinates) at needle-frame points."""
         f, gx, gy, gz = self._f_xyz(pn[:, 0], pn[:, 1], pn[:, 2])
         return f, np.stack([gx, gy, gz], 1)
 
-    def _f_xyz(self, x, y, z):
+    def _f_xyz(self, x: FloatArray, y: FloatArray,
+               z: FloatArray) -> tuple[FloatArray, FloatArray, FloatArray, FloatArray]:
         """f and the needle-frame components of ∇f at needle-frame (x, y, z)
         (component arrays, no (n, 3) temporaries: this is the build's hot loop)."""
         s, cp, _, b, o, sigma = self._frame
@@ -344,16 +356,16 @@ class HelicalCutter(Cutter):
                 sigma * (hx * b[0, 1] + hy * b[1, 1] + b[2, 1]),
                 sigma * (hx * b[0, 2] + hy * b[1, 2] + b[2, 2]))
 
-    def _solve_z_needle(self, x: np.ndarray, y: np.ndarray, z0: np.ndarray | None = None,
-                        *, strict: bool = True):
+    def _solve_z_needle(self, x: ArrayLike, y: ArrayLike, z0: ArrayLike | None = None,
+                        *, strict: bool = True) -> FloatArray:
         """z (needle frame) where the surface crosses the lines (x, y) ∥ z_N."""
-        x = np.asarray(x, float).ravel()
-        y = np.asarray(y, float).ravel()
-        z = np.zeros_like(x) if z0 is None else np.asarray(z0, float).ravel().copy()
+        xs = np.asarray(x, dtype=np.float64).ravel()
+        ys = np.asarray(y, dtype=np.float64).ravel()
+        z = np.zeros_like(xs) if z0 is None else np.asarray(z0, dtype=np.float64).ravel().copy()
         step = np.zeros_like(z)
         with np.errstate(all="ignore"):
             for _ in range(60):
-                f, _, _, gz = self._f_xyz(x, y, z)
+                f, _, _, gz = self._f_xyz(xs, ys, z)
                 step = f / gz
                 z -= step
                 if not np.all(np.isfinite(step)):
@@ -423,12 +435,6 @@ class HelicalCutter(Cutter):
         # no mesh here: exact analysis works on the surface; the mesh's grid
         # is chosen (and capped) when a tip is built, at the asked tolerance
 
-    def _height_needle(self, x, y, z0=None):
-        x = np.asarray(x, float)
-        z0 = None if z0 is None else np.asarray(z0, float).ravel()
-        return self._solve_z_needle(x.ravel(), np.asarray(y, float).ravel(),
-                                    z0).reshape(x.shape)
-
     def _placement(self, cannula: Cannula) -> tuple[float, float]:
         """(γ_heel, z_heel) of the outer edge in the needle frame."""
         self.check(cannula)
@@ -449,40 +455,42 @@ class HelicalCutter(Cutter):
         zh = float(self._solve_z_needle([r * math.cos(gh)], [r * math.sin(gh)])[0])
         return gh, zh
 
-    def _to_needle(self, pc: np.ndarray, cannula: Cannula):
+    def _to_needle(self, pc: FloatArray, cannula: Cannula) -> tuple[FloatArray, FloatArray]:
         gh, zh = self._placement_cached(cannula)
         a = gh - self.rotation
         ca, sa = math.cos(a), math.sin(a)
         rot = np.array([[ca, -sa, 0.0], [sa, ca, 0.0], [0.0, 0.0, 1.0]])
         return pc @ rot.T + np.array([0.0, 0.0, zh]), rot
 
-    def _placement_cached(self, cannula: Cannula):
-        cache = self.__dict__.setdefault("_cache", {})
+    def _placement_cached(self, cannula: Cannula) -> tuple[float, float]:
+        cache: dict[tuple[float, float], tuple[float, float]] = self.__dict__.setdefault(
+            "_cache", {})
         key = (cannula.r_o, cannula.r_i)
         if key not in cache:
             cache[key] = self._placement(cannula)
         return cache[key]
 
     # -- protocol -------------------------------------------------------------
-    def face_labels(self):
+    def face_labels(self) -> tuple[str, ...]:
         return (self.label,)
 
-    def height(self, x: np.ndarray, y: np.ndarray, cannula: Cannula,
-               z0: np.ndarray | None = None) -> np.ndarray:
+    def height(self, x: ArrayLike, y: ArrayLike, cannula: Cannula,
+               z0: ArrayLike | None = None) -> FloatArray:
         """z (mm, cannula frame) of the helicoid above the points (x, y);
         ``z0`` (same shape, mm) is an optional first guess."""
-        x = np.asarray(x, float)
-        pts = np.stack([x.ravel(), np.asarray(y, float).ravel(), np.zeros(x.size)], 1)
+        xa = np.asarray(x, dtype=np.float64)
+        pts = np.stack([xa.ravel(), np.asarray(y, float).ravel(), np.zeros(xa.size)], 1)
         pn, _ = self._to_needle(pts, cannula)
         gh, zh = self._placement_cached(cannula)
-        z0 = None if z0 is None else np.asarray(z0, float).ravel() + zh
-        return (self._solve_z_needle(pn[:, 0], pn[:, 1], z0) - zh).reshape(x.shape)
+        start = None if z0 is None else np.asarray(z0, float).ravel() + zh
+        return (self._solve_z_needle(pn[:, 0], pn[:, 1], start) - zh).reshape(xa.shape)
 
-    def edge_z(self, gamma, radius, cannula):
+    def edge_z(self, gamma: FloatArray, radius: float | FloatArray,
+               cannula: Cannula) -> FloatArray | None:
         g = np.asarray(gamma, float)
         return self.height(radius * np.cos(g), radius * np.sin(g), cannula)
 
-    def implicit(self, points, cannula):
+    def implicit(self, points: FloatArray, cannula: Cannula) -> tuple[FloatArray, FloatArray]:
         p = np.asarray(points, float).reshape(-1, 3)
         pn, rot = self._to_needle(p, cannula)
         f, gn = self._f_needle(pn)
@@ -490,12 +498,13 @@ class HelicalCutter(Cutter):
         norm = np.linalg.norm(gc, axis=1)
         return f / norm, gc / norm[:, None]
 
-    def z_upper(self, cannula):
+    def z_upper(self, cannula: Cannula) -> float:
         g = np.linspace(0, 2 * np.pi, 721)
-        return float(max(self.edge_z(g, cannula.r_o, cannula).max(),
-                         self.edge_z(g, cannula.r_i, cannula).max()))
+        c, s = np.cos(g), np.sin(g)
+        return float(max(self.height(cannula.r_o * c, cannula.r_o * s, cannula).max(),
+                         self.height(cannula.r_i * c, cannula.r_i * s, cannula).max()))
 
-    def solid(self, ctx):
+    def solid(self, ctx: BuildContext) -> Any:
         cannula = ctx.cannula
         self.check(cannula)
         key = (cannula.r_o, cannula.r_i, ctx.chordal, ctx.segments)
@@ -518,13 +527,13 @@ def _margin(cannula: Cannula) -> float:
 _MAX_LEVEL = 8
 
 
-def _cyclic_gaps(index: np.ndarray, n_fine: int) -> np.ndarray:
+def _cyclic_gaps(index: IntArray, n_fine: int) -> IntArray:
     """Fine steps from each grid angle to the next, around the circle."""
     return np.diff(np.append(index, index[0] + n_fine))
 
 
-def _grid_errors(height, rad: np.ndarray, g: np.ndarray, dg: np.ndarray
-                 ) -> tuple[np.ndarray, float, float]:
+def _grid_errors(height: Callable[..., FloatArray], rad: FloatArray, g: FloatArray,
+                 dg: FloatArray) -> tuple[FloatArray, float, float]:
     """(per angular interval, radial, the radial share) of the gap between the
     grid's triangles and ``height`` (mm along the surface normal) at the
     midpoints of the three edge families of the triangles (angular, radial,
@@ -561,8 +570,8 @@ def _grid_errors(height, rad: np.ndarray, g: np.ndarray, dg: np.ndarray
     return per_interval, float(err_r.max()), float(max(err_r.max(), err_d.max()))
 
 
-def _adapt(height, cannula: Cannula, chordal: float, segments: int
-           ) -> tuple[np.ndarray, int] | None:
+def _adapt(height: Callable[..., FloatArray], cannula: Cannula, chordal: float, segments: int
+           ) -> tuple[FloatArray, int] | None:
     """The heightfield grid over the wall annulus — its angles (rad about +z,
     increasing) and its count of radii — whose triangulation (each cell split
     along its diagonal) interpolates ``height(x, y, z0)`` within ``chordal``
@@ -609,8 +618,8 @@ def _adapt(height, cannula: Cannula, chordal: float, segments: int
     return None
 
 
-def _resolution(height, cannula: Cannula, chordal: float, segments: int
-                ) -> tuple[np.ndarray, int]:
+def _resolution(height: Callable[..., FloatArray], cannula: Cannula, chordal: float,
+                segments: int) -> tuple[FloatArray, int]:
     """:func:`_adapt`'s grid for ``chordal`` (mm), or a BuildError naming a
     tolerance whose grid was found within the cap (tried, not estimated:
     doubling from ``chordal``, the tube's segments following it)."""

@@ -18,18 +18,23 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from typing import TYPE_CHECKING, Any
 
 import manifold3d as m3d
 import numpy as np
 
 from .. import validate as v
+from ..arrays import AnyArray, FloatArray
 from ..cannula import Cannula
 from ..construct import BuildContext
 from ..errors import SpecError
 from ..tolerances import MAX_PLANES, tol
 from .base import Cutter, OptimizerKey, check_name
-from .surfaces import Plane
+from .surfaces import Plane, Surface
 from .toml import round_for_toml as _r
+
+if TYPE_CHECKING:  # pragma: no cover
+    from .toml import CutterTable
 
 __all__ = ["Plane", "PlanarCutter", "BevelCutter", "MultiPlaneCutter", "LancetCutter",
            "PlaneSetCutter", "multiplane_xi_for_theta"]
@@ -42,10 +47,11 @@ class PlanarCutter(Cutter):
 
     process = "grind"
 
-    def surfaces(self, cannula: Cannula) -> tuple:
+    def surfaces(self, cannula: Cannula) -> tuple[Surface, ...]:
         return tuple(self.planes(cannula))
 
-    def exact_bounds(self, cannula: Cannula, previous: tuple = ()) -> tuple:
+    def exact_bounds(self, cannula: Cannula,
+                     previous: tuple[Cutter, ...] = ()) -> tuple[Surface, ...]:
         """The planes: the kept material is the intersection of their half-spaces."""
         return tuple(self.planes(cannula))
 
@@ -71,7 +77,7 @@ class PlanarCutter(Cutter):
         zo = np.min([p.z_on_cylinder(g, cannula.r_o) for p in self.planes(cannula)], axis=0)
         return float(max(z.max(), zo.max()))
 
-    def implicit(self, points, cannula):
+    def implicit(self, points: FloatArray, cannula: Cannula) -> tuple[FloatArray, FloatArray]:
         pts = np.asarray(points, dtype=float).reshape(-1, 3)
         planes = self.planes(cannula)
         n = np.stack([p.normal for p in planes])
@@ -80,22 +86,20 @@ class PlanarCutter(Cutter):
         k = np.argmax(f, axis=1)
         return f[np.arange(len(pts)), k], n[k]
 
-    def edge_z(self, gamma, radius, cannula):
+    def edge_z(self, gamma: FloatArray, radius: float | FloatArray,
+               cannula: Cannula) -> FloatArray | None:
         g = np.asarray(gamma, dtype=float)
-        return np.min([p.z_on_cylinder(g, radius) for p in self.planes(cannula)], axis=0)
+        return np.asarray(np.min([p.z_on_cylinder(g, radius) for p in self.planes(cannula)],
+                                 axis=0), dtype=np.float64)
 
-    def edge_faces(self, gamma, radius, cannula, previous=()):
+    def edge_faces(self, gamma: FloatArray, radius: float | FloatArray, cannula: Cannula,
+                   previous: tuple[Cutter, ...] = ()) -> tuple[FloatArray, AnyArray] | None:
         g = np.asarray(gamma, dtype=float)
         planes = self.planes(cannula)
         zs = np.array([p.z_on_cylinder(g, radius) for p in planes])
         k = np.argmin(zs, axis=0)
         labels = np.array([p.label for p in planes], dtype=object)
         return np.take_along_axis(zs, k[None], 0)[0], labels[k]
-
-    def plane_index(self, gamma: np.ndarray, radius: float, cannula: Cannula) -> np.ndarray:
-        """Index of the plane that forms the edge at each γ."""
-        g = np.asarray(gamma, dtype=float)
-        return np.argmin([p.z_on_cylinder(g, radius) for p in self.planes(cannula)], axis=0)
 
 
 def _xi(name: str, value: float) -> float:
@@ -130,22 +134,22 @@ class BevelCutter(PlanarCutter):
     optimizer_keys = {"xi_deg": OptimizerKey(), "rotation_deg": OptimizerKey()}
 
     @classmethod
-    def from_dict(cls, t):
+    def from_dict(cls, t: CutterTable) -> Cutter:
         return cls(xi=t.deg("xi_deg", required=True), rotation=t.deg("rotation_deg", default=0.0),
                    name=t.str("name", "bevel"))
 
-    def to_dict(self):
+    def to_dict(self) -> dict[str, Any]:
         return {"xi_deg": _r(math.degrees(self.xi)), **_rotation(self.rotation)}
 
-    def __post_init__(self):
+    def __post_init__(self) -> None:
         object.__setattr__(self, "xi", _xi("xi", self.xi))
         object.__setattr__(self, "rotation", v.angle("rotation", self.rotation))
         check_name(self.name)
 
-    def planes(self, cannula):
+    def planes(self, cannula: Cannula) -> list[Plane]:
         return [Plane(self.xi, self.rotation, cannula.r_o * _cot(self.xi), self.label)]
 
-    def face_labels(self):
+    def face_labels(self) -> tuple[str, ...]:
         return (self.label,)
 
 
@@ -193,9 +197,10 @@ class MultiPlaneCutter(PlanarCutter):
                       "planes": OptimizerKey(integer=True), "rotation_deg": OptimizerKey()}
 
     @classmethod
-    def from_dict(cls, t):
+    def from_dict(cls, t: CutterTable) -> Cutter:
         which = t.one_of("xi_deg", "theta_deg")
-        kw = {"rotation": t.deg("rotation_deg", default=0.0), "name": t.str("name", "multiplane")}
+        kw: dict[str, Any] = {"rotation": t.deg("rotation_deg", default=0.0),
+                              "name": t.str("name", "multiplane")}
         if "rotations_deg" in t:
             if "planes" in t:
                 raise SpecError(f"{t.where}: give planes or rotations_deg, not both")
@@ -213,22 +218,23 @@ class MultiPlaneCutter(PlanarCutter):
                 raise SpecError(f"{t.where}.theta_deg needs a symmetric tip (planes), "
                                 "not rotations_deg")
             try:
-                kw["xi"] = multiplane_xi_for_theta(t.deg("theta_deg"), kw["count"])
+                kw["xi"] = multiplane_xi_for_theta(t.deg("theta_deg", required=True),
+                                                   kw["count"])
             except SpecError as e:
                 raise SpecError(str(e).replace("theta =", "theta_deg:")) from None
         else:
-            kw["xi"] = t.deg("xi_deg")
+            kw["xi"] = t.deg("xi_deg", required=True)
         return cls(**kw)
 
-    def to_dict(self):
-        d: dict = {"xi_deg": _r(math.degrees(self.xi))}
+    def to_dict(self) -> dict[str, Any]:
+        d: dict[str, Any] = {"xi_deg": _r(math.degrees(self.xi))}
         if self.symmetric:
             d["planes"] = self.count
         else:
-            d["rotations_deg"] = [_r(math.degrees(r)) for r in self.rotations]
+            d["rotations_deg"] = [_r(math.degrees(r)) for r in self.rotations or ()]
         return d | _rotation(self.rotation)
 
-    def __post_init__(self):
+    def __post_init__(self) -> None:
         xi = v.angle("xi", self.xi, lo=0.0, hi=HALF_PI, lo_open=True, hi_open=True)
         object.__setattr__(self, "xi", xi)
         object.__setattr__(self, "rotation", v.angle("rotation", self.rotation))
@@ -268,12 +274,12 @@ class MultiPlaneCutter(PlanarCutter):
             return tuple(self.rotation + 2 * math.pi * k / self.count for k in range(self.count))
         return tuple(self.rotation + r for r in self.rotations)
 
-    def planes(self, cannula):
+    def planes(self, cannula: Cannula) -> list[Plane]:
         h = cannula.r_o * _cot(self.xi)
         return [Plane(self.xi, b, h, f"{self.label}.{k}")
                 for k, b in enumerate(self.heel_directions())]
 
-    def face_labels(self):
+    def face_labels(self) -> tuple[str, ...]:
         return tuple(f"{self.label}.{k}" for k in range(self.count))
 
     @classmethod
@@ -337,19 +343,19 @@ class LancetCutter(PlanarCutter):
                                                   "secondary_rotation_deg", "rotation_deg")}
 
     @classmethod
-    def from_dict(cls, t):
+    def from_dict(cls, t: CutterTable) -> Cutter:
         return cls(primary_xi=t.deg("primary_xi_deg", required=True),
                    secondary_xi=t.deg("secondary_xi_deg", required=True),
                    secondary_rotation=t.deg("secondary_rotation_deg", required=True),
                    rotation=t.deg("rotation_deg", default=0.0), name=t.str("name", "lancet"))
 
-    def to_dict(self):
+    def to_dict(self) -> dict[str, Any]:
         return {"primary_xi_deg": _r(math.degrees(self.primary_xi)),
                 "secondary_xi_deg": _r(math.degrees(self.secondary_xi)),
                 "secondary_rotation_deg": _r(math.degrees(self.secondary_rotation)),
                 **_rotation(self.rotation)}
 
-    def __post_init__(self):
+    def __post_init__(self) -> None:
         p = v.angle("primary_xi", self.primary_xi, lo=0, hi=HALF_PI, lo_open=True, hi_open=True)
         s = v.angle("secondary_xi", self.secondary_xi, lo=0, hi=HALF_PI, lo_open=True,
                     hi_open=True)
@@ -367,7 +373,7 @@ class LancetCutter(PlanarCutter):
         object.__setattr__(self, "secondary_rotation", b)
         check_name(self.name)
 
-    def planes(self, cannula):
+    def planes(self, cannula: Cannula) -> list[Plane]:
         ro = cannula.r_o
         z_tip = 2 * ro * _cot(self.primary_xi)
         h2 = z_tip - ro * math.cos(self.secondary_rotation) * _cot(self.secondary_xi)
@@ -378,11 +384,11 @@ class LancetCutter(PlanarCutter):
                 Plane(self.secondary_xi, self.rotation - self.secondary_rotation, h2,
                       f"{self.label}.minus")]
 
-    def face_labels(self):
+    def face_labels(self) -> tuple[str, ...]:
         return (f"{self.label}.primary", f"{self.label}.plus", f"{self.label}.minus")
 
 
-def _rotation(rotation: float) -> dict:
+def _rotation(rotation: float) -> dict[str, float]:
     return {"rotation_deg": _r(math.degrees(rotation))} if rotation else {}
 
 
@@ -402,13 +408,13 @@ class PlaneSetCutter(PlanarCutter):
     name: str = "planes"
     kind = "planes"
 
-    def __post_init__(self):
+    def __post_init__(self) -> None:
         if len(self.plane_normals) != len(self.plane_offsets) or not self.plane_normals:
             raise SpecError(f"plane_normals ({len(self.plane_normals)}) and plane_offsets "
                             f"({len(self.plane_offsets)}) "
                             "must be non-empty and of the same length")
-        for k, n in enumerate(self.plane_normals):
-            n = np.asarray(n, float)
+        for k, normal in enumerate(self.plane_normals):
+            n = np.asarray(normal, float)
             if (n.shape != (3,) or not np.all(np.isfinite(n))
                     or abs(np.linalg.norm(n) - 1) > tol.unit):
                 raise SpecError(f"plane_normals[{k}] = {tuple(n)} is not a unit 3-vector")
@@ -417,7 +423,7 @@ class PlaneSetCutter(PlanarCutter):
                                 "plane must face the tip)")
         check_name(self.name)
 
-    def planes(self, cannula):
+    def planes(self, cannula: Cannula) -> list[Plane]:
         out = []
         for k, (n, d) in enumerate(zip(self.plane_normals, self.plane_offsets)):
             xi = math.asin(min(n[2], 1.0))
@@ -425,5 +431,5 @@ class PlaneSetCutter(PlanarCutter):
             out.append(Plane(xi, beta, d / math.sin(xi), f"{self.label}.{k}"))
         return out
 
-    def face_labels(self):
+    def face_labels(self) -> tuple[str, ...]:
         return tuple(f"{self.label}.{k}" for k in range(len(self.plane_normals)))

@@ -30,18 +30,23 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from typing import TYPE_CHECKING, Any, cast
 
 import manifold3d as m3d
 import numpy as np
 
 from .. import validate as v
+from ..arrays import AnyArray, FloatArray, IntArray
 from ..cannula import Cannula
-from ..construct import AUX
+from ..construct import AUX, BuildContext
 from ..errors import SpecError
 from ..tolerances import tol
 from .base import Cutter, OptimizerKey, check_name
-from .surfaces import NotchPrism
+from .surfaces import NotchPrism, Surface
 from .toml import round_for_toml as _r
+
+if TYPE_CHECKING:  # pragma: no cover
+    from .toml import CutterTable
 
 __all__ = ["SerrationCutter", "SerrationProfile", "SerrationFacts", "SERRATION_PRESETS",
            "MAX_SERRATIONS"]
@@ -103,11 +108,11 @@ class SerrationProfile:
             return self.r_c
         return math.sqrt(max(self.r_c ** 2 - (self.z_e - self.z_c) ** 2, 0.0))
 
-    def polygon(self, chordal: float, z_top: float) -> np.ndarray:
+    def polygon(self, chordal: float, z_top: float) -> FloatArray:
         """(k, 2) CCW polygon of the notch (u, z), up to ``z_top``."""
         r_c, r_s, z_c = self.r_c, self.r_s, self.z_c
 
-        def nseg(r, span):
+        def nseg(r: float, span: float) -> int:
             if r <= 0:
                 return 1
             return max(2, math.ceil(span / (2 * math.acos(max(1 - chordal / r, -1.0)))))
@@ -120,25 +125,25 @@ class SerrationProfile:
         else:
             a_t = math.atan2(self.z_e - z_c, self.half_width)
         a = np.linspace(-0.5 * math.pi, a_t, nseg(r_c, a_t + 0.5 * math.pi) + 1)
-        right = [np.stack([r_c * np.cos(a), z_c + r_c * np.sin(a)], 1)]
+        right: list[FloatArray] = [np.stack([r_c * np.cos(a), z_c + r_c * np.sin(a)], 1)]
         if self.r_s > 0:
             if self.straight:
-                right.append([[r_c, zf]])
+                right.append(np.array([[r_c, zf]]))
             b0 = math.atan2(zt - zf, ut - uf)
             b = np.linspace(b0, 0.5 * math.pi, nseg(r_s, abs(b0 - 0.5 * math.pi)) + 1)
             right.append(np.stack([uf + r_s * np.cos(b), zf + r_s * np.sin(b)], 1))
             w = uf
         else:
             w = self.half_width if not self.straight else r_c
-            right.append([[w, self.z_e]])
-        right.append([[w, z_top]])
-        right = np.concatenate(right)
-        left = right[::-1] * np.array([-1.0, 1.0])
-        poly = np.concatenate([right, left[:-1]])  # left ends at the shared bottom point
+            right.append(np.array([[w, self.z_e]]))
+        right.append(np.array([[w, z_top]]))
+        half = np.concatenate(right)
+        left = half[::-1] * np.array([-1.0, 1.0])
+        poly = np.concatenate([half, left[:-1]])  # left ends at the shared bottom point
         keep = np.r_[True, np.linalg.norm(np.diff(poly, axis=0), axis=1) > tol.dedup]
         return poly[keep]
 
-    def outline(self, z_top: float) -> tuple:
+    def outline(self, z_top: float) -> tuple[tuple[Any, ...], ...]:
         """The exact closed notch outline up to ``z_top`` (mm), counter-clockwise
         in (u, z): circular arcs (three points each) and straight lines, as
         :class:`~tipgeo.cutters.surfaces.NotchPrism` takes it. Main arc
@@ -146,9 +151,9 @@ class SerrationProfile:
         the fillets when depth > r_c; fillets of radius r_s; vertical walls
         from the rim up to ``z_top``; the top closed by a line."""
         r_c, r_s, z_c, z_e = self.r_c, self.r_s, self.z_c, self.z_e
-        right: list[tuple] = []  # pieces of the right half, from the bottom up
+        right: list[tuple[Any, ...]] = []  # pieces of the right half, from the bottom up
 
-        def arc(cu, cz, r, a0, a1):
+        def arc(cu: float, cz: float, r: float, a0: float, a1: float) -> tuple[Any, ...]:
             am = 0.5 * (a0 + a1)
             return ("arc", (cu + r * math.cos(a0), cz + r * math.sin(a0)),
                     (cu + r * math.cos(am), cz + r * math.sin(am)),
@@ -172,7 +177,7 @@ class SerrationProfile:
             w, z_w = w, z_e
         right.append(("line", (w, z_w), (w, z_top)))
 
-        def mirror(piece):
+        def mirror(piece: tuple[Any, ...]) -> tuple[Any, ...]:
             kind, *pts = piece
             return (kind, *[(-u, z) for u, z in reversed(pts)])
 
@@ -184,7 +189,7 @@ class SerrationProfile:
         pieces = [bottom, *right[1:], ("line", (w, z_top), (-w, z_top)), *left[:-1]]
         return tuple(pieces)
 
-    def bottom(self, u: np.ndarray) -> np.ndarray:
+    def bottom(self, u: FloatArray) -> FloatArray:
         """Lowest z of the notch above tangential offset u (+inf outside)."""
         u = np.abs(np.asarray(u, float))
         uf, zf, ut, _ = self.fillet() if self.r_s > 0 else (0, 0, self.half_width, 0)
@@ -201,7 +206,7 @@ class SerrationProfile:
             out[(u <= w)] = np.where(u[u <= w] <= self.r_c, out[u <= w], self.z_c)
         return out
 
-    def signed_distance(self, u: np.ndarray, z: np.ndarray) -> np.ndarray:
+    def signed_distance(self, u: FloatArray, z: FloatArray) -> FloatArray:
         """Exact 2-D signed distance to the notch (< 0 inside), for the part of
         the profile below the rim (the top is open)."""
         u = np.abs(np.asarray(u, float))
@@ -303,11 +308,12 @@ class SerrationCutter(Cutter):
                       "rotation_deg": OptimizerKey()}
 
     @classmethod
-    def from_dict(cls, t):
+    def from_dict(cls, t: CutterTable) -> Cutter:
         t.need("arc_radius_mm")
         which = t.one_of("count", "spacing_deg")
-        kw = {"arc_radius": t.mm("arc_radius_mm"), "depth": t.mm("depth_mm"),
-              "rotation": t.deg("rotation_deg", default=0.0), "name": t.str("name", "serrations")}
+        kw: dict[str, Any] = {
+            "arc_radius": t.mm("arc_radius_mm"), "depth": t.mm("depth_mm"),
+            "rotation": t.deg("rotation_deg", default=0.0), "name": t.str("name", "serrations")}
         if "edge_radius_mm" in t:
             kw["edge_radius"] = t.mm("edge_radius_mm")
         if which == "count":
@@ -316,19 +322,19 @@ class SerrationCutter(Cutter):
             kw["spacing"] = t.deg("spacing_deg")
         return cls(**kw)
 
-    def to_dict(self):
-        d = {"arc_radius_mm": self.arc_radius}
+    def to_dict(self) -> dict[str, Any]:
+        d: dict[str, Any] = {"arc_radius_mm": self.arc_radius}
         if self.count is not None:
             d["count"] = self.count
         else:
-            d["spacing_deg"] = _r(math.degrees(self.spacing))
+            d["spacing_deg"] = _r(math.degrees(self.rho))
         d["depth_mm"] = self.depth
         d["edge_radius_mm"] = self.edge_radius
         if self.rotation:
             d["rotation_deg"] = _r(math.degrees(self.rotation))
         return d
 
-    def __post_init__(self):
+    def __post_init__(self) -> None:
         r_c = v.feature_length("arc_radius", self.arc_radius, hi=50.0)
         object.__setattr__(self, "arc_radius", r_c)
         if (self.count is None) == (self.spacing is None):
@@ -363,7 +369,7 @@ class SerrationCutter(Cutter):
         """Number of serrations n_s."""
         if self.count is not None:
             return self.count
-        return max(1, int(math.floor(2 * math.pi / self.spacing + tol.rel)))
+        return max(1, int(math.floor(2 * math.pi / self.rho + tol.rel)))
 
     @property
     def symmetry_order(self) -> int:
@@ -372,7 +378,14 @@ class SerrationCutter(Cutter):
     @property
     def rho(self) -> float:
         """Spacing ρ (rad)."""
-        return self.spacing if self.spacing is not None else 2 * math.pi / self.count
+        if self.spacing is not None:
+            return self.spacing
+        return 2 * math.pi / cast(int, self.count)  # __post_init__: one of the two is set
+
+    @property
+    def _depth(self) -> float:
+        """Depth (mm): ``__post_init__`` replaces None by the arc radius."""
+        return cast(float, self.depth)
 
     def serration_facts(self) -> SerrationFacts:
         """The serrations as a laser program cuts them (:class:`SerrationFacts`:
@@ -391,16 +404,16 @@ class SerrationCutter(Cutter):
                                spacing=self.spacing, depth=self.depth, edge_radius=0.0,
                                rotation=self.rotation, name=self.name)
 
-    def angles(self) -> np.ndarray:
+    def angles(self) -> FloatArray:
         """γ_k of every serration (rad)."""
-        return self.rotation + self.rho * np.arange(self.n)
+        return self.rotation + self.rho * np.arange(self.n, dtype=np.float64)
 
-    def face_labels(self):
+    def face_labels(self) -> tuple[str, ...]:
         return (self.label,)
 
     def check(self, cannula: Cannula) -> None:
         """Reject serrations wider than the wall allows or overlapping."""
-        prof = SerrationProfile(self.arc_radius, self.depth, self.edge_radius, 0.0)
+        prof = SerrationProfile(self.arc_radius, self._depth, self.edge_radius, 0.0)
         w = prof.half_width
         if not w < cannula.r_i:
             raise SpecError(f"arc_radius = {self.arc_radius:.6g} mm with edge_radius = "
@@ -419,7 +432,7 @@ class SerrationCutter(Cutter):
             raise SpecError(f"spacing = {math.degrees(self.rho):.6g}°: the last serration "
                             "overlaps the first; allowed 2π/spacing close to a whole number")
 
-    def rim_heights(self, cannula: Cannula, previous: tuple) -> np.ndarray:
+    def rim_heights(self, cannula: Cannula, previous: tuple[Cutter, ...]) -> FloatArray:
         """Rim height z_e (mm) on the inner wall at every serration."""
         g = self.angles()
         zs = []
@@ -431,23 +444,25 @@ class SerrationCutter(Cutter):
             raise SpecError(f"serration cutter '{self.name}' needs a preceding cutter with a "
                             "known edge height (e.g. conical) to cut into; allowed after "
                             "bevel, multiplane, lancet, conical or helical cutters")
-        return np.min(zs, axis=0)
+        return np.asarray(np.min(zs, axis=0), dtype=np.float64)
 
-    def profiles(self, cannula: Cannula, previous: tuple) -> list[SerrationProfile]:
+    def profiles(self, cannula: Cannula,
+                 previous: tuple[Cutter, ...]) -> list[SerrationProfile]:
         """The notch profile of every serration."""
         out = []
         for z_e in self.rim_heights(cannula, previous):
             if not z_e - self.depth > -cannula.length:
                 raise SpecError(f"depth = {self.depth:.6g} mm reaches the base of the cannula "
                                 f"(rim at z = {z_e:.4g} mm, length {cannula.length:.4g} mm)")
-            out.append(SerrationProfile(self.arc_radius, self.depth, self.edge_radius,
+            out.append(SerrationProfile(self.arc_radius, self._depth, self.edge_radius,
                                         float(z_e)))
         return out
 
-    def z_upper(self, cannula):
+    def z_upper(self, cannula: Cannula) -> float:
         return math.inf
 
-    def exact_bounds(self, cannula, previous=()):
+    def exact_bounds(self, cannula: Cannula,
+                     previous: tuple[Cutter, ...] = ()) -> tuple[Surface, ...] | None:
         """One :class:`~tipgeo.cutters.surfaces.NotchPrism` per serration (the
         notches are removed): the exact outline (:meth:`SerrationProfile.outline`)
         up to above the preceding cutters' material, through the wall as in
@@ -467,7 +482,7 @@ class SerrationCutter(Cutter):
                                   cannula.r_o + margin, self.label))
         return tuple(out)
 
-    def solid(self, ctx):
+    def solid(self, ctx: BuildContext) -> Any:
         cannula = ctx.cannula
         self.check(cannula)
         notches = []
@@ -484,7 +499,7 @@ class SerrationCutter(Cutter):
         big = ctx.frustum(ctx.z_lo, ctx.reach, ctx.z_hi, ctx.reach, AUX, AUX)
         return big - m3d.Manifold.batch_boolean(notches, m3d.OpType.Add)
 
-    def _local(self, p: np.ndarray):
+    def _local(self, p: FloatArray) -> tuple[IntArray, FloatArray, FloatArray]:
         g = self.angles()
         ang = np.arctan2(p[:, 1], p[:, 0])
         k = np.rint((ang - self.rotation) / self.rho).astype(int) % self.n
@@ -492,14 +507,15 @@ class SerrationCutter(Cutter):
         u = -np.sin(gk) * p[:, 0] + np.cos(gk) * p[:, 1]
         return k, gk, u
 
-    def implicit(self, points, cannula, previous: tuple = ()):
+    def implicit(self, points: FloatArray, cannula: Cannula,
+                 previous: tuple[Cutter, ...] = ()) -> tuple[FloatArray, FloatArray]:
         """Signed distance (mm) to the nearest notch, > 0 inside a notch
         (removed), with its gradient by central differences (h = 1e-7 mm).
         ``previous`` are the cutters before this one (they set the rim)."""
         p = np.asarray(points, float).reshape(-1, 3)
         profs = self.profiles(cannula, previous)
 
-        def f(q):
+        def f(q: FloatArray) -> FloatArray:
             k, _, u = self._local(q)
             out = np.empty(len(q))
             for j in np.unique(k):
@@ -512,7 +528,8 @@ class SerrationCutter(Cutter):
         grad = np.stack([(f(p + h * e) - f(p - h * e)) / (2 * h) for e in np.eye(3)], 1)
         return val, grad
 
-    def edge_faces(self, gamma, radius, cannula, previous=()):
+    def edge_faces(self, gamma: FloatArray, radius: float | FloatArray, cannula: Cannula,
+                   previous: tuple[Cutter, ...] = ()) -> tuple[FloatArray, AnyArray] | None:
         """Notch bottoms on the cylinder: face ``cut:<name>.arc`` or
         ``cut:<name>.fillet`` (+inf between notches; the straight sides are
         vertical and appear as jumps of the edge)."""
@@ -533,11 +550,13 @@ class SerrationCutter(Cutter):
             face[s] = np.where(on_arc, f"{self.label}.arc", f"{self.label}.fillet")
         return z.reshape(np.shape(gamma)), face.reshape(np.shape(gamma))
 
-    def normals(self, points, cannula, previous=()):
+    def normals(self, points: FloatArray, cannula: Cannula,
+                previous: tuple[Cutter, ...] = ()) -> FloatArray:
         _, g = self.implicit(points, cannula, previous=previous)
-        return g / np.linalg.norm(g, axis=1, keepdims=True)
+        return np.asarray(g / np.linalg.norm(g, axis=1, keepdims=True), dtype=np.float64)
 
-    def edge_z(self, gamma, radius, cannula, previous: tuple = ()):
+    def edge_z(self, gamma: FloatArray, radius: float | FloatArray, cannula: Cannula,
+               previous: tuple[Cutter, ...] = ()) -> FloatArray | None:
         """Lowest z of the notches on the cylinder of ``radius`` (+inf between
         notches); needs the preceding cutters for the rim heights."""
         found = self.edge_faces(gamma, radius, cannula, previous)

@@ -16,6 +16,8 @@ from typing import Any
 
 import numpy as np
 
+from ..arrays import FloatArray
+
 __all__ = ["Plane", "ConeSurface", "ImplicitSurface", "HeightSurface", "NotchPrism", "Surface"]
 
 HALF_PI = 0.5 * math.pi
@@ -34,7 +36,7 @@ class Plane:
     label: str
 
     @property
-    def normal(self) -> np.ndarray:
+    def normal(self) -> FloatArray:
         """Unit outward normal (cos ξ cos β, cos ξ sin β, sin ξ)."""
         c = math.cos(self.xi)
         return np.array([c * math.cos(self.rotation), c * math.sin(self.rotation),
@@ -45,7 +47,7 @@ class Plane:
         """n·p ≤ offset on the kept side (mm)."""
         return self.height * math.sin(self.xi)
 
-    def z_on_cylinder(self, gamma: np.ndarray, radius: float) -> np.ndarray:
+    def z_on_cylinder(self, gamma: FloatArray, radius: float | FloatArray) -> FloatArray:
         """Height (mm) where the plane meets the cylinder of ``radius``."""
         if self.xi >= HALF_PI:
             return np.full(np.shape(gamma), self.height)
@@ -100,7 +102,7 @@ class NotchPrism:
     z1))`` — a circular arc through three of its points (mm), so the outline
     is exact."""
 
-    outline: tuple
+    outline: tuple[tuple[Any, ...], ...]
     angle: float
     r_in: float
     r_out: float

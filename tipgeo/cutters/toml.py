@@ -11,9 +11,10 @@ under the key the user typed.
 
 from __future__ import annotations
 
+import builtins
 import math
 from pathlib import Path
-from typing import Any
+from typing import Any, Literal, overload
 
 from ..errors import SpecError
 from ..validate import brief, finite_float
@@ -72,6 +73,16 @@ class CutterTable:
         self.keymap[arg] = key
         return arg
 
+    @overload
+    def deg(self, key: str, *, arg: str | None = None, default: float,
+            required: bool = False) -> float: ...
+    @overload
+    def deg(self, key: str, *, arg: str | None = None, default: None = None,
+            required: Literal[True]) -> float: ...
+    @overload
+    def deg(self, key: str, *, arg: str | None = None, default: None = None,
+            required: bool = False) -> float | None: ...
+
     def deg(self, key: str, *, arg: str | None = None, default: float | None = None,
             required: bool = False) -> float | None:
         """An angle key (degrees) as radians; ``default`` (degrees) when absent."""
@@ -82,6 +93,11 @@ class CutterTable:
         self._arg(key, arg)
         return math.radians(finite_float(self.key(key), self.table[key]))
 
+    @overload
+    def mm(self, key: str, *, arg: str | None = None, required: Literal[True]) -> float: ...
+    @overload
+    def mm(self, key: str, *, arg: str | None = None, required: bool = False) -> float | None: ...
+
     def mm(self, key: str, *, arg: str | None = None, required: bool = False) -> float | None:
         """A length key (mm)."""
         if key not in self.table:
@@ -91,7 +107,15 @@ class CutterTable:
         self._arg(key, arg)
         return finite_float(self.key(key), self.table[key])
 
-    def int(self, key: str, *, arg: str | None = None, required: bool = False) -> int | None:
+    @overload
+    def int(self, key: str, *, arg: str | None = None, required: Literal[True]) -> builtins.int:
+        ...
+    @overload
+    def int(self, key: str, *, arg: str | None = None,
+            required: bool = False) -> builtins.int | None: ...
+
+    def int(self, key: str, *, arg: str | None = None,
+            required: bool = False) -> builtins.int | None:
         """An integer key."""
         if key not in self.table:
             if required:
@@ -104,7 +128,13 @@ class CutterTable:
                             "integer")
         return int(value)
 
-    def str(self, key: str, default: str | None = None) -> str | None:
+    @overload
+    def str(self, key: builtins.str, default: builtins.str) -> builtins.str: ...
+    @overload
+    def str(self, key: builtins.str, default: None = None) -> builtins.str | None: ...
+
+    def str(self, key: builtins.str,
+            default: builtins.str | None = None) -> builtins.str | None:
         """A string key."""
         if key not in self.table:
             return default
@@ -114,7 +144,8 @@ class CutterTable:
                             "string")
         return value
 
-    def deg_list(self, key: str, *, arg: str | None = None) -> tuple[float, ...] | None:
+    def deg_list(self, key: builtins.str, *,
+                 arg: builtins.str | None = None) -> tuple[float, ...] | None:
         """A list of angles (degrees) as radians."""
         if key not in self.table:
             return None
@@ -125,14 +156,14 @@ class CutterTable:
         return tuple(math.radians(finite_float(f"{self.key(key)}[{j}]", x))
                      for j, x in enumerate(vals))
 
-    def path(self, key: str) -> Path:
+    def path(self, key: builtins.str) -> Path:
         """A required file path, relative ones starting at ``base_dir``."""
-        p = Path(self.str(key) if key in self.table else self.need(key))
+        p = Path(self.str(key, "") if key in self.table else self.need(key))
         if not p.is_absolute() and self.base_dir is not None:
             p = self.base_dir / p
         return p
 
-    def relabel(self, err: SpecError, kind: str) -> SpecError:
+    def relabel(self, err: SpecError, kind: builtins.str) -> SpecError:
         """A constructor's error, re-worded to name the TOML key."""
         msg = str(err)
         if msg.startswith(self.where):

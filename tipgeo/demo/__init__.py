@@ -38,9 +38,15 @@ from ..atomic import write_text_atomic
 from ..jsonio import dumps as _dumps
 from ..paths import inside
 from ..presets import preset, preset_names
+from ..progress import LineSink
 from .angles import ANGLE_GROUPS
 
 __all__ = ["run_demo", "ANGLE_GROUPS", "STAGES"]
+
+#: stage key -> (stage function, its arguments before ``log``).
+Calls = dict[str, tuple[Callable[..., Any], tuple[Any, ...]]]
+#: (results, wall seconds, CPU seconds) per stage key.
+Outcome = tuple[dict[str, Any], dict[str, float], dict[str, float]]
 
 #: The demo's stages, longest first (measured: the study ~17 s, milling ~11 s,
 #: the builds and pictures ~12 s, ccx ~7 s, the angles and the scan comparison
@@ -50,8 +56,9 @@ STAGES = ("optimize", "milling", "tips", "fem", "angles", "inspect", "laser", "g
           "mechanics")
 
 
-def run_demo(out, *, tolerance: float | None = None, log=None, pictures: bool = True,
-             names: list[str] | None = None, workers: int | None = None) -> dict:
+def run_demo(out: str | Path, *, tolerance: float | None = None, log: LineSink | None = None,
+             pictures: bool = True, names: list[str] | None = None,
+             workers: int | None = None) -> dict[str, Any]:
     """Build the presets ``names`` (default: all) into folder ``out``, and run
     every other stage of the demo on them.
 
@@ -81,7 +88,7 @@ def run_demo(out, *, tolerance: float | None = None, log=None, pictures: bool = 
         from ..errors import InputError
 
         raise InputError(f"workers = {workers!r} is out of range; allowed an integer ≥ 1")
-    calls = {"tips": (_tips, (out, names, tolerance, pictures)),
+    calls: Calls = {"tips": (_tips, (out, names, tolerance, pictures)),
              "angles": (_angles, (out, names, pictures)),
              "laser": (_laser, (out, names, pictures)),
              "grinding": (_grinding, (out, names)),
@@ -110,7 +117,7 @@ def run_demo(out, *, tolerance: float | None = None, log=None, pictures: bool = 
 
 
 # -- running the stages ------------------------------------------------------------------
-def _serial(calls: dict, workers: int, log) -> tuple[dict, dict, dict]:
+def _serial(calls: Calls, workers: int, log: LineSink | None) -> Outcome:
     """The stages in this process, in :data:`STAGES` order, lines as they come."""
     results, seconds, cpu = {}, {}, {}
     for key in STAGES:
@@ -121,7 +128,7 @@ def _serial(calls: dict, workers: int, log) -> tuple[dict, dict, dict]:
     return results, seconds, cpu
 
 
-def _parallel(calls: dict, workers: int, log) -> tuple[dict, dict, dict]:
+def _parallel(calls: Calls, workers: int, log: LineSink | None) -> Outcome:
     """The stages on ``workers`` local processes (longest first); each
     stage's lines go to ``log`` when it ends, above one bar counting stages."""
     from concurrent.futures import ProcessPoolExecutor, as_completed
@@ -160,7 +167,8 @@ def _worker_init() -> None:
     progress.configure("off")
 
 
-def _stage(key: str, fn: Callable, args: tuple, want_log: bool):
+def _stage(key: str, fn: Callable[..., Any], args: tuple[Any, ...],
+           want_log: bool) -> tuple[str, Any, str, float, float]:
     """Run one stage in a worker: its result, its lines, its wall and CPU seconds."""
     buf = io.StringIO() if want_log else None
     t0, c0 = time.perf_counter(), time.process_time()
@@ -169,7 +177,7 @@ def _stage(key: str, fn: Callable, args: tuple, want_log: bool):
             time.perf_counter() - t0, time.process_time() - c0)
 
 
-def _emit(log, text: str) -> None:
+def _emit(log: LineSink | None, text: str) -> None:
     if log is None or not text:
         return
     from .. import progress
@@ -184,7 +192,8 @@ def _emit(log, text: str) -> None:
 
 
 # -- the stages (module level: they run in worker processes) -----------------------------
-def _tips(out: Path, names: list[str], tolerance, pictures: bool, log) -> list[dict]:
+def _tips(out: Path, names: list[str], tolerance: float | None, pictures: bool,
+          log: LineSink | None) -> list[dict[str, Any]]:
     """Every preset built: spec (TOML), STL, labelled PLY, picture; one row each."""
     from ..build import build_tip
     from ..io import export_tip
@@ -214,37 +223,39 @@ def _tips(out: Path, names: list[str], tolerance, pictures: bool, log) -> list[d
     return rows
 
 
-def _angles(out, names, pictures, log):
+def _angles(out: Path, names: list[str], pictures: bool, log: LineSink | None) -> list[str]:
     from .angles import angle_outputs
 
     return angle_outputs(out, names, pictures, log)
 
 
-def _laser(out, names, pictures, log):
+def _laser(out: Path, names: list[str], pictures: bool,
+           log: LineSink | None) -> list[dict[str, Any]]:
     from .make import laser_outputs
 
     return laser_outputs(out, names, pictures, log)
 
 
-def _grinding(out, names, log):
+def _grinding(out: Path, names: list[str], log: LineSink | None) -> list[dict[str, Any]]:
     from .make import grind_outputs
 
     return grind_outputs(out, names, log)
 
 
-def _milling(out, names, pictures, log):
+def _milling(out: Path, names: list[str], pictures: bool,
+             log: LineSink | None) -> list[dict[str, Any]]:
     from .make import mill_outputs
 
     return mill_outputs(out, names, pictures, log)
 
 
-def _mechanics(out, pictures, log):
+def _mechanics(out: Path, pictures: bool, log: LineSink | None) -> list[str]:
     from . import mechanics
 
     return mechanics.demo_outputs(out, log=log, pictures=pictures)
 
 
-def _optimize(out, names, log) -> list[str]:
+def _optimize(out: Path, names: list[str], log: LineSink | None) -> list[str]:
     # the §3.4 study varies the helical needle: it runs when that needle does
     if "helical-14G" not in names:
         return []
@@ -254,13 +265,13 @@ def _optimize(out, names, log) -> list[str]:
         out, log=None if log is None else (lambda msg: print(msg, file=log, flush=True)))
 
 
-def _inspect(out, pictures, log) -> dict[str, Any]:
+def _inspect(out: Path, pictures: bool, log: LineSink | None) -> dict[str, Any]:
     from .inspect import inspect_outputs
 
     return inspect_outputs(out, pictures, log)
 
 
-def _fem(out, names, log) -> dict[str, Any]:
+def _fem(out: Path, names: list[str], log: LineSink | None) -> dict[str, Any]:
     from .fem import fem_outputs
 
     return fem_outputs(out, names, log)

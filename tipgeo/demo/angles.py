@@ -10,6 +10,7 @@ from ..atomic import write_text_atomic
 from ..jsonio import dumps as _dumps
 from ..paths import inside
 from ..presets import preset
+from ..progress import LineSink
 
 __all__ = ["ANGLE_GROUPS", "angle_outputs"]
 
@@ -24,7 +25,7 @@ ANGLE_GROUPS = {
 }
 
 
-def angle_outputs(out: Path, names, pictures: bool, log) -> list[str]:
+def angle_outputs(out: Path, names: list[str], pictures: bool, log: LineSink | None) -> list[str]:
     """Angle tables (CSV) of every sample, and the overlaid angle plots."""
     from ..angles import analyze
 

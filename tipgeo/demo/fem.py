@@ -5,6 +5,9 @@ a coarse 50 µm mesh, run with CalculiX (depths in mm, forces in N)."""
 from __future__ import annotations
 
 from pathlib import Path
+from typing import Any
+
+from ..progress import LineSink
 
 __all__ = ["fem_outputs", "DEMO_TIP"]
 
@@ -12,7 +15,7 @@ __all__ = ["fem_outputs", "DEMO_TIP"]
 DEMO_TIP = "punch-plain"
 
 
-def fem_outputs(out_dir: Path, names: list[str], log=None) -> dict:
+def fem_outputs(out_dir: Path, names: list[str], log: LineSink | None = None) -> dict[str, Any]:
     """Run the demo insertion into ``out_dir/fem`` when ``DEMO_TIP`` is among
     ``names`` and ccx is installed; returns a summary row (or why it was
     skipped)."""
@@ -27,11 +30,14 @@ def fem_outputs(out_dir: Path, names: list[str], log=None) -> dict:
         return {"skipped": INSTALL_HINT}
     res = run_fem(preset(DEMO_TIP), model="axisymmetric", depth=1.0, mesh=0.05,
                   out_dir=Path(out_dir) / "fem", output_depths=(0.5, 1.0))
+    run = res.run
+    if run is None:  # pragma: no cover - ccx_path() was found above
+        raise RuntimeError("fem: CalculiX did not run")
     if log is not None:
-        print(f"fem: {DEMO_TIP} 1 mm into pvc-sp0, {res.run.increments} increments, "
-              f"{res.run.cpu_s:.1f} s CPU, peak force {res.peak_force:.4f} N", file=log,
+        print(f"fem: {DEMO_TIP} 1 mm into pvc-sp0, {run.increments} increments, "
+              f"{run.cpu_s:.1f} s CPU, peak force {res.peak_force:.4f} N", file=log,
               flush=True)
     return {"tip": DEMO_TIP, "depth_mm": 1.0, "element_size_um": 50.0,
-            "increments": res.run.increments, "peak_force_N": res.peak_force,
-            "monotonic": res.monotonic, "cpu_s": round(res.run.cpu_s, 2),
+            "increments": run.increments, "peak_force_N": res.peak_force,
+            "monotonic": res.monotonic, "cpu_s": round(run.cpu_s, 2),
             "files": [str(p) for p in res.files]}

@@ -11,10 +11,12 @@ from __future__ import annotations
 from pathlib import Path
 from typing import Any
 
+from ..progress import LineSink
+
 __all__ = ["run_inspect_demo", "inspect_outputs"]
 
 
-def run_inspect_demo(out, *, points: int = 200_000, log=None,
+def run_inspect_demo(out: str | Path, *, points: int = 200_000, log: LineSink | None = None,
                      pictures: bool = True) -> dict[str, Any]:
     """Write ``scan.ply`` (scanner frame), ``truth.json`` and the comparison
     report (``report.*``, ``deviations.ply``, PNGs) into ``out``; return a
@@ -40,6 +42,8 @@ def run_inspect_demo(out, *, points: int = 200_000, log=None,
     say = (lambda m: print(f"  inspect: {m}", file=log)) if log else None
     res = compare(out / "scan.ply", spec, tolerance=0.01, out=out, pictures=pictures,
                   progress=say)
+    if res.registration is None:  # pragma: no cover - compare() registers a scan
+        raise RuntimeError("inspect: the demo scan was not registered")
     D = res.registration.transform @ s.cad_to_scan
     face = res.measured["faces"].get("cut:bevel", {})
     return {"scan": str(out / "scan.ply"), "points": len(res.points),
@@ -51,7 +55,7 @@ def run_inspect_demo(out, *, points: int = 200_000, log=None,
             "timings_s": res.timings}
 
 
-def inspect_outputs(out: Path, pictures: bool, log) -> dict:
+def inspect_outputs(out: Path, pictures: bool, log: LineSink | None) -> dict[str, Any]:
     """The demo's comparison, in ``out/inspect/``, with a progress line."""
     row = run_inspect_demo(out / "inspect", points=100_000, log=log, pictures=pictures)
     if log is not None:

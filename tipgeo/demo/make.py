@@ -8,15 +8,18 @@ simulated back into a tip and compared with CAD (deviation map)."""
 from __future__ import annotations
 
 from pathlib import Path
+from typing import Any
 
 from ..atomic import write_text_atomic
 from ..paths import inside
 from ..presets import preset
+from ..progress import LineSink
 
 __all__ = ["laser_outputs", "grind_outputs", "mill_outputs"]
 
 
-def laser_outputs(out: Path, names, pictures: bool, log) -> list[dict]:
+def laser_outputs(out: Path, names: list[str], pictures: bool,
+                  log: LineSink | None) -> list[dict[str, Any]]:
     """The laser programs of the serrated punches (C1–C5), each checked by
     the interpreter; the C2 program simulated back into a tip and compared
     with its spec (toolpath and rim pictures)."""
@@ -48,7 +51,7 @@ def laser_outputs(out: Path, names, pictures: bool, log) -> list[dict]:
     return rows
 
 
-def grind_outputs(out: Path, names, log) -> list[dict]:
+def grind_outputs(out: Path, names: list[str], log: LineSink | None) -> list[dict[str, Any]]:
     """Grinding programs (JSON, G-code, set-up sheet) of the thesis needles the
     grinder makes, each simulated and compared with its CAD tip."""
     from cam import CamError, grind, write_grind_outputs
@@ -64,8 +67,11 @@ def grind_outputs(out: Path, names, log) -> list[dict]:
         write_grind_outputs(res, program=inside(out, name, ".grind.json"),
                             gcode=inside(out, name, ".grind.nc"),
                             sheet=inside(out, name, ".setup.md"))
-        worst = res.worst_angle_diff_deg()[0]
-        haus = res.comparison["hausdorff_mm"]
+        diff, comparison = res.worst_angle_diff_deg(), res.comparison
+        if diff is None or comparison is None:  # pragma: no cover - grind() compares
+            raise RuntimeError(f"grind: {name} was not compared with its CAD tip")
+        worst = diff[0]
+        haus = comparison["hausdorff_mm"]
         rows.append({"name": name, "ground": True, "time_s": res.program.summary()["time_s"],
                      "hausdorff_um": haus * 1e3, "angles_max_diff_deg": worst})
         if log is not None:
@@ -76,7 +82,8 @@ def grind_outputs(out: Path, names, log) -> list[dict]:
 
 
 
-def mill_outputs(out: Path, names, pictures: bool, log) -> list[dict]:
+def mill_outputs(out: Path, names: list[str], pictures: bool,
+                 log: LineSink | None) -> list[dict[str, Any]]:
     """The helical needle (thesis §3.2) milled tip-up at the default 2 µm
     scallop: G-code, set-up sheet, the milled tip simulated from the G-code,
     its deviation map and comparison with CAD."""
@@ -95,6 +102,8 @@ def mill_outputs(out: Path, names, pictures: bool, log) -> list[dict]:
             toolpath=inside(out, name, "-milled-toolpath.png") if pictures else None)
         s = res.summary()
         c = res.comparison
+        if c is None:  # pragma: no cover - mill() compares
+            raise RuntimeError(f"mill: {name} was not compared with its CAD tip")
         rows.append({"name": name, "cycle_time_s": s["program"]["cycle_time_s"],
                      "scallop_um": c["scallop_measured_um"], "gouge_um": c["gouge_um"],
                      "angles": c["angles"]["outer"], "files": list(res.files)})

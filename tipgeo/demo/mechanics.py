@@ -5,11 +5,12 @@ from __future__ import annotations
 from pathlib import Path
 
 from ..mechanics.report import write_helical_vs_bevel
+from ..progress import LineSink
 
 __all__ = ["demo_outputs"]
 
 
-def demo_outputs(out_dir: Path, log=None, *, pictures: bool = True) -> list[str]:
+def demo_outputs(out_dir: Path, log: LineSink | None = None, *, pictures: bool = True) -> list[str]:
     """The mechanics part of ``tipgeo demo``: the helical-versus-bevel
     fracture force comparison (``forces-helical-vs-bevel.json`` and, with
     ``pictures``, ``.png``, like thesis Fig. 3.12) and the fracture forces

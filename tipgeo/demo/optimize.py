@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from pathlib import Path
 
 from ..optimize.executors import SerialExecutor
@@ -12,7 +13,7 @@ from ..paths import inside
 __all__ = ["demo_outputs"]
 
 
-def demo_outputs(out_dir: Path, log=None) -> list[str]:
+def demo_outputs(out_dir: Path, log: Callable[[str], None] | None = None) -> list[str]:
     """Run the thesis's helical study into ``out_dir/helical-study/`` in this
     process, without a cache; return the files written.
 
@@ -27,4 +28,5 @@ def demo_outputs(out_dir: Path, log=None) -> list[str]:
     cfg = study_preset("helical-study")
     rep = run_study(cfg, inside(out_dir, cfg.name), executor=SerialExecutor(), cache=False,
                     progress=False, log=log or (lambda s: None))
-    return rep["files"]
+    files: list[str] = rep["files"]
+    return files

@@ -8,9 +8,9 @@ are drawn on the deformed mesh. matplotlib is imported here.
 
 from __future__ import annotations
 
-from collections.abc import Callable, Sequence
+from collections.abc import Sequence
 from pathlib import Path
-from typing import Any, ParamSpec, Protocol, TypeVar
+from typing import Any
 
 import numpy as np
 
@@ -18,17 +18,6 @@ from ..arrays import FloatArray, IntArray
 from ..atomic import write_atomic
 from ..plot import styled
 from ..tolerances import tol
-
-_P = ParamSpec("_P")
-_R = TypeVar("_R")
-
-
-class _Decorator(Protocol):
-    def __call__(self, func: Callable[_P, _R], /) -> Callable[_P, _R]: ...
-
-
-#: :func:`tipgeo.plot.styled` as the signature-keeping decorator it is.
-_styled: _Decorator = styled
 
 __all__ = ["plot_force_curves", "plot_stress_contour"]
 
@@ -49,7 +38,7 @@ def _save(fig: Any, path: str | Path) -> Path:
 Curve = tuple[str, FloatArray, FloatArray, "str | None"]
 
 
-@_styled
+@styled
 def plot_force_curves(curves: Sequence[Curve], path: str | Path, *, title: str = "",
                       focus: int = 0) -> Path:
     """Axial force against depth, one line per ``(label, depth (k,), force
@@ -85,7 +74,7 @@ def plot_force_curves(curves: Sequence[Curve], path: str | Path, *, title: str =
     return _save(fig, path)
 
 
-@_styled
+@styled
 def plot_stress_contour(xy: FloatArray, tris: IntArray, s1: FloatArray, path: str | Path, *,
                         needle: FloatArray | None = None,
                         window: tuple[float, float, float, float] | None = None,

@@ -527,7 +527,7 @@ def _cad_report(cad: Any, n_harmonics: int
     if spec is not None:
         return (analyze(spec, method="fourier", n_harmonics=n_harmonics),
                 spec.cannula.r_o, spec.cannula.r_i, spec.name or "CAD", spec)
-    if not isinstance(cad, CadModel):
+    if not isinstance(cad, CadModel) or tip is None:
         raise SpecError("cad: a mesh without a spec needs a CadModel (its fitted radii)")
     return (analyze(tip, method="mesh", n_harmonics=n_harmonics, radii=(cad.r_o, cad.r_i)),
             cad.r_o, cad.r_i, cad.name, None)

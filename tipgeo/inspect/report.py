@@ -208,10 +208,11 @@ def write_report(res: Comparison, out: str | Path, *, pictures: bool = True) -> 
                 plot_map(res, stage / "deviation-map.png")
                 plot_histogram(res, stage / "histogram.png")
                 names += ["deviation-map.png", "histogram.png"]
-                if getattr(res, "edges", None) is not None:
+                edges = getattr(res, "edges", None)
+                if edges is not None:
                     from .edgescan import plot_measured_edges
 
-                    plot_measured_edges(res.edges, stage / "edges.png")
+                    plot_measured_edges(edges, stage / "edges.png")
                     names.append("edges.png")
             names += ["report.md", "report.json"]
             res.outputs = [out / n for n in names]

@@ -28,7 +28,7 @@ import math
 import os
 from dataclasses import dataclass, field, replace
 from pathlib import Path
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING, Any, cast
 
 import numpy as np
 
@@ -146,7 +146,8 @@ def actual_spec(spec: TipSpec, *, xi_deg: float | None = None) -> TipSpec:
     changed = False
     for c in spec.cutters:
         if c.angle_field:  # the cutter's rake-plane bevel angle ξ
-            c, changed = replace(c, **{c.angle_field: xi}), True
+            # cutters are frozen dataclasses (mypy cannot see it through Cutter)
+            c, changed = replace(cast(Any, c), **{c.angle_field: xi}), True
         cut.append(c)
     if not changed:
         raise SpecError(f"xi_deg = {xi_deg:g}: the spec has no bevel, multiplane or lancet "
@@ -400,9 +401,10 @@ def _burr_points(part: TipSpec, solid: ExactSolid, burr: Burr, rng: np.random.Ge
     count = max(int(density * length * span), 16)
     g = g0 + (g1 - g0) * rng.random(count)
     zs = [c.edge_z(g, r, cn) for c in part.cutters]
-    if any(z is None for z in zs):
+    exact = [z for z in zs if z is not None]
+    if len(exact) < len(zs):
         raise SpecError("burrs need cutters with an exact edge (planar, conical, helical)")
-    z = np.min(zs, axis=0)
+    z = np.min(exact, axis=0)
     e = np.stack([r * np.cos(g), r * np.sin(g), z], 1)
     vals = solid.face_values(e)
     cut_faces = [k for k, lab in enumerate(solid.labels) if lab.startswith("cut:")]

@@ -201,7 +201,11 @@ def exact_solid(spec: TipSpec, tolerance: float) -> ExactSolid:
     res = ExactSolid(shape=None)
     shape = _tube(o, can.r_o, can.r_i, z_bottom, z_top)
     for k, cutter in enumerate(spec.cutters):
-        for b in cutter.exact_bounds(can, tuple(spec.cutters[:k])):
+        bounds = cutter.exact_bounds(can, tuple(spec.cutters[:k]))
+        if bounds is None:  # exact_form() admitted only cutters with exact bounds
+            raise ExportError(f"cutter '{cutter.name}' ({cutter.kind}) has no exact surfaces "
+                              "for a STEP B-rep; use step_form = 'faceted'")
+        for b in bounds:
             if type(b).__name__ == "NotchPrism":
                 shape = _boolean(o, "Cut", shape, _notch(o, b), f"tube − {b.label}")
                 continue

@@ -14,9 +14,9 @@ Units on the axes: N, J/m², MPa, degrees (γ from the heel).
 from __future__ import annotations
 
 import math
-from collections.abc import Callable, Iterable
+from collections.abc import Iterable
 from pathlib import Path
-from typing import TYPE_CHECKING, Any, ParamSpec, Protocol, TypeVar
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
@@ -27,17 +27,6 @@ from ._common import J_PER_M2
 if TYPE_CHECKING:
     from .fracture import EdgeForces
     from .tissue import FitResult
-
-_P = ParamSpec("_P")
-_R = TypeVar("_R")
-
-
-class _Decorator(Protocol):
-    def __call__(self, func: Callable[_P, _R], /) -> Callable[_P, _R]: ...
-
-
-#: :func:`tipgeo.plot.styled` as the signature-keeping decorator it is.
-_styled: _Decorator = styled
 
 __all__ = ["plot_fracture_vs_k", "plot_edge_forces", "plot_tissue_fit"]
 
@@ -51,7 +40,7 @@ def _plt() -> Any:
     return plt
 
 
-@_styled
+@styled
 def plot_fracture_vs_k(path: str | Path, *, d_i: float, theta: float,
                        R: float = 35 * J_PER_M2, mu_d: float = 0.4,
                        mu_values: Iterable[float] = (0.1, 0.2, 0.3, 0.4, 0.5),
@@ -95,7 +84,7 @@ def plot_fracture_vs_k(path: str | Path, *, d_i: float, theta: float,
     return out
 
 
-@_styled
+@styled
 def plot_edge_forces(entries: Iterable[tuple[str, EdgeForces, dict[str, FloatArray] | None]],
                      path: str | Path, *, title: str | None = None) -> Path:
     """Fracture forces along the edge and their means against S.
@@ -147,7 +136,7 @@ def plot_edge_forces(entries: Iterable[tuple[str, EdgeForces, dict[str, FloatArr
     return out
 
 
-@_styled
+@styled
 def plot_tissue_fit(stretch: ArrayLike, stress: ArrayLike, fits: Iterable[FitResult],
                     path: str | Path, *, title: str | None = None) -> Path:
     """True stress against stretch: data points and fitted curves, with the

@@ -5,7 +5,8 @@ each, defined only in this test module, works through the public path.
   here a one-plane "flat" cutter builds and round-trips through TOML);
 - a file format: one writer and one reader registered for an extension;
 - a controller dialect: one :class:`~gcode.dialects.Dialect` row registered;
-- a tissue model: one registered model class;
+- a tissue model: one registered model class (the toy, Mooney–Rivlin, is
+  tests/test_tissue_registry.py: fitted, its FEM card written, through the CLI);
 - a CLI command: one module dropped into the ``tipgeo.cli`` package.
 """
 

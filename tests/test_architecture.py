@@ -1,5 +1,7 @@
 """The seams hold: no import cycle among the library's modules (imports
-inside functions counted, ``if TYPE_CHECKING:`` blocks not), no ``_private``
+inside functions counted, ``if TYPE_CHECKING:`` blocks not), none between its
+units even with type-only imports counted (issue 30: the old circle
+``cutters → io → tip → spec → cutters`` ran through one), no ``_private``
 name imported from another module, cam/ and gcode/ on tipgeo's public API
 only, and no module outside ``tipgeo/cutters/`` dispatching on a cutter
 class."""
@@ -28,14 +30,16 @@ def _modules() -> dict[str, tuple[Path, bool]]:
 MODULES = _modules()
 
 
-def _runtime_nodes(tree: ast.AST):
-    """Every node except those under ``if TYPE_CHECKING:``."""
+def _nodes(tree: ast.AST, type_checking: bool = False):
+    """Every node, or (``type_checking`` False) every node outside the bodies
+    of ``if TYPE_CHECKING:`` (their ``else:`` runs, so it stays)."""
     stack = [tree]
     while stack:
         node = stack.pop()
         yield node
         for child in ast.iter_child_nodes(node):
-            if isinstance(child, ast.If) and "TYPE_CHECKING" in ast.unparse(child.test):
+            if not type_checking and isinstance(child, ast.If) \
+                    and "TYPE_CHECKING" in ast.unparse(child.test):
                 stack.extend(child.orelse)
                 continue
             stack.append(child)
@@ -49,10 +53,11 @@ def _absolute(mod: str, is_pkg: bool, level: int, name: str | None) -> str:
     return ".".join(base + ([name] if name else []))
 
 
-def _imports():
-    """(module, imported module, imported name or None) for every import."""
+def _imports(type_checking: bool = False):
+    """(module, imported module, imported name or None) for every import
+    (with the type-only ones when ``type_checking``)."""
     for mod, (path, is_pkg) in MODULES.items():
-        for node in _runtime_nodes(ast.parse(path.read_text(encoding="utf-8"))):
+        for node in _nodes(ast.parse(path.read_text(encoding="utf-8")), type_checking):
             if isinstance(node, ast.Import):
                 for a in node.names:
                     yield mod, a.name, None
@@ -66,12 +71,30 @@ def _imports():
 IMPORTS = list(_imports())
 
 
-def _graph() -> dict[str, set[str]]:
-    g = {m: set() for m in MODULES}
-    for mod, target, _ in IMPORTS:
+def _graph(type_checking: bool = False) -> dict[str, set[str]]:
+    """Module -> the project modules it imports: ``from p import name`` is an
+    edge to ``p.name`` when that is a module, else to ``p``. The parents
+    Python also runs (``a/__init__`` for ``a.b``) are not edges: a package
+    re-exporting its submodules would otherwise be a circle with each."""
+    g: dict[str, set[str]] = {m: set() for m in MODULES}
+    for mod, target, _ in (IMPORTS if not type_checking else _imports(True)):
         if target in MODULES and target != mod:
             g[mod].add(target)
     return g
+
+
+def _unit(mod: str) -> str:
+    """A module's unit: its first two dotted parts (``tipgeo.cutters``,
+    ``tipgeo.io``, ``cam.mill``, ``gcode.parser``)."""
+    return ".".join(mod.split(".")[:2])
+
+
+def _collapse(g: dict[str, set[str]]) -> dict[str, set[str]]:
+    """The graph between units (edges inside one unit dropped)."""
+    out: dict[str, set[str]] = {_unit(m): set() for m in g}
+    for a, targets in g.items():
+        out[_unit(a)] |= {_unit(b) for b in targets if _unit(b) != _unit(a)}
+    return out
 
 
 def _cycles(g: dict[str, set[str]]) -> list[list[str]]:
@@ -164,3 +187,32 @@ def _kinds() -> set[str]:
     from tipgeo.cutters import CUTTER_KINDS
 
     return set(CUTTER_KINDS)
+
+
+def test_imports_inside_functions_and_type_checking_blocks_are_edges():
+    every, run = _graph(type_checking=True), _graph()
+    assert "tipgeo.spec" in every["tipgeo.tip"]  # under `if TYPE_CHECKING:` only
+    assert "tipgeo.spec" not in run["tipgeo.tip"]
+    assert "tipgeo.names" in run["tipgeo.cutters.base"]  # inside check_name only
+    assert "tipgeo.cutters" in run["tipgeo.spec"]  # `from .cutters import Cutter`
+
+
+def test_the_old_circle_would_be_found():
+    """The edge the mesh cutter had (``from ..io import load_tip``) closes the
+    issue's circle again: between units, and between modules once the
+    type-only ``tip → spec`` counts."""
+    g = _graph(type_checking=True)
+    g["tipgeo.cutters.custom"].add("tipgeo.io")
+    circle = {"tipgeo.cutters.custom", "tipgeo.io", "tipgeo.tip", "tipgeo.spec"}
+    assert any(circle <= set(c) for c in _cycles(g))
+    assert ["tipgeo.cutters", "tipgeo.io", "tipgeo.spec", "tipgeo.tip"] in _cycles(_collapse(g))
+
+
+def test_no_circle_between_units_type_only_imports_counted():
+    """Units (a module's first two dotted parts), every import counted: a lower
+    unit never names a higher one, not even in an annotation. A circle inside
+    one unit that closes only through type-only imports (a result type and
+    the module reporting it) never runs and is allowed; the three top-level
+    packages are not compared (``tipgeo.cli`` drives ``cam`` and ``gcode``
+    by design)."""
+    assert _cycles(_collapse(_graph(type_checking=True))) == []

@@ -105,7 +105,7 @@ class Identity:
     Attributes
     ----------
     checks : list of Check — named ``identity:<what>`` (gauge, cut-face shape
-        per face, serrations); a failed one's reason says what differs
+        per face, rim edge, serrations); a failed one's reason says what differs
     figures : dict — the measured figures (µm, degrees), JSON-ready
     not_judged : list of str — what the scan does not show enough of
     """

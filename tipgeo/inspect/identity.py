@@ -24,7 +24,7 @@ differs (issue 25, item 3):
   the profiles' peaks (the tip points) are counted for the reason. A CAD
   with a level rim (a punch) is left to the serration check;
 * **serration count** — the notches of the scan's rim profile (dips of
-  prominence ``max(20 µm, 8 σ, 0.4 × the CAD's notch depth)``) against the
+  prominence ``max(20 µm, 8 σ, 0.3 × the rim profile's span)``) against the
   CAD's n_s (its serration cutter's ``serration_facts()``): a serrated CAD
   needs its count, a plain CAD at most two dips (a chip, a dent);
 * **serrations** — the places along the cut's rim where the scan lies below
@@ -89,8 +89,11 @@ EDGE_RMS = 0.02
 #: its height profile spans less than this (mm)
 RIM_LEVEL = 0.05
 #: a notch (dip of the rim profile) is at least this prominent (mm), or 8 σ,
-#: or 40 % of the CAD's notch depth
+#: or (on a level rim) 30 % of the rim profile's span
 NOTCH_PROMINENCE = 0.02
+#: on a level rim (a punch) a notch is at least this share of the rim
+#: profile's own span deep (the deepest notch sets the scale)
+NOTCH_SHARE = 0.3
 #: a notch is at least this many γ bins wide (noise spikes are one bin)
 NOTCH_WIDTH_BINS = 3
 #: a plain CAD's rim may show this many dips (a chip, a dent) before the scan
@@ -479,7 +482,7 @@ def _edge(res: Any, sigma: float, out: Identity) -> None:
 def _notch_count(res: Any, sigma: float, depth: float, zone: Any) -> tuple[int | None, float]:
     """The notches of the scan's rim profile (None when it covers too little
     of the rim) and the prominence used (mm)."""
-    prom = max(NOTCH_PROMINENCE, 8 * sigma, 0.4 * depth)
+    prom = max(NOTCH_PROMINENCE, 8 * sigma)
     prof = _rim_profile(res, zone)
     if prof is None or prof[2] < RIM_COVER:
         return None, prom
@@ -488,7 +491,10 @@ def _notch_count(res: Any, sigma: float, depth: float, zone: Any) -> tuple[int |
         # a plain CAD with a sloping rim (a bevel): notches are dips of the
         # scan's rim below the CAD's
         return _peaks(_filled(zc - zs), prom), prom
-    return _peaks(-_filled(zs), prom), prom
+    z = _filled(zs)
+    # a level rim's notches: dips of at least NOTCH_SHARE of the rim's own span
+    prom = max(prom, NOTCH_SHARE * float(np.ptp(z)))
+    return _peaks(-z, prom), prom
 
 
 class _Subset:

@@ -15,6 +15,18 @@ differs (issue 25, item 3):
   points: a planar CAD face whose scan points are no plane (a helical or
   conical cut, two planes where the CAD has one), or a curved CAD face whose
   scan points are one plane (a bevel where the CAD is helical) fails;
+* **rim edge** — the rim's height profile z(γ) (the highest scan point of
+  the cut faces in each 1° bin of γ, near the wall) against the CAD's on the
+  same points (their closest CAD points): after fitting offset, scale and
+  tilt (z_s ≈ a + b z_c + c cos γ + d sin γ: a bevel ground at another angle
+  keeps its shape), a residual beyond ``max(20 µm, 8 σ)`` is another edge —
+  two or three planes, a lancet's kinks, a bevel where the CAD is a punch;
+  the profiles' peaks (the tip points) are counted for the reason. A CAD
+  with a level rim (a punch) is left to the serration check;
+* **serration count** — the notches of the scan's rim profile (dips of
+  prominence ``max(20 µm, 8 σ, 0.3 × the rim profile's span)``) against the
+  CAD's n_s (its serration cutter's ``serration_facts()``): a serrated CAD
+  needs its count, a plain CAD at most two dips (a chip, a dent);
 * **serrations** — the places along the cut's rim where the scan lies below
   the CAD (notches the CAD lacks) or above it (the CAD's notches filled):
   five or more separate such places (three for a CAD with three
@@ -62,6 +74,31 @@ NOTCH_BIN = math.radians(1.0)
 #: separate notch places along the rim that make serrations (a chip, a burr, the
 #: outline of another cut are one to four)
 NOTCH_PLACES = 5
+#: γ bins of the rim height profile z(γ) (1° each)
+RIM_BINS = 360
+#: share of the rim's γ bins the scan must cover (cut-face points near the
+#: wall) for the rim profile to be judged
+RIM_COVER = 0.9
+#: share of the rim's γ bins the scan must cover for the rim edge's shape to
+#: be judged (on the bins it covers)
+EDGE_COVER = 0.3
+#: the rim profile of the scan differs in shape from the CAD's beyond this
+#: residual RMS (mm) or 8 σ, after fitting offset, scale and tilt
+EDGE_RMS = 0.02
+#: the CAD's rim is level (a punch: its shape is the serration check's) when
+#: its height profile spans less than this (mm)
+RIM_LEVEL = 0.05
+#: a notch (dip of the rim profile) is at least this prominent (mm), or 8 σ,
+#: or (on a level rim) 30 % of the rim profile's span
+NOTCH_PROMINENCE = 0.02
+#: on a level rim (a punch) a notch is at least this share of the rim
+#: profile's own span deep (the deepest notch sets the scale)
+NOTCH_SHARE = 0.3
+#: a notch is at least this many γ bins wide (noise spikes are one bin)
+NOTCH_WIDTH_BINS = 3
+#: a plain CAD's rim may show this many dips (a chip, a dent) before the scan
+#: is called serrated
+NOTCH_STRAY = 2
 
 
 @dataclass
@@ -71,7 +108,7 @@ class Identity:
     Attributes
     ----------
     checks : list of Check — named ``identity:<what>`` (gauge, cut-face shape
-        per face, serrations); a failed one's reason says what differs
+        per face, rim edge, serrations); a failed one's reason says what differs
     figures : dict — the measured figures (µm, degrees), JSON-ready
     not_judged : list of str — what the scan does not show enough of
     """
@@ -254,30 +291,22 @@ def _regular(places: list[tuple[float, int, float]], least: int) -> tuple[bool, 
 
 
 def _serrations(res: Any, sigma: float, out: Identity) -> None:
-    spec = res.cad.spec
-    n_cad = 0
-    for c in (spec.cutters if spec is not None else ()):
-        # a cutter of arc notches along the rim says how many (count or spacing)
-        if getattr(c, "arc_radius", None) is None:
-            continue
-        if getattr(c, "count", None):
-            n_cad += int(c.count)
-        elif getattr(c, "spacing", None):
-            n_cad += int(round(2 * math.pi / c.spacing))
+    n_cad, depth = _cad_serrations(res.cad.spec)
     d = res.distances
     pts = res.points
-    labels = np.asarray(d.labels, dtype=object)
-    cut = np.char.startswith(labels[d.face].astype(str), "cut")
-    rho = np.hypot(pts[:, 0], pts[:, 1])
-    ring = (rho > res.cad.r_i - 0.1) & (rho < res.cad.r_o + 0.1)
     thr = max(NOTCH_DEPTH, 6 * sigma)
-    zone = cut & ring & (np.abs(d.distance) < 0.5)
-    if np.count_nonzero(zone) < MIN_FACE_POINTS:
+    zone = cut_zone = _rim_zone(res)
+    if np.count_nonzero(cut_zone) < MIN_FACE_POINTS:
         out.not_judged.append("serrations (too few points on the cut faces)")
         return
+    n_scan, prom = _notch_count(res, sigma, depth, zone)
+    if n_scan is None:
+        out.not_judged.append(f"serration count (the scan covers less than "
+                              f"{100 * RIM_COVER:.0f} % of the rim, or the CAD has no "
+                              "exact rim)")
     gamma = np.arctan2(pts[:, 1], pts[:, 0])
-    low = zone & (d.distance < -thr)      # the scan inside the CAD: material missing
-    high = zone & (d.distance > thr)      # the scan outside: the CAD's notches filled
+    low = cut_zone & (d.distance < -thr)      # the scan inside the CAD: material missing
+    high = cut_zone & (d.distance > thr)      # the scan outside: the CAD's notches filled
     p_low = _places(gamma[low], d.distance[low])
     p_high = _places(gamma[high], d.distance[high])
     reg_low, pitch_low = _regular(p_low, NOTCH_PLACES)
@@ -288,7 +317,12 @@ def _serrations(res: Any, sigma: float, out: Identity) -> None:
         "above_cad": [{"gamma_deg": math.degrees(g), "points": n, "height_um": dep * 1e3}
                       for g, n, dep in p_high],
         "cad_serrations": n_cad, "threshold_um": thr * 1e3}
+    out.figures["notches"] = {"scan": n_scan, "cad": n_cad, "prominence_um": prom * 1e3}
     problems = []
+    if n_scan is not None and (n_scan != n_cad if n_cad else n_scan > NOTCH_STRAY):
+        problems.append(f"the scan has {n_scan} notch{'es' if n_scan != 1 else ''} along "
+                        f"the rim, the CAD {n_cad} (dips of its rim profile z(γ) ≥ "
+                        f"{prom * 1e3:.0f} µm)")
     if reg_low:
         deep = max(p[2] for p in p_low) * 1e3
         problems.append(f"the rim lies below the CAD's in {len(p_low)} separate places "
@@ -304,6 +338,163 @@ def _serrations(res: Any, sigma: float, out: Identity) -> None:
             "the rim) that one of the scan and the CAD has and the other not")
     out.checks.append(Check("identity:serrations", not problems, len(p_low) - len(p_high), rule,
                             "not this tip: " + "; ".join(problems) if problems else ""))
+
+
+def _rim_zone(res: Any) -> Any:
+    """The scan's points nearest the CAD's cut faces, near the wall and near
+    the CAD (mask)."""
+    d = res.distances
+    labels = np.asarray(d.labels, dtype=object)
+    cut = np.char.startswith(labels[d.face].astype(str), "cut")
+    rho = np.hypot(res.points[:, 0], res.points[:, 1])
+    ring = (rho > res.cad.r_i - 0.1) & (rho < res.cad.r_o + 0.1)
+    return cut & ring & (np.abs(d.distance) < 0.5)
+
+
+def _rim_profile(res: Any, zone: Any) -> tuple[FloatArray, FloatArray, float] | None:
+    """The rim's height profile z(γ) (mm, NaN where empty) of the zone's
+    points: the highest z in each of :data:`RIM_BINS` γ bins; the CAD's cut
+    surface at the same points' γ and radius (its exact cutters,
+    :func:`tipgeo.edges.lowest_cut`) — the CAD's rim where the scan's is,
+    free of the binning's jitter; and the share of bins holding at least two
+    points. None when the CAD's cutters have no exact description."""
+    from ..edges import lowest_cut
+    from ..errors import TipGeoError
+
+    p = res.points[zone]
+    spec = res.cad.spec
+    if spec is None or not len(p):
+        return None
+    g = np.arctan2(p[:, 1], p[:, 0]) % (2 * math.pi)
+    b = np.floor(g / (2 * math.pi) * RIM_BINS).astype(np.int64) % RIM_BINS
+    order = np.lexsort((p[:, 2], b))              # by bin, then z: each bin's top is last
+    top = order[np.flatnonzero(np.r_[b[order][1:] != b[order][:-1], True])]
+    rho = np.clip(np.hypot(p[top, 0], p[top, 1]), res.cad.r_i, res.cad.r_o)
+    try:
+        try:
+            zcad, _, _ = lowest_cut(spec.cutters, g[top], rho, spec.cannula)
+        except ValueError:   # a cutter taking one radius for all γ (conical): one by one
+            zcad = np.array([lowest_cut(spec.cutters, gk, float(rk), spec.cannula)[0][0]
+                             for gk, rk in zip(g[top], rho, strict=True)])
+    except (TipGeoError, AttributeError, TypeError, ValueError):
+        return None
+    cnt = np.bincount(b, minlength=RIM_BINS)
+    zs, zc = np.full(RIM_BINS, np.nan), np.full(RIM_BINS, np.nan)
+    zs[b[top]], zc[b[top]] = p[top, 2], zcad
+    zs[cnt < 2] = np.nan
+    zc[cnt < 2] = np.nan
+    return zs, zc, float(np.mean(cnt >= 2))
+
+
+def _level(res: Any) -> bool:
+    """Whether the CAD's rim on the outer wall is level (spans less than
+    :data:`RIM_LEVEL` in z over γ; a punch), or has no exact description."""
+    from ..edges import lowest_cut
+    from ..errors import TipGeoError
+
+    spec = res.cad.spec
+    gam = (np.arange(RIM_BINS) + 0.5) * (2 * math.pi / RIM_BINS)
+    try:
+        z, _, _ = lowest_cut(spec.cutters, gam, float(res.cad.r_o), spec.cannula)
+    except (TipGeoError, AttributeError, TypeError, ValueError):
+        return True
+    return float(np.ptp(z)) < RIM_LEVEL
+
+
+def _filled(z: FloatArray) -> FloatArray:
+    """The profile with its empty bins interpolated around the circle."""
+    ok = np.isfinite(z)
+    x = np.arange(RIM_BINS, dtype=np.float64)
+    return np.asarray(np.interp(x, x[ok], z[ok], period=RIM_BINS), np.float64)
+
+
+def _peaks(z: FloatArray, prominence: float) -> int:
+    """Local maxima of a circular profile with at least this prominence (mm)
+    and :data:`NOTCH_WIDTH_BINS` bins wide; a level profile has none."""
+    from scipy.signal import find_peaks
+
+    if float(np.ptp(z)) < prominence:
+        return 0
+    t = np.concatenate([z, z, z])
+    k, _ = find_peaks(t, prominence=prominence, width=NOTCH_WIDTH_BINS)
+    return int(np.count_nonzero((k >= RIM_BINS) & (k < 2 * RIM_BINS)))
+
+
+def _cad_serrations(spec: Any) -> tuple[int, float]:
+    """The CAD's serration count n_s and notch depth (mm) from its serration
+    cutters' ``serration_facts()`` (0, 0 for a plain tip)."""
+    n, depth = 0, 0.0
+    for c in (spec.cutters if spec is not None else ()):
+        facts = getattr(c, "serration_facts", None)
+        if facts is None:
+            continue
+        f = facts()
+        n += int(f.count)
+        depth = max(depth, float(f.depth))
+    return n, depth
+
+
+def _edge(res: Any, sigma: float, out: Identity) -> None:
+    """The rim edge check (module docstring)."""
+    zone = _rim_zone(res)
+    if np.count_nonzero(zone) < MIN_FACE_POINTS:
+        out.not_judged.append("rim edge (too few points on the cut faces)")
+        return
+    prof = _rim_profile(res, zone)
+    if prof is None:
+        out.not_judged.append("rim edge (the CAD's cutters have no exact rim)")
+        return
+    zs, zc, cover = prof
+    if cover < EDGE_COVER:
+        out.not_judged.append(f"rim edge (the scan covers {100 * cover:.0f} % of the rim, "
+                              f"needs {100 * EDGE_COVER:.0f} %)")
+        return
+    zc_f = _filled(zc)
+    if _level(res) or _cad_serrations(res.cad.spec)[0]:
+        out.not_judged.append("rim edge (the CAD's rim is level or serrated: the serration "
+                              "check judges it)")
+        return
+    ok = np.isfinite(zs) & np.isfinite(zc)
+    gam = (np.arange(RIM_BINS) + 0.5) * (2 * math.pi / RIM_BINS)
+    a = np.column_stack([np.ones(RIM_BINS), zc_f, np.cos(gam), np.sin(gam)])[ok]
+    coef, *_ = np.linalg.lstsq(a, zs[ok], rcond=None)
+    r = zs[ok] - a @ coef
+    rms, worst = float(np.sqrt(np.mean(r ** 2))), float(np.max(np.abs(r)))
+    thr = max(EDGE_RMS, 8 * sigma)
+    at = math.degrees(float(gam[ok][int(np.argmax(np.abs(r)))]))
+    span_s, span_c = float(np.ptp(zs[ok])), float(np.ptp(zc[ok]))
+    out.figures["rim_edge"] = {"residual_rms_um": rms * 1e3, "residual_max_um": worst * 1e3,
+                               "worst_gamma_deg": at, "scale": float(coef[1]),
+                               "rim_span_mm": {"scan": span_s, "cad": span_c},
+                               "cover": cover, "threshold_um": thr * 1e3}
+    good = rms <= thr
+    rule = (f"the rim's height profile z(γ) has the CAD's shape (residual RMS ≤ {thr * 1e3:.0f} µm "
+            "after fitting offset, scale and tilt)")
+    why = "" if good else (
+        f"not this tip: the rim's edge differs from the CAD's — its height profile z(γ) is off "
+        f"the CAD's shape by {rms * 1e3:.0f} µm RMS (up to {worst * 1e3:.0f} µm) after fitting "
+        f"offset, scale and tilt, worst at γ = {at:.0f}°; the scan's rim rises "
+        f"{span_s:.3f} mm, the CAD's {span_c:.3f} mm: another number or shape of cutting "
+        "edges (two or three planes, a lancet?)")
+    out.checks.append(Check("identity:rim_edge", good, round(rms * 1e3, 3), rule, why))
+
+
+def _notch_count(res: Any, sigma: float, depth: float, zone: Any) -> tuple[int | None, float]:
+    """The notches of the scan's rim profile (None when it covers too little
+    of the rim) and the prominence used (mm)."""
+    prom = max(NOTCH_PROMINENCE, 8 * sigma)
+    prof = _rim_profile(res, zone)
+    if prof is None or prof[2] < RIM_COVER:
+        return None, prom
+    zs, zc, _ = prof
+    if not depth and not _level(res):
+        # a plain CAD with a sloping rim (a bevel): notches are dips of the
+        # scan's rim below the CAD's
+        return _peaks(_filled(zc - zs), prom), prom
+    z = _filled(zs)
+    # a level rim's notches: dips of at least NOTCH_SHARE of the rim's own span
+    prom = max(prom, NOTCH_SHARE * float(np.ptp(z)))
+    return _peaks(-z, prom), prom
 
 
 class _Subset:
@@ -336,5 +527,6 @@ def identify(res: Any) -> Identity:
     _gauge(res, out)
     _cut_region(res, sigma, out)
     _faces(res, sigma, out)
+    _edge(res, sigma, out)
     _serrations(res, sigma, out)
     return out

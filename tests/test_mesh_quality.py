@@ -253,3 +253,52 @@ def test_snap_float32_clears_the_plain_build():
     # at most tol.float32_ulps steps from the rounded position on any axis
     # (one more where a step crosses a power of two)
     assert (np.abs(w - v32) <= (tol.float32_ulps + 1) * step).all()
+
+
+def _cylinder_band(n: int, rows: int, r: float, dz: float):
+    """An open band of the cylinder ρ = r (n around, rows of quads of height
+    dz, mm), each quad split in two; every vertex on the cylinder."""
+    g = 2 * np.pi * np.arange(n) / n
+    verts = np.array([[r * np.cos(a), r * np.sin(a), j * dz] for j in range(rows + 1) for a in g])
+    faces = []
+    for j in range(rows):
+        for i in range(n):
+            a, b = j * n + i, j * n + (i + 1) % n
+            faces += [[a, b, b + n], [a, b + n, a + n]]
+    return verts, np.array(faces)
+
+
+def _on_cylinder(r: float):
+    def fn(p):
+        rho = np.hypot(p[:, 0], p[:, 1])
+        return rho - r, np.stack([p[:, 0] / rho, p[:, 1] / rho, 0 * rho], 1)
+    return fn
+
+
+def test_exact_projection_removes_a_curved_sliver():
+    # one vertex of a curved band slid along the cylinder next to its
+    # neighbour: its star is curved (no flat relaxation) and the surface
+    # of its triangles is the cylinder; with the exact surface the pass
+    # moves it (projected back onto ρ = r) and every new corner, edge
+    # midpoint and centroid stays within the limit of the cylinder
+    r, n, dz = 1.0, 48, 0.1
+    verts, faces = _cylinder_band(n, 4, r, dz)
+    v0 = 2 * n + 5  # an inner vertex: slide it in γ almost onto its neighbour
+    a = 2 * np.pi * (5 + 0.995) / n
+    verts[v0] = [r * np.cos(a), r * np.sin(a), 2 * dz]
+    # the input's own chordal error: a chord over two segments, r (1 − cos(2π/n))
+    limit = 1.01 * r * (1 - np.cos(2 * np.pi / n))
+    lab = np.zeros(len(faces), int)
+    fn = _on_cylinder(r)
+    before = aspect_ratios(verts, faces).max()
+    v, f, _ = remove_slivers(verts, faces, lab, bound=MAX_ASPECT_RATIO, max_deviation=1e-12,
+                             exact={0: fn}, limit=limit)
+    assert before > MAX_ASPECT_RATIO
+    assert aspect_ratios(v, f).max() <= MAX_ASPECT_RATIO
+    t = v[f]
+    pts = np.concatenate([t, 0.5 * (t + np.roll(t, 1, axis=1)), t.mean(1, keepdims=True)], 1)
+    assert np.abs(fn(pts.reshape(-1, 3))[0]).max() <= limit
+    assert np.abs(fn(v)[0]).max() <= 1e-12  # the moved vertex lies on the cylinder
+    # without the exact surface the same budget allows nothing
+    v1, f1, _ = remove_slivers(verts, faces, lab, bound=MAX_ASPECT_RATIO, max_deviation=1e-12)
+    assert aspect_ratios(v1, f1).max() > MAX_ASPECT_RATIO

@@ -17,7 +17,7 @@ from . import validate as v
 from .arrays import FloatArray, IntArray
 from .construct import AUX, BuildContext, segments_for
 from .errors import BuildError, SpecError
-from .slivers import remove_slivers_checked
+from .slivers import Implicit, remove_slivers_checked
 from .tip import Tip
 from .tolerances import MAX_ASPECT_RATIO, MAX_TIP_HEIGHT_MM, SLIVER_DEVIATION_SHARE, tol
 
@@ -53,8 +53,13 @@ def build_tip(spec: TipSpec, *, tolerance: float | None = None, strict: bool | N
         most ``MAX_ASPECT_RATIO`` where local flips, splits and collapses
         can reach it. The booleans then run at (1 − ``SLIVER_DEVIATION_SHARE``)
         × the tolerance and the edits move the surface by at most the rest,
-        so the mesh stays within the tolerance. About ten times the triangles and up to a
-        few seconds; analysis does not need it (default False).
+        so the mesh stays within the tolerance; edits inside one face are
+        checked against (and vertices projected onto) the exact surfaces —
+        the walls' cylinders and the cutters' implicits — (flips within
+        the booleans' tolerance, moves within half of it, so volumes and
+        face areas move little).
+        About ten times the triangles and up to a few seconds; analysis does
+        not need it (default False).
 
     Returns
     -------
@@ -149,13 +154,59 @@ def _to_tip(solid: m3d.Manifold, ctx: BuildContext, spec: TipSpec, strict: bool,
             f"{spec.name or 'tip'}: {area:.4g} mm² of construction faces survive — a cutter "
             "does not reach across the whole tube (is the tube's top cut by every cutter?)")
     if ctx.rings:
+        # edits checked against the exact surfaces: within the booleans'
+        # tolerance (moves within half of it, slivers.MOVE_SHARE); the rest
+        # is left for the float32 placement
         verts, faces, ids = remove_slivers_checked(verts, faces, ids, bound=MAX_ASPECT_RATIO,
-                                                   max_deviation=asked - ctx.chordal)
+                                                   max_deviation=asked - ctx.chordal,
+                                                   exact=_exact_by_id(spec, names),
+                                                   limit=ctx.chordal)
     tip = Tip(verts, faces, ids, tuple(names), spec=spec, tolerance=asked,
               segments=ctx.segments, source="cad", meta={"quality": ctx.rings})
     if strict and not tip.is_watertight:
         raise BuildError(f"{spec.name or 'tip'}: mesh is not watertight")
     return tip
+
+
+def _cylinder(r: float) -> Implicit:
+    """ρ − r and its gradient (mm; cannula frame)."""
+    def fn(p: FloatArray) -> tuple[FloatArray, FloatArray]:
+        rho = np.hypot(p[:, 0], p[:, 1])
+        g = np.zeros_like(p)
+        safe = np.where(rho > 0.0, rho, 1.0)
+        g[:, 0] = p[:, 0] / safe
+        g[:, 1] = p[:, 1] / safe
+        return rho - r, g
+    return fn
+
+
+def _exact_by_id(spec: TipSpec, names: list[str]) -> dict[int, Implicit]:
+    """label id -> exact implicit ``fn(points (k, 3) mm) -> (f, grad f)`` of
+    the tube's walls and of every cutter face with one (cannula frame, mm)."""
+    from .construct import INNER, OUTER
+
+    cannula = spec.cannula
+    out: dict[int, Implicit] = {}
+    for name, fn in ((OUTER, _cylinder(cannula.r_o)), (INNER, _cylinder(cannula.r_i))):
+        if name in names:
+            out[names.index(name)] = fn
+    for k, cutter in enumerate(spec.cutters):
+        previous = tuple(spec.cutters[:k])
+
+        def cut(p: FloatArray, cutter: Cutter = cutter,
+                previous: tuple[Cutter, ...] = previous) -> tuple[FloatArray, FloatArray]:
+            if cutter.needs_previous:  # its implicit takes the cutters before it
+                implicit: Callable[..., tuple[FloatArray, FloatArray]] = cutter.implicit
+                return implicit(p, cannula, previous)
+            return cutter.implicit(p, cannula)
+        try:
+            cut(np.zeros((1, 3)))
+        except NotImplementedError:
+            continue
+        for name in (cutter.label, *cutter.face_labels()):
+            if name in names:
+                out[names.index(name)] = cut
+    return out
 
 
 def _area(v: FloatArray, f: IntArray) -> float:

@@ -28,13 +28,26 @@ share of the chordal tolerance —, folds a triangle (its normal
 turns by more than 30°), or breaks the 2-manifold (link condition). Labels
 are kept triangle by triangle; the result stays watertight.
 
+With the **exact surfaces** of the labels (``exact``: label →
+``fn(points) -> (f, ∇f)``, as :func:`tipgeo.build.build_tip` passes the
+tube's cylinders and the cutters' implicits), flips, and collapses of a
+vertex inside one label, are checked against the exact surface instead of
+the budget: every edge midpoint and centroid of the new triangles within
+``limit`` (mm) of it (collapses: ``MOVE_SHARE`` × ``limit``; an edit
+that fails this check may still pass the budget's). A vertex inside one
+label whose star is curved may then move to the mean of its neighbours
+*projected onto the exact surface* (Newton steps along ∇f; within
+``MOVE_SHARE`` × ``limit``). Vertices on a curve between labels still move
+by the budget only, so the curves keep their place. The pass keeps the state
+of its best pass (fewest triangles above the bound).
+
 Frame and units: whatever the input (tipgeo: cannula frame, mm).
 """
 
 from __future__ import annotations
 
 import math
-from collections.abc import Iterable, Sequence
+from collections.abc import Callable, Iterable, Mapping, Sequence
 from typing import Any
 
 import numpy as np
@@ -46,8 +59,16 @@ __all__ = ["aspect_ratios", "remove_slivers", "remove_slivers_checked", "snap_fl
 
 _FOLD_COS = math.cos(math.radians(30.0))
 
+#: Share of ``limit`` within which collapses and relocations checked
+#: against the exact surface may leave it (flips may use all of it).
+MOVE_SHARE = 0.5
+
 #: A point or a vector (mm).
 Vec = tuple[float, float, float]
+
+#: ``fn(points (k, 3) mm) -> (f (k,), grad f (k, 3))``: an exact surface f = 0
+#: (f in mm to first order; cannula frame).
+Implicit = Callable[[FloatArray], tuple[FloatArray, FloatArray]]
 
 
 def aspect_ratios(vertices: FloatArray, faces: IntArray) -> FloatArray:
@@ -148,8 +169,11 @@ class _Mesh:
     """Mutable triangle soup with vertex→faces incidence."""
 
     def __init__(self, vertices: FloatArray, faces: IntArray, labels: IntArray,
-                 frozen: Iterable[int] = ()) -> None:
+                 frozen: Iterable[int] = (), exact: Mapping[int, Implicit] | None = None,
+                 limit: float = 0.0) -> None:
         self.frozen = set(int(x) for x in frozen)  # vertices no edit may touch
+        self.exact: Mapping[int, Implicit] = exact or {}  # label -> exact surface
+        self.limit = limit  # largest |f| of an exact surface over an edited face (mm)
         self.p: list[Vec] = [(float(v[0]), float(v[1]), float(v[2])) for v in vertices]
         self.f = [list(map(int, t)) for t in faces]
         self.lab = [int(x) for x in labels]
@@ -189,6 +213,42 @@ class _Mesh:
             if x != a and x != b:
                 return x
         raise ValueError("degenerate triangle")
+
+    def exact_ok(self, tris: Iterable[tuple[Sequence[int], int]],
+                 share: float = 1.0) -> bool | None:
+        """None when a label of the triangles ``(corners, label)`` has no
+        exact surface; else whether every edge midpoint and centroid lies
+        within ``limit`` (mm) of its label's exact surface."""
+        by: dict[int, list[Vec]] = {}
+        for t, lab in tris:
+            if lab not in self.exact:
+                return None
+            a, b, c = _corners(t, self.p)
+            by.setdefault(lab, []).extend((_mid(a, b), _mid(b, c), _mid(c, a), _mid3(a, b, c)))
+        for lab, pts in by.items():
+            f = self.exact[lab](np.asarray(pts, np.float64))[0]
+            if not float(np.abs(f).max()) <= share * self.limit:
+                return False
+        return True
+
+    def project(self, u: int, q: Vec) -> Vec | None:
+        """q moved onto the exact surface of u's one label (Newton steps
+        along the gradient); None when u is on more labels or its label has
+        no exact surface."""
+        labs = self.labels_at(u)
+        if len(labs) != 1:
+            return None
+        fn = self.exact.get(next(iter(labs)))
+        if fn is None:
+            return None
+        x = np.asarray([q], np.float64)
+        for _ in range(4):
+            f, g = fn(x)
+            gg = float((g[0] ** 2).sum())
+            if not gg > 0.0:
+                return None
+            x = x - (float(f[0]) / gg) * g
+        return float(x[0, 0]), float(x[0, 1]), float(x[0, 2])
 
     # -- edits -----------------------------------------------------------------
     def _set(self, k: int, tri: Sequence[int]) -> None:
@@ -260,6 +320,11 @@ class _Mesh:
                 return False
         if max(_ar(pa, pd, pc), _ar(pd, pb, pc)) >= max(_ar(pa, pb, pc), _ar(pb, pa, pd)):
             return False
+        ok = self.exact_ok([((a, d, c), self.lab[f]), ((d, b, c), self.lab[g])])
+        if ok:  # measured against the exact surface
+            self._set(f, (a, d, c))
+            self._set(g, (d, b, c))
+            return True
         dev = (max(self.dev[f], self.dev[g])
                + max(abs(_dot(_sub(pd, pa), n1)), abs(_dot(_sub(pc, pa), n2))))
         if dev > max_dev:
@@ -357,6 +422,17 @@ class _Mesh:
         new = self._collapse_faces(u, v, fs)
         if new is None:
             return False
+        # a vertex inside one label: checked against the exact surface (on a
+        # curve between labels: the budget, so the curves keep their place)
+        # (moves within half the limit: the volume and areas stay put)
+        ok = self.exact_ok(((t, self.lab[k]) for k, t in new), MOVE_SHARE) \
+            if len(self.labels_at(u)) == 1 else None
+        if ok:
+            for k in fs:
+                self._kill(k)
+            for k, t in new:
+                self._set(k, t)
+            return True
         dev = max(self.dev[k] for k in self.vf[u]) + self._collapse_moves(u, v, fs, new)
         if dev > max_dev:
             return False
@@ -417,18 +493,27 @@ class _Mesh:
         """Move u, inside one label and a flat star, to the mean of its
         neighbours (in that plane: the surface does not move) where that
         folds nothing and improves the star's worst triangle."""
-        if u in self.frozen or len(self.labels_at(u)) != 1 or not self._flat_star(u):
+        if u in self.frozen or len(self.labels_at(u)) != 1:
             return False
         star = list(self.vf[u])
         pu = self.p[u]
         nb = self.neighbours(u)
-        q = (sum(self.p[x][0] for x in nb) / len(nb), sum(self.p[x][1] for x in nb) / len(nb),
-             sum(self.p[x][2] for x in nb) / len(nb))
+        q: Vec = (sum(self.p[x][0] for x in nb) / len(nb),
+                  sum(self.p[x][1] for x in nb) / len(nb),
+                  sum(self.p[x][2] for x in nb) / len(nb))
+        exact = not self._flat_star(u)
+        if exact:  # a curved star: onto the exact surface, checked against it
+            on = self.project(u, q)
+            if on is None:
+                return False
+            q = on
         old = [self.normal(k) for k in star]
         worst = max(self.ar(k) for k in star)
         self.p[u] = q
         if all(self._unfolded(k, nn) for k, nn in zip(star, old)) and \
-                max(self.ar(k) for k in star) < worst:
+                max(self.ar(k) for k in star) < worst and \
+                (not exact or self.exact_ok(((self.f[k], self.lab[k]) for k in star),
+                                            MOVE_SHARE)):
             self.dirty.update(star)
             return True
         self.p[u] = pu
@@ -450,6 +535,7 @@ class _Mesh:
 def remove_slivers(vertices: FloatArray, faces: IntArray, labels: IntArray, *,
                    bound: float, max_deviation: float, max_passes: int = 40,
                    frozen: BoolArray | None = None,
+                   exact: Mapping[int, Implicit] | None = None, limit: float = 0.0,
                    ) -> tuple[FloatArray, IntArray, IntArray]:
     """Improve the triangles whose aspect ratio exceeds ``bound``.
 
@@ -468,6 +554,16 @@ def remove_slivers(vertices: FloatArray, faces: IntArray, labels: IntArray, *,
     frozen : (n,) bool, optional
         Vertices no edit may move, remove or re-connect (the triangles
         around them are left as they are).
+    exact : {label: fn}, optional
+        The exact surface of each label that has one (``fn(points) ->
+        (f, grad f)``, f in mm to first order). Edits of triangles whose
+        labels all have one are checked against them instead of the
+        deviation budget: every edge midpoint and centroid of the new
+        triangles within ``limit`` (mm) of the exact surface; and a vertex
+        inside one such label with a curved star may move to the mean of its
+        neighbours projected onto the exact surface.
+    limit : float
+        See ``exact`` (mm).
 
     Returns
     -------
@@ -476,11 +572,14 @@ def remove_slivers(vertices: FloatArray, faces: IntArray, labels: IntArray, *,
         operations cannot improve within the budget stay as they were.
     """
     m = _Mesh(vertices, faces, labels,
-              () if frozen is None else np.flatnonzero(np.asarray(frozen, bool)))
+              () if frozen is None else np.flatnonzero(np.asarray(frozen, bool)),
+              exact, limit)
     budget = len(m.p) // 4 + 16  # most vertices the splits may add
     ar = aspect_ratios(vertices, faces)
     cand = {int(k): float(ar[k]) for k in np.flatnonzero(ar > bound)}
     history: list[int] = []
+    best: tuple[int, list[Vec], list[list[int]], list[int], list[bool]] = (
+        len(cand), list(m.p), [list(t) for t in m.f], list(m.lab), list(m.alive))
     for _ in range(max_passes):
         if not cand:
             break
@@ -499,11 +598,14 @@ def remove_slivers(vertices: FloatArray, faces: IntArray, labels: IntArray, *,
                 a = m.ar(k)
                 if a > bound:
                     cand[k] = a
-    keep = np.asarray(m.alive)
-    f = np.asarray(m.f, dtype=np.int64)[keep]
-    lab = np.asarray(m.lab, dtype=np.int64)[keep]
+        if len(cand) < best[0]:  # a later pass may split caps into more slivers
+            best = (len(cand), list(m.p), [list(t) for t in m.f], list(m.lab), list(m.alive))
+    _, p, faces_, labs, alive = best
+    keep = np.asarray(alive)
+    f = np.asarray(faces_, dtype=np.int64)[keep]
+    lab = np.asarray(labs, dtype=np.int64)[keep]
     used, inv = np.unique(f, return_inverse=True)
-    return np.asarray(m.p, np.float64)[used], inv.reshape(-1, 3).astype(np.int64), lab
+    return np.asarray(p, np.float64)[used], inv.reshape(-1, 3).astype(np.int64), lab
 
 
 def _crossings(v: FloatArray, f: IntArray) -> IntArray:
@@ -517,7 +619,8 @@ def _crossings(v: FloatArray, f: IntArray) -> IntArray:
 
 def remove_slivers_checked(vertices: FloatArray, faces: IntArray, labels: IntArray, *,
                            bound: float, max_deviation: float, rounds: int = 6,
-                           float32: bool = True,
+                           float32: bool = True, exact: Mapping[int, Implicit] | None = None,
+                           limit: float = 0.0,
                            ) -> tuple[FloatArray, IntArray, IntArray]:
     """:func:`remove_slivers` that never makes two triangles cross.
 
@@ -538,7 +641,8 @@ def remove_slivers_checked(vertices: FloatArray, faces: IntArray, labels: IntArr
     exactly and open3d's tolerant test finds on the file what it finds on
     the mesh.
 
-    Parameters and returns as :func:`remove_slivers` (mm, any frame).
+    Parameters (``exact`` and ``limit`` too) and returns as
+    :func:`remove_slivers` (mm, any frame).
     """
     from scipy.spatial import cKDTree
 
@@ -550,7 +654,8 @@ def remove_slivers_checked(vertices: FloatArray, faces: IntArray, labels: IntArr
         base, vertices, np.asarray(faces, np.int64), np.asarray(labels, np.int64))
     for r in range(rounds):
         v, f, lab = remove_slivers(vertices, faces, labels, bound=bound,
-                                   max_deviation=max_deviation, frozen=frozen)
+                                   max_deviation=max_deviation, frozen=frozen,
+                                   exact=exact, limit=limit)
         pairs = _crossings(v, f)
         if len(pairs) <= best[0]:
             best = (len(pairs), v, f, lab)

@@ -132,23 +132,28 @@ def test_ring_spacing_bounds_wall_triangles():
     assert h / w + w / h < MAX_ASPECT_RATIO
 
 
-def test_remove_slivers_strip_is_exact():
-    # a flat square split into needles along one diagonal fan: flips and
-    # splits in the plane keep every point on it, the area and the boundary
-    k = 40
+def _pillow(k: int = 40):
+    """A flat unit square split into needles along one diagonal fan (label
+    0), closed as a double-sided sheet — a watertight "pillow" of two layers
+    (label 1 the back) joined by quads on the square's rim (label 2)."""
     xs = np.linspace(0, 1, k + 1)
     verts = np.array([[0.0, 0.0, 0.0]] + [[1.0, x, 0.0] for x in xs] + [[0.0, 1.0, 0.0]])
     faces = np.array([[0, i + 1, i + 2] for i in range(k)] + [[0, k + 1, k + 2]])
-    # close it as a double-sided sheet: a watertight "pillow" of two layers
     back = faces[:, ::-1] + len(verts)
     v2 = np.concatenate([verts, verts + [0, 0, -1e-3]])
-    # join the two layers along the boundary: quads on the square's rim
     rim = [0, *range(1, k + 2), k + 2]
     sides = []
     for a, b in zip(rim, rim[1:] + rim[:1]):
         sides += [[b, a, a + len(verts)], [b, a + len(verts), b + len(verts)]]
     f2 = np.concatenate([faces, back, np.array(sides)])
     lab = np.r_[np.zeros(len(faces)), np.ones(len(back)), np.full(len(sides), 2)].astype(int)
+    return v2, f2, lab
+
+
+def test_remove_slivers_strip_is_exact():
+    # the pillow's needles: flips and splits in the plane keep every point on
+    # it, the area and the boundary
+    v2, f2, lab = _pillow()
     before = aspect_ratios(v2, f2)[lab == 0].max()
     v, f, lab2 = remove_slivers(v2, f2, lab, bound=MAX_ASPECT_RATIO, max_deviation=1e-12)
     top = f[lab2 == 0]
@@ -163,18 +168,7 @@ def test_remove_slivers_strip_is_exact():
 def test_frozen_vertices_are_left_alone():
     # the pillow of test_remove_slivers_strip_is_exact: the pass changes it,
     # but not with every vertex frozen
-    k = 40
-    xs = np.linspace(0, 1, k + 1)
-    verts = np.array([[0.0, 0.0, 0.0]] + [[1.0, x, 0.0] for x in xs] + [[0.0, 1.0, 0.0]])
-    faces = np.array([[0, i + 1, i + 2] for i in range(k)] + [[0, k + 1, k + 2]])
-    back = faces[:, ::-1] + len(verts)
-    v2 = np.concatenate([verts, verts + [0, 0, -1e-3]])
-    rim = [0, *range(1, k + 2), k + 2]
-    sides = []
-    for a, b in zip(rim, rim[1:] + rim[:1]):
-        sides += [[b, a, a + len(verts)], [b, a + len(verts), b + len(verts)]]
-    f2 = np.concatenate([faces, back, np.array(sides)])
-    lab = np.r_[np.zeros(len(faces)), np.ones(len(back)), np.full(len(sides), 2)].astype(int)
+    v2, f2, lab = _pillow()
     v, f, _ = remove_slivers(v2, f2, lab, bound=MAX_ASPECT_RATIO, max_deviation=1e-12,
                              frozen=np.ones(len(v2), bool))
     assert np.array_equal(v, v2) and np.array_equal(f, f2)

@@ -601,23 +601,25 @@ def _dot(a: FloatArray, b: FloatArray) -> float:
 
 
 @_jit
-def _moller(V: FloatArray, U: FloatArray) -> bool:
-    n1 = np.cross(V[1] - V[0], V[2] - V[0])
-    e1 = -_dot(n1, V[0])
-    du = np.empty(3)
+def _plane_side(T: FloatArray, P: FloatArray) -> tuple[FloatArray, FloatArray]:
+    """Triangle ``T``'s normal and the distances (scaled by it) of ``P``'s
+    corners to its plane, those below ``OPEN3D_EPSILON`` snapped to 0."""
+    n = np.cross(T[1] - T[0], T[2] - T[0])
+    e = -_dot(n, T[0])
+    d = np.empty(3)
     for k in range(3):
-        du[k] = _dot(n1, U[k]) + e1
-        if abs(du[k]) < OPEN3D_EPSILON:
-            du[k] = 0.0
+        d[k] = _dot(n, P[k]) + e
+        if abs(d[k]) < OPEN3D_EPSILON:
+            d[k] = 0.0
+    return n, d
+
+
+@_jit
+def _moller(V: FloatArray, U: FloatArray) -> bool:
+    n1, du = _plane_side(V, U)
     if du[0] * du[1] > 0 and du[0] * du[2] > 0:
         return False
-    n2 = np.cross(U[1] - U[0], U[2] - U[0])
-    e2 = -_dot(n2, U[0])
-    dv = np.empty(3)
-    for k in range(3):
-        dv[k] = _dot(n2, V[k]) + e2
-        if abs(dv[k]) < OPEN3D_EPSILON:
-            dv[k] = 0.0
+    n2, dv = _plane_side(U, V)
     if dv[0] * dv[1] > 0 and dv[0] * dv[2] > 0:
         return False
     dd = np.cross(n1, n2)

@@ -167,16 +167,23 @@ class ConicalCutter(Cutter):
 
     def edge_faces(self, gamma: FloatArray, radius: float | FloatArray, cannula: Cannula,
                    previous: tuple[Cutter, ...] = ()) -> tuple[FloatArray, AnyArray] | None:
+        """Edge height (mm) and face on the cylinder of ``radius`` (one radius
+        for all γ, or one per γ; mm) at angles ``gamma`` (rad, cannula
+        frame): the cone's height there, or the land's where the land cuts
+        lower."""
         g = np.asarray(gamma, float)
-        zc = (cannula.r_o - radius) / math.tan(self.theta)
-        if self.bevel_length is not None and self.bevel_length < zc:
-            return np.full(g.shape, self.bevel_length), np.full(g.shape, self.land_label,
-                                                                dtype=object)
-        return np.full(g.shape, zc), np.full(g.shape, self.label, dtype=object)
+        zc = np.broadcast_to((cannula.r_o - np.asarray(radius, float)) / math.tan(self.theta),
+                             g.shape).astype(float)
+        face = np.full(g.shape, self.label, dtype=object)
+        if self.bevel_length is not None:
+            land = self.bevel_length < zc
+            zc = np.where(land, self.bevel_length, zc)
+            face[land] = self.land_label
+        return zc, face
 
     def edge_z(self, gamma: FloatArray, radius: float | FloatArray,
                cannula: Cannula) -> FloatArray | None:
-        z = (cannula.r_o - radius) / math.tan(self.theta)
-        if self.bevel_length is not None:
-            z = min(z, self.bevel_length)
-        return np.full(np.shape(gamma), z)
+        """Edge height (mm) on the cylinder of ``radius`` (scalar or per γ;
+        mm) at angles ``gamma`` (rad, cannula frame)."""
+        z, _ = self.edge_faces(gamma, radius, cannula)
+        return z

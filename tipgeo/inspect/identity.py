@@ -371,11 +371,7 @@ def _rim_profile(res: Any, zone: Any) -> tuple[FloatArray, FloatArray, float] | 
     top = order[np.flatnonzero(np.r_[b[order][1:] != b[order][:-1], True])]
     rho = np.clip(np.hypot(p[top, 0], p[top, 1]), res.cad.r_i, res.cad.r_o)
     try:
-        try:
-            zcad, _, _ = lowest_cut(spec.cutters, g[top], rho, spec.cannula)
-        except ValueError:   # a cutter taking one radius for all γ (conical): one by one
-            zcad = np.array([lowest_cut(spec.cutters, gk, float(rk), spec.cannula)[0][0]
-                             for gk, rk in zip(g[top], rho, strict=True)])
+        zcad, _, _ = lowest_cut(spec.cutters, g[top], rho, spec.cannula)
     except (TipGeoError, AttributeError, TypeError, ValueError):
         return None
     cnt = np.bincount(b, minlength=RIM_BINS)

@@ -171,6 +171,10 @@ class ConicalCutter(Cutter):
         for all γ, or one per γ; mm) at angles ``gamma`` (rad, cannula
         frame): the cone's height there, or the land's where the land cuts
         lower."""
+        return self._edge(gamma, radius, cannula)
+
+    def _edge(self, gamma: FloatArray, radius: float | FloatArray,
+              cannula: Cannula) -> tuple[FloatArray, AnyArray]:
         g = np.asarray(gamma, float)
         zc = np.broadcast_to((cannula.r_o - np.asarray(radius, float)) / math.tan(self.theta),
                              g.shape).astype(float)
@@ -185,5 +189,5 @@ class ConicalCutter(Cutter):
                cannula: Cannula) -> FloatArray | None:
         """Edge height (mm) on the cylinder of ``radius`` (scalar or per γ;
         mm) at angles ``gamma`` (rad, cannula frame)."""
-        z, _ = self.edge_faces(gamma, radius, cannula)
+        z, _ = self._edge(gamma, radius, cannula)
         return z

@@ -1,9 +1,12 @@
 """``compare --batch`` on one and on two local worker processes (pytest-benchmark).
 
 Run: python -m pytest benchmarks/test_inspect_batch_bench.py --benchmark-only -s
+Issue 25's case (100 scans of 10⁶ points, ~2.4 GB of PLY in a temporary folder):
+    TIPGEO_BENCH_BATCH_SCANS=100 TIPGEO_BENCH_BATCH_POINTS=1e6 python -m pytest \
+        benchmarks/test_inspect_batch_bench.py --benchmark-only -s
 
-20 synthetic scans of 10⁵ points of the 14G bevel (five distinct scans, each
-written four times: every file is read and compared afresh), compared with
+20 synthetic scans of 10⁵ points of the 14G bevel by default (five distinct
+scans, each written SCANS/5 times: every file is read and compared afresh), compared with
 their exact CAD through :func:`tipgeo.inspect.batch.run_batch` — registration,
 deviations, measured geometry, verdict, the control charts; no report files.
 Wall and CPU seconds (this process and its reaped workers) go to
@@ -14,6 +17,7 @@ shared, so the figure here is what this machine gave at that moment).
 
 from __future__ import annotations
 
+import os
 import resource
 import shutil
 import time
@@ -27,7 +31,9 @@ from tipgeo.optimize.executors import ProcessExecutor, SerialExecutor
 from tipgeo.tolerances import tol
 
 CAD = "bevel-14G-xi14.5"
-SCANS, DISTINCT, POINTS = 20, 5, 100_000
+SCANS = int(os.environ.get("TIPGEO_BENCH_BATCH_SCANS", "20"))
+POINTS = int(float(os.environ.get("TIPGEO_BENCH_BATCH_POINTS", "1e5")))
+DISTINCT = 5
 _WALL: dict[int, float] = {}
 
 

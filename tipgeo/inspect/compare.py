@@ -50,7 +50,7 @@ from ..errors import NotThisTip, SpecError
 from ..tolerances import tol
 from .cad import CadModel, load_cad
 from .checks import check_geometry, check_match
-from .deviation import histogram, statistics, trimmed
+from .deviation import histogram, statistics
 from .exact import Distances
 from .measure import measure
 from .meshdist import MeshSolid
@@ -344,6 +344,8 @@ def _deviations(model: CadModel, local: AnyArray, T: FloatArray, *, z_min: float
 
     q_buf = np.empty((min(chunk, m), 3))
     r_buf = np.empty(min(chunk, m), np.int64)
+    # the exact query's work buffers, reused by every chunk
+    work = mesh.work_buffers(min(chunk, m)) if mesh is not None else None
     R, t = np.ascontiguousarray(T[:3, :3], float), np.ascontiguousarray(T[:3, 3], float)
     for i in range(0, m, chunk):
         # R x + t, the crop and the envelope in one compiled pass (float64)
@@ -359,7 +361,7 @@ def _deviations(model: CadModel, local: AnyArray, T: FloatArray, *, z_min: float
         if mesh is not None:  # into the results directly
             cur, near = mesh.distances_into(
                 q, r, far=max_distance, near=tol.inspect.match_distance,
-                out=(P, dist, clo, nrm, face, feat, rows), cur=cur, tri=tri)
+                out=(P, dist, clo, nrm, face, feat, rows), cur=cur, tri=tri, work=work)
             cnt["match"] += near
             continue
         D = model.distances(q)
@@ -709,8 +711,8 @@ def stage_deviate(loaded: Loaded, placed: Placed, *, tolerance: float = 0.01,
                         "registration?")
     say(f"deviations in {timings['deviations']:.2f} s")
     t = _now()
-    stats = statistics(dist.distance, dist.face, tolerance, names=dist.labels)
-    stats["trimmed"] = trimmed(dist.distance, tolerance, sigmas=tol.inspect.trim_sigmas)
+    stats = statistics(dist.distance, dist.face, tolerance, names=dist.labels,
+                       trim_sigmas=tol.inspect.trim_sigmas)
     stats["histogram"] = histogram(dist.distance, lo_h, hi_h, tol.inspect.histogram_bins)
     timings["statistics"] = _lap(cpu, "statistics", t)
     t = _now()

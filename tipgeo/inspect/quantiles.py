@@ -406,6 +406,51 @@ def _group_spread(x: FloatArray, gid: IntArray, gmap: IntArray, trim: bool, cent
 
 
 @njit(cache=True, nogil=True)
+def _group_wanted(nb: IntArray, count: IntArray,
+                  ks: IntArray) -> tuple[IntArray, IntArray, int]:
+    """The bucket of every wanted rank (``kb``, −1: none) and each wanted
+    bucket's slot in one gather buffer (``want``, −1: not wanted), and the
+    buffer's length (see :func:`_group_gather`)."""
+    G, r = count.shape[0], ks.shape[2]
+    want = np.full((G, 2, _BUCKETS), -1, np.int64)
+    kb = np.full((G, 2, r), -1, np.int64)
+    total = 0
+    for g in range(G):
+        for k in range(2):
+            for j in range(r if nb[k] else 0):
+                if ks[g, k, j] < 0:
+                    continue
+                b = np.searchsorted(count[g, k, :nb[k] + 1], ks[g, k, j], side="right") - 1
+                kb[g, k, j] = b
+                if want[g, k, b] < 0:
+                    want[g, k, b] = total
+                    total += count[g, k, b + 1] - count[g, k, b]
+    return want, kb, total
+
+
+@njit(cache=True, nogil=True)
+def _group_pick(buf: FloatArray, want: IntArray, kb: IntArray, count: IntArray,
+                ks: IntArray) -> FloatArray:
+    """Each wanted bucket sorted once, the ranks read from it."""
+    G, r = count.shape[0], ks.shape[2]
+    out = np.zeros((G, 2, r))
+    done = np.zeros((G, 2, _BUCKETS), np.bool_)
+    for g in range(G):
+        for k in range(2):
+            for j in range(r):
+                b = kb[g, k, j]
+                if b < 0:
+                    continue
+                s = want[g, k, b]
+                e = s + count[g, k, b + 1] - count[g, k, b]
+                if not done[g, k, b]:
+                    buf[s:e] = np.sort(buf[s:e])
+                    done[g, k, b] = True
+                out[g, k, j] = buf[s + ks[g, k, j] - count[g, k, b]]
+    return out
+
+
+@njit(cache=True, nogil=True)
 def _group_gather(x: FloatArray, gid: IntArray, gmap: IntArray, trim: bool, centre: float,
                   half: float, lo: FloatArray, scale: FloatArray, nb: IntArray,
                   count: IntArray, ks: IntArray) -> FloatArray:
@@ -414,23 +459,7 @@ def _group_gather(x: FloatArray, gid: IntArray, gmap: IntArray, trim: bool, cent
     that hold them (as :func:`_order_statistics`; buckets as in
     :func:`_group_spread`)."""
     G = count.shape[0]
-    r = ks.shape[2]
-    out = np.zeros((G, 2, r))
-    want = np.full((G, 2, _BUCKETS), -1, np.int64)
-    kb = np.full((G, 2, r), -1, np.int64)
-    total = 0
-    for g in range(G):
-        for k in range(2):
-            if not nb[k]:
-                continue
-            for j in range(r):
-                if ks[g, k, j] < 0:
-                    continue
-                b = np.searchsorted(count[g, k, :nb[k] + 1], ks[g, k, j], side="right") - 1
-                kb[g, k, j] = b
-                if want[g, k, b] < 0:
-                    want[g, k, b] = total
-                    total += count[g, k, b + 1] - count[g, k, b]
+    want, kb, total = _group_wanted(nb, count, ks)
     buf = np.empty(total)
     fill = np.zeros((G, 2, _BUCKETS), np.int64)
     grp = np.empty(3, np.int64)
@@ -450,24 +479,11 @@ def _group_gather(x: FloatArray, gid: IntArray, gmap: IntArray, trim: bool, cent
             u = abs(v) if k else v
             b = _bucket(u, lo[k], scale[k], nb[k])
             for j in range(m):
-                g = grp[j]
-                if want[g, k, b] >= 0:
-                    buf[want[g, k, b] + fill[g, k, b]] = u
-                    fill[g, k, b] += 1
-    done = np.zeros((G, 2, _BUCKETS), np.bool_)
-    for g in range(G):
-        for k in range(2):
-            for j in range(r):
-                b = kb[g, k, j]
-                if b < 0:
-                    continue
-                s = want[g, k, b]
-                e = s + count[g, k, b + 1] - count[g, k, b]
-                if not done[g, k, b]:
-                    buf[s:e] = np.sort(buf[s:e])
-                    done[g, k, b] = True
-                out[g, k, j] = buf[s + ks[g, k, j] - count[g, k, b]]
-    return out
+                slot = want[grp[j], k, b]
+                if slot >= 0:
+                    buf[slot + fill[grp[j], k, b]] = u
+                    fill[grp[j], k, b] += 1
+    return _group_pick(buf, want, kb, count, ks)
 
 
 def _ranks(n: int, q: FloatArray) -> tuple[IntArray, IntArray, IntArray, FloatArray]:

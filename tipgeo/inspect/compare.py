@@ -54,6 +54,7 @@ from .deviation import histogram, statistics
 from .exact import Distances
 from .measure import measure
 from .meshdist import MeshSolid
+from .pages import ordinary_pages
 from .register import Registration, apply, register
 from .scanio import Scan, ScanError, check_points, load_scan
 from .transform import check_transform
@@ -955,19 +956,21 @@ def compare(scan: Scan | str | Path | AnyArray, cad: Any, *, tolerance: float = 
     T0 = None if init_transform is None else check_transform(init_transform, "init_transform")
     _check_crop(z_min, max_distance)
     rule = acceptance if acceptance is not None else default_rule(tolerance)
-    t0 = _now()
-    loaded = stage_load(scan, cad, units=units, voxel=voxel, outliers=outliers,
-                        register_scan=register_scan, progress=say)
-    placed = stage_register(loaded, register_scan=register_scan, init_transform=T0, seed=seed,
-                            allow_mismatch=allow_mismatch, progress=say)
-    deviated = stage_deviate(loaded, placed, tolerance=tolerance, z_min=z_min,
-                             max_distance=max_distance, histogram_range=rng or (-scale, scale),
-                             progress=say)
-    verified = stage_verify(loaded, placed, deviated, allow_mismatch=allow_mismatch)
-    res = Comparison.from_stages(loaded, placed, deviated, verified, colour_scale=scale,
-                                 colour_range=rng, colormap=colormap)
-    stage_decide(res, rule, angles=angles, edge_band=edge_band, progress=say)
-    res.timings["total"] = _lap(res.cpu_timings, "total", t0)
-    if out is not None:
-        stage_report(res, out, pictures=pictures, progress=say)
+    # fresh per-point arrays on ordinary pages, not compacted huge ones (.pages)
+    with ordinary_pages():
+        t0 = _now()
+        loaded = stage_load(scan, cad, units=units, voxel=voxel, outliers=outliers,
+                            register_scan=register_scan, progress=say)
+        placed = stage_register(loaded, register_scan=register_scan, init_transform=T0,
+                                seed=seed, allow_mismatch=allow_mismatch, progress=say)
+        deviated = stage_deviate(loaded, placed, tolerance=tolerance, z_min=z_min,
+                                 max_distance=max_distance,
+                                 histogram_range=rng or (-scale, scale), progress=say)
+        verified = stage_verify(loaded, placed, deviated, allow_mismatch=allow_mismatch)
+        res = Comparison.from_stages(loaded, placed, deviated, verified, colour_scale=scale,
+                                     colour_range=rng, colormap=colormap)
+        stage_decide(res, rule, angles=angles, edge_band=edge_band, progress=say)
+        res.timings["total"] = _lap(res.cpu_timings, "total", t0)
+        if out is not None:
+            stage_report(res, out, pictures=pictures, progress=say)
     return res

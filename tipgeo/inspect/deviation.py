@@ -84,8 +84,8 @@ def statistics(distance: AnyArray, labels: AnyArray, tolerance: float, *,
         order = sorted({str(nm) for nm in names}, key=_order)
         gmap = np.array([order.index(str(nm)) for nm in names], np.int64)
     trim = _trim_band(d, trim_sigmas) if trim_sigmas is not None else None
-    raw = group_blocks(d, ids, gmap, len(order), tolerance,
-                       trim=None if trim is None else (trim[0], trim_sigmas * trim[1]))
+    band = None if trim is None or trim_sigmas is None else (trim[0], trim_sigmas * trim[1])
+    raw = group_blocks(d, ids, gmap, len(order), tolerance, trim=band)
     regions = {name: _as_block(raw[1 + g], tolerance) for g, name in enumerate(order)
                if raw[1 + g]["count"]}
     out = {"tolerance_um": tolerance * 1e3, "all": _as_block(raw[0], tolerance),

@@ -265,7 +265,8 @@ def _wall_rows(dist: Any, labels: tuple[str, ...],
     from .rowsfast import count_rows, pick_rows
 
     walls = [w for w in ("outer", "inner") if w in labels]
-    out = {w: (0, np.zeros(0, np.int64)) for w in ("outer", "inner")}
+    out: dict[str, tuple[int, IntArray]] = {w: (0, np.zeros(0, np.int64))
+                                            for w in ("outer", "inner")}
     if not walls:
         return out
     ids = np.array([labels.index(w) for w in walls], np.int64)

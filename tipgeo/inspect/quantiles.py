@@ -550,7 +550,8 @@ def group_blocks(x: FloatArray, gid: IntArray | None, gmap: IntArray, ngroup: in
                                   (0.0, max(-f[0, 3], f[0, 4])))):
         if b1 > b0:
             nb[k] = min(_BUCKETS, int(c[0, 0]))
-            lo[k], scale[k] = b0, nb[k] / (b1 - b0)
+            # Python floats: a span beyond the float range gives ∞ quietly
+            lo[k], scale[k] = b0, int(nb[k]) / (float(b1) - float(b0))
     r = max((len(p[2]) for pl in plan for p in pl), default=1)
     ks = np.full((G, 2, r), -1, np.int64)
     for g, pl in enumerate(plan):

@@ -100,9 +100,7 @@ def band_counts(d: FloatArray, face: AnyArray, feat: AnyArray, nface: int, band:
     n = np.zeros(nface + 1, np.int64)
     w = np.zeros(nface + 1, np.int64)
     for i in range(d.shape[0]):
-        f = np.int64(face[i])
-        if edges and feat[i] != 0:
-            f = nface
+        f = nface if edges and feat[i] != 0 else int(face[i])
         if 0 <= f <= nface:
             n[f] += 1
             w[f] += abs(d[i]) <= (edge_band if f == nface else band[f])

@@ -763,7 +763,7 @@ def _read_ply_binary(p: Path, acc: _Accumulator, start: int, n: int, props: _Ply
         while done < n:
             k = min(_CHUNK_ROWS, n - done)
             data = chunk[:k]
-            got = fh.readinto(memoryview(data).cast("B")) // dt.itemsize
+            got = fh.readinto(data.view(np.uint8).data) // dt.itemsize
             if got < k:
                 raise ScanError(f"{where} is truncated: {done + got} of {n} vertices")
             if not has_n and acc.add_fields(data["x"], data["y"], data["z"]):

@@ -328,3 +328,35 @@ def test_group_blocks_at_extreme_spans(x):
     g = group_blocks(x, None, np.zeros(0, np.int64), 0, 0.01)[0]
     assert np.array_equal(g["p"], np.percentile(x, [5.0, 95.0]))
     assert np.array_equal(g["p_abs"], np.percentile(np.abs(x), [95.0]))
+
+
+@settings(max_examples=40, deadline=None)
+@given(st.integers(1, 300), st.integers(0, 2**32 - 1), st.integers(1, 14),
+       st.sampled_from(["blob", "plane", "grid", "spread"]))
+def test_knn_equals_scipys_tree(n, seed, k, shape):
+    from scipy.spatial import cKDTree
+
+    from tipgeo.inspect.knn import knn
+
+    rng = np.random.default_rng(seed)
+    p = rng.normal(size=(n, 3))
+    if shape == "plane":
+        p[:, 2] = 0.0                       # a flat cloud: one cell thick
+    elif shape == "grid":
+        p = np.round(p, 1)                  # equal distances and duplicates
+    elif shape == "spread":
+        p *= np.array([1e3, 1.0, 1e-6])     # very unequal extents
+    k = min(k, n)
+    d, i = knn(p, k)
+    d_ref, i_ref = cKDTree(p).query(p, k=k)
+    d_ref = d_ref.reshape(n, k)
+    assert np.array_equal(d, d_ref)
+    # the neighbours at those distances: the same up to the order of ties
+    assert np.array_equal(np.linalg.norm(p[i] - p[:, None, :], axis=2), d)
+
+
+def test_knn_refuses_k_beyond_the_points():
+    from tipgeo.inspect.knn import knn
+
+    with pytest.raises(ValueError, match="k = 4"):
+        knn(np.zeros((3, 3)), 4)

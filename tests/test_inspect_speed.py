@@ -332,7 +332,7 @@ def test_group_blocks_at_extreme_spans(x):
 
 @settings(max_examples=40, deadline=None)
 @given(st.integers(1, 300), st.integers(0, 2**32 - 1), st.integers(1, 14),
-       st.sampled_from(["blob", "plane", "grid", "spread"]))
+       st.sampled_from(["blob", "plane", "grid", "spread", "far"]))
 def test_knn_equals_scipys_tree(n, seed, k, shape):
     from scipy.spatial import cKDTree
 
@@ -346,6 +346,8 @@ def test_knn_equals_scipys_tree(n, seed, k, shape):
         p = np.round(p, 1)                  # equal distances and duplicates
     elif shape == "spread":
         p *= np.array([1e3, 1.0, 1e-6])     # very unequal extents
+    elif shape == "far":
+        p = np.round(p, 2) + 1e3            # far from the origin, on a lattice
     k = min(k, n)
     d, i = knn(p, k)
     d_ref, i_ref = cKDTree(p).query(p, k=k)

@@ -9,7 +9,8 @@ queries.
 
 Exactness: a point's ring r of cells is searched only while a point outside
 the rings searched could still be nearer than its k-th neighbour so far —
-every point outside rings 0..r is at least r cell widths away — so the
+every point outside rings 0..r is at least r cell widths away, less the
+round-off of the cell indices — so the
 neighbours are the brute-force ones (of equal distances, the one found
 first), their distances √(dx² + dy² + dz²) in float64.
 """
@@ -79,7 +80,7 @@ def _insert(bd: FloatArray, bi: IntArray, m: int, d2: float, j: int) -> int:
 
 @njit(cache=True, nogil=True)
 def _knn(p: AnyArray, k: int, lo: FloatArray, h: float, dims: IntArray, start: IntArray,
-         members: IntArray) -> tuple[FloatArray, IntArray]:
+         members: IntArray, slack: float) -> tuple[FloatArray, IntArray]:
     n = p.shape[0]
     dist = np.empty((n, k))
     idx = np.empty((n, k), np.int64)
@@ -104,8 +105,8 @@ def _knn(p: AnyArray, k: int, lo: FloatArray, h: float, dims: IntArray, start: I
                             j = members[e]
                             dx, dy, dz = p[j, 0] - px, p[j, 1] - py, p[j, 2] - pz
                             m = _insert(bd, bi, m, dx * dx + dy * dy + dz * dz, j)
-            reach = r * h * (1.0 - _RING_SLACK)
-            if (m == k and bd[k - 1] <= reach * reach) or r >= top:
+            reach = r * h * (1.0 - _RING_SLACK) - slack
+            if (m == k and reach > 0.0 and bd[k - 1] <= reach * reach) or r >= top:
                 break
             r += 1
         for j in range(k):
@@ -139,5 +140,8 @@ def knn(p: AnyArray, k: int) -> tuple[FloatArray, IntArray]:
             break
         h *= 1.5
     start, members = _cells(p, lo, h, dims)
-    dist, idx = _knn(p, int(k), lo, float(h), dims, start, members)
+    # a cell index is computed from rounded coordinates: a point may sit
+    # that far on the other side of a cell boundary
+    slack = 16 * float(np.finfo(float).eps) * float(np.abs(p).max() + np.abs(lo).max() + h)
+    dist, idx = _knn(p, int(k), lo, float(h), dims, start, members, slack)
     return dist, idx

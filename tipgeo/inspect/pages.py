@@ -37,7 +37,9 @@ def _setter() -> Any:
 def ordinary_pages() -> Iterator[None]:
     """Within the block, new numpy arrays are not advised to use huge pages
     (the setting before is restored after it; no effect where numpy has no
-    such switch). Results are unchanged: only where the memory comes from."""
+    such switch). Results are unchanged: only where the memory comes from.
+    The switch is process-wide: comparisons running at once in threads may
+    each see either setting, which changes only their speed."""
     fn = _setter()
     if fn is None:
         yield

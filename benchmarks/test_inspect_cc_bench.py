@@ -35,7 +35,7 @@ pair by pair; the 1-minute load average beside them):
   (that process took 5.4 s on the issue's machine).
 
 Figures on the shared 2-core development machine (load 10–12, so noisy):
-see README's inspection section.
+see docs/notes/inspection.md ("Mesh distances and speed against CloudCompare").
 """
 
 from __future__ import annotations

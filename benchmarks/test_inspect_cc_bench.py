@@ -13,9 +13,11 @@ Run:
         -k process --benchmark-only -s
 
 What each test records in ``extra_info`` (CPU seconds: user + system of the
-child process, start-up and imports included; medians of
+child process, start-up and imports included — the child runs with
+PYTHONDONTWRITEBYTECODE unset, as an install has its .pyc files; medians of
 TIPGEO_BENCH_CC_REPEAT runs, default 3, tipgeo and CloudCompare interleaved
-so that both see the same load; the 1-minute load average beside them):
+so that both see the same load, and tipgeo's share of CloudCompare's CPU
+pair by pair; the 1-minute load average beside them):
 - ``test_deviation_step_1M``: the exact distance step on 10⁶ aligned points
   (index built and kernel compiled beforehand), its deviation from an
   all-triangle float64 brute force on 20,000 of them, and — when
@@ -33,7 +35,7 @@ so that both see the same load; the 1-minute load average beside them):
   (that process took 5.4 s on the issue's machine).
 
 Figures on the shared 2-core development machine (load 10–12, so noisy):
-see README's inspection section.
+see docs/notes/inspection.md ("Mesh distances and speed against CloudCompare").
 """
 
 from __future__ import annotations
@@ -108,6 +110,9 @@ def _run(cmd, env=None) -> tuple[float, str]:
 def _tipgeo(args) -> tuple[float, float]:
     """CPU seconds and peak MiB of ``tipgeo ARGS`` in a child process."""
     env = dict(os.environ, PYTHONPATH=os.pathsep.join([os.getcwd(), *sys.path]))
+    # a real install has its .pyc files: without them every run would pay
+    # about 0.2 s compiling tipgeo's sources
+    env.pop("PYTHONDONTWRITEBYTECODE", None)
     cpu, out = _run([sys.executable, "-c", _CHILD, *args], env)
     kb = int(re.search(r"VMHWM (\d+)", out).group(1))
     return cpu, kb / 1024
@@ -123,6 +128,15 @@ def _cloudcompare(files, c2m: bool, icp: bool = False) -> tuple[float, str]:
     if c2m:
         cmd.append("-C2M_DIST")
     return _run(cmd, env)
+
+
+def _pair_shares(tipgeo: list[float], cc: list[float]) -> dict[str, object]:
+    """tipgeo's CPU over CloudCompare's run by run (each pair ran back to
+    back, under one load) and their median: steadier than the ratio of the
+    medians when the load changes between pairs."""
+    shares = [t / c for t, c in zip(tipgeo, cc)]
+    return {"pair_shares": [round(s, 3) for s in shares],
+            "median_pair_share": round(float(np.median(shares)), 3)}
 
 
 def _load() -> float:
@@ -192,6 +206,7 @@ def test_compare_process_no_register(benchmark, case):
         # issue 25's target at 10⁷ points: tipgeo at most 0.5 of CloudCompare's CPU
         info["tipgeo_share_of_cloudcompare"] = round(info["tipgeo_cpu_s"]
                                                      / info["cloudcompare_cpu_s"], 3)
+        info.update(_pair_shares(runs["tipgeo"], runs["cc"]))
         info["target_share"] = 0.5
     benchmark.extra_info.update(info)
     print(info)
@@ -229,6 +244,7 @@ def test_compare_process_register_1M(benchmark, case):
         # issue 25's target: the whole compare (registration, identity, verdict)
         # at most 0.25 of CloudCompare's ICP + C2M CPU
         info["tipgeo_share_of_cloudcompare"] = round(info["tipgeo_cpu_s"] / cc, 3)
+        info.update(_pair_shares(runs["cpu"], runs["cc"]))
         info["target_share"] = 0.25
     benchmark.extra_info.update(info)
     print(info)

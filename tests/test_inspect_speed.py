@@ -222,3 +222,143 @@ def test_envelope_radius_test_equals_hypot_at_the_reach():
     assert 0 < np.count_nonzero(ref >= 500) < 3500     # points a few ulps off: both sides
     assert np.array_equal(rows[:kept], ref)
     assert np.array_equal(q[:kept], x[ref])
+
+
+# -----------------------------------------------------------------------------
+# the report's blocks in three passes, the row selections, the page switch
+def _old_block(d, band):
+    """One block by the separate functions (what the grouped passes replace)."""
+    m = moments(d, band)
+    p = percentiles(d, [5.0, 95.0], bounds=(m["min"], m["max"]))
+    pa = percentiles(d, [95.0], absolute=True, bounds=(0.0, max(-m["min"], m["max"])))
+    return m, p, pa
+
+
+@settings(max_examples=40, deadline=None)
+@given(st.integers(1, 3000), st.integers(0, 2**32 - 1), st.sampled_from([1.0, 1e-9, 0.0]),
+       st.booleans())
+@example(1024, 0, 1.0, False)
+@example(1, 1, 0.0, True)
+def test_group_blocks_equal_the_separate_functions_bit_for_bit(n, seed, scale, rounded):
+    from tipgeo.inspect.quantiles import by_group, group_blocks
+
+    rng = np.random.default_rng(seed)
+    d = rng.normal(0.0, 0.003, n) * scale
+    if rounded:
+        d = np.round(d, 4)       # ties
+    ids = rng.integers(0, 5, n).astype(np.int16)
+    gmap = np.array([0, 1, 2, 3, 0])
+    med, half = float(np.median(d)), 0.004
+    got = group_blocks(d, ids, gmap, 4, 0.002, trim=(med, half))
+    vals, start = by_group(d, ids, gmap, 4)
+    parts = [d] + [vals[start[g]:start[g + 1]] for g in range(4)] + \
+        [within_band(d, med, half)]
+    assert len(got) == len(parts)
+    for g, part in zip(got, parts):
+        assert g["count"] == len(part)
+        if not len(part):
+            continue
+        m, p, pa = _old_block(part, 0.002)
+        for k in ("mean", "std", "rms", "mean_abs", "min", "max", "within"):
+            assert g[k] == m[k], k            # the same arithmetic: equal, not close
+        assert np.array_equal(g["p"], p) and np.array_equal(g["p_abs"], pa)
+
+
+@settings(max_examples=30, deadline=None)
+@given(st.integers(0, 400), st.integers(0, 2**32 - 1), st.integers(1, 25))
+def test_row_selections_equal_numpy(n, seed, k):
+    from tipgeo.inspect.rowsfast import band_counts, count_rows, pick_rows, top_rows
+
+    rng = np.random.default_rng(seed)
+    face = rng.integers(0, 4, n).astype(np.int16)
+    feat = rng.integers(0, 3, n).astype(np.int8) * (rng.random(n) < 0.3)
+    d = np.round(rng.normal(0.0, 0.01, n), 3)
+    z = np.round(rng.random(n), 2).astype(np.float32)      # ties in z
+    half = 0.012
+    near = (d < half) & (d > -half)
+    labels = np.array([2, 0])
+    masks = [(face == lab) & near & (feat == 0) for lab in labels]
+    counts = count_rows(face, labels, d, half, feat)
+    assert counts.tolist() == [int(m.sum()) for m in masks]
+    ranks = np.zeros((2, 5), np.int64)
+    nrank = np.minimum(counts, 5)
+    for j in range(2):
+        ranks[j, :nrank[j]] = np.linspace(0, counts[j] - 1, nrank[j]).astype(int)
+    rows = pick_rows(face, labels, d, half, feat, ranks, nrank)
+    for j in range(2):
+        assert rows[j, :nrank[j]].tolist() == np.flatnonzero(masks[j])[ranks[j, :nrank[j]]].tolist()
+    # the k highest z near the surface, ties to the first rows
+    cand = np.flatnonzero(near)
+    want = sorted(cand[np.lexsort((cand, -z[cand]))][:k].tolist())
+    assert top_rows(z, d, half, k).tolist() == want
+    # shares per face (interior) and of the edges
+    band = np.array([0.001, 0.002, 0.005, 0.01])
+    cnt, within = band_counts(d, face, feat, 4, band, 0.003, True)
+    for f in range(4):
+        m = (face == f) & (feat == 0)
+        assert cnt[f] == m.sum() and within[f] == (np.abs(d[m]) <= band[f]).sum()
+    assert cnt[4] == (feat != 0).sum() and within[4] == (np.abs(d[feat != 0]) <= 0.003).sum()
+
+
+def test_ordinary_pages_restores_numpys_setting():
+    from tipgeo.inspect.pages import _setter, ordinary_pages
+
+    fn = _setter()
+    if fn is None:
+        pytest.skip("this numpy has no huge-page switch")
+    before = fn(True)
+    try:
+        with ordinary_pages():
+            assert fn(False) is False          # off inside
+        assert fn(True) is True                # back on after
+        fn(False)
+        with ordinary_pages():
+            pass
+        assert fn(False) is False              # off stays off
+    finally:
+        fn(before)
+
+
+@pytest.mark.parametrize("x", [[-1.7e308, 1.7e308, 0.0, 3.0], [1e-310, 2e-310, 3e-310, -4e-310],
+                               [0.0, 5e-324, 1e-320], [2.5, 2.5, 2.5]])
+def test_group_blocks_at_extreme_spans(x):
+    from tipgeo.inspect.quantiles import group_blocks
+
+    x = np.asarray(x)
+    g = group_blocks(x, None, np.zeros(0, np.int64), 0, 0.01)[0]
+    assert np.array_equal(g["p"], np.percentile(x, [5.0, 95.0]))
+    assert np.array_equal(g["p_abs"], np.percentile(np.abs(x), [95.0]))
+
+
+@settings(max_examples=40, deadline=None)
+@given(st.integers(1, 300), st.integers(0, 2**32 - 1), st.integers(1, 14),
+       st.sampled_from(["blob", "plane", "grid", "spread", "far"]))
+def test_knn_equals_scipys_tree(n, seed, k, shape):
+    from scipy.spatial import cKDTree
+
+    from tipgeo.inspect.knn import knn
+
+    rng = np.random.default_rng(seed)
+    p = rng.normal(size=(n, 3))
+    if shape == "plane":
+        p[:, 2] = 0.0                       # a flat cloud: one cell thick
+    elif shape == "grid":
+        p = np.round(p, 1)                  # equal distances and duplicates
+    elif shape == "spread":
+        p *= np.array([1e3, 1.0, 1e-6])     # very unequal extents
+    elif shape == "far":
+        p = np.round(p, 2) + 1e3            # far from the origin, on a lattice
+    k = min(k, n)
+    d, i = knn(p, k)
+    d_ref, i_ref = cKDTree(p).query(p, k=k)
+    d_ref = d_ref.reshape(n, k)
+    assert np.array_equal(d, d_ref)
+    # the neighbours at those distances: the same up to the order of ties
+    assert np.array_equal(np.linalg.norm(p[i] - p[:, None, :], axis=2), d)
+
+
+def test_knn_refuses_k_beyond_the_points():
+    from tipgeo.inspect.knn import knn
+
+    with pytest.raises(ValueError, match="k = 4"):
+        knn(np.zeros((3, 3)), 4)

@@ -50,10 +50,11 @@ from ..errors import NotThisTip, SpecError
 from ..tolerances import tol
 from .cad import CadModel, load_cad
 from .checks import check_geometry, check_match
-from .deviation import histogram, statistics, trimmed
+from .deviation import histogram, statistics
 from .exact import Distances
 from .measure import measure
 from .meshdist import MeshSolid
+from .pages import ordinary_pages
 from .register import Registration, apply, register
 from .scanio import Scan, ScanError, check_points, load_scan
 from .transform import check_transform
@@ -344,6 +345,8 @@ def _deviations(model: CadModel, local: AnyArray, T: FloatArray, *, z_min: float
 
     q_buf = np.empty((min(chunk, m), 3))
     r_buf = np.empty(min(chunk, m), np.int64)
+    # the exact query's work buffers, reused by every chunk
+    work = mesh.work_buffers(min(chunk, m)) if mesh is not None else None
     R, t = np.ascontiguousarray(T[:3, :3], float), np.ascontiguousarray(T[:3, 3], float)
     for i in range(0, m, chunk):
         # R x + t, the crop and the envelope in one compiled pass (float64)
@@ -359,7 +362,7 @@ def _deviations(model: CadModel, local: AnyArray, T: FloatArray, *, z_min: float
         if mesh is not None:  # into the results directly
             cur, near = mesh.distances_into(
                 q, r, far=max_distance, near=tol.inspect.match_distance,
-                out=(P, dist, clo, nrm, face, feat, rows), cur=cur, tri=tri)
+                out=(P, dist, clo, nrm, face, feat, rows), cur=cur, tri=tri, work=work)
             cnt["match"] += near
             continue
         D = model.distances(q)
@@ -709,8 +712,8 @@ def stage_deviate(loaded: Loaded, placed: Placed, *, tolerance: float = 0.01,
                         "registration?")
     say(f"deviations in {timings['deviations']:.2f} s")
     t = _now()
-    stats = statistics(dist.distance, dist.face, tolerance, names=dist.labels)
-    stats["trimmed"] = trimmed(dist.distance, tolerance, sigmas=tol.inspect.trim_sigmas)
+    stats = statistics(dist.distance, dist.face, tolerance, names=dist.labels,
+                       trim_sigmas=tol.inspect.trim_sigmas)
     stats["histogram"] = histogram(dist.distance, lo_h, hi_h, tol.inspect.histogram_bins)
     timings["statistics"] = _lap(cpu, "statistics", t)
     t = _now()
@@ -953,19 +956,21 @@ def compare(scan: Scan | str | Path | AnyArray, cad: Any, *, tolerance: float = 
     T0 = None if init_transform is None else check_transform(init_transform, "init_transform")
     _check_crop(z_min, max_distance)
     rule = acceptance if acceptance is not None else default_rule(tolerance)
-    t0 = _now()
-    loaded = stage_load(scan, cad, units=units, voxel=voxel, outliers=outliers,
-                        register_scan=register_scan, progress=say)
-    placed = stage_register(loaded, register_scan=register_scan, init_transform=T0, seed=seed,
-                            allow_mismatch=allow_mismatch, progress=say)
-    deviated = stage_deviate(loaded, placed, tolerance=tolerance, z_min=z_min,
-                             max_distance=max_distance, histogram_range=rng or (-scale, scale),
-                             progress=say)
-    verified = stage_verify(loaded, placed, deviated, allow_mismatch=allow_mismatch)
-    res = Comparison.from_stages(loaded, placed, deviated, verified, colour_scale=scale,
-                                 colour_range=rng, colormap=colormap)
-    stage_decide(res, rule, angles=angles, edge_band=edge_band, progress=say)
-    res.timings["total"] = _lap(res.cpu_timings, "total", t0)
-    if out is not None:
-        stage_report(res, out, pictures=pictures, progress=say)
+    # fresh per-point arrays on ordinary pages, not compacted huge ones (.pages)
+    with ordinary_pages():
+        t0 = _now()
+        loaded = stage_load(scan, cad, units=units, voxel=voxel, outliers=outliers,
+                            register_scan=register_scan, progress=say)
+        placed = stage_register(loaded, register_scan=register_scan, init_transform=T0,
+                                seed=seed, allow_mismatch=allow_mismatch, progress=say)
+        deviated = stage_deviate(loaded, placed, tolerance=tolerance, z_min=z_min,
+                                 max_distance=max_distance,
+                                 histogram_range=rng or (-scale, scale), progress=say)
+        verified = stage_verify(loaded, placed, deviated, allow_mismatch=allow_mismatch)
+        res = Comparison.from_stages(loaded, placed, deviated, verified, colour_scale=scale,
+                                     colour_range=rng, colormap=colormap)
+        stage_decide(res, rule, angles=angles, edge_band=edge_band, progress=say)
+        res.timings["total"] = _lap(res.cpu_timings, "total", t0)
+        if out is not None:
+            stage_report(res, out, pictures=pictures, progress=say)
     return res

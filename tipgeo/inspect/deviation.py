@@ -22,21 +22,22 @@ STAT_KEYS = ("count", "mean_um", "std_um", "rms_um", "min_um", "max_um", "p5_um"
 
 
 def _block(d: np.ndarray, tol: float) -> dict[str, Any]:
-    if not len(d):
-        return {k: None for k in STAT_KEYS} | {"count": 0}
-    from .quantiles import moments, percentiles  # numba: imported where used
+    from .quantiles import group_blocks  # numba: imported where used
 
-    # two compiled passes for the moments and one or two for the
-    # percentiles: no full-size temporary
-    m = moments(d, tol)
+    return _as_block(group_blocks(d, None, np.zeros(0, np.int64), 0, tol)[0], tol)
+
+
+def _as_block(m: dict[str, Any], tol: float) -> dict[str, Any]:
+    """A :data:`STAT_KEYS` block (µm) of one group of
+    :func:`tipgeo.inspect.quantiles.group_blocks` (P5, P95 of d; P95 of |d|)."""
     n = m["count"]
-    p5, p95 = percentiles(d, [5.0, 95.0], bounds=(m["min"], m["max"])) * 1e3
-    pa95 = float(percentiles(d, [95.0], absolute=True,
-                             bounds=(0.0, max(-m["min"], m["max"])))[0]) * 1e3
-    return {"count": int(n), "mean_um": m["mean"] * 1e3, "std_um": m["std"] * 1e3,
+    if not n:
+        return {k: None for k in STAT_KEYS} | {"count": 0}
+    p5, p95 = m["p"] * 1e3
+    return {"count": int(n), "mean_um": float(m["mean"]) * 1e3, "std_um": m["std"] * 1e3,
             "rms_um": m["rms"] * 1e3, "min_um": float(m["min"]) * 1e3,
             "max_um": float(m["max"]) * 1e3, "p5_um": float(p5), "p95_um": float(p95),
-            "mean_abs_um": m["mean_abs"] * 1e3, "p95_abs_um": pa95,
+            "mean_abs_um": float(m["mean_abs"]) * 1e3, "p95_abs_um": float(m["p_abs"][0] * 1e3),
             "within_tol_share": m["within"] / n}
 
 
@@ -45,7 +46,8 @@ def _order(name: str) -> tuple[bool, str]:
 
 
 def statistics(distance: AnyArray, labels: AnyArray, tolerance: float, *,
-               names: Sequence[str] | None = None) -> dict[str, Any]:
+               names: Sequence[str] | None = None,
+               trim_sigmas: float | None = None) -> dict[str, Any]:
     """Statistics of signed deviations.
 
     Parameters
@@ -56,32 +58,61 @@ def statistics(distance: AnyArray, labels: AnyArray, tolerance: float, *,
         ``compare`` passes for large scans)
     tolerance : float — ± band for ``within_tol_share`` (mm)
     names : sequence of str, optional — the face labels ``labels`` index
+    trim_sigmas : float, optional — also the ``trimmed`` block
+        (:func:`trimmed`), from the same passes over the deviations
 
     Returns
     -------
-    dict — ``all`` and ``regions`` (label → block); each block has
-    :data:`STAT_KEYS` (mean, std (population), RMS, min, max, P5, P95 in µm;
-    percentiles by linear interpolation; share of |d| ≤ tolerance).
+    dict — ``all`` and ``regions`` (label → block), and ``trimmed`` when
+    asked; each block has :data:`STAT_KEYS` (mean, std (population), RMS,
+    min, max, P5, P95 in µm; percentiles by linear interpolation; share of
+    |d| ≤ tolerance). All blocks come from three compiled passes over the
+    deviations (:func:`tipgeo.inspect.quantiles.group_blocks`), no copy per face.
     """
-    d = np.asarray(distance, float)
-    regions: dict[str, dict[str, Any]] = {}
-    out = {"tolerance_um": tolerance * 1e3, "all": _block(d, tolerance), "regions": regions}
+    from .quantiles import group_blocks
+
+    d = np.ascontiguousarray(distance, float)
     if names is None:
         lab = np.asarray(labels, dtype=object)
-        for name in sorted(set(lab.tolist()), key=_order):
-            regions[name] = _block(d[lab == name], tolerance)
-        return out
-    from .quantiles import by_group
+        order = sorted(set(lab.tolist()), key=_order)
+        at = {name: i for i, name in enumerate(order)}
+        ids = np.array([at[v] for v in lab.tolist()], np.int64)
+        gmap = np.arange(len(order), dtype=np.int64)
+    else:
+        ids = np.asarray(labels)
+        # one group per face name (several ids may share one)
+        order = sorted({str(nm) for nm in names}, key=_order)
+        gmap = np.array([order.index(str(nm)) for nm in names], np.int64)
+    trim = _trim_band(d, trim_sigmas) if trim_sigmas is not None else None
+    band = None if trim is None or trim_sigmas is None else (trim[0], trim_sigmas * trim[1])
+    raw = group_blocks(d, ids, gmap, len(order), tolerance, trim=band)
+    regions = {name: _as_block(raw[1 + g], tolerance) for g, name in enumerate(order)
+               if raw[1 + g]["count"]}
+    out = {"tolerance_um": tolerance * 1e3, "all": _as_block(raw[0], tolerance),
+           "regions": regions}
+    if trim is not None and trim_sigmas is not None:
+        out["trimmed"] = _trimmed_block(raw[-1], len(d), tolerance, trim_sigmas, *trim)
+    return out
 
-    ids = np.asarray(labels)
-    # one group per face name (several ids may share one), the values
-    # grouped in one copy rather than a mask and a copy per face
-    order = sorted({str(nm) for nm in names}, key=_order)
-    gmap = np.array([order.index(str(nm)) for nm in names], np.int64)
-    vals, start = by_group(d, ids, gmap, len(order))
-    for g, name in enumerate(order):
-        if start[g + 1] > start[g]:
-            regions[name] = _block(vals[start[g]:start[g + 1]], tolerance)
+
+def _trim_band(d: np.ndarray, sigmas: float) -> tuple[float, float, int]:
+    """(median, robust σ, stride) of the trimmed block (:func:`trimmed`)."""
+    # the band from an evenly strided sample of at most 2^20 deviations (a
+    # robust scale needs no more; large scans skip two full partitions)
+    step = max(1, len(d) >> 20)
+    s = d[::step]
+    med = float(np.median(s)) if len(s) else 0.0
+    sigma = 1.4826 * float(np.median(np.abs(s - med))) if len(s) else 0.0
+    return med, sigma, step
+
+
+def _trimmed_block(raw: dict[str, Any], n: int, tolerance: float, sigmas: float, med: float,
+                   sigma: float, step: int) -> dict[str, Any]:
+    out = _as_block(raw, tolerance)
+    of = "every point" if step == 1 else f"every {step}th point"
+    out.update({"rule": f"|d - median| <= {sigmas:g} x 1.4826 MAD (median and MAD of {of})",
+                "median_um": med * 1e3, "robust_sigma_um": sigma * 1e3,
+                "trimmed_share": 1.0 - float(raw["count"]) / max(n, 1)})
     return out
 
 
@@ -98,22 +129,13 @@ def trimmed(distance: np.ndarray, tolerance: float, *, sigmas: float) -> dict[st
     tolerance : float — ± band for ``within_tol_share`` (mm)
     sigmas : float — half-width of the kept band in robust σ
     """
-    d = np.asarray(distance, float)
-    # the band from an evenly strided sample of at most 2^20 deviations (a
-    # robust scale needs no more; large scans skip two full partitions)
-    step = max(1, len(d) >> 20)
-    s = d[::step]
-    med = float(np.median(s)) if len(s) else 0.0
-    sigma = 1.4826 * float(np.median(np.abs(s - med))) if len(s) else 0.0
-    from .quantiles import within_band
+    from .quantiles import group_blocks
 
-    kept = within_band(d, med, sigmas * sigma)
-    out = _block(kept, tolerance)
-    of = "every point" if step == 1 else f"every {step}th point"
-    out.update({"rule": f"|d - median| <= {sigmas:g} x 1.4826 MAD (median and MAD of {of})",
-                "median_um": med * 1e3, "robust_sigma_um": sigma * 1e3,
-                "trimmed_share": 1.0 - float(len(kept)) / max(len(d), 1)})
-    return out
+    d = np.ascontiguousarray(distance, float)
+    med, sigma, step = _trim_band(d, sigmas)
+    raw = group_blocks(d, None, np.zeros(0, np.int64), 0, tolerance,
+                       trim=(med, sigmas * sigma))
+    return _trimmed_block(raw[-1], len(d), tolerance, sigmas, med, sigma, step)
 
 
 def histogram(distance: np.ndarray, lo: float, hi: float, bins: int) -> dict[str, Any]:

@@ -134,8 +134,8 @@ def _sigma(res: Any) -> float:
     """The scan's noise (mm): the robust scale of the deviations on the walls
     (where any tube fits), else of all points."""
     d = res.distances
-    labels = np.asarray(d.labels, dtype=object)
-    wall = np.isin(labels[d.face], ["outer", "inner"]) & (d.feature == 0)
+    walls = [k for k, name in enumerate(d.labels) if name in ("outer", "inner")]
+    wall = np.isin(d.face, walls) & (d.feature == 0)   # by face index: no string per point
     r = d.distance[wall] if np.count_nonzero(wall) >= 100 else d.distance
     return float(max(1.4826 * np.median(np.abs(r - np.median(r))), tol.inspect.sigma_floor))
 
@@ -344,8 +344,8 @@ def _rim_zone(res: Any) -> Any:
     """The scan's points nearest the CAD's cut faces, near the wall and near
     the CAD (mask)."""
     d = res.distances
-    labels = np.asarray(d.labels, dtype=object)
-    cut = np.char.startswith(labels[d.face].astype(str), "cut")
+    # by face index: no string per point
+    cut = np.isin(d.face, [k for k, name in enumerate(d.labels) if str(name).startswith("cut")])
     rho = np.hypot(res.points[:, 0], res.points[:, 1])
     ring = (rho > res.cad.r_i - 0.1) & (rho < res.cad.r_o + 0.1)
     return cut & ring & (np.abs(d.distance) < 0.5)

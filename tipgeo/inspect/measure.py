@@ -19,7 +19,7 @@ from typing import Any
 
 import numpy as np
 
-from ..arrays import AnyArray, BoolArray, FloatArray
+from ..arrays import AnyArray, BoolArray, FloatArray, IntArray
 from ..tolerances import tol
 from .register import fit_cylinder
 
@@ -154,19 +154,16 @@ def measure(points: AnyArray, dist: Any, cad: Any, *, min_points: int = 50,
     # fits take every point of a face that is not far off (robust fits drop
     # the rest): a bevel ground 0.5° off lies up to ~70 µm from the CAD plane
     half = 0.5 * (cad.r_o - cad.r_i)
-    near = (d < half) & (d > -half)      # |d| < half, with no |d| array
-    flat = dist.feature == 0
+    near = _Near(d, half)
     ez = np.array([0.0, 0.0, 1.0])
     axis_pt, axis_dir = np.zeros(3), ez
+    wall_rows = _wall_rows(dist, labels, half)
     for wall, r_nom in (("outer", cad.r_o), ("inner", cad.r_i)):
-        sel = on(wall) & near & flat
-        if sel.sum() < min_points:
+        count, idx = wall_rows[wall]
+        if count < min_points:
             out[wall] = None
-            out["notes"].append(f"{wall} wall: {int(sel.sum())} points, too few to fit")
+            out["notes"].append(f"{wall} wall: {count} points, too few to fit")
             continue
-        idx = np.flatnonzero(sel)
-        if len(idx) > 20000:
-            idx = idx[np.linspace(0, len(idx) - 1, 20000).astype(int)]
         pt, a, r, rms = fit_cylinder(np.asarray(points[idx], np.float64), ez, np.zeros(3),
                                      r_nom, scale=0.002)
         if a @ ez < 0:
@@ -175,7 +172,7 @@ def measure(points: AnyArray, dist: Any, cad: Any, *, min_points: int = 50,
                      "error_um": (2 * r - 2 * r_nom) * 1e3, "fit_rms_um": rms * 1e3,
                      "axis_point_mm": pt.tolist(), "axis_direction": a.tolist(),
                      "axis_tilt_deg": math.degrees(math.acos(min(1.0, a @ ez))),
-                     "points": int(sel.sum())}
+                     "points": count}
         if wall == "outer":
             axis_pt, axis_dir = pt, a
     if out["outer"] is None:
@@ -187,7 +184,7 @@ def measure(points: AnyArray, dist: Any, cad: Any, *, min_points: int = 50,
     fitted = []
     for label, plane in planes.items():
         k = cad.labels.index(label) if label in cad.labels else None
-        sel = on(label) & near & flat
+        sel = on(label) & near.mask() & (dist.feature == 0)
         if k is not None and sel.any() and not hasattr(cad.engine, "face_values"):
             # a meshed CAD (no analytic faces to measure the distance to the
             # edges by): the points whose closest CAD point is inside a face
@@ -240,20 +237,63 @@ def measure(points: AnyArray, dist: Any, cad: Any, *, min_points: int = 50,
     return out
 
 
-def _highest(z: np.ndarray, mask: np.ndarray, k: int) -> np.ndarray:
-    """Indices of the k highest ``z`` where ``mask`` holds (all of them when
-    fewer; at a tie the first rows), by a partition of the values alone and
-    no index array over all the points."""
-    zm = np.where(mask, z, -np.inf)
-    m = int(np.count_nonzero(mask))
-    if m <= k:
-        return np.flatnonzero(mask)
-    thr = np.partition(zm, len(zm) - k)[len(zm) - k]     # the k-th highest
-    above = np.flatnonzero(zm > thr)
-    return np.sort(np.concatenate([above, np.flatnonzero(zm == thr)[:k - len(above)]]))
+class _Near:
+    """The points with |d| < half (mm): the bounds, and their mask made on
+    first use (the mesh path never needs it)."""
+
+    def __init__(self, d: AnyArray, half: float) -> None:
+        self.d, self.half = d, half
+        self._mask: BoolArray | None = None
+
+    def mask(self) -> BoolArray:
+        if self._mask is None:
+            self._mask = (self.d < self.half) & (self.d > -self.half)  # no |d| array
+        return self._mask
 
 
-def _tip(points: AnyArray, d: Any, near: BoolArray, fitted: list[Any] | None,
+#: rows of a wall's cylinder fit (evenly spaced among the wall's points)
+_WALL_ROWS = 20000
+
+
+def _wall_rows(dist: Any, labels: tuple[str, ...],
+               half: float) -> dict[str, tuple[int, IntArray]]:
+    """The points of each wall's fit (outer, inner): those whose closest CAD
+    point lies inside the wall's faces (feature 0) with |d| < half (mm) —
+    their count and their rows, at most :data:`_WALL_ROWS` evenly spaced
+    ones (``flatnonzero(mask)[linspace(0, count - 1, _WALL_ROWS).astype(int)]``)
+    — in two compiled passes for both and no (n,) mask."""
+    from .rowsfast import count_rows, pick_rows
+
+    walls = [w for w in ("outer", "inner") if w in labels]
+    out: dict[str, tuple[int, IntArray]] = {w: (0, np.zeros(0, np.int64))
+                                            for w in ("outer", "inner")}
+    if not walls:
+        return out
+    ids = np.array([labels.index(w) for w in walls], np.int64)
+    args = (np.ascontiguousarray(dist.face), ids, np.ascontiguousarray(dist.distance, float),
+            float(half), np.ascontiguousarray(dist.feature))
+    counts = count_rows(*args)
+    ranks = np.zeros((len(walls), _WALL_ROWS), np.int64)
+    for j, c in enumerate(counts):
+        r = np.arange(c) if c <= _WALL_ROWS else np.linspace(0, c - 1, _WALL_ROWS).astype(int)
+        ranks[j, :len(r)] = r
+    nrank = np.minimum(counts, _WALL_ROWS).astype(np.int64)
+    rows = pick_rows(*args, ranks, nrank)
+    for j, w in enumerate(walls):
+        out[w] = (int(counts[j]), rows[j, :nrank[j]])
+    return out
+
+
+def _highest(z: np.ndarray, near: _Near, k: int) -> np.ndarray:
+    """Indices of the k highest ``z`` of the points near the surface (all
+    of them when fewer; at a tie the first rows), increasing: one compiled
+    pass keeping the k best."""
+    from .rowsfast import top
+
+    return top(z, near.d, near.half, k)
+
+
+def _tip(points: AnyArray, d: Any, near: _Near, fitted: list[Any] | None,
          planes: dict[str, Any], axis_pt: FloatArray, axis_dir: FloatArray, out: dict[str, Any],
          cad: Any) -> dict[str, Any] | None:
     r_o = out["outer"]["diameter_mm"] / 2 if out.get("outer") else cad.r_o

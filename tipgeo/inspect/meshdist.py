@@ -330,7 +330,8 @@ class MeshSolid:
 
     def distances_into(self, points: AnyArray, rows: IntArray, *, far: float, near: float,
                        out: tuple[AnyArray, ...], cur: int,
-                       tri: AnyArray | None = None) -> tuple[int, int]:
+                       tri: AnyArray | None = None,
+                       work: tuple[AnyArray, AnyArray] | None = None) -> tuple[int, int]:
         """:meth:`distances` of the points (mm), appended to a scan's result
         arrays from row ``cur`` on where |d| ≤ ``far`` (mm), with no
         temporary per point (what ``compare`` uses).
@@ -346,6 +347,9 @@ class MeshSolid:
             int8, rows (m,) int); closest and normal with no rows: not
             written (:meth:`closest_normals` gives them later)
         tri : (m,) int, optional — receives each kept point's triangle
+        work : (int64, float64) arrays, optional — work buffers of at least
+            :meth:`work_sizes` of the chunk (a caller running chunk after
+            chunk passes the same ones: no fresh memory per chunk)
 
         Returns
         -------
@@ -357,12 +361,29 @@ class MeshSolid:
         index = self._build()
         # one compiled call: spatial order, nearest search, signed distances
         P, dist, clo, nrm, face, feat, out_rows = out
+        bits = self._bits(len(p))
+        iw, fw = work if work is not None else self.work_buffers(len(p))
+        if len(iw) < self.work_sizes(len(p))[0] or len(fw) < self.work_sizes(len(p))[1]:
+            raise ValueError("distances_into: work buffers smaller than work_sizes()")
         run: Callable[..., tuple[int, int]] = nearest_signed_into
         done = run(
-            p, rows, self._bits(len(p)), *index.args, index.parent, self.PT, self.f, self.fn,
+            p, rows, bits, *index.args, index.parent, self.PT, self.f, self.fn,
             self.en, self.vn, tol.inspect.feature_eps, self.label_ids, far, near, P, dist, clo,
-            nrm, np.empty(0, np.int32) if tri is None else tri, face, feat, out_rows, cur)
+            nrm, np.empty(0, np.int32) if tri is None else tri, face, feat, out_rows, cur, iw, fw)
         return done
+
+    def work_sizes(self, n: int) -> tuple[int, int]:
+        """Lengths of the (int64, float64) work buffers of
+        :meth:`distances_into` for chunks of up to ``n`` points."""
+        from .nearest import work_sizes
+
+        return work_sizes(n, self._bits(n))
+
+    def work_buffers(self, n: int) -> tuple[AnyArray, AnyArray]:
+        """Work buffers for :meth:`distances_into` on chunks of up to ``n``
+        points (any chunk of at most n points fits: the sizes grow with n)."""
+        a, b = self.work_sizes(n)
+        return np.empty(a, np.int64), np.empty(b)
 
     def closest_normals(self, x: AnyArray, rows: IntArray, T: FloatArray, tri: IntArray,
                         dtype: Any = np.float32) -> tuple[AnyArray, AnyArray]:

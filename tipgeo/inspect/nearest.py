@@ -31,7 +31,7 @@ from ..arrays import AnyArray, FloatArray, IntArray
 from ..tolerances import tol
 
 __all__ = ["grid_lists", "nearest_signed_into", "nearest_triangles",
-           "signed_query", "signed_rows", "spatial_order", "transform_envelope"]
+           "signed_query", "signed_rows", "spatial_order", "transform_envelope", "work_sizes"]
 
 
 @njit(cache=True, fastmath=False, nogil=True, inline="always")
@@ -175,16 +175,27 @@ def nearest_triangles(p: AnyArray, order: AnyArray, box: AnyArray, first_leaf: i
     """
     n = p.shape[0]
     best = np.empty(n, np.int64)
+    _nearest_into(p, order, box, first_leaf, start, stop, T, origin, cell, dims, cstart,
+                  cprim, reach2, np.empty((n, 3)), np.empty(n, np.int64), best)
+    return best
+
+
+@njit(cache=True, fastmath=False, nogil=True)
+def _nearest_into(p: AnyArray, order: AnyArray, box: AnyArray, first_leaf: int,
+                  start: AnyArray, stop: AnyArray, T: AnyArray, origin: AnyArray,
+                  cell: float, dims: AnyArray, cstart: AnyArray, cprim: AnyArray,
+                  reach2: float, ps: AnyArray, bs: AnyArray, best: AnyArray) -> None:
+    """:func:`nearest_triangles` into ``best`` ((n,) int), with the work
+    buffers ``ps`` ((≥ n, 3) float) and ``bs`` ((≥ n,) int) given."""
+    n = p.shape[0]
     stack = np.empty(256, np.int64)
     # the points gathered in visiting order first: one pass of independent
     # loads, then a sequential walk (about 40 % faster than reading p[order[j]]
     # inside the search)
-    ps = np.empty((n, 3))
     for j in range(n):
         i = order[j]
         ps[j, 0], ps[j, 1], ps[j, 2] = p[i, 0], p[i, 1], p[i, 2]
     prev = 0
-    bs = np.empty(n, np.int64)
     for j in range(n):
         px, py, pz = ps[j, 0], ps[j, 1], ps[j, 2]
         bt = prev
@@ -209,7 +220,6 @@ def nearest_triangles(p: AnyArray, order: AnyArray, box: AnyArray, first_leaf: i
         prev = bt
     for j in range(n):
         best[order[j]] = bs[j]
-    return best
 
 
 @njit(cache=True, fastmath=False, nogil=True)
@@ -251,8 +261,18 @@ def spatial_order(p: AnyArray, bits: int) -> IntArray:
     a counting sort, O(n + 8**bits)."""
     n = p.shape[0]
     order = np.empty(n, np.int64)
+    _order_into(p, bits, order, np.empty(n, np.int64),
+                np.empty((1 << (3 * bits)) + 1, np.int64))
+    return order
+
+
+@njit(cache=True, fastmath=False, nogil=True)
+def _order_into(p: AnyArray, bits: int, order: AnyArray, key: AnyArray, count: AnyArray) -> None:
+    """:func:`spatial_order` into ``order`` ((n,) int), with the work buffers
+    ``key`` ((≥ n,) int) and ``count`` ((≥ 8**bits + 1,) int, any content)."""
+    n = p.shape[0]
     if n == 0:
-        return order
+        return
     lo = np.empty(3)
     hi = np.empty(3)
     for c in range(3):
@@ -269,8 +289,7 @@ def spatial_order(p: AnyArray, bits: int) -> IntArray:
     for q in range(1 << bits):
         for j in range(bits):
             spread[q] |= ((q >> j) & 1) << (3 * j)
-    key = np.empty(n, np.int64)
-    count = np.zeros((1 << (3 * bits)) + 1, np.int64)
+    count[:(1 << (3 * bits)) + 1] = 0
     top = (1 << bits) - 1
     for i in range(n):
         code = 0
@@ -280,12 +299,11 @@ def spatial_order(p: AnyArray, bits: int) -> IntArray:
             code |= spread[q] << c
         key[i] = code
         count[code + 1] += 1
-    for j in range(1, count.shape[0]):
+    for j in range(1, (1 << (3 * bits)) + 1):
         count[j] += count[j - 1]
     for i in range(n):
         order[count[key[i]]] = i
         count[key[i]] += 1
-    return order
 
 
 @njit(cache=True, fastmath=False, nogil=True, inline="always")
@@ -373,7 +391,8 @@ def nearest_signed_into(p: AnyArray, rows: AnyArray, bits: int, box: AnyArray, f
                         fn: AnyArray, en: AnyArray, vn: AnyArray, eps: float, label: AnyArray,
                         far: float, near: float, P: AnyArray, dist: AnyArray, clo: AnyArray,
                         nrm: AnyArray, tri: AnyArray, face: AnyArray, feat: AnyArray,
-                        out_rows: AnyArray, cur: int) -> tuple[int, int]:
+                        out_rows: AnyArray, cur: int, iw: AnyArray,
+                        fw: AnyArray) -> tuple[int, int]:
     """The nearest triangle of every point and its signed distance in one
     compiled call (what ``compare`` runs per chunk): the points are put in
     :func:`spatial_order` (``bits``), searched by :func:`nearest_triangles`
@@ -386,16 +405,20 @@ def nearest_signed_into(p: AnyArray, rows: AnyArray, bits: int, box: AnyArray, f
     corners are rows of ``PT``; ``f``, ``fn``, ``en``, ``vn``, ``eps`` as in
     :func:`signed_query`. ``clo`` and ``nrm`` with no rows are not written
     (:func:`signed_rows` gives them later); ``tri`` with rows receives each
-    point's triangle.
+    point's triangle. ``iw`` (int64) and ``fw`` (float64) are work buffers
+    of at least :func:`work_sizes` (reused from chunk to chunk: no fresh
+    memory per call).
 
     Returns
     -------
     cur : int — rows filled after this call
     near_count : int — points with |d| ≤ ``near``
     """
-    order = spatial_order(p, bits)
-    best = nearest_triangles(p, order, box, first_leaf, start, stop, T, origin, cell, dims,
-                             cstart, cprim, reach2)
+    n = p.shape[0]
+    order, bs, best = iw[:n], iw[n:2 * n], iw[2 * n:3 * n]
+    _order_into(p, bits, order, bs, iw[3 * n:])
+    _nearest_into(p, order, box, first_leaf, start, stop, T, origin, cell, dims, cstart,
+                  cprim, reach2, fw[:3 * n].reshape((n, 3)), bs, best)
     nn = 0
     for i in range(p.shape[0]):
         k = parent[best[i]]
@@ -438,6 +461,13 @@ def signed_rows(x: AnyArray, rows: AnyArray, R: AnyArray, t: AnyArray, tri: AnyA
         _, cx, cy, cz, nx, ny, nz, _ = _signed(qx, qy, qz, tri[j], PT, f, fn, en, vn, eps)
         clo[j, 0], clo[j, 1], clo[j, 2] = cx, cy, cz
         nrm[j, 0], nrm[j, 1], nrm[j, 2] = nx, ny, nz
+
+
+def work_sizes(n: int, bits: int) -> tuple[int, int]:
+    """Lengths of the int64 and float64 work buffers of
+    :func:`nearest_signed_into` for chunks of up to ``n`` points ordered
+    with ``bits`` Morton bits."""
+    return 3 * n + (1 << (3 * bits)) + 1, 3 * n
 
 
 #: tol.inspect.hypot_margin, a compile-time constant of the compiled loop below.

@@ -23,7 +23,8 @@ from numba import njit
 
 from ..arrays import ArrayLike, FloatArray, IntArray
 
-__all__ = ["by_group", "histogram_counts", "moments", "percentiles", "within_band"]
+__all__ = ["by_group", "group_blocks", "histogram_counts", "moments", "percentiles",
+           "within_band"]
 
 _BUCKETS = 1 << 12   # the count table stays in the L1 cache
 
@@ -281,4 +282,297 @@ def histogram_counts(x: FloatArray, lo: float, hi: float,
 def within_band(x: np.ndarray, centre: float, half: float) -> np.ndarray:
     """The values of ``x`` ((n,) float) with |x − centre| ≤ half, in order."""
     out: FloatArray = _band(np.ascontiguousarray(x, float), float(centre), float(half))
+    return out
+
+
+# -----------------------------------------------------------------------------
+# every block of a deviation report in three passes
+#
+# A "block" (count, moments, signed and |x| percentiles) of each group —
+# all values, each face, the trimmed band — used to take about six passes a
+# group over a copy of its values; here three passes over the values in
+# place serve every group at once. The arithmetic per group is that of
+# :func:`moments` and :func:`percentiles` on the group's values in input
+# order (sums in blocks of 1024 of the group's own values, the same buckets
+# and the same exact order statistics), so the figures are the same bit for bit.
+
+_BLOCK = 1024
+
+
+@njit(cache=True, nogil=True)
+def _group_moments(x: FloatArray, gid: IntArray, gmap: IntArray, ngroup: int, trim: bool,
+                   centre: float, half: float, band: float) -> tuple[FloatArray, IntArray]:
+    """Pass 1: per group (0 all, 1.. faces, last trimmed when ``trim``) Σx,
+    Σ|x|, Σx², min, max (columns of the float result) and count, count
+    within ±band (columns of the int result)."""
+    G = ngroup + 2 if trim else ngroup + 1
+    f = np.zeros((G, 5))
+    c = np.zeros((G, 2), np.int64)
+    part = np.zeros((G, 3))
+    inblk = np.zeros(G, np.int64)
+    for g in range(G):
+        f[g, 3] = np.inf
+        f[g, 4] = -np.inf
+    grp = np.empty(3, np.int64)
+    for i in range(x.shape[0]):
+        v = x[i]
+        a = abs(v)
+        m = 1
+        grp[0] = 0
+        if gid.shape[0]:
+            grp[1] = 1 + gmap[gid[i]]
+            m = 2
+        if trim and abs(v - centre) <= half:
+            grp[m] = G - 1
+            m += 1
+        for j in range(m):
+            g = grp[j]
+            part[g, 0] += v
+            part[g, 1] += a
+            part[g, 2] += v * v
+            if a <= band:
+                c[g, 1] += 1
+            f[g, 3] = min(f[g, 3], v)
+            f[g, 4] = max(f[g, 4], v)
+            c[g, 0] += 1
+            inblk[g] += 1
+            if inblk[g] == _BLOCK:
+                f[g, 0] += part[g, 0]
+                f[g, 1] += part[g, 1]
+                f[g, 2] += part[g, 2]
+                part[g, 0] = part[g, 1] = part[g, 2] = 0.0
+                inblk[g] = 0
+    for g in range(G):
+        if inblk[g]:
+            f[g, 0] += part[g, 0]
+            f[g, 1] += part[g, 1]
+            f[g, 2] += part[g, 2]
+    return f, c
+
+
+@njit(cache=True, nogil=True)
+def _group_spread(x: FloatArray, gid: IntArray, gmap: IntArray, trim: bool, centre: float,
+                  half: float, mean: FloatArray, lo: FloatArray, scale: FloatArray,
+                  nb: IntArray) -> tuple[FloatArray, IntArray]:
+    """Pass 2: per group Σ(x − mean)² (blocked as pass 1) and the bucket
+    counts of x and of |x| (kinds 0 and 1: ``lo``, ``scale``, ``nb`` per
+    kind, one bucketing for every group: the order statistics are exact for
+    any buckets that hold the values; nb 0: not counted), cumulated:
+    count[g, k, b] is the number of the group's values in buckets before b.
+    The whole's counts are the sum of its groups' when there are groups."""
+    G = mean.shape[0]
+    ss = np.zeros(G)
+    part = np.zeros(G)
+    inblk = np.zeros(G, np.int64)
+    count = np.zeros((G, 2, _BUCKETS + 1), np.int64)
+    grp = np.empty(3, np.int64)
+    faces = gid.shape[0] > 0
+    for i in range(x.shape[0]):
+        v = x[i]
+        m = 1
+        grp[0] = 0
+        if faces:
+            grp[1] = 1 + gmap[gid[i]]
+            m = 2
+        if trim and abs(v - centre) <= half:
+            grp[m] = G - 1
+            m += 1
+        for j in range(m):
+            g = grp[j]
+            w = v - mean[g]
+            part[g] += w * w
+            inblk[g] += 1
+            if inblk[g] == _BLOCK:
+                ss[g] += part[g]
+                part[g] = 0.0
+                inblk[g] = 0
+        bs = _bucket(v, lo[0], scale[0], nb[0]) + 1 if nb[0] else 0
+        ba = _bucket(abs(v), lo[1], scale[1], nb[1]) + 1 if nb[1] else 0
+        for j in range(1 if faces else 0, m):
+            count[grp[j], 0, bs] += 1
+            count[grp[j], 1, ba] += 1
+    if faces:
+        for g in range(1, G - 1 if trim else G):
+            for k in range(2):
+                for b in range(_BUCKETS + 1):
+                    count[0, k, b] += count[g, k, b]
+    for g in range(G):
+        if inblk[g]:
+            ss[g] += part[g]
+        for k in range(2):
+            for b in range(nb[k]):
+                count[g, k, b + 1] += count[g, k, b]
+    return ss, count
+
+
+@njit(cache=True, nogil=True)
+def _group_wanted(nb: IntArray, count: IntArray,
+                  ks: IntArray) -> tuple[IntArray, IntArray, int]:
+    """The bucket of every wanted rank (``kb``, −1: none) and each wanted
+    bucket's slot in one gather buffer (``want``, −1: not wanted), and the
+    buffer's length (see :func:`_group_gather`)."""
+    G, r = count.shape[0], ks.shape[2]
+    want = np.full((G, 2, _BUCKETS), -1, np.int64)
+    kb = np.full((G, 2, r), -1, np.int64)
+    total = 0
+    for g in range(G):
+        for k in range(2):
+            for j in range(r if nb[k] else 0):
+                if ks[g, k, j] < 0:
+                    continue
+                b = np.searchsorted(count[g, k, :nb[k] + 1], ks[g, k, j], side="right") - 1
+                kb[g, k, j] = b
+                if want[g, k, b] < 0:
+                    want[g, k, b] = total
+                    total += count[g, k, b + 1] - count[g, k, b]
+    return want, kb, total
+
+
+@njit(cache=True, nogil=True)
+def _group_pick(buf: FloatArray, want: IntArray, kb: IntArray, count: IntArray,
+                ks: IntArray) -> FloatArray:
+    """Each wanted bucket sorted once, the ranks read from it."""
+    G, r = count.shape[0], ks.shape[2]
+    out = np.zeros((G, 2, r))
+    done = np.zeros((G, 2, _BUCKETS), np.bool_)
+    for g in range(G):
+        for k in range(2):
+            for j in range(r):
+                b = kb[g, k, j]
+                if b < 0:
+                    continue
+                s = want[g, k, b]
+                e = s + count[g, k, b + 1] - count[g, k, b]
+                if not done[g, k, b]:
+                    buf[s:e] = np.sort(buf[s:e])
+                    done[g, k, b] = True
+                out[g, k, j] = buf[s + ks[g, k, j] - count[g, k, b]]
+    return out
+
+
+@njit(cache=True, nogil=True)
+def _group_gather(x: FloatArray, gid: IntArray, gmap: IntArray, trim: bool, centre: float,
+                  half: float, lo: FloatArray, scale: FloatArray, nb: IntArray,
+                  count: IntArray, ks: IntArray) -> FloatArray:
+    """Pass 3: the values of ranks ``ks`` ((G, 2, r) int, ascending along r;
+    −1: none) of each group and kind (x, |x|), by gathering only the buckets
+    that hold them (as :func:`_order_statistics`; buckets as in
+    :func:`_group_spread`)."""
+    G = count.shape[0]
+    want, kb, total = _group_wanted(nb, count, ks)
+    buf = np.empty(total)
+    fill = np.zeros((G, 2, _BUCKETS), np.int64)
+    grp = np.empty(3, np.int64)
+    for i in range(x.shape[0]):
+        v = x[i]
+        m = 1
+        grp[0] = 0
+        if gid.shape[0]:
+            grp[1] = 1 + gmap[gid[i]]
+            m = 2
+        if trim and abs(v - centre) <= half:
+            grp[m] = G - 1
+            m += 1
+        for k in range(2):
+            if not nb[k]:
+                continue
+            u = abs(v) if k else v
+            b = _bucket(u, lo[k], scale[k], nb[k])
+            for j in range(m):
+                slot = want[grp[j], k, b]
+                if slot >= 0:
+                    buf[slot + fill[grp[j], k, b]] = u
+                    fill[grp[j], k, b] += 1
+    return _group_pick(buf, want, kb, count, ks)
+
+
+def _ranks(n: int, q: FloatArray) -> tuple[IntArray, IntArray, IntArray, FloatArray]:
+    """numpy's ``linear`` method for n values: the ranks below and above
+    each percentile's virtual index, the distinct ranks wanted, the weight."""
+    h = (n - 1) * q
+    lo = np.clip(np.floor(h), 0, n - 1).astype(np.int64)
+    hi = np.minimum(lo + 1, n - 1)
+    return lo, hi, np.unique(np.concatenate([lo, hi])), h - np.floor(h)
+
+
+def _lerp(v: FloatArray, ks: IntArray, lo: IntArray, hi: IntArray, g: FloatArray) -> FloatArray:
+    a, b = v[np.searchsorted(ks, lo)], v[np.searchsorted(ks, hi)]
+    diff = b - a
+    # numpy's _lerp: from the nearer end
+    out: FloatArray = np.where(g >= 0.5, b - diff * (1.0 - g), a + diff * g)
+    return out
+
+
+def group_blocks(x: FloatArray, gid: IntArray | None, gmap: IntArray, ngroup: int,
+                 band: float, *, trim: tuple[float, float] | None = None,
+                 q: ArrayLike = (5.0, 95.0), q_abs: ArrayLike = (95.0,)) -> list[dict[str, Any]]:
+    """:func:`moments` and :func:`percentiles` (of x and of |x|) of several
+    groups of ``x`` in three compiled passes, the same figures bit for bit
+    as those functions give on each group's values in input order.
+
+    Parameters
+    ----------
+    x : (n,) float — values (e.g. deviations, mm)
+    gid : (n,) int or None — each value's id; its group is ``gmap[gid]``
+        (0..ngroup-1); None: no groups but the whole
+    band : float — the moments' ``within`` count is of |x| ≤ band
+    trim : (centre, half), optional — one more group: the values with
+        |x − centre| ≤ half
+    q, q_abs : percentiles (0..100) of x and of |x|
+
+    Returns
+    -------
+    list of dict — the whole, then each group, then the trimmed one: the
+    keys of :func:`moments` and ``p`` (percentiles of x), ``p_abs`` (of |x|);
+    a group with no value has ``count`` 0 only
+    """
+    x = np.ascontiguousarray(x, float)
+    g_ids = np.zeros(0, np.int64) if gid is None else np.ascontiguousarray(gid)
+    gm = np.ascontiguousarray(gmap, np.int64)
+    ng = int(ngroup) if gid is not None else 0
+    tr = trim is not None
+    centre, half = (float(trim[0]), float(trim[1])) if trim is not None else (0.0, 0.0)
+    f, c = _group_moments(x, g_ids, gm, ng, tr, centre, half, float(band))
+    G = len(c)
+    qs = (np.asarray(q, float) / 100.0, np.asarray(q_abs, float) / 100.0)
+    mean = np.zeros(G)
+    plan: list[list[tuple[IntArray, IntArray, IntArray, FloatArray]]] = []
+    for g in range(G):
+        n = int(c[g, 0])
+        plan.append([_ranks(n, qs[k]) for k in range(2)] if n else [])
+        if n:
+            mean[g] = f[g, 0] / n
+    # one bucketing for all groups, from the whole's bounds: (min, max) of x
+    # and (0, max |x|), as the report's percentiles() calls were given
+    lo, scale = np.zeros(2), np.zeros(2)
+    nb = np.zeros(2, np.int64)
+    for k, (b0, b1) in enumerate(((float(f[0, 3]), float(f[0, 4])),
+                                  (0.0, max(-f[0, 3], f[0, 4])))):
+        if b1 > b0:
+            nb[k] = min(_BUCKETS, int(c[0, 0]))
+            # Python floats: a span beyond the float range gives ∞ quietly
+            lo[k], scale[k] = b0, int(nb[k]) / (float(b1) - float(b0))
+    r = max((len(p[2]) for pl in plan for p in pl), default=1)
+    ks = np.full((G, 2, r), -1, np.int64)
+    for g, pl in enumerate(plan):
+        for k, p in enumerate(pl):
+            ks[g, k, :len(p[2])] = p[2]
+    ss, count = _group_spread(x, g_ids, gm, tr, centre, half, mean, lo, scale, nb)
+    vals = _group_gather(x, g_ids, gm, tr, centre, half, lo, scale, nb, count, ks)
+    out: list[dict[str, Any]] = []
+    for g in range(G):
+        n = int(c[g, 0])
+        if not n:
+            out.append({"count": 0})
+            continue
+        mn, mx = float(f[g, 3]), float(f[g, 4])
+        res: dict[str, Any] = {
+            "count": n, "mean": f[g, 0] / n, "std": float(np.sqrt(ss[g] / n)),
+            "rms": float(np.sqrt(f[g, 2] / n)), "mean_abs": f[g, 1] / n, "min": mn, "max": mx,
+            "within": int(c[g, 1])}
+        for k, key in enumerate(("p", "p_abs")):
+            lo_r, hi_r, kk, w = plan[g][k]
+            v = vals[g, k, :len(kk)] if nb[k] else np.full(len(kk), (mn, 0.0)[k])
+            res[key] = _lerp(v, kk, lo_r, hi_r, w)
+        out.append(res)
     return out

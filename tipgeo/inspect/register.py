@@ -177,9 +177,9 @@ def _symmetry_note(k: int) -> dict[str, Any]:
 def point_normals(p: np.ndarray, k: int = 12) -> np.ndarray:
     """Unit normals (n, 3) of a point cloud by PCA over each point's ``k``
     nearest neighbours (mm, any frame; the sign is arbitrary)."""
-    from scipy.spatial import cKDTree
+    from .knn import knn  # exact, compiled: no scipy.spatial import on this path
 
-    _, idx = cKDTree(p).query(p, k=min(k, len(p)), workers=-1)
+    _, idx = knn(p, min(k, len(p)))
     nb = p[idx] - p[idx].mean(axis=1, keepdims=True)
     cov = np.einsum("nki,nkj->nij", nb, nb)
     _, vec = np.linalg.eigh(cov)
@@ -1331,11 +1331,11 @@ def _uncertainty(cov: FloatArray | None, sym: int) -> dict[str, Any]:
 def _remove_outliers(p: np.ndarray, k: int = 8, ratio: float = 3.0) -> np.ndarray:
     """Statistical outlier removal: drop points whose mean distance to their
     k neighbours exceeds the mean by ``ratio`` standard deviations."""
-    from scipy.spatial import cKDTree
+    from .knn import knn  # exact, compiled: no scipy.spatial import on this path
 
     if len(p) <= k + 1:
         return p
-    d, _ = cKDTree(p).query(p, k=k + 1, workers=-1)
+    d, _ = knn(p, k + 1)
     m = d[:, 1:].mean(axis=1)
     keep = m <= m.mean() + ratio * m.std()
     kept: FloatArray = p[keep]

@@ -753,14 +753,19 @@ def _read_ply_binary(p: Path, acc: _Accumulator, start: int, n: int, props: _Ply
     avail = (p.stat().st_size - start) // dt.itemsize
     if avail < n:
         raise ScanError(f"{where} is truncated: {max(avail, 0)} of {n} vertices")
+    # one chunk buffer read into again and again: a fresh array per chunk
+    # would be fresh pages each time (the allocator maps blocks this large
+    # anew), and first touches of fresh pages cost more than the copy
+    chunk = np.empty(min(_CHUNK_ROWS, n), dt)
     with open(p, "rb") as fh:
         fh.seek(start)
         done = 0
         while done < n:
             k = min(_CHUNK_ROWS, n - done)
-            data = np.fromfile(fh, dtype=dt, count=k)
-            if len(data) < k:
-                raise ScanError(f"{where} is truncated: {done + len(data)} of {n} vertices")
+            data = chunk[:k]
+            got = fh.readinto(data.view(np.uint8).data) // dt.itemsize
+            if got < k:
+                raise ScanError(f"{where} is truncated: {done + got} of {n} vertices")
             if not has_n and acc.add_fields(data["x"], data["y"], data["z"]):
                 done += k
                 continue

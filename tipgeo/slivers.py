@@ -63,6 +63,17 @@ _FOLD_COS = math.cos(math.radians(30.0))
 #: against the exact surface may leave it (flips may use all of it).
 MOVE_SHARE = 0.5
 
+#: Smallest sin² of the angle between two exact surfaces for which a point is
+#: projected onto their intersection curve (about 1.8°).
+CURVE_MIN_SIN2 = 1.0e-3
+
+#: Share of ``limit`` within which a point projected onto the curve between
+#: two exact surfaces must land on both.
+CURVE_SETTLE = 0.01
+
+#: Most Gauss–Newton steps onto the curve between two exact surfaces.
+CURVE_STEPS_MAX = 6
+
 #: A point or a vector (mm).
 Vec = tuple[float, float, float]
 
@@ -165,6 +176,29 @@ def _corners(tri: Sequence[int], p: Sequence[Vec]) -> tuple[Vec, Vec, Vec]:
     return p[tri[0]], p[tri[1]], p[tri[2]]
 
 
+def _onto_curve(q: Vec, fa: Implicit, fb: Implicit, limit: float) -> Vec | None:
+    """q moved onto the curve fa = fb = 0 (Gauss–Newton on the two
+    implicits: the least step that zeroes both to first order); None when
+    the surfaces meet at too small an angle to locate the curve or the
+    steps do not bring both within ``CURVE_SETTLE`` × ``limit`` (mm)."""
+    x = np.asarray([q], np.float64)
+    for _ in range(CURVE_STEPS_MAX):
+        f1, g1 = fa(x)
+        f2, g2 = fb(x)
+        r1, r2 = float(f1[0]), float(f2[0])
+        if max(abs(r1), abs(r2)) <= CURVE_SETTLE * limit:
+            return float(x[0, 0]), float(x[0, 1]), float(x[0, 2])
+        a, b = g1[0], g2[0]
+        m00, m01, m11 = float(a @ a), float(a @ b), float(b @ b)
+        det = m00 * m11 - m01 * m01
+        if not det > CURVE_MIN_SIN2 * m00 * m11:
+            return None
+        c1 = (m11 * r1 - m01 * r2) / det
+        c2 = (m00 * r2 - m01 * r1) / det
+        x = x - (c1 * a + c2 * b)[None, :]
+    return None
+
+
 class _Mesh:
     """Mutable triangle soup with vertex→faces incidence."""
 
@@ -200,6 +234,23 @@ class _Mesh:
     def labels_at(self, v: int) -> set[int]:
         return {self.lab[k] for k in self.vf[v]}
 
+    def label_normals(self, faces: Iterable[int]) -> dict[int, Vec]:
+        """label -> unit area-weighted normal of the given faces of that
+        label (a sliver's noisy normal weighs nothing); labels whose faces
+        have no area are left out."""
+        acc: dict[int, Vec] = {}
+        for k in faces:
+            a, b, c = _corners(self.f[k], self.p)
+            n = _cross(_sub(b, a), _sub(c, a))
+            s = acc.get(self.lab[k], (0.0, 0.0, 0.0))
+            acc[self.lab[k]] = (s[0] + n[0], s[1] + n[1], s[2] + n[2])
+        out: dict[int, Vec] = {}
+        for lab, n in acc.items():
+            s = _norm(n)
+            if s > 0:
+                out[lab] = (n[0] / s, n[1] / s, n[2] / s)
+        return out
+
     def neighbours(self, v: int) -> set[int]:
         out: set[int] = set()
         for k in self.vf[v]:
@@ -214,28 +265,54 @@ class _Mesh:
                 return x
         raise ValueError("degenerate triangle")
 
-    def exact_ok(self, tris: Iterable[tuple[Sequence[int], int]],
-                 share: float = 1.0) -> bool | None:
+    def exact_dev(self, tris: Iterable[tuple[Sequence[int], int]]) -> float | None:
         """None when a label of the triangles ``(corners, label)`` has no
-        exact surface; else whether every edge midpoint and centroid lies
-        within ``limit`` (mm) of its label's exact surface."""
+        exact surface; else the largest |f| (mm) of its label's exact
+        surface over their edge midpoints and centroids."""
         by: dict[int, list[Vec]] = {}
         for t, lab in tris:
             if lab not in self.exact:
                 return None
             a, b, c = _corners(t, self.p)
             by.setdefault(lab, []).extend((_mid(a, b), _mid(b, c), _mid(c, a), _mid3(a, b, c)))
+        worst = 0.0
         for lab, pts in by.items():
             f = self.exact[lab](np.asarray(pts, np.float64))[0]
-            if not float(np.abs(f).max()) <= share * self.limit:
-                return False
-        return True
+            worst = max(worst, float(np.abs(f).max()))
+        return worst
+
+    def exact_ok(self, tris: Iterable[tuple[Sequence[int], int]],
+                 share: float = 1.0, before: float = 0.0) -> bool | None:
+        """None when a label of the triangles ``(corners, label)`` has no
+        exact surface; else whether every edge midpoint and centroid lies
+        within ``share`` × ``limit`` (mm) of its label's exact surface — or,
+        where the faces the edit replaces were further (``before``, mm),
+        no further than they were, and within ``limit``."""
+        dev = self.exact_dev(tris)
+        if dev is None:
+            return None
+        return dev <= min(max(share * self.limit, before), self.limit)
+
+    def curve_fns(self, u: int) -> tuple[Implicit, Implicit] | None:
+        """The two exact surfaces whose intersection curve u lies on (u on
+        exactly two labels, each with its own exact surface); else None."""
+        labs = self.labels_at(u)
+        if len(labs) != 2:
+            return None
+        fa, fb = (self.exact.get(lab) for lab in labs)
+        if fa is None or fb is None or fa is fb:
+            return None  # faces of one implicit: their crease is not located
+        return fa, fb
 
     def project(self, u: int, q: Vec) -> Vec | None:
         """q moved onto the exact surface of u's one label (Newton steps
-        along the gradient); None when u is on more labels or its label has
-        no exact surface."""
+        along the gradient), or for u on the curve between two labels onto
+        that curve (:func:`_onto_curve`); None when u's labels have no exact
+        surfaces or the steps do not settle."""
         labs = self.labels_at(u)
+        if len(labs) == 2:
+            fns = self.curve_fns(u)
+            return None if fns is None else _onto_curve(q, *fns, self.limit)
         if len(labs) != 1:
             return None
         fn = self.exact.get(next(iter(labs)))
@@ -249,6 +326,16 @@ class _Mesh:
                 return None
             x = x - (float(f[0]) / gg) * g
         return float(x[0, 0]), float(x[0, 1]), float(x[0, 2])
+
+    def curve_neighbours(self, u: int) -> list[int]:
+        """u's neighbours along the curve between two labels (the edges
+        whose two faces carry different labels)."""
+        out = []
+        for x in self.neighbours(u):
+            fs = self.edge_faces(u, x)
+            if len(fs) == 2 and self.lab[fs[0]] != self.lab[fs[1]]:
+                out.append(x)
+        return out
 
     # -- edits -----------------------------------------------------------------
     def _set(self, k: int, tri: Sequence[int]) -> None:
@@ -315,8 +402,11 @@ class _Mesh:
         m1, m2 = _unit_normal(pa, pd, pc), _unit_normal(pd, pb, pc)
         if n1 is None or n2 is None or m1 is None or m2 is None:
             return False
-        for m in (m1, m2):
-            if _dot(m, n1) < _FOLD_COS or _dot(m, n2) < _FOLD_COS:
+        ref = self.label_normals(self.vf[a] | self.vf[b] | self.vf[c] | self.vf[d]).get(self.lab[f])
+        if ref is None:
+            return False
+        for m in (m1, m2):  # against the old faces and the neighbourhood's normal
+            if _dot(m, n1) < _FOLD_COS or _dot(m, n2) < _FOLD_COS or _dot(m, ref) < _FOLD_COS:
                 return False
         if max(_ar(pa, pd, pc), _ar(pd, pb, pc)) >= max(_ar(pa, pb, pc), _ar(pb, pa, pd)):
             return False
@@ -375,6 +465,7 @@ class _Mesh:
         """The faces around u (but the two on uv) re-made with v for u, when
         none folds and each beats the star's worst aspect ratio; else None."""
         worst_old = max(self.ar(k) for k in self.vf[u])
+        ref = self.label_normals(self.vf[u])
         new = []
         for k in self.vf[u]:
             if k in fs:
@@ -385,6 +476,9 @@ class _Mesh:
             n_old = self.normal(k)
             if n_new is None or n_old is None or _dot(n_new, n_old) < _FOLD_COS:
                 return None
+            r = ref.get(self.lab[k])
+            if r is None or _dot(n_new, r) < _FOLD_COS:
+                return None  # against the star's own (area-weighted) normal too
             if _ar(*q) >= worst_old:
                 return None
             new.append((k, t))
@@ -425,8 +519,10 @@ class _Mesh:
         # a vertex inside one label: checked against the exact surface (on a
         # curve between labels: the budget, so the curves keep their place)
         # (moves within half the limit: the volume and areas stay put)
-        ok = self.exact_ok(((t, self.lab[k]) for k, t in new), MOVE_SHARE) \
-            if len(self.labels_at(u)) == 1 else None
+        ok = None
+        if len(self.labels_at(u)) == 1 or self.curve_fns(u) is not None:
+            before = self.exact_dev((self.f[k], self.lab[k]) for k in self.vf[u])
+            ok = self.exact_ok(((t, self.lab[k]) for k, t in new), MOVE_SHARE, before or 0.0)
         if ok:
             for k in fs:
                 self._kill(k)
@@ -491,12 +587,13 @@ class _Mesh:
 
     def try_relax(self, u: int) -> bool:
         """Move u, inside one label and a flat star, to the mean of its
-        neighbours (in that plane: the surface does not move) where that
-        folds nothing and improves the star's worst triangle."""
-        if u in self.frozen or len(self.labels_at(u)) != 1:
+        neighbours (in that plane: the surface does not move) — with a curved
+        star, that mean projected onto the exact surface — where that folds
+        nothing and improves the star's worst triangle."""
+        if u in self.frozen:
             return False
-        star = list(self.vf[u])
-        pu = self.p[u]
+        if len(self.labels_at(u)) != 1:
+            return False
         nb = self.neighbours(u)
         q: Vec = (sum(self.p[x][0] for x in nb) / len(nb),
                   sum(self.p[x][1] for x in nb) / len(nb),
@@ -507,13 +604,26 @@ class _Mesh:
             if on is None:
                 return False
             q = on
+        return self._try_move(u, q, exact)
+
+    def _try_move(self, u: int, q: Vec, exact: bool) -> bool:
+        """Move u to q when no face of its star folds (against its old normal
+        and its label's area-weighted star normal), the star's worst aspect
+        ratio drops and, with ``exact``, the star's edge midpoints and
+        centroids stay within ``MOVE_SHARE`` × ``limit`` of the exact
+        surfaces; else leave it."""
+        star = list(self.vf[u])
+        pu = self.p[u]
         old = [self.normal(k) for k in star]
+        ref = self.label_normals(star)
         worst = max(self.ar(k) for k in star)
+        before = self.exact_dev((self.f[k], self.lab[k]) for k in star) if exact else None
         self.p[u] = q
-        if all(self._unfolded(k, nn) for k, nn in zip(star, old)) and \
+        if all(self._unfolded(k, nn) and self._unfolded(k, ref.get(self.lab[k]))
+               for k, nn in zip(star, old)) and \
                 max(self.ar(k) for k in star) < worst and \
                 (not exact or self.exact_ok(((self.f[k], self.lab[k]) for k in star),
-                                            MOVE_SHARE)):
+                                            MOVE_SHARE, before or 0.0)):
             self.dirty.update(star)
             return True
         self.p[u] = pu

@@ -37,7 +37,15 @@ from tipgeo.tolerances import MAX_ASPECT_RATIO
 
 #: samples where every triangle of the quality mesh meets the bound
 MEETS_BOUND = ("bevel-14G-xi15", "bevel-14G-xi45", "bevel-14G-xi75", "conical-14G-theta15",
-               "twoplane-14G-xi15", "threeplane-14G-xi15", "lancet-14G", "punch-plain")
+               "twoplane-14G-xi15", "threeplane-14G-xi15", "lancet-14G", "punch-plain",
+               "punch-C3")
+
+#: the other samples: most triangles above the bound (measured; before the
+#: collapses along the curves between faces and the guarded re-runs:
+#: helical 79, C1 20, C2 42, C3 71, C4 60, C5 98, bevel ξ = 14.5° 2). What is
+#: left: see docs/getting-started.md ("A mesh for other programs")
+AT_MOST = {"bevel-14G-xi14.5": 2, "helical-14G": 3, "punch-C1": 16, "punch-C2": 20,
+           "punch-C4": 7, "punch-C5": 24}
 
 
 @functools.cache
@@ -87,6 +95,13 @@ def test_quality_mesh_has_few_slivers(name):
     assert after <= 0.1 * before
     if name in MEETS_BOUND:
         assert ar.max() <= MAX_ASPECT_RATIO
+    else:
+        assert after <= AT_MOST[name]
+
+
+def test_every_sample_is_listed():
+    assert set(MEETS_BOUND) | set(AT_MOST) == set(preset_names())
+    assert not set(MEETS_BOUND) & set(AT_MOST)
 
 
 @pytest.mark.parametrize("name", preset_names())

@@ -676,6 +676,9 @@ class _Mesh:
             return False
         if self.try_collapse(c, w, max_dev):
             return True
+        # c cannot move (a corner or a curve the chord would leave): w, inside
+        # one face, moves off the long edge towards its other neighbours
+        self.try_relax(w)
         self.flip_around(w, max_dev)
         return True
 

@@ -89,6 +89,9 @@ CURVE_STEPS_MAX = 6
 #: them.
 GUARD_ROUNDS = 3
 
+#: Passes without fewer triangles above the bound after which the pass stops.
+STALL_PASSES = 6
+
 #: A point or a vector (mm).
 Vec = tuple[float, float, float]
 
@@ -810,8 +813,9 @@ def remove_slivers(vertices: FloatArray, faces: IntArray, labels: IntArray, *,
         if not cand:
             break
         history.append(len(cand))
-        if len(history) > 3 and min(history[-3:]) >= history[-4]:
-            break  # no progress over three passes
+        if len(history) > STALL_PASSES and \
+                min(history[-STALL_PASSES:]) >= history[-STALL_PASSES - 1]:
+            break  # no progress over STALL_PASSES passes
         m.dirty.clear()
         for k in sorted(cand, key=lambda k: -cand[k]):
             if m.added > budget:

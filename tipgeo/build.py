@@ -53,11 +53,12 @@ def build_tip(spec: TipSpec, *, tolerance: float | None = None, strict: bool | N
         most ``MAX_ASPECT_RATIO`` where local flips, splits and collapses
         can reach it. The booleans then run at (1 − ``SLIVER_DEVIATION_SHARE``)
         × the tolerance and the edits move the surface by at most the rest,
-        so the mesh stays within the tolerance; edits inside one face are
-        checked against (and vertices projected onto) the exact surfaces —
-        the walls' cylinders and the cutters' implicits — (flips within
-        the booleans' tolerance, moves within half of it, so volumes and
-        face areas move little).
+        so the mesh stays within the tolerance; edits inside one face, and
+        collapses along the curve where two faces meet, are checked against
+        (and vertices projected onto) the exact surfaces — the walls'
+        cylinders and the cutters' implicits — (flips within the booleans'
+        tolerance, moves within half of it or no further than the faces
+        they replace, so volumes and face areas move little).
         About ten times the triangles and up to a few seconds; analysis does
         not need it (default False).
 

@@ -14,7 +14,9 @@ operations, each checked before it is made:
 
 - **edge flip** inside one label, where the two triangles are coplanar
   within the deviation budget;
-- **edge split** at a point of the edge (never moves the surface);
+- **edge split** at a point of the edge (never moves the surface); for a
+  cap whose apex cannot collapse onto it, the new point then
+  relaxes into its face (onto the exact surface);
 - **relaxation** of a vertex inside one label whose triangles lie in one
   plane, to the mean of its neighbours (the surface does not move);
 - **edge collapse** of a short edge: a vertex inside one label moves onto a
@@ -37,9 +39,19 @@ the budget: every edge midpoint and centroid of the new triangles within
 that fails this check may still pass the budget's). A vertex inside one
 label whose star is curved may then move to the mean of its neighbours
 *projected onto the exact surface* (Newton steps along ∇f; within
-``MOVE_SHARE`` × ``limit``). Vertices on a curve between labels still move
-by the budget only, so the curves keep their place. The pass keeps the state
-of its best pass (fewest triangles above the bound).
+``MOVE_SHARE`` × ``limit``). A vertex on the curve between two labels
+whose exact surfaces differ may collapse along that curve onto its
+neighbour on it (onto a triple point too), checked against both surfaces
+the same way: the new chord of the curve stays within the limit of each
+(:func:`_onto_curve` projects a point onto such a curve). An edit whose
+faces were already further from the exact surface than the share allows
+may keep that distance, never exceed it nor ``limit``. Fold checks compare
+every new normal with the old one and with the area-weighted normal of the
+star's faces of its label (a sliver's noisy normal cannot vouch for a fold).
+The pass keeps the state of its best pass (fewest triangles above the
+bound). :func:`remove_slivers_checked` re-runs it with the places where
+triangles came to cross guarded: edits there (splits too) are checked
+against the faces around for crossings.
 
 Frame and units: whatever the input (tipgeo: cannula frame, mm).
 """
@@ -62,6 +74,25 @@ _FOLD_COS = math.cos(math.radians(30.0))
 #: Share of ``limit`` within which collapses and relocations checked
 #: against the exact surface may leave it (flips may use all of it).
 MOVE_SHARE = 0.5
+
+#: Smallest sin² of the angle between two exact surfaces for which a point is
+#: projected onto their intersection curve (about 1.8°).
+CURVE_MIN_SIN2 = 1.0e-3
+
+#: Share of ``limit`` within which a point projected onto the curve between
+#: two exact surfaces must land on both.
+CURVE_SETTLE = 0.01
+
+#: Most Gauss–Newton steps onto the curve between two exact surfaces.
+CURVE_STEPS_MAX = 6
+
+#: Rounds of :func:`remove_slivers_checked` that guard the places where
+#: triangles crossed (edits there checked for crossings) before it freezes
+#: them.
+GUARD_ROUNDS = 3
+
+#: Passes without fewer triangles above the bound after which the pass stops.
+STALL_PASSES = 6
 
 #: A point or a vector (mm).
 Vec = tuple[float, float, float]
@@ -165,6 +196,29 @@ def _corners(tri: Sequence[int], p: Sequence[Vec]) -> tuple[Vec, Vec, Vec]:
     return p[tri[0]], p[tri[1]], p[tri[2]]
 
 
+def _onto_curve(q: Vec, fa: Implicit, fb: Implicit, limit: float) -> Vec | None:
+    """q moved onto the curve fa = fb = 0 (Gauss–Newton on the two
+    implicits: the least step that zeroes both to first order); None when
+    the surfaces meet at too small an angle to locate the curve or the
+    steps do not bring both within ``CURVE_SETTLE`` × ``limit`` (mm)."""
+    x = np.asarray([q], np.float64)
+    for _ in range(CURVE_STEPS_MAX):
+        f1, g1 = fa(x)
+        f2, g2 = fb(x)
+        r1, r2 = float(f1[0]), float(f2[0])
+        if max(abs(r1), abs(r2)) <= CURVE_SETTLE * limit:
+            return float(x[0, 0]), float(x[0, 1]), float(x[0, 2])
+        a, b = g1[0], g2[0]
+        m00, m01, m11 = float(a @ a), float(a @ b), float(b @ b)
+        det = m00 * m11 - m01 * m01
+        if not det > CURVE_MIN_SIN2 * m00 * m11:
+            return None
+        c1 = (m11 * r1 - m01 * r2) / det
+        c2 = (m00 * r2 - m01 * r1) / det
+        x = x - (c1 * a + c2 * b)[None, :]
+    return None
+
+
 class _Mesh:
     """Mutable triangle soup with vertex→faces incidence."""
 
@@ -180,6 +234,9 @@ class _Mesh:
         self.alive = [True] * len(self.f)
         self.dev = [0.0] * len(self.f)  # how far edits have moved each face so far (mm)
         self.added = 0  # vertices added by splits
+        self.zone: dict[int, int] = {}  # guarded vertex -> its zone (edits there: crossing-checked)
+        self.zones: list[set[int]] = []
+        self.reach: list[float] = []  # per zone: twice its longest edge (mm)
         self.dirty: set[int] = set()  # faces changed since the last pass
         self.vf: list[set[int]] = [set() for _ in self.p]
         for k, (a, b, c) in enumerate(self.f):
@@ -200,6 +257,89 @@ class _Mesh:
     def labels_at(self, v: int) -> set[int]:
         return {self.lab[k] for k in self.vf[v]}
 
+    def set_guard(self, zones: Iterable[Iterable[int]]) -> None:
+        """Guarded zones (vertex sets): an edit with a new triangle touching
+        one is made only when none of its new triangles crosses a triangle
+        around the zone (:meth:`crossing_free`)."""
+        for z in zones:
+            zs = {int(x) for x in z}
+            for x in zs:
+                self.zone.setdefault(x, len(self.zones))
+            self.zones.append(zs)
+            # the zone's longest edge: how far a face's corner may lie from
+            # a point of it (edits there only shorten the worst edges much)
+            reach = 0.0
+            for x in zs:
+                for y in self.neighbours(x):
+                    reach = max(reach, _d2(self.p[x], self.p[y]))
+            self.reach.append(2.0 * math.sqrt(reach))
+
+    def crossing_free(self, new: Sequence[Sequence[int]], drop: Iterable[int]) -> bool:
+        """True unless a triangle of ``new`` (vertex triples; the faces
+        ``drop`` are the ones they replace) touches a guarded zone and
+        crosses (:func:`tipgeo.meshcheck.self_intersections`) or is taken
+        for a crossing by the tolerant test
+        (:func:`tipgeo.meshcheck.tolerant_intersections`) with a face of that
+        zone or around the new triangles."""
+        hit = {self.zone[x] for t in new for x in t if x in self.zone}
+        if not hit:
+            return True
+        from .meshcheck import self_intersections, tolerant_intersections
+
+        corners = np.asarray([self.p[x] for t in new for x in t], np.float64)
+        lo, hi = corners.min(0) - self.limit, corners.max(0) + self.limit
+        near = self._near_faces(new, set(drop), hit, lo, hi)
+        old = [self.f[k] for k in near]
+        tris = np.asarray(old + [list(t) for t in new], np.int64)
+        used, inv = np.unique(tris, return_inverse=True)
+        pts = np.asarray([self.p[int(x)] for x in used], np.float64)
+        faces = inv.reshape(-1, 3)
+        for pairs in (self_intersections(pts, faces), tolerant_intersections(pts, faces)):
+            if len(pairs) and bool((pairs >= len(old)).any()):
+                return False
+        return True
+
+    def _near_faces(self, new: Sequence[Sequence[int]], gone: set[int], hit: set[int],
+                    lo: FloatArray, hi: FloatArray) -> list[int]:
+        """The live faces (but ``gone``) at the zones ``hit`` or around the
+        triangles ``new`` whose box meets the box ``lo``–``hi`` (mm)."""
+        near: set[int] = set()
+        for z in hit:  # faces at the zone's vertices within its reach of the box
+            zv = list(self.zones[z])
+            zp = np.asarray([self.p[x] for x in zv], np.float64)
+            r = self.reach[z]
+            for i in np.flatnonzero(((zp >= lo - r) & (zp <= hi + r)).all(1)):
+                near |= self.vf[zv[i]]
+        for t in new:
+            for x in t:
+                for y in self.neighbours(x):
+                    near |= self.vf[y]
+        # of those, the faces whose box meets the box (a long face may pass
+        # by with its corners far away)
+        cand = [k for k in near - gone if self.alive[k]]
+        if not cand:
+            return []
+        box = np.asarray([_corners(self.f[k], self.p) for k in cand], np.float64)
+        meet = ((box.min(1) <= hi) & (box.max(1) >= lo)).all(1)
+        return [cand[i] for i in np.flatnonzero(meet)]
+
+    def label_normals(self, faces: Iterable[int]) -> dict[int, Vec]:
+        """label -> unit area-weighted normal of the given faces of that
+        label (a sliver's noisy normal weighs nothing); labels whose faces
+        have no area are left out."""
+        acc: dict[int, Vec] = {}
+        for k in faces:
+            a, b, c = _corners(self.f[k], self.p)
+            n = _cross(_sub(b, a), _sub(c, a))
+            m = acc.get(self.lab[k], (0.0, 0.0, 0.0))
+            acc[self.lab[k]] = (m[0] + n[0], m[1] + n[1], m[2] + n[2])
+        out: dict[int, Vec] = {}
+        for lab, n in acc.items():
+            size = _norm(n)
+            if size > 0:
+                out[lab] = (n[0] / size, n[1] / size, n[2] / size)
+        return out
+
     def neighbours(self, v: int) -> set[int]:
         out: set[int] = set()
         for k in self.vf[v]:
@@ -214,28 +354,54 @@ class _Mesh:
                 return x
         raise ValueError("degenerate triangle")
 
-    def exact_ok(self, tris: Iterable[tuple[Sequence[int], int]],
-                 share: float = 1.0) -> bool | None:
+    def exact_dev(self, tris: Iterable[tuple[Sequence[int], int]]) -> float | None:
         """None when a label of the triangles ``(corners, label)`` has no
-        exact surface; else whether every edge midpoint and centroid lies
-        within ``limit`` (mm) of its label's exact surface."""
+        exact surface; else the largest |f| (mm) of its label's exact
+        surface over their edge midpoints and centroids."""
         by: dict[int, list[Vec]] = {}
         for t, lab in tris:
             if lab not in self.exact:
                 return None
             a, b, c = _corners(t, self.p)
             by.setdefault(lab, []).extend((_mid(a, b), _mid(b, c), _mid(c, a), _mid3(a, b, c)))
+        worst = 0.0
         for lab, pts in by.items():
             f = self.exact[lab](np.asarray(pts, np.float64))[0]
-            if not float(np.abs(f).max()) <= share * self.limit:
-                return False
-        return True
+            worst = max(worst, float(np.abs(f).max()))
+        return worst
+
+    def exact_ok(self, tris: Iterable[tuple[Sequence[int], int]],
+                 share: float = 1.0, before: float = 0.0) -> bool | None:
+        """None when a label of the triangles ``(corners, label)`` has no
+        exact surface; else whether every edge midpoint and centroid lies
+        within ``share`` × ``limit`` (mm) of its label's exact surface — or,
+        where the faces the edit replaces were further (``before``, mm),
+        no further than they were, and within ``limit``."""
+        dev = self.exact_dev(tris)
+        if dev is None:
+            return None
+        return dev <= min(max(share * self.limit, before), self.limit)
+
+    def curve_fns(self, u: int) -> tuple[Implicit, Implicit] | None:
+        """The two exact surfaces whose intersection curve u lies on (u on
+        exactly two labels, each with its own exact surface); else None."""
+        labs = self.labels_at(u)
+        if len(labs) != 2:
+            return None
+        fa, fb = (self.exact.get(lab) for lab in labs)
+        if fa is None or fb is None or fa is fb:
+            return None  # faces of one implicit: their crease is not located
+        return fa, fb
 
     def project(self, u: int, q: Vec) -> Vec | None:
         """q moved onto the exact surface of u's one label (Newton steps
-        along the gradient); None when u is on more labels or its label has
-        no exact surface."""
+        along the gradient), or for u on the curve between two labels onto
+        that curve (:func:`_onto_curve`); None when u's labels have no exact
+        surfaces or the steps do not settle."""
         labs = self.labels_at(u)
+        if len(labs) == 2:
+            fns = self.curve_fns(u)
+            return None if fns is None else _onto_curve(q, *fns, self.limit)
         if len(labs) != 1:
             return None
         fn = self.exact.get(next(iter(labs)))
@@ -250,7 +416,6 @@ class _Mesh:
             x = x - (float(f[0]) / gg) * g
         return float(x[0, 0]), float(x[0, 1]), float(x[0, 2])
 
-    # -- edits -----------------------------------------------------------------
     def _set(self, k: int, tri: Sequence[int]) -> None:
         self.dirty.add(k)
         for x in self.f[k]:
@@ -315,10 +480,15 @@ class _Mesh:
         m1, m2 = _unit_normal(pa, pd, pc), _unit_normal(pd, pb, pc)
         if n1 is None or n2 is None or m1 is None or m2 is None:
             return False
-        for m in (m1, m2):
-            if _dot(m, n1) < _FOLD_COS or _dot(m, n2) < _FOLD_COS:
+        ref = self.label_normals(self.vf[a] | self.vf[b] | self.vf[c] | self.vf[d]).get(self.lab[f])
+        if ref is None:
+            return False
+        for m in (m1, m2):  # against the old faces and the neighbourhood's normal
+            if _dot(m, n1) < _FOLD_COS or _dot(m, n2) < _FOLD_COS or _dot(m, ref) < _FOLD_COS:
                 return False
         if max(_ar(pa, pd, pc), _ar(pd, pb, pc)) >= max(_ar(pa, pb, pc), _ar(pb, pa, pd)):
+            return False
+        if not self.crossing_free([(a, d, c), (d, b, c)], (f, g)):
             return False
         ok = self.exact_ok([((a, d, c), self.lab[f]), ((d, b, c), self.lab[g])])
         if ok:  # measured against the exact surface
@@ -334,13 +504,23 @@ class _Mesh:
         self.dev[f] = self.dev[g] = dev
         return True
 
-    def split(self, a: int, b: int, point: Vec) -> int:
-        """Insert ``point`` (on the edge ab) as a new vertex; returns its index."""
+    def split(self, a: int, b: int, point: Vec) -> int | None:
+        """Insert ``point`` (on the edge ab) as a new vertex; returns its
+        index. In a guarded zone, None (and nothing done) when a part
+        crosses a face near it: the parts cover what the faces covered, but
+        a part no longer sharing a vertex with a face that touched its
+        parent at that vertex is tested as a crossing."""
         fs = self.edge_faces(a, b)
+        before = [list(self.f[k]) for k in fs]
         v = len(self.p)
         self.added += 1
         self.p.append(point)
         self.vf.append(set())
+        if a in self.zone or b in self.zone:
+            z = self.zone.get(a, self.zone.get(b, 0))
+            self.zone[v] = z
+            self.zones[z].add(v)
+        made: list[int] = []
         for k in fs:
             t = self.f[k]
             i = t.index(a)
@@ -349,7 +529,14 @@ class _Mesh:
             t1[j] = v  # (.., a, v, ..) keeps orientation
             t2[i] = v
             self._set(k, t1)
-            self._add(t2, self.lab[k], self.dev[k])
+            made.append(self._add(t2, self.lab[k], self.dev[k]))
+        parts = list(fs) + made
+        if not self.crossing_free([self.f[k] for k in parts], parts):
+            for k in made:
+                self._kill(k)
+            for k, t in zip(fs, before):
+                self._set(k, t)
+            return None
         return v
 
     def _collapse_allowed(self, u: int, v: int) -> list[int] | None:
@@ -375,6 +562,7 @@ class _Mesh:
         """The faces around u (but the two on uv) re-made with v for u, when
         none folds and each beats the star's worst aspect ratio; else None."""
         worst_old = max(self.ar(k) for k in self.vf[u])
+        ref = self.label_normals(self.vf[u])
         new = []
         for k in self.vf[u]:
             if k in fs:
@@ -385,6 +573,9 @@ class _Mesh:
             n_old = self.normal(k)
             if n_new is None or n_old is None or _dot(n_new, n_old) < _FOLD_COS:
                 return None
+            r = ref.get(self.lab[k])
+            if r is None or _dot(n_new, r) < _FOLD_COS:
+                return None  # against the star's own (area-weighted) normal too
             if _ar(*q) >= worst_old:
                 return None
             new.append((k, t))
@@ -420,13 +611,15 @@ class _Mesh:
         if fs is None:
             return False
         new = self._collapse_faces(u, v, fs)
-        if new is None:
+        if new is None or not self.crossing_free([t for _, t in new], self.vf[u]):
             return False
         # a vertex inside one label: checked against the exact surface (on a
         # curve between labels: the budget, so the curves keep their place)
         # (moves within half the limit: the volume and areas stay put)
-        ok = self.exact_ok(((t, self.lab[k]) for k, t in new), MOVE_SHARE) \
-            if len(self.labels_at(u)) == 1 else None
+        ok = None
+        if len(self.labels_at(u)) == 1 or self.curve_fns(u) is not None:
+            before = self.exact_dev((self.f[k], self.lab[k]) for k in self.vf[u])
+            ok = self.exact_ok(((t, self.lab[k]) for k, t in new), MOVE_SHARE, before or 0.0)
         if ok:
             for k in fs:
                 self._kill(k)
@@ -473,8 +666,13 @@ class _Mesh:
             s = 0.5
         foot = (pa[0] + s * ab[0], pa[1] + s * ab[1], pa[2] + s * ab[2])
         w = self.split(la, lb, foot)
+        if w is None:
+            return False
         if self.try_collapse(c, w, max_dev):
             return True
+        # c cannot move onto w (a corner, a curve the chord would leave): w, inside
+        # one face, moves off the long edge towards its other neighbours
+        self.try_relax(w)
         self.flip_around(w, max_dev)
         return True
 
@@ -491,12 +689,13 @@ class _Mesh:
 
     def try_relax(self, u: int) -> bool:
         """Move u, inside one label and a flat star, to the mean of its
-        neighbours (in that plane: the surface does not move) where that
-        folds nothing and improves the star's worst triangle."""
-        if u in self.frozen or len(self.labels_at(u)) != 1:
+        neighbours (in that plane: the surface does not move) — with a curved
+        star, that mean projected onto the exact surface — where that folds
+        nothing and improves the star's worst triangle."""
+        if u in self.frozen:
             return False
-        star = list(self.vf[u])
-        pu = self.p[u]
+        if len(self.labels_at(u)) != 1:
+            return False
         nb = self.neighbours(u)
         q: Vec = (sum(self.p[x][0] for x in nb) / len(nb),
                   sum(self.p[x][1] for x in nb) / len(nb),
@@ -507,13 +706,27 @@ class _Mesh:
             if on is None:
                 return False
             q = on
+        return self._try_move(u, q, exact)
+
+    def _try_move(self, u: int, q: Vec, exact: bool) -> bool:
+        """Move u to q when no face of its star folds (against its old normal
+        and its label's area-weighted star normal), the star's worst aspect
+        ratio drops and, with ``exact``, the star's edge midpoints and
+        centroids stay within ``MOVE_SHARE`` × ``limit`` of the exact
+        surfaces; else leave it."""
+        star = list(self.vf[u])
+        pu = self.p[u]
         old = [self.normal(k) for k in star]
+        ref = self.label_normals(star)
         worst = max(self.ar(k) for k in star)
+        before = self.exact_dev((self.f[k], self.lab[k]) for k in star) if exact else None
         self.p[u] = q
-        if all(self._unfolded(k, nn) for k, nn in zip(star, old)) and \
+        if all(self._unfolded(k, nn) and self._unfolded(k, ref.get(self.lab[k]))
+               for k, nn in zip(star, old)) and \
                 max(self.ar(k) for k in star) < worst and \
                 (not exact or self.exact_ok(((self.f[k], self.lab[k]) for k in star),
-                                            MOVE_SHARE)):
+                                            MOVE_SHARE, before or 0.0)) and \
+                self.crossing_free([self.f[k] for k in star], star):
             self.dirty.update(star)
             return True
         self.p[u] = pu
@@ -536,6 +749,7 @@ def remove_slivers(vertices: FloatArray, faces: IntArray, labels: IntArray, *,
                    bound: float, max_deviation: float, max_passes: int = 40,
                    frozen: BoolArray | None = None,
                    exact: Mapping[int, Implicit] | None = None, limit: float = 0.0,
+                   guard: Sequence[IntArray] = (),
                    ) -> tuple[FloatArray, IntArray, IntArray]:
     """Improve the triangles whose aspect ratio exceeds ``bound``.
 
@@ -564,6 +778,11 @@ def remove_slivers(vertices: FloatArray, faces: IntArray, labels: IntArray, *,
         neighbours projected onto the exact surface.
     limit : float
         See ``exact`` (mm).
+    guard : sequence of (k,) int arrays
+        Zones of vertices (each where an earlier pass made triangles cross):
+        a flip, collapse or move whose new triangles touch a zone is made
+        only when none of them crosses a face of that zone or around it
+        (exact crossings and the tolerant test's pairs).
 
     Returns
     -------
@@ -574,6 +793,7 @@ def remove_slivers(vertices: FloatArray, faces: IntArray, labels: IntArray, *,
     m = _Mesh(vertices, faces, labels,
               () if frozen is None else np.flatnonzero(np.asarray(frozen, bool)),
               exact, limit)
+    m.set_guard(guard)
     budget = len(m.p) // 4 + 16  # most vertices the splits may add
     ar = aspect_ratios(vertices, faces)
     cand = {int(k): float(ar[k]) for k in np.flatnonzero(ar > bound)}
@@ -584,8 +804,9 @@ def remove_slivers(vertices: FloatArray, faces: IntArray, labels: IntArray, *,
         if not cand:
             break
         history.append(len(cand))
-        if len(history) > 3 and min(history[-3:]) >= history[-4]:
-            break  # no progress over three passes
+        if len(history) > STALL_PASSES and \
+                min(history[-STALL_PASSES:]) >= history[-STALL_PASSES - 1]:
+            break  # no progress over STALL_PASSES passes
         m.dirty.clear()
         for k in sorted(cand, key=lambda k: -cand[k]):
             if m.added > budget:
@@ -630,9 +851,13 @@ def remove_slivers_checked(vertices: FloatArray, faces: IntArray, labels: IntArr
     (:func:`tipgeo.meshcheck.self_intersections`, exact crossings and folds
     of adjacent triangles, and :func:`tipgeo.meshcheck.tolerant_intersections`,
     the near-coplanar pairs open3d's and MeshLab-style tolerant tests take
-    for crossings); the input vertices around the smaller triangle of each
-    pair (within (round + 1) × its longest edge) are frozen and the pass
-    re-run from the input, until no pair is left or after ``rounds`` rounds.
+    for crossings); the pass is re-run from the input with the input
+    vertices around the smaller triangle of each pair (within (round + 1) ×
+    its longest edge) and those nearest the larger one's corners guarded —
+    an edit whose new triangles touch them is made only when they cross
+    nothing there —, for ``GUARD_ROUNDS`` rounds;
+    after that, the input vertices around the smaller triangle of each pair
+    left are frozen instead; until no pair is left or after ``rounds`` rounds.
     The result with the fewest pairs is kept when it has no more than
     the input had, else the input unchanged: the pass never adds a crossing.
 
@@ -652,21 +877,29 @@ def remove_slivers_checked(vertices: FloatArray, faces: IntArray, labels: IntArr
     tree: Any = None  # scipy has no types
     best: tuple[int, FloatArray, IntArray, IntArray] = (
         base, vertices, np.asarray(faces, np.int64), np.asarray(labels, np.int64))
+    zones: list[IntArray] = []
     for r in range(rounds):
         v, f, lab = remove_slivers(vertices, faces, labels, bound=bound,
                                    max_deviation=max_deviation, frozen=frozen,
-                                   exact=exact, limit=limit)
+                                   exact=exact, limit=limit, guard=zones)
         pairs = _crossings(v, f)
         if len(pairs) <= best[0]:
             best = (len(pairs), v, f, lab)
         if len(pairs) == 0:
             break
         tree = cKDTree(vertices) if tree is None else tree
-        for pair in pairs:  # around the smaller triangle of each pair
+        for pair in np.unique(np.sort(pairs, axis=1), axis=0):
             t = v[f[pair]]
             edge = np.sqrt(((t - np.roll(t, 1, axis=1)) ** 2).sum(2)).max(1)
             k = int(np.argmin(edge))
-            frozen[tree.query_ball_point(t[k].mean(0), (r + 1) * edge[k])] = True
+            if r < GUARD_ROUNDS:  # edits there crossing-checked: around the smaller
+                # triangle, and the larger one's corners (nearest input vertices)
+                near = tree.query_ball_point(t[k].mean(0), (r + 1) * edge[k])
+                corners = tree.query(t[1 - k])[1]
+                zones.append(np.unique(np.r_[np.asarray(near, np.int64),
+                                             np.asarray(corners, np.int64)]))
+            else:  # around the smaller triangle: no edit at all
+                frozen[tree.query_ball_point(t[k].mean(0), (r + 1 - GUARD_ROUNDS) * edge[k])] = True
     out = snap_float32(best[1], best[2]) if float32 else best[1]
     return out, best[2], best[3]
 

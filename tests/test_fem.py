@@ -175,7 +175,10 @@ def test_axisymmetric_deck_without_ccx(build_preset, tmp_path):
     for bad in ("R3D3", "*PART", "*RIGID BODY", "*Part"):
         assert bad not in deck
     assert "*HYPERELASTIC, ARRUDA-BOYCE\n0.00418, 1.15, " in deck
-    assert "*CONTACT PAIR, INTERACTION=CONTACT, TYPE=NODE TO SURFACE\nNEEDLE, TISSUE" in deck
+    # issue 28: the tissue's nodes slave to the rigid needle's faces, the
+    # friction's stick slope a tenth of the normal penalty
+    assert "*CONTACT PAIR, INTERACTION=CONTACT, TYPE=NODE TO SURFACE\nTISSUE, NEEDLE" in deck
+    assert f"*FRICTION\n0.328, {0.1 * m.penalty:.8g}\n" in deck
     assert f"*BOUNDARY\nNEEDLE, 2, 2, {-1.0:.9f}" in deck
     assert m.force_scale == 180.0
     # the tissue's top surface spans the block radius; base and axis sets on their lines
@@ -196,6 +199,52 @@ def test_axisymmetric_deck_without_ccx(build_preset, tmp_path):
         x, y = P[..., 0], P[..., 1]
         area = 0.5 * (x * np.roll(y, -1, axis=1) - np.roll(x, -1, axis=1) * y).sum(axis=1)
         assert np.all(area > 0)
+
+
+def test_pre_distorted_column_under_the_front(build_preset):
+    """Issue 28: the tissue under the punch's land (r = 1.000–1.064 mm, ± h)
+    is a structured column of CAX4 elements h wide (to the rounding of
+    n_r = ⌈width / h⌉) whose heights grow geometrically, ratio
+    ``crush_growth``, from the column's bottom to ``crush_aspect`` × h at
+    the top (gmsh's progression scaled to the column's depth: the top layer
+    is L (q − 1) q^(n−1) / (q^n − 1)); crushed to a stretch of 1 / aspect
+    along the axis such an element is square again."""
+    h, L = 0.1, 0.5
+    m = axisymmetric_model(build_preset("punch-plain"), depth=0.5, mesh=h, block=(3.0, 3.0))
+    r_a, r_b, depth = m.info["crush_column_mm"]
+    assert (r_a, depth) == (pytest.approx(0.9, abs=1e-9), pytest.approx(L, abs=1e-12))
+    # the land's outer end: its corner (r = 1.2 − 0.6 tan 13°) rounded to 15 µm
+    r_hi = m.info["edge_r_mm"][1]
+    assert 1.2 - 0.6 * TAN13 < r_hi < 1.2 - 0.6 * TAN13 + 0.015
+    assert r_b == pytest.approx(r_hi + h, abs=1e-9)
+    n_r, n_y, q = round((r_b - r_a) / h + 0.5), m.info["crush_layers"], m.info["crush_growth"]
+    assert m.info["crush_aspect"] == 3.0 and q == pytest.approx(3.0 ** (1 / (n_y - 1)))
+    tis = [b for b in m.blocks if b.part == "tissue" and b.etype == "CAX4"][0]
+    P = m.nodes[tis.conn - 1]
+    c = P.mean(axis=1)
+    inside = (c[:, 0] > r_a) & (c[:, 0] < r_b) & (c[:, 1] > -depth)
+    assert inside.sum() == n_r * n_y
+    width = np.ptp(P[inside, :, 0], axis=1)
+    height = np.ptp(P[inside, :, 1], axis=1)
+    np.testing.assert_allclose(width, (r_b - r_a) / n_r, rtol=1e-7)  # info: 9 digits
+    expected = L * (q - 1) * q ** np.arange(n_y) / (q ** n_y - 1)
+    layer = np.argmin(np.abs(height[:, None] - expected[None, :]), axis=1)
+    np.testing.assert_allclose(height, expected[layer], rtol=1e-6)
+    assert np.bincount(layer, minlength=n_y).tolist() == [n_r] * n_y  # n_r in each layer
+    assert 2.4 < expected[-1] / h <= 3.0 and 0.8 < expected[0] / h <= 1.0
+    # the earlier model: no column, the needle's nodes slave, stick = penalty
+    old = axisymmetric_model(build_preset("punch-plain"), depth=0.5, mesh=h, block=(3.0, 3.0),
+                             crush_aspect=1.0, slave="needle", stick_ratio=1.0)
+    assert "crush_column_mm" not in old.info
+    deck = old.ccx_deck()
+    assert "NODE TO SURFACE\nNEEDLE, TISSUE\n" in deck
+    assert f"*FRICTION\n0.328, {old.penalty:.8g}\n" in deck
+    for kw, match in ((dict(slave="both"), "slave = 'both'"),
+                      (dict(stick_ratio=0.0), "stick_ratio"),
+                      (dict(crush_aspect=0.5), "crush_aspect"),
+                      (dict(crush_depth=0.1), "crush_depth")):
+        with pytest.raises(SpecError, match=match):
+            axisymmetric_model(build_preset("punch-plain"), depth=0.5, mesh=h, **kw)
 
 
 def test_model_size_bounded_before_meshing(build_preset):

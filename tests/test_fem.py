@@ -26,7 +26,7 @@ from tipgeo.fem import (
     read_frd,
     run_ccx,
 )
-from tipgeo.fem.axisym import axisymmetric_model
+from tipgeo.fem.axisym import auto_slave, axisymmetric_model
 from tipgeo.fem.profile import polygon_area, round_corners, wall_profile
 
 needs_ccx = pytest.mark.skipif(ccx_path() is None, reason=INSTALL_HINT)
@@ -175,10 +175,16 @@ def test_axisymmetric_deck_without_ccx(build_preset, tmp_path):
     for bad in ("R3D3", "*PART", "*RIGID BODY", "*Part"):
         assert bad not in deck
     assert "*HYPERELASTIC, ARRUDA-BOYCE\n0.00418, 1.15, " in deck
-    # issue 28: the tissue's nodes slave to the rigid needle's faces, the
-    # friction's stick slope a tenth of the normal penalty
-    assert "*CONTACT PAIR, INTERACTION=CONTACT, TYPE=NODE TO SURFACE\nTISSUE, NEEDLE" in deck
+    # issue 28: the friction's stick slope a tenth of the normal penalty; the
+    # 64 µm land is under two 100 µm elements wide, so the needle's nodes are
+    # the slaves (the tissue's from 32 µm down: the default 25 µm mesh)
+    assert "*CONTACT PAIR, INTERACTION=CONTACT, TYPE=NODE TO SURFACE\nNEEDLE, TISSUE" in deck
     assert f"*FRICTION\n0.328, {0.1 * m.penalty:.8g}\n" in deck
+    assert m.info["slave"] == "needle"
+    land = m.info["edge_r_mm"][1] - m.info["edge_r_mm"][0]
+    assert 0.0615 < land < 0.0645
+    for h, slave in ((0.05, "needle"), (0.99 * land / 2, "tissue"), (0.025, "tissue")):
+        assert auto_slave(m.info["_needle_section"], h) == slave
     assert f"*BOUNDARY\nNEEDLE, 2, 2, {-1.0:.9f}" in deck
     assert m.force_scale == 180.0
     # the tissue's top surface spans the block radius; base and axis sets on their lines
@@ -436,8 +442,8 @@ def _deck_mesh(path):
 @pytest.mark.parametrize("fine", [0.6, 1.5])
 def test_cli_fine_depth_sets_the_fine_zone(tmp_path, capsys, fine):
     """--fine-depth-mm: the deck's fine zone (elements of --mesh-um beside the
-    punch's edge at r = 1.0–1.07 mm) reaches the depth asked for, and no
-    further than the grading allows."""
+    punch's wall, r = 1.3–1.55 mm, inside the zone's 0.4 mm pad) reaches the
+    depth asked for, and no further than the grading allows."""
     from tipgeo.cli import main
 
     h = 0.1
@@ -449,8 +455,14 @@ def test_cli_fine_depth_sets_the_fine_zone(tmp_path, capsys, fine):
     zone = [float(x) for x in text.split("** fine_zone_mm: [")[1].split("]")[0].split(", ")]
     assert zone[2] == pytest.approx(-(fine + 0.4), abs=1e-9)  # the fine depth + a 4h pad
     _, quads = _deck_mesh(deck)
-    cen, size = quads.mean(axis=1), np.ptp(quads[..., 1], axis=1)
-    beside = (np.abs(cen[:, 0] - 1.035) < 0.2)
+    cen = quads.mean(axis=1)
+    x, y = quads[..., 0], quads[..., 1]
+    size = np.sqrt(np.abs(0.5 * (x * np.roll(y, -1, axis=1) - np.roll(x, -1, axis=1) * y)
+                          .sum(axis=1)))  # √area: the free mesh's quads are skewed there
+    # beside the needle's outer wall (r = 1.2 mm), clear of the pre-distorted
+    # column under the edge (r 0.9–1.164 mm, elements up to 3 h tall) and of
+    # the free mesh's transition to it
+    beside = (cen[:, 0] > 1.3) & (cen[:, 0] < 1.55)
     inside = beside & (cen[:, 1] > -fine) & (cen[:, 1] < -0.05)
     below = beside & (cen[:, 1] < -(fine + 1.5))
     assert inside.sum() >= 5 and np.all(size[inside] <= 1.5 * h)
@@ -661,10 +673,11 @@ def test_run_stopped_before_the_depth_fails_its_verdict(build_preset, tmp_path):
     there, written like a full run) with a verdict naming the depth reached
     and the depth requested; asked not to keep it, it is a FemError. The
     stop is made cheap here: the step may take 8 increments (ccx: max. # of
-    increments reached; the first advances 10 µm, h / 10, and they grow), so
-    it stops at 0.15 mm, its outputs every 0.05 mm. (The
-    real stops are the same kind of line: the uncut punch at 100 µm to 2 mm
-    stops at 1.684 mm, "increment size smaller than minimum".)"""
+    increments reached; the first advances 10 µm, h / 10, is cut back once
+    to 2.5 µm, and they grow), so it stops at 0.05 mm, its outputs every
+    0.05 mm. (The real stops are the same kind of line: the uncut punch at
+    100 µm in this block to 2 mm stops at 1.26 mm, "increment size smaller
+    than minimum".)"""
     from tipgeo.fem import run_model
 
     m = axisymmetric_model(build_preset("punch-plain"), depth=0.5, mesh=0.1, block=(3.0, 3.0))
@@ -674,14 +687,14 @@ def test_run_stopped_before_the_depth_fails_its_verdict(build_preset, tmp_path):
     res = run_model(m, tmp_path / "out", pictures=False)
     assert res.run.stopped.startswith("*ERROR") and "increments" in res.run.stopped
     assert res.run.increments == 8
-    assert res.reached_depth == pytest.approx(0.15, abs=1e-9)
-    assert res.depth == pytest.approx([0.0, 0.05, 0.1, 0.15], abs=1e-9)
+    assert res.reached_depth == pytest.approx(0.05, abs=1e-9)
+    assert res.depth == pytest.approx([0.0, 0.05], abs=1e-9)
     v = res.verdict
     assert not v.ok and v.failed[0].name == "depth_mm"
-    assert v.reasons[0] == ("the run stopped at depth 0.15 mm of the requested 0.5 mm (ccx: "
+    assert v.reasons[0] == ("the run stopped at depth 0.05 mm of the requested 0.5 mm (ccx: "
                             "*ERROR in nonlingeo: max. # of increments reached)")
     d = res.to_dict()
-    assert d["verdict"]["ok"] is False and d["reached_depth_mm"] == pytest.approx(0.15)
+    assert d["verdict"]["ok"] is False and d["reached_depth_mm"] == pytest.approx(0.05)
     assert (tmp_path / "out" / "punch-plain_axisymmetric_force.csv").is_file()
     with pytest.raises(FemError, match=r"ccx: \*ERROR.*increments"):
         run_model(m, tmp_path / "strict", partial=False)

@@ -17,7 +17,7 @@ from typing import Any
 import numpy as np
 
 from .. import validate as v
-from ..arrays import FloatArray, IntArray
+from ..arrays import ArrayLike, FloatArray, IntArray
 from ..errors import SpecError
 from ..tip import Tip
 from ..tolerances import tol
@@ -34,7 +34,7 @@ from .model import (
 )
 from .profile import clip_profile, round_corners, wall_profile
 
-__all__ = ["axisymmetric_model", "BLOCK_2D", "AXISYMMETRIC_FORCE_SCALE", "CUTS"]
+__all__ = ["axisymmetric_model", "auto_slave", "BLOCK_2D", "AXISYMMETRIC_FORCE_SCALE", "CUTS"]
 
 #: Cut models of the axisymmetric insertion (see ``cut``).
 CUTS = ("none", "erosion")
@@ -109,7 +109,7 @@ def axisymmetric_model(tip: Tip, *, depth: float, tissue: str = "pvc-sp0",
                        cut_step: float | None = None, cut_lead: int = 1,
                        fine_depth: float | None = None,
                        crush_aspect: float = CRUSH_ASPECT, crush_depth: float = CRUSH_DEPTH,
-                       slave: str = "auto", stick_ratio: float = STICK_RATIO) -> FemModel:
+                       slave: str = "auto", stick_ratio: float | None = None) -> FemModel:
     """The axisymmetric insertion model of ``tip`` pushed ``depth`` into a
     tissue block.
 
@@ -143,9 +143,10 @@ def axisymmetric_model(tip: Tip, *, depth: float, tissue: str = "pvc-sp0",
         front cannot slip between tissue nodes, but the nodes under it
         stall ccx between 0.7 and 1.6 mm on the default mesh). The erosion
         cut always has the tissue's nodes slave
-    stick_ratio : float — the friction's stick slope (tangential stiffness
-        before slip) as a fraction of the contact's penalty stiffness
-        (0 < ratio ≤ 1; default :data:`STICK_RATIO`)
+    stick_ratio : float, optional — the friction's stick slope (tangential
+        stiffness before slip) as a fraction of the contact's penalty
+        stiffness (0 < ratio ≤ 1; default :data:`STICK_RATIO`, and 1 — as
+        before issue 28 — for the erosion cut)
     crush_aspect : float — the tissue under the needle's front (the land's
         radii ± h, down to ``crush_depth``) is a structured column of
         elements h wide whose height grows geometrically from h at its
@@ -194,9 +195,7 @@ def axisymmetric_model(tip: Tip, *, depth: float, tissue: str = "pvc-sp0",
                fine_depth=fine_depth)
     if cut not in CUTS:
         raise SpecError(f"cut = {cut!r} is not valid; expected one of: " + ", ".join(CUTS))
-    if slave not in SLAVES:
-        raise SpecError(f"slave = {slave!r} is not valid; expected one of: " + ", ".join(SLAVES))
-    stick = v.real("stick_ratio", stick_ratio, lo=0.0, hi=1.0, lo_open=True)
+    stick = _stick_ratio(slave, stick_ratio, cut)
     column, dz, lead, grading = None, 0.0, 0, 1.0
     if cut == "erosion":
         column, dz, lead = _erosion_column(needle, H=H, depth=depth, h=h, r_e=r_e,
@@ -246,7 +245,7 @@ def axisymmetric_model(tip: Tip, *, depth: float, tissue: str = "pvc-sp0",
         info.update({"cut": cut, "cut_step_um": round(dz * UM_PER_MM, 6), "cut_lead": lead,
                      "cut_r_mm": [column[0], column[1]], "steps": len(stages)})
     penalty = contact_penalty(penalty_factor, mat.E0, h, contact_stiffness)
-    slave = _slave(slave, bool(stages), z.r_hi - z.r_lo, h)
+    slave = _slave(slave, bool(stages), needle, h)
     info.update({"slave": slave, "stick_slope_MPa_per_mm": round(stick * penalty, 9)})
     return FemModel(kind="axisymmetric", name=info["tip"], nodes=nodes, blocks=blocks,
                     nsets=nsets, fixed={"BASE": (1, 2), "AXIS": (1,)}, stages=stages,
@@ -335,14 +334,31 @@ def _increments(h: float, depth: float, max_increment: float | None) -> tuple[fl
     return min(dmax, 0.1 * h), dmax
 
 
-def _slave(slave: str, erosion: bool, front_width: float, h: float) -> str:
-    """Whose nodes are the contact's slaves: the tissue's for the erosion cut
-    and for ``auto`` when the front (``front_width``, mm) is at least
-    :data:`SLAVE_TISSUE_ELEMENTS` elements of size ``h`` wide; else as asked
-    (``auto``: the needle's)."""
-    if erosion or (slave == "auto" and front_width >= SLAVE_TISSUE_ELEMENTS * h):
+def _stick_ratio(slave: str, stick_ratio: float | None, cut: str) -> float:
+    """The checked stick slope ratio (default :data:`STICK_RATIO`, 1 for the
+    erosion cut); ``slave`` checked too."""
+    if slave not in SLAVES:
+        raise SpecError(f"slave = {slave!r} is not valid; expected one of: " + ", ".join(SLAVES))
+    ratio = (1.0 if cut == "erosion" else STICK_RATIO) if stick_ratio is None else stick_ratio
+    return v.real("stick_ratio", ratio, lo=0.0, hi=1.0, lo_open=True)
+
+
+def auto_slave(needle: ArrayLike, h: float) -> str:
+    """``slave="auto"`` resolved: ``tissue`` when the needle's front (the
+    section's points within ``h`` of its most advanced point; model frame,
+    mm) is at least :data:`SLAVE_TISSUE_ELEMENTS` elements of size ``h``
+    (mm) wide, else ``needle``."""
+    sec = np.asarray(needle, dtype=float)
+    front = sec[sec[:, 1] <= sec[:, 1].min() + h, 0]
+    return "tissue" if np.ptp(front) >= SLAVE_TISSUE_ELEMENTS * h else "needle"
+
+
+def _slave(slave: str, erosion: bool, needle: FloatArray, h: float) -> str:
+    """Whose nodes are the contact's slaves: the tissue's for the erosion cut,
+    :func:`auto_slave` for ``auto``, else as asked."""
+    if erosion:
         return "tissue"
-    return "needle" if slave == "auto" else slave
+    return auto_slave(needle, h) if slave == "auto" else slave
 
 
 def _crush_info(column: tuple[float, float, float, int, int], aspect: float,

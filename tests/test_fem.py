@@ -245,6 +245,11 @@ def test_pre_distorted_column_under_the_front(build_preset):
     deck = old.ccx_deck()
     assert "NODE TO SURFACE\nNEEDLE, TISSUE\n" in deck
     assert f"*FRICTION\n0.328, {old.penalty:.8g}\n" in deck
+    # the erosion cut is kept as it was: stick slope = penalty, its own column
+    ero = axisymmetric_model(build_preset("punch-plain"), depth=0.5, mesh=h, block=(3.0, 3.0),
+                             cut="erosion")
+    assert f"*FRICTION\n0.328, {ero.penalty:.8g}\n" in ero.ccx_deck()
+    assert "crush_column_mm" not in ero.info and ero.info["slave"] == "tissue"
     for kw, match in ((dict(slave="both"), "slave = 'both'"),
                       (dict(stick_ratio=0.0), "stick_ratio"),
                       (dict(crush_aspect=0.5), "crush_aspect"),

@@ -26,7 +26,7 @@ from tipgeo.fem import (
     read_frd,
     run_ccx,
 )
-from tipgeo.fem.axisym import axisymmetric_model
+from tipgeo.fem.axisym import auto_slave, axisymmetric_model
 from tipgeo.fem.profile import polygon_area, round_corners, wall_profile
 
 needs_ccx = pytest.mark.skipif(ccx_path() is None, reason=INSTALL_HINT)
@@ -175,7 +175,16 @@ def test_axisymmetric_deck_without_ccx(build_preset, tmp_path):
     for bad in ("R3D3", "*PART", "*RIGID BODY", "*Part"):
         assert bad not in deck
     assert "*HYPERELASTIC, ARRUDA-BOYCE\n0.00418, 1.15, " in deck
+    # issue 28: the friction's stick slope a tenth of the normal penalty; the
+    # 64 µm land is under two 100 µm elements wide, so the needle's nodes are
+    # the slaves (the tissue's from 32 µm down: the default 25 µm mesh)
     assert "*CONTACT PAIR, INTERACTION=CONTACT, TYPE=NODE TO SURFACE\nNEEDLE, TISSUE" in deck
+    assert f"*FRICTION\n0.328, {0.1 * m.penalty:.8g}\n" in deck
+    assert m.info["slave"] == "needle"
+    land = m.info["edge_r_mm"][1] - m.info["edge_r_mm"][0]
+    assert 0.0615 < land < 0.0645
+    for h, slave in ((0.05, "needle"), (0.99 * land / 2, "tissue"), (0.025, "tissue")):
+        assert auto_slave(m.info["_needle_section"], h) == slave
     assert f"*BOUNDARY\nNEEDLE, 2, 2, {-1.0:.9f}" in deck
     assert m.force_scale == 180.0
     # the tissue's top surface spans the block radius; base and axis sets on their lines
@@ -196,6 +205,57 @@ def test_axisymmetric_deck_without_ccx(build_preset, tmp_path):
         x, y = P[..., 0], P[..., 1]
         area = 0.5 * (x * np.roll(y, -1, axis=1) - np.roll(x, -1, axis=1) * y).sum(axis=1)
         assert np.all(area > 0)
+
+
+def test_pre_distorted_column_under_the_front(build_preset):
+    """Issue 28: the tissue under the punch's land (r = 1.000–1.064 mm, ± h)
+    is a structured column of CAX4 elements h wide (to the rounding of
+    n_r = ⌈width / h⌉) whose heights grow geometrically, ratio
+    ``crush_growth``, from the column's bottom to ``crush_aspect`` × h at
+    the top (gmsh's progression scaled to the column's depth: the top layer
+    is L (q − 1) q^(n−1) / (q^n − 1)); crushed to a stretch of 1 / aspect
+    along the axis such an element is square again."""
+    h, L = 0.1, 0.5
+    m = axisymmetric_model(build_preset("punch-plain"), depth=0.5, mesh=h, block=(3.0, 3.0))
+    r_a, r_b, depth = m.info["crush_column_mm"]
+    assert (r_a, depth) == (pytest.approx(0.9, abs=1e-9), pytest.approx(L, abs=1e-12))
+    # the land's outer end: its corner (r = 1.2 − 0.6 tan 13°) rounded to 15 µm
+    r_hi = m.info["edge_r_mm"][1]
+    assert 1.2 - 0.6 * TAN13 < r_hi < 1.2 - 0.6 * TAN13 + 0.015
+    assert r_b == pytest.approx(r_hi + h, abs=1e-9)
+    n_r, n_y, q = round((r_b - r_a) / h + 0.5), m.info["crush_layers"], m.info["crush_growth"]
+    assert m.info["crush_aspect"] == 3.0 and q == pytest.approx(3.0 ** (1 / (n_y - 1)))
+    tis = [b for b in m.blocks if b.part == "tissue" and b.etype == "CAX4"][0]
+    P = m.nodes[tis.conn - 1]
+    c = P.mean(axis=1)
+    inside = (c[:, 0] > r_a) & (c[:, 0] < r_b) & (c[:, 1] > -depth)
+    assert inside.sum() == n_r * n_y
+    width = np.ptp(P[inside, :, 0], axis=1)
+    height = np.ptp(P[inside, :, 1], axis=1)
+    np.testing.assert_allclose(width, (r_b - r_a) / n_r, rtol=1e-7)  # info: 9 digits
+    expected = L * (q - 1) * q ** np.arange(n_y) / (q ** n_y - 1)
+    layer = np.argmin(np.abs(height[:, None] - expected[None, :]), axis=1)
+    np.testing.assert_allclose(height, expected[layer], rtol=1e-6)
+    assert np.bincount(layer, minlength=n_y).tolist() == [n_r] * n_y  # n_r in each layer
+    assert 2.4 < expected[-1] / h <= 3.0 and 0.8 < expected[0] / h <= 1.0
+    # the earlier model: no column, the needle's nodes slave, stick = penalty
+    old = axisymmetric_model(build_preset("punch-plain"), depth=0.5, mesh=h, block=(3.0, 3.0),
+                             crush_aspect=1.0, slave="needle", stick_ratio=1.0)
+    assert "crush_column_mm" not in old.info
+    deck = old.ccx_deck()
+    assert "NODE TO SURFACE\nNEEDLE, TISSUE\n" in deck
+    assert f"*FRICTION\n0.328, {old.penalty:.8g}\n" in deck
+    # the erosion cut is kept as it was: stick slope = penalty, its own column
+    ero = axisymmetric_model(build_preset("punch-plain"), depth=0.5, mesh=h, block=(3.0, 3.0),
+                             cut="erosion")
+    assert f"*FRICTION\n0.328, {ero.penalty:.8g}\n" in ero.ccx_deck()
+    assert "crush_column_mm" not in ero.info and ero.info["slave"] == "tissue"
+    for kw, match in ((dict(slave="both"), "slave = 'both'"),
+                      (dict(stick_ratio=0.0), "stick_ratio"),
+                      (dict(crush_aspect=0.5), "crush_aspect"),
+                      (dict(crush_depth=0.1), "crush_depth")):
+        with pytest.raises(SpecError, match=match):
+            axisymmetric_model(build_preset("punch-plain"), depth=0.5, mesh=h, **kw)
 
 
 def test_model_size_bounded_before_meshing(build_preset):
@@ -387,8 +447,8 @@ def _deck_mesh(path):
 @pytest.mark.parametrize("fine", [0.6, 1.5])
 def test_cli_fine_depth_sets_the_fine_zone(tmp_path, capsys, fine):
     """--fine-depth-mm: the deck's fine zone (elements of --mesh-um beside the
-    punch's edge at r = 1.0–1.07 mm) reaches the depth asked for, and no
-    further than the grading allows."""
+    punch's wall, r = 1.3–1.55 mm, inside the zone's 0.4 mm pad) reaches the
+    depth asked for, and no further than the grading allows."""
     from tipgeo.cli import main
 
     h = 0.1
@@ -400,8 +460,14 @@ def test_cli_fine_depth_sets_the_fine_zone(tmp_path, capsys, fine):
     zone = [float(x) for x in text.split("** fine_zone_mm: [")[1].split("]")[0].split(", ")]
     assert zone[2] == pytest.approx(-(fine + 0.4), abs=1e-9)  # the fine depth + a 4h pad
     _, quads = _deck_mesh(deck)
-    cen, size = quads.mean(axis=1), np.ptp(quads[..., 1], axis=1)
-    beside = (np.abs(cen[:, 0] - 1.035) < 0.2)
+    cen = quads.mean(axis=1)
+    x, y = quads[..., 0], quads[..., 1]
+    size = np.sqrt(np.abs(0.5 * (x * np.roll(y, -1, axis=1) - np.roll(x, -1, axis=1) * y)
+                          .sum(axis=1)))  # √area: the free mesh's quads are skewed there
+    # beside the needle's outer wall (r = 1.2 mm), clear of the pre-distorted
+    # column under the edge (r 0.9–1.164 mm, elements up to 3 h tall) and of
+    # the free mesh's transition to it
+    beside = (cen[:, 0] > 1.3) & (cen[:, 0] < 1.55)
     inside = beside & (cen[:, 1] > -fine) & (cen[:, 1] < -0.05)
     below = beside & (cen[:, 1] < -(fine + 1.5))
     assert inside.sum() >= 5 and np.all(size[inside] <= 1.5 * h)
@@ -612,10 +678,11 @@ def test_run_stopped_before_the_depth_fails_its_verdict(build_preset, tmp_path):
     there, written like a full run) with a verdict naming the depth reached
     and the depth requested; asked not to keep it, it is a FemError. The
     stop is made cheap here: the step may take 8 increments (ccx: max. # of
-    increments reached; the first advances 10 µm, h / 10, and they grow), so
-    it stops at 0.15 mm, its outputs every 0.05 mm. (The
-    real stops are the same kind of line: the uncut punch at 100 µm to 2 mm
-    stops at 1.684 mm, "increment size smaller than minimum".)"""
+    increments reached; the first advances 10 µm, h / 10, is cut back once
+    to 2.5 µm, and they grow), so it stops at 0.05 mm, its outputs every
+    0.05 mm. (The real stops are the same kind of line: the uncut punch at
+    100 µm in this block to 2 mm stops at 1.26 mm, "increment size smaller
+    than minimum".)"""
     from tipgeo.fem import run_model
 
     m = axisymmetric_model(build_preset("punch-plain"), depth=0.5, mesh=0.1, block=(3.0, 3.0))
@@ -625,14 +692,14 @@ def test_run_stopped_before_the_depth_fails_its_verdict(build_preset, tmp_path):
     res = run_model(m, tmp_path / "out", pictures=False)
     assert res.run.stopped.startswith("*ERROR") and "increments" in res.run.stopped
     assert res.run.increments == 8
-    assert res.reached_depth == pytest.approx(0.15, abs=1e-9)
-    assert res.depth == pytest.approx([0.0, 0.05, 0.1, 0.15], abs=1e-9)
+    assert res.reached_depth == pytest.approx(0.05, abs=1e-9)
+    assert res.depth == pytest.approx([0.0, 0.05], abs=1e-9)
     v = res.verdict
     assert not v.ok and v.failed[0].name == "depth_mm"
-    assert v.reasons[0] == ("the run stopped at depth 0.15 mm of the requested 0.5 mm (ccx: "
+    assert v.reasons[0] == ("the run stopped at depth 0.05 mm of the requested 0.5 mm (ccx: "
                             "*ERROR in nonlingeo: max. # of increments reached)")
     d = res.to_dict()
-    assert d["verdict"]["ok"] is False and d["reached_depth_mm"] == pytest.approx(0.15)
+    assert d["verdict"]["ok"] is False and d["reached_depth_mm"] == pytest.approx(0.05)
     assert (tmp_path / "out" / "punch-plain_axisymmetric_force.csv").is_file()
     with pytest.raises(FemError, match=r"ccx: \*ERROR.*increments"):
         run_model(m, tmp_path / "strict", partial=False)

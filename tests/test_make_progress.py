@@ -81,4 +81,4 @@ def test_ccx_run_is_a_stage_with_its_increments(progress_on, capsys, tmp_path):
     out, err = capsys.readouterr()
     assert out == ""
     assert "ccx punch-plain_axisymmetric" in err and "ccx: " in err
-    assert "ccx stopped at depth 0.1500 mm of 0.5 mm" in err   # increments in mm (issue 28)
+    assert "ccx stopped at depth 0.0500 mm of 0.5 mm" in err   # increments in mm (issue 28)

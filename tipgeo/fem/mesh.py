@@ -83,7 +83,8 @@ def _elements_2d(gmsh: Any, tag: int) -> dict[str, IntArray]:
 
 def mesh_2d(needle: FloatArray, *, block: tuple[float, float], boxes: Sequence[Box],
             h_far: float, grade: float,
-            column: tuple[float, float, float, int, int] | None = None
+            column: tuple[float, float, float, int, int] | None = None,
+            grading: float = 1.0
             ) -> tuple[FloatArray, dict[str, dict[str, IntArray]]]:
     """Mesh the axisymmetric tissue block [0, R] × [−H, 0] with quadrilaterals
     (triangles where recombination leaves them) and the needle polygon with
@@ -100,6 +101,8 @@ def mesh_2d(needle: FloatArray, *, block: tuple[float, float], boxes: Sequence[B
         the tissue, [r_a, r_b] × [y_b, 0], meshed with n_r × n_y equal
         quadrilaterals (the cut path of an erosion model), its nodes shared
         with the rest of the block
+    grading : float — the column's layers grow geometrically in height by
+        this ratio from its bottom to the top (1: equal layers)
 
     Returns
     -------
@@ -125,8 +128,11 @@ def mesh_2d(needle: FloatArray, *, block: tuple[float, float], boxes: Sequence[B
             ts = geo.addPlaneSurface([geo.addCurveLoop(ln)])
             top = geo.addLine(c[6], c[3])
             cs = geo.addPlaneSurface([geo.addCurveLoop([top, ln[3], ln[4], ln[5]])])
-            for line, n in ((top, n_r), (ln[4], n_r), (ln[3], n_y), (ln[5], n_y)):
+            for line, n in ((top, n_r), (ln[4], n_r)):
                 geo.mesh.setTransfiniteCurve(line, n + 1)
+            # ln[3] runs down the column's outer side, ln[5] up its inner side
+            geo.mesh.setTransfiniteCurve(ln[3], n_y + 1, "Progression", 1.0 / grading)
+            geo.mesh.setTransfiniteCurve(ln[5], n_y + 1, "Progression", grading)
             geo.mesh.setTransfiniteSurface(cs)
             geo.mesh.setRecombine(2, cs)
         q = [geo.addPoint(x, y, 0.0) for x, y in needle]

@@ -141,6 +141,10 @@ class FemModel:
         nodes exposed once they are gone, slave to the needle's faces) in
         place of the previous one; empty: one step to ``depth``
     node_surfaces : dict name → (k,) int — node surfaces (``TYPE=NODE``)
+    slave : ``needle`` | ``tissue`` — whose nodes are the contact's slaves
+        (the other part's faces the master surface)
+    stick_slope : float, optional — the friction's stick slope (tangential
+        penalty stiffness before slip), MPa/mm; default ``penalty``
     """
 
     kind: str
@@ -162,6 +166,7 @@ class FemModel:
     info: dict[str, Any] = field(default_factory=dict)
     stages: tuple[tuple[float, IntArray, str], ...] = ()
     node_surfaces: dict[str, IntArray] = field(default_factory=dict)
+    stick_slope: float | None = None
 
     def public_info(self) -> dict[str, Any]:
         """``info`` without the geometry kept for pictures (keys starting
@@ -271,7 +276,8 @@ class FemModel:
                + (f"{self.penalty:.8g}\n" if self.contact == "surface" else
                   f"{self.penalty:.8g}, {1e-3 * self.penalty * h:.6g}, {0.1 * h:.6g}\n"))
         if self.friction > 0:
-            out += f"*FRICTION\n{self.friction:.6g}, {self.penalty:.8g}\n"
+            stick = self.penalty if self.stick_slope is None else self.stick_slope
+            out += f"*FRICTION\n{self.friction:.6g}, {stick:.8g}\n"
         return out
 
     def _ccx_contact_pairs(self, masters: list[str]) -> str:

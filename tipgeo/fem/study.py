@@ -479,7 +479,9 @@ def convergence_study(spec: Tip | TipSpec, *, model: str = "axisymmetric", depth
     Only the contact zone is refined: the far-field element size and the
     contact penalty stiffness are those of the coarsest mesh for all three (a
     penalty that scales with 1/h would change the model with the mesh; the
-    coarsest's, the softest, is the one all three meshes converge with).
+    coarsest's, the softest, is the one all three meshes converge with), and
+    an axisymmetric model's ``slave="auto"`` is resolved once, at the finest
+    mesh (:func:`~tipgeo.fem.axisym.auto_slave`), for all three.
     Every run must reach ``depth`` (an incomplete run is an error).
 
     The result holds ``verdict`` (:func:`convergence_verdict`, as a dict):
@@ -498,6 +500,11 @@ def convergence_study(spec: Tip | TipSpec, *, model: str = "axisymmetric", depth
     fixed: dict[str, Any] = {"contact_stiffness": probe.penalty}
     if model == "axisymmetric":
         fixed["far"] = float(probe.info["element_size_far_um"]) * 1e-3
+        if kw.get("cut", "none") == "none" and kw.get("slave", "auto") == "auto":
+            from .axisym import auto_slave
+
+            # one contact for all three: the finest mesh's (the default's at 25 µm)
+            kw = {**kw, "slave": auto_slave(probe.info["_needle_section"], meshes[-1])}
     grid = np.linspace(0.1, 1.0, 10) * depth
     rows: list[dict[str, Any]] = []
     curves: list[FloatArray] = []

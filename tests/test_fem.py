@@ -722,3 +722,19 @@ def test_convergence_verdict_rule():
     assert not tight.ok
     assert tight.reasons == ["force change from 25 to 12.5 µm (%) = 0.97 is above 0.5"]
     assert not convergence_verdict({**study, "target_change_percent": 0.5}).ok
+
+
+def test_folded_elements_found_in_deformed_positions(build_preset):
+    """A tissue element turned inside out by one node's move is counted
+    (its corner's signed area changes sign); the reference mesh, and the
+    whole mesh moved rigidly, have none."""
+    from tipgeo.fem.study import folded_elements
+
+    m = axisymmetric_model(build_preset("punch-plain"), depth=0.5, mesh=0.1, block=(3.0, 3.0))
+    X = m.nodes.astype(float).copy()
+    assert folded_elements(m, X) == 0
+    assert folded_elements(m, X + np.array([0.3, -1.2])[: X.shape[1]]) == 0
+    b = next(b for b in m.blocks if b.part == "tissue" and b.etype == "CAX4")
+    a, c = b.conn[0, 0] - 1, b.conn[0, 2] - 1
+    X[a, :2] = X[c, :2] + 2.0 * (X[c, :2] - X[a, :2])   # corner a pushed past c
+    assert folded_elements(m, X) >= 1

@@ -8,6 +8,7 @@ fails with how to install it; ``--deck-only`` still writes the decks.
 from __future__ import annotations
 
 import argparse
+import sys
 from typing import TYPE_CHECKING, Any
 
 from ..jsonio import dumps as _dumps
@@ -160,6 +161,10 @@ def _print_run(res: FemResult, d: dict[str, Any]) -> None:
     for k, s in res.stress.items():
         print(f"at {k:g} mm: max principal stress {s['max_principal_MPa'] * KPA_PER_MPA:.4g} "
               f"kPa, near the edge {s['max_principal_near_edge_MPa'] * KPA_PER_MPA:.4g} kPa")
+        if s.get("folded_elements"):
+            print(f"at {k:g} mm: {s['folded_elements']} tissue element(s) folded — the "
+                  "stresses there are not to be read (the force is the needle's reaction)",
+                  file=sys.stderr)
 
 
 def register(sub: Any) -> None:

@@ -223,6 +223,35 @@ def _tissue_tris(model: FemModel) -> IntArray:
     return np.vstack(tris) - 1
 
 
+def folded_elements(model: FemModel, X: FloatArray) -> int:
+    """Tissue elements of a 2D model folded in the deformed positions ``X``
+    ((nodes, ≥ 2) mm, model frame): a corner whose signed area (the cross
+    product of its two edges) has turned against its sign in the reference
+    mesh, or is zero. Stresses in a folded element are not to be read
+    (ccx goes on while its integration points stay positive). 3D models: 0
+    (not checked)."""
+    if model.dim != 2:
+        return 0
+    folded = 0
+    for b in model.blocks:
+        if b.part != "tissue" or b.etype not in ("CAX3", "CAX4"):
+            continue
+        c = b.conn - 1
+        k = c.shape[1]
+
+        def corners(P: FloatArray, c: IntArray = c, k: int = k) -> FloatArray:
+            a = P[c][:, :, :2]
+            e1 = np.roll(a, -1, axis=1) - a
+            e0 = a - np.roll(a, 1, axis=1)
+            out: FloatArray = e0[:, :, 0] * e1[:, :, 1] - e0[:, :, 1] * e1[:, :, 0]
+            return out.reshape(-1, k)
+
+        ref = np.sign(corners(model.nodes))
+        now = corners(X)
+        folded += int(np.count_nonzero(np.any(now * ref <= 0.0, axis=1)))
+    return folded
+
+
 def _stress_pictures(model: FemModel, frd: FrdResults, out: Path, stem: str,
                      reached: float = math.inf
                      ) -> tuple[list[Path], dict[float, dict[str, Any]]]:
@@ -254,7 +283,8 @@ def _stress_pictures(model: FemModel, frd: FrdResults, out: Path, stem: str,
         summary[d] = {"max_principal_MPa": float(ts[k]),
                       "at_mm": [float(x) for x in X[tissue[k] - 1]],
                       "max_principal_near_edge_MPa": float(np.nanmax(s1[near - 1]))
-                      if len(near) and model.dim == 2 else math.nan}
+                      if len(near) and model.dim == 2 else math.nan,
+                      "folded_elements": folded_elements(model, X)}
         if model.dim == 2:
             tris = _tissue_tris(model)
             needle = model.info.get("_needle_section")

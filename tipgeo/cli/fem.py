@@ -88,7 +88,8 @@ def cmd_fem(args: argparse.Namespace) -> int:
                   mesh=None if args.mesh_um is None else _um("--mesh-um", args.mesh_um),
                   deck_only=args.deck_only, abaqus=args.abaqus, time_limit_s=limit,
                   output_depths=outs, progress=say, pictures=not args.no_pictures,
-                  **fine, **({} if args.cut == "none" else {"cut": args.cut}))
+                  companions=not args.single_mesh, **fine,
+                  **({} if args.cut == "none" else {"cut": args.cut}))
     if args.html and res.run is not None:
         from pathlib import Path
 
@@ -139,6 +140,28 @@ def _print_convergence(out: dict[str, Any]) -> None:
               + ("" if v["ok"] else ": " + "; ".join(v["reasons"])))
 
 
+def _error_text(err: float | None, status: str | None) -> str:
+    """A mesh error (percent) as the curve table prints it."""
+    if err is None:
+        return "-"
+    return f"±{err:.2f}" if status == "oscillating" else f"{err:+.2f}"
+
+
+def _end_text(conv: dict[str, Any] | None) -> str:
+    """The mesh error of the final force, in words."""
+    if conv is None:
+        return "one mesh (--single-mesh): its discretisation error not estimated"
+    end = conv["at_end"]
+    if end is None or end["error_percent"] is None:
+        return f"mesh error unknown: {conv['why_no_estimate']}"
+    sizes = " / ".join(f"{x:.4g}" for x in conv["element_sizes_um"])
+    if end["status"] == "converging":
+        return (f"mesh error {end['error_percent']:+.2f} % (Richardson over {sizes} µm: "
+                f"order {end['order']:.3g}, limit {end['extrapolated_N']:.6f} N)")
+    return (f"mesh error {_error_text(end['error_percent'], end['status'])} % ({end['status']} "
+            f"over {sizes} µm)")
+
+
 def _print_run(res: FemResult, d: dict[str, Any]) -> None:
     """The plain text of one run (or its decks)."""
     m = res.model
@@ -150,14 +173,28 @@ def _print_run(res: FemResult, d: dict[str, Any]) -> None:
     print(f"ccx: {res.run.increments} increments ({res.run.cutbacks} cut back), "
           f"{res.run.cpu_s:.1f} s CPU, {res.run.wall_s:.1f} s wall; force rises "
           f"monotonically: {'yes' if res.monotonic else 'NO'}")
-    print("depth_mm  force_N     analytical_N")
+    conv = d.get("mesh_convergence")
+    if conv is not None:
+        print("mesh error: Richardson from the same run at " + " / ".join(
+            f"{x:.4g}" for x in conv["element_sizes_um"]) + " µm (contact stiffness, far "
+            "size and slave side held); ± marks a bound (the meshes oscillate)")
+        for c in conv["companions"]:
+            print(f"  {c['element_size_um']:.4g} µm: {c['elements']} elements, reached "
+                  f"{c['reached_depth_mm']:.4g} mm, {c['cpu_s']:.1f} s CPU"
+                  + (f"; failed: {c['error']}" if c["error"] else ""))
+        print("depth_mm  force_N     analytical_N  mesh_error_%  mesh")
+    else:
+        print("depth_mm  force_N     analytical_N")
     for row in d["curve"]:
-        print(f"{row['depth_mm']:8.4f}  {row['force_N']:10.6f}  {row['analytical_N']:10.6f}")
+        line = f"{row['depth_mm']:8.4f}  {row['force_N']:10.6f}  {row['analytical_N']:10.6f}"
+        if conv is not None:
+            line += f"  {_error_text(row.get('mesh_error_percent'), row.get('mesh_status')):>12}"
+            line += f"  {row.get('mesh_status') or ''}"
+        print(line.rstrip())
     e = d.get("eq_4_22_at_end")
     if e:
         print(f"at {e['depth_mm']:g} mm: {e['force_N']:.6f} N against eq. 4.22's "
-              f"{e['eq_4_22_N']:.6f} N ({e['gap_percent']:+.2f} %); one mesh — "
-              "--convergence-um A B C gives the discretisation error (Richardson)")
+              f"{e['eq_4_22_N']:.6f} N ({e['gap_percent']:+.2f} %); " + _end_text(conv))
     for k, s in res.stress.items():
         print(f"at {k:g} mm: max principal stress {s['max_principal_MPa'] * KPA_PER_MPA:.4g} "
               f"kPa, near the edge {s['max_principal_near_edge_MPa'] * KPA_PER_MPA:.4g} kPa")
@@ -197,6 +234,9 @@ def register(sub: Any) -> None:
     f.add_argument("--convergence-um", type=float, nargs=3, default=None,
                    metavar=("UM1", "UM2", "UM3"),
                    help="mesh-convergence study: three element sizes (µm), coarse to fine")
+    f.add_argument("--single-mesh", action="store_true",
+                   help="skip the two coarser companion meshes (2·h, √2·h) that give every "
+                        "force its Richardson error: faster, but the error is not estimated")
     f.add_argument("--fine-depth-mm", type=float, default=None, metavar="D",
                    help="axisymmetric: mesh the contact zone fine down to this depth (mm; "
                         "default the larger of 3 mm and --depth-mm, at most 5.6 mm): one mesh "

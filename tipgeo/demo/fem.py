@@ -34,10 +34,12 @@ def fem_outputs(out_dir: Path, names: list[str], log: LineSink | None = None) ->
     if run is None:  # pragma: no cover - ccx_path() was found above
         raise RuntimeError("fem: CalculiX did not run")
     if log is not None:
-        print(f"fem: {DEMO_TIP} 1 mm into pvc-sp0, {run.increments} increments, "
-              f"{run.cpu_s:.1f} s CPU, peak force {res.peak_force:.4f} N", file=log,
-              flush=True)
-    return {"tip": DEMO_TIP, "depth_mm": 1.0, "element_size_um": 50.0,
+        print(f"fem: {DEMO_TIP} 1 mm into pvc-sp0, reached {res.reached_depth:.3g} mm, "
+              f"{run.increments} increments, {run.cpu_s:.1f} s CPU, peak force "
+              f"{res.peak_force:.4f} N (one coarse mesh: its discretisation error is not "
+              "estimated; `tipgeo fem` gives it)", file=log, flush=True)
+    return {"tip": DEMO_TIP, "depth_mm": 1.0, "reached_depth_mm": res.reached_depth,
+            "element_size_um": 50.0, "mesh_error_percent": None,
             "increments": run.increments, "peak_force_N": res.peak_force,
             "monotonic": res.monotonic, "cpu_s": round(run.cpu_s, 2),
             "files": [str(p) for p in res.files]}

@@ -41,6 +41,7 @@ from .run import CcxRun, require_ccx, run_ccx
 if TYPE_CHECKING:
     from ..spec import TipSpec
     from ..verdict import Verdict
+    from .meshconv import Companion
 
 __all__ = ["MODEL_KINDS", "FemResult", "build_model", "run_model", "run_fem",
            "convergence_study", "convergence_verdict", "richardson", "analytical_force",
@@ -133,6 +134,9 @@ class FemResult:
     run: CcxRun | None = None
     files: list[Path] = field(default_factory=list)
     stress: dict[float, dict[str, Any]] = field(default_factory=dict)
+    #: the discretisation error at every depth (:func:`tipgeo.fem.meshconv.mesh_error_table`),
+    #: None for a run without companion meshes
+    convergence: dict[str, Any] | None = None
 
     @property
     def monotonic(self) -> bool:
@@ -152,8 +156,10 @@ class FemResult:
     @property
     def verdict(self) -> Verdict | None:
         """:class:`tipgeo.verdict.Verdict`: the run reached the requested depth
-        (to ``tol.fem.step_end`` of the step); None for decks only (nothing
-        was run, nothing judged)."""
+        (to ``tol.fem.step_end`` of the step) and, with companion meshes, its
+        force at the final depth is within ``tol.fem.convergence_change`` of
+        the mesh limit (:func:`tipgeo.fem.meshconv.mesh_check`); None for
+        decks only (nothing was run, nothing judged)."""
         if self.run is None:
             return None
         from ..verdict import Check, Verdict
@@ -162,9 +168,12 @@ class FemResult:
         ok = self.run.complete
         why = "" if ok else (f"the run stopped at depth {got:.4g} mm of the requested {req:g} mm"
                              + (f" (ccx: {self.run.stopped})" if self.run.stopped else ""))
-        return Verdict.of(f"FEM {self.model.kind} {self.model.name} to {req:g} mm",
-                          [Check("depth_mm", ok, got, f"depth_mm ≥ {req:g} (the requested "
-                                 "depth)", why)])
+        checks = [Check("depth_mm", ok, got, f"depth_mm ≥ {req:g} (the requested depth)", why)]
+        if self.convergence is not None:
+            from .meshconv import mesh_check
+
+            checks.append(mesh_check(self.convergence))
+        return Verdict.of(f"FEM {self.model.kind} {self.model.name} to {req:g} mm", checks)
 
     @property
     def peak_force(self) -> float:
@@ -182,20 +191,40 @@ class FemResult:
                       "increments": self.run.increments, "cutbacks": self.run.cutbacks,
                       "warnings": self.run.warnings[:20], "monotonic": self.monotonic,
                       "peak_force_N": self.peak_force,
-                      "curve": [{"depth_mm": float(a), "force_N": float(b),
-                                 "analytical_N": float(c)}
-                                for a, b, c in zip(self.depth, self.force, ana)],
+                      "curve": self._curve_rows(ana),
                       "eq_4_22_at_end": ({"depth_mm": float(self.depth[-1]),
                                           "force_N": float(self.force[-1]),
                                           "eq_4_22_N": float(ana[-1]),
                                           "gap_percent": 100.0 * (float(self.force[-1])
                                                                   / float(ana[-1]) - 1.0),
-                                          "mesh_convergence": "one mesh: run --convergence-um "
-                                                              "A B C for its Richardson figure"}
+                                          "mesh_error_percent": self._end_error()}
                                          if len(self.depth) > 1 and ana[-1] > 0 else None),
+                      "mesh_convergence": self.convergence,
                       "stress": {f"{k:g}": s for k, s in self.stress.items()},
                       "verdict": None if self.verdict is None else self.verdict.to_dict()})
         return d
+
+    def _curve_rows(self, ana: FloatArray) -> list[dict[str, Any]]:
+        """The curve as rows (mm, N), each with its mesh error (percent, None
+        where there is none) when the run has companion meshes."""
+        err = {} if self.convergence is None else {
+            round(r["depth_mm"], 12): r for r in self.convergence["rows"]}
+        rows = []
+        for a, b, c in zip(self.depth, self.force, ana):
+            row: dict[str, Any] = {"depth_mm": float(a), "force_N": float(b),
+                                   "analytical_N": float(c)}
+            if self.convergence is not None:
+                e = err.get(round(float(a), 12))
+                row.update(mesh_error_percent=None if e is None else e["error_percent"],
+                           mesh_status=None if e is None else e["status"])
+            rows.append(row)
+        return rows
+
+    def _end_error(self) -> float | None:
+        """The mesh error (percent) of the force at the final depth; None
+        without companion meshes or an estimate there."""
+        end = None if self.convergence is None else self.convergence["at_end"]
+        return None if end is None else end["error_percent"]
 
     def summary(self) -> dict[str, Any]:
         """The same as :meth:`to_dict` (the name every make-stage result has)."""
@@ -315,7 +344,8 @@ def _stress_pictures(model: FemModel, frd: FrdResults, out: Path, stem: str,
 def run_model(model: FemModel, out_dir: str | Path, *, stem: str | None = None,
               deck_only: bool = False, abaqus: bool = False, time_limit_s: float = 600.0,
               threads: int = 1, progress: Callable[[str], None] | None = None,
-              pictures: bool = True, partial: bool = True) -> FemResult:
+              pictures: bool = True, partial: bool = True,
+              companions: list[Companion] | None = None) -> FemResult:
     """Write ``model``'s decks to ``out_dir`` and (unless ``deck_only``) run
     ccx, check it, and write the curve (CSV, JSON, PNG) and the stress
     contours at ``model.output_depths``.
@@ -334,7 +364,10 @@ def run_model(model: FemModel, out_dir: str | Path, *, stem: str | None = None,
     failing :attr:`FemResult.verdict`; without it, it is a FemError.
     ``progress`` (a callable taking a line) gets the run's lines; without one
     they go to :mod:`tipgeo.progress` (a stage with the increment and depth
-    from ccx's ``.sta``).
+    from ccx's ``.sta``). ``companions`` (coarser runs of the same model,
+    coarse first) give the result's discretisation error
+    (:func:`tipgeo.fem.meshconv.mesh_error_table`), their curves drawn
+    beside its own.
     """
     out = Path(out_dir)
     stem = stem or f"{model.name}_{model.kind}"
@@ -390,7 +423,7 @@ def run_model(model: FemModel, out_dir: str | Path, *, stem: str | None = None,
             raise
     res.run = run
     try:
-        _finish(res, frd, t, f, out, stem, pictures)
+        _finish(res, frd, t, f, out, stem, pictures, companions)
     except BaseException:
         _remove(res.files, out if created else None)
         raise
@@ -398,11 +431,17 @@ def run_model(model: FemModel, out_dir: str | Path, *, stem: str | None = None,
 
 
 def _finish(res: FemResult, frd: FrdResults | None, t: FloatArray, f: FloatArray, out: Path,
-            stem: str, pictures: bool) -> None:
+            stem: str, pictures: bool, companions: list[Companion] | None = None) -> None:
     """The force curve, stresses, pictures and JSON of a checked run."""
     model = res.model
     res.depth = np.r_[0.0, t * model.depth]
     res.force = np.r_[0.0, -f[:, 1] * model.force_scale]
+    if companions is not None:
+        from .meshconv import mesh_error_table
+
+        res.convergence = mesh_error_table(res.depth, res.force,
+                                           float(model.info["element_size_um"]) * 1e-3,
+                                           companions)
     if frd is not None and res.run is not None:
         reached = res.run.reached * model.depth + tol.fem.depth_reached
         pngs, res.stress = (_stress_pictures(model, frd, out, stem, reached)
@@ -416,7 +455,9 @@ def _finish(res: FemResult, frd: FrdResults | None, t: FloatArray, f: FloatArray
 
         res.files.append(plot_force_curves(
             [(f"FEM {model.kind}, {model.info['element_size_um']:g} µm", res.depth, res.force,
-              "-o"), ("analytical eq. 4.22 (β = 2.5)", res.depth, ana, "--")],
+              "-o"), ("analytical eq. 4.22 (β = 2.5)", res.depth, ana, "--"),
+             *[(f"companion mesh {c.size * 1e3:.4g} µm", c.depth, c.force, ":")
+               for c in companions or [] if len(c.depth) > 1]],
             inside(out, stem, "_force.png"),
             title=f"{model.name} into {model.material.name} ({model.material.model}), "
                   f"μ = {model.friction:.3g}"))
@@ -438,21 +479,79 @@ def run_fem(spec: Tip | TipSpec, *, model: str = "axisymmetric", depth: float, o
             deck_only: bool = False, abaqus: bool = False, time_limit_s: float = 600.0,
             output_depths: tuple[float, ...] | None = None,
             progress: Callable[[str], None] | None = None, partial: bool = True,
-            pictures: bool = True, **kw: Any) -> FemResult:
+            pictures: bool = True, companions: bool = False, **kw: Any) -> FemResult:
     """Build, write and (unless ``deck_only``) run the ``model`` of tip
     ``spec`` pushed ``depth`` mm into ``tissue`` (see :func:`run_model`).
     Stresses are written at ``output_depths`` (default: the final depth and,
     when deeper than 1 mm, 1 mm). Without ccx (and not ``deck_only``) it
-    raises :class:`~tipgeo.fem.run.CcxMissing` before meshing."""
+    raises :class:`~tipgeo.fem.run.CcxMissing` before meshing.
+
+    With ``companions`` (the CLI's default) the same model also runs at two
+    coarser element sizes, 2·h and √2·h (mm), with the run's contact
+    stiffness, far size and slave side held, in ``out_dir/mesh_<size>um``;
+    the result's :attr:`FemResult.convergence` then gives Richardson's
+    discretisation error at every depth of the curve and its verdict checks
+    it at the final depth (:mod:`tipgeo.fem.meshconv`)."""
     depth = v.real("depth", depth, lo=0.0, lo_open=True, unit="mm")
     if not deck_only:
         require_ccx()
     if output_depths is None:
         output_depths = tuple(sorted({depth, *([1.0] if depth > 1.0 else [])}))
+    if companions and not deck_only and not isinstance(spec, Tip):
+        from ..build import build_tip
+
+        spec = build_tip(spec)  # once for the three runs
     m = build_model(spec, model, depth=depth, tissue=tissue, mesh=mesh, friction=friction,
                     output_depths=output_depths, **kw)
-    return run_model(m, out_dir, deck_only=deck_only, abaqus=abaqus, time_limit_s=time_limit_s,
-                     progress=progress, partial=partial, pictures=pictures)
+    runs = None
+    if companions and not deck_only:
+        runs = _run_companions(spec, m, out_dir, tissue=tissue, friction=friction,
+                               time_limit_s=time_limit_s, progress=progress, **kw)
+    try:
+        res = run_model(m, out_dir, deck_only=deck_only, abaqus=abaqus,
+                        time_limit_s=time_limit_s, progress=progress, partial=partial,
+                        pictures=pictures, companions=runs)
+        res.files += [p for c in runs or [] for p in c.files]
+        return res
+    except BaseException:
+        for c in runs or []:
+            _remove(c.files, Path(out_dir) / f"mesh_{c.size * 1e3:.4g}um")
+        raise
+
+
+def _run_companions(tip: Tip | TipSpec, main: FemModel, out_dir: str | Path, *,
+                    progress: Callable[[str], None] | None, **kw: Any) -> list[Companion]:
+    """The two coarser companion runs of ``main`` (coarse first), each in
+    ``out_dir/mesh_<size>um``; a run ccx stops short is kept (its reach
+    recorded), one that fails outright is recorded with ccx's message."""
+    from .meshconv import Companion, companion_sizes, held_options
+
+    h = float(main.info["element_size_um"]) * 1e-3
+    fixed = held_options(main)
+    kw = {k: x for k, x in kw.items() if k not in fixed}
+    out: list[Companion] = []
+    bar = pg.bar(2, "fem: companion meshes", unit="mesh")
+    try:
+        for size in companion_sizes(h):
+            c = Companion(size)
+            bar.set_postfix_str(f"{size * 1e3:.4g} µm")
+            try:
+                r = run_fem(tip, model=main.kind,
+                            depth=main.depth, out_dir=Path(out_dir) / f"mesh_{size * 1e3:.4g}um",
+                            mesh=size, output_depths=(), progress=progress, pictures=False,
+                            **fixed, **kw)
+            except FemError as e:
+                c.error = str(e)
+            else:
+                assert r.run is not None  # run_fem ran ccx
+                c.depth, c.force, c.files = r.depth, r.force, r.files
+                c.reached, c.cpu_s = float(r.reached_depth or 0.0), r.run.cpu_s
+                c.elements = r.model.n_elements
+            out.append(c)
+            bar.update()
+    finally:
+        bar.close()
+    return out
 
 
 def richardson(values: tuple[float, float, float], ratio: float) -> dict[str, float | None]:

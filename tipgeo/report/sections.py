@@ -676,15 +676,23 @@ def fem_section(page: Page, run: dict[str, Any], *, source: str = "") -> None:
     d = np.array([r["depth_mm"] for r in curve], float)
     f = np.array([r["force_N"] for r in curve], float)
     a = np.array([r.get("analytical_N", np.nan) for r in curve], float)
+    # the discretisation error (percent, Richardson over three meshes) where the run has one
+    e = np.array([np.nan if r.get("mesh_error_percent") is None else r["mesh_error_percent"]
+                  for r in curve], float)
+    err_bar = ({"type": "data", "array": np.abs(e) * np.abs(f) / 100.0, "visible": True}
+               if np.isfinite(e).any() else None)
     s = page.section(f"{run.get('name', 'tip')}: FEM insertion ({run.get('model', '')})",
                      "Axial force on the tip against insertion depth: the finite-element run "
                      "(CalculiX) and, beside it, the analytical force of eq. 4.22 (thesis "
                      "§4.2, β = 2.5) for the same tissue; right: FEM − eq. 4.22. "
+                     + ("Error bars: the FEM force's discretisation error (Richardson over "
+                        "three meshes, or their spread where they oscillate). "
+                        if err_bar is not None else "")
                      + (f"Source: {source}." if source else ""))
     fig = make_subplots(1, 2, column_widths=[0.6, 0.4], horizontal_spacing=0.1,
                         subplot_titles=("force against depth", "FEM − eq. 4.22"))
     fig.add_trace(go.Scatter(x=d, y=f, mode="lines+markers", name="FEM",
-                             line={"color": "#1565c0"}, marker={"size": 5},
+                             line={"color": "#1565c0"}, marker={"size": 5}, error_y=err_bar,
                              hovertemplate="depth %{x:.4f} mm<br>FEM %{y:.5g} N<extra></extra>"),
                   row=1, col=1)
     fig.add_trace(go.Scatter(x=d, y=a, mode="lines", name="analytical eq. 4.22",
@@ -712,9 +720,12 @@ def fem_section(page: Page, run: dict[str, Any], *, source: str = "") -> None:
                 [[k, v.get("max_principal_MPa", math.nan) * 1e3,
                   v.get("max_principal_near_edge_MPa", math.nan) * 1e3, v.get("at_mm")]
                  for k, v in st.items()], caption="stresses", left=0)
-    s.table(["depth (mm)", "FEM force (N)", "eq. 4.22 force (N)", "FEM − eq. 4.22 (mN)"],
-            [[float(x), float(y), float(z), float((y - z) * 1e3)] for x, y, z in zip(d, f, a)],
-            caption="force curve", left=0, folded=len(d) > 12)
+    s.table(["depth (mm)", "FEM force (N)", "eq. 4.22 force (N)", "FEM − eq. 4.22 (mN)",
+             "mesh error (%)"],
+            [[float(x), float(y), float(z), float((y - z) * 1e3), float(w)]
+             for x, y, z, w in zip(d, f, a, e)],
+            caption="force curve (mesh error: Richardson over three meshes; – without "
+                    "companion meshes or an estimate)", left=0, folded=len(d) > 12)
 
 
 # -----------------------------------------------------------------------------

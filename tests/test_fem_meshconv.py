@@ -150,3 +150,14 @@ def test_cli_prints_mesh_error_with_every_force(tmp_path, capsys):
                  "--no-pictures", "--out-dir", str(tmp_path / "one")]) == 0
     assert "one mesh (--single-mesh)" in capsys.readouterr().out
     assert not list((tmp_path / "one").glob("mesh_*"))
+
+
+def test_single_mesh_and_convergence_study_contradict(tmp_path, capsys):
+    """Both flags: exit 2 naming both, before any work (no ccx needed)."""
+    from tipgeo.cli import main
+
+    assert main(["fem", "punch-plain", "--depth-mm", "0.2", "--single-mesh",
+                 "--convergence-um", "50", "35", "25", "--out-dir", str(tmp_path / "x")]) == 2
+    err = capsys.readouterr().err
+    assert "--single-mesh" in err and "--convergence-um" in err
+    assert not (tmp_path / "x").exists()

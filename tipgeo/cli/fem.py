@@ -71,6 +71,11 @@ def cmd_fem(args: argparse.Namespace) -> int:
 
     say = progress.note
     if args.convergence_um:
+        if args.single_mesh:
+            from ..errors import InputError
+
+            raise InputError("--single-mesh and --convergence-um contradict each other: a "
+                             "convergence study runs three meshes; give one of them")
         meshes = tuple(_um("--convergence-um", x) for x in args.convergence_um)
         out = convergence_study(spec, model=args.model, depth=depth, meshes=meshes,
                                 out_dir=args.out_dir, tissue=args.tissue, friction=friction,

@@ -10,6 +10,8 @@ import math
 
 import numpy as np
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 from tipgeo.fem import INSTALL_HINT, ccx_path
 from tipgeo.fem.meshconv import (
@@ -161,3 +163,20 @@ def test_single_mesh_and_convergence_study_contradict(tmp_path, capsys):
     err = capsys.readouterr().err
     assert "--single-mesh" in err and "--convergence-um" in err
     assert not (tmp_path / "x").exists()
+
+
+@settings(max_examples=200, deadline=None)
+@given(p=st.floats(0.6, 1.95), c=st.floats(0.01, 0.5), sign=st.sampled_from([-1.0, 1.0]),
+       limit=st.floats(1e-3, 10.0), h=st.floats(0.005, 0.2))
+def test_richardson_recovers_any_asymptotic_series(p, c, sign, limit, h):
+    """f = f∞·(1 + c·(h/h₀)ᵖ), either sign, any order in [0.6, 1.95]: the
+    order and the limit come back (1e-6), the error is f(h)/f∞ − 1."""
+    depth = np.array([0.0, 1.0])
+    f = [limit * (1.0 + sign * c * (s / h) ** p) for s in (*companion_sizes(h), h)]
+    comps = [Companion(s, depth, np.array([0.0, x]), reached=1.0)
+             for s, x in zip(companion_sizes(h), f)]
+    end = mesh_error_table(depth, np.array([0.0, f[2]]), h, comps)["at_end"]
+    assert end["status"] == "converging"
+    assert end["order"] == pytest.approx(p, rel=1e-6)
+    assert end["extrapolated_N"] == pytest.approx(limit, rel=1e-6)
+    assert end["error_percent"] == pytest.approx(100 * sign * c, rel=1e-6)

@@ -180,3 +180,27 @@ def test_richardson_recovers_any_asymptotic_series(p, c, sign, limit, h):
     assert end["order"] == pytest.approx(p, rel=1e-6)
     assert end["extrapolated_N"] == pytest.approx(limit, rel=1e-6)
     assert end["error_percent"] == pytest.approx(100 * sign * c, rel=1e-6)
+
+
+@needs_ccx
+def test_failed_main_run_leaves_no_companion_behind(tmp_path, monkeypatch):
+    """The companions have run, the reported run fails: the output folder is
+    left as it was (empty), companions' files and folders included."""
+    import tipgeo.fem.study as study
+    from tipgeo.errors import FemError
+    from tipgeo.presets import preset
+
+    real = study.run_model
+
+    def failing(model, out_dir, **kw):
+        if kw.get("companions") is not None:
+            raise FemError("ccx: *ERROR in the reported run (simulated)")
+        return real(model, out_dir, **kw)
+
+    monkeypatch.setattr(study, "run_model", failing)
+    out = tmp_path / "fem"
+    out.mkdir()
+    with pytest.raises(FemError, match="simulated"):
+        study.run_fem(preset("punch-plain"), depth=0.05, mesh=0.05, out_dir=out, companions=True,
+                      pictures=False)
+    assert list(out.iterdir()) == []

@@ -515,7 +515,7 @@ def run_fem(spec: Tip | TipSpec, *, model: str = "axisymmetric", depth: float, o
         return res
     except BaseException:
         for c in runs or []:
-            _remove(c.files, Path(out_dir) / f"mesh_{c.size * 1e3:.4g}um")
+            _remove(c.files, _companion_dir(out_dir, c.size))
         raise
 
 
@@ -536,8 +536,8 @@ def _run_companions(tip: Tip | TipSpec, main: FemModel, out_dir: str | Path, *,
             c = Companion(size)
             bar.set_postfix_str(f"{size * 1e3:.4g} µm")
             try:
-                r = run_fem(tip, model=main.kind,
-                            depth=main.depth, out_dir=Path(out_dir) / f"mesh_{size * 1e3:.4g}um",
+                r = run_fem(tip, model=main.kind, depth=main.depth,
+                            out_dir=_companion_dir(out_dir, size),
                             mesh=size, output_depths=(), progress=progress, pictures=False,
                             **fixed, **kw)
             except FemError as e:
@@ -549,9 +549,18 @@ def _run_companions(tip: Tip | TipSpec, main: FemModel, out_dir: str | Path, *,
                 c.elements = r.model.n_elements
             out.append(c)
             bar.update()
+    except BaseException:  # interrupted: nothing of the companions is left behind
+        for c in out:
+            _remove(c.files, _companion_dir(out_dir, c.size))
+        raise
     finally:
         bar.close()
     return out
+
+
+def _companion_dir(out_dir: str | Path, size: float) -> Path:
+    """Where the companion run at element size ``size`` (mm) writes."""
+    return Path(out_dir) / f"mesh_{size * 1e3:.4g}um"
 
 
 def richardson(values: tuple[float, float, float], ratio: float) -> dict[str, float | None]:

@@ -405,3 +405,21 @@ def test_refine_splits_in_the_face():
     v, f, lab = _arrays(m)
     assert _edges_twice(f) and len(f) == len(f0) + 2
     assert aspect_ratios(v, f[lab == 0]).min() < aspect_ratios(v0, f0[lab0 == 0]).min()
+
+
+def test_trial_edits_may_use_the_limit():
+    # faces already beyond the share of the limit (``before``): the passes
+    # let an edit keep that distance, the trial edits let it reach the
+    # limit; neither goes past the limit nor past the share from below it
+    verts, faces = _cylinder_band(48, 1, 1.0, 0.1)
+    tri = [(list(faces[0]), 0)]
+    dev = _Mesh(verts, faces, np.zeros(len(faces), int), (), {0: _on_cylinder(1.0)},
+                1.0).exact_dev(tri)
+    assert dev is not None and dev > 0
+    m = _Mesh(verts, faces, np.zeros(len(faces), int), (), {0: _on_cylinder(1.0)}, 1.1 * dev)
+    assert not m.exact_ok(tri, 0.5, 0.9 * dev)  # the passes: no further than before
+    m.relaxed = True
+    assert m.exact_ok(tri, 0.5, 0.9 * dev)  # trial edits: up to the limit
+    assert not m.exact_ok(tri, 0.5, 0.5 * dev)  # before within the share: the share
+    m.limit = 0.95 * dev
+    assert not m.exact_ok(tri, 0.5, 0.9 * dev)  # never past the limit

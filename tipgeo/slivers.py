@@ -49,9 +49,21 @@ may keep that distance, never exceed it nor ``limit``. Fold checks compare
 every new normal with the old one and with the area-weighted normal of the
 star's faces of its label (a sliver's noisy normal cannot vouch for a fold).
 The pass keeps the state of its best pass (fewest triangles above the
-bound). :func:`remove_slivers_checked` re-runs it with the places where
+bound). Then come **trial edits** (:func:`_polish`) on the triangles still
+above it, worst first: every collapse and flip of the triangle's edges and a
+**refinement** (its longest edge halved, the new vertex relaxed into the
+face, flips around it and its neighbours — a needle whose short edge is a
+feature gets a vertex nearer that edge) is made, measured on the faces it
+changed and undone; the one that leaves the fewest triangles above the
+bound there (then the smallest worst) is made again when it beats what was
+there. The greedy order misses these: an edit that makes a neighbour worse
+for a pass, or a collapse that only helps once another is made. In the
+trial edits a face already further from its exact surface than the share
+may go up to ``limit`` (not only to where it was).
+:func:`remove_slivers_checked` re-runs the passes with the places where
 triangles came to cross guarded: edits there (splits too) are checked
-against the faces around for crossings.
+against the faces around for crossings; the trial edits run on the best
+round's result and are kept when they add no crossing.
 
 Frame and units: whatever the input (tipgeo: cannula frame, mm).
 """
@@ -229,7 +241,6 @@ class _Snap:
     """What :meth:`_Mesh._restore` puts back: list sizes, vertex → point,
     face → (corners, label, alive, deviation)."""
 
-    n_verts: int
     n_faces: int
     added: int
     verts: dict[int, Vec]
@@ -766,7 +777,7 @@ class _Mesh:
         for _ in range(rings):
             ring |= {y for x in ring for y in self.neighbours(x)}
         faces = {k for x in ring for k in self.vf[x]}
-        return _Snap(len(self.p), len(self.f), self.added,
+        return _Snap(len(self.f), self.added,
                      {x: self.p[x] for x in ring},
                      {k: (list(self.f[k]), self.lab[k], self.alive[k], self.dev[k])
                       for k in faces})
@@ -1043,6 +1054,10 @@ def remove_slivers_checked(vertices: FloatArray, faces: IntArray, labels: IntArr
     left are frozen instead; until no pair is left or after ``rounds`` rounds.
     The result with the fewest pairs is kept when it has no more than
     the input had, else the input unchanged: the pass never adds a crossing.
+    The trial edits (:func:`_polish`) run once, on that round's result
+    (without them in the rounds, the rounds' crossings and guards are what
+    they were), and are kept when they add no pair and leave fewer
+    triangles above ``bound`` (or as many and a smaller worst).
 
     With ``float32`` (the default) the vertices returned are float32 values
     placed by :func:`snap_float32`, so that an STL (float32) stores them

@@ -946,6 +946,7 @@ def _passes(vertices: FloatArray, faces: IntArray, labels: IntArray, *,
     ar = aspect_ratios(vertices, faces)
     cand = {int(k): float(ar[k]) for k in np.flatnonzero(ar > bound)}
     history: list[int] = []
+    current = True  # the mesh is in its best state
     best: tuple[int, list[Vec], list[list[int]], list[int], list[bool], list[float]] = (
         len(cand), list(m.p), [list(t) for t in m.f], list(m.lab), list(m.alive), list(m.dev))
     for _ in range(max_passes):
@@ -967,10 +968,11 @@ def _passes(vertices: FloatArray, faces: IntArray, labels: IntArray, *,
                 a = m.ar(k)
                 if a > bound:
                     cand[k] = a
-        if len(cand) < best[0]:  # a later pass may split caps into more slivers
+        current = len(cand) < best[0]
+        if current:  # a later pass may split caps into more slivers
             best = (len(cand), list(m.p), [list(t) for t in m.f], list(m.lab), list(m.alive),
                     list(m.dev))
-    return _best_mesh(m, best)
+    return m if current else _best_mesh(m, best)
 
 
 def _polish(m: _Mesh, bound: float, max_deviation: float) -> bool:
@@ -981,8 +983,9 @@ def _polish(m: _Mesh, bound: float, max_deviation: float) -> bool:
     m.relaxed = True
     changed = False
     for _ in range(POLISH_ROUNDS):
-        bad = sorted((k for k in range(len(m.f)) if m.alive[k] and m.ar(k) > bound),
-                     key=lambda k: -m.ar(k))
+        live = np.flatnonzero(np.asarray(m.alive, bool))
+        ar = aspect_ratios(np.asarray(m.p, np.float64), np.asarray(m.f, np.int64)[live])
+        bad = [int(live[i]) for i in np.argsort(-ar, kind="stable") if ar[i] > bound]
         kept = [m.alive[k] and m.ar(k) > bound and m.polish(k, bound, max_deviation)
                 for k in bad]
         if not any(kept):

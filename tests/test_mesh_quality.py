@@ -47,9 +47,10 @@ MEETS_BOUND = ("bevel-14G-xi14.5", "bevel-14G-xi15", "bevel-14G-xi45", "bevel-14
 #: serration's lowest point touches the circle where the cone meets the
 #: outer wall (depth = bevel length = 0.6 mm), so the cone face between that
 #: circle and the serration's arc (radius 0.6 mm) closes to a zero angle
-#: there; with its vertices on those curves and the curve's chords within
-#: the limit (edges ≤ 21 µm on the outer wall's circle) a cone triangle at
-#: the cusp has aspect ratio ≥ ~55 (docs/getting-started.md).
+#: there; with its corners on those curves (as the pass keeps them) and the
+#: curve's chords within the limit (edges ≤ 21 µm on the outer wall's
+#: circle) a cone triangle at the cusp has aspect ratio ≥ ~55
+#: (docs/getting-started.md).
 AT_MOST = {"punch-C5": (6, 110.0)}
 
 

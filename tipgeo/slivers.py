@@ -97,6 +97,12 @@ CURVE_MIN_SIN2 = 1.0e-3
 #: two exact surfaces must land on both.
 CURVE_SETTLE = 0.01
 
+#: Share of ``limit`` within which a new vertex settled onto the curve
+#: between two exact surfaces (:meth:`_Mesh.settle`) must land on both: to
+#: rounding (Gauss–Newton converges quadratically; a step or two more than
+#: ``CURVE_SETTLE`` takes).
+SETTLE_CURVE = 1.0e-6
+
 #: Most Gauss–Newton steps onto the curve between two exact surfaces.
 CURVE_STEPS_MAX = 6
 
@@ -816,17 +822,47 @@ class _Mesh:
         pts = [snap.verts.get(x, self.p[x]) for x in tri]
         return _ar(pts[0], pts[1], pts[2])
 
+    def settle(self, w: int) -> bool:
+        """Move w onto the exact surface of its one label, or onto the curve
+        where its two labels' exact surfaces meet (:meth:`project`), when no
+        face of its star folds, every edge midpoint and centroid of the star
+        stays within ``limit`` (mm) of the exact surfaces and nothing crosses;
+        True when moved."""
+        if w in self.frozen:
+            return False
+        fns = self.curve_fns(w)
+        q = (self.project(w, self.p[w]) if fns is None
+             else _onto_curve(self.p[w], *fns, SETTLE_CURVE * self.limit))
+        if q is None:
+            return False
+        star = list(self.vf[w])
+        pw = self.p[w]
+        old = [self.normal(k) for k in star]
+        ref = self.label_normals(star)
+        self.p[w] = q
+        if all(self._unfolded(k, nn) and self._unfolded(k, ref.get(self.lab[k]))
+               for k, nn in zip(star, old)) and \
+                self.exact_ok((self.f[k], self.lab[k]) for k in star) and \
+                self.crossing_free([self.f[k] for k in star], star):
+            self.dirty.update(star)
+            return True
+        self.p[w] = pw
+        return False
+
     def refine(self, tri: Sequence[int], max_dev: float) -> bool:
-        """Split the longest edge of ``tri`` at its middle, then relax the
-        new vertex and flip around it and its neighbours, twice: a needle
-        whose short edge is a feature gets a vertex nearer its base. True
-        when the split was made."""
+        """Split the longest edge of ``tri`` at its middle, move the new
+        vertex onto the exact surface, or onto the exact curve when the edge
+        lies where two faces meet (:meth:`settle`), then relax it and flip
+        around it and its neighbours, twice: a needle whose short edge is a
+        feature gets a vertex nearer its base. True when the split was
+        made."""
         pts = _corners(tri, self.p)
         _, a, b = max((_d2(pts[i], pts[(i + 1) % 3]), tri[i], tri[(i + 1) % 3])
                       for i in range(3))
         w = self.split(a, b, _mid(self.p[a], self.p[b]))
         if w is None:
             return False
+        self.settle(w)
         for _ in range(2):
             self.try_relax(w)
             for x in [w, *sorted(self.neighbours(w))]:

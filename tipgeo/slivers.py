@@ -899,9 +899,12 @@ class _Mesh:
             self._restore(snap)
         if best is None:
             return False
+        snap = self._snapshot(t, 3)
         self.dirty = set()
-        edits[best]()
-        return True
+        if edits[best]() and self._gain(snap, bound) > (0, 0.0):
+            return True
+        self._restore(snap)  # made again, it did not do what it did on trial
+        return False
 
     def flip_around(self, w: int, max_dev: float) -> None:
         """Flip the edges opposite w where that improves their triangles."""

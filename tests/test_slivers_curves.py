@@ -116,3 +116,32 @@ def test_collapse_along_a_curved_feature_curve():
     v1, f1, _ = remove_slivers(verts, faces, labels, bound=MAX_ASPECT_RATIO,
                                max_deviation=1e-12)
     assert aspect_ratios(v1, f1).max() > MAX_ASPECT_RATIO
+
+
+def test_curve_edge_split_lands_on_the_curve():
+    # a curve edge (cylinder face 0 | plane face 1) split at its chord's
+    # middle, then settled: the new vertex lies on the circle ρ = 1, z = 0
+    # (both exact surfaces, to 1e-9 mm: Gauss–Newton to 1e-6 × the limit),
+    # each face keeps its label and the star stays within the limit
+    from tipgeo.slivers import _arrays, _Mesh, _mid
+
+    verts, faces, labels, ic = _band_and_annulus()
+    limit = 1.01 * (1 - np.cos(np.pi / 48))  # the input's own circle chords
+    exact = {0: _cylinder(1.0), 1: _plane_z}
+    m = _Mesh(verts, faces, labels, (), exact, limit)
+    a, b = int(ic[5]), int(ic[6])
+    mid = _mid(m.p[a], m.p[b])
+    assert 1.0 - np.hypot(mid[0], mid[1]) == pytest.approx(1 - np.cos(np.pi / 48), rel=1e-9)
+    w = m.split(a, b, mid)
+    assert w is not None and m.labels_at(w) == {0, 1}
+    assert m.settle(w)
+    x = np.asarray(m.p[w])
+    assert abs(np.hypot(x[0], x[1]) - 1.0) <= 1e-9 and abs(x[2]) <= 1e-9
+    # ic[5], ic[6] at 4 and 5 spacings (ic[1] is the extra point): between them
+    assert np.arctan2(x[1], x[0]) == pytest.approx(4.5 * 2 * np.pi / 48, abs=1e-9)
+    v, f, lab = _arrays(m)
+    assert np.bincount(lab).tolist() == (np.bincount(labels) + 1).tolist()
+    for k, fn in exact.items():
+        t = v[f[lab == k]]
+        pts = np.concatenate([0.5 * (t + np.roll(t, 1, axis=1)), t.mean(1, keepdims=True)], 1)
+        assert np.abs(fn(pts.reshape(-1, 3))[0]).max() <= limit

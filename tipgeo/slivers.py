@@ -49,15 +49,29 @@ may keep that distance, never exceed it nor ``limit``. Fold checks compare
 every new normal with the old one and with the area-weighted normal of the
 star's faces of its label (a sliver's noisy normal cannot vouch for a fold).
 The pass keeps the state of its best pass (fewest triangles above the
-bound). :func:`remove_slivers_checked` re-runs it with the places where
+bound). Then come **trial edits** (:func:`_polish`) on the triangles still
+above it, worst first: every collapse and flip of the triangle's edges and a
+**refinement** (its longest edge halved, the new vertex relaxed into the
+face, flips around it and its neighbours — a needle whose short edge is a
+feature gets a vertex nearer that edge) is made, measured on the faces it
+changed and undone; the one that leaves the fewest triangles above the
+bound there (then the smallest worst) is made again when it beats what was
+there. The greedy order misses these: an edit that makes a neighbour worse
+for a pass, or a collapse that only helps once another is made. In the
+trial edits a face already further from its exact surface than the share
+may go up to ``limit`` (not only to where it was).
+:func:`remove_slivers_checked` re-runs the passes with the places where
 triangles came to cross guarded: edits there (splits too) are checked
-against the faces around for crossings.
+against the faces around for crossings; the trial edits run on the best
+round's result and are kept when they add no crossing.
 
 Frame and units: whatever the input (tipgeo: cannula frame, mm).
 """
 
 from __future__ import annotations
 
+import dataclasses
+import functools
 import math
 from collections.abc import Callable, Iterable, Mapping, Sequence
 from typing import Any
@@ -83,6 +97,12 @@ CURVE_MIN_SIN2 = 1.0e-3
 #: two exact surfaces must land on both.
 CURVE_SETTLE = 0.01
 
+#: Share of ``limit`` within which a new vertex settled onto the curve
+#: between two exact surfaces (:meth:`_Mesh.settle`) must land on both: to
+#: rounding (Gauss–Newton converges quadratically; a step or two more than
+#: ``CURVE_SETTLE`` takes).
+SETTLE_CURVE = 1.0e-6
+
 #: Most Gauss–Newton steps onto the curve between two exact surfaces.
 CURVE_STEPS_MAX = 6
 
@@ -93,6 +113,9 @@ GUARD_ROUNDS = 3
 
 #: Passes without fewer triangles above the bound after which the pass stops.
 STALL_PASSES = 6
+
+#: Rounds of trial edits (each kept only where it helps) after the passes.
+POLISH_ROUNDS = 4
 
 #: A point or a vector (mm).
 Vec = tuple[float, float, float]
@@ -219,6 +242,17 @@ def _onto_curve(q: Vec, fa: Implicit, fb: Implicit, limit: float) -> Vec | None:
     return None
 
 
+@dataclasses.dataclass
+class _Snap:
+    """What :meth:`_Mesh._restore` puts back: list sizes, vertex → point,
+    face → (corners, label, alive, deviation)."""
+
+    n_faces: int
+    added: int
+    verts: dict[int, Vec]
+    faces: dict[int, tuple[list[int], int, bool, float]]
+
+
 class _Mesh:
     """Mutable triangle soup with vertex→faces incidence."""
 
@@ -228,6 +262,7 @@ class _Mesh:
         self.frozen = set(int(x) for x in frozen)  # vertices no edit may touch
         self.exact: Mapping[int, Implicit] = exact or {}  # label -> exact surface
         self.limit = limit  # largest |f| of an exact surface over an edited face (mm)
+        self.relaxed = False  # faces beyond the share may go up to the limit (trial edits)
         self.p: list[Vec] = [(float(v[0]), float(v[1]), float(v[2])) for v in vertices]
         self.f = [list(map(int, t)) for t in faces]
         self.lab = [int(x) for x in labels]
@@ -380,6 +415,8 @@ class _Mesh:
         dev = self.exact_dev(tris)
         if dev is None:
             return None
+        if self.relaxed and before > share * self.limit:
+            return dev <= self.limit
         return dev <= min(max(share * self.limit, before), self.limit)
 
     def curve_fns(self, u: int) -> tuple[Implicit, Implicit] | None:
@@ -737,6 +774,138 @@ class _Mesh:
         now = self.normal(k)
         return before is not None and now is not None and _dot(now, before) > _FOLD_COS
 
+    # -- trial edits ---------------------------------------------------------------
+    def _snapshot(self, tri: Sequence[int], rings: int) -> _Snap:
+        """The state an edit of triangle ``tri`` may touch: the vertices
+        within ``rings`` rings of its corners, their faces, and the list
+        sizes."""
+        ring = set(tri)
+        for _ in range(rings):
+            ring |= {y for x in ring for y in self.neighbours(x)}
+        faces = {k for x in ring for k in self.vf[x]}
+        return _Snap(len(self.f), self.added,
+                     {x: self.p[x] for x in ring},
+                     {k: (list(self.f[k]), self.lab[k], self.alive[k], self.dev[k])
+                      for k in faces})
+
+    def _restore(self, snap: _Snap) -> None:
+        """Undo everything since ``snap`` (vertices a split added stay,
+        unused): the faces it holds and those added since get their old
+        corners back, and the vertex → faces sets follow."""
+        for k in list(snap.faces) + list(range(snap.n_faces, len(self.f))):
+            for x in self.f[k]:
+                self.vf[x].discard(k)
+        for k in range(snap.n_faces, len(self.f)):
+            self.alive[k] = False
+        for k, (tri, lab, alive, dev) in snap.faces.items():
+            self.f[k], self.lab[k], self.alive[k], self.dev[k] = list(tri), lab, alive, dev
+            if alive:
+                for x in tri:
+                    self.vf[x].add(k)
+        for x, q in snap.verts.items():
+            self.p[x] = q
+        self.added = snap.added
+
+    def _gain(self, snap: _Snap, bound: float) -> tuple[int, float]:
+        """How much better the faces changed since ``snap`` (``dirty``) are
+        than the ones they replace: (fewer triangles above ``bound``, lower
+        worst aspect ratio); better when greater."""
+        gone = {k for k, old in snap.faces.items() if old[2] and not self.alive[k]}
+        before = [self._snap_ar(snap, k) for k in self.dirty | gone
+                  if k < snap.n_faces and k in snap.faces and snap.faces[k][2]]
+        after = [self.ar(k) for k in self.dirty if self.alive[k]]
+        nb, na = sum(a > bound for a in before), sum(a > bound for a in after)
+        return nb - na, max(before, default=0.0) - max(after, default=0.0)
+
+    def _snap_ar(self, snap: _Snap, k: int) -> float:
+        tri = snap.faces[k][0]
+        pts = [snap.verts.get(x, self.p[x]) for x in tri]
+        return _ar(pts[0], pts[1], pts[2])
+
+    def settle(self, w: int) -> bool:
+        """Move w onto the exact surface of its one label, or onto the curve
+        where its two labels' exact surfaces meet (:meth:`project`), when no
+        face of its star folds, every edge midpoint and centroid of the star
+        stays within ``limit`` (mm) of the exact surfaces and nothing crosses;
+        True when moved."""
+        if w in self.frozen:
+            return False
+        fns = self.curve_fns(w)
+        q = (self.project(w, self.p[w]) if fns is None
+             else _onto_curve(self.p[w], *fns, SETTLE_CURVE * self.limit))
+        if q is None:
+            return False
+        star = list(self.vf[w])
+        pw = self.p[w]
+        old = [self.normal(k) for k in star]
+        ref = self.label_normals(star)
+        self.p[w] = q
+        if all(self._unfolded(k, nn) and self._unfolded(k, ref.get(self.lab[k]))
+               for k, nn in zip(star, old)) and \
+                self.exact_ok((self.f[k], self.lab[k]) for k in star) and \
+                self.crossing_free([self.f[k] for k in star], star):
+            self.dirty.update(star)
+            return True
+        self.p[w] = pw
+        return False
+
+    def refine(self, tri: Sequence[int], max_dev: float) -> bool:
+        """Split the longest edge of ``tri`` at its middle, move the new
+        vertex onto the exact surface, or onto the exact curve when the edge
+        lies where two faces meet (:meth:`settle`), then relax it and flip
+        around it and its neighbours, twice: a needle whose short edge is a
+        feature gets a vertex nearer its base. True when the split was
+        made."""
+        pts = _corners(tri, self.p)
+        _, a, b = max((_d2(pts[i], pts[(i + 1) % 3]), tri[i], tri[(i + 1) % 3])
+                      for i in range(3))
+        w = self.split(a, b, _mid(self.p[a], self.p[b]))
+        if w is None:
+            return False
+        self.settle(w)
+        for _ in range(2):
+            self.try_relax(w)
+            for x in [w, *sorted(self.neighbours(w))]:
+                for kk in sorted(self.vf[x]):  # sorted: the same edits when made again
+                    if self.alive[kk] and x in self.f[kk]:
+                        tt = self._rot(self.f[kk], x)
+                        self.try_flip(tt[1], tt[2], max_dev)
+        return True
+
+    def polish(self, k: int, bound: float, max_dev: float) -> bool:
+        """Try every collapse and flip of triangle k's edges and
+        :meth:`refine`; make the one that leaves the fewest triangles above
+        ``bound`` where it changed the mesh (then the smallest worst), when
+        that is fewer than before (or as many with a smaller worst); True
+        when one was made."""
+        t = list(self.f[k])
+        if self.frozen and self.frozen.intersection(t):
+            return False
+        edits: list[Callable[[], bool]] = []
+        for i in range(3):
+            a, b = t[i], t[(i + 1) % 3]
+            edits += [functools.partial(self.try_collapse, a, b, max_dev),
+                      functools.partial(self.try_collapse, b, a, max_dev),
+                      functools.partial(self.try_flip, a, b, max_dev)]
+        edits.append(functools.partial(self.refine, t, max_dev))
+        best, gain = None, (0, 0.0)
+        for n, edit in enumerate(edits):  # each tried and undone; the best made again
+            snap = self._snapshot(t, 3)
+            self.dirty = set()
+            if edit():
+                g = self._gain(snap, bound)
+                if g > gain:
+                    best, gain = n, g
+            self._restore(snap)
+        if best is None:
+            return False
+        snap = self._snapshot(t, 3)
+        self.dirty = set()
+        if edits[best]() and self._gain(snap, bound) > (0, 0.0):
+            return True
+        self._restore(snap)  # made again, it did not do what it did on trial
+        return False
+
     def flip_around(self, w: int, max_dev: float) -> None:
         """Flip the edges opposite w where that improves their triangles."""
         for kk in list(self.vf[w]):
@@ -749,7 +918,7 @@ def remove_slivers(vertices: FloatArray, faces: IntArray, labels: IntArray, *,
                    bound: float, max_deviation: float, max_passes: int = 40,
                    frozen: BoolArray | None = None,
                    exact: Mapping[int, Implicit] | None = None, limit: float = 0.0,
-                   guard: Sequence[IntArray] = (),
+                   guard: Sequence[IntArray] = (), polish: bool = True,
                    ) -> tuple[FloatArray, IntArray, IntArray]:
     """Improve the triangles whose aspect ratio exceeds ``bound``.
 
@@ -784,12 +953,30 @@ def remove_slivers(vertices: FloatArray, faces: IntArray, labels: IntArray, *,
         only when none of them crosses a face of that zone or around it
         (exact crossings and the tolerant test's pairs).
 
+    polish : bool
+        After the passes, try every collapse and flip of each triangle
+        still above the bound and keep those that leave fewer (or a smaller
+        worst) where they changed the mesh (:func:`_polish`).
+
     Returns
     -------
     vertices, faces, labels
         The improved mesh (unused vertices dropped). Triangles the local
         operations cannot improve within the budget stay as they were.
     """
+    m = _passes(vertices, faces, labels, bound=bound, max_deviation=max_deviation,
+                max_passes=max_passes, frozen=frozen, exact=exact, limit=limit, guard=guard)
+    if polish:
+        _polish(m, bound, max_deviation)
+    return _arrays(m)
+
+
+def _passes(vertices: FloatArray, faces: IntArray, labels: IntArray, *,
+            bound: float, max_deviation: float, max_passes: int,
+            frozen: BoolArray | None, exact: Mapping[int, Implicit] | None, limit: float,
+            guard: Sequence[IntArray]) -> _Mesh:
+    """The greedy passes of :func:`remove_slivers`; the mesh in its best
+    state (fewest triangles above ``bound``)."""
     m = _Mesh(vertices, faces, labels,
               () if frozen is None else np.flatnonzero(np.asarray(frozen, bool)),
               exact, limit)
@@ -798,8 +985,9 @@ def remove_slivers(vertices: FloatArray, faces: IntArray, labels: IntArray, *,
     ar = aspect_ratios(vertices, faces)
     cand = {int(k): float(ar[k]) for k in np.flatnonzero(ar > bound)}
     history: list[int] = []
-    best: tuple[int, list[Vec], list[list[int]], list[int], list[bool]] = (
-        len(cand), list(m.p), [list(t) for t in m.f], list(m.lab), list(m.alive))
+    current = True  # the mesh is in its best state
+    best: tuple[int, list[Vec], list[list[int]], list[int], list[bool], list[float]] = (
+        len(cand), list(m.p), [list(t) for t in m.f], list(m.lab), list(m.alive), list(m.dev))
     for _ in range(max_passes):
         if not cand:
             break
@@ -819,14 +1007,53 @@ def remove_slivers(vertices: FloatArray, faces: IntArray, labels: IntArray, *,
                 a = m.ar(k)
                 if a > bound:
                     cand[k] = a
-        if len(cand) < best[0]:  # a later pass may split caps into more slivers
-            best = (len(cand), list(m.p), [list(t) for t in m.f], list(m.lab), list(m.alive))
-    _, p, faces_, labs, alive = best
-    keep = np.asarray(alive)
-    f = np.asarray(faces_, dtype=np.int64)[keep]
-    lab = np.asarray(labs, dtype=np.int64)[keep]
+        current = len(cand) < best[0]
+        if current:  # a later pass may split caps into more slivers
+            best = (len(cand), list(m.p), [list(t) for t in m.f], list(m.lab), list(m.alive),
+                    list(m.dev))
+    return m if current else _best_mesh(m, best)
+
+
+def _polish(m: _Mesh, bound: float, max_deviation: float) -> bool:
+    """Trial edits (:meth:`_Mesh.polish`) on the triangles still above
+    ``bound``, worst first, for ``POLISH_ROUNDS`` rounds: what the greedy
+    order missed, each kept only where it helps; faces already beyond the
+    exact-surface share may go up to the limit. True when the mesh changed."""
+    m.relaxed = True
+    changed = False
+    for _ in range(POLISH_ROUNDS):
+        live = np.flatnonzero(np.asarray(m.alive, bool))
+        ar = aspect_ratios(np.asarray(m.p, np.float64), np.asarray(m.f, np.int64)[live])
+        bad = [int(live[i]) for i in np.argsort(-ar, kind="stable") if ar[i] > bound]
+        kept = [m.alive[k] and m.ar(k) > bound and m.polish(k, bound, max_deviation)
+                for k in bad]
+        if not any(kept):
+            break
+        changed = True
+    m.relaxed = False
+    return changed
+
+
+def _arrays(m: _Mesh) -> tuple[FloatArray, IntArray, IntArray]:
+    """The live faces of m as arrays (unused vertices dropped)."""
+    keep = np.asarray(m.alive, bool)
+    f = np.asarray(m.f, dtype=np.int64)[keep]
+    lab = np.asarray(m.lab, dtype=np.int64)[keep]
     used, inv = np.unique(f, return_inverse=True)
-    return np.asarray(p, np.float64)[used], inv.reshape(-1, 3).astype(np.int64), lab
+    return np.asarray(m.p, np.float64)[used], inv.reshape(-1, 3).astype(np.int64), lab
+
+
+def _best_mesh(m: _Mesh, best: tuple[int, list[Vec], list[list[int]], list[int], list[bool],
+                                     list[float]]) -> _Mesh:
+    """The pass's mesh put back into its best state (same vertex indices;
+    the dead faces dropped)."""
+    _, p, faces_, labs, alive, dev = best
+    keep = [k for k, a in enumerate(alive) if a]
+    out = _Mesh(np.asarray(p, np.float64).reshape(-1, 3), np.asarray([faces_[k] for k in keep]),
+                np.asarray([labs[k] for k in keep]), m.frozen, m.exact, m.limit)
+    out.dev = [dev[k] for k in keep]
+    out.zone, out.zones, out.reach = m.zone, m.zones, m.reach
+    return out
 
 
 def _crossings(v: FloatArray, f: IntArray) -> IntArray:
@@ -836,6 +1063,15 @@ def _crossings(v: FloatArray, f: IntArray) -> IntArray:
 
     pairs = [self_intersections(v, f), tolerant_intersections(v, f)]
     return np.concatenate(pairs) if len(pairs[0]) + len(pairs[1]) else pairs[0]
+
+
+def _fewer_slivers(v: FloatArray, f: IntArray, v0: FloatArray, f0: IntArray,
+                   bound: float) -> bool:
+    """Whether (v, f) has fewer triangles above ``bound`` than (v0, f0), or
+    as many and a smaller worst aspect ratio."""
+    a, a0 = aspect_ratios(v, f), aspect_ratios(v0, f0)
+    n, n0 = int((a > bound).sum()), int((a0 > bound).sum())
+    return n < n0 or (n == n0 and float(a.max()) < float(a0.max()))
 
 
 def remove_slivers_checked(vertices: FloatArray, faces: IntArray, labels: IntArray, *,
@@ -860,6 +1096,10 @@ def remove_slivers_checked(vertices: FloatArray, faces: IntArray, labels: IntArr
     left are frozen instead; until no pair is left or after ``rounds`` rounds.
     The result with the fewest pairs is kept when it has no more than
     the input had, else the input unchanged: the pass never adds a crossing.
+    The trial edits (:func:`_polish`) run once, on that round's result
+    (without them in the rounds, the rounds' crossings and guards are what
+    they were), and are kept when they add no pair and leave fewer
+    triangles above ``bound`` (or as many and a smaller worst).
 
     With ``float32`` (the default) the vertices returned are float32 values
     placed by :func:`snap_float32`, so that an STL (float32) stores them
@@ -878,13 +1118,14 @@ def remove_slivers_checked(vertices: FloatArray, faces: IntArray, labels: IntArr
     best: tuple[int, FloatArray, IntArray, IntArray] = (
         base, vertices, np.asarray(faces, np.int64), np.asarray(labels, np.int64))
     zones: list[IntArray] = []
+    best_mesh: _Mesh | None = None
     for r in range(rounds):
-        v, f, lab = remove_slivers(vertices, faces, labels, bound=bound,
-                                   max_deviation=max_deviation, frozen=frozen,
-                                   exact=exact, limit=limit, guard=zones)
+        mesh = _passes(vertices, faces, labels, bound=bound, max_deviation=max_deviation,
+                       max_passes=40, frozen=frozen, exact=exact, limit=limit, guard=zones)
+        v, f, lab = _arrays(mesh)
         pairs = _crossings(v, f)
         if len(pairs) <= best[0]:
-            best = (len(pairs), v, f, lab)
+            best, best_mesh = (len(pairs), v, f, lab), mesh
         if len(pairs) == 0:
             break
         tree = cKDTree(vertices) if tree is None else tree
@@ -900,6 +1141,11 @@ def remove_slivers_checked(vertices: FloatArray, faces: IntArray, labels: IntArr
                                              np.asarray(corners, np.int64)]))
             else:  # around the smaller triangle: no edit at all
                 frozen[tree.query_ball_point(t[k].mean(0), (r + 1 - GUARD_ROUNDS) * edge[k])] = True
+    if best_mesh is not None and _polish(best_mesh, bound, max_deviation):
+        v, f, lab = _arrays(best_mesh)  # the trial edits: kept when they cross nothing new
+        pairs = _crossings(v, f)
+        if len(pairs) <= best[0] and _fewer_slivers(v, f, best[1], best[2], bound):
+            best = (len(pairs), v, f, lab)
     out = snap_float32(best[1], best[2]) if float32 else best[1]
     return out, best[2], best[3]
 

@@ -25,8 +25,8 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from numba import njit
 
+from .._jit import njit
 from ..arrays import AnyArray, FloatArray, IntArray
 from ..tolerances import tol
 

@@ -280,7 +280,9 @@ def _flat_patches(p: np.ndarray, nrm: np.ndarray, r_nominal: float) -> np.ndarra
             break
         # the densest normal direction, counted on a spread sample (sign free)
         probe = free[:: max(1, len(free) // 1500)]
-        cnt = np.count_nonzero(np.abs(nrm[probe] @ nrm[probe].T) > cosc, axis=1)
+        g = nrm[probe] @ nrm[probe].T
+        np.abs(g, out=g)
+        cnt = (g > cosc).sum(axis=1)   # half the time of count_nonzero(axis=1)
         k = int(np.argmax(cnt))
         if cnt[k] * len(free) / len(probe) < max(st.flat_share * n, 50):
             break

@@ -30,7 +30,7 @@ def _lean_cache_loads() -> bool:
     cache loader is not of the expected form (then nothing is changed)."""
     try:
         from numba.core.caching import Cache
-        from numba.core.runtime import rtsys
+        from numba.core.runtime.nrt import rtsys
     except ImportError:  # pragma: no cover - another numba layout
         return False
     current = Cache.load_overload
@@ -48,7 +48,7 @@ def _lean_cache_loads() -> bool:
             return self._load_overload(sig, target_context)
 
     load_overload._tipgeo_lean = True  # type: ignore[attr-defined]
-    Cache.load_overload = load_overload
+    Cache.load_overload = load_overload  # type: ignore[method-assign]  # see the module docstring
     return True
 
 

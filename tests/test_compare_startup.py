@@ -3,10 +3,13 @@ the smooth-face components without scipy.sparse (same partition as a
 reference union-find), numba's cached kernels loaded without numba's full
 target refresh, and a whole compare of a mesh CAD that imports none of
 scipy's big subpackages nor matplotlib (each costs a tenth of a CPU second
-or more; numba itself imports the bare ``scipy`` package)."""
+or more; numba itself imports the bare ``scipy`` package), and the
+program's end without the interpreter's teardown: atexit handlers run,
+the output complete, the exit code kept."""
 
 from __future__ import annotations
 
+import json
 import os
 import subprocess
 import sys
@@ -70,16 +73,26 @@ def test_compare_imports_no_scipy_or_matplotlib(tmp_path):
     s = synthetic_scan(spec, points=20_000, noise=0.002,
                        misalignment=Misalignment(0.0, 0.5, 40.0, (0.02, 0.0, 0.0)), seed=1)
     write_ply(tmp_path / "scan.ply", s.points)
-    child = ("import sys\nfrom tipgeo.cli import main\n"
-             "rc = main(sys.argv[1:])\n"
-             "print(sorted(m for m in sys.modules if m.split('.')[0] in "
+    # as the program runs it: main() ends the process itself after the
+    # atexit handlers (here the one that lists the modules)
+    child = ("import atexit, sys\n"
+             "atexit.register(lambda: print(sorted(m for m in sys.modules if m.split('.')[0] in "
              "('matplotlib', 'trimesh', 'open3d') or m.split('.')[:2] in "
              "(['scipy', s] for s in ('linalg', 'sparse', 'spatial', 'special', "
-             "'signal', 'optimize', 'stats'))))\n"
-             "sys.exit(rc)\n")
+             "'signal', 'optimize', 'stats')))))\n"
+             "from tipgeo.cli import main\n"
+             "sys.exit(main())\n")
     env = dict(os.environ, PYTHONPATH=os.pathsep.join([os.getcwd(), *sys.path]))
     r = subprocess.run([sys.executable, "-c", child, "compare", str(tmp_path / "scan.ply"),
-                        str(tmp_path / "cad.stl"), "--no-pictures", "--quiet"],
+                        str(tmp_path / "cad.stl"), "--no-pictures", "--json"],
                        capture_output=True, text=True, env=env, cwd=tmp_path)
     assert r.returncode == 0, r.stderr[-2000:]
-    assert r.stdout.strip().splitlines()[-1] == "[]"
+    *report, modules = r.stdout.strip().splitlines()
+    assert modules == "[]"
+    # the whole report is out (stdout flushed before the process ends)
+    assert json.loads("\n".join(report))["verdict"]["ok"] is True
+    # a failing command keeps its exit code: a CAD that does not exist is bad input
+    r = subprocess.run([sys.executable, "-m", "tipgeo", "compare", str(tmp_path / "scan.ply"),
+                        str(tmp_path / "nothing.stl"), "--no-pictures"],
+                       capture_output=True, text=True, env=env, cwd=tmp_path)
+    assert r.returncode == 2 and "nothing.stl" in r.stderr

@@ -94,8 +94,13 @@ class CadModel:
             return self.engine.face_fields(points)
         return None
 
-    def bound(self, points: np.ndarray) -> np.ndarray:
-        """A cheap signed distance (exact inside, a lower bound outside)."""
+    def bound(self, points: np.ndarray, cap: float | None = None) -> np.ndarray:
+        """A cheap signed distance (exact inside, a lower bound outside).
+        ``cap`` (mm): only min(|value|, cap) will be read — a mesh CAD's
+        search stops there (:meth:`MeshSolid.bound`); an exact CAD's bound is
+        cheap already."""
+        if cap is not None and isinstance(self.engine, MeshSolid):
+            return self.engine.bound(points, cap)
         return self.engine.bound(points)
 
     def summary(self) -> dict[str, Any]:

@@ -447,7 +447,7 @@ def _scores(sub: FloatArray, cad: Any, angles: FloatArray, dz: float) -> FloatAr
     c, s = np.cos(angles)[:, None], np.sin(angles)[:, None]
     x = np.stack([c * sub[:, 0] - s * sub[:, 1], s * sub[:, 0] + c * sub[:, 1],
                   np.broadcast_to(sub[:, 2] + dz, (len(angles), len(sub)))], 2)
-    f = cad.bound(x.reshape(-1, 3)).reshape(len(angles), len(sub))
+    f = cad.bound(x.reshape(-1, 3), tol.inspect.search_clip).reshape(len(angles), len(sub))
     scores: FloatArray = np.mean(np.minimum(np.abs(f), tol.inspect.search_clip), axis=1)
     return scores
 
@@ -521,7 +521,7 @@ def _scores_dz(sub: FloatArray, cad: Any, angles: FloatArray, dzs: FloatArray) -
     c, s = np.cos(angles)[:, None], np.sin(angles)[:, None]
     x = np.stack([c * sub[:, 0] - s * sub[:, 1], s * sub[:, 0] + c * sub[:, 1],
                   sub[:, 2][None, :] + np.asarray(dzs)[:, None]], 2)
-    f = cad.bound(x.reshape(-1, 3)).reshape(len(angles), len(sub))
+    f = cad.bound(x.reshape(-1, 3), tol.inspect.search_clip).reshape(len(angles), len(sub))
     scores: FloatArray = np.mean(np.minimum(np.abs(f), tol.inspect.search_clip), axis=1)
     return scores
 

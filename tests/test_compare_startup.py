@@ -126,4 +126,10 @@ def test_capped_mesh_bound_clips_exactly():
         assert np.all(np.abs(b[~near]) >= np.abs(d[~near]) - 1e-12)
         assert np.all(np.abs(b[~near]) >= cap - 1e-12)
         assert np.max(np.abs(np.minimum(np.abs(b), cap) - np.minimum(np.abs(d), cap))) <= 1e-12
+        # the whole fields below the cap (what the registration's loose ICP reads)
+        D, C = mesh.distances(p), mesh.distances(p, cap)
+        same = near & (C.face == D.face)        # ties may take the other face
+        assert same.sum() >= 0.99 * near.sum()
+        assert np.max(np.abs(C.closest[same] - D.closest[same])) <= 1e-12
+        assert np.max(np.abs(C.normal[same] - D.normal[same])) <= 1e-9
     assert np.array_equal(mesh.bound(p), d)

@@ -317,17 +317,20 @@ class MeshSolid:
         # spatial order: each search starts from its predecessor's triangle
         return self._build().nearest(p, spatial_order(p, self._bits(len(p))), cap2)
 
-    def distances(self, points: np.ndarray) -> Distances:
+    def distances(self, points: np.ndarray, cap: float | None = None) -> Distances:
         """Exact signed distance, closest point, normal and face of every point.
 
         Parameters
         ----------
         points : (n, 3) float — mm
+        cap : float, optional — mm: the fields are exact for the points with
+            |d| < cap; the others get those of a triangle at least ``cap``
+            away (|d| ≥ cap), their searches stopped there
         """
         from .nearest import signed_query
 
         p = np.ascontiguousarray(np.asarray(points, float).reshape(-1, 3))
-        t = self._nearest(p)
+        t = self._nearest(p, math.inf if cap is None else cap * cap)
         d, q, normal, feature = signed_query(p, t, self.PT, self.f, self.fn, self.en, self.vn,
                                              tol.inspect.feature_eps)
         return Distances(d, q, normal, self.label_ids[t], feature, self.labels)
@@ -422,12 +425,4 @@ class MeshSolid:
         :class:`ExactSolid`). With ``cap`` (mm) exact where |d| < cap, and
         |value| ≥ cap elsewhere — all that a distance clipped at ``cap``
         needs, and the far points' searches stop there."""
-        if cap is None:
-            return self.distances(points).distance
-        from .nearest import signed_query
-
-        p = np.ascontiguousarray(np.asarray(points, float).reshape(-1, 3))
-        t = self._nearest(p, cap * cap)
-        d: np.ndarray = signed_query(p, t, self.PT, self.f, self.fn, self.en, self.vn,
-                                     tol.inspect.feature_eps)[0]
-        return d
+        return self.distances(points, cap).distance

@@ -708,7 +708,8 @@ def _steps_left(sw: float, st: float, prev: tuple[float, float]) -> float:
 
 def _icp(p: FloatArray, cad: Any, T: FloatArray, iterations: int, *, fix_rz: bool = False,
          loose: bool = False, outlines: bool = True, anneal: float | None = None,
-         fix_tz: bool = False) -> tuple[FloatArray, float, dict[str, Any]]:
+         fix_tz: bool = False, cap: float | None = None
+         ) -> tuple[FloatArray, float, dict[str, Any]]:
     """Point-to-plane ICP (Gauss–Newton on the exact closest points and
     normals) with Tukey weights; returns T, robust σ, info. ``loose``: stop
     at ``tol.inspect.icp_loose`` (rad, mm): enough to rank start poses.
@@ -721,7 +722,12 @@ def _icp(p: FloatArray, cad: Any, T: FloatArray, iterations: int, *, fix_rz: boo
     outliers of the tube and hold those directions where the search left
     them. No break before the cut-off has come down.
     ``outlines``: the points near an edge of a face the scan does not show
-    are fitted by the likelihood of a blurred outline (:func:`_outline`)."""
+    are fitted by the likelihood of a blurred outline (:func:`_outline`).
+    ``cap`` (mm, ≥ every Tukey cut-off, i.e. ≥ ``tol.inspect.search_clip``):
+    the distance queries stop there (:meth:`CadModel.distances`) — points
+    farther off have no weight, and the robust scale they could move puts
+    the cut-off at its ceiling either way; the pose is the same, the
+    returned σ and covariance are not to be read (the loose runs' use)."""
     conv_r, conv_t = (tol.inspect.icp_loose,) * 2 if loose else \
         (tol.inspect.icp_converge_rot, tol.inspect.icp_converge_trans)
     info: dict[str, Any] = {"iterations": 0, "fixed": []}
@@ -733,7 +739,7 @@ def _icp(p: FloatArray, cad: Any, T: FloatArray, iterations: int, *, fix_rz: boo
     last: tuple[Any, ...] | None = None
     for it in range(iterations):
         q = apply(T, p)
-        D = cad.distances(q)
+        D = cad.distances(q) if cap is None else cad.distances(q, cap)
         r = D.distance
         n = D.normal
         med = np.median(np.abs(r))
@@ -1035,8 +1041,10 @@ def _ranked_starts(p: FloatArray, cad: Any, cands: list[_Candidate],
     results: list[_Start] = []
     for score, sign, ang, T0 in cands[:4]:
         try:
-            T, sig, info = _icp(small, cad, T0, 30, fix_rz=(cad.symmetry == 0), loose=True)
-            d = cad.distances(apply(T, small)).distance
+            # far points' queries capped at the clip: the same poses and scores
+            T, sig, info = _icp(small, cad, T0, 30, fix_rz=(cad.symmetry == 0), loose=True,
+                                cap=tol.inspect.search_clip)
+            d = cad.distances(apply(T, small), tol.inspect.search_clip).distance
         except (ScanError, TipGeoError):
             continue  # this start is too far off to converge; the others may not be
         rrms = float(np.sqrt(np.mean(np.minimum(d * d, tol.inspect.search_clip ** 2))))

@@ -113,18 +113,19 @@ def large_xyz(tmp_path_factory, scan_file):
 
 # The child's own peak: VmHWM of its address space (ru_maxrss would include
 # the forked copy of this pytest process, which Linux carries across exec).
-_CHILD = ("import resource, sys\n"
+_CHILD = ("import atexit, resource, sys\n"
+          "def _peak():\n"
+          "    u = resource.getrusage(resource.RUSAGE_SELF)\n"
+          "    kb = u.ru_maxrss\n"
+          "    try:\n"
+          "        kb = next(int(ln.split()[1]) for ln in open('/proc/self/status')\n"
+          "                  if ln.startswith('VmHWM:'))\n"
+          "    except OSError:\n"
+          "        pass\n"
+          "    print(f'RUSAGE {kb} {u.ru_utime + u.ru_stime}', file=sys.stderr)\n"
+          "atexit.register(_peak)\n"
           "from tipgeo.cli import main\n"
-          "rc = main(sys.argv[1:])\n"
-          "u = resource.getrusage(resource.RUSAGE_SELF)\n"
-          "kb = u.ru_maxrss\n"
-          "try:\n"
-          "    kb = next(int(ln.split()[1]) for ln in open('/proc/self/status')\n"
-          "              if ln.startswith('VmHWM:'))\n"
-          "except OSError:\n"
-          "    pass\n"
-          "print(f'RUSAGE {kb} {u.ru_utime + u.ru_stime}', file=sys.stderr)\n"
-          "sys.exit(rc)\n")
+          "sys.exit(main())   # as the program: main ends the process itself\n")
 
 
 def test_compare_large_xyz_memory(benchmark, large_xyz, tmp_path):

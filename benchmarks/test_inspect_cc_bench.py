@@ -88,13 +88,16 @@ def case(tmp_path_factory):
             "big": d / ("big.ply" if BIG != N else "aligned.ply")}
 
 
-_CHILD = ("import sys\n"
+# the program's own path: main() ends the process itself (no interpreter
+# teardown), after the atexit handler that reports the peak memory
+_CHILD = ("import atexit, sys\n"
+          "def _peak():\n"
+          "    kb = next(int(ln.split()[1]) for ln in open('/proc/self/status')\n"
+          "              if ln.startswith('VmHWM:'))\n"
+          "    print(f'VMHWM {kb}', file=sys.stderr)\n"
+          "atexit.register(_peak)\n"
           "from tipgeo.cli import main\n"
-          "rc = main(sys.argv[1:])\n"
-          "kb = next(int(ln.split()[1]) for ln in open('/proc/self/status')\n"
-          "          if ln.startswith('VmHWM:'))\n"
-          "print(f'VMHWM {kb}', file=sys.stderr)\n"
-          "sys.exit(rc)\n")
+          "sys.exit(main())\n")
 
 
 def _run(cmd, env=None) -> tuple[float, str]:

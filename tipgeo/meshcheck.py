@@ -39,8 +39,8 @@ from collections.abc import Callable
 from typing import Any, TypeVar, cast
 
 import numpy as np
-from numba import njit
 
+from ._jit import njit
 from .arrays import FloatArray, IntArray
 from .tolerances import tol
 

@@ -82,8 +82,13 @@ class CadModel:
         self.z_top = float(self.tip.bounds[1, 2])
         self.z_base = float(self.tip.bounds[0, 2])
 
-    def distances(self, points: np.ndarray) -> Distances:
-        """Signed distances of points (cannula frame, mm) to the CAD surface."""
+    def distances(self, points: np.ndarray, cap: float | None = None) -> Distances:
+        """Signed distances of points (cannula frame, mm) to the CAD surface.
+        ``cap`` (mm): only the points with |d| < cap need exact fields — a
+        mesh CAD stops the others' searches there (:meth:`MeshSolid.distances`;
+        their |d| ≥ cap); an exact CAD gives every point exactly."""
+        if cap is not None and isinstance(self.engine, MeshSolid):
+            return self.engine.distances(points, cap)
         return self.engine.distances(points)
 
     def face_fields(self, points: FloatArray) -> tuple[FloatArray, FloatArray] | None:
@@ -94,8 +99,13 @@ class CadModel:
             return self.engine.face_fields(points)
         return None
 
-    def bound(self, points: np.ndarray) -> np.ndarray:
-        """A cheap signed distance (exact inside, a lower bound outside)."""
+    def bound(self, points: np.ndarray, cap: float | None = None) -> np.ndarray:
+        """A cheap signed distance (exact inside, a lower bound outside).
+        ``cap`` (mm): only min(|value|, cap) will be read — a mesh CAD's
+        search stops there (:meth:`MeshSolid.bound`); an exact CAD's bound is
+        cheap already."""
+        if cap is not None and isinstance(self.engine, MeshSolid):
+            return self.engine.bound(points, cap)
         return self.engine.bound(points)
 
     def summary(self) -> dict[str, Any]:

@@ -266,10 +266,19 @@ class _ScanDistances(Distances):
 
     def __init__(self, distance: FloatArray, face: IntArray, feature: IntArray,
                  labels: tuple[str, ...],
-                 fill: Callable[[], tuple[AnyArray, AnyArray]]) -> None:
+                 fill: Callable[[], tuple[AnyArray, AnyArray]],
+                 fill_rows: Callable[[IntArray], tuple[AnyArray, AnyArray]]) -> None:
         self.distance, self.face, self.feature, self.labels = distance, face, feature, labels
         self._fill: Callable[[], tuple[AnyArray, AnyArray]] | None = fill
+        self._fill_rows = fill_rows
         self._cn: tuple[AnyArray, AnyArray] | None = None
+
+    def take(self, sel: IntArray) -> Distances:
+        """The :class:`Distances` of the rows ``sel`` alone, their closest
+        points and normals made for those rows only (in float64)."""
+        clo, nrm = self._fill_rows(sel)
+        return Distances(self.distance[sel], clo, nrm, self.face[sel], self.feature[sel],
+                         self.labels)
 
     def _pair(self) -> tuple[AnyArray, AnyArray]:
         if self._cn is None:
@@ -378,7 +387,9 @@ def _deviations(model: CadModel, local: AnyArray, T: FloatArray, *, z_min: float
     if mesh is not None:
         kept_rows, tk, solid = rows[:cur], tri[:cur], mesh
         D = _ScanDistances(dist[:cur], face[:cur], feat[:cur], tuple(model.labels),
-                           lambda: solid.closest_normals(local, kept_rows, T, tk))
+                           lambda: solid.closest_normals(local, kept_rows, T, tk),
+                           lambda sel: solid.closest_normals(local, kept_rows[sel], T, tk[sel],
+                                                             np.float64))
         return P[:cur], D, kept_rows, cnt
     return P[:cur], Distances(dist[:cur], clo[:cur], nrm[:cur], face[:cur], feat[:cur],
                               tuple(model.labels)), rows[:cur], cnt

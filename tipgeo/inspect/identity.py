@@ -498,9 +498,11 @@ class _Subset:
 
     def __init__(self, res: Any, rows: IntArray) -> None:
         self.points = np.asarray(res.points[rows], np.float64)
-        # the CAD distances of these rows again (the comparison's closest points
-        # are made on first use for every row: 10⁷ of them would cost more)
-        self.distances = res.cad.distances(self.points)
+        # the comparison's distances of these rows (a scan's closest points are
+        # made on first use for every row: 10⁷ of them would cost more — here
+        # for these rows only); else the CAD distances of these rows again
+        take = getattr(res.distances, "take", None)
+        self.distances = take(rows) if take is not None else res.cad.distances(self.points)
         self.cad, self.measured = res.cad, res.measured
 
 

@@ -18,8 +18,8 @@ first), their distances √(dx² + dy² + dz²) in float64.
 from __future__ import annotations
 
 import numpy as np
-from numba import njit
 
+from .._jit import njit
 from ..arrays import AnyArray, FloatArray, IntArray
 
 __all__ = ["knn"]

@@ -23,6 +23,7 @@ first. The mesh must be closed and consistently oriented (a built tip is).
 
 from __future__ import annotations
 
+import math
 from collections.abc import Callable
 from typing import Any
 
@@ -232,12 +233,14 @@ class _Tree:
         return (self.box, self.first_leaf, self.start, self.stop, self.T, self.origin,
                 self.cell, self.dims, self.cstart, self.cprim, self.reach2)
 
-    def nearest(self, p: np.ndarray, order: np.ndarray) -> np.ndarray:
+    def nearest(self, p: np.ndarray, order: np.ndarray, cap2: float = math.inf) -> np.ndarray:
         """(n,) int — parent triangle nearest to each point (exact), visiting
-        the points in ``order``."""
+        the points in ``order``; with ``cap2`` (mm²) only for points with a
+        triangle nearer than √cap2, the others get one at least that far."""
         from .nearest import nearest_triangles
 
-        out: IntArray = self.parent[nearest_triangles(p, order, *self.args)]
+        args = (*self.args, cap2)
+        out: IntArray = self.parent[nearest_triangles(p, order, *args)]
         return out
 
 
@@ -306,24 +309,28 @@ class MeshSolid:
         counting sort's table stays no larger than the points."""
         return int(min(6, max(1, np.floor(np.log2(max(n, 2)) / 3))))
 
-    def _nearest(self, p: np.ndarray) -> np.ndarray:
-        """(n,) int — nearest parent triangle of every point ((n, 3) float64)."""
+    def _nearest(self, p: np.ndarray, cap2: float = math.inf) -> np.ndarray:
+        """(n,) int — nearest parent triangle of every point ((n, 3) float64;
+        ``cap2`` as in :meth:`_Tree.nearest`)."""
         from .nearest import spatial_order
 
         # spatial order: each search starts from its predecessor's triangle
-        return self._build().nearest(p, spatial_order(p, self._bits(len(p))))
+        return self._build().nearest(p, spatial_order(p, self._bits(len(p))), cap2)
 
-    def distances(self, points: np.ndarray) -> Distances:
+    def distances(self, points: np.ndarray, cap: float | None = None) -> Distances:
         """Exact signed distance, closest point, normal and face of every point.
 
         Parameters
         ----------
         points : (n, 3) float — mm
+        cap : float, optional — mm: the fields are exact for the points with
+            |d| < cap; the others get those of a triangle at least ``cap``
+            away (|d| ≥ cap), their searches stopped there
         """
         from .nearest import signed_query
 
         p = np.ascontiguousarray(np.asarray(points, float).reshape(-1, 3))
-        t = self._nearest(p)
+        t = self._nearest(p, math.inf if cap is None else cap * cap)
         d, q, normal, feature = signed_query(p, t, self.PT, self.f, self.fn, self.en, self.vn,
                                              tol.inspect.feature_eps)
         return Distances(d, q, normal, self.label_ids[t], feature, self.labels)
@@ -413,6 +420,9 @@ class MeshSolid:
                     self.en, self.vn, tol.inspect.feature_eps, clo, nrm)
         return clo, nrm
 
-    def bound(self, points: np.ndarray) -> np.ndarray:
-        """Signed distance (exact here; the name matches :class:`ExactSolid`)."""
-        return self.distances(points).distance
+    def bound(self, points: np.ndarray, cap: float | None = None) -> np.ndarray:
+        """Signed distance (mm; exact here, the name matches
+        :class:`ExactSolid`). With ``cap`` (mm) exact where |d| < cap, and
+        |value| ≥ cap elsewhere — all that a distance clipped at ``cap``
+        needs, and the far points' searches stop there."""
+        return self.distances(points, cap).distance

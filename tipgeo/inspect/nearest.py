@@ -25,8 +25,8 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from numba import njit
 
+from .._jit import njit
 from ..arrays import AnyArray, FloatArray, IntArray
 from ..tolerances import tol
 
@@ -149,7 +149,7 @@ def _walk(px: float, py: float, pz: float, box: AnyArray, first_leaf: int, start
 def nearest_triangles(p: AnyArray, order: AnyArray, box: AnyArray, first_leaf: int,
                       start: AnyArray, stop: AnyArray, T: AnyArray, origin: AnyArray,
                       cell: float, dims: AnyArray, cstart: AnyArray, cprim: AnyArray,
-                      reach2: float) -> IntArray:
+                      reach2: float, cap2: float) -> IntArray:
     """Index (into ``T``) of the nearest sub-triangle of every point.
 
     Parameters
@@ -168,6 +168,11 @@ def nearest_triangles(p: AnyArray, order: AnyArray, box: AnyArray, first_leaf: i
     cstart : (cells + 1,) int; cprim : (e,) int — each cell's list: every
         sub-triangle whose box, grown by the reach, touches the cell
     reach2 : float — the reach squared: a list minimum within it is exact
+    cap2 : float — a squared distance (mm²; ∞: none) beyond which the search
+        stops: a point with a triangle nearer than √cap2 gets its nearest;
+        a point with none keeps a triangle at least that far (what a
+        distance clipped at √cap2 needs, at a fraction of the far points'
+        tree walks)
 
     Returns
     -------
@@ -176,7 +181,7 @@ def nearest_triangles(p: AnyArray, order: AnyArray, box: AnyArray, first_leaf: i
     n = p.shape[0]
     best = np.empty(n, np.int64)
     _nearest_into(p, order, box, first_leaf, start, stop, T, origin, cell, dims, cstart,
-                  cprim, reach2, np.empty((n, 3)), np.empty(n, np.int64), best)
+                  cprim, reach2, cap2, np.empty((n, 3)), np.empty(n, np.int64), best)
     return best
 
 
@@ -184,7 +189,8 @@ def nearest_triangles(p: AnyArray, order: AnyArray, box: AnyArray, first_leaf: i
 def _nearest_into(p: AnyArray, order: AnyArray, box: AnyArray, first_leaf: int,
                   start: AnyArray, stop: AnyArray, T: AnyArray, origin: AnyArray,
                   cell: float, dims: AnyArray, cstart: AnyArray, cprim: AnyArray,
-                  reach2: float, ps: AnyArray, bs: AnyArray, best: AnyArray) -> None:
+                  reach2: float, cap2: float, ps: AnyArray, bs: AnyArray,
+                  best: AnyArray) -> None:
     """:func:`nearest_triangles` into ``best`` ((n,) int), with the work
     buffers ``ps`` ((≥ n, 3) float) and ``bs`` ((≥ n,) int) given."""
     n = p.shape[0]
@@ -199,7 +205,10 @@ def _nearest_into(p: AnyArray, order: AnyArray, box: AnyArray, first_leaf: int,
     for j in range(n):
         px, py, pz = ps[j, 0], ps[j, 1], ps[j, 2]
         bt = prev
+        # beyond the cap the seed stands: at least that far (see nearest_triangles)
         bd = _d2(px, py, pz, T, bt)
+        if bd > cap2:
+            bd = cap2
         ix = int(np.floor((px - origin[0]) / cell))
         iy = int(np.floor((py - origin[1]) / cell))
         iz = int(np.floor((pz - origin[2]) / cell))
@@ -418,7 +427,7 @@ def nearest_signed_into(p: AnyArray, rows: AnyArray, bits: int, box: AnyArray, f
     order, bs, best = iw[:n], iw[n:2 * n], iw[2 * n:3 * n]
     _order_into(p, bits, order, bs, iw[3 * n:])
     _nearest_into(p, order, box, first_leaf, start, stop, T, origin, cell, dims, cstart,
-                  cprim, reach2, fw[:3 * n].reshape((n, 3)), bs, best)
+                  cprim, reach2, np.inf, fw[:3 * n].reshape((n, 3)), bs, best)
     nn = 0
     for i in range(p.shape[0]):
         k = parent[best[i]]

@@ -216,19 +216,31 @@ def fit_cylinder(points: np.ndarray, axis_dir: np.ndarray, axis_point: np.ndarra
         d = q - c
         return np.linalg.norm(d - np.outer(d @ a, a), axis=1) - x[4] + inset, a, c
 
+    def jacobian(x: FloatArray) -> FloatArray:
+        """∂r/∂x in closed form: with u = a0 + x0 e1 + x1 e2, a = u/|u|,
+        d = q − c, p = d − (d·a) a, ρ = |p|: ∂ρ/∂x0 = −(d·a)(p·e1)/(|u| ρ),
+        ∂ρ/∂x2 = −(p·e1)/ρ (e2 alike), ∂r/∂x4 = −1."""
+        u = a0 + x[0] * e1 + x[1] * e2
+        nu = float(np.linalg.norm(u))
+        a = u / nu
+        d = q - (x[2] * e1 + x[3] * e2)
+        t = d @ a
+        perp = d - np.outer(t, a)
+        rho = np.maximum(np.linalg.norm(perp, axis=1), tol.tiny)
+        pe1, pe2 = perp @ e1 / rho, perp @ e2 / rho
+        J = np.empty((len(q), 5))
+        J[:, 0], J[:, 1] = -t * pe1 / nu, -t * pe2 / nu
+        J[:, 2], J[:, 3], J[:, 4] = -pe1, -pe2, -1.0
+        return J
+
     # Levenberg–Marquardt on the soft-L1 loss by reweighting (weights
     # (1 + (r/scale)²)^-½, the loss's derivative): a handful of 5 × 5 solves
     x = np.array([0.0, 0.0, 0.0, 0.0, radius])
     r = model(x)[0]
-    h = tol.inspect.fd_step
     lam = tol.inspect.lm_damping_start
     for _ in range(tol.inspect.max_iterations):
         w = 1.0 / np.sqrt(1.0 + (r / scale) ** 2)
-        J = np.empty((len(r), 5))
-        for k in range(5):
-            xk = x.copy()
-            xk[k] += h
-            J[:, k] = (model(xk)[0] - r) / h
+        J = jacobian(x)
         Jw = J * w[:, None]
         A, g = Jw.T @ J, Jw.T @ r
         cost = np.sum(2 * scale ** 2 * (np.sqrt(1 + (r / scale) ** 2) - 1))
@@ -268,7 +280,9 @@ def _flat_patches(p: np.ndarray, nrm: np.ndarray, r_nominal: float) -> np.ndarra
             break
         # the densest normal direction, counted on a spread sample (sign free)
         probe = free[:: max(1, len(free) // 1500)]
-        cnt = np.count_nonzero(np.abs(nrm[probe] @ nrm[probe].T) > cosc, axis=1)
+        g = nrm[probe] @ nrm[probe].T
+        np.abs(g, out=g)
+        cnt = (g > cosc).sum(axis=1)   # half the time of count_nonzero(axis=1)
         k = int(np.argmax(cnt))
         if cnt[k] * len(free) / len(probe) < max(st.flat_share * n, 50):
             break
@@ -285,8 +299,8 @@ def _flat_patches(p: np.ndarray, nrm: np.ndarray, r_nominal: float) -> np.ndarra
     return flat
 
 
-def _axis_stage(p: np.ndarray, r_nominal: float,
-                r_inner: float | None = None) -> tuple[np.ndarray, np.ndarray, float, float]:
+def _axis_stage(p: np.ndarray, r_nominal: float, r_inner: float | None = None,
+                nrm: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray, float, float]:
     """The outer wall's cylinder, fitted to the arc of it that the scan shows.
 
     Large flat faces are left out first (:func:`_flat_patches`): their
@@ -298,10 +312,11 @@ def _axis_stage(p: np.ndarray, r_nominal: float,
     that look like the wall; the fit with the most wall points near the
     nominal radius wins. Points nearer the bore's radius (``r_inner``: the
     bore seen through a bevel's opening) are fitted as the bore, coaxial and
-    one nominal wall thickness in, not mistaken for outer wall."""
+    one nominal wall thickness in, not mistaken for outer wall. ``nrm``:
+    the points' :func:`point_normals`, if the caller has them."""
     cen = p.mean(axis=0)
     _, vec = np.linalg.eigh(np.cov((p - cen).T))
-    nrm = point_normals(p)
+    nrm = point_normals(p) if nrm is None else nrm
     flat = _flat_patches(p, nrm, r_nominal)
     if np.count_nonzero(~flat) >= 20:
         p, nrm = p[~flat], nrm[~flat]
@@ -432,7 +447,7 @@ def _scores(sub: FloatArray, cad: Any, angles: FloatArray, dz: float) -> FloatAr
     c, s = np.cos(angles)[:, None], np.sin(angles)[:, None]
     x = np.stack([c * sub[:, 0] - s * sub[:, 1], s * sub[:, 0] + c * sub[:, 1],
                   np.broadcast_to(sub[:, 2] + dz, (len(angles), len(sub)))], 2)
-    f = cad.bound(x.reshape(-1, 3)).reshape(len(angles), len(sub))
+    f = cad.bound(x.reshape(-1, 3), tol.inspect.search_clip).reshape(len(angles), len(sub))
     scores: FloatArray = np.mean(np.minimum(np.abs(f), tol.inspect.search_clip), axis=1)
     return scores
 
@@ -506,7 +521,7 @@ def _scores_dz(sub: FloatArray, cad: Any, angles: FloatArray, dzs: FloatArray) -
     c, s = np.cos(angles)[:, None], np.sin(angles)[:, None]
     x = np.stack([c * sub[:, 0] - s * sub[:, 1], s * sub[:, 0] + c * sub[:, 1],
                   sub[:, 2][None, :] + np.asarray(dzs)[:, None]], 2)
-    f = cad.bound(x.reshape(-1, 3)).reshape(len(angles), len(sub))
+    f = cad.bound(x.reshape(-1, 3), tol.inspect.search_clip).reshape(len(angles), len(sub))
     scores: FloatArray = np.mean(np.minimum(np.abs(f), tol.inspect.search_clip), axis=1)
     return scores
 
@@ -693,7 +708,8 @@ def _steps_left(sw: float, st: float, prev: tuple[float, float]) -> float:
 
 def _icp(p: FloatArray, cad: Any, T: FloatArray, iterations: int, *, fix_rz: bool = False,
          loose: bool = False, outlines: bool = True, anneal: float | None = None,
-         fix_tz: bool = False) -> tuple[FloatArray, float, dict[str, Any]]:
+         fix_tz: bool = False, cap: float | None = None
+         ) -> tuple[FloatArray, float, dict[str, Any]]:
     """Point-to-plane ICP (Gauss–Newton on the exact closest points and
     normals) with Tukey weights; returns T, robust σ, info. ``loose``: stop
     at ``tol.inspect.icp_loose`` (rad, mm): enough to rank start poses.
@@ -706,7 +722,12 @@ def _icp(p: FloatArray, cad: Any, T: FloatArray, iterations: int, *, fix_rz: boo
     outliers of the tube and hold those directions where the search left
     them. No break before the cut-off has come down.
     ``outlines``: the points near an edge of a face the scan does not show
-    are fitted by the likelihood of a blurred outline (:func:`_outline`)."""
+    are fitted by the likelihood of a blurred outline (:func:`_outline`).
+    ``cap`` (mm, ≥ every Tukey cut-off, i.e. ≥ ``tol.inspect.search_clip``):
+    the distance queries stop there (:meth:`CadModel.distances`) — points
+    farther off have no weight, and the robust scale they could move puts
+    the cut-off at its ceiling either way; the pose is the same, the
+    returned σ and covariance are not to be read (the loose runs' use)."""
     conv_r, conv_t = (tol.inspect.icp_loose,) * 2 if loose else \
         (tol.inspect.icp_converge_rot, tol.inspect.icp_converge_trans)
     info: dict[str, Any] = {"iterations": 0, "fixed": []}
@@ -715,9 +736,10 @@ def _icp(p: FloatArray, cad: Any, T: FloatArray, iterations: int, *, fix_rz: boo
     clip = tol.inspect.search_clip if anneal is None else anneal
     level = 0   # steps at this cut-off
     reached = False  # the scan reaches an outline (see _outline)
+    last: tuple[Any, ...] | None = None
     for it in range(iterations):
         q = apply(T, p)
-        D = cad.distances(q)
+        D = cad.distances(q) if cap is None else cad.distances(q, cap)
         r = D.distance
         n = D.normal
         med = np.median(np.abs(r))
@@ -747,8 +769,9 @@ def _icp(p: FloatArray, cad: Any, T: FloatArray, iterations: int, *, fix_rz: boo
         keep = _held(lam, V, fix_rz, fix_tz)
         x = -V[:, keep] @ ((V[:, keep].T @ g) / lam[keep])
         info["fixed"] = int((~keep).sum())
-        info["covariance"] = _covariance(H - (H_o if outline is not None else 0.0),
-                                         outline, q, w, ctr, sigma, V[:, keep])
+        # the covariance of the last step is the result's: computed once, after the loop
+        last = (H - (H_o if outline is not None else 0.0), outline, q, w, ctr, sigma,
+                V[:, keep])
         w_, t_ = x[:3], x[3:]
         R = _rot(w_, float(np.linalg.norm(w_)))
         step = np.eye(4)
@@ -772,6 +795,8 @@ def _icp(p: FloatArray, cad: Any, T: FloatArray, iterations: int, *, fix_rz: boo
         level += 1
         if sw * spread + st_ < 0.1 * c or level >= 6:
             clip, level = 0.5 * clip, 0
+    if last is not None:
+        info["covariance"] = _covariance(*last)
     return T, sigma, info
 
 
@@ -819,13 +844,15 @@ def wall_radii(points: np.ndarray, point: np.ndarray, direction: np.ndarray,
     return walls
 
 
-def _free_axis(p: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray] | None:
+def _free_axis(p: np.ndarray, nrm: np.ndarray | None = None
+               ) -> tuple[np.ndarray, np.ndarray, np.ndarray] | None:
     """An axis found without any radius: the direction the wall-like points'
     normals are most nearly perpendicular to, through the point nearest all
     their normal lines (a tube's walls, inner and outer, all point at it);
     returns (point, direction, the points' normals), None when too few
-    points look like wall."""
-    nrm = point_normals(p)
+    points look like wall. ``nrm``: the points' :func:`point_normals`, if
+    the caller has them."""
+    nrm = point_normals(p) if nrm is None else nrm
     a = np.linalg.eigh(nrm.T @ nrm)[1][:, 0]
     wall = np.ones(len(p), bool)
     for _ in range(4):
@@ -843,11 +870,12 @@ def _free_axis(p: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray] | Non
     return np.linalg.solve(A, b), a, nrm
 
 
-def _check_gauge(points: FloatArray, cad: Any, max_error: float) -> None:
+def _check_gauge(points: FloatArray, cad: Any, max_error: float,
+                 nrm: FloatArray | None = None) -> None:
     """Refuse, before the costly search, a scan whose coaxial walls are not
     the CAD's: with two or more walls the outermost must be its outer wall;
     a single wall (a scan of one side) its outer or its inner wall."""
-    axis = _free_axis(points)
+    axis = _free_axis(points, nrm)
     if axis is None:
         return
     walls = wall_radii(points, axis[0], axis[1], cad.r_o, normals=axis[2])
@@ -916,10 +944,11 @@ def register(points: AnyArray, cad: Any, *, inlier_distance: float = 0.01,
     # the axis needs far fewer points than the final refinement
     p_ax = clean if len(clean) <= tol.inspect.axis_points else \
         clean[rng.choice(len(clean), tol.inspect.axis_points, replace=False)]
+    nrm_ax = point_normals(p_ax)   # for the gauge check and the axis fit alike
     if max_diameter_error is not None:  # no sharp coaxial wall: no refusal here
-        _check_gauge(p_ax, cad, max_diameter_error)
+        _check_gauge(p_ax, cad, max_diameter_error, nrm_ax)
     say(f"axis fit on {len(p_ax)} points")
-    point, a, radius, rms = _axis_stage(p_ax, cad.r_o, cad.r_i)
+    point, a, radius, rms = _axis_stage(p_ax, cad.r_o, cad.r_i, nrm_ax)
     axis = {"point_mm": point.tolist(), "direction": a.tolist(), "outer_radius_mm": radius,
             "outer_diameter_mm": 2 * radius, "fit_rms_mm": rms}
     off = abs(radius - cad.r_o) / cad.r_o
@@ -1012,8 +1041,10 @@ def _ranked_starts(p: FloatArray, cad: Any, cands: list[_Candidate],
     results: list[_Start] = []
     for score, sign, ang, T0 in cands[:4]:
         try:
-            T, sig, info = _icp(small, cad, T0, 30, fix_rz=(cad.symmetry == 0), loose=True)
-            d = cad.distances(apply(T, small)).distance
+            # far points' queries capped at the clip: the same poses and scores
+            T, sig, info = _icp(small, cad, T0, 30, fix_rz=(cad.symmetry == 0), loose=True,
+                                cap=tol.inspect.search_clip)
+            d = cad.distances(apply(T, small), tol.inspect.search_clip).distance
         except (ScanError, TipGeoError):
             continue  # this start is too far off to converge; the others may not be
         rrms = float(np.sqrt(np.mean(np.minimum(d * d, tol.inspect.search_clip ** 2))))

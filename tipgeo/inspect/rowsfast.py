@@ -12,8 +12,8 @@ of them to pick 20,000 rows or count a share.
 from __future__ import annotations
 
 import numpy as np
-from numba import njit
 
+from .._jit import njit
 from ..arrays import AnyArray, FloatArray, IntArray
 
 __all__ = ["band_counts", "count_rows", "pick_rows", "top_rows"]

@@ -8,8 +8,8 @@ stored as the buffer's dtype (float32 offsets or float64).
 from __future__ import annotations
 
 import numpy as np
-from numba import njit
 
+from .._jit import njit
 from ..arrays import AnyArray, FloatArray
 
 __all__ = ["chunk_bounds", "store_offsets"]

@@ -1,0 +1,56 @@
+"""numba's ``njit`` for tipgeo's compiled kernels, with cached kernels loaded
+without numba's full target refresh.
+
+numba refreshes its CPU target before loading a kernel from its on-disk
+cache: it imports every lowering registry it has (numpy's linear algebra,
+random generators, typed containers, …; about 0.3 CPU s, a sixth of a whole
+``tipgeo compare`` at 10⁶ points), which only compiling needs — the loaded
+machine code links against numba's runtime alone. :func:`njit` here loads
+cached kernels after initialising that runtime only; a kernel not in the
+cache is compiled as usual (numba's compiler refreshes the target itself
+before it compiles). The change is made once, to numba's cache loader, when
+this module is first imported, and only when that loader has the form this
+was written against (numba ≥ 0.57); otherwise numba is left as it is.
+
+No units: a pass-through of numba's decorator.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+from numba import njit
+
+__all__ = ["njit", "cache_loads_lean"]
+
+
+def _lean_cache_loads() -> bool:
+    """Replace numba's ``Cache.load_overload`` by one that initialises the
+    runtime and loads, without the registry refresh; False when numba's
+    cache loader is not of the expected form (then nothing is changed)."""
+    try:
+        from numba.core.caching import Cache
+        from numba.core.runtime.nrt import rtsys
+    except ImportError:  # pragma: no cover - another numba layout
+        return False
+    current = Cache.load_overload
+    if getattr(current, "_tipgeo_lean", False):
+        return True
+    if not (hasattr(Cache, "_load_overload") and hasattr(Cache, "_guard_against_spurious_io_errors")
+            and hasattr(rtsys, "initialize")):
+        return False  # pragma: no cover - another numba layout
+
+    def load_overload(self: Any, sig: Any, target_context: Any) -> Any:
+        # the runtime (NRT) the loaded code calls into; the lowering
+        # registries are loaded by the compiler if a kernel must be compiled
+        rtsys.initialize(target_context)
+        with self._guard_against_spurious_io_errors():
+            return self._load_overload(sig, target_context)
+
+    load_overload._tipgeo_lean = True  # type: ignore[attr-defined]
+    Cache.load_overload = load_overload  # type: ignore[method-assign]  # see the module docstring
+    return True
+
+
+#: whether numba's cache loader was made lean (False: numba as it is)
+cache_loads_lean: bool = _lean_cache_loads()

@@ -44,8 +44,11 @@ def _lean_cache_loads() -> bool:
         # the runtime (NRT) the loaded code calls into; the lowering
         # registries are loaded by the compiler if a kernel must be compiled
         rtsys.initialize(target_context)
-        with self._guard_against_spurious_io_errors():
-            return self._load_overload(sig, target_context)
+        try:
+            with self._guard_against_spurious_io_errors():
+                return self._load_overload(sig, target_context)
+        except Exception:  # e.g. a symbol only a registry provides: numba's own way
+            return current(self, sig, target_context)  # type: ignore[no-untyped-call]
 
     load_overload._tipgeo_lean = True  # type: ignore[attr-defined]
     Cache.load_overload = load_overload  # type: ignore[method-assign]  # see the module docstring

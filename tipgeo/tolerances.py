@@ -92,8 +92,6 @@ class InspectSettings:
     cylinder_converge : float
         The registration's cylinder fit stops when a step changes no
         parameter by more than this (mm, rad).
-    fd_step : float
-        Forward-difference step of the cylinder fit's Jacobian (mm, rad).
     axis_points : int
         Points of the registration subset the axis (cylinder) fit uses.
     search_points : int
@@ -268,7 +266,6 @@ class InspectSettings:
     register_points: int = 20000
     axis_points: int = 12000
     cylinder_converge: float = 1.0e-9
-    fd_step: float = 1.0e-7
     flat_cone: float = 0.0872664625997164788  # 5°
     flat_share: float = 0.05
     flat_distance: float = 0.01

@@ -254,3 +254,51 @@ def test_small_linear_algebra_runs_on_one_blas_thread(monkeypatch):
     outside = blas()
     with small_linalg():
         assert blas() == outside
+
+
+def _blas_report(tmp_path, name, **env):
+    """Run a script named ``name`` that imports tipgeo and prints the BLAS
+    thread variable and the BLAS pools' thread counts."""
+    import subprocess
+    import sys
+
+    script = tmp_path / name
+    script.write_text("import os, tipgeo, threadpoolctl\n"
+                      "print(os.environ.get('OPENBLAS_NUM_THREADS'), sorted({i['num_threads'] "
+                      "for i in threadpoolctl.threadpool_info() if i['user_api'] == 'blas'}))\n")
+    clean = {k: v for k, v in os.environ.items()
+             if k not in ("OPENBLAS_NUM_THREADS", "GOTO_NUM_THREADS", "OMP_NUM_THREADS",
+                          "TIPGEO_BLAS_THREADS")}
+    out = subprocess.run([sys.executable, str(script)], capture_output=True, text=True,
+                         env={**clean, **env}, check=True).stdout.split(maxsplit=1)
+    return out[0], out[1].strip()
+
+
+def test_the_program_starts_blas_on_one_thread_unless_told(tmp_path):
+    # the console script is a file named tipgeo run as __main__
+    assert _blas_report(tmp_path, "tipgeo") == ("1", "[1]")
+    assert _blas_report(tmp_path, "tipgeo", TIPGEO_BLAS_THREADS="2") == ("2", "[2]")
+    # the user's own settings win; 0 leaves BLAS alone; a library user is untouched
+    assert _blas_report(tmp_path, "tipgeo", OPENBLAS_NUM_THREADS="2") == ("2", "[2]")
+    assert _blas_report(tmp_path, "tipgeo", TIPGEO_BLAS_THREADS="0")[0] == "None"
+    assert _blas_report(tmp_path, "my_script.py")[0] == "None"
+
+
+def test_python_m_tipgeo_counts_as_the_program_and_foreign_programs_do_not_inherit(monkeypatch):
+    from tipgeo import _threads
+
+    for k in ("OPENBLAS_NUM_THREADS", "GOTO_NUM_THREADS", "OMP_NUM_THREADS",
+              "TIPGEO_BLAS_THREADS"):
+        monkeypatch.delenv(k, raising=False)
+    monkeypatch.setattr(_threads, "_SET", {})
+    monkeypatch.setattr(sys, "orig_argv", [sys.executable, "-m", "tipgeo", "compare"])
+    assert _threads.program_blas_threads() is None      # numpy is imported here: too late
+    monkeypatch.delitem(sys.modules, "numpy")
+    assert _threads.program_blas_threads() == "1"
+    assert os.environ["OPENBLAS_NUM_THREADS"] == "1"
+    assert "OPENBLAS_NUM_THREADS" not in _threads.foreign_env()
+    # a value the user set stays in the foreign program's environment
+    assert _threads.foreign_env({"OPENBLAS_NUM_THREADS": "4"}) == {"OPENBLAS_NUM_THREADS": "4"}
+    monkeypatch.setattr(sys, "orig_argv", [sys.executable, "-m", "pytest"])
+    monkeypatch.delenv("OPENBLAS_NUM_THREADS")
+    assert _threads.program_blas_threads() is None

@@ -27,6 +27,13 @@ The pipeline and its entry points, stage by stage:
 open3d and scipy only with the functions that need them.
 """
 
+# ruff: noqa: E402  (the one call below runs before numpy is imported)
+# before numpy is first imported: one BLAS thread when tipgeo runs as a
+# program (tipgeo._threads; nothing changes for a library user)
+from ._threads import program_blas_threads as _program_blas_threads
+
+_program_blas_threads()
+
 import importlib as _importlib
 from types import ModuleType as _ModuleType
 from typing import Any as _Any

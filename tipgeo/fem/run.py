@@ -21,6 +21,7 @@ from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
 
+from .._threads import foreign_env
 from ..errors import FemError, MissingToolError
 from ..tolerances import tol
 
@@ -209,7 +210,7 @@ def _run_watched(exe: str, job: Path, log: Path, *, threads: int, time_limit_s: 
     """Run ccx with its output in ``log``, reporting converged increments and
     killing it (its whole process group) after ``time_limit_s`` or on any
     exception; its exit status."""
-    env = {**os.environ, "OMP_NUM_THREADS": str(threads),
+    env = {**foreign_env(), "OMP_NUM_THREADS": str(threads),
            "CCX_NPROC_EQUATION_SOLVER": str(threads)}
     t0 = time.monotonic()
     with open(log, "w") as out:

@@ -178,6 +178,50 @@ def test_fused_kernel_equals_separate_search_at_edges_and_vertices():
     assert np.max(np.abs(np.abs(ref.distance) - brute_force_distances(p, tip.triangles))) < 1e-12
 
 
+def test_hinted_search_gives_the_same_distances_whatever_the_hint():
+    """ICP's first guesses (``hint``: each point's nearest sub-triangle from
+    the last iteration) only start the exact search: with the right hint,
+    with one from other points (wrong for almost every point), with the
+    last pose's, and capped, the distances equal the unhinted search (to
+    round-off where an edge's two triangles tie) and the all-triangle brute
+    force; the hint comes back as each point's own
+    nearest; a malformed hint is refused by name."""
+    from tipgeo.inspect.meshdist import brute_force_distances
+
+    rng = np.random.default_rng(12)
+    tip = _tip()
+    v, f = tip.vertices, tip.faces
+    mid = 0.5 * (v[f[:, 0]] + v[f[:, 1]])
+    p = np.vstack([v[rng.integers(0, len(v), 300)], mid[rng.integers(0, len(f), 300)]])
+    p = np.vstack([p + rng.normal(0.0, 0.003, p.shape), rng.uniform(-2.0, 2.0, (100, 3))])
+    mesh = MeshSolid(tip)
+    ref = mesh.distances(p)
+    brute = brute_force_distances(p, tip.triangles)
+    hint = np.full(len(p), -1, np.int64)
+    first = mesh.distances(p, hint=hint)
+    assert np.array_equal(first.distance, ref.distance) and hint.min() >= 0
+    again = mesh.distances(p, hint=hint)               # the right guess for every point
+    assert np.array_equal(again.distance, ref.distance)
+    assert np.array_equal(again.normal, ref.normal) and np.array_equal(again.face, ref.face)
+    wrong = hint[rng.permutation(len(p))].copy()       # other points' triangles
+    moved = p + 0.004                                  # the next ICP step's points
+    assert np.array_equal(mesh.distances(p, hint=wrong).distance, ref.distance)
+    # a point whose closest point is on an edge ties between the edge's two
+    # triangles; the guess may pick the other one: the same distance to the
+    # round-off of one closest-point evaluation (3e-17 mm seen)
+    np.testing.assert_allclose(mesh.distances(moved, hint=hint.copy()).distance,
+                               mesh.distances(moved).distance, rtol=0, atol=1e-15)
+    capped = mesh.distances(p, 0.01, hint=wrong.copy()).distance
+    near = np.abs(ref.distance) < 0.01
+    assert np.array_equal(capped[near], ref.distance[near])
+    assert np.all(np.abs(capped[~near]) >= 0.01)
+    assert np.max(np.abs(np.abs(again.distance) - brute)) < 1e-12
+    for bad in (np.zeros(len(p), np.int32), np.zeros(len(p) - 1, np.int64),
+                np.full(len(p), 10 ** 9, np.int64)):
+        with pytest.raises(ValueError, match="hint"):
+            mesh.distances(p, hint=bad)
+
+
 @settings(max_examples=40, deadline=None)
 @given(st.lists(st.floats(-0.05, 0.05), min_size=1, max_size=200),
        st.integers(1, 60), st.floats(-0.03, -1e-4), st.floats(1e-4, 0.03))

@@ -82,13 +82,17 @@ class CadModel:
         self.z_top = float(self.tip.bounds[1, 2])
         self.z_base = float(self.tip.bounds[0, 2])
 
-    def distances(self, points: np.ndarray, cap: float | None = None) -> Distances:
+    def distances(self, points: np.ndarray, cap: float | None = None, *,
+                  hint: np.ndarray | None = None) -> Distances:
         """Signed distances of points (cannula frame, mm) to the CAD surface.
         ``cap`` (mm): only the points with |d| < cap need exact fields — a
         mesh CAD stops the others' searches there (:meth:`MeshSolid.distances`;
-        their |d| ≥ cap); an exact CAD gives every point exactly."""
-        if cap is not None and isinstance(self.engine, MeshSolid):
-            return self.engine.distances(points, cap)
+        their |d| ≥ cap); an exact CAD gives every point exactly. ``hint``
+        ((n,) int64, −1 at first, updated in place): speed only, for repeated
+        queries of the same points moved a little (:meth:`MeshSolid.distances`;
+        an exact CAD has no use for it)."""
+        if isinstance(self.engine, MeshSolid):
+            return self.engine.distances(points, cap, hint=hint)
         return self.engine.distances(points)
 
     def face_fields(self, points: FloatArray) -> tuple[FloatArray, FloatArray] | None:

@@ -124,6 +124,19 @@ def _dot(x: FloatArray, y: FloatArray) -> FloatArray:
     return out
 
 
+def _check_hint(hint: Any, n: int, subs: int) -> None:
+    """A :meth:`MeshSolid.distances` hint: (n,) C-contiguous int64, every
+    entry < ``subs`` (the sub-triangles); ValueError otherwise."""
+    if not (isinstance(hint, np.ndarray) and hint.dtype == np.int64 and hint.shape == (n,)
+            and hint.flags.c_contiguous and hint.flags.writeable):
+        raise ValueError(f"hint: expected a writeable C-contiguous ({n},) int64 array, got "
+                         f"{getattr(hint, 'dtype', type(hint).__name__)} "
+                         f"{getattr(hint, 'shape', '')}")
+    if n and int(hint.max()) >= subs:
+        raise ValueError(f"hint: index {int(hint.max())} past the {subs} sub-triangles "
+                         "(a hint from another CAD?)")
+
+
 def _split_fat(v: FloatArray, f: IntArray, cell: float) -> tuple[FloatArray, IntArray]:
     """Sub-triangles whose bounding boxes are thin (second-largest extent ≤
     ``cell``), by longest-edge bisection, with their parent triangle's index.
@@ -150,6 +163,10 @@ def _split_fat(v: FloatArray, f: IntArray, cell: float) -> tuple[FloatArray, Int
                               np.stack([m, tri[:, 1], tri[:, 2]], 1)])
         parent = np.concatenate([parent, parent])
     return np.concatenate(done_t), np.concatenate(done_p)
+
+
+#: no first guesses (:meth:`_Tree.nearest`)
+_NO_SEED = np.empty(0, np.int64)
 
 
 class _Tree:
@@ -233,14 +250,21 @@ class _Tree:
         return (self.box, self.first_leaf, self.start, self.stop, self.T, self.origin,
                 self.cell, self.dims, self.cstart, self.cprim, self.reach2)
 
-    def nearest(self, p: np.ndarray, order: np.ndarray, cap2: float = math.inf) -> np.ndarray:
+    def nearest(self, p: np.ndarray, order: np.ndarray, cap2: float = math.inf,
+                seed: IntArray | None = None) -> np.ndarray:
         """(n,) int — parent triangle nearest to each point (exact), visiting
         the points in ``order``; with ``cap2`` (mm²) only for points with a
-        triangle nearer than √cap2, the others get one at least that far."""
+        triangle nearer than √cap2, the others get one at least that far.
+        ``seed`` ((n,) int64, optional): each point's first guess, a
+        sub-triangle index (< 0: none), replaced by the point's nearest
+        sub-triangle (see :meth:`MeshSolid.distances`)."""
         from .nearest import nearest_triangles
 
-        args = (*self.args, cap2)
-        out: IntArray = self.parent[nearest_triangles(p, order, *args)]
+        search: Callable[..., IntArray] = nearest_triangles
+        sub = search(p, order, *self.args, cap2, _NO_SEED if seed is None else seed)
+        if seed is not None:
+            seed[:] = sub
+        out: IntArray = self.parent[sub]
         return out
 
 
@@ -309,15 +333,18 @@ class MeshSolid:
         counting sort's table stays no larger than the points."""
         return int(min(6, max(1, np.floor(np.log2(max(n, 2)) / 3))))
 
-    def _nearest(self, p: np.ndarray, cap2: float = math.inf) -> np.ndarray:
+    def _nearest(self, p: np.ndarray, cap2: float = math.inf,
+                 seed: IntArray | None = None) -> np.ndarray:
         """(n,) int — nearest parent triangle of every point ((n, 3) float64;
-        ``cap2`` as in :meth:`_Tree.nearest`)."""
+        ``cap2`` and ``seed`` as in :meth:`_Tree.nearest`)."""
         from .nearest import spatial_order
 
         # spatial order: each search starts from its predecessor's triangle
-        return self._build().nearest(p, spatial_order(p, self._bits(len(p))), cap2)
+        # (or from its seed)
+        return self._build().nearest(p, spatial_order(p, self._bits(len(p))), cap2, seed)
 
-    def distances(self, points: np.ndarray, cap: float | None = None) -> Distances:
+    def distances(self, points: np.ndarray, cap: float | None = None, *,
+                  hint: IntArray | None = None) -> Distances:
         """Exact signed distance, closest point, normal and face of every point.
 
         Parameters
@@ -326,11 +353,19 @@ class MeshSolid:
         cap : float, optional — mm: the fields are exact for the points with
             |d| < cap; the others get those of a triangle at least ``cap``
             away (|d| ≥ cap), their searches stopped there
+        hint : (n,) int64, optional — speed only: each point's nearest
+            sub-triangle from an earlier call on the same points (−1 at
+            first), updated in place; a point moved a little starts its
+            search there (ICP's iterations). The nearest distances are the
+            same with or without it (to the round-off of one closest-point
+            evaluation where an edge's two triangles tie).
         """
         from .nearest import signed_query
 
         p = np.ascontiguousarray(np.asarray(points, float).reshape(-1, 3))
-        t = self._nearest(p, math.inf if cap is None else cap * cap)
+        if hint is not None:
+            _check_hint(hint, len(p), len(self._build().T))
+        t = self._nearest(p, math.inf if cap is None else cap * cap, hint)
         d, q, normal, feature = signed_query(p, t, self.PT, self.f, self.fn, self.en, self.vn,
                                              tol.inspect.feature_eps)
         return Distances(d, q, normal, self.label_ids[t], feature, self.labels)

@@ -149,7 +149,7 @@ def _walk(px: float, py: float, pz: float, box: AnyArray, first_leaf: int, start
 def nearest_triangles(p: AnyArray, order: AnyArray, box: AnyArray, first_leaf: int,
                       start: AnyArray, stop: AnyArray, T: AnyArray, origin: AnyArray,
                       cell: float, dims: AnyArray, cstart: AnyArray, cprim: AnyArray,
-                      reach2: float, cap2: float) -> IntArray:
+                      reach2: float, cap2: float, seed: AnyArray) -> IntArray:
     """Index (into ``T``) of the nearest sub-triangle of every point.
 
     Parameters
@@ -173,6 +173,11 @@ def nearest_triangles(p: AnyArray, order: AnyArray, box: AnyArray, first_leaf: i
         a point with none keeps a triangle at least that far (what a
         distance clipped at √cap2 needs, at a fraction of the far points'
         tree walks)
+    seed : (n,) int or (0,) — each point's first guess (an index into ``T``;
+        < 0: none), e.g. its nearest sub-triangle before the last small move
+        of the points; it only sets the starting bound of the exact search
+        (a point's predecessor's triangle where there is none): the result
+        is the same nearest distance with or without it
 
     Returns
     -------
@@ -181,7 +186,7 @@ def nearest_triangles(p: AnyArray, order: AnyArray, box: AnyArray, first_leaf: i
     n = p.shape[0]
     best = np.empty(n, np.int64)
     _nearest_into(p, order, box, first_leaf, start, stop, T, origin, cell, dims, cstart,
-                  cprim, reach2, cap2, np.empty((n, 3)), np.empty(n, np.int64), best)
+                  cprim, reach2, cap2, np.empty((n, 3)), np.empty(n, np.int64), best, seed)
     return best
 
 
@@ -190,10 +195,12 @@ def _nearest_into(p: AnyArray, order: AnyArray, box: AnyArray, first_leaf: int,
                   start: AnyArray, stop: AnyArray, T: AnyArray, origin: AnyArray,
                   cell: float, dims: AnyArray, cstart: AnyArray, cprim: AnyArray,
                   reach2: float, cap2: float, ps: AnyArray, bs: AnyArray,
-                  best: AnyArray) -> None:
+                  best: AnyArray, seed: AnyArray) -> None:
     """:func:`nearest_triangles` into ``best`` ((n,) int), with the work
-    buffers ``ps`` ((≥ n, 3) float) and ``bs`` ((≥ n,) int) given."""
+    buffers ``ps`` ((≥ n, 3) float) and ``bs`` ((≥ n,) int) given; ``seed``
+    as there."""
     n = p.shape[0]
+    seeded = seed.shape[0] > 0
     stack = np.empty(256, np.int64)
     # the points gathered in visiting order first: one pass of independent
     # loads, then a sequential walk (about 40 % faster than reading p[order[j]]
@@ -205,6 +212,9 @@ def _nearest_into(p: AnyArray, order: AnyArray, box: AnyArray, first_leaf: int,
     for j in range(n):
         px, py, pz = ps[j, 0], ps[j, 1], ps[j, 2]
         bt = prev
+        if seeded and seed[order[j]] >= 0:
+            bt = seed[order[j]]
+        first = bt
         # beyond the cap the seed stands: at least that far (see nearest_triangles)
         bd = _d2(px, py, pz, T, bt)
         if bd > cap2:
@@ -217,7 +227,7 @@ def _nearest_into(p: AnyArray, order: AnyArray, box: AnyArray, first_leaf: int,
             for e in range(cstart[c], cstart[c + 1]):
                 k = cprim[e]
                 # the seed is in bd already; its box never prunes it
-                if _box_d2(px, py, pz, T, k) > bd or k == prev:
+                if _box_d2(px, py, pz, T, k) > bd or k == first:
                     continue
                 d = _d2(px, py, pz, T, k)
                 if d < bd:
@@ -427,7 +437,7 @@ def nearest_signed_into(p: AnyArray, rows: AnyArray, bits: int, box: AnyArray, f
     order, bs, best = iw[:n], iw[n:2 * n], iw[2 * n:3 * n]
     _order_into(p, bits, order, bs, iw[3 * n:])
     _nearest_into(p, order, box, first_leaf, start, stop, T, origin, cell, dims, cstart,
-                  cprim, reach2, np.inf, fw[:3 * n].reshape((n, 3)), bs, best)
+                  cprim, reach2, np.inf, fw[:3 * n].reshape((n, 3)), bs, best, iw[:0])
     nn = 0
     for i in range(p.shape[0]):
         k = parent[best[i]]

@@ -141,12 +141,13 @@ def test_deviations_written_in_place_equal_distances():
 
 
 def test_fused_kernel_equals_separate_search_at_edges_and_vertices():
-    """The one-call kernel (spatial order, nearest search, signed distance:
-    ``MeshSolid.distances_into``) against the separate search and
-    ``signed_query`` (``MeshSolid.distances``): the same distances, closest
-    points, normals, faces and features bit for bit, on points just off the
-    mesh's vertices and edge midpoints (edge and vertex features) and far off
-    it (tree walks); distances equal an all-triangle brute force."""
+    """The one-call kernel appending the points within ``far`` to a scan's
+    result arrays (``MeshSolid.distances_into``, what compare runs per
+    chunk) against the same search on every point (``MeshSolid.distances``):
+    the same distances, closest points, normals, faces and features bit for
+    bit, on points just off the mesh's vertices and edge midpoints (edge and
+    vertex features) and far off it (tree walks); distances equal an
+    all-triangle brute force."""
     from tipgeo.inspect.meshdist import brute_force_distances
 
     rng = np.random.default_rng(11)

@@ -245,27 +245,11 @@ class _Tree:
 
     @property
     def args(self) -> tuple[Any, ...]:
-        """The tree and grid arguments of :func:`~tipgeo.inspect.nearest.nearest_triangles`
-        (from ``box`` to ``reach2``)."""
+        """The tree and grid arguments of
+        :func:`~tipgeo.inspect.nearest.nearest_signed_into` (from ``box`` to
+        ``reach2``)."""
         return (self.box, self.first_leaf, self.start, self.stop, self.T, self.origin,
                 self.cell, self.dims, self.cstart, self.cprim, self.reach2)
-
-    def nearest(self, p: np.ndarray, order: np.ndarray, cap2: float = math.inf,
-                seed: IntArray | None = None) -> np.ndarray:
-        """(n,) int — parent triangle nearest to each point (exact), visiting
-        the points in ``order``; with ``cap2`` (mm²) only for points with a
-        triangle nearer than √cap2, the others get one at least that far.
-        ``seed`` ((n,) int64, optional): each point's first guess, a
-        sub-triangle index (< 0: none), replaced by the point's nearest
-        sub-triangle (see :meth:`MeshSolid.distances`)."""
-        from .nearest import nearest_triangles
-
-        search: Callable[..., IntArray] = nearest_triangles
-        sub = search(p, order, *self.args, cap2, _NO_SEED if seed is None else seed)
-        if seed is not None:
-            seed[:] = sub
-        out: IntArray = self.parent[sub]
-        return out
 
 
 class MeshSolid:
@@ -333,16 +317,6 @@ class MeshSolid:
         counting sort's table stays no larger than the points."""
         return int(min(6, max(1, np.floor(np.log2(max(n, 2)) / 3))))
 
-    def _nearest(self, p: np.ndarray, cap2: float = math.inf,
-                 seed: IntArray | None = None) -> np.ndarray:
-        """(n,) int — nearest parent triangle of every point ((n, 3) float64;
-        ``cap2`` and ``seed`` as in :meth:`_Tree.nearest`)."""
-        from .nearest import spatial_order
-
-        # spatial order: each search starts from its predecessor's triangle
-        # (or from its seed)
-        return self._build().nearest(p, spatial_order(p, self._bits(len(p))), cap2, seed)
-
     def distances(self, points: np.ndarray, cap: float | None = None, *,
                   hint: IntArray | None = None) -> Distances:
         """Exact signed distance, closest point, normal and face of every point.
@@ -360,15 +334,19 @@ class MeshSolid:
             same with or without it (to the round-off of one closest-point
             evaluation where an edge's two triangles tie).
         """
-        from .nearest import signed_query
-
         p = np.ascontiguousarray(np.asarray(points, float).reshape(-1, 3))
+        n = len(p)
         if hint is not None:
-            _check_hint(hint, len(p), len(self._build().T))
-        t = self._nearest(p, math.inf if cap is None else cap * cap, hint)
-        d, q, normal, feature = signed_query(p, t, self.PT, self.f, self.fn, self.en, self.vn,
-                                             tol.inspect.feature_eps)
-        return Distances(d, q, normal, self.label_ids[t], feature, self.labels)
+            _check_hint(hint, n, len(self._build().T))
+        out = (np.empty((n, 3)), np.empty(n), np.empty((n, 3)), np.empty((n, 3)),
+               np.empty(n, self.label_ids.dtype), np.empty(n, np.int8), np.empty(n, np.int64))
+        # far = ∞: every point, in input order (the kernel's one search)
+        done, _ = self._search(p, np.arange(n), far=math.inf, near=0.0, out=out, cur=0,
+                               cap2=math.inf if cap is None else cap * cap,
+                               seed=_NO_SEED if hint is None else hint)
+        assert done == n
+        _, d, q, normal, face, feature, _ = out
+        return Distances(d, q, normal, face, feature, self.labels)
 
     def distances_into(self, points: AnyArray, rows: IntArray, *, far: float, near: float,
                        out: tuple[AnyArray, ...], cur: int,
@@ -397,21 +375,31 @@ class MeshSolid:
         -------
         cur : int — rows filled; near_count : int — points with |d| ≤ ``near``
         """
+        p = np.ascontiguousarray(points, float)
+        if work is not None and (len(work[0]) < self.work_sizes(len(p))[0]
+                                 or len(work[1]) < self.work_sizes(len(p))[1]):
+            raise ValueError("distances_into: work buffers smaller than work_sizes()")
+        return self._search(p, rows, far=far, near=near, out=out, cur=cur, tri=tri, work=work)
+
+    def _search(self, p: AnyArray, rows: IntArray, *, far: float, near: float,
+                out: tuple[AnyArray, ...], cur: int, tri: AnyArray | None = None,
+                work: tuple[AnyArray, AnyArray] | None = None, cap2: float = math.inf,
+                seed: AnyArray = _NO_SEED) -> tuple[int, int]:
+        """The one compiled call behind :meth:`distances` and
+        :meth:`distances_into` (spatial order, exact nearest search, signed
+        distances): :func:`~tipgeo.inspect.nearest.nearest_signed_into` on
+        ``p`` ((n, 3) float64, mm)."""
         from .nearest import nearest_signed_into
 
-        p = np.ascontiguousarray(points, float)
         index = self._build()
-        # one compiled call: spatial order, nearest search, signed distances
         P, dist, clo, nrm, face, feat, out_rows = out
-        bits = self._bits(len(p))
         iw, fw = work if work is not None else self.work_buffers(len(p))
-        if len(iw) < self.work_sizes(len(p))[0] or len(fw) < self.work_sizes(len(p))[1]:
-            raise ValueError("distances_into: work buffers smaller than work_sizes()")
         run: Callable[..., tuple[int, int]] = nearest_signed_into
         done = run(
-            p, rows, bits, *index.args, index.parent, self.PT, self.f, self.fn,
+            p, rows, self._bits(len(p)), *index.args, index.parent, self.PT, self.f, self.fn,
             self.en, self.vn, tol.inspect.feature_eps, self.label_ids, far, near, P, dist, clo,
-            nrm, np.empty(0, np.int32) if tri is None else tri, face, feat, out_rows, cur, iw, fw)
+            nrm, np.empty(0, np.int32) if tri is None else tri, face, feat, out_rows, cur, iw, fw,
+            cap2, seed)
         return done
 
     def work_sizes(self, n: int) -> tuple[int, int]:

@@ -27,11 +27,11 @@ import math
 import numpy as np
 
 from .._jit import njit
-from ..arrays import AnyArray, FloatArray, IntArray
+from ..arrays import AnyArray, IntArray
 from ..tolerances import tol
 
-__all__ = ["grid_lists", "nearest_signed_into", "nearest_triangles",
-           "signed_query", "signed_rows", "spatial_order", "transform_envelope", "work_sizes"]
+__all__ = ["grid_lists", "nearest_signed_into", "signed_rows", "transform_envelope",
+           "work_sizes"]
 
 
 @njit(cache=True, fastmath=False, nogil=True, inline="always")
@@ -146,59 +146,16 @@ def _walk(px: float, py: float, pz: float, box: AnyArray, first_leaf: int, start
 
 
 @njit(cache=True, fastmath=False, nogil=True)
-def nearest_triangles(p: AnyArray, order: AnyArray, box: AnyArray, first_leaf: int,
-                      start: AnyArray, stop: AnyArray, T: AnyArray, origin: AnyArray,
-                      cell: float, dims: AnyArray, cstart: AnyArray, cprim: AnyArray,
-                      reach2: float, cap2: float, seed: AnyArray) -> IntArray:
-    """Index (into ``T``) of the nearest sub-triangle of every point.
-
-    Parameters
-    ----------
-    p : (n, 3) float — points
-    order : (n,) int — the order to visit them in, best spatially coherent
-        (the previous point's triangle seeds each search's bound)
-    box : (m, 6) float — boxes (lo xyz, hi xyz) of an implicit complete
-        binary tree (node i has children 2i+1, 2i+2; nodes from
-        ``first_leaf`` on are leaves)
-    start, stop : (m - first_leaf,) int — each leaf's range in ``T``
-    T : (k, 15) float — sub-triangles in leaf order, one row each: box (lo
-        xyz, hi xyz), then corners a, b, c (one row: one or two cache lines)
-    origin : (3,) float; cell : float; dims : (3,) int — a uniform grid
-        (``dims`` all 0: none)
-    cstart : (cells + 1,) int; cprim : (e,) int — each cell's list: every
-        sub-triangle whose box, grown by the reach, touches the cell
-    reach2 : float — the reach squared: a list minimum within it is exact
-    cap2 : float — a squared distance (mm²; ∞: none) beyond which the search
-        stops: a point with a triangle nearer than √cap2 gets its nearest;
-        a point with none keeps a triangle at least that far (what a
-        distance clipped at √cap2 needs, at a fraction of the far points'
-        tree walks)
-    seed : (n,) int or (0,) — each point's first guess (an index into ``T``;
-        < 0: none), e.g. its nearest sub-triangle before the last small move
-        of the points; it only sets the starting bound of the exact search
-        (a point's predecessor's triangle where there is none): the result
-        is the same nearest distance with or without it
-
-    Returns
-    -------
-    best : (n,) int64 — index into ``T``
-    """
-    n = p.shape[0]
-    best = np.empty(n, np.int64)
-    _nearest_into(p, order, box, first_leaf, start, stop, T, origin, cell, dims, cstart,
-                  cprim, reach2, cap2, np.empty((n, 3)), np.empty(n, np.int64), best, seed)
-    return best
-
-
-@njit(cache=True, fastmath=False, nogil=True)
 def _nearest_into(p: AnyArray, order: AnyArray, box: AnyArray, first_leaf: int,
                   start: AnyArray, stop: AnyArray, T: AnyArray, origin: AnyArray,
                   cell: float, dims: AnyArray, cstart: AnyArray, cprim: AnyArray,
                   reach2: float, cap2: float, ps: AnyArray, bs: AnyArray,
                   best: AnyArray, seed: AnyArray) -> None:
-    """:func:`nearest_triangles` into ``best`` ((n,) int), with the work
-    buffers ``ps`` ((≥ n, 3) float) and ``bs`` ((≥ n,) int) given; ``seed``
-    as there."""
+    """Each point's nearest sub-triangle (index into ``T``) into ``best``
+    ((n,) int), visiting the points in ``order`` (the previous point's
+    triangle, or the point's ``seed``, bounds each search), with the work
+    buffers ``ps`` ((≥ n, 3) float) and ``bs`` ((≥ n,) int) given; the
+    other arguments as in :func:`nearest_signed_into`."""
     n = p.shape[0]
     seeded = seed.shape[0] > 0
     stack = np.empty(256, np.int64)
@@ -215,7 +172,7 @@ def _nearest_into(p: AnyArray, order: AnyArray, box: AnyArray, first_leaf: int,
         if seeded and seed[order[j]] >= 0:
             bt = seed[order[j]]
         first = bt
-        # beyond the cap the seed stands: at least that far (see nearest_triangles)
+        # beyond the cap the seed stands: at least that far (see cap2 of nearest_signed_into)
         bd = _d2(px, py, pz, T, bt)
         if bd > cap2:
             bd = cap2
@@ -274,20 +231,10 @@ def grid_lists(tbox: AnyArray, origin: AnyArray, cell: float, dims: AnyArray,
 
 
 @njit(cache=True, fastmath=False, nogil=True)
-def spatial_order(p: AnyArray, bits: int) -> IntArray:
-    """A permutation of the points (n, 3) grouping them by Morton cell
-    (``bits`` per axis over their bounding box; input order within a cell):
-    a counting sort, O(n + 8**bits)."""
-    n = p.shape[0]
-    order = np.empty(n, np.int64)
-    _order_into(p, bits, order, np.empty(n, np.int64),
-                np.empty((1 << (3 * bits)) + 1, np.int64))
-    return order
-
-
-@njit(cache=True, fastmath=False, nogil=True)
 def _order_into(p: AnyArray, bits: int, order: AnyArray, key: AnyArray, count: AnyArray) -> None:
-    """:func:`spatial_order` into ``order`` ((n,) int), with the work buffers
+    """A permutation ``order`` ((n,) int) of the points (n, 3) grouping them
+    by Morton cell (``bits`` per axis over their bounding box; input order
+    within a cell): a counting sort, O(n + 8**bits), with the work buffers
     ``key`` ((≥ n,) int) and ``count`` ((≥ 8**bits + 1,) int, any content)."""
     n = p.shape[0]
     if n == 0:
@@ -331,7 +278,8 @@ def _signed(px: float, py: float, pz: float, k: int, PT: AnyArray, f: AnyArray, 
             eps: float) -> tuple[float, float, float, float, float, float, float, int]:
     """Signed distance of p to parent triangle ``k`` (corners in row k of
     ``PT``): (d, qx, qy, qz, nx, ny, nz, feature), the normal as
-    :func:`signed_query` documents it."""
+    :func:`nearest_signed_into` documents it; the sign from the angle-weighted
+    pseudo-normal of the feature the closest point lies on."""
     u, v, w = _bary(px, py, pz, PT, k, 0)
     qx = PT[k, 0] * u + PT[k, 3] * v + PT[k, 6] * w
     qy = PT[k, 1] * u + PT[k, 4] * v + PT[k, 7] * w
@@ -366,43 +314,6 @@ def _signed(px: float, py: float, pz: float, k: int, PT: AnyArray, f: AnyArray, 
 
 
 @njit(cache=True, fastmath=False, nogil=True)
-def signed_query(p: AnyArray, t: AnyArray, PT: AnyArray, f: AnyArray, fn: AnyArray,
-                 en: AnyArray, vn: AnyArray,
-                 eps: float) -> tuple[FloatArray, FloatArray, FloatArray, IntArray]:
-    """Signed distance, closest point, normal and feature of every point to
-    its nearest triangle ``t`` (parent mesh), signs from the angle-weighted
-    pseudo-normal of the feature the closest point lies on.
-
-    Parameters
-    ----------
-    p : (n, 3) float — points
-    t : (n,) int — nearest triangle of each point
-    PT : (m, 9) float — the mesh's triangles, corners a, b, c in a row
-    f : (m, 3) int — their vertex indices
-    fn : (m, 3) float — unit face normals
-    en : (m, 3, 3) float — edge pseudo-normals (triangle, local edge i from
-        corner i to i+1, xyz)
-    vn : (nv, 3) float — vertex pseudo-normals
-    eps : float — a barycentric weight ≤ eps is zero (feature test)
-
-    Returns
-    -------
-    d : (n,) float; q : (n, 3) float; normal : (n, 3) float — the face normal
-        inside a face, else the unit direction from q to the point, signed;
-        feature : (n,) int8 (0 face, 1 edge, 2 vertex)
-    """
-    n = p.shape[0]
-    d = np.empty(n)
-    q = np.empty((n, 3))
-    nrm = np.empty((n, 3))
-    feat = np.empty(n, np.int8)
-    for i in range(n):
-        d[i], q[i, 0], q[i, 1], q[i, 2], nrm[i, 0], nrm[i, 1], nrm[i, 2], feat[i] = _signed(
-            p[i, 0], p[i, 1], p[i, 2], t[i], PT, f, fn, en, vn, eps)
-    return d, q, nrm, feat
-
-
-@njit(cache=True, fastmath=False, nogil=True)
 def nearest_signed_into(p: AnyArray, rows: AnyArray, bits: int, box: AnyArray, first_leaf: int,
                         start: AnyArray, stop: AnyArray, T: AnyArray, origin: AnyArray,
                         cell: float, dims: AnyArray, cstart: AnyArray, cprim: AnyArray,
@@ -411,22 +322,59 @@ def nearest_signed_into(p: AnyArray, rows: AnyArray, bits: int, box: AnyArray, f
                         far: float, near: float, P: AnyArray, dist: AnyArray, clo: AnyArray,
                         nrm: AnyArray, tri: AnyArray, face: AnyArray, feat: AnyArray,
                         out_rows: AnyArray, cur: int, iw: AnyArray,
-                        fw: AnyArray) -> tuple[int, int]:
+                        fw: AnyArray, cap2: float, seed: AnyArray) -> tuple[int, int]:
     """The nearest triangle of every point and its signed distance in one
-    compiled call (what ``compare`` runs per chunk): the points are put in
-    :func:`spatial_order` (``bits``), searched by :func:`nearest_triangles`
-    (tree and grid arguments as there), and those with |d| ≤ ``far`` are
-    appended in input order at row ``cur`` of ``P`` (the point), ``dist``,
-    ``clo`` (closest point), ``nrm`` (normal), ``face`` (``label`` of the
-    parent triangle), ``feat`` and ``out_rows`` (``rows``); any float dtype
-    for the points, closest points and normals (compare keeps them in
-    float32). ``parent`` maps sub-triangles to the mesh's triangles, whose
-    corners are rows of ``PT``; ``f``, ``fn``, ``en``, ``vn``, ``eps`` as in
-    :func:`signed_query`. ``clo`` and ``nrm`` with no rows are not written
-    (:func:`signed_rows` gives them later); ``tri`` with rows receives each
-    point's triangle. ``iw`` (int64) and ``fw`` (float64) are work buffers
-    of at least :func:`work_sizes` (reused from chunk to chunk: no fresh
-    memory per call).
+    compiled call (what ``compare`` runs per chunk, and every
+    :meth:`~tipgeo.inspect.meshdist.MeshSolid.distances` query): the points
+    are put in spatial order (Morton cells, ``bits`` per axis: each search
+    starts from its predecessor's triangle), each one's nearest sub-triangle
+    found exactly (its cell's list, then the tree where the list's best lies
+    beyond the reach), and those with |d| ≤ ``far`` (∞: every point, NaN
+    included) are appended in input order at row ``cur`` of ``P`` (the
+    point), ``dist``, ``clo`` (closest point), ``nrm`` (normal), ``face``
+    (``label`` of the parent triangle), ``feat`` and ``out_rows``
+    (``rows``); any float dtype for the points, closest points and normals
+    (compare keeps them in float32). ``clo`` and ``nrm`` with no rows are
+    not written (:func:`signed_rows` gives them later); ``tri`` with rows
+    receives each point's triangle. ``iw`` (int64) and ``fw`` (float64) are
+    work buffers of at least :func:`work_sizes` (reused from chunk to chunk:
+    no fresh memory per call).
+
+    Parameters
+    ----------
+    box : (m, 6) float — boxes (lo xyz, hi xyz) of an implicit complete
+        binary tree (node i has children 2i+1, 2i+2; nodes from
+        ``first_leaf`` on are leaves)
+    start, stop : (m - first_leaf,) int — each leaf's range in ``T``
+    T : (k, 15) float — sub-triangles in leaf order, one row each: box (lo
+        xyz, hi xyz), then corners a, b, c (one row: one or two cache lines)
+    origin : (3,) float; cell : float; dims : (3,) int — a uniform grid
+        (``dims`` all 0: none)
+    cstart : (cells + 1,) int; cprim : (e,) int — each cell's list: every
+        sub-triangle whose box, grown by the reach, touches the cell
+    reach2 : float — the reach squared: a list minimum within it is exact
+    parent : (k,) int — the mesh triangle of each sub-triangle, whose
+        corners are rows of ``PT`` ((m, 9) float: a, b, c)
+    f : (m, 3) int — the triangles' vertex indices
+    fn : (m, 3) float — unit face normals
+    en : (m, 3, 3) float — edge pseudo-normals (triangle, local edge i from
+        corner i to i+1, xyz)
+    vn : (nv, 3) float — vertex pseudo-normals
+    eps : float — a barycentric weight ≤ eps is zero (feature test)
+    cap2 : float — a squared distance (mm²; ∞: none) beyond which the search
+        stops: a point with a triangle nearer than √cap2 gets its nearest;
+        a point with none keeps a triangle at least that far (what a
+        distance clipped at √cap2 needs, at a fraction of the far points'
+        tree walks)
+    seed : (n,) int or (0,) — each point's first guess (an index into ``T``;
+        < 0: none), e.g. its nearest sub-triangle before the last small move
+        of the points, replaced by its nearest; it only sets the starting
+        bound of the exact search: the same nearest distance with or
+        without it
+
+    The normal is the face normal inside a face, else the unit direction
+    from the closest point to the point, signed; the feature 0 face, 1 edge,
+    2 vertex.
 
     Returns
     -------
@@ -437,7 +385,9 @@ def nearest_signed_into(p: AnyArray, rows: AnyArray, bits: int, box: AnyArray, f
     order, bs, best = iw[:n], iw[n:2 * n], iw[2 * n:3 * n]
     _order_into(p, bits, order, bs, iw[3 * n:])
     _nearest_into(p, order, box, first_leaf, start, stop, T, origin, cell, dims, cstart,
-                  cprim, reach2, np.inf, fw[:3 * n].reshape((n, 3)), bs, best, iw[:0])
+                  cprim, reach2, cap2, fw[:3 * n].reshape((n, 3)), bs, best, seed)
+    if seed.shape[0]:
+        seed[:] = best
     nn = 0
     for i in range(p.shape[0]):
         k = parent[best[i]]
@@ -446,7 +396,7 @@ def nearest_signed_into(p: AnyArray, rows: AnyArray, bits: int, box: AnyArray, f
         ad = abs(d)
         if ad <= near:
             nn += 1
-        if not ad <= far:
+        if not ad <= far and far != np.inf:
             continue
         P[cur, 0], P[cur, 1], P[cur, 2] = px, py, pz
         dist[cur] = d
@@ -470,7 +420,7 @@ def signed_rows(x: AnyArray, rows: AnyArray, R: AnyArray, t: AnyArray, tri: AnyA
     triangles ``tri`` (the arithmetic of :func:`transform_envelope` and of
     :func:`nearest_signed_into`, so the same values bit for bit), written to
     ``clo`` and ``nrm`` ((len(rows), 3), any float dtype); the other
-    arguments as in :func:`signed_query`."""
+    arguments as in :func:`nearest_signed_into`."""
     for j in range(rows.shape[0]):
         i = rows[j]
         a, b, c = np.float64(x[i, 0]), np.float64(x[i, 1]), np.float64(x[i, 2])

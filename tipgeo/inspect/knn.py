@@ -115,6 +115,15 @@ def _knn(p: AnyArray, k: int, lo: FloatArray, h: float, dims: IntArray, start: I
     return dist, idx
 
 
+@njit(cache=True, nogil=True)
+def _knn_grid(p: AnyArray, k: int, lo: FloatArray, h: float, dims: IntArray,
+              slack: float) -> tuple[FloatArray, IntArray]:
+    """:func:`_cells`, then :func:`_knn` on them: one compiled call (one
+    kernel to load, not two)."""
+    start, members = _cells(p, lo, h, dims)
+    return _knn(p, k, lo, h, dims, start, members, slack)
+
+
 def knn(p: AnyArray, k: int) -> tuple[FloatArray, IntArray]:
     """The ``k`` nearest points of every point of ``p`` ((n, 3) float,
     k ≤ n), the point itself included (at distance 0), nearest first.
@@ -139,9 +148,8 @@ def knn(p: AnyArray, k: int) -> tuple[FloatArray, IntArray]:
         if int(dims.prod()) <= 4 * n + 8:
             break
         h *= 1.5
-    start, members = _cells(p, lo, h, dims)
     # a cell index is computed from rounded coordinates: a point may sit
     # that far on the other side of a cell boundary
     slack = 16 * float(np.finfo(float).eps) * float(np.abs(p).max() + np.abs(lo).max() + h)
-    dist, idx = _knn(p, int(k), lo, float(h), dims, start, members, slack)
+    dist, idx = _knn_grid(p, int(k), lo, float(h), dims, slack)
     return dist, idx

@@ -302,3 +302,15 @@ def test_python_m_tipgeo_counts_as_the_program_and_foreign_programs_do_not_inher
     monkeypatch.setattr(sys, "orig_argv", [sys.executable, "-m", "pytest"])
     monkeypatch.delenv("OPENBLAS_NUM_THREADS")
     assert _threads.program_blas_threads() is None
+
+
+def test_the_program_skips_numbas_extension_scan_a_library_user_keeps_it(tmp_path):
+    def run(name):
+        script = tmp_path / name
+        script.write_text("import tipgeo._jit as j, numba.core.entrypoints as e\n"
+                          "print(j.extension_scan_skipped, e._already_initialized)\n")
+        return subprocess.run([sys.executable, str(script)], capture_output=True, text=True,
+                              check=True).stdout.split()
+
+    assert run("tipgeo") == ["True", "True"]
+    assert run("my_script.py") == ["False", "False"]

@@ -12,6 +12,12 @@ before it compiles). The change is made once, to numba's cache loader, when
 this module is first imported, and only when that loader has the form this
 was written against (numba ≥ 0.57); otherwise numba is left as it is.
 
+When tipgeo runs as a program (the ``tipgeo`` command), numba's scan of
+every installed distribution for third-party numba extensions is marked
+done before the first kernel call (:func:`skip_extension_scan`): tipgeo's
+kernels take numpy arrays and numbers only, and the scan cost 20–27 ms of a
+compare. A library user's process is left as it is.
+
 No units: a pass-through of numba's decorator.
 """
 
@@ -21,7 +27,7 @@ from typing import Any
 
 from numba import njit
 
-__all__ = ["njit", "cache_loads_lean"]
+__all__ = ["njit", "cache_loads_lean", "skip_extension_scan"]
 
 
 def _lean_cache_loads() -> bool:
@@ -57,3 +63,24 @@ def _lean_cache_loads() -> bool:
 
 #: whether numba's cache loader was made lean (False: numba as it is)
 cache_loads_lean: bool = _lean_cache_loads()
+
+
+def skip_extension_scan() -> bool:
+    """In the tipgeo program only, mark numba's extension entry points as
+    initialised (see the module docstring); whether it was done."""
+    from ._threads import is_program
+
+    if not is_program():
+        return False
+    try:
+        from numba.core import entrypoints
+    except ImportError:  # pragma: no cover - another numba layout
+        return False
+    if not hasattr(entrypoints, "_already_initialized"):
+        return False  # pragma: no cover - another numba layout
+    entrypoints._already_initialized = True
+    return True
+
+
+#: whether numba's extension scan was skipped (the tipgeo program)
+extension_scan_skipped: bool = skip_extension_scan()

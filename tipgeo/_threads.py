@@ -30,7 +30,8 @@ import os
 import sys
 from collections.abc import Iterator, Mapping
 
-__all__ = ["small_linalg", "blas_threads", "program_blas_threads", "foreign_env"]
+__all__ = ["small_linalg", "blas_threads", "program_blas_threads", "foreign_env",
+           "is_program"]
 
 #: the variable :func:`program_blas_threads` sets, and the value it set
 _SET: dict[str, str] = {}
@@ -66,7 +67,7 @@ def small_linalg(threads: int | None = 1) -> Iterator[None]:
         yield
 
 
-def _is_program() -> bool:
+def is_program() -> bool:
     """Whether this process is the ``tipgeo`` command: the console script
     as ``__main__``, or ``python -m tipgeo`` on the original command line."""
     main = sys.modules.get("__main__")
@@ -81,7 +82,7 @@ def program_blas_threads() -> str | None:
     """Set ``OPENBLAS_NUM_THREADS`` to :func:`blas_threads` when tipgeo runs
     as a program and numpy is not imported yet (see the module docstring);
     the value set, or None when nothing was set."""
-    if "numpy" in sys.modules or not _is_program():
+    if "numpy" in sys.modules or not is_program():
         return None
     if any(os.environ.get(k, "").strip()
            for k in ("OPENBLAS_NUM_THREADS", "GOTO_NUM_THREADS", "OMP_NUM_THREADS")):

@@ -139,10 +139,13 @@ def knn(p: AnyArray, k: int) -> tuple[FloatArray, IntArray]:
         raise ValueError(f"knn: k = {k}; allowed 1 ≤ k ≤ {n} (the number of points)")
     lo, hi = p.min(axis=0), p.max(axis=0)
     ext = np.maximum(hi - lo, 0.0)
-    # about k points a cell on a surface-like cloud: the cell of a uniform
-    # 3D sampling at n / k points, but never more cells than 4 n
+    # half the cell of a uniform 3D sampling at n / k points (a scan is a
+    # surface: its occupied cells hold more than k points at the full size;
+    # measured on a registration subset of 2·10⁴ points: 35 → 20 ms at k = 9,
+    # 55 → 32 ms at k = 12; smaller cells cost more rings), but never more
+    # cells than 4 n
     vol = float(np.prod(np.maximum(ext, ext.max() * 1e-3 + _TINY)))
-    h = max((vol * k / n) ** (1.0 / 3.0), float(ext.max()) * _MIN_CELL_REL, _TINY)
+    h = max(0.5 * (vol * k / n) ** (1.0 / 3.0), float(ext.max()) * _MIN_CELL_REL, _TINY)
     while True:
         dims = np.floor(ext / h).astype(np.int64) + 1
         if int(dims.prod()) <= 4 * n + 8:

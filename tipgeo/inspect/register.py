@@ -188,11 +188,14 @@ def point_normals(p: np.ndarray, k: int = 12) -> np.ndarray:
 
 def fit_cylinder(points: np.ndarray, axis_dir: np.ndarray, axis_point: np.ndarray,
                  radius: float, *, scale: float = 0.005, bore: np.ndarray | None = None,
-                 wall: float = 0.0) -> tuple[FloatArray, FloatArray, float, float]:
+                 wall: float = 0.0,
+                 converge: float | None = None) -> tuple[FloatArray, FloatArray, float, float]:
     """Least-squares cylinder through points (robust soft-L1 loss of width
     ``scale`` mm), from an initial axis and radius. With ``bore`` ((n,) bool)
     those points lie on a coaxial cylinder ``wall`` mm smaller (a tube's
-    bore seen with its outer wall): one axis from both.
+    bore seen with its outer wall): one axis from both. The iterations stop
+    when no parameter moves by more than ``converge`` (mm, rad; default
+    ``tol.inspect.cylinder_converge``).
 
     Returns
     -------
@@ -252,7 +255,8 @@ def fit_cylinder(points: np.ndarray, axis_dir: np.ndarray, axis_point: np.ndarra
                 break
             lam *= 10
         x, r, lam = x + dx, rn, max(lam / 10, tol.inspect.lm_damping_floor)
-        if np.max(np.abs(dx)) < tol.inspect.cylinder_converge:
+        if np.max(np.abs(dx)) < (tol.inspect.cylinder_converge if converge is None
+                                  else converge):
             break
     res_x = x
     r, a, c = model(res_x)
@@ -408,9 +412,12 @@ def _axis_fit(p: FloatArray, nrm: FloatArray, cen: FloatArray, a: FloatArray, r_
         idx = np.flatnonzero(sel)
         if len(idx) > 3000:  # plenty for five parameters
             idx = idx[np.linspace(0, len(idx) - 1, 3000).astype(int)]
+        # the fits before the last only pick the wall points of the next
+        # (a band of ≥ 5 µm): a micrometre is close enough for them
         point, a, radius, rms = fit_cylinder(p[idx], a, point, radius,
                                              scale=0.02 if it == 0 else 0.004,
-                                             bore=bore[idx], wall=thick or 0.0)
+                                             bore=bore[idx], wall=thick or 0.0,
+                                             converge=None if it == 3 else 1e-6)
         if not 0.5 * r_nominal < radius < 2.0 * r_nominal:
             raise ScanError(f"the outer wall's cylinder fit ran off to radius {radius:.4g} mm "
                             f"(nominal {r_nominal:.4g} mm): does the scan show the outer wall?")

@@ -407,3 +407,21 @@ def test_knn_refuses_k_beyond_the_points():
 
     with pytest.raises(ValueError, match="k = 4"):
         knn(np.zeros((3, 3)), 4)
+
+
+@settings(max_examples=30, deadline=None)
+@given(st.integers(1, 400), st.integers(0, 2**31 - 1), st.sampled_from([1, 7, 128]))
+def test_cone_counts_by_blocks_equal_the_full_matrix(n, seed, block):
+    """The flat-patch finder's normal counts, by blocks of rows, against the
+    n × n matrix they replace: the same counts."""
+    import math
+
+    from tipgeo.inspect.register import _cone_counts
+
+    rng = np.random.default_rng(seed)
+    v = rng.normal(size=(n, 3))
+    v[: n // 2] = v[0] + rng.normal(0.0, 0.05, (n // 2, 3))     # a dense direction
+    v /= np.linalg.norm(v, axis=1, keepdims=True)
+    cosc = math.cos(math.radians(5.0))
+    full = (np.abs(v @ v.T) > cosc).sum(axis=1)
+    assert np.array_equal(_cone_counts(v, cosc, block), full)

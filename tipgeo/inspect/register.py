@@ -61,7 +61,7 @@ from typing import Any
 
 import numpy as np
 
-from ..arrays import AnyArray, ArrayLike, BoolArray, FloatArray
+from ..arrays import AnyArray, ArrayLike, BoolArray, FloatArray, IntArray
 from ..errors import TipGeoError
 from ..tolerances import tol
 from .scanio import ScanError
@@ -267,6 +267,26 @@ def fit_cylinder(points: np.ndarray, axis_dir: np.ndarray, axis_point: np.ndarra
     return point, a, float(res_x[4]), rms
 
 
+def _cone_counts(v: FloatArray, cosc: float, block: int = 128) -> IntArray:
+    """(n,) int — for each unit vector of ``v`` ((n, 3)) how many lie within
+    the cone |cos| > ``cosc`` about it (itself included, either sign); by
+    blocks of rows into reused buffers: no n × n matrix (1500 vectors: 18 MB,
+    paged in afresh on every call, 87 ms the first time; by blocks 2 ms)."""
+    n = len(v)
+    vt = np.ascontiguousarray(v.T)
+    g = np.empty((min(block, n), n))
+    m = np.empty(g.shape, bool)
+    out = np.empty(n, np.int64)
+    for a in range(0, n, block):
+        e = min(a + block, n)
+        gb, mb = g[:e - a], m[:e - a]
+        np.matmul(v[a:e], vt, out=gb)
+        np.abs(gb, out=gb)
+        np.greater(gb, cosc, out=mb)
+        out[a:e] = mb.sum(axis=1)   # half the time of count_nonzero(axis=1)
+    return out
+
+
 def _flat_patches(p: np.ndarray, nrm: np.ndarray, r_nominal: float) -> np.ndarray:
     """(n,) bool — points on large flat faces (a bevel, a ground plane, the
     base): many normals within ``tol.inspect.flat_cone`` of one direction,
@@ -284,9 +304,7 @@ def _flat_patches(p: np.ndarray, nrm: np.ndarray, r_nominal: float) -> np.ndarra
             break
         # the densest normal direction, counted on a spread sample (sign free)
         probe = free[:: max(1, len(free) // 1500)]
-        g = nrm[probe] @ nrm[probe].T
-        np.abs(g, out=g)
-        cnt = (g > cosc).sum(axis=1)   # half the time of count_nonzero(axis=1)
+        cnt = _cone_counts(nrm[probe], cosc)
         k = int(np.argmax(cnt))
         if cnt[k] * len(free) / len(probe) < max(st.flat_share * n, 50):
             break

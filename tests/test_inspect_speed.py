@@ -425,33 +425,3 @@ def test_cone_counts_by_blocks_equal_the_full_matrix(n, seed, block):
     cosc = math.cos(math.radians(5.0))
     full = (np.abs(v @ v.T) > cosc).sum(axis=1)
     assert np.array_equal(_cone_counts(v, cosc, block), full)
-
-
-def test_reused_search_weights_equal_the_parents_own_bit_for_bit():
-    """Where a sub-triangle is its unsplit parent (nine scan points in ten),
-    the kernel takes the search's closest-point weights instead of computing
-    them again on the parent: the same distances, closest points, normals,
-    faces and features bit for bit as with every parent computed afresh, on
-    points near vertices, edges and faces and far off; the flags mark
-    exactly the parents with one sub-triangle."""
-    rng = np.random.default_rng(21)
-    tip = _tip()
-    v, f = tip.vertices, tip.faces
-    mid = 0.5 * (v[f[:, 0]] + v[f[:, 1]])
-    w = rng.dirichlet([1.0, 1.0, 1.0], 400)
-    inner = np.einsum("ni,nij->nj", w, tip.triangles[rng.integers(0, len(f), 400)])
-    p = np.vstack([v[rng.integers(0, len(v), 300)], mid[rng.integers(0, len(f), 300)], inner])
-    mesh = MeshSolid(tip)
-    index = mesh._build()
-    counts = np.bincount(index.parent)
-    assert np.array_equal(index.whole, counts[index.parent] == 1) and index.whole.any()
-    # and points on the unsplit triangles themselves (3 % of this fine mesh's)
-    k = rng.choice(index.parent[index.whole], 400)
-    w = rng.dirichlet([1.0, 1.0, 1.0], 400)
-    p = np.vstack([p, np.einsum("ni,nij->nj", w, tip.triangles[k])])
-    p = np.vstack([p + rng.normal(0.0, 0.003, p.shape), rng.uniform(-2.0, 2.0, (100, 3))])
-    fast = mesh.distances(p)
-    index.whole[:] = False                      # every parent's weights computed afresh
-    slow = mesh.distances(p)
-    for name in ("distance", "closest", "normal", "face", "feature"):
-        assert np.array_equal(getattr(fast, name), getattr(slow, name)), name

@@ -198,11 +198,6 @@ class _Tree:
         # the last split was of ranges longer than LEAF
         tlo, thi = lo[perm], hi[perm]
         self.parent = parent[perm]
-        # a parent with one sub-triangle was not split: the same corners in
-        # the same order (the kernel reuses the search's closest point)
-        self.whole = np.ascontiguousarray(
-            np.bincount(self.parent, minlength=int(self.parent.max(initial=-1)) + 1)[self.parent]
-            == 1)
         # one row per sub-triangle: its box, then its corners (what the
         # kernel reads together, in one or two cache lines)
         self.T = np.ascontiguousarray(np.hstack([tlo, thi, sub[perm].reshape(-1, 9)]))
@@ -407,8 +402,7 @@ class MeshSolid:
         iw, fw = work if work is not None else self.work_buffers(len(p))
         run: Callable[..., tuple[int, int]] = nearest_signed_into
         done = run(
-            p, rows, self._bits(len(p)), *index.args, index.parent, index.whole, self.PT,
-            self.f, self.fn,
+            p, rows, self._bits(len(p)), *index.args, index.parent, self.PT, self.f, self.fn,
             self.en, self.vn, tol.inspect.feature_eps, self.label_ids, far, near, P, dist, clo,
             nrm, np.empty(0, np.int32) if tri is None else tri, face, feat, out_rows, cur, iw, fw,
             cap2, seed)

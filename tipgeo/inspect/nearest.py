@@ -81,12 +81,10 @@ def _bary(px: float, py: float, pz: float, T: AnyArray, k: int,
 
 
 @njit(cache=True, fastmath=False, nogil=True, inline="always")
-def _d2(px: float, py: float, pz: float, T: AnyArray,
-        k: int) -> tuple[float, float, float, float]:
+def _d2(px: float, py: float, pz: float, T: AnyArray, k: int) -> float:
     """Squared distance from p to sub-triangle ``k`` of ``T`` ((k, 15): box,
-    then a, b, c), and the closest point's weights (u, v, w) of a, b, c; in a
-    vertex region the vertex itself (what a·1 + b·0 + c·0 rounds to), so the
-    same value as through the closest point."""
+    then a, b, c); in a vertex region the vertex itself (what a·1 + b·0 +
+    c·0 rounds to), so the same value as through the closest point."""
     u, v, w = _bary(px, py, pz, T, k, 6)
     if u == 1.0 and v == 0.0 and w == 0.0:
         qx, qy, qz = T[k, 6], T[k, 7], T[k, 8]
@@ -99,7 +97,7 @@ def _d2(px: float, py: float, pz: float, T: AnyArray,
         qy = T[k, 7] * u + T[k, 10] * v + T[k, 13] * w
         qz = T[k, 8] * u + T[k, 11] * v + T[k, 14] * w
     d2: float = (px - qx) ** 2 + (py - qy) ** 2 + (pz - qz) ** 2
-    return d2, u, v, w
+    return d2
 
 
 @njit(cache=True, fastmath=False, nogil=True, inline="always")
@@ -115,10 +113,8 @@ def _box_d2(px: float, py: float, pz: float, box: AnyArray, k: int) -> float:
 
 @njit(cache=True, fastmath=False, nogil=True)
 def _walk(px: float, py: float, pz: float, box: AnyArray, first_leaf: int, start: AnyArray,
-          stop: AnyArray, T: AnyArray, stack: AnyArray, bt: int, bd: float, bu: float, bv: float,
-          bw: float) -> tuple[int, float, float, float]:
-    """Nearest sub-triangle by the tree, from the bound (bt, bd) (weights
-    bu, bv, bw of bt's closest point): the nearest and its weights."""
+          stop: AnyArray, T: AnyArray, stack: AnyArray, bt: int, bd: float) -> int:
+    """Nearest sub-triangle by the tree, from the bound (bt, bd)."""
     stack[0] = 0
     sp = 1
     while sp > 0:
@@ -132,11 +128,10 @@ def _walk(px: float, py: float, pz: float, box: AnyArray, first_leaf: int, start
             for k in range(start[leaf], stop[leaf]):
                 if _box_d2(px, py, pz, T, k) > bd:
                     continue
-                d, u, v, w = _d2(px, py, pz, T, k)
+                d = _d2(px, py, pz, T, k)
                 if d < bd:
                     bd = d
                     bt = k
-                    bu, bv, bw = u, v, w
             continue
         c0 = 2 * node + 1
         # the nearer child on top of the stack: walked first
@@ -147,7 +142,7 @@ def _walk(px: float, py: float, pz: float, box: AnyArray, first_leaf: int, start
             stack[sp] = c0
             stack[sp + 1] = c0 + 1
         sp += 2
-    return bt, bu, bv, bw
+    return bt
 
 
 @njit(cache=True, fastmath=False, nogil=True)
@@ -155,14 +150,12 @@ def _nearest_into(p: AnyArray, order: AnyArray, box: AnyArray, first_leaf: int,
                   start: AnyArray, stop: AnyArray, T: AnyArray, origin: AnyArray,
                   cell: float, dims: AnyArray, cstart: AnyArray, cprim: AnyArray,
                   reach2: float, cap2: float, ps: AnyArray, bs: AnyArray,
-                  best: AnyArray, seed: AnyArray, wv: AnyArray) -> None:
+                  best: AnyArray, seed: AnyArray) -> None:
     """Each point's nearest sub-triangle (index into ``T``) into ``best``
-    ((n,) int) and its closest point's weights (u, v, w of the sub-triangle's
-    corners) into ``ps`` ((n, 3), input order), visiting the points in
-    ``order`` (the previous point's triangle, or the point's ``seed``,
-    bounds each search), with the work buffers ``ps`` (the points in
-    visiting order first), ``bs`` ((≥ n,) int) and ``wv`` ((≥ n, 3) float)
-    given; the other arguments as in :func:`nearest_signed_into`."""
+    ((n,) int), visiting the points in ``order`` (the previous point's
+    triangle, or the point's ``seed``, bounds each search), with the work
+    buffers ``ps`` ((≥ n, 3) float) and ``bs`` ((≥ n,) int) given; the
+    other arguments as in :func:`nearest_signed_into`."""
     n = p.shape[0]
     seeded = seed.shape[0] > 0
     stack = np.empty(256, np.int64)
@@ -180,7 +173,7 @@ def _nearest_into(p: AnyArray, order: AnyArray, box: AnyArray, first_leaf: int,
             bt = seed[order[j]]
         first = bt
         # beyond the cap the seed stands: at least that far (see cap2 of nearest_signed_into)
-        bd, bu, bv, bw = _d2(px, py, pz, T, bt)
+        bd = _d2(px, py, pz, T, bt)
         if bd > cap2:
             bd = cap2
         ix = int(np.floor((px - origin[0]) / cell))
@@ -193,21 +186,16 @@ def _nearest_into(p: AnyArray, order: AnyArray, box: AnyArray, first_leaf: int,
                 # the seed is in bd already; its box never prunes it
                 if _box_d2(px, py, pz, T, k) > bd or k == first:
                     continue
-                d, u, v, w = _d2(px, py, pz, T, k)
+                d = _d2(px, py, pz, T, k)
                 if d < bd:
                     bd = d
                     bt = k
-                    bu, bv, bw = u, v, w
         if not bd <= reach2:
-            bt, bu, bv, bw = _walk(px, py, pz, box, first_leaf, start, stop, T, stack, bt, bd,
-                                   bu, bv, bw)
+            bt = _walk(px, py, pz, box, first_leaf, start, stop, T, stack, bt, bd)
         bs[j] = bt
-        wv[j, 0], wv[j, 1], wv[j, 2] = bu, bv, bw
         prev = bt
     for j in range(n):
-        i = order[j]
-        best[i] = bs[j]
-        ps[i, 0], ps[i, 1], ps[i, 2] = wv[j, 0], wv[j, 1], wv[j, 2]
+        best[order[j]] = bs[j]
 
 
 @njit(cache=True, fastmath=False, nogil=True)
@@ -293,15 +281,6 @@ def _signed(px: float, py: float, pz: float, k: int, PT: AnyArray, f: AnyArray, 
     :func:`nearest_signed_into` documents it; the sign from the angle-weighted
     pseudo-normal of the feature the closest point lies on."""
     u, v, w = _bary(px, py, pz, PT, k, 0)
-    return _signed_at(px, py, pz, k, u, v, w, PT, f, fn, en, vn, eps)
-
-
-@njit(cache=True, fastmath=False, nogil=True, inline="always")
-def _signed_at(px: float, py: float, pz: float, k: int, u: float, v: float, w: float,
-               PT: AnyArray, f: AnyArray, fn: AnyArray, en: AnyArray, vn: AnyArray,
-               eps: float) -> tuple[float, float, float, float, float, float, float, int]:
-    """:func:`_signed` with the closest point's weights (u, v, w) of the
-    triangle's corners given."""
     qx = PT[k, 0] * u + PT[k, 3] * v + PT[k, 6] * w
     qy = PT[k, 1] * u + PT[k, 4] * v + PT[k, 7] * w
     qz = PT[k, 2] * u + PT[k, 5] * v + PT[k, 8] * w
@@ -338,8 +317,7 @@ def _signed_at(px: float, py: float, pz: float, k: int, u: float, v: float, w: f
 def nearest_signed_into(p: AnyArray, rows: AnyArray, bits: int, box: AnyArray, first_leaf: int,
                         start: AnyArray, stop: AnyArray, T: AnyArray, origin: AnyArray,
                         cell: float, dims: AnyArray, cstart: AnyArray, cprim: AnyArray,
-                        reach2: float, parent: AnyArray, whole: AnyArray, PT: AnyArray,
-                        f: AnyArray,
+                        reach2: float, parent: AnyArray, PT: AnyArray, f: AnyArray,
                         fn: AnyArray, en: AnyArray, vn: AnyArray, eps: float, label: AnyArray,
                         far: float, near: float, P: AnyArray, dist: AnyArray, clo: AnyArray,
                         nrm: AnyArray, tri: AnyArray, face: AnyArray, feat: AnyArray,
@@ -377,9 +355,6 @@ def nearest_signed_into(p: AnyArray, rows: AnyArray, bits: int, box: AnyArray, f
     reach2 : float — the reach squared: a list minimum within it is exact
     parent : (k,) int — the mesh triangle of each sub-triangle, whose
         corners are rows of ``PT`` ((m, 9) float: a, b, c)
-    whole : (k,) bool — the sub-triangle is its parent, corners in the same
-        order: the search's closest-point weights are the parent's, bit for
-        bit, and are not computed again (nine points in ten of a scan)
     f : (m, 3) int — the triangles' vertex indices
     fn : (m, 3) float — unit face normals
     en : (m, 3, 3) float — edge pseudo-normals (triangle, local edge i from
@@ -409,21 +384,15 @@ def nearest_signed_into(p: AnyArray, rows: AnyArray, bits: int, box: AnyArray, f
     n = p.shape[0]
     order, bs, best = iw[:n], iw[n:2 * n], iw[2 * n:3 * n]
     _order_into(p, bits, order, bs, iw[3 * n:])
-    W = fw[:3 * n].reshape((n, 3))
     _nearest_into(p, order, box, first_leaf, start, stop, T, origin, cell, dims, cstart,
-                  cprim, reach2, cap2, W, bs, best, seed, fw[3 * n:6 * n].reshape((n, 3)))
+                  cprim, reach2, cap2, fw[:3 * n].reshape((n, 3)), bs, best, seed)
     if seed.shape[0]:
         seed[:] = best
     nn = 0
     for i in range(p.shape[0]):
-        b = best[i]
-        k = parent[b]
+        k = parent[best[i]]
         px, py, pz = p[i, 0], p[i, 1], p[i, 2]
-        if whole[b]:
-            d, qx, qy, qz, nx, ny, nz, fe = _signed_at(px, py, pz, k, W[i, 0], W[i, 1], W[i, 2],
-                                                       PT, f, fn, en, vn, eps)
-        else:
-            d, qx, qy, qz, nx, ny, nz, fe = _signed(px, py, pz, k, PT, f, fn, en, vn, eps)
+        d, qx, qy, qz, nx, ny, nz, fe = _signed(px, py, pz, k, PT, f, fn, en, vn, eps)
         ad = abs(d)
         if ad <= near:
             nn += 1
@@ -467,7 +436,7 @@ def work_sizes(n: int, bits: int) -> tuple[int, int]:
     """Lengths of the int64 and float64 work buffers of
     :func:`nearest_signed_into` for chunks of up to ``n`` points ordered
     with ``bits`` Morton bits."""
-    return 3 * n + (1 << (3 * bits)) + 1, 6 * n
+    return 3 * n + (1 << (3 * bits)) + 1, 3 * n
 
 
 #: tol.inspect.hypot_margin, a compile-time constant of the compiled loop below.

@@ -425,3 +425,54 @@ def test_cone_counts_by_blocks_equal_the_full_matrix(n, seed, block):
     cosc = math.cos(math.radians(5.0))
     full = (np.abs(v @ v.T) > cosc).sum(axis=1)
     assert np.array_equal(_cone_counts(v, cosc, block), full)
+
+
+def test_sorted_cell_lists_give_the_same_distances_and_true_lower_bounds():
+    """A large deviation pass sorts each grid cell's list by its lower bound
+    and stops a search at the first bound beyond its best: the distances are
+    those of the unsorted lists (to the round-off of one closest-point
+    evaluation where triangles tie) and of the all-triangle brute force;
+    every bound is at most the squared distance from any point of its cell
+    (corners and random points, the margin included) to the entry's box."""
+    from tipgeo.inspect.meshdist import brute_force_distances
+
+    rng = np.random.default_rng(31)
+    tip = _tip()
+    v, f = tip.vertices, tip.faces
+    mid = 0.5 * (v[f[:, 0]] + v[f[:, 1]])
+    p = np.vstack([v[rng.integers(0, len(v), 400)], mid[rng.integers(0, len(f), 400)]])
+    p = np.vstack([p + rng.normal(0.0, 0.004, p.shape), rng.uniform(-2.0, 2.0, (200, 3))])
+    mesh = MeshSolid(tip)
+    plain = mesh.distances(p)
+    capped = mesh.distances(p, 0.01).distance
+    index = mesh._build()
+    mesh.prepare(10)                                    # below the threshold: unsorted
+    assert len(index.clb) == 0
+    mesh.prepare(10 ** 9)
+    assert len(index.clb) == len(index.cprim) > 0
+    fast = mesh.distances(p)
+    np.testing.assert_allclose(fast.distance, plain.distance, rtol=0, atol=1e-15)
+    np.testing.assert_allclose(np.abs(fast.distance), brute_force_distances(p, tip.triangles),
+                               rtol=0, atol=1e-12)
+    near = np.abs(plain.distance) < 0.01
+    fast_capped = mesh.distances(p, 0.01).distance
+    np.testing.assert_allclose(fast_capped[near], capped[near], rtol=0, atol=1e-15)
+    assert np.all(np.abs(fast_capped[~near]) >= 0.01)
+    # the bounds: sorted within each cell and below every point's box distance
+    starts = index.cstart
+    cells = np.flatnonzero(np.diff(starts) > 0)
+    for c in rng.choice(cells, 300, replace=False):
+        a, b = starts[c], starts[c + 1]
+        lb = index.clb[a:b]
+        assert np.all(np.diff(lb) >= 0)
+        ijk = np.array([c % index.dims[0], (c // index.dims[0]) % index.dims[1],
+                        c // (index.dims[0] * index.dims[1])])
+        lo = index.origin + ijk * index.cell - index.margin
+        size = index.cell + 2 * index.margin
+        corners = lo + size * np.array([[i, j, k] for i in (0, 1) for j in (0, 1)
+                                        for k in (0, 1)], float)
+        q = np.vstack([corners, lo + size * rng.random((20, 3))])
+        boxes = index.T[index.cprim[a:b], :6]
+        gap = np.maximum(np.maximum(boxes[None, :, :3] - q[:, None],
+                                    q[:, None] - boxes[None, :, 3:]), 0.0)
+        assert np.all((gap ** 2).sum(axis=2) >= lb[None, :])

@@ -200,6 +200,10 @@ class InspectSettings:
         only: a point nearer than half a cell to its cell's list is done).
     grid_cells, grid_entries : int
         Largest grid (cells, list entries); the cell doubles until it fits.
+    sorted_lists_points : int
+        A deviation pass over at least this many points sorts each grid
+        cell's list by its lower bound first (speed only: 22 ms once, then
+        7 % off the exact search; worth it from about 2·10⁶ points).
     bound_rel, bound_abs : float
         The upper bound of a mesh distance query is inflated by this relative
         and absolute (mm) margin so round-off never drops the true triangle.
@@ -263,6 +267,7 @@ class InspectSettings:
     histogram_bins: int = 50
     grid_cells: int = 4_000_000
     grid_entries: int = 8_000_000
+    sorted_lists_points: int = 2_000_000
     register_points: int = 20000
     axis_points: int = 12000
     cylinder_converge: float = 1.0e-9

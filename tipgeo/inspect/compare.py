@@ -356,6 +356,8 @@ def _deviations(model: CadModel, local: AnyArray, T: FloatArray, *, z_min: float
     r_buf = np.empty(min(chunk, m), np.int64)
     # the exact query's work buffers, reused by every chunk
     work = mesh.work_buffers(min(chunk, m)) if mesh is not None else None
+    if mesh is not None:
+        mesh.prepare(m)
     R, t = np.ascontiguousarray(T[:3, :3], float), np.ascontiguousarray(T[:3, 3], float)
     for i in range(0, m, chunk):
         # R x + t, the crop and the envelope in one compiled pass (float64)

@@ -221,6 +221,7 @@ class _Tree:
         self.origin, self.dims = np.zeros(3), np.zeros(3, np.int64)
         self.cstart: IntArray = np.zeros(1, np.int64)
         self.cprim: IntArray = np.zeros(0, np.int32)
+        self.clb: AnyArray = np.zeros(0, np.float32)   # the lists unsorted
         ext = (hi.max(axis=0) - lo.min(axis=0)) if len(lo) else np.zeros(3)
         for _ in range(8):
             reach = 0.5 * cell
@@ -242,6 +243,20 @@ class _Tree:
 
         self.cstart, self.cprim = grid_lists(self.T, origin, cell, dims, grow)
         self.cell, self.reach2, self.origin, self.dims = cell, reach * reach, origin, dims
+        self.margin = grow - reach
+
+    def sort_lists(self) -> None:
+        """Sort each cell's list by its lower bound
+        (:func:`~tipgeo.inspect.nearest.sort_lists`), once: a search then
+        stops at the first entry beyond its best. Worth it for a large
+        query only: 22 ms for the 14G bevel's 1.8·10⁶ entries, −7 % of the
+        exact search's CPU time at 10⁷ points (2.27–2.31 → 2.12–2.14 s)."""
+        if len(self.clb) or not len(self.cprim):
+            return
+        from .nearest import sort_lists
+
+        self.clb = sort_lists(self.T, self.origin, self.cell, self.dims, self.margin,
+                              self.cstart, self.cprim)
 
     @property
     def args(self) -> tuple[Any, ...]:
@@ -249,7 +264,7 @@ class _Tree:
         :func:`~tipgeo.inspect.nearest.nearest_signed_into` (from ``box`` to
         ``reach2``)."""
         return (self.box, self.first_leaf, self.start, self.stop, self.T, self.origin,
-                self.cell, self.dims, self.cstart, self.cprim, self.reach2)
+                self.cell, self.dims, self.cstart, self.cprim, self.clb, self.reach2)
 
 
 class MeshSolid:
@@ -408,6 +423,14 @@ class MeshSolid:
             nrm, np.empty(0, np.int32) if tri is None else tri, face, feat, out_rows, cur, iw, fw,
             cap2, seed)
         return done
+
+    def prepare(self, points: int) -> None:
+        """Get ready for a query of ``points`` points in all: from
+        ``tol.inspect.sorted_lists_points`` on, the grid's lists are sorted
+        by their lower bounds (:meth:`_Tree.sort_lists`); the same
+        distances either way (to round-off where triangles tie)."""
+        if points >= tol.inspect.sorted_lists_points:
+            self._build().sort_lists()
 
     def work_sizes(self, n: int) -> tuple[int, int]:
         """Lengths of the (int64, float64) work buffers of

@@ -30,8 +30,8 @@ from .._jit import njit
 from ..arrays import AnyArray, IntArray
 from ..tolerances import tol
 
-__all__ = ["grid_lists", "nearest_signed_into", "signed_rows", "transform_envelope",
-           "work_sizes"]
+__all__ = ["grid_lists", "nearest_signed_into", "signed_rows", "sort_lists",
+           "transform_envelope", "work_sizes"]
 
 
 @njit(cache=True, fastmath=False, nogil=True, inline="always")
@@ -149,7 +149,7 @@ def _walk(px: float, py: float, pz: float, box: AnyArray, first_leaf: int, start
 def _nearest_into(p: AnyArray, order: AnyArray, box: AnyArray, first_leaf: int,
                   start: AnyArray, stop: AnyArray, T: AnyArray, origin: AnyArray,
                   cell: float, dims: AnyArray, cstart: AnyArray, cprim: AnyArray,
-                  reach2: float, cap2: float, ps: AnyArray, bs: AnyArray,
+                  clb: AnyArray, reach2: float, cap2: float, ps: AnyArray, bs: AnyArray,
                   best: AnyArray, seed: AnyArray) -> None:
     """Each point's nearest sub-triangle (index into ``T``) into ``best``
     ((n,) int), visiting the points in ``order`` (the previous point's
@@ -158,6 +158,7 @@ def _nearest_into(p: AnyArray, order: AnyArray, box: AnyArray, first_leaf: int,
     other arguments as in :func:`nearest_signed_into`."""
     n = p.shape[0]
     seeded = seed.shape[0] > 0
+    lbs = clb.shape[0] > 0
     stack = np.empty(256, np.int64)
     # the points gathered in visiting order first: one pass of independent
     # loads, then a sequential walk (about 40 % faster than reading p[order[j]]
@@ -182,6 +183,9 @@ def _nearest_into(p: AnyArray, order: AnyArray, box: AnyArray, first_leaf: int,
         if 0 <= ix < dims[0] and 0 <= iy < dims[1] and 0 <= iz < dims[2]:
             c = (iz * dims[1] + iy) * dims[0] + ix
             for e in range(cstart[c], cstart[c + 1]):
+                # sorted lists: the rest is farther from every point of the cell
+                if lbs and clb[e] > bd:
+                    break
                 k = cprim[e]
                 # the seed is in bd already; its box never prunes it
                 if _box_d2(px, py, pz, T, k) > bd or k == first:
@@ -228,6 +232,49 @@ def grid_lists(tbox: AnyArray, origin: AnyArray, cell: float, dims: AnyArray,
                             prim[fill[c]] = k
                             fill[c] += 1
     return start, prim
+
+
+@njit(cache=True, fastmath=False, nogil=True)
+def sort_lists(tbox: AnyArray, origin: AnyArray, cell: float, dims: AnyArray, margin: float,
+               start: AnyArray, prim: AnyArray) -> AnyArray:
+    """Sort each cell's list of :func:`grid_lists` (``start``, ``prim``,
+    sorted in place) by its lower bounds, returned (float32, one per entry):
+    the squared distance from the cell, grown by ``margin`` (a point rounded
+    into the cell from just outside stays in it), to the entry's box
+    (rows of ``tbox``: lo xyz, hi xyz first), rounded down. No point of the
+    cell is nearer a box than its bound: a search may stop at the first
+    bound beyond its best distance."""
+    lb = np.empty(prim.shape[0], np.float32)
+    ncell = dims[0] * dims[1] * dims[2]
+    lo = np.empty(3)
+    hi = np.empty(3)
+    for c in range(ncell):
+        a, b = start[c], start[c + 1]
+        if a == b:
+            continue
+        lo[0] = origin[0] + (c % dims[0]) * cell - margin
+        lo[1] = origin[1] + ((c // dims[0]) % dims[1]) * cell - margin
+        lo[2] = origin[2] + (c // (dims[0] * dims[1])) * cell - margin
+        for ax in range(3):
+            hi[ax] = lo[ax] + cell + 2.0 * margin
+        for e in range(a, b):
+            k = prim[e]
+            d2 = 0.0
+            for ax in range(3):
+                g = max(tbox[k, ax] - hi[ax], lo[ax] - tbox[k, ax + 3], 0.0)
+                d2 += g * g
+            f = np.float32(d2)
+            if f > d2:  # rounded up: one float32 step down keeps it a lower bound
+                f = np.nextafter(f, np.float32(0.0))
+            # insertion sort: the lists are short (about 15 entries)
+            j = e
+            while j > a and lb[j - 1] > f:
+                lb[j] = lb[j - 1]
+                prim[j] = prim[j - 1]
+                j -= 1
+            lb[j] = f
+            prim[j] = k
+    return lb
 
 
 @njit(cache=True, fastmath=False, nogil=True)
@@ -317,7 +364,7 @@ def _signed(px: float, py: float, pz: float, k: int, PT: AnyArray, f: AnyArray, 
 def nearest_signed_into(p: AnyArray, rows: AnyArray, bits: int, box: AnyArray, first_leaf: int,
                         start: AnyArray, stop: AnyArray, T: AnyArray, origin: AnyArray,
                         cell: float, dims: AnyArray, cstart: AnyArray, cprim: AnyArray,
-                        reach2: float, parent: AnyArray, PT: AnyArray, f: AnyArray,
+                        clb: AnyArray, reach2: float, parent: AnyArray, PT: AnyArray, f: AnyArray,
                         fn: AnyArray, en: AnyArray, vn: AnyArray, eps: float, label: AnyArray,
                         far: float, near: float, P: AnyArray, dist: AnyArray, clo: AnyArray,
                         nrm: AnyArray, tri: AnyArray, face: AnyArray, feat: AnyArray,
@@ -352,6 +399,9 @@ def nearest_signed_into(p: AnyArray, rows: AnyArray, bits: int, box: AnyArray, f
         (``dims`` all 0: none)
     cstart : (cells + 1,) int; cprim : (e,) int — each cell's list: every
         sub-triangle whose box, grown by the reach, touches the cell
+    clb : (e,) float32 or (0,) — the lists' lower bounds when they are
+        sorted by them (:func:`sort_lists`): a cell's search stops at the
+        first bound beyond its best distance
     reach2 : float — the reach squared: a list minimum within it is exact
     parent : (k,) int — the mesh triangle of each sub-triangle, whose
         corners are rows of ``PT`` ((m, 9) float: a, b, c)
@@ -385,7 +435,7 @@ def nearest_signed_into(p: AnyArray, rows: AnyArray, bits: int, box: AnyArray, f
     order, bs, best = iw[:n], iw[n:2 * n], iw[2 * n:3 * n]
     _order_into(p, bits, order, bs, iw[3 * n:])
     _nearest_into(p, order, box, first_leaf, start, stop, T, origin, cell, dims, cstart,
-                  cprim, reach2, cap2, fw[:3 * n].reshape((n, 3)), bs, best, seed)
+                  cprim, clb, reach2, cap2, fw[:3 * n].reshape((n, 3)), bs, best, seed)
     if seed.shape[0]:
         seed[:] = best
     nn = 0

@@ -89,6 +89,10 @@ class InspectSettings:
         ``flat_share`` of the points, within ``flat_distance`` (mm) of one
         plane, spread ≥ ``flat_extent`` × the outer radius (RMS) in its
         second direction; at most ``flat_faces`` of them.
+    cylinder_converge_pick : float
+        The axis fit's cylinder fits before the last stop when no parameter
+        moves by more than this (mm, rad): they only pick the next pass's
+        wall points, a band of at least 5 µm (speed only).
     cylinder_converge : float
         The registration's cylinder fit stops when a step changes no
         parameter by more than this (mm, rad).
@@ -271,6 +275,7 @@ class InspectSettings:
     register_points: int = 20000
     axis_points: int = 12000
     cylinder_converge: float = 1.0e-9
+    cylinder_converge_pick: float = 1.0e-6
     flat_cone: float = 0.0872664625997164788  # 5°
     flat_share: float = 0.05
     flat_distance: float = 0.01

@@ -435,7 +435,8 @@ def _axis_fit(p: FloatArray, nrm: FloatArray, cen: FloatArray, a: FloatArray, r_
         point, a, radius, rms = fit_cylinder(p[idx], a, point, radius,
                                              scale=0.02 if it == 0 else 0.004,
                                              bore=bore[idx], wall=thick or 0.0,
-                                             converge=None if it == 3 else 1e-6)
+                                             converge=None if it == 3
+                                             else tol.inspect.cylinder_converge_pick)
         if not 0.5 * r_nominal < radius < 2.0 * r_nominal:
             raise ScanError(f"the outer wall's cylinder fit ran off to radius {radius:.4g} mm "
                             f"(nominal {r_nominal:.4g} mm): does the scan show the outer wall?")

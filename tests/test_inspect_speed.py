@@ -27,6 +27,17 @@ def _tip():
     return build_tip(preset("bevel-14G-xi14.5"), tolerance=1e-3)
 
 
+def _edge_points(rng, n, noise, far):
+    """Points just off the test tip's vertices and edge midpoints (``n``
+    each, normal noise σ ``noise`` mm; edge and vertex features) and ``far``
+    uniform in a 4 mm cube (tree walks)."""
+    tip = _tip()
+    v, f = tip.vertices, tip.faces
+    mid = 0.5 * (v[f[:, 0]] + v[f[:, 1]])
+    p = np.vstack([v[rng.integers(0, len(v), n)], mid[rng.integers(0, len(f), n)]])
+    return np.vstack([p + rng.normal(0.0, noise, p.shape), rng.uniform(-2.0, 2.0, (far, 3))])
+
+
 _finite = st.floats(-1e3, 1e3, allow_nan=False, allow_infinity=False)
 
 
@@ -152,11 +163,7 @@ def test_fused_kernel_equals_separate_search_at_edges_and_vertices():
 
     rng = np.random.default_rng(11)
     tip = _tip()
-    v, f = tip.vertices, tip.faces
-    mid = 0.5 * (v[f[:, 0]] + v[f[:, 1]])
-    p = np.vstack([v[rng.integers(0, len(v), 400)], mid[rng.integers(0, len(f), 400)]])
-    p = p + rng.normal(0.0, 0.003, p.shape)
-    p = np.vstack([p, rng.uniform(-2.0, 2.0, (100, 3))])       # far: tree walks
+    p = _edge_points(rng, 400, 0.003, 100)
     mesh = MeshSolid(tip)
     ref = mesh.distances(p)
     n = len(p)
@@ -191,10 +198,7 @@ def test_hinted_search_gives_the_same_distances_whatever_the_hint():
 
     rng = np.random.default_rng(12)
     tip = _tip()
-    v, f = tip.vertices, tip.faces
-    mid = 0.5 * (v[f[:, 0]] + v[f[:, 1]])
-    p = np.vstack([v[rng.integers(0, len(v), 300)], mid[rng.integers(0, len(f), 300)]])
-    p = np.vstack([p + rng.normal(0.0, 0.003, p.shape), rng.uniform(-2.0, 2.0, (100, 3))])
+    p = _edge_points(rng, 300, 0.003, 100)
     mesh = MeshSolid(tip)
     ref = mesh.distances(p)
     brute = brute_force_distances(p, tip.triangles)
@@ -438,10 +442,7 @@ def test_sorted_cell_lists_give_the_same_distances_and_true_lower_bounds():
 
     rng = np.random.default_rng(31)
     tip = _tip()
-    v, f = tip.vertices, tip.faces
-    mid = 0.5 * (v[f[:, 0]] + v[f[:, 1]])
-    p = np.vstack([v[rng.integers(0, len(v), 400)], mid[rng.integers(0, len(f), 400)]])
-    p = np.vstack([p + rng.normal(0.0, 0.004, p.shape), rng.uniform(-2.0, 2.0, (200, 3))])
+    p = _edge_points(rng, 400, 0.004, 200)
     mesh = MeshSolid(tip)
     plain = mesh.distances(p)
     capped = mesh.distances(p, 0.01).distance

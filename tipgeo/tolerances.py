@@ -177,7 +177,9 @@ class InspectSettings:
         with a 0.1 mm rim, whose axis came out 13° off).
     chunk : int
         Points per chunk of the deviation pass (memory and speed — a larger
-        chunk is put in a finer spatial order — not results).
+        chunk is put in a finer spatial order — not results; 2¹⁹ against
+        2¹⁸, compare at 10⁷ points, 3 CLI runs each: the exact search 2.17–2.60
+        → 2.01–2.08 CPU s, peak memory 654 → 673 MB).
     multiplier : float
         An edge or vertex closest point is feasible when its Lagrange
         multipliers are ≥ −this (dimensionless; round-off slack).
@@ -311,7 +313,7 @@ class InspectSettings:
     wall_share: float = 0.05
     wall_normal: float = 0.9
     wall_min_share: float = 0.5
-    chunk: int = 1 << 18
+    chunk: int = 1 << 19
     multiplier: float = 1.0e-9
     gram_det: float = 1.0e-24
     jacobian_det: float = 1.0e-12

@@ -412,7 +412,8 @@ def _axis_fit(p: FloatArray, nrm: FloatArray, cen: FloatArray, a: FloatArray, r_
     point = cen if point is None else point
     radius = r_nominal
     sel = np.ones(len(p), bool)
-    for it in range(4):
+    passes = 4
+    for it in range(passes):
         d = p - point
         rho = np.linalg.norm(d - np.outer(d @ a, a), axis=1)
         wall = np.abs(nrm @ a) < (first if it == 0 else 0.15)
@@ -436,7 +437,7 @@ def _axis_fit(p: FloatArray, nrm: FloatArray, cen: FloatArray, a: FloatArray, r_
         point, a, radius, rms = fit_cylinder(p[idx], a, point, radius,
                                              scale=0.02 if it == 0 else 0.004,
                                              bore=bore[idx], wall=thick or 0.0,
-                                             converge=None if it == 3
+                                             converge=None if it == passes - 1
                                              else tol.inspect.cylinder_converge_pick)
         if not 0.5 * r_nominal < radius < 2.0 * r_nominal:
             raise ScanError(f"the outer wall's cylinder fit ran off to radius {radius:.4g} mm "

@@ -130,6 +130,21 @@ def test_colour_scale_is_fixed_and_saturates():
     assert np.allclose(c[3] / 255, cmap(1.0)[:3], atol=1 / 255)
 
 
+@pytest.mark.parametrize("name", ["RdYlBu_r", "RdYlBu", "viridis"])
+def test_colour_table_is_matplotlibs(name):
+    """The default colormap's table is built without matplotlib: entry for
+    entry the one matplotlib's colormap gives (uint8, exact)."""
+    import matplotlib
+
+    from tipgeo.inspect.report import colour_table
+
+    want = (np.asarray(matplotlib.colormaps[name](np.linspace(0, 1, 256)))[:, :3] * 255
+            + 0.5).astype(np.uint8)
+    got = colour_table(name)
+    assert got.shape == (256, 3) and got.dtype == np.uint8
+    assert np.array_equal(got, want)
+
+
 def test_report_files(tmp_path, scan):
     out = tmp_path / "rep"
     res = compare(scan.points, preset(BEVEL), tolerance=0.004, out=out)

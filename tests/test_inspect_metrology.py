@@ -125,6 +125,28 @@ def test_abs_trimmed_and_histogram_blocks():
     assert sum(hist["counts"]) + hist["below"] + hist["above"] == len(dd)
 
 
+def test_trimmed_band_of_a_large_scan_from_a_strided_sample():
+    """From 2¹⁹ deviations on, median and MAD come from every k-th one
+    (k = n // 2¹⁸): the band of 10⁶ Gaussian deviations (σ = 2 µm, median
+    0.3 µm) is still the noise's — the median's standard error on 3.3·10⁵
+    of them is 0.0043 µm, the robust σ's about as much: asserted to 6 of
+    them — and the rule names the stride."""
+    rng = np.random.default_rng(11)
+    d = rng.normal(0.0003, 0.002, 1_000_000)
+    d[::50] += 0.05                              # 2 % gross outliers, 50 µm off
+    t = trimmed(d, 0.01, sigmas=3.5)
+    assert "every 3rd point" in t["rule"]
+    # 98 % of the mass in the core: the median sits at Φ⁻¹(0.5 / 0.98) =
+    # 0.02558 σ above its centre, the MAD is 0.69086 σ (0.98 (Φ(m + t) −
+    # Φ(m − t)) = 1/2), so the robust σ is 1.4826 × 0.69086 = 1.02427 σ, and
+    # the band of 3.5 robust σ leaves 0.0339 % of the core out
+    assert t["median_um"] == pytest.approx(0.3 + 2.0 * 0.02558, abs=0.025)
+    assert t["robust_sigma_um"] == pytest.approx(2.0 * 1.02427, abs=0.025)
+    assert t["trimmed_share"] == pytest.approx(0.02 + 0.98 * 0.000339, abs=1e-4)
+    small = trimmed(d[:200_000], 0.01, sigmas=3.5)
+    assert "every point" in small["rule"]
+
+
 @pytest.mark.parametrize("ext", [".csv", ".ply"])
 def test_per_point_export_keeps_input_order(ext, tmp_path):
     rng = np.random.default_rng(5)

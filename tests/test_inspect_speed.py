@@ -406,6 +406,43 @@ def test_knn_equals_scipys_tree(n, seed, k, shape):
     assert np.array_equal(np.linalg.norm(p[i] - p[:, None, :], axis=2), d)
 
 
+@settings(max_examples=40, deadline=None)
+@given(st.integers(0, 2**32 - 1), st.sampled_from(["plane", "cylinder", "blob", "line"]),
+       st.floats(1e-6, 1e3))
+def test_knn_normals_equal_numpys_eigh(seed, shape, scale):
+    """The compiled PCA normals (3 × 3 Jacobi) against numpy's eigh of the
+    same neighbourhoods: the same unit vectors up to sign, to 1e-9 wherever
+    the smallest eigenvalue is apart from the next (relative gap > 1e-3);
+    unit length everywhere."""
+    from tipgeo.inspect.knn import knn, knn_normals
+
+    rng = np.random.default_rng(seed)
+    n, k = 400, 12
+    u = rng.uniform(-1.0, 1.0, (n, 2))
+    if shape == "plane":
+        p = np.column_stack([u, 0.01 * rng.normal(size=n)])
+    elif shape == "cylinder":
+        g = np.pi * u[:, 0]
+        p = np.column_stack([np.cos(g), np.sin(g), u[:, 1]]) + 0.002 * rng.normal(size=(n, 3))
+    elif shape == "line":
+        p = np.outer(u[:, 0], [0.3, -0.5, 0.8]) + 1e-3 * rng.normal(size=(n, 3))
+    else:
+        p = rng.normal(size=(n, 3))
+    p = p @ np.linalg.qr(rng.normal(size=(3, 3)))[0] * scale + rng.normal(size=3) * scale
+    got = knn_normals(p, k)
+    assert got.shape == (n, 3)
+    assert np.allclose(np.linalg.norm(got, axis=1), 1.0, atol=1e-12)
+    _, idx = knn(p, k)
+    nb = p[idx] - p[idx].mean(axis=1, keepdims=True)
+    lam, vec = np.linalg.eigh(np.einsum("nki,nkj->nij", nb, nb))
+    ref = vec[:, :, 0]
+    apart = (lam[:, 1] - lam[:, 0]) > 1e-3 * lam[:, 2]
+    err = np.minimum(np.linalg.norm(got - ref, axis=1), np.linalg.norm(got + ref, axis=1))
+    assert np.all(err[apart] <= 1e-9)
+    if shape in ("plane", "cylinder"):
+        assert apart.mean() > 0.9              # the case the test is about
+
+
 def test_knn_refuses_k_beyond_the_points():
     from tipgeo.inspect.knn import knn
 

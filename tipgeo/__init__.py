@@ -23,8 +23,10 @@ The pipeline and its entry points, stage by stage:
   registered to the CAD tip, deviations, measured geometry).
 
 ``import tipgeo`` stays light: the subpackages above load on first access
-(``tipgeo.angles`` works without importing it), and trimesh, matplotlib,
-open3d and scipy only with the functions that need them.
+(``tipgeo.angles`` works without importing it), so do the design names
+(:func:`build_tip`, the cutters, :func:`preset`, :class:`TipSpec`: manifold3d
+with them), and trimesh, matplotlib, open3d and scipy only with the
+functions that need them.
 """
 
 # ruff: noqa: E402  (the one call below runs before numpy is imported)
@@ -35,31 +37,46 @@ from ._threads import program_blas_threads as _program_blas_threads
 _program_blas_threads()
 
 import importlib as _importlib
-from types import ModuleType as _ModuleType
+from typing import TYPE_CHECKING as _TYPE_CHECKING
 from typing import Any as _Any
 
+from ._slots import set_mesh_reader as _set_mesh_reader
 from .arrays import FloatArray as _FloatArray
 from .arrays import IntArray as _IntArray
-from .build import build_tip
-from .cannula import GAUGES, Cannula
-from .cutters import (
-    BevelCutter,
-    ConicalCutter,
-    Cutter,
-    HelicalCutter,
-    LancetCutter,
-    MeshCutter,
-    MultiPlaneCutter,
-    SDFCutter,
-    SerrationCutter,
-)
-from .cutters.custom import set_mesh_reader as _set_mesh_reader
 from .errors import BuildError, ExportError, InputError, ScanError, SpecError, TipGeoError
-from .presets import preset, preset_names, resolve_spec
-from .spec import TipSpec, dumps_spec, load_spec, loads_spec, save_spec
 from .tip import Tip
 from .tip import set_tip_writer as _set_tip_writer
 from .tolerances import tol
+
+if _TYPE_CHECKING:  # pragma: no cover - the names load on first access (below)
+    from .build import build_tip
+    from .cannula import GAUGES, Cannula
+    from .cutters import (
+        BevelCutter,
+        ConicalCutter,
+        Cutter,
+        HelicalCutter,
+        LancetCutter,
+        MeshCutter,
+        MultiPlaneCutter,
+        SDFCutter,
+        SerrationCutter,
+    )
+    from .presets import preset, preset_names, resolve_spec
+    from .spec import TipSpec, dumps_spec, load_spec, loads_spec, save_spec
+
+#: Public names that load their module on first access: the design layer
+#: (manifold3d, the cutters, the presets) is not imported by a command that
+#: never builds a tip (``tipgeo compare SCAN CAD.stl``: 0.05 CPU s).
+_LAZY_NAMES = {
+    "build_tip": "build", "GAUGES": "cannula", "Cannula": "cannula",
+    **{name: "cutters" for name in ("BevelCutter", "ConicalCutter", "Cutter", "HelicalCutter",
+                                    "LancetCutter", "MeshCutter", "MultiPlaneCutter",
+                                    "SDFCutter", "SerrationCutter")},
+    "preset": "presets", "preset_names": "presets", "resolve_spec": "presets",
+    **{name: "spec" for name in ("TipSpec", "dumps_spec", "load_spec", "loads_spec",
+                                 "save_spec")},
+}
 
 __version__ = "0.1.0"
 
@@ -99,13 +116,17 @@ _LAZY = ("angles", "closedforms", "edges", "fourier", "io", "inspect", "mechanic
          "plot", "demo", "cli")
 
 
-def __getattr__(name: str) -> _ModuleType:
+def __getattr__(name: str) -> _Any:
     if name in _LAZY:
         module = _importlib.import_module(f".{name}", __name__)
         globals()[name] = module
         return module
+    if name in _LAZY_NAMES:
+        value = getattr(_importlib.import_module(f".{_LAZY_NAMES[name]}", __name__), name)
+        globals()[name] = value
+        return value
     raise AttributeError(f"module 'tipgeo' has no attribute {name!r}")
 
 
 def __dir__() -> list[str]:
-    return sorted(set(globals()) | set(_LAZY))
+    return sorted(set(globals()) | set(_LAZY) | set(_LAZY_NAMES))

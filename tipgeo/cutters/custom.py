@@ -8,10 +8,10 @@ A mesh-defined cutter gives only its solid (protocol item 1): analysis falls
 back to the tip's mesh. An SDF cutter also gives its implicit function (by
 central differences for the gradient).
 
-Reading a mesh file is the I/O layer's job, not the cutters': this module
-defines the slot (:data:`MeshReader`, :func:`set_mesh_reader`) and
-``tipgeo/__init__.py`` — which Python runs before any ``tipgeo`` module —
-plugs :func:`tipgeo.io.load_tip` into it. So ``tipgeo.cutters`` never imports
+Reading a mesh file is the I/O layer's job, not the cutters': the slot
+(:data:`MeshReader`, :func:`set_mesh_reader`, kept in :mod:`tipgeo._slots`
+and named here too) is filled by ``tipgeo/__init__.py`` — which Python runs
+before any ``tipgeo`` module — with :func:`tipgeo.io.load_tip`. So ``tipgeo.cutters`` never imports
 ``tipgeo.io`` (which imports :mod:`tipgeo.tip`, which names
 :class:`~tipgeo.spec.TipSpec`, which imports the cutters): the import graph
 has no circle (``tests/test_import_graph.py``).
@@ -29,6 +29,7 @@ import manifold3d as m3d
 import numpy as np
 
 from .. import validate as v
+from .._slots import MeshReader, mesh_reader, set_mesh_reader
 from ..arrays import ArrayLike, FloatArray, IntArray
 from ..cannula import Cannula
 from ..construct import AUX, BuildContext
@@ -41,29 +42,11 @@ if TYPE_CHECKING:  # pragma: no cover
 
 __all__ = ["MeshCutter", "SDFCutter", "MeshReader", "set_mesh_reader"]
 
-#: Reads a mesh file: ``reader(path, units)`` → (vertices (n, 3) float mm in
-#: the cannula frame, faces (m, 3) int). ``units`` None means the unit the file
-#: declares, else mm. Bad files raise :class:`~tipgeo.errors.SpecError`.
-MeshReader = Callable[[str, str | None], tuple[FloatArray, IntArray]]
-
-#: The installed reader (at most one, under the key ``"reader"``).
-_MESH_READER: dict[str, MeshReader] = {}
-
-
 class _Mesh(NamedTuple):
     """A read mesh, as :func:`_as_manifold` takes it."""
 
     vertices: FloatArray
     faces: IntArray
-
-
-def set_mesh_reader(reader: MeshReader) -> None:
-    """Install the function :meth:`MeshCutter.from_file` reads mesh files
-    with (the I/O layer's :func:`tipgeo.io.load_tip`; ``tipgeo/__init__.py``
-    installs it). Replaces any earlier one."""
-    if not callable(reader):
-        raise TypeError(f"reader = {reader!r} is not callable")
-    _MESH_READER["reader"] = reader
 
 
 def _as_manifold(solid: Any) -> Any:
@@ -123,7 +106,7 @@ class MeshCutter(Cutter):
         ``units`` (default: the unit the file declares, else mm; see
         :func:`tipgeo.io.load_tip`), through the installed
         :data:`MeshReader`."""
-        reader = _MESH_READER.get("reader")
+        reader = mesh_reader()
         if reader is None:  # pragma: no cover - tipgeo/__init__.py installs it
             raise RuntimeError("no mesh reader installed; import tipgeo first")
         verts, faces = reader(str(path), units)

@@ -48,14 +48,16 @@ class CadModel:
 
     def __init__(self, *, spec: Any = None, tip: Any = None,
                  tolerance: float | None = None) -> None:
-        from ..build import build_tip
-
         if spec is None and tip is None:
             raise SpecError("a CAD model needs a spec or a mesh")
         self.spec = spec
         self.notes: list[str] = []
         if spec is not None:
-            self.tip = tip if tip is not None else build_tip(spec, tolerance=tolerance)
+            if tip is None:
+                from ..build import build_tip
+
+                tip = build_tip(spec, tolerance=tolerance)
+            self.tip = tip
             self.r_o, self.r_i = spec.cannula.r_o, spec.cannula.r_i
             try:
                 self.engine: ExactSolid | MeshSolid = ExactSolid(spec)
@@ -149,18 +151,24 @@ def _labelled(tip: Any) -> Any:
 def load_cad(arg: Any, *, tolerance: float | None = None) -> CadModel:
     """A CAD model from a TipSpec, a Tip, a spec file (.toml), a preset name or
     a mesh file (.stl .ply .obj .3mf .glb, cannula frame, mm)."""
+    import sys
+
     from ..io import SUPPORTED_IMPORTS, load_tip
-    from ..presets import PRESETS, preset
-    from ..spec import TipSpec, load_spec
     from ..tip import Tip
 
-    if isinstance(arg, TipSpec):
+    # a TipSpec exists only once its module is loaded: a mesh file's compare
+    # never loads the design layer (the cutters, manifold3d, the presets)
+    spec_module = sys.modules.get("tipgeo.spec")
+    if spec_module is not None and isinstance(arg, spec_module.TipSpec):
         return CadModel(spec=arg, tolerance=tolerance)
     if isinstance(arg, Tip):
         return CadModel(spec=arg.spec, tip=arg) if arg.spec is not None else CadModel(tip=arg)
     p = Path(str(arg))
     if p.suffix.lower() in SUPPORTED_IMPORTS:
         return CadModel(tip=load_tip(p))
+    from ..presets import PRESETS, preset
+    from ..spec import load_spec
+
     if p.exists() or str(arg).endswith(".toml"):
         return CadModel(spec=load_spec(p), tolerance=tolerance)
     if str(arg) in PRESETS:

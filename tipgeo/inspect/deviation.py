@@ -97,19 +97,28 @@ def statistics(distance: AnyArray, labels: AnyArray, tolerance: float, *,
 
 def _trim_band(d: np.ndarray, sigmas: float) -> tuple[float, float, int]:
     """(median, robust σ, stride) of the trimmed block (:func:`trimmed`)."""
-    # the band from an evenly strided sample of at most 2^20 deviations (a
-    # robust scale needs no more; large scans skip two full partitions)
-    step = max(1, len(d) >> 20)
+    # the band from an evenly strided sample of fewer than 2^19 deviations (a
+    # robust scale needs no more: the median's standard error at 2^18 is
+    # 0.2 % of σ; at 10⁶ points the two partitions took 25 of the
+    # statistics' 51 ms, on every third point 9)
+    step = max(1, len(d) >> 18)
     s = d[::step]
     med = float(np.median(s)) if len(s) else 0.0
     sigma = 1.4826 * float(np.median(np.abs(s - med))) if len(s) else 0.0
     return med, sigma, step
 
 
+def _ordinal(k: int) -> str:
+    """2nd, 3rd, 4th, 11th, 21st, …"""
+    if 10 <= k % 100 <= 20:
+        return f"{k}th"
+    return f"{k}{ {1: 'st', 2: 'nd', 3: 'rd'}.get(k % 10, 'th')}"
+
+
 def _trimmed_block(raw: dict[str, Any], n: int, tolerance: float, sigmas: float, med: float,
                    sigma: float, step: int) -> dict[str, Any]:
     out = _as_block(raw, tolerance)
-    of = "every point" if step == 1 else f"every {step}th point"
+    of = "every point" if step == 1 else f"every {_ordinal(step)} point"
     out.update({"rule": f"|d - median| <= {sigmas:g} x 1.4826 MAD (median and MAD of {of})",
                 "median_um": med * 1e3, "robust_sigma_um": sigma * 1e3,
                 "trimmed_share": 1.0 - float(raw["count"]) / max(n, 1)})
@@ -120,8 +129,8 @@ def trimmed(distance: np.ndarray, tolerance: float, *, sigmas: float) -> dict[st
     """Robust statistics: the :data:`STAT_KEYS` block of the deviations
     within ``sigmas`` robust standard deviations (1.4826 × the median absolute
     deviation) of the median, with the rule and the share left out. Median
-    and MAD come from every k-th deviation, k = max(1, n // 2²⁰) (all of
-    them below 2²¹ points).
+    and MAD come from every k-th deviation, k = max(1, n // 2¹⁸) (all of
+    them below 2¹⁹ points).
 
     Parameters
     ----------

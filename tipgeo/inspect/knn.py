@@ -22,7 +22,7 @@ import numpy as np
 from .._jit import njit
 from ..arrays import AnyArray, FloatArray, IntArray
 
-__all__ = ["knn"]
+__all__ = ["knn", "knn_normals"]
 
 #: relative shrink of the ring bound (a point rounded into the neighbouring
 #: cell lies within round-off of the boundary)
@@ -116,12 +116,89 @@ def _knn(p: AnyArray, k: int, lo: FloatArray, h: float, dims: IntArray, start: I
 
 
 @njit(cache=True, nogil=True)
+def _jacobi_smallest(c: FloatArray, v: FloatArray) -> int:
+    """Cyclic Jacobi on the symmetric 3 × 3 ``c`` (diagonalised in place):
+    ``v`` gets the eigenvectors as columns; returns the column of the
+    smallest eigenvalue (the first of equal ones). Each rotation zeroes one
+    off-diagonal entry (t = sgn θ / (|θ| + √(θ² + 1)), θ = (c_qq − c_pp) /
+    2 c_pq); sweeps until the off-diagonal part is below 10⁻³⁰ of the
+    diagonal's square (quadratic convergence: 4–6 sweeps)."""
+    for a in range(3):
+        for b in range(3):
+            v[a, b] = 1.0 if a == b else 0.0
+    for _ in range(32):
+        off = c[0, 1] * c[0, 1] + c[0, 2] * c[0, 2] + c[1, 2] * c[1, 2]
+        diag = c[0, 0] * c[0, 0] + c[1, 1] * c[1, 1] + c[2, 2] * c[2, 2]
+        if off <= 1e-30 * diag or off == 0.0:
+            break
+        for ip in range(2):
+            for iq in range(ip + 1, 3):
+                apq = c[ip, iq]
+                if apq == 0.0:
+                    continue
+                theta = (c[iq, iq] - c[ip, ip]) / (2.0 * apq)
+                t = 1.0 / (abs(theta) + np.sqrt(theta * theta + 1.0))
+                if theta < 0.0:
+                    t = -t
+                cs = 1.0 / np.sqrt(t * t + 1.0)
+                sn = t * cs
+                for r in range(3):
+                    x, y = c[r, ip], c[r, iq]
+                    c[r, ip] = cs * x - sn * y
+                    c[r, iq] = sn * x + cs * y
+                for r in range(3):
+                    x, y = c[ip, r], c[iq, r]
+                    c[ip, r] = cs * x - sn * y
+                    c[iq, r] = sn * x + cs * y
+                for r in range(3):
+                    x, y = v[r, ip], v[r, iq]
+                    v[r, ip] = cs * x - sn * y
+                    v[r, iq] = sn * x + cs * y
+    j = 0
+    for a in range(1, 3):
+        if c[a, a] < c[j, j]:
+            j = a
+    return j
+
+
+@njit(cache=True, nogil=True)
+def _pca_normals(p: AnyArray, idx: IntArray) -> FloatArray:
+    """Unit normal of every point: the eigenvector of the smallest
+    eigenvalue of its neighbours' (rows ``idx[i]``) centred scatter matrix."""
+    n, k = idx.shape
+    out = np.empty((n, 3))
+    c = np.empty((3, 3))
+    v = np.empty((3, 3))
+    m = np.empty(3)
+    for i in range(n):
+        for a in range(3):
+            s = 0.0
+            for j in range(k):
+                s += p[idx[i, j], a]
+            m[a] = s / k
+        for a in range(3):
+            for b in range(a, 3):
+                s = 0.0
+                for j in range(k):
+                    s += (p[idx[i, j], a] - m[a]) * (p[idx[i, j], b] - m[b])
+                c[a, b] = s
+                c[b, a] = s
+        col = _jacobi_smallest(c, v)
+        for a in range(3):
+            out[i, a] = v[a, col]
+    return out
+
+
+@njit(cache=True, nogil=True)
 def _knn_grid(p: AnyArray, k: int, lo: FloatArray, h: float, dims: IntArray,
-              slack: float) -> tuple[FloatArray, IntArray]:
-    """:func:`_cells`, then :func:`_knn` on them: one compiled call (one
-    kernel to load, not two)."""
+              slack: float, normals: bool) -> tuple[FloatArray, IntArray, FloatArray]:
+    """:func:`_cells`, then :func:`_knn` on them, and with ``normals`` the
+    points' :func:`_pca_normals` ((0, 3) without): one compiled call (one
+    kernel to load, not two or three)."""
     start, members = _cells(p, lo, h, dims)
-    return _knn(p, k, lo, h, dims, start, members, slack)
+    dist, idx = _knn(p, k, lo, h, dims, start, members, slack)
+    nrm = _pca_normals(p, idx) if normals else np.empty((0, 3))
+    return dist, idx, nrm
 
 
 def knn(p: AnyArray, k: int) -> tuple[FloatArray, IntArray]:
@@ -133,6 +210,21 @@ def knn(p: AnyArray, k: int) -> tuple[FloatArray, IntArray]:
     dist : (n, k) float — distances (units of p)
     idx : (n, k) int — rows of p
     """
+    dist, idx, _ = _search(p, k, False)
+    return dist, idx
+
+
+def knn_normals(p: AnyArray, k: int) -> FloatArray:
+    """Unit normals (n, 3) of the points ``p`` ((n, 3) float, any frame and
+    units; the sign is arbitrary) by PCA over each point's ``k`` nearest
+    points (itself included, k ≤ n): the eigenvector of the smallest
+    eigenvalue of their centred scatter matrix (3 × 3 Jacobi, to round-off
+    the one ``numpy.linalg.eigh`` gives, up to sign), in the same compiled
+    call as the search."""
+    return _search(p, k, True)[2]
+
+
+def _search(p: AnyArray, k: int, normals: bool) -> tuple[FloatArray, IntArray, FloatArray]:
     p = np.ascontiguousarray(p, float)
     n = len(p)
     if not 1 <= k <= n:
@@ -154,5 +246,4 @@ def knn(p: AnyArray, k: int) -> tuple[FloatArray, IntArray]:
     # a cell index is computed from rounded coordinates: a point may sit
     # that far on the other side of a cell boundary
     slack = 16 * float(np.finfo(float).eps) * float(np.abs(p).max() + np.abs(lo).max() + h)
-    dist, idx = _knn_grid(p, int(k), lo, float(h), dims, slack)
-    return dist, idx
+    return _knn_grid(p, int(k), lo, float(h), dims, slack, normals)

@@ -78,11 +78,11 @@ def fit_plane(points: np.ndarray, *, rounds: int = 4) -> tuple[np.ndarray, float
 def _planar_faces(spec: Any) -> dict[str, Any]:
     """label -> Plane of every plane face of the spec's cutters (their
     :meth:`~tipgeo.cutters.base.Cutter.surfaces`)."""
-    from ..cutters import Plane
-
     out: dict[str, Any] = {}
     if spec is None:
         return out
+    from ..cutters import Plane
+
     for c in spec.cutters:
         for f in c.surfaces(spec.cannula) or ():
             if isinstance(f, Plane):
@@ -324,11 +324,11 @@ def _cutting_angles(cad: Any, faces: dict[str, Any], out: dict[str, Any],
     angle analysis, next to the CAD's."""
     from dataclasses import replace
 
-    from ..cutters import Plane
-
     spec = cad.spec
     if spec is None or len(spec.cutters) != 1:
         return None
+    from ..cutters import Plane
+
     c = spec.cutters[0]
     surfaces = list(c.surfaces(spec.cannula) or [])
     if not (c.angle_field and len(surfaces) == 1 and isinstance(surfaces[0], Plane)):

@@ -177,13 +177,9 @@ def _symmetry_note(k: int) -> dict[str, Any]:
 def point_normals(p: np.ndarray, k: int = 12) -> np.ndarray:
     """Unit normals (n, 3) of a point cloud by PCA over each point's ``k``
     nearest neighbours (mm, any frame; the sign is arbitrary)."""
-    from .knn import knn  # exact, compiled: no scipy.spatial import on this path
+    from .knn import knn_normals  # exact, compiled: no scipy.spatial import on this path
 
-    _, idx = knn(p, min(k, len(p)))
-    nb = p[idx] - p[idx].mean(axis=1, keepdims=True)
-    cov = np.einsum("nki,nkj->nij", nb, nb)
-    _, vec = np.linalg.eigh(cov)
-    return vec[:, :, 0]
+    return knn_normals(p, min(k, len(p)))
 
 
 def fit_cylinder(points: np.ndarray, axis_dir: np.ndarray, axis_point: np.ndarray,

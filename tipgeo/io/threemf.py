@@ -16,7 +16,6 @@ from __future__ import annotations
 
 import zipfile
 from pathlib import Path
-from xml.sax.saxutils import quoteattr
 
 from ..tip import Tip
 from .common import FRAME_NOTE
@@ -48,6 +47,10 @@ def model_xml(tip: Tip, name: str) -> str:
     """The ``3D/3dmodel.model`` part: one mesh object named ``name`` (vertices
     in mm, cannula frame, faces oriented outwards as in ``tip``) and one build
     item placing it with the identity."""
+    # (here: xml.sax.saxutils loads urllib, http and ssl, which a reader of
+    # other formats never needs)
+    from xml.sax.saxutils import quoteattr
+
     f = tip.faces
     if tip.volume < 0:  # 3MF wants outward (counter-clockwise seen from outside) triangles
         f = f[:, ::-1]

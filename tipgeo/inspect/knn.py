@@ -31,6 +31,9 @@ _RING_SLACK = 1e-9
 _MIN_CELL_REL = 1e-6
 #: a floor on spans and cells (units of the points): a cloud at one place
 _TINY = 1e-12
+#: the 3 × 3 Jacobi's stop: the off-diagonal part's square below this share
+#: of the diagonal's (round-off: the eigenvectors are then those of float64)
+_JACOBI_STOP = 1e-30
 
 
 @njit(cache=True, nogil=True)
@@ -129,7 +132,7 @@ def _jacobi_smallest(c: FloatArray, v: FloatArray) -> int:
     for _ in range(32):
         off = c[0, 1] * c[0, 1] + c[0, 2] * c[0, 2] + c[1, 2] * c[1, 2]
         diag = c[0, 0] * c[0, 0] + c[1, 1] * c[1, 1] + c[2, 2] * c[2, 2]
-        if off <= 1e-30 * diag or off == 0.0:
+        if off <= _JACOBI_STOP * diag or off == 0.0:
             break
         for ip in range(2):
             for iq in range(ip + 1, 3):

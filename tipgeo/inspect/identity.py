@@ -96,6 +96,12 @@ NOTCH_PROMINENCE = 0.02
 NOTCH_SHARE = 0.3
 #: a notch is at least this many γ bins wide (noise spikes are one bin)
 NOTCH_WIDTH_BINS = 3
+#: on a sloping rim (a bevel) a notch is at least this many times the rim
+#: profile's own noise prominent (its robust σ from adjacent bins): the
+#: profile is one point per 1° bin, whose height error is the point's normal
+#: error over the face normal's z share — on a 15° bevel about 4 × the
+#: scan's σ — and the highest of the bin's points, picked by its noise
+NOTCH_NOISE = 8.0
 #: a plain CAD's rim may show this many dips (a chip, a dent) before the scan
 #: is called serrated
 NOTCH_STRAY = 2
@@ -416,6 +422,15 @@ def _peaks(z: FloatArray, prominence: float) -> int:
     return int(np.count_nonzero((k >= RIM_BINS) & (k < 2 * RIM_BINS)))
 
 
+def _profile_sigma(z: FloatArray) -> float:
+    """Robust σ (mm) of a circular profile's noise: 1.4826 × the median
+    absolute deviation of its adjacent-bin differences, over √2 (a notch
+    several bins wide moves two differences; a smooth profile's slope is
+    taken out with the differences' median)."""
+    dz = np.diff(np.concatenate([z, z[:1]]))
+    return float(1.4826 * np.median(np.abs(dz - np.median(dz))) / math.sqrt(2.0))
+
+
 def _cad_serrations(spec: Any) -> tuple[int, float]:
     """The CAD's serration count n_s and notch depth (mm) from its serration
     cutters' ``serration_facts()`` (0, 0 for a plain tip)."""
@@ -485,8 +500,10 @@ def _notch_count(res: Any, sigma: float, depth: float, zone: Any) -> tuple[int |
     zs, zc, _ = prof
     if not depth and not _level(res):
         # a plain CAD with a sloping rim (a bevel): notches are dips of the
-        # scan's rim below the CAD's
-        return _peaks(_filled(zc - zs), prom), prom
+        # scan's rim below the CAD's, beyond the profile's own noise
+        below = _filled(zc - zs)
+        prom = max(prom, NOTCH_NOISE * _profile_sigma(below))
+        return _peaks(below, prom), prom
     z = _filled(zs)
     # a level rim's notches: dips of at least NOTCH_SHARE of the rim's own span
     prom = max(prom, NOTCH_SHARE * float(np.ptp(z)))

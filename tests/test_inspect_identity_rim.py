@@ -47,12 +47,15 @@ def test_the_same_bevel_passes_the_rim_checks():
 @pytest.mark.parametrize("scan", ["twoplane-14G-xi15", "threeplane-14G-xi15", "lancet-14G"])
 def test_another_edge_on_a_bevel_cad_fails_the_rim_edge(scan):
     """Two planes, three planes, a lancet's secondaries: the rim's profile is
-    off the one-plane bevel's by 247, 262 and 94 µm RMS (measured)."""
+    off the one-plane bevel's by 47, 51 and 94 µm RMS (measured; the two-
+    and three-plane scans registered with one of their planes on the
+    bevel's, the search for a window short of the tip finding that pose:
+    247 and 262 µm before it), more than twice the check's 20 µm."""
     res = _compare(scan, "bevel-14G-xi15")
     c = _check(res, "identity:rim_edge")
     assert not c.ok
     assert c.reason.startswith("not this tip: the rim's edge differs from the CAD's")
-    assert res.identity.figures["rim_edge"]["residual_rms_um"] > 50.0
+    assert res.identity.figures["rim_edge"]["residual_rms_um"] > 40.0
     assert not res.verdict.ok
 
 

@@ -120,6 +120,14 @@ class InspectSettings:
         0.0 µm for a uniform sample of the whole CAD (search).
     search_clip : float
         Distances are clipped to this in the global search score (mm).
+    window_score, window_dz_step : float
+        A window scan (a profilometer's field on the middle or the heel of
+        a bevel, short of the tip): when the best pose of the search that
+        hangs the scan's top on the CAD's scores worse than ``window_score``
+        (mm; right poses score 1–10 µm, wrong ones 80–180 µm on the 14G
+        bevel), turns and shifts are searched together, the shift every
+        ``window_dz_step`` outer radii over every place the scan's top can
+        take between the CAD's lowest cut feature and its top.
     icp_iterations : int
         Cap of point-to-plane ICP iterations.
     icp_converge_rot, icp_converge_trans : float
@@ -292,6 +300,8 @@ class InspectSettings:
     search_dz_keep: float = 1.5
     search_dz_floor: float = 2.0e-4
     search_clip: float = 0.25
+    window_score: float = 0.04
+    window_dz_step: float = 0.1
     icp_iterations: int = 60
     icp_loose: float = 1.0e-5
     icp_converge_rot: float = 1.0e-7

@@ -1052,8 +1052,64 @@ def _candidate_poses(clean: FloatArray, cad: Any, point: FloatArray, a: FloatArr
         key = "plus" if sign > 0 else "minus"
         search[f"scores_{key}"] = sc.round(6).tolist()
         search[f"best_turns_{key}_deg"] = [[math.degrees(t_), s_] for t_, s_, _ in best_turns]
+    if sym != 0 and min((c[0] for c in cands), default=math.inf) > tol.inspect.window_score:
+        # no pose with the scan's top at the CAD's fits: a window short of the tip
+        for sign in (1.0, -1.0):
+            Ta = _frame(point, a, sign)
+            found = _window_search(apply(Ta, clean), cad, rng, 2 * math.pi / sym, z_feature)
+            for turn, score, dz in found:
+                cands.append((score, sign, turn, _pose(Ta, turn, dz)))
+            search[f"window_turns_{'plus' if sign > 0 else 'minus'}_deg"] = [
+                [math.degrees(t_), s_, dz_] for t_, s_, dz_ in found]
     cands.sort(key=lambda c: c[0])
     return cands
+
+
+def _window_search(q_all: FloatArray, cad: Any, rng: np.random.Generator, period: float,
+                   z_feature: float) -> list[tuple[float, float, float]]:
+    """Turns and axial shifts searched together, for a scan (on the axis,
+    mm) whose top is not the CAD's: every coarse turn at every shift that
+    puts the scan's top between the CAD's lowest cut feature and the CAD's
+    top (every ``tol.inspect.window_dz_step`` outer radii); at the three
+    best separate (turn, shift) cells the turn refined (every step/2 within
+    ±2 steps) and then the shift (every ``search_dz_step`` radii within ±1
+    coarse shift step). Returns (turn (rad), score (mm), dz (mm)), best
+    first."""
+    st = tol.inspect
+    step = st.search_step
+    sub = q_all[rng.choice(len(q_all), min(st.search_points, len(q_all)), replace=False)]
+    coarse_sub = sub[: max(len(sub) // 3, 1)]
+    z_hi = float(np.quantile(q_all[:, 2], 0.9995))
+    h = st.window_dz_step * cad.r_o
+    dzs = np.arange(z_feature - z_hi, cad.z_top - z_hi + st.arange_margin, h)
+    if not len(dzs):
+        return []
+    turns = np.arange(0.0, period - st.arange_margin, 2 * step)
+    grid = np.array([_scores(coarse_sub, cad, turns, float(dz)) for dz in dzs])   # (shift, turn)
+    order = np.argsort(grid, axis=None, kind="stable")
+    picks: list[tuple[int, int]] = []
+    for flat in order:
+        i, j = divmod(int(flat), len(turns))
+        # separate cells: two coarse steps apart in the turn (around the
+        # period) or two in the shift
+        if all(abs(i - pi) > 2 or min(abs(j - pj), len(turns) - abs(j - pj)) > 2
+               for pi, pj in picks):
+            picks.append((i, j))
+        if len(picks) == 3:
+            break
+    win = np.arange(-4, 5) * 0.5 * step
+    fine_dz = np.arange(-10, 11) * 0.1 * h
+    found = []
+    for i, j in picks:
+        fine = (turns[j] + win) % period
+        fs = _scores(sub, cad, fine, float(dzs[i]))
+        turn = float(fine[int(np.argmin(fs))])
+        shifts = dzs[i] + fine_dz
+        ds = _scores_dz(sub, cad, np.full(len(shifts), turn), shifts)
+        k = int(np.argmin(ds))
+        found.append((turn, float(ds[k]), float(shifts[k])))
+    found.sort(key=lambda f: f[1])
+    return found
 
 
 #: A start after loose ICP: (robust RMS (mm), transform, sign, turn, score, Tukey cut-off).

@@ -282,3 +282,6 @@ def test_a_window_short_of_the_tip_registers_and_passes(z_lo, z_hi):
     assert res.stats["all"]["rms_um"] == pytest.approx(rms_truth, abs=0.01)
     assert any(k.startswith("window_turns") for k in res.registration.search)
     assert res.verdict.ok, res.verdict.line()
+    # the pass says what the window does not show: most of the rim
+    assert any(s.startswith("rim edge (the scan covers") for s in res.verdict.not_judged)
+    assert "; not judged: rim edge" in res.verdict.line()

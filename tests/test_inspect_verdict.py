@@ -52,6 +52,7 @@ def test_a_nominal_scan_passes_and_the_report_holds_the_rule(nominal, tmp_path, 
     rep = json.loads(capsys.readouterr().out)
     v = rep["verdict"]
     assert v["ok"] is True and v["reasons"] == []
+    assert v["not_judged"] == []       # a whole tip: every face and the rim judged
     names = {c["name"] for c in v["checks"]}
     assert {"identity", "registration", "outer_within_band", "cut:bevel_within_band"} <= names
     for c in v["checks"]:

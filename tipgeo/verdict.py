@@ -85,15 +85,20 @@ class Verdict:
     ----------
     subject : str — what was judged (``milled helical-14G vs CAD``)
     checks : tuple of :class:`Check`
+    not_judged : tuple of str — what the input did not show enough of to be
+        checked (a pass holds for the rest only; the line and the report say so)
     """
 
     subject: str
     checks: tuple[Check, ...] = field(default_factory=tuple)
+    not_judged: tuple[str, ...] = field(default_factory=tuple)
 
     @classmethod
-    def of(cls, subject: str, checks: Iterable[Check]) -> Verdict:
-        """A verdict over ``checks`` (an empty list cannot pass: nothing was checked)."""
-        return cls(subject, tuple(checks))
+    def of(cls, subject: str, checks: Iterable[Check],
+           not_judged: Iterable[str] = ()) -> Verdict:
+        """A verdict over ``checks`` (an empty list cannot pass: nothing was
+        checked), naming what was ``not_judged``."""
+        return cls(subject, tuple(checks), tuple(not_judged))
 
     @property
     def ok(self) -> bool:
@@ -114,11 +119,14 @@ class Verdict:
 
     def line(self) -> str:
         """One line for people: ``PASS subject (rules)`` or ``FAIL subject: reasons``."""
+        rest = f"; not judged: {'; '.join(self.not_judged)}" if self.not_judged else ""
         if self.ok:
-            return f"PASS {self.subject} ({'; '.join(c.rule for c in self.checks)})"
-        return f"FAIL {self.subject}: {'; '.join(self.reasons)}"
+            return f"PASS {self.subject} ({'; '.join(c.rule for c in self.checks)}{rest})"
+        return f"FAIL {self.subject}: {'; '.join(self.reasons)}{rest}"
 
     def to_dict(self) -> dict[str, Any]:
-        """The verdict as a JSON-ready dict: ``ok``, ``subject``, ``checks``, ``reasons``."""
+        """The verdict as a JSON-ready dict: ``ok``, ``subject``, ``checks``,
+        ``reasons`` and ``not_judged``."""
         return {"ok": self.ok, "subject": self.subject,
-                "checks": [c.to_dict() for c in self.checks], "reasons": self.reasons}
+                "checks": [c.to_dict() for c in self.checks], "reasons": self.reasons,
+                "not_judged": list(self.not_judged)}

@@ -209,9 +209,13 @@ def judge(res: Any, rule: AcceptanceRule) -> Verdict:
         np.array([b.band for b in bands[:len(labels)]], float),
         bands[-1].band if rule.judges_edges else 0.0, rule.judges_edges)
     judged = 0
+    # what the scan does not show: a pass holds for the rest only
+    skipped = list(ident.not_judged) if ident is not None else []
     for j, (name, b) in enumerate(zip(names, bands)):
         n = int(counts[j if j < len(labels) else -1])
         if n < rule.min_points:
+            if name != "base":      # the tube's cut end: never scanned, never judged
+                skipped.append(f"{name} ({n} points, needs ≥ {rule.min_points})")
             continue
         judged += 1
         share = int(within[j if j < len(labels) else -1]) / n
@@ -223,4 +227,4 @@ def judge(res: Any, rule: AcceptanceRule) -> Verdict:
     if not judged:
         checks.append(check_true("faces_judged", False, f"a face with ≥ {rule.min_points} "
                                  "points", "no face holds enough points to be judged"))
-    return Verdict.of(f"{res.cad.name} vs {res.scan.source}", checks)
+    return Verdict.of(f"{res.cad.name} vs {res.scan.source}", checks, skipped)

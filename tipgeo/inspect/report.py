@@ -436,6 +436,10 @@ def _md_verdict(res: Comparison, r: dict[str, Any]) -> list[str]:
         val = f"{100 * val:.2f} %" if isinstance(val, float) else str(val)
         L.append(f"| {c['name']} | {c['rule']} | {val} | "
                  f"{'pass' if c['ok'] else 'FAIL: ' + c['reason']} |")
+    skipped = v.get("not_judged") or []
+    if skipped:
+        L += ["", "Not judged (the scan does not show enough of it; the verdict holds for "
+              "the rest only): " + "; ".join(skipped) + "."]
     return L + [""]
 
 

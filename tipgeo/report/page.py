@@ -129,6 +129,10 @@ class Section:
         if rows:
             self.table(["check", "result", "value", "rule", "reason"], rows, caption="verdict",
                        left=5)
+        skipped = v.get("not_judged") or []
+        if skipped:
+            self.text("Not judged (the input does not show enough of it; the verdict holds "
+                      "for the rest only): " + "; ".join(str(x) for x in skipped) + ".")
 
     def raw(self, trusted_html: str) -> None:
         """Add markup built by this package (never from user strings)."""

@@ -500,16 +500,22 @@ def _search(q_all: FloatArray, cad: Any, step: float, npts: int, rng: np.random.
     sc = _scores(sub[: max(len(sub) // 3, 1)], cad, coarse, dz)
     mins = np.flatnonzero((sc <= np.roll(sc, 1)) & (sc <= np.roll(sc, -1)))
     mins = mins[np.argsort(sc[mins], kind="stable")][:3]
-    win = np.arange(-4, 5) * 0.5 * step
     best = []
     for m in mins:
         dzm = _dz_search(sub, cad, float(coarse[m]), dz)
-        fine = (coarse[m] + win) % period
-        fs = _scores(sub, cad, fine, dzm)
-        k = int(np.argmin(fs))
-        best.append((float(fine[k]), float(fs[k]), dzm))
+        best.append((*_fine_turn(sub, cad, float(coarse[m]), dzm, step, period), dzm))
     best.sort(key=lambda b: b[1])
     return coarse, sc, best
+
+
+def _fine_turn(sub: FloatArray, cad: Any, turn: float, dz: float, step: float,
+               period: float) -> tuple[float, float]:
+    """The best turn (rad) every step/2 within ±2 steps of ``turn`` at the
+    shift ``dz`` (mm), and its score (mm)."""
+    fine = np.asarray((turn + np.arange(-4, 5) * 0.5 * step) % period, np.float64)
+    fs = _scores(sub, cad, fine, dz)
+    k = int(np.argmin(fs))
+    return float(fine[k]), float(fs[k])
 
 
 def _dz_search(sub: FloatArray, cad: Any, angle: float, dz0: float) -> float:
@@ -1037,9 +1043,11 @@ def _candidate_poses(clean: FloatArray, cad: Any, point: FloatArray, a: FloatArr
     cands: list[_Candidate] = []
     sym = cad.symmetry
     z_feature = _feature_z(cad)
+    on_axis: dict[float, tuple[FloatArray, FloatArray]] = {}
     for sign in (1.0, -1.0):
         Ta = _frame(point, a, sign)
         q = apply(Ta, clean)
+        on_axis[sign] = (Ta, q)
         if sym == 0:
             dz = cad.z_top - np.quantile(q[:, 2], 0.9995)
             cands.append((0.0, sign, 0.0, _pose(Ta, 0.0, dz)))
@@ -1054,9 +1062,8 @@ def _candidate_poses(clean: FloatArray, cad: Any, point: FloatArray, a: FloatArr
         search[f"best_turns_{key}_deg"] = [[math.degrees(t_), s_] for t_, s_, _ in best_turns]
     if sym != 0 and min((c[0] for c in cands), default=math.inf) > tol.inspect.window_score:
         # no pose with the scan's top at the CAD's fits: a window short of the tip
-        for sign in (1.0, -1.0):
-            Ta = _frame(point, a, sign)
-            found = _window_search(apply(Ta, clean), cad, rng, 2 * math.pi / sym, z_feature)
+        for sign, (Ta, q) in on_axis.items():
+            found = _window_search(q, cad, rng, 2 * math.pi / sym, z_feature)
             for turn, score, dz in found:
                 cands.append((score, sign, turn, _pose(Ta, turn, dz)))
             search[f"window_turns_{'plus' if sign > 0 else 'minus'}_deg"] = [
@@ -1097,13 +1104,10 @@ def _window_search(q_all: FloatArray, cad: Any, rng: np.random.Generator, period
             picks.append((i, j))
         if len(picks) == 3:
             break
-    win = np.arange(-4, 5) * 0.5 * step
     fine_dz = np.arange(-10, 11) * 0.1 * h
     found = []
     for i, j in picks:
-        fine = (turns[j] + win) % period
-        fs = _scores(sub, cad, fine, float(dzs[i]))
-        turn = float(fine[int(np.argmin(fs))])
+        turn, _ = _fine_turn(sub, cad, float(turns[j]), float(dzs[i]), step, period)
         shifts = dzs[i] + fine_dz
         ds = _scores_dz(sub, cad, np.full(len(shifts), turn), shifts)
         k = int(np.argmin(ds))

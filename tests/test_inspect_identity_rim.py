@@ -142,3 +142,24 @@ def test_profile_sigma_is_the_noise_not_the_notches():
     assert _profile_sigma(notched) == pytest.approx(0.004, rel=0.1)
     sloped = z + np.sin(np.linspace(0, 2 * np.pi, 3600, endpoint=False)) * 0.5
     assert _profile_sigma(sloped) == pytest.approx(0.004, rel=0.1)
+
+
+def test_notches_cut_into_a_bevel_rim_still_fail_on_the_plain_bevel():
+    """The noise-scaled prominence does not hide real notches: a bevel with
+    eight serration arcs 50 µm deep cut into its rim, scanned (σ = 1 µm)
+    and compared with the plain bevel, counts notches above the plain
+    CAD's none (4 measured at 27 µm prominence) and fails identity."""
+    from tipgeo import loads_spec
+
+    text = (
+        'name = "bevel-serrated"\n[cannula]\ngauge = 14\nlength_mm = 10.0\n'
+        '[[cutters]]\nkind = "bevel"\nname = "bevel"\nxi_deg = 15.0\n'
+        '[[cutters]]\nkind = "serration"\nname = "serrations"\narc_radius_mm = 0.15\n'
+        'count = 8\ndepth_mm = 0.05\nedge_radius_mm = 0.015\n')
+    pts = synthetic_scan(loads_spec(text), points=40_000, noise=0.001, misalignment=MIS,
+                         seed=3).points
+    res = compare(pts, preset("bevel-14G-xi15"), pictures=False, allow_mismatch=True)
+    c = _check(res, "identity:serrations")
+    assert not c.ok and "notches" in c.reason
+    assert res.identity.figures["notches"]["scan"] >= 3
+    assert not res.identity.ok and not res.verdict.ok

@@ -477,20 +477,17 @@ def _scores(sub: FloatArray, cad: Any, angles: FloatArray, dz: float) -> FloatAr
 
 
 def _search(q_all: FloatArray, cad: Any, step: float, npts: int, rng: np.random.Generator,
-            period: float,
-            z_feature: float) -> tuple[FloatArray, FloatArray, list[tuple[float, float, float]]]:
-    """The best poses about +z for points already on the axis: turns (rad,
-    within one symmetry period) and axial shifts, coarse to fine. A third of
-    ``npts`` points scored every 2·step at the shift that puts the scan's top
-    at the CAD's; then, at each of the three best coarse minima, the shift
-    searched (:func:`_dz_search`: the top of a sparse scan of a sharp tip is
-    no place to hang the shift on, and the tube, which most points lie on,
-    is blind to it) and all the points scored every step/2 within ±2·step
-    at that shift. The scored points are drawn from those near or above the
-    CAD's features (``z_feature``), where the turn shows.
+            period: float, z_feature: float) -> tuple[FloatArray, FloatArray, FloatArray,
+                                                       FloatArray, float]:
+    """The coarse pass of the search about +z for points already on the
+    axis: a third of ``npts`` points scored every 2·step of turn (within one
+    symmetry period) at the shift that puts the scan's top at the CAD's. The
+    scored points are drawn from those near or above the CAD's features
+    (``z_feature``), where the turn shows.
 
-    Returns the coarse angles and scores, and the fine minima (angle, score,
-    dz; best first)."""
+    Returns the coarse angles (rad) and scores (mm), the turns of the (up to
+    three) best coarse minima, best first, all the drawn points (for
+    :func:`_refine_turn`) and the shift (mm)."""
     z_top = np.quantile(q_all[:, 2], 0.9995)
     dz = cad.z_top - z_top
     near = q_all[:, 2] + dz >= z_feature - cad.r_o
@@ -500,12 +497,18 @@ def _search(q_all: FloatArray, cad: Any, step: float, npts: int, rng: np.random.
     sc = _scores(sub[: max(len(sub) // 3, 1)], cad, coarse, dz)
     mins = np.flatnonzero((sc <= np.roll(sc, 1)) & (sc <= np.roll(sc, -1)))
     mins = mins[np.argsort(sc[mins], kind="stable")][:3]
-    best = []
-    for m in mins:
-        dzm = _dz_search(sub, cad, float(coarse[m]), dz)
-        best.append((*_fine_turn(sub, cad, float(coarse[m]), dzm, step, period), dzm))
-    best.sort(key=lambda b: b[1])
-    return coarse, sc, best
+    return coarse, sc, mins, sub, float(dz)
+
+
+def _refine_turn(sub: FloatArray, cad: Any, turn: float, dz: float, step: float,
+                 period: float) -> tuple[float, float, float]:
+    """A coarse minimum refined: the shift searched (:func:`_dz_search`: the
+    top of a sparse scan of a sharp tip is no place to hang the shift on,
+    and the tube, which most points lie on, is blind to it), then the turn
+    every step/2 within ±2·step at that shift. Returns (turn (rad), score
+    (mm), dz (mm))."""
+    dzm = _dz_search(sub, cad, turn, dz)
+    return (*_fine_turn(sub, cad, turn, dzm, step, period), dzm)
 
 
 def _fine_turn(sub: FloatArray, cad: Any, turn: float, dz: float, step: float,
@@ -996,14 +999,15 @@ def register(points: AnyArray, cad: Any, *, inlier_distance: float = 0.01,
                               "fine_step_deg": 0.5 * math.degrees(tol.inspect.search_step)}
     cands = _candidate_poses(clean, cad, point, a, rng, search)
     say(f"ICP from {min(4, len(cands))} candidate poses")
-    results = _ranked_starts(p, cad, cands, rng)
+    results, skipped = _ranked_starts(p, cad, cands, rng)
     best = results[0]
     T, sigma, info = _refine(p, cad, best[1], best[5], rng)
     d = cad.distances(apply(T, p)).distance
     ok = np.abs(d) <= inlier_distance
     fitness = float(ok.mean())
     rmse = float(np.sqrt(np.mean(d[ok] ** 2))) if ok.any() else float("nan")
-    search.update({"candidates": len(results), "best_robust_rms_mm": best[0]})
+    search.update({"candidates": len(results), "candidates_not_started": skipped,
+                   "best_robust_rms_mm": best[0]})
     sym = cad.symmetry
     _runner_up(results, sym, search, warnings)
     fixed = _held_notes(sym, info, warnings)
@@ -1044,6 +1048,8 @@ def _candidate_poses(clean: FloatArray, cad: Any, point: FloatArray, a: FloatArr
     sym = cad.symmetry
     z_feature = _feature_z(cad)
     on_axis: dict[float, tuple[FloatArray, FloatArray]] = {}
+    # the coarse minima of both senses: (coarse score, sign, turn, points, shift)
+    minima: list[tuple[float, float, float, FloatArray, float]] = []
     for sign in (1.0, -1.0):
         Ta = _frame(point, a, sign)
         q = apply(Ta, clean)
@@ -1052,14 +1058,31 @@ def _candidate_poses(clean: FloatArray, cad: Any, point: FloatArray, a: FloatArr
             dz = cad.z_top - np.quantile(q[:, 2], 0.9995)
             cands.append((0.0, sign, 0.0, _pose(Ta, 0.0, dz)))
             continue
-        period = 2 * math.pi / sym
-        _, sc, best_turns = _search(q, cad, tol.inspect.search_step,
-                                    tol.inspect.search_points, rng, period, z_feature)
-        for turn, score, dz in best_turns:
-            cands.append((score, sign, turn, _pose(Ta, turn, dz)))
-        key = "plus" if sign > 0 else "minus"
-        search[f"scores_{key}"] = sc.round(6).tolist()
-        search[f"best_turns_{key}_deg"] = [[math.degrees(t_), s_] for t_, s_, _ in best_turns]
+        coarse, sc, mins, sub, dz = _search(q, cad, tol.inspect.search_step,
+                                            tol.inspect.search_points, rng, 2 * math.pi / sym,
+                                            z_feature)
+        minima += [(float(sc[m]), sign, float(coarse[m]), sub, dz) for m in mins]
+        search[f"scores_{'plus' if sign > 0 else 'minus'}"] = sc.round(6).tolist()
+    if minima:
+        st = tol.inspect
+        first = min(m[0] for m in minima)
+        refined: dict[float, list[tuple[float, float, float]]] = {1.0: [], -1.0: []}
+        skipped = 0
+        for c, sign, turn, sub, dz in sorted(minima, key=lambda m: m[0]):
+            # far worse than the best coarse minimum: the upside-down tip, a
+            # turn half a period off (see tol.inspect.start_ratio)
+            if c > st.start_ratio * first and c > first + st.start_floor:
+                skipped += 1
+                continue
+            refined[sign].append(_refine_turn(sub, cad, turn, dz, st.search_step,
+                                              2 * math.pi / sym))
+        for sign, found in refined.items():
+            found.sort(key=lambda b: b[1])
+            Ta = on_axis[sign][0]
+            cands += [(score, sign, turn, _pose(Ta, turn, dz)) for turn, score, dz in found]
+            search[f"best_turns_{'plus' if sign > 0 else 'minus'}_deg"] = [
+                [math.degrees(t_), s_] for t_, s_, _ in found]
+        search["coarse_minima_not_refined"] = skipped
     if sym != 0 and min((c[0] for c in cands), default=math.inf) > tol.inspect.window_score:
         # no pose with the scan's top at the CAD's fits: a window short of the tip
         for sign, (Ta, q) in on_axis.items():
@@ -1121,27 +1144,43 @@ _Start = tuple[float, FloatArray, float, float, float, Any]
 
 
 def _ranked_starts(p: FloatArray, cad: Any, cands: list[_Candidate],
-                   rng: np.random.Generator) -> list[_Start]:
+                   rng: np.random.Generator) -> tuple[list[_Start], int]:
     """Loose ICP from the four best candidates on a small subset, ranked by
-    the robust RMS of the residuals (mm), best first."""
-    small = p[rng.choice(len(p), min(tol.inspect.icp_start_points, len(p)), replace=False)]
+    the robust RMS of the residuals (mm), best first; and how many of the
+    four were not started: a candidate scoring far worse than both the best
+    candidate and the best pose reached so far (``tol.inspect.start_ratio``,
+    ``start_floor``) — the upside-down tip, a turn half a period off. Such a
+    start reaches no pose that fits as well (the test suite's winners and
+    near-ties all scored within 2.9 times the best), so it can neither win
+    nor make the pose ambiguous; a start is run whenever the poses reached
+    fit no better than it scores."""
+    st = tol.inspect
+    small = p[rng.choice(len(p), min(st.icp_start_points, len(p)), replace=False)]
     results: list[_Start] = []
-    for score, sign, ang, T0 in cands[:4]:
+    top = cands[:4]
+    first = min((c[0] for c in top), default=math.inf)
+    skipped = 0
+    for score, sign, ang, T0 in top:
+        reached = min((r[0] for r in results), default=math.inf)
+        if results and score > st.start_ratio * max(first, reached) and \
+                score > max(first, reached) + st.start_floor:
+            skipped += 1
+            continue
         try:
             # far points' queries capped at the clip: the same poses and scores
             T, sig, info = _icp(small, cad, T0, 30, fix_rz=(cad.symmetry == 0), loose=True,
-                                cap=tol.inspect.search_clip)
-            d = cad.distances(apply(T, small), tol.inspect.search_clip).distance
+                                cap=st.search_clip)
+            d = cad.distances(apply(T, small), st.search_clip).distance
         except (ScanError, TipGeoError):
             continue  # this start is too far off to converge; the others may not be
-        rrms = float(np.sqrt(np.mean(np.minimum(d * d, tol.inspect.search_clip ** 2))))
+        rrms = float(np.sqrt(np.mean(np.minimum(d * d, st.search_clip ** 2))))
         results.append((rrms, T, sign, ang, score, info.get("cutoff")))
     if not results:
         raise ScanError("registration failed: from none of the candidate poses does any scan "
-                        f"point lie within {tol.inspect.search_clip * 1e3:g} µm of the CAD "
+                        f"point lie within {st.search_clip * 1e3:g} µm of the CAD "
                         "surface; is the scan of this tip?")
     results.sort(key=lambda r: r[0])
-    return results
+    return results, skipped
 
 
 def _refine(p: FloatArray, cad: Any, T0: FloatArray, cutoff: Any,

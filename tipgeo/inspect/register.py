@@ -477,7 +477,7 @@ def _scores(sub: FloatArray, cad: Any, angles: FloatArray, dz: float) -> FloatAr
 
 
 def _search(q_all: FloatArray, cad: Any, step: float, npts: int, rng: np.random.Generator,
-            period: float, z_feature: float) -> tuple[FloatArray, FloatArray, FloatArray,
+            period: float, z_feature: float) -> tuple[FloatArray, FloatArray, IntArray,
                                                        FloatArray, float]:
     """The coarse pass of the search about +z for points already on the
     axis: a third of ``npts`` points scored every 2·step of turn (within one

@@ -172,3 +172,71 @@ def test_a_featureless_scan_leaves_the_turn_and_the_shift_free():
     a_true = s.scan_to_cad[:3, :3].T @ ez
     a_reg = reg.transform[:3, :3].T @ ez
     assert np.degrees(np.arccos(min(1.0, abs(a_true @ a_reg)))) < 0.01
+
+
+def test_far_worse_candidates_are_not_refined_and_change_nothing(monkeypatch):
+    """The upside-down sense of the axis scores 20–100 times worse than the
+    right pose: its coarse minima are neither refined nor started — and the
+    pose is the same to the last bit as with every candidate refined and
+    started (the random subsets are drawn in the same order either way)."""
+    from tipgeo.tolerances import tol
+
+    spec = preset(BEVEL)
+    mis = Misalignment(30.0, 2.0, 40.0, (0.5, 0.0, 0.0))
+    s = synthetic_scan(spec, points=60000, noise=0.001, misalignment=mis, seed=1)
+    lean = register(s.points, _cad(BEVEL))
+    assert lean.search["coarse_minima_not_refined"] >= 1
+    assert "best_turns_minus_deg" in lean.search
+    monkeypatch.setattr(tol.inspect, "start_ratio", 1.0e9)
+    full = register(s.points, _cad(BEVEL))
+    assert full.search["coarse_minima_not_refined"] == 0
+    assert full.search["candidates_not_started"] == 0
+    assert full.search["candidates"] > lean.search["candidates"]
+    np.testing.assert_array_equal(lean.transform, full.transform)
+    assert lean.warnings == full.warnings == []
+    ang, disp = _errors(lean.transform, s.cad_to_scan, spec)
+    assert ang <= 0.05 and disp <= 1.0
+
+
+def test_candidates_that_score_alike_are_all_refined():
+    """A window on the middle of the bevel (its top is not the tip's): every
+    coarse minimum scores alike, within a factor of 1.5, so none is left
+    out, and the window search still finds the pose."""
+    spec = preset(BEVEL)
+    mis = Misalignment(35.0, 1.0, 40.0, (0.2, 0.0, 0.0))
+    s = synthetic_scan(spec, points=60000, noise=0.001, misalignment=mis, seed=2)
+    z = apply(s.scan_to_cad, s.points)[:, 2]
+    reg = register(s.points[(z > 1.0) & (z < 2.5)], _cad(BEVEL))
+    assert reg.search["coarse_minima_not_refined"] == 0
+    assert any(k.startswith("window_turns") for k in reg.search)
+    ang, disp = _errors(reg.transform, s.cad_to_scan, spec)
+    assert ang <= 0.05 and disp <= 1.0
+
+
+@pytest.mark.parametrize("seed", range(6))
+def test_the_cylinder_fit_recovers_an_exact_cylinder(seed):
+    """Points on a cylinder (any axis, an arc of 60–360°, a third of them on
+    a coaxial bore 0.3 mm in when asked), started 1° and 50 µm off: the
+    axis, a point on it and the radius come back to 1e-9."""
+    from tipgeo.inspect import fit_cylinder
+
+    rng = np.random.default_rng(seed)
+    a = rng.normal(size=3)
+    a /= np.linalg.norm(a)
+    e = np.cross(a, [1.0, 0, 0])
+    e /= np.linalg.norm(e)
+    f = np.cross(a, e)
+    n, R, c = 3000, rng.uniform(0.3, 2.0), rng.uniform(-5, 5, 3)
+    th = rng.uniform(0.0, math.radians(rng.uniform(60, 360)), n)
+    bore = (rng.random(n) < 1 / 3) if seed % 2 else None
+    rad = np.full(n, R) - (0.3 * bore if bore is not None else 0.0)
+    P = c + rad[:, None] * (np.cos(th)[:, None] * e + np.sin(th)[:, None] * f) \
+        + rng.uniform(-4, 4, n)[:, None] * a
+    start = a + math.radians(1.0) * e
+    point, axis, radius, rms = fit_cylinder(P, start, c + 0.05 * f, R * 1.02, bore=bore,
+                                            wall=0.3 if bore is not None else 0.0)
+    assert abs(abs(axis @ a) - 1.0) < 1e-12
+    off = point - c
+    assert np.linalg.norm(off - (off @ a) * a) < 1e-9
+    assert radius == pytest.approx(R, abs=1e-9)
+    assert rms < 1e-9

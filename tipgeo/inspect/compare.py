@@ -340,8 +340,10 @@ def _deviations(model: CadModel, local: AnyArray, T: FloatArray, *, z_min: float
     # the mesh path keeps each point's triangle instead of its closest point
     # and normal (24 bytes a point fewer to write, computed when asked for)
     k3 = 0 if mesh is not None else m
-    clo = np.empty((k3, 3), np.float32)
-    nrm = np.empty((k3, 3), np.float32)
+    # (none on the mesh path: float64 there, the dtype of MeshSolid.distances,
+    # so that both use one compiled signature of the kernel)
+    clo = np.empty((k3, 3), np.float32 if k3 else np.float64)
+    nrm = np.empty((k3, 3), np.float32 if k3 else np.float64)
     tri = np.empty(m if mesh is not None else 0, np.int32)
     face = np.empty(m, np.int16)
     feat = np.empty(m, np.int8)

@@ -205,29 +205,30 @@ def fit_cylinder(points: np.ndarray, axis_dir: np.ndarray, axis_point: np.ndarra
     e1 /= np.linalg.norm(e1)
     e2 = np.cross(a0, e1)
     c0 = axis_point + a0 * ((points.mean(axis=0) - axis_point) @ a0)
-    q = points - c0
+    # the points in the start frame (e1, e2, a0) at c0, one column each: the
+    # model below is arithmetic on three vectors (a few thousand points: a
+    # 3 × n matrix product per step cost more in calls than in flops)
+    u1, u2, u3 = np.ascontiguousarray(((points - c0) @ np.column_stack([e1, e2, a0])).T)
     inset = 0.0 if bore is None else wall * np.asarray(bore, float)
 
-    def model(x: FloatArray) -> tuple[FloatArray, FloatArray, FloatArray]:
-        a = a0 + x[0] * e1 + x[1] * e2
-        a = a / np.linalg.norm(a)
-        c = x[2] * e1 + x[3] * e2
-        d = q - c
-        return np.linalg.norm(d - np.outer(d @ a, a), axis=1) - x[4] + inset, a, c
+    def geometry(x: FloatArray) -> tuple[FloatArray, FloatArray, FloatArray, FloatArray, float]:
+        """With u = (x0, x1, 1) (the axis in the start frame), a = u/|u|,
+        c = (x2, x3, 0) and d = q − c: ρ = |d − (d·a) a| (the distance from
+        the axis), t = d·a, the perpendicular's e1 and e2 parts, |u|."""
+        nu = math.sqrt(1.0 + x[0] * x[0] + x[1] * x[1])
+        a1, a2, a3 = x[0] / nu, x[1] / nu, 1.0 / nu
+        d1, d2 = u1 - x[2], u2 - x[3]
+        t = d1 * a1 + d2 * a2 + u3 * a3
+        p1, p2, p3 = d1 - t * a1, d2 - t * a2, u3 - t * a3
+        return np.sqrt(p1 * p1 + p2 * p2 + p3 * p3), t, p1, p2, nu
 
-    def jacobian(x: FloatArray) -> FloatArray:
-        """∂r/∂x in closed form: with u = a0 + x0 e1 + x1 e2, a = u/|u|,
-        d = q − c, p = d − (d·a) a, ρ = |p|: ∂ρ/∂x0 = −(d·a)(p·e1)/(|u| ρ),
-        ∂ρ/∂x2 = −(p·e1)/ρ (e2 alike), ∂r/∂x4 = −1."""
-        u = a0 + x[0] * e1 + x[1] * e2
-        nu = float(np.linalg.norm(u))
-        a = u / nu
-        d = q - (x[2] * e1 + x[3] * e2)
-        t = d @ a
-        perp = d - np.outer(t, a)
-        rho = np.maximum(np.linalg.norm(perp, axis=1), tol.tiny)
-        pe1, pe2 = perp @ e1 / rho, perp @ e2 / rho
-        J = np.empty((len(q), 5))
+    def jacobian(geo: tuple[FloatArray, FloatArray, FloatArray, FloatArray, float]) -> FloatArray:
+        """∂r/∂x in closed form: ∂ρ/∂x0 = −(d·a)(p·e1)/(|u| ρ), ∂ρ/∂x2 =
+        −(p·e1)/ρ (e2 alike), ∂r/∂x4 = −1 (p the perpendicular)."""
+        rho, t, p1, p2, nu = geo
+        rho = np.maximum(rho, tol.tiny)
+        pe1, pe2 = p1 / rho, p2 / rho
+        J = np.empty((len(rho), 5))
         J[:, 0], J[:, 1] = -t * pe1 / nu, -t * pe2 / nu
         J[:, 2], J[:, 3], J[:, 4] = -pe1, -pe2, -1.0
         return J
@@ -235,32 +236,34 @@ def fit_cylinder(points: np.ndarray, axis_dir: np.ndarray, axis_point: np.ndarra
     # Levenberg–Marquardt on the soft-L1 loss by reweighting (weights
     # (1 + (r/scale)²)^-½, the loss's derivative): a handful of 5 × 5 solves
     x = np.array([0.0, 0.0, 0.0, 0.0, radius])
-    r = model(x)[0]
+    geo = geometry(x)
+    r = geo[0] - x[4] + inset
     lam = tol.inspect.lm_damping_start
     for _ in range(tol.inspect.max_iterations):
         w = 1.0 / np.sqrt(1.0 + (r / scale) ** 2)
-        J = jacobian(x)
+        J = jacobian(geo)
         Jw = J * w[:, None]
         A, g = Jw.T @ J, Jw.T @ r
         cost = np.sum(2 * scale ** 2 * (np.sqrt(1 + (r / scale) ** 2) - 1))
         while True:
             dx = -np.linalg.solve(A + lam * np.diag(np.diag(A) + tol.inspect.lm_diag_floor), g)
-            rn = model(x + dx)[0]
+            geo_n = geometry(x + dx)
+            rn = geo_n[0] - (x[4] + dx[4]) + inset
             if np.sum(2 * scale ** 2 * (np.sqrt(1 + (rn / scale) ** 2) - 1)) <= cost \
                     or lam > 1e6:
                 break
             lam *= 10
-        x, r, lam = x + dx, rn, max(lam / 10, tol.inspect.lm_damping_floor)
+        x, r, geo, lam = x + dx, rn, geo_n, max(lam / 10, tol.inspect.lm_damping_floor)
         if np.max(np.abs(dx)) < (tol.inspect.cylinder_converge if converge is None
                                   else converge):
             break
-    res_x = x
-    r, a, c = model(res_x)
     ok = np.abs(r) < 3 * scale
     rms = float(np.sqrt(np.mean(r[ok] ** 2))) if ok.any() else float("nan")
-    point = c0 + c
+    a = a0 + x[0] * e1 + x[1] * e2
+    a = a / np.linalg.norm(a)
+    point = c0 + x[2] * e1 + x[3] * e2
     point = point + a * ((points.mean(axis=0) - point) @ a)
-    return point, a, float(res_x[4]), rms
+    return point, a, float(x[4]), rms
 
 
 def _cone_counts(v: FloatArray, cosc: float, block: int = 128) -> IntArray:
@@ -1064,25 +1067,7 @@ def _candidate_poses(clean: FloatArray, cad: Any, point: FloatArray, a: FloatArr
         minima += [(float(sc[m]), sign, float(coarse[m]), sub, dz) for m in mins]
         search[f"scores_{'plus' if sign > 0 else 'minus'}"] = sc.round(6).tolist()
     if minima:
-        st = tol.inspect
-        first = min(m[0] for m in minima)
-        refined: dict[float, list[tuple[float, float, float]]] = {1.0: [], -1.0: []}
-        skipped = 0
-        for c, sign, turn, sub, dz in sorted(minima, key=lambda m: m[0]):
-            # far worse than the best coarse minimum: the upside-down tip, a
-            # turn half a period off (see tol.inspect.start_ratio)
-            if c > st.start_ratio * first and c > first + st.start_floor:
-                skipped += 1
-                continue
-            refined[sign].append(_refine_turn(sub, cad, turn, dz, st.search_step,
-                                              2 * math.pi / sym))
-        for sign, found in refined.items():
-            found.sort(key=lambda b: b[1])
-            Ta = on_axis[sign][0]
-            cands += [(score, sign, turn, _pose(Ta, turn, dz)) for turn, score, dz in found]
-            search[f"best_turns_{'plus' if sign > 0 else 'minus'}_deg"] = [
-                [math.degrees(t_), s_] for t_, s_, _ in found]
-        search["coarse_minima_not_refined"] = skipped
+        cands += _refined_minima(minima, cad, on_axis, 2 * math.pi / sym, search)
     if sym != 0 and min((c[0] for c in cands), default=math.inf) > tol.inspect.window_score:
         # no pose with the scan's top at the CAD's fits: a window short of the tip
         for sign, (Ta, q) in on_axis.items():
@@ -1092,6 +1077,35 @@ def _candidate_poses(clean: FloatArray, cad: Any, point: FloatArray, a: FloatArr
             search[f"window_turns_{'plus' if sign > 0 else 'minus'}_deg"] = [
                 [math.degrees(t_), s_, dz_] for t_, s_, dz_ in found]
     cands.sort(key=lambda c: c[0])
+    return cands
+
+
+def _refined_minima(minima: list[tuple[float, float, float, FloatArray, float]], cad: Any,
+                    on_axis: dict[float, tuple[FloatArray, FloatArray]], period: float,
+                    search: dict[str, Any]) -> list[_Candidate]:
+    """The coarse minima of both senses ((coarse score, sign, turn, points,
+    shift)) refined (:func:`_refine_turn`) into candidate poses, best coarse
+    score first, except those far worse than the best one — the upside-down
+    tip, a turn half a period off (``tol.inspect.start_ratio``,
+    ``start_floor``); the refined turns and the count left out go into
+    ``search``."""
+    st = tol.inspect
+    first = min(m[0] for m in minima)
+    refined: dict[float, list[tuple[float, float, float]]] = {1.0: [], -1.0: []}
+    skipped = 0
+    for c, sign, turn, sub, dz in sorted(minima, key=lambda m: m[0]):
+        if c > st.start_ratio * first and c > first + st.start_floor:
+            skipped += 1
+            continue
+        refined[sign].append(_refine_turn(sub, cad, turn, dz, st.search_step, period))
+    cands: list[_Candidate] = []
+    for sign, found in refined.items():
+        found.sort(key=lambda b: b[1])
+        Ta = on_axis[sign][0]
+        cands += [(score, sign, turn, _pose(Ta, turn, dz)) for turn, score, dz in found]
+        search[f"best_turns_{'plus' if sign > 0 else 'minus'}_deg"] = [
+            [math.degrees(t_), s_] for t_, s_, _ in found]
+    search["coarse_minima_not_refined"] = skipped
     return cands
 
 

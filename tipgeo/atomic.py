@@ -17,8 +17,6 @@ from __future__ import annotations
 import contextlib
 import os
 import re
-import secrets
-import socket
 import stat
 import threading
 import time
@@ -29,7 +27,25 @@ from pathlib import Path
 __all__ = ["write_atomic", "write_text_atomic", "write_bytes_atomic", "remove_stale_temporaries",
            "TEMP_PATTERN", "staging_dir", "remove_stale_staging", "STAGING_PATTERN"]
 
-_HOST = f"{zlib.crc32(socket.gethostname().encode()) & 0xFFFFFFFF:08x}"
+
+def _host_name() -> str:
+    """This machine's network name (``socket.gethostname()``: the kernel's
+    node name; socket is imported only where ``os.uname`` is missing — it
+    and ``secrets`` cost 8 ms of every command's start-up)."""
+    uname = getattr(os, "uname", None)
+    if uname is not None:
+        return str(uname().nodename)
+    import socket  # pragma: no cover - Windows
+
+    return socket.gethostname()  # pragma: no cover - Windows
+
+
+_HOST = f"{zlib.crc32(_host_name().encode()) & 0xFFFFFFFF:08x}"
+
+
+def _token() -> str:
+    """12 random hex digits (what ``secrets.token_hex(6)`` gives: os.urandom)."""
+    return os.urandom(6).hex()
 
 #: Names of this helper's temporaries: ``.NAME.tipgeo-<host>-<pid>-<hex>.tmp``.
 TEMP_PATTERN = re.compile(r"^\..+\.tipgeo-(?P<host>[0-9a-f]{8})-(?P<pid>[0-9]+)-[0-9a-f]{12}\.tmp$")
@@ -116,7 +132,7 @@ def write_atomic(path: str | os.PathLike[str], write: Callable[[Path], None]) ->
     path = Path(path)
     folder = path.parent if str(path.parent) else Path(".")
     remove_stale_temporaries(folder)
-    tmp = folder / f".{path.name}.tipgeo-{_HOST}-{os.getpid()}-{secrets.token_hex(6)}.tmp"
+    tmp = folder / f".{path.name}.tipgeo-{_HOST}-{os.getpid()}-{_token()}.tmp"
     with _lock:
         _active.add(str(tmp))
     try:
@@ -208,7 +224,7 @@ def staging_dir(parent: str | Path, tag: str) -> Iterator[Path]:
     if not re.fullmatch(r"[A-Za-z0-9_.][A-Za-z0-9_.-]*", tag):
         raise ValueError(f"staging tag {tag!r} is not letters, digits, '_', '.' or '-'")
     remove_stale_staging(parent, tag)
-    path = Path(parent) / f"{tag}-{_HOST}-{os.getpid()}-{secrets.token_hex(6)}"
+    path = Path(parent) / f"{tag}-{_HOST}-{os.getpid()}-{_token()}"
     path.mkdir(mode=0o700)
     try:
         yield path

@@ -79,7 +79,8 @@ def test_compare_imports_no_scipy_or_matplotlib(tmp_path):
              "atexit.register(lambda: print(sorted(m for m in sys.modules if m.split('.')[0] in "
              "('matplotlib', 'trimesh', 'open3d') or m.split('.')[:2] in "
              "(['scipy', s] for s in ('linalg', 'sparse', 'spatial', 'special', "
-             "'signal', 'optimize', 'stats')))))\n"
+             "'signal', 'optimize', 'stats')) or m in ('numba.np.arrayobj', "
+             "'numba.cpython.unicode', 'numba.cpython.charseq'))))\n"
              "from tipgeo.cli import main\n"
              "sys.exit(main())\n")
     env = dict(os.environ, PYTHONPATH=os.pathsep.join([os.getcwd(), *sys.path]))
@@ -133,6 +134,28 @@ def test_capped_mesh_bound_clips_exactly():
         assert np.max(np.abs(C.closest[same] - D.closest[same])) <= 1e-12
         assert np.max(np.abs(C.normal[same] - D.normal[same])) <= 1e-9
     assert np.array_equal(mesh.bound(p), d)
+
+
+def test_stand_in_environments_only_for_numba_modules_not_imported():
+    """While a cached kernel loads, an environment of a numba module not yet
+    imported is rebuilt on a stand-in globals dictionary (its constants
+    kept) without importing the module; any other one as numba does; numba's
+    function back in place afterwards."""
+    from numba.core import environment
+
+    from tipgeo._jit import _stand_in_environments
+
+    before = environment._rebuild_env
+    with _stand_in_environments():
+        env = environment._rebuild_env("numba.tipgeo_absent", [1, "x"], "tipgeo_test_env_a")
+        assert env.globals == {"__name__": "numba.tipgeo_absent"}
+        assert list(env.consts) == [1, "x"]
+        assert "numba.tipgeo_absent" not in sys.modules
+        # the same name again: the same environment (numba's memo)
+        assert environment._rebuild_env("numba.tipgeo_absent", [], "tipgeo_test_env_a") is env
+        other = environment._rebuild_env("json", [], "tipgeo_test_env_b")
+        assert other.globals is sys.modules["json"].__dict__
+    assert environment._rebuild_env is before
 
 
 def test_lean_load_falls_back_to_numbas_own():

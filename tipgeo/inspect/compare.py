@@ -273,12 +273,12 @@ class _ScanDistances(Distances):
         self._fill_rows = fill_rows
         self._cn: tuple[AnyArray, AnyArray] | None = None
 
-    def take(self, sel: IntArray) -> Distances:
-        """The :class:`Distances` of the rows ``sel`` alone, their closest
-        points and normals made for those rows only (in float64)."""
-        clo, nrm = self._fill_rows(sel)
-        return Distances(self.distance[sel], clo, nrm, self.face[sel], self.feature[sel],
-                         self.labels)
+    def take(self, sel: IntArray) -> _ScanDistances:
+        """The distances of the rows ``sel`` alone, their closest points and
+        normals made on first use for those rows only (in float64)."""
+        rows_of = self._fill_rows
+        return _ScanDistances(self.distance[sel], self.face[sel], self.feature[sel], self.labels,
+                              lambda: rows_of(sel), lambda sub: rows_of(sel[sub]))
 
     def _pair(self) -> tuple[AnyArray, AnyArray]:
         if self._cn is None:

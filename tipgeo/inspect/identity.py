@@ -48,7 +48,7 @@ from typing import Any
 
 import numpy as np
 
-from ..arrays import FloatArray, IntArray
+from ..arrays import BoolArray, FloatArray, IntArray
 from ..tolerances import tol
 from ..verdict import Check
 
@@ -209,6 +209,16 @@ def _cut_region(res: Any, sigma: float, out: Identity) -> bool:
     return True
 
 
+def _closest(d: Any, m: BoolArray) -> FloatArray:
+    """The closest CAD points (mm) of the rows ``m`` of the distances ``d``:
+    a scan's are made for those rows only (:meth:`take`), not for all."""
+    take = getattr(d, "take", None)
+    if take is not None:
+        out: FloatArray = np.asarray(take(np.flatnonzero(m)).closest, np.float64)
+        return out
+    return np.asarray(d.closest[m], np.float64)
+
+
 def _faces(res: Any, sigma: float, out: Identity) -> None:
     d = res.distances
     pts = res.points
@@ -222,7 +232,7 @@ def _faces(res: Any, sigma: float, out: Identity) -> None:
             out.not_judged.append(f"shape of {name} ({n} points on it, needs "
                                   f"{MIN_FACE_POINTS})")
             continue
-        rs, rc = _plane_rms(pts[m]), _plane_rms(d.closest[m])
+        rs, rc = _plane_rms(pts[m]), _plane_rms(_closest(d, m))
         out.figures[f"{name}_plane_rms_um"] = {"scan": rs * 1e3, "cad": rc * 1e3,
                                                "points": n}
         cad_planar = rc <= PLANAR_RMS + 3 * sigma

@@ -215,7 +215,6 @@ def derived_inputs(path: str | Path, *, _depth: int = 0) -> list[tuple[str, Path
     (what, path), relative paths from the file's folder. A file that is not
     TOML, or does not parse, has none (the command reports its errors)."""
     from ..errors import SpecError
-    from ..tomlio import loads_toml, read_text_file
 
     p = Path(path)
     if _depth > 1 or not p.is_file():
@@ -223,6 +222,8 @@ def derived_inputs(path: str | Path, *, _depth: int = 0) -> list[tuple[str, Path
     try:  # a spec may have any name; a file of another kind (a scan) is not parsed
         if p.suffix.lower() != ".toml" and p.stat().st_size > _SPEC_SNIFF_BYTES:
             return []
+        from ..tomlio import loads_toml, read_text_file  # (tomllib: 16 ms; a scan needs none)
+
         data = loads_toml(read_text_file(p, "input"), "input")
     except (SpecError, OSError):
         return []

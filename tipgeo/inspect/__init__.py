@@ -19,11 +19,18 @@ Frames and units: scans in their scanner frame, results in the cannula frame
 (+z along the axis towards the tip); mm and rad inside, µm and degrees in
 reports. open3d is imported only here (scan reading, ray casting), through
 :func:`tipgeo._open3d.import_open3d`.
+
+The batch, the edge scan, the report writer and the virtual profilometer
+load on first use of their names (``from tipgeo.inspect import run_batch``
+works as ever): a single compare needs none of them.
 """
+
+import importlib as _importlib
+from typing import TYPE_CHECKING as _TYPE_CHECKING
+from typing import Any as _Any
 
 from ..tolerances import InspectSettings
 from .acceptance import AcceptanceRule, Band, judge, load_acceptance
-from .batch import BatchResult, run_batch
 from .cad import CadModel, load_cad
 from .checks import check_geometry, check_match
 from .compare import (
@@ -48,14 +55,39 @@ from .compare import (
     voxel_down_sample,
 )
 from .deviation import STAT_KEYS, statistics
-from .edgescan import MeasuredEdges, measure_edges, plot_measured_edges
 from .exact import Distances, ExactSolid, UnsupportedCutter
 from .measure import fit_plane, measure
 from .meshdist import MeshSolid, closest_on_triangles
 from .register import Registration, fit_cylinder, register
-from .report import COLORMAP, deviation_colours, write_report
 from .scanio import SCAN_FORMATS, Scan, ScanError, load_scan, write_ply
-from .synth import Burr, Misalignment, SynthScan, actual_spec, default_views, synthetic_scan
+
+if _TYPE_CHECKING:  # pragma: no cover - the names load on first access (below)
+    from .batch import BatchResult, run_batch
+    from .edgescan import MeasuredEdges, measure_edges, plot_measured_edges
+    from .report import COLORMAP, deviation_colours, write_report
+    from .synth import Burr, Misalignment, SynthScan, actual_spec, default_views, synthetic_scan
+
+#: name → the submodule that defines it, imported on first access
+_LAZY_NAMES = {
+    "BatchResult": "batch", "run_batch": "batch",
+    **{name: "edgescan" for name in ("MeasuredEdges", "measure_edges", "plot_measured_edges")},
+    **{name: "report" for name in ("COLORMAP", "deviation_colours", "write_report")},
+    **{name: "synth" for name in ("Burr", "Misalignment", "SynthScan", "actual_spec",
+                                  "default_views", "synthetic_scan")},
+}
+
+
+def __getattr__(name: str) -> _Any:
+    if name in _LAZY_NAMES:
+        value = getattr(_importlib.import_module(f".{_LAZY_NAMES[name]}", __name__), name)
+        globals()[name] = value
+        return value
+    raise AttributeError(f"module 'tipgeo.inspect' has no attribute {name!r}")
+
+
+def __dir__() -> list[str]:
+    return sorted(set(globals()) | set(_LAZY_NAMES))
+
 
 __all__ = ["CadModel", "load_cad", "check_geometry", "check_match", "Comparison", "compare",
            "crop", "estimate_normals",

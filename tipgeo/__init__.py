@@ -36,10 +36,10 @@ from ._threads import program_blas_threads as _program_blas_threads
 
 _program_blas_threads()
 
-import importlib as _importlib
 from typing import TYPE_CHECKING as _TYPE_CHECKING
 from typing import Any as _Any
 
+from ._lazy import lazy_attributes as _lazy_attributes
 from ._slots import set_mesh_reader as _set_mesh_reader
 from .arrays import FloatArray as _FloatArray
 from .arrays import IntArray as _IntArray
@@ -116,17 +116,4 @@ _LAZY = ("angles", "closedforms", "edges", "fourier", "io", "inspect", "mechanic
          "plot", "demo", "cli")
 
 
-def __getattr__(name: str) -> _Any:
-    if name in _LAZY:
-        module = _importlib.import_module(f".{name}", __name__)
-        globals()[name] = module
-        return module
-    if name in _LAZY_NAMES:
-        value = getattr(_importlib.import_module(f".{_LAZY_NAMES[name]}", __name__), name)
-        globals()[name] = value
-        return value
-    raise AttributeError(f"module 'tipgeo' has no attribute {name!r}")
-
-
-def __dir__() -> list[str]:
-    return sorted(set(globals()) | set(_LAZY) | set(_LAZY_NAMES))
+__getattr__, __dir__ = _lazy_attributes(__name__, globals(), _LAZY_NAMES, _LAZY)

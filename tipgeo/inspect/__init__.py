@@ -25,10 +25,9 @@ load on first use of their names (``from tipgeo.inspect import run_batch``
 works as ever): a single compare needs none of them.
 """
 
-import importlib as _importlib
 from typing import TYPE_CHECKING as _TYPE_CHECKING
-from typing import Any as _Any
 
+from .._lazy import lazy_attributes as _lazy_attributes
 from ..tolerances import InspectSettings
 from .acceptance import AcceptanceRule, Band, judge, load_acceptance
 from .cad import CadModel, load_cad
@@ -77,16 +76,7 @@ _LAZY_NAMES = {
 }
 
 
-def __getattr__(name: str) -> _Any:
-    if name in _LAZY_NAMES:
-        value = getattr(_importlib.import_module(f".{_LAZY_NAMES[name]}", __name__), name)
-        globals()[name] = value
-        return value
-    raise AttributeError(f"module 'tipgeo.inspect' has no attribute {name!r}")
-
-
-def __dir__() -> list[str]:
-    return sorted(set(globals()) | set(_LAZY_NAMES))
+__getattr__, __dir__ = _lazy_attributes(__name__, globals(), _LAZY_NAMES)
 
 
 __all__ = ["CadModel", "load_cad", "check_geometry", "check_match", "Comparison", "compare",

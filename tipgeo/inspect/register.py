@@ -1080,6 +1080,14 @@ def _candidate_poses(clean: FloatArray, cad: Any, point: FloatArray, a: FloatArr
     return cands
 
 
+def _far_worse(score: float, best: float) -> bool:
+    """Whether a search score (mm) is so far above ``best`` (mm) that its
+    pose can neither win nor make the registration ambiguous: more than
+    ``tol.inspect.start_ratio`` times it and ``start_floor`` above it."""
+    st = tol.inspect
+    return score > st.start_ratio * best and score > best + st.start_floor
+
+
 def _refined_minima(minima: list[tuple[float, float, float, FloatArray, float]], cad: Any,
                     on_axis: dict[float, tuple[FloatArray, FloatArray]], period: float,
                     search: dict[str, Any]) -> list[_Candidate]:
@@ -1094,7 +1102,7 @@ def _refined_minima(minima: list[tuple[float, float, float, FloatArray, float]],
     refined: dict[float, list[tuple[float, float, float]]] = {1.0: [], -1.0: []}
     skipped = 0
     for c, sign, turn, sub, dz in sorted(minima, key=lambda m: m[0]):
-        if c > st.start_ratio * first and c > first + st.start_floor:
+        if _far_worse(c, first):
             skipped += 1
             continue
         refined[sign].append(_refine_turn(sub, cad, turn, dz, st.search_step, period))
@@ -1175,9 +1183,7 @@ def _ranked_starts(p: FloatArray, cad: Any, cands: list[_Candidate],
     first = min((c[0] for c in top), default=math.inf)
     skipped = 0
     for score, sign, ang, T0 in top:
-        reached = min((r[0] for r in results), default=math.inf)
-        if results and score > st.start_ratio * max(first, reached) and \
-                score > max(first, reached) + st.start_floor:
+        if results and _far_worse(score, max(first, min(r[0] for r in results))):
             skipped += 1
             continue
         try:
